@@ -1,0 +1,45 @@
+"""coopnav: cooperative underwater navigation as a PettingZoo environment.
+
+    import coopnav_env
+    env = coopnav_env.parallel_env("gao_lawnmower", seed=0)
+
+``parallel_env`` and ``env`` (AEC) take a scenario name and keyword overrides of
+any scenario parameter; ``list_scenarios()`` names the scenarios. The batched
+simulator is ``coopnav_env.core.sim.Simulator``. Heavy imports (matplotlib,
+PettingZoo's wrappers) happen only when used.
+"""
+
+from .scenarios import ScenarioConfig, list_scenarios, make_config, parameter_names
+
+__all__ = ["ScenarioConfig", "env", "list_scenarios", "make_config", "parallel_env", "parameter_names", "raw_env"]
+
+
+def parallel_env(scenario="gao_lawnmower", **kwargs):
+    """The PettingZoo ParallelEnv of ``scenario``. See ``CoopNavParallelEnv``."""
+    from .pettingzoo_env import CoopNavParallelEnv
+
+    return CoopNavParallelEnv(scenario, **kwargs)
+
+
+def env(scenario="gao_lawnmower", **kwargs):
+    """The same environment through PettingZoo's AEC API."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(scenario, **kwargs))
+
+
+raw_env = env
+
+
+def _register_gymnasium():
+    try:
+        from gymnasium.envs.registration import register, registry
+    except ImportError:  # pragma: no cover
+        return
+    for name in list_scenarios():
+        env_id = f"coopnav/{name}-v0"
+        if env_id not in registry:
+            register(id=env_id, entry_point="coopnav_env.gym_env:CoopNavGymEnv", kwargs={"scenario": name})
+
+
+_register_gymnasium()

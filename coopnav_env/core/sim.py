@@ -1,0 +1,496 @@
+"""One acoustic cycle of the batched simulator: ``Simulator.step(actions)``.
+
+Data flow in one step (one decision = one acoustic cycle of ``ping_interval_s``):
+
+1. the beacons' actions become ground-velocity commands; their rate-limited
+   trajectories over the cycle are computed at once (vectorized over sub-steps);
+2. the survey vehicles are integrated in sub-steps of ``substep_s``: line-of-sight
+   guidance on their own EKF estimate, the thrust model of eq. (1), the true motion
+   (water-relative velocity plus current) and the dead reckoning of eq. (4) from
+   the measured attitude (compass bias and noise) and the modelled speed;
+3. the EKF covariance is predicted (eq. 6); depth and (at the surface) GPS are fused;
+4. every beacon pings; ranges come from the time of flight between moving vehicles
+   and are fused sequentially (eqs. 7-13) after a chi-square innovation gate;
+5. the survey vehicles reply with their estimate and covariance, which each beacon
+   receives or loses; beacons exchange their own positions the same way;
+6. rewards, observations, terminations and infos are computed from the arrays.
+
+Nothing here knows PettingZoo or Gymnasium; views live in coopnav_env/*.py.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scenarios.base import ScenarioConfig
+from . import acoustics, rng
+from .dynamics import (bearing_to_unit, drag_constant, gauss_markov_step, rate_limited_headings,
+                       terminal_speed_mps, thrust_speed_profile, turn_towards, unit_to_bearing)
+from .guidance import build_path
+from .information import error_ellipse, logdet_horizontal
+from .navigation import axis_measurement, gate_threshold, predict, range_model, scalar_update
+from .state import SimState
+
+INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
+             "outliers_rejected", "nan_rejected", "packets_lost")
+
+
+@dataclass
+class StepResult:
+    """Arrays of one batched step. obs (B,N,D); reward (B,N); terminated,
+    truncated (B,); info: name -> (B,S) array per survey vehicle."""
+
+    obs: np.ndarray
+    reward: np.ndarray
+    terminated: np.ndarray
+    truncated: np.ndarray
+    info: dict
+
+
+class Simulator:
+    """The batched coopnav core: B independent environments of one scenario."""
+
+    def __init__(self, config: ScenarioConfig, batch_size: int = 1):
+        if int(batch_size) < 1:
+            raise ValueError(f"batch_size must be >= 1, got {batch_size!r}")
+        self.config = c = config
+        self.batch_size = int(batch_size)
+        self.S, self.N, self.K = c.n_survey, c.n_beacons, c.substeps_per_cycle
+        self._drag_k = drag_constant(c.survey_drag_coefficient, c.water_density_kgpm3, c.survey_cross_section_m2)
+        is_asv = np.array([k == "asv" for k in c.beacon_kinds])
+        self._beacon_is_asv = is_asv
+        self._beacon_max_speed = np.where(is_asv, c.asv_max_speed_mps, c.beacon_auv_max_speed_mps)
+        self._beacon_turn_per_substep = np.radians(
+            np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
+        self._beacon_depth = np.where(is_asv, 0.0, c.beacon_auv_depth_m)
+        paths = [build_path(c, s) for s in range(self.S)]
+        W = max(len(p[0]) for p in paths)
+        self._paths = np.zeros((self.S, W, 3))
+        self._n_wp = np.zeros(self.S, dtype=np.int64)
+        self._hover = np.zeros(self.S, dtype=bool)
+        for s, (wp, hover) in enumerate(paths):
+            self._paths[s, :len(wp)] = wp
+            self._paths[s, len(wp):] = wp[-1]
+            self._n_wp[s], self._hover[s] = len(wp), hover
+        self._gate = gate_threshold(c.range_gate_probability)
+        self._Q_cycle = np.diag([c.process_noise_horizontal_m2ps, c.process_noise_horizontal_m2ps,
+                                 c.process_noise_vertical_m2ps]) * c.ping_interval_s
+        self._substep_times = c.substep_s * np.arange(1, self.K + 1)
+        fence = c.geofence_m
+        self._fence_center = np.array([(fence[0] + fence[2]) / 2, (fence[1] + fence[3]) / 2])
+        self.obs_dim = 6 + self.S * (9 + 2 * c.observed_waypoints) + 2 * (self.N - 1)
+        self.state_dim = self.S * 10 + self.N * 7 + 3
+        self.state: SimState | None = None
+
+    # ------------------------------------------------------------------------------
+    def reset(self, seeds, mask=None) -> np.ndarray:
+        """(Re)start the environments in ``mask`` (all if None) with integer ``seeds``
+        (one per environment reset). Returns the observations of the whole batch."""
+        seeds = np.atleast_1d(np.asarray(seeds, dtype=np.int64))
+        if mask is None:
+            if len(seeds) != self.batch_size:
+                raise ValueError(f"need {self.batch_size} seeds, got {len(seeds)}")
+            self.state = self._initial_state(seeds)
+        else:
+            mask = np.asarray(mask, dtype=bool)
+            if int(mask.sum()) != len(seeds):
+                raise ValueError("one seed per environment to reset")
+            if mask.any():
+                self.state.assign(mask, self._initial_state(seeds))
+        return self.observe()
+
+    def _initial_state(self, seeds) -> SimState:
+        c, S, N = self.config, self.S, self.N
+        B = len(seeds)
+        keys = rng.env_keys(seeds)
+        zero = np.zeros(B, dtype=np.int64)
+        n_ep = rng.normal(keys, rng.STREAM_EPISODE, zero, (S * 4 + N * 4 + S * N + 3,))
+        u_ep = rng.uniform(keys, rng.STREAM_EPISODE + 100, zero, (N + 2 + S * N,))
+        ns = n_ep[:, :S * 4].reshape(B, S, 4)  # estimate east/north, speed scale, compass bias
+        nb = n_ep[:, S * 4:S * 4 + N * 4].reshape(B, N, 4)  # nav error east/north, current error
+        n_clock = n_ep[:, S * 4 + N * 4:S * 4 + N * 4 + S * N].reshape(B, S, N)
+        nw = n_ep[:, -3:]  # temperature, Gauss-Markov current east/north
+
+        wp = np.broadcast_to(self._paths, (B,) + self._paths.shape).copy()
+        start = wp[:, :, 0]
+        first_leg = wp[:, :, 1, :2] - wp[:, :, 0, :2]
+        heading = np.where(np.abs(first_leg[..., 0] + 1j * first_leg[..., 1]) > 0,
+                           first_leg[..., 0] + 1j * first_leg[..., 1], 1j)
+        heading = heading / np.abs(heading)
+        thrust = np.where(self._hover, 0.0, c.survey_thrust_percent / 100.0 * c.max_thrust_n)
+        thrust = np.broadcast_to(thrust, (B, S)).copy()
+        speed0 = terminal_speed_mps(thrust, self._drag_k)
+        sigma0 = c.initial_position_std_m
+        est = start.copy()
+        est[..., :2] += sigma0 * ns[..., :2]
+        P0 = np.zeros((B, S, 3, 3))
+        P0[..., 0, 0] = P0[..., 1, 1] = sigma0 ** 2
+        P0[..., 2, 2] = max(c.depth_noise_m, 0.01) ** 2
+
+        # beacons start around the survey's start point
+        bearing = (np.radians(c.beacon_start_bearing_deg)
+                   + np.radians(c.beacon_start_bearing_spread_deg) * (2 * u_ep[:, :N] - 1)
+                   + 2 * np.pi * np.arange(N) / N)
+        b_pos = np.zeros((B, N, 3))
+        b_h = start[:, :1, 0] + 1j * start[:, :1, 1] + c.beacon_start_distance_m * bearing_to_unit(bearing)
+        b_pos[..., 0], b_pos[..., 1], b_pos[..., 2] = b_h.real, b_h.imag, self._beacon_depth
+        to_survey = (start[:, :1, 0] + 1j * start[:, :1, 1]) - b_h
+        b_heading = to_survey / np.maximum(np.abs(to_survey), 1e-9)
+        b_std0 = np.where(self._beacon_is_asv, c.gps_noise_m, 1.0)
+        b_err = np.zeros((B, N, 3))
+        b_err[..., :2] = b_std0[:, None] * nb[..., :2]
+
+        cur_speed = np.maximum(c.current_speed_mps + c.current_speed_spread_mps * (2 * u_ep[:, N] - 1), 0.0)
+        cur_dir = np.radians(c.current_direction_deg + c.current_direction_spread_deg * (2 * u_ep[:, N + 1] - 1))
+        clock_u = u_ep[:, N + 2:].reshape(B, S, N)
+
+        k_P = np.broadcast_to(P0[:, None, :, :2, :2], (B, N, S, 2, 2)).copy()
+        return SimState(
+            t_s=np.zeros(B), cycle=np.zeros(B, dtype=np.int64), keys=keys,
+            s_pos=start.copy(), s_heading=heading, s_speed_model_mps=speed0,
+            s_speed_scale=1.0 + c.survey_speed_scale_error_std * ns[..., 2],
+            s_thrust_n=thrust, s_compass_bias_rad=np.radians(c.compass_bias_std_deg) * ns[..., 3],
+            s_vel_true=np.zeros((B, S, 3)), s_vel_est=np.zeros((B, S, 3)),
+            s_waypoints=wp, s_n_waypoints=np.broadcast_to(self._n_wp, (B, S)).copy(),
+            s_wp_index=np.ones((B, S), dtype=np.int64),
+            s_hover=np.broadcast_to(self._hover, (B, S)).copy(), s_done=np.zeros((B, S), dtype=bool),
+            s_est=est, s_P=P0, s_dr=est.copy(), s_last_range_t_s=np.zeros((B, S)),
+            b_pos=b_pos, b_heading=b_heading, b_vel=np.zeros((B, N, 3)), b_nav_err=b_err,
+            b_nav_var_m2=np.broadcast_to(b_std0 ** 2, (B, N)).copy(),
+            b_dvl_lock=np.ones((B, N), dtype=bool),
+            b_current_err=c.beacon_current_estimate_error_mps * (nb[..., 2] + 1j * nb[..., 3]),
+            clock_offset_s=c.clock_offset_std_s * n_clock,
+            clock_drift=c.clock_drift_ppm * 1e-6 * (2 * clock_u - 1),
+            temperature_c=c.water_temperature_c + c.temperature_uncertainty_c * nw[:, 0],
+            current_mean=cur_speed * bearing_to_unit(cur_dir),
+            current_gm=c.current_gm_std_mps * (nw[:, 1] + 1j * nw[:, 2]),
+            k_est=np.broadcast_to(est[:, None], (B, N, S, 3)).copy(), k_P=k_P,
+            k_wp_index=np.ones((B, N, S), dtype=np.int64), k_age_s=np.zeros((B, N, S)),
+            k_range_age_s=np.zeros((B, N, S)),
+            k_peer=np.broadcast_to((b_pos + b_err)[:, None], (B, N, N, 3)).copy(),
+        )
+
+    # ------------------------------------------------------------------------------
+    def command_velocity(self, actions: np.ndarray) -> np.ndarray:
+        """Actions (B,N,2) in [-1, 1] -> commanded ground velocity, complex (B,N)."""
+        vmax = self._beacon_max_speed
+        if self.config.action_mode == "velocity":
+            v = actions[..., 0] + 1j * actions[..., 1]
+            norm = np.abs(v)
+            v = np.where(norm > 1.0, v / np.maximum(norm, 1e-12), v)
+            return v * vmax
+        bearing = np.pi * actions[..., 0]
+        speed = 0.5 * (actions[..., 1] + 1.0) * vmax
+        return speed * bearing_to_unit(bearing)
+
+    def step(self, actions: np.ndarray) -> StepResult:
+        """Advance every environment one acoustic cycle. actions: (B, N, 2) finite."""
+        c, st = self.config, self.state
+        B, S, N, K = self.batch_size, self.S, self.N, self.K
+        dt, T = c.substep_s, c.ping_interval_s
+        cyc = st.cycle
+
+        # 1. beacon motion over the cycle, all sub-steps at once ----------------------
+        v_cmd = self.command_velocity(actions)
+        speed = np.abs(v_cmd)
+        desired = np.where(speed > 1e-9, v_cmd, st.b_heading)
+        headings = rate_limited_headings(st.b_heading, desired, np.broadcast_to(self._beacon_turn_per_substep, (B, N)), K)
+        b_h = (st.b_pos[..., 0] + 1j * st.b_pos[..., 1])[..., None] + np.cumsum(speed[..., None] * headings * dt, -1)
+        st.b_heading = headings[..., -1]
+        st.b_pos[..., 0], st.b_pos[..., 1] = b_h[..., -1].real, b_h[..., -1].imag
+        b_v = speed * st.b_heading
+        st.b_vel[..., 0], st.b_vel[..., 1] = b_v.real, b_v.imag
+
+        # 2. survey sub-steps ---------------------------------------------------------
+        self._integrate_survey(cyc)
+
+        # beacon navigation: DVL (or its fallback) for AUVs, GPS for ASVs
+        self._beacon_navigation(cyc)
+
+        # the current's slowly varying part, exact over the cycle
+        n_cur = rng.normal(st.keys, rng.STREAM_CURRENT, cyc, (2,))
+        st.current_gm = gauss_markov_step(st.current_gm, T, c.current_gm_time_constant_s, c.current_gm_std_mps,
+                                          n_cur[:, 0] + 1j * n_cur[:, 1])
+        st.t_s = st.t_s + T
+        st.cycle = cyc + 1
+
+        # 3. EKF prediction over the cycle (eq. 6, F = I, Q accumulated), depth and GPS
+        st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
+        n_sens = rng.normal(st.keys, rng.STREAM_SENSOR, cyc, (S, 3))
+        u_sens = rng.uniform(st.keys, rng.STREAM_SENSOR + 100, cyc, (S, 3))
+        nan_count = np.zeros((B, S), dtype=np.int64)
+        z_depth = st.s_pos[..., 2] + c.depth_noise_m * n_sens[..., 0]
+        z_depth = np.where(u_sens[..., 0] < c.sensor_nan_probability, np.nan, z_depth)
+        ok = np.isfinite(z_depth)
+        nan_count += ~ok
+        st.s_est, st.s_P, _, _ = scalar_update(st.s_est, st.s_P, np.where(ok, z_depth, 0.0), st.s_est[..., 2],
+                                               axis_measurement(2, (B, S)), np.full((B, S), max(c.depth_noise_m, 1e-3) ** 2), ok)
+        surfaced = st.s_pos[..., 2] < c.gps_max_depth_m
+        if surfaced.any():
+            for axis in (0, 1):
+                z = st.s_pos[..., axis] + c.gps_noise_m * n_sens[..., 1 + axis]
+                st.s_est, st.s_P, _, _ = scalar_update(st.s_est, st.s_P, z, st.s_est[..., axis],
+                                                       axis_measurement(axis, (B, S)), np.full((B, S), c.gps_noise_m ** 2), surfaced)
+        logdet_before = logdet_horizontal(st.s_P)
+
+        # 4. acoustic ranging --------------------------------------------------------
+        fused, rejected, lost, nan_r = self._ranging(cyc)
+        nan_count += nan_r
+        logdet_after = logdet_horizontal(st.s_P)
+
+        # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
+        self._exchange_messages(cyc)
+
+        # 6. reward, ends, infos -------------------------------------------------------
+        info_gain = (logdet_before - logdet_after).sum(-1)  # (B,)
+        dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
+        too_close = (dist < c.safety_distance_m).any(-1)
+        fe0, fn0, fe1, fn1 = c.geofence_m
+        outside = (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
+        no_contact = ~fused.any(-1)  # (B,N): none of this beacon's ranges fused
+        reward = (info_gain[:, None] - c.safety_penalty * too_close - c.geofence_penalty * outside
+                  - c.contact_penalty * no_contact)
+
+        terminated = st.s_done.all(-1)
+        if c.mission_duration_s > 0:
+            terminated |= st.t_s >= c.mission_duration_s - 1e-9
+        truncated = (st.cycle >= c.max_cycles) & ~terminated
+
+        info = {
+            "survey_error_m": np.linalg.norm(st.s_est[..., :2] - st.s_pos[..., :2], axis=-1),
+            "dr_error_m": np.linalg.norm(st.s_dr[..., :2] - st.s_pos[..., :2], axis=-1),
+            "cov_logdet": logdet_after,
+            "range_ok": fused.any(1),
+            "ranges_fused": fused.sum(1),
+            "outliers_rejected": rejected.sum(1),
+            "nan_rejected": nan_count,
+            "packets_lost": lost.sum(1),
+        }
+        return StepResult(self.observe(), reward, terminated, truncated, info)
+
+    # ------------------------------------------------------------------------------
+    def _integrate_survey(self, cyc):
+        c, st = self.config, self.state
+        B, S, K = self.batch_size, self.S, self.K
+        dt = c.substep_s
+        noise = rng.normal(st.keys, rng.STREAM_SUBSTEP, cyc, (K, 2, S))
+        # measured heading = true heading rotated by bias + noise (bearing b -> b + d is
+        # the complex factor exp(-1j d)); measured pitch = pitch + noise.
+        rot_meas = np.exp(-1j * (st.s_compass_bias_rad[:, None, :] + np.radians(c.compass_noise_deg) * noise[:, :, 0]))
+        pitch_noise = np.radians(c.attitude_noise_deg) * noise[:, :, 1]
+        # eq. (1) has a closed form for constant thrust: the modelled speed at each sub-step
+        u_model = thrust_speed_profile(st.s_speed_model_mps, st.s_thrust_n, self._drag_k, c.survey_mass_kg,
+                                       self._substep_times)  # (B,S,K)
+        u_true = u_model * st.s_speed_scale[..., None]
+        current = (st.current_mean + st.current_gm)[:, None]
+        max_turn = np.radians(c.survey_max_turn_rate_dps) * dt
+        max_pitch = np.radians(c.survey_max_pitch_deg)
+        alpha = c.los_alpha
+
+        pos_h = st.s_pos[..., 0] + 1j * st.s_pos[..., 1]
+        pos_z = st.s_pos[..., 2].copy()
+        est_h = st.s_est[..., 0] + 1j * st.s_est[..., 1]
+        est_z = st.s_est[..., 2].copy()
+        dr_h = st.s_dr[..., 0] + 1j * st.s_dr[..., 1]
+        dr_z = st.s_dr[..., 2].copy()
+        h = st.s_heading
+        steer = ~(st.s_hover | st.s_done)
+        seg = self._segments()
+        for k in range(K):
+            # line-of-sight guidance on the EKF estimate (Matos & Cruz Fig. 5)
+            along = ((est_h - seg["start"]) * seg["dir_conj"]).real
+            reached = steer & (along >= seg["length"] - c.waypoint_acceptance_m)
+            if reached.any():
+                st.s_wp_index = st.s_wp_index + reached
+                st.s_done = st.s_done | (st.s_wp_index >= st.s_n_waypoints)
+                st.s_wp_index = np.minimum(st.s_wp_index, st.s_n_waypoints - 1)
+                steer = ~(st.s_hover | st.s_done)
+                seg = self._segments()
+                along = ((est_h - seg["start"]) * seg["dir_conj"]).real
+            q = seg["start"] + (alpha * along + (1.0 - alpha) * seg["length"]) * seg["dir"]
+            h = np.where(steer, turn_towards(h, q - est_h, max_turn), h)
+            depth_cmd = seg["start_z"] + np.clip(along, 0.0, seg["length"]) * seg["slope"]
+            pitch = np.clip(c.survey_depth_gain_per_m * (pos_z - depth_cmd), -max_pitch, max_pitch)
+            # true motion: water-relative velocity plus current
+            ut = u_true[..., k]
+            pos_h = pos_h + (ut * np.cos(pitch) * h + current) * dt
+            pos_z = pos_z - ut * np.sin(pitch) * dt
+            # dead reckoning, eq. (4): R(measured attitude) (u_model, 0, 0) tau
+            pm = pitch + pitch_noise[:, k]
+            um = u_model[..., k]
+            d_h = (um * np.cos(pm) * dt) * (h * rot_meas[:, k])
+            d_z = -um * np.sin(pm) * dt
+            est_h, dr_h = est_h + d_h, dr_h + d_h
+            est_z, dr_z = est_z + d_z, dr_z + d_z
+        st.s_heading = h
+        st.s_speed_model_mps = u_model[..., -1]
+        st.s_pos = np.stack([pos_h.real, pos_h.imag, pos_z], -1)
+        st.s_est = np.stack([est_h.real, est_h.imag, est_z], -1)
+        st.s_dr = np.stack([dr_h.real, dr_h.imag, dr_z], -1)
+        v_true = ut * np.cos(pitch) * h + current
+        st.s_vel_true = np.stack([v_true.real, v_true.imag, -ut * np.sin(pitch)], -1)
+        st.s_vel_est = np.stack([d_h.real, d_h.imag, d_z], -1) / dt
+
+    def _segments(self):
+        """The current path segment of every survey vehicle, as complex geometry."""
+        st = self.state
+        i1 = st.s_wp_index[..., None, None]
+        a = np.take_along_axis(st.s_waypoints, np.maximum(i1 - 1, 0), axis=2)[:, :, 0]
+        b = np.take_along_axis(st.s_waypoints, i1, axis=2)[:, :, 0]
+        start, end = a[..., 0] + 1j * a[..., 1], b[..., 0] + 1j * b[..., 1]
+        d = end - start
+        length = np.abs(d)
+        direction = np.where(length > 0, d / np.where(length > 0, length, 1.0), 1.0)
+        return {"start": start, "dir": direction, "dir_conj": direction.conj(), "length": length,
+                "start_z": a[..., 2], "slope": np.where(length > 0, (b[..., 2] - a[..., 2]) / np.where(length > 0, length, 1.0), 0.0)}
+
+    def _beacon_navigation(self, cyc):
+        c, st = self.config, self.state
+        B, N = self.batch_size, self.N
+        T, K, dt = c.ping_interval_s, self.K, c.substep_s
+        n = rng.normal(st.keys, rng.STREAM_SENSOR + 200, cyc, (N, 4))
+        u = rng.uniform(st.keys, rng.STREAM_SENSOR + 300, cyc, (N,))
+        auv = ~self._beacon_is_asv
+        # bottom lock is lost and regained at random (per cycle)
+        st.b_dvl_lock = np.where(st.b_dvl_lock, u >= c.dvl_lock_loss_probability, u < c.dvl_lock_regain_probability)
+        # DVL: the white velocity noise integrated over the cycle (a random walk)
+        walk_std = c.dvl_velocity_noise_mps * dt * np.sqrt(K)
+        drift = np.where(st.b_dvl_lock, 0.0, st.b_current_err * T)  # without lock: thrust model + current estimate
+        err_h = (st.b_nav_err[..., 0] + 1j * st.b_nav_err[..., 1]) + drift + walk_std * (n[..., 0] + 1j * n[..., 1])
+        var = st.b_nav_var_m2 + walk_std ** 2 + np.where(st.b_dvl_lock, 0.0, (c.beacon_current_estimate_error_mps * T) ** 2)
+        # ASV: a fresh GPS fix every cycle
+        gps_h = c.gps_noise_m * (n[..., 2] + 1j * n[..., 3])
+        err_h = np.where(auv, err_h, gps_h)
+        st.b_nav_var_m2 = np.where(auv, var, c.gps_noise_m ** 2)
+        st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag
+
+    def _ranging(self, cyc):
+        """Every beacon pings every survey vehicle; fuse what arrives. Returns (B,N,S) flags."""
+        c, st = self.config, self.state
+        B, S, N = self.batch_size, self.S, self.N
+        n = rng.normal(st.keys, rng.STREAM_ACOUSTIC, cyc, (N, S, 2))
+        u = rng.uniform(st.keys, rng.STREAM_ACOUSTIC + 100, cyc, (N, S, 4))
+        fused = np.zeros((B, N, S), dtype=bool)
+        rejected, lost, nan_r = np.zeros_like(fused), np.zeros_like(fused), np.zeros((B, S), dtype=np.int64)
+        beacon_est = st.b_pos + st.b_nav_err  # what the beacons believe and transmit
+        mean_depth = 0.5 * (st.s_pos[..., 2][:, None, :] + st.b_pos[..., 2][:, :, None])  # (B,N,S)
+        c_true = acoustics.mackenzie_sound_speed(st.temperature_c[:, None, None], c.salinity_psu, mean_depth)
+        c_assumed = acoustics.mackenzie_sound_speed(c.water_temperature_c, c.salinity_psu, mean_depth)
+        dc_dT = acoustics.mackenzie_sound_speed(c.water_temperature_c + 1.0, c.salinity_psu, mean_depth) - c_assumed
+        jitter_s = c.range_noise_std_m / c_assumed
+        for j in range(N):
+            bj = st.b_pos[:, j, None, :]  # (B,1,3)
+            cj = c_true[:, j]
+            if c.ranging_mode == "owtt":
+                tau = acoustics.travel_time_s(bj, st.s_pos, st.s_vel_true, cj)
+                clock = st.clock_offset_s[:, :, j] + st.clock_drift[:, :, j] * st.t_s[:, None]
+                t_meas = tau + clock + jitter_s[:, j] * n[:, j, :, 0]
+                r = c_assumed[:, j] * t_meas
+                delays = (r / c_assumed[:, j])[..., None]  # (B,S,1)
+                p_lost = acoustics.packet_loss_probability(np.linalg.norm(st.s_pos - bj, axis=-1), c.packet_loss_near,
+                                                           c.packet_loss_far, c.max_range_m)
+            else:  # two-way: the survey interrogates, the beacon replies after turnaround_s
+                tau1 = acoustics.travel_time_s(st.s_pos, bj, st.b_vel[:, j, None, :], cj)
+                b_reply = bj + st.b_vel[:, j, None, :] * (tau1 + c.turnaround_s)[..., None]
+                s_later = st.s_pos + st.s_vel_true * (tau1 + c.turnaround_s)[..., None]
+                tau2 = acoustics.travel_time_s(b_reply, s_later, st.s_vel_true, cj)
+                t_rt = tau1 + c.turnaround_s + tau2 + jitter_s[:, j] * np.sqrt(2.0) * n[:, j, :, 0]
+                r = 0.5 * c_assumed[:, j] * (t_rt - c.turnaround_s)
+                delays = np.stack([np.zeros_like(r), t_rt], -1)
+                p_one = acoustics.packet_loss_probability(np.linalg.norm(st.s_pos - bj, axis=-1), c.packet_loss_near,
+                                                          c.packet_loss_far, c.max_range_m)
+                p_lost = 1.0 - (1.0 - p_one) ** 2
+            is_lost = u[:, j, :, 0] < p_lost
+            outlier = u[:, j, :, 1] < c.outlier_probability
+            r = r + np.where(outlier, -c.outlier_mean_excess_m * np.log(u[:, j, :, 2]), 0.0)
+            r = np.where(u[:, j, :, 3] < c.sensor_nan_probability, np.nan, r)
+            finite = np.isfinite(r)
+            arrived = ~is_lost
+            nan_r += arrived & ~finite
+            h, H = range_model(st.s_est, st.s_vel_est, delays, beacon_est[:, j, None, :])
+            R = (c.range_noise_std_m ** 2 + st.b_nav_var_m2[:, j, None]
+                 + (h * c.temperature_uncertainty_c * dc_dT[:, j] / c_assumed[:, j]) ** 2)
+            z = np.where(finite, r, h)
+            y = z - h
+            S_innov = np.einsum("...i,...ij,...j->...", H, st.s_P, H) + R
+            gate_ok = y * y / S_innov <= self._gate
+            use = arrived & finite & gate_ok
+            st.s_est, st.s_P, _, _ = scalar_update(st.s_est, st.s_P, z, h, H, R, use)
+            fused[:, j], rejected[:, j], lost[:, j] = use, arrived & finite & ~gate_ok, is_lost
+        st.s_last_range_t_s = np.where(fused.any(1), st.t_s[:, None], st.s_last_range_t_s)
+        return fused, rejected, lost, nan_r
+
+    def _exchange_messages(self, cyc):
+        c, st = self.config, self.state
+        B, S, N = self.batch_size, self.S, self.N
+        u = rng.uniform(st.keys, rng.STREAM_ACOUSTIC + 200, cyc, (N, S + N))
+        d_sb = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
+        got = u[..., :S] >= acoustics.packet_loss_probability(d_sb, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
+        T = c.ping_interval_s
+        st.k_est = np.where(got[..., None], st.s_est[:, None], st.k_est)
+        st.k_P = np.where(got[..., None, None], st.s_P[:, None, :, :2, :2], st.k_P)
+        st.k_wp_index = np.where(got, st.s_wp_index[:, None], st.k_wp_index)
+        st.k_age_s = np.where(got, 0.0, st.k_age_s + T)
+        st.k_range_age_s = np.where(got, (st.t_s[:, None] - st.s_last_range_t_s)[:, None], st.k_range_age_s + T)
+        d_bb = np.linalg.norm(st.b_pos[:, :, None] - st.b_pos[:, None, :], axis=-1)  # (B,N,N)
+        got_peer = u[..., S:] >= acoustics.packet_loss_probability(d_bb, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
+        got_peer |= np.eye(N, dtype=bool)
+        st.k_peer = np.where(got_peer[..., None], (st.b_pos + st.b_nav_err)[:, None], st.k_peer)
+
+    # ------------------------------------------------------------------------------
+    def observe(self) -> np.ndarray:
+        """What each beacon could know, normalized: (B, N, obs_dim). See the env docstring."""
+        c, st = self.config, self.state
+        B, S, N = self.batch_size, self.S, self.N
+        L = c.position_scale_m
+        T = c.ping_interval_s
+        own = st.b_pos + st.b_nav_err  # (B,N,3)
+        own_speed = np.linalg.norm(st.b_vel[..., :2], axis=-1) / self._beacon_max_speed
+        parts = [
+            (own[..., :2] - self._fence_center) / L,
+            st.b_heading.real[..., None], st.b_heading.imag[..., None],
+            own_speed[..., None],
+            np.sqrt(st.b_nav_var_m2)[..., None] / 10.0,
+        ]
+        rel = st.k_est - own[:, :, None, :]  # (B,N,S,3)
+        major, minor, bearing = error_ellipse(st.k_P)
+        idx = st.k_wp_index[..., None] + np.arange(c.observed_waypoints)  # (B,N,S,K)
+        idx = np.minimum(idx, st.s_n_waypoints[:, None, :, None] - 1)
+        wp = np.take_along_axis(np.broadcast_to(st.s_waypoints[:, None], (B, N) + st.s_waypoints.shape[1:]),
+                                idx[..., None], axis=3)  # (B,N,S,K,3)
+        wp_rel = (wp[..., :2] - st.k_est[:, :, :, None, :2]) / L
+        per_survey = np.concatenate([
+            rel[..., :2] / L, rel[..., 2:3] / 100.0,
+            major[..., None] / 50.0, minor[..., None] / 50.0,
+            np.cos(2 * bearing)[..., None], np.sin(2 * bearing)[..., None],
+            st.k_age_s[..., None] / (10 * T), st.k_range_age_s[..., None] / (10 * T),
+            wp_rel.reshape(B, N, S, -1),
+        ], -1)
+        parts.append(per_survey.reshape(B, N, -1))
+        if N > 1:
+            others = ~np.eye(N, dtype=bool)
+            peer_rel = (st.k_peer[..., :2] - own[:, :, None, :2]) / L  # (B,N,N,2)
+            parts.append(peer_rel[:, others].reshape(B, N, -1))
+        return np.clip(np.concatenate(parts, -1), -10.0, 10.0).astype(np.float32)
+
+    def global_state(self) -> np.ndarray:
+        """The true global state for a centralized critic: (B, state_dim), normalized."""
+        c, st = self.config, self.state
+        B = self.batch_size
+        L = c.position_scale_m
+        major, minor, bearing = error_ellipse(st.s_P)
+        fc = np.append(self._fence_center, 0.0)
+        survey = np.concatenate([
+            (st.s_pos - fc) / L, (st.s_est - fc) / L,
+            major[..., None] / 50.0, minor[..., None] / 50.0,
+            np.cos(2 * bearing)[..., None], np.sin(2 * bearing)[..., None],
+        ], -1).reshape(B, -1)
+        beacons = np.concatenate([
+            (st.b_pos - fc) / L, st.b_nav_err[..., :2] / 10.0,
+            st.b_heading.real[..., None], st.b_heading.imag[..., None],
+        ], -1).reshape(B, -1)
+        cur = st.current_mean + st.current_gm
+        glob = np.stack([cur.real, cur.imag, st.cycle / c.max_cycles], -1)
+        return np.clip(np.concatenate([survey, beacons, glob], -1), -10.0, 10.0).astype(np.float32)

@@ -1,0 +1,74 @@
+"""The simulation state: numpy arrays with a leading batch axis.
+
+B environments, S survey vehicles, N beacons, W waypoints per path. Positions are
+(east, north, depth) in metres; in the horizontal plane some fields are complex
+(east + 1j*north), see core/dynamics.py. Nothing here knows PettingZoo.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class SimState:
+    # clocks and random-number keys, (B,)
+    t_s: np.ndarray
+    cycle: np.ndarray
+    keys: np.ndarray
+    # survey vehicles, (B, S, ...)
+    s_pos: np.ndarray  # true position (B,S,3)
+    s_heading: np.ndarray  # true heading, complex unit east + 1j*north (B,S)
+    s_speed_model_mps: np.ndarray  # eq. (1) water speed the vehicle believes (B,S)
+    s_speed_scale: np.ndarray  # true water speed / modelled (B,S)
+    s_thrust_n: np.ndarray  # (B,S)
+    s_compass_bias_rad: np.ndarray  # (B,S)
+    s_vel_true: np.ndarray  # true ground velocity at the end of the last sub-step (B,S,3)
+    s_vel_est: np.ndarray  # dead-reckoned velocity at the end of the last sub-step (B,S,3)
+    s_waypoints: np.ndarray  # (B,S,W,3)
+    s_n_waypoints: np.ndarray  # (B,S) int
+    s_wp_index: np.ndarray  # index of the waypoint being steered to (B,S) int
+    s_hover: np.ndarray  # holds station (stationary path) (B,S) bool
+    s_done: np.ndarray  # path finished (B,S) bool
+    s_est: np.ndarray  # EKF estimate (B,S,3)
+    s_P: np.ndarray  # EKF covariance (B,S,3,3)
+    s_dr: np.ndarray  # dead-reckoning-only track (B,S,3)
+    s_last_range_t_s: np.ndarray  # time of the last fused range (B,S)
+    # beacons, (B, N, ...)
+    b_pos: np.ndarray  # true (B,N,3)
+    b_heading: np.ndarray  # complex unit (B,N)
+    b_vel: np.ndarray  # true ground velocity (B,N,3)
+    b_nav_err: np.ndarray  # own navigation estimate minus truth (B,N,3)
+    b_nav_var_m2: np.ndarray  # own per-axis position variance, carried (B,N)
+    b_dvl_lock: np.ndarray  # (B,N) bool
+    b_current_err: np.ndarray  # error of the current estimate used without lock, complex (B,N)
+    # acoustics
+    clock_offset_s: np.ndarray  # OWTT clock offset survey - beacon at t=0 (B,S,N)
+    clock_drift: np.ndarray  # its drift, s/s (B,S,N)
+    temperature_c: np.ndarray  # true water temperature (B,)
+    # water current, complex (B,)
+    current_mean: np.ndarray
+    current_gm: np.ndarray
+    # what each beacon last received
+    k_est: np.ndarray  # survey estimate (B,N,S,3)
+    k_P: np.ndarray  # its horizontal covariance (B,N,S,2,2)
+    k_wp_index: np.ndarray  # its waypoint index (B,N,S)
+    k_age_s: np.ndarray  # time since that reply (B,N,S)
+    k_range_age_s: np.ndarray  # time since its last fused range, as reported (B,N,S)
+    k_peer: np.ndarray  # peers' last reported positions (B,N,N,3)
+
+    @property
+    def batch_size(self) -> int:
+        return self.t_s.shape[0]
+
+    def assign(self, mask: np.ndarray, other: "SimState"):
+        """Overwrite the rows where ``mask`` is True with ``other``'s rows (in order)."""
+        for f in dataclasses.fields(self):
+            getattr(self, f.name)[mask] = getattr(other, f.name)
+
+    def row(self, index: int) -> "SimState":
+        """A batch-of-one copy of row ``index``."""
+        return SimState(**{f.name: getattr(self, f.name)[index:index + 1].copy() for f in dataclasses.fields(self)})

@@ -1,0 +1,58 @@
+"""The single-beacon Gymnasium view of the batched core (a batch of one).
+
+``gymnasium.make("coopnav/gao_lawnmower-v0")`` gives the scenario's only beacon as
+a Gymnasium agent: same observation, action and reward as ``beacon_0`` of the
+PettingZoo env (see ``CoopNavParallelEnv``), so single-agent libraries work.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+
+from .core.sim import Simulator
+from .scenarios import make_config
+from .views import action_space, agent_infos, check_action, observation_space
+
+
+class CoopNavGymEnv(gym.Env):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(self, scenario="gao_lawnmower", render_mode=None, **overrides):
+        self.config = make_config(scenario, **overrides)
+        if self.config.n_beacons != 1:
+            raise ValueError(f"the Gymnasium view needs a scenario with one beacon; {self.config.name} has "
+                             f"{self.config.n_beacons} (use coopnav_env.parallel_env)")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
+        self.render_mode = render_mode
+        self.sim = Simulator(self.config, batch_size=1)
+        self.action_space = action_space()
+        self.observation_space = observation_space(self.sim)
+        self._recorder = None
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        episode_seed = int(self.np_random.integers(2**31))
+        obs = self.sim.reset([episode_seed])
+        if self.render_mode is not None:
+            from .render import EpisodeRecorder
+
+            self._recorder = EpisodeRecorder(self.config)
+            self._recorder.record(self.sim.state, 0)
+        return obs[0, 0], {}
+
+    def step(self, action):
+        a = check_action("beacon_0", action)
+        res = self.sim.step(a[None, None])
+        if self._recorder is not None:
+            self._recorder.record(self.sim.state, 0)
+        return (res.obs[0, 0], float(res.reward[0, 0]), bool(res.terminated[0]), bool(res.truncated[0]),
+                agent_infos(res.info, 0))
+
+    def render(self):
+        if self.render_mode != "rgb_array" or self._recorder is None:
+            return None
+        from .render import draw_episode, figure_to_rgb
+
+        return figure_to_rgb(draw_episode(self._recorder, self.config))

@@ -1,0 +1,164 @@
+"""The PettingZoo view of the batched core (a batch of one)."""
+
+from __future__ import annotations
+
+import numpy as np
+from pettingzoo import ParallelEnv
+
+from .core.sim import Simulator
+from .scenarios import make_config
+from .views import action_space, agent_infos, check_action, observation_space, state_space
+
+
+class CoopNavParallelEnv(ParallelEnv):
+    """Beacon vehicles that move to help survey vehicles navigate under water.
+
+    Survey AUVs fly a planned path by dead reckoning (thrust model, compass, depth
+    sensor; no DVL) and fuse acoustic ranges from the beacons in an EKF (Gao &
+    Chitre 2010). The agents are the beacons, ``beacon_0`` ... ``beacon_{N-1}``:
+    beacon AUVs (DVL) or ASVs (GPS), as the scenario's ``beacon_kinds`` says.
+
+    **One step** is one acoustic cycle of ``ping_interval_s`` (default 20 s),
+    integrated in sub-steps of ``substep_s`` (1 s). At the end of the cycle every
+    beacon pings, the survey vehicles fuse what arrives and reply with their
+    estimate, which the beacons may or may not receive.
+
+    **Action** (per beacon): ``Box(-1, 1, (2,), float32)``. With
+    ``action_mode="velocity"`` (default), the commanded ground velocity
+    (v_east, v_north) as a fraction of the beacon's maximum speed (its norm is
+    clipped to 1); with ``"heading_speed"``, (bearing / pi, speed fraction * 2 - 1).
+    Turn rates are limited by the vehicle kind. Finite out-of-range actions are
+    clipped; NaN, infinite or wrongly shaped actions raise ``ValueError``.
+
+    **Observation** (per beacon): ``Box(-10, 10, (D,), float32)``, only what the
+    beacon could know, positions divided by the scenario's ``position_scale_m``:
+    own estimated position relative to the geofence centre (2), heading (sin, cos)
+    of the bearing as (east, north) unit vector (2), speed fraction (1), own
+    position std / 10 m (1); then per survey vehicle, from its last received reply:
+    estimate relative to own position (east, north; depth / 100 m) (3), 2-sigma
+    ellipse semi-axes / 50 m (2), (cos, sin) of twice the major-axis bearing (2),
+    age of that reply and time since its last fused range, / (10 ping intervals)
+    (2), its next ``observed_waypoints`` planned waypoints relative to its estimate
+    (2 each); then the other beacons' last reported positions relative to own (2 each).
+
+    **Reward** (per beacon): the information the survey filters gained from this
+    cycle's ranges, sum over survey vehicles of log det P_before - log det P_after
+    of the horizontal position covariance (shared by the team), minus
+    ``safety_penalty`` if the beacon is closer than ``safety_distance_m`` to a
+    survey vehicle, ``geofence_penalty`` outside the geofence, and
+    ``contact_penalty`` if none of its ranges was fused this cycle.
+
+    **Episode end**: terminated when every survey vehicle has finished its path
+    (or ``mission_duration_s`` has passed, if set); truncated after ``max_cycles``.
+
+    **Infos** (every agent, every step): ``survey_error_m`` (true horizontal error
+    of the EKF estimate, metres, mean over survey vehicles), ``dr_error_m`` (the same
+    for dead reckoning), ``cov_logdet`` (log det of the horizontal covariance, m^4),
+    ``range_ok`` (a range was fused this cycle), counts ``ranges_fused``,
+    ``outliers_rejected``, ``nan_rejected``, ``packets_lost``, and each of these as a
+    per-survey-vehicle list under ``<name>_per_vehicle``.
+
+    **Arguments**: ``scenario`` (a name from ``coopnav_env.list_scenarios()`` or a
+    ``ScenarioConfig``), ``render_mode`` (``None``, ``"rgb_array"``, ``"human"``),
+    ``seed`` (used by the first ``reset()`` without a seed), ``max_cycles``, and
+    any scenario parameter by keyword; unknown names raise ``ValueError``.
+    """
+
+    metadata = {"name": "coopnav_v0", "render_modes": ["human", "rgb_array"], "is_parallelizable": True,
+                "render_fps": 4}
+
+    def __init__(self, scenario="gao_lawnmower", render_mode=None, seed=None, max_cycles=None, **overrides):
+        if max_cycles is not None:
+            overrides["max_cycles"] = max_cycles
+        self.config = make_config(scenario, **overrides)
+        if render_mode not in (None, "human", "rgb_array"):
+            raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'human', 'rgb_array'")
+        self.render_mode = render_mode
+        self.sim = Simulator(self.config, batch_size=1)
+        self.possible_agents = [f"beacon_{i}" for i in range(self.config.n_beacons)]
+        self.agents = []
+        self._action_space = action_space()
+        self._observation_space = observation_space(self.sim)
+        self.state_space = state_space(self.sim)
+        self._seed = seed
+        self._seed_rng = np.random.default_rng(seed)
+        self._recorder = None
+        self._viewer = None
+
+    def observation_space(self, agent):
+        return self._observation_space
+
+    def action_space(self, agent):
+        return self._action_space
+
+    def reset(self, seed=None, options=None):
+        if seed is None:
+            seed = self._seed if self._seed is not None else int(self._seed_rng.integers(2**31))
+            self._seed = None
+        else:
+            self._seed_rng = np.random.default_rng(seed)
+        self.episode_seed = int(seed)
+        obs = self.sim.reset([self.episode_seed])
+        self.agents = list(self.possible_agents)
+        if self.render_mode is not None:
+            from .render import EpisodeRecorder
+
+            self._recorder = EpisodeRecorder(self.config)
+            self._recorder.record(self.sim.state, 0)
+        infos = {a: {} for a in self.agents}
+        return {a: obs[0, i] for i, a in enumerate(self.agents)}, infos
+
+    def step(self, actions):
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict agent -> action, got {type(actions).__name__}")
+        dead = [a for a in actions if a not in self.agents]
+        if dead:
+            raise ValueError(f"actions given for agents that are not alive: {dead}; alive: {self.agents}")
+        missing = [a for a in self.agents if a not in actions]
+        if missing:
+            raise ValueError(f"no action given for live agents {missing}")
+        batch = np.stack([check_action(a, actions[a]) for a in self.agents])[None]
+        res = self.sim.step(batch)
+        if self._recorder is not None:
+            self._recorder.record(self.sim.state, 0)
+        info = agent_infos(res.info, 0)
+        term, trunc = bool(res.terminated[0]), bool(res.truncated[0])
+        agents = self.agents
+        obs = {a: res.obs[0, i] for i, a in enumerate(agents)}
+        rewards = {a: float(res.reward[0, i]) for i, a in enumerate(agents)}
+        terms = {a: term for a in agents}
+        truncs = {a: trunc for a in agents}
+        infos = {a: dict(info) for a in agents}
+        if term or trunc:
+            self.agents = []
+        if self.render_mode == "human":
+            self.render()
+        return obs, rewards, terms, truncs, infos
+
+    def state(self):
+        return self.sim.global_state()[0]
+
+    def render(self):
+        if self.render_mode is None:
+            import gymnasium
+
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        from .render import draw_episode, figure_to_rgb
+
+        if self._recorder is None:
+            raise RuntimeError("render() before reset()")
+        fig = draw_episode(self._recorder, self.config)
+        if self.render_mode == "rgb_array":
+            return figure_to_rgb(fig)
+        import matplotlib.pyplot as plt
+
+        plt.pause(0.001)
+        return None
+
+    def close(self):
+        if self._viewer is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self._viewer)
+            self._viewer = None

@@ -1,0 +1,278 @@
+"""The scenario description: one frozen dataclass that the batched core reads.
+
+A scenario is data. ``ScenarioConfig`` holds every parameter of the simulation
+(vehicles, sensors, acoustics, current, reward) with units in its names;
+``scenarios/<name>.py`` files register named instances of it. Overriding a
+parameter is ``make_config("gao_sea", ping_interval_s=10.0)``. Unknown scenario
+or parameter names are a ``ValueError`` that lists the valid ones, so a typo
+never passes silently (the VMAS habit). Defaults that come from
+``shared/reference-values.md`` cite it by section; guesses are marked [U].
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+BEACON_KINDS = ("beacon_auv", "asv")
+SURVEY_PATHS = ("stationary", "lawnmower", "circle", "spiral", "line", "waypoints")
+RANGING_MODES = ("owtt", "twtt")
+ACTION_MODES = ("velocity", "heading_speed")
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """Every parameter of a coopnav scenario. See the field comments for units."""
+
+    name: str = "custom"
+
+    # --- timing ---------------------------------------------------------------------
+    ping_interval_s: float = 20.0  # one decision step = one acoustic cycle (Gao & Chitre: 20 s)
+    substep_s: float = 1.0  # integration step inside a cycle
+    max_cycles: int = 400  # truncation
+    mission_duration_s: float = 0.0  # > 0: the survey's mission also ends after this time
+
+    # --- roster ---------------------------------------------------------------------
+    n_survey: int = 1
+    beacon_kinds: tuple = ("beacon_auv",)  # one entry per learning agent: "beacon_auv" | "asv"
+
+    # --- survey path (the mission, planned in the navigation frame: east, north, depth)
+    survey_path: str = "lawnmower"
+    survey_origin_m: tuple = (0.0, 0.0)  # south-west corner of the survey area
+    survey_area_m: tuple = (130.0, 100.0)  # east extent, north extent
+    lawnmower_spacing_m: float = 25.0  # track spacing
+    depth_m: float = 5.0  # mission depth (start depth of a spiral)
+    spiral_end_depth_m: float = 0.0  # spiral: depth at the end; <= depth_m means depth_m + 20
+    circle_radius_m: float = 40.0
+    circle_laps: float = 2.0
+    line_length_m: float = 100.0  # survey_path="line": back and forth along east
+    path_repeats: int = 1  # the path is flown this many times, alternately forward and back
+    waypoints_m: tuple = ()  # survey_path="waypoints": ((east, north, depth), ...)
+    survey_spacing_m: float = 30.0  # offset between the paths of several survey vehicles
+    waypoint_acceptance_m: float = 3.0
+    los_alpha: float = 0.5  # Matos & Cruz Fig. 5: |W_i Q| = alpha |W_i P|
+
+    # --- survey vehicle: thrust model of Gao & Chitre eq. (1) ---------------------
+    survey_mass_kg: float = 45.0  # STARFISH 40-60 kg [U], ref-values section 1
+    survey_drag_coefficient: float = 0.42  # Allen et al. 2000, ref-values section 1
+    survey_cross_section_m2: float = 0.0284  # REMUS frontal area, ref-values section 1
+    water_density_kgpm3: float = 1026.0  # ref-values section 1
+    max_thrust_n: float = 14.0  # full thrust; 1.5 m/s at 100 % with the above [U, derived]
+    survey_thrust_percent: float = 60.0  # lake trial: 60 %, sea trial: 70 %
+    survey_speed_scale_error_std: float = 0.05  # true/modelled water speed - 1, per episode [U 5-10 %]
+    survey_max_turn_rate_dps: float = 12.0  # [U]
+    survey_max_pitch_deg: float = 20.0  # [U]
+    survey_depth_gain_per_m: float = 0.2  # pitch command (rad) per metre of depth error [U]
+
+    # --- survey sensors -------------------------------------------------------------
+    compass_noise_deg: float = 1.0  # OS5000, <30 deg tilt, ref-values section 2
+    compass_bias_std_deg: float = 1.0  # residual heading bias per run [U 1-3 deg]
+    attitude_noise_deg: float = 0.3  # pitch/roll [U 0.2-0.5 deg]
+    depth_noise_m: float = 0.05  # Bar30 resolution is 2 mm; noise [U]
+    gps_noise_m: float = 2.1  # u-blox M8, 1-sigma per axis, ref-values section 2
+    gps_max_depth_m: float = 0.3  # GPS fixes only this close to the surface
+    sensor_nan_probability: float = 0.0  # fault injection: a measurement is NaN
+
+    # --- survey EKF (Gao & Chitre eqs. 4-13) ---------------------------------------
+    initial_position_std_m: float = 2.0  # GPS fix before diving
+    process_noise_horizontal_m2ps: float = 0.06  # Q per second, east and north
+    process_noise_vertical_m2ps: float = 0.002  # Q per second, depth
+    range_gate_probability: float = 0.999  # chi-square innovation gate (1 dof)
+
+    # --- beacon AUV (DVL) -----------------------------------------------------------
+    beacon_auv_max_speed_mps: float = 1.5  # STARFISH <= 1.5 m/s [U]
+    beacon_auv_max_turn_rate_dps: float = 12.0  # [U]
+    beacon_auv_depth_m: float = 2.0
+    dvl_velocity_noise_mps: float = 0.026  # HoloOcean DVL default, ref-values section 2
+    dvl_lock_loss_probability: float = 0.02  # per cycle [U]
+    dvl_lock_regain_probability: float = 0.5  # per cycle [U]
+    beacon_current_estimate_error_mps: float = 0.05  # used without bottom lock [U]
+
+    # --- ASV (GPS) ------------------------------------------------------------------
+    asv_max_speed_mps: float = 2.0  # Sousa et al.
+    asv_max_turn_rate_dps: float = 30.0  # [U]
+
+    beacon_start_distance_m: float = 60.0  # from the survey's start point
+    beacon_start_bearing_deg: float = 225.0  # bearing of the beacon from the survey start
+    beacon_start_bearing_spread_deg: float = 30.0  # randomized per episode, +/-
+    action_mode: str = "velocity"  # "velocity": (v_east, v_north)/max; "heading_speed"
+
+    # --- acoustics ------------------------------------------------------------------
+    ranging_mode: str = "owtt"  # one-way (synchronized clocks) or two-way travel time
+    range_noise_std_m: float = 1.0  # timing jitter as range [U: Micro-Modem OWTT 1-3 m]
+    turnaround_s: float = 0.015  # transponder turn-around delay, ref-values section 3
+    max_range_m: float = 1500.0
+    packet_loss_near: float = 0.05  # loss probability at zero range [U, 10-50 %]
+    packet_loss_far: float = 0.5  # loss probability at max_range_m [U]
+    outlier_probability: float = 0.03  # multipath, ref-values section 3 [U 1-10 %]
+    outlier_mean_excess_m: float = 30.0  # multipath ranges are too long by Exp(this)
+    water_temperature_c: float = 28.0  # Singapore waters
+    salinity_psu: float = 30.0
+    temperature_uncertainty_c: float = 0.5  # true temperature differs per episode
+    clock_offset_std_s: float = 1e-4  # OWTT clock offset at start (0.15 m)
+    clock_drift_ppm: float = 0.01  # OWTT clock drift, per episode +/- [U]
+
+    # --- ocean current (constant + first-order Gauss-Markov), per episode ------------
+    current_speed_mps: float = 0.05
+    current_speed_spread_mps: float = 0.03  # uniform +/- around current_speed_mps
+    current_direction_deg: float = 90.0  # direction the water flows TO, clockwise from north
+    current_direction_spread_deg: float = 45.0
+    current_gm_std_mps: float = 0.02  # stationary std of the varying part, per axis
+    current_gm_time_constant_s: float = 600.0
+
+    # --- reward -----------------------------------------------------------------------
+    safety_distance_m: float = 10.0
+    geofence_margin_m: float = 300.0  # fence = survey area grown by this much
+    safety_penalty: float = 1.0
+    geofence_penalty: float = 1.0
+    contact_penalty: float = 0.2  # no range of this beacon fused this cycle
+
+    # --- observation --------------------------------------------------------------------
+    observed_waypoints: int = 2  # the survey's next planned waypoints in the observation
+
+    def __post_init__(self):
+        _validate(self)
+
+    # derived quantities, computed in one place --------------------------------------
+    @property
+    def n_beacons(self) -> int:
+        return len(self.beacon_kinds)
+
+    @property
+    def substeps_per_cycle(self) -> int:
+        return int(round(self.ping_interval_s / self.substep_s))
+
+    @property
+    def geofence_m(self) -> tuple:
+        """(east_min, north_min, east_max, north_max) of the geofence."""
+        e0, n0 = self.survey_origin_m
+        w, h = self.survey_area_m
+        m = self.geofence_margin_m
+        return (e0 - m, n0 - m, e0 + w + m, n0 + h + m)
+
+    @property
+    def position_scale_m(self) -> float:
+        """Length that normalizes positions in observations."""
+        w, h = self.survey_area_m
+        return float(max(w, h) / 2 + self.geofence_margin_m)
+
+    def replace(self, **overrides) -> "ScenarioConfig":
+        return dataclasses.replace(self, **check_overrides(overrides))
+
+
+def parameter_names() -> list:
+    return [f.name for f in dataclasses.fields(ScenarioConfig)]
+
+
+def check_overrides(overrides: dict) -> dict:
+    """Refuse unknown parameter names, naming the valid ones (and the closest)."""
+    valid = parameter_names()
+    unknown = [k for k in overrides if k not in valid]
+    if unknown:
+        hints = []
+        for k in unknown:
+            close = difflib.get_close_matches(k, valid, n=1)
+            hints.append(f"{k!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+        raise ValueError(
+            f"unknown scenario parameter(s) {', '.join(hints)}; valid parameters: {', '.join(valid)}"
+        )
+    return overrides
+
+
+def _check(cond: bool, message: str):
+    if not cond:
+        raise ValueError(message)
+
+
+def _finite(x) -> bool:
+    try:
+        return math.isfinite(float(x))
+    except (TypeError, ValueError):
+        return False
+
+
+def _validate(c: ScenarioConfig):
+    for f in dataclasses.fields(c):
+        v = getattr(c, f.name)
+        if isinstance(v, float) and not _finite(v):
+            raise ValueError(f"scenario parameter {f.name} must be finite, got {v!r}")
+    positive = [
+        "ping_interval_s", "substep_s", "survey_mass_kg", "survey_drag_coefficient",
+        "survey_cross_section_m2", "water_density_kgpm3", "max_thrust_n",
+        "initial_position_std_m", "beacon_auv_max_speed_mps", "asv_max_speed_mps",
+        "max_range_m", "range_noise_std_m", "position_scale_m", "current_gm_time_constant_s",
+        "survey_max_turn_rate_dps", "beacon_auv_max_turn_rate_dps", "asv_max_turn_rate_dps",
+    ]
+    for name in positive:
+        v = getattr(c, name)
+        _check(_finite(v) and v > 0, f"scenario parameter {name} must be > 0, got {v!r}")
+    nonneg = [
+        "mission_duration_s", "depth_m", "lawnmower_spacing_m", "circle_radius_m",
+        "compass_noise_deg", "compass_bias_std_deg", "attitude_noise_deg", "depth_noise_m",
+        "gps_noise_m", "process_noise_horizontal_m2ps", "process_noise_vertical_m2ps",
+        "dvl_velocity_noise_mps", "turnaround_s", "outlier_mean_excess_m",
+        "temperature_uncertainty_c", "clock_offset_std_s", "clock_drift_ppm", "current_speed_mps",
+        "current_speed_spread_mps", "current_gm_std_mps", "safety_distance_m",
+        "geofence_margin_m", "survey_speed_scale_error_std", "beacon_current_estimate_error_mps",
+    ]
+    for name in nonneg:
+        v = getattr(c, name)
+        _check(_finite(v) and v >= 0, f"scenario parameter {name} must be >= 0, got {v!r}")
+    for name in ["packet_loss_near", "packet_loss_far", "outlier_probability", "dvl_lock_loss_probability",
+                 "dvl_lock_regain_probability", "sensor_nan_probability", "los_alpha"]:
+        v = getattr(c, name)
+        _check(_finite(v) and 0 <= v <= 1, f"scenario parameter {name} must be in [0, 1], got {v!r}")
+    _check(0 < c.range_gate_probability < 1, "range_gate_probability must be in (0, 1)")
+    _check(0 <= c.survey_thrust_percent <= 100, "survey_thrust_percent must be in [0, 100]")
+    _check(isinstance(c.max_cycles, int) and c.max_cycles >= 1, f"max_cycles must be an int >= 1, got {c.max_cycles!r}")
+    _check(isinstance(c.n_survey, int) and c.n_survey >= 1, f"n_survey must be an int >= 1, got {c.n_survey!r}")
+    _check(c.substep_s <= c.ping_interval_s, "substep_s must not exceed ping_interval_s")
+    _check(abs(c.substeps_per_cycle * c.substep_s - c.ping_interval_s) < 1e-9 * c.ping_interval_s,
+           f"ping_interval_s ({c.ping_interval_s}) must be a whole multiple of substep_s ({c.substep_s})")
+    _check(c.substeps_per_cycle <= 4095, "at most 4095 sub-steps per cycle")
+    _check(isinstance(c.beacon_kinds, tuple) and len(c.beacon_kinds) >= 1,
+           "beacon_kinds must be a non-empty tuple")
+    for k in c.beacon_kinds:
+        _check(k in BEACON_KINDS, f"unknown beacon kind {k!r}; valid kinds: {', '.join(BEACON_KINDS)}")
+    _check(c.survey_path in SURVEY_PATHS,
+           f"unknown survey_path {c.survey_path!r}; valid paths: {', '.join(SURVEY_PATHS)}")
+    _check(c.ranging_mode in RANGING_MODES,
+           f"unknown ranging_mode {c.ranging_mode!r}; valid modes: {', '.join(RANGING_MODES)}")
+    _check(c.action_mode in ACTION_MODES,
+           f"unknown action_mode {c.action_mode!r}; valid modes: {', '.join(ACTION_MODES)}")
+    _check(len(c.survey_area_m) == 2 and all(_finite(v) and v > 0 for v in c.survey_area_m),
+           "survey_area_m must be two positive lengths (east, north)")
+    _check(c.survey_path != "waypoints" or len(c.waypoints_m) >= 2,
+           "survey_path='waypoints' needs at least two waypoints_m entries (east, north, depth)")
+    _check(isinstance(c.path_repeats, int) and c.path_repeats >= 1, "path_repeats must be an int >= 1")
+    _check(c.observed_waypoints >= 1, "observed_waypoints must be >= 1")
+
+
+# ------------------------------------------------------------------------------------
+# the registry of named scenarios
+_REGISTRY: dict = {}
+
+
+def register(name: str, factory: Callable[[], ScenarioConfig] | ScenarioConfig):
+    if name in _REGISTRY:
+        raise ValueError(f"scenario {name!r} is registered twice")
+    _REGISTRY[name] = factory
+
+
+def list_scenarios() -> list:
+    return sorted(_REGISTRY)
+
+
+def make_config(scenario="gao_lawnmower", **overrides) -> ScenarioConfig:
+    """The named scenario's config with ``overrides`` applied (unknown keys are an error)."""
+    if isinstance(scenario, ScenarioConfig):
+        base = scenario
+    else:
+        if scenario not in _REGISTRY:
+            raise ValueError(f"unknown scenario {scenario!r}; valid scenarios: {', '.join(list_scenarios())}")
+        entry = _REGISTRY[scenario]
+        base = entry() if callable(entry) else entry
+    return base.replace(**overrides) if overrides else base

@@ -1,0 +1,56 @@
+"""What the views over the batched core share: spaces, action checking, infos."""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+
+from .core.sim import INFO_KEYS, Simulator
+
+OBS_BOUND = 10.0
+
+
+def action_space() -> spaces.Box:
+    """Every beacon's action: two numbers in [-1, 1] (see the scenario's action_mode)."""
+    return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+
+
+def observation_space(sim: Simulator) -> spaces.Box:
+    return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(sim.obs_dim,), dtype=np.float32)
+
+
+def state_space(sim: Simulator) -> spaces.Box:
+    return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(sim.state_dim,), dtype=np.float32)
+
+
+def check_action(agent: str, action) -> np.ndarray:
+    """One agent's action as a float array of shape (2,), clipped to [-1, 1].
+
+    Raises ValueError naming the agent for a wrong shape or a NaN/infinite value;
+    finite out-of-range values are clipped, as users of Box spaces expect.
+    """
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"action for {agent} is not numeric: {action!r}") from err
+    if a.shape != (2,):
+        raise ValueError(f"action for {agent} must have shape (2,), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"action for {agent} must be finite, got {a.tolist()}")
+    return np.clip(a, -1.0, 1.0)
+
+
+def agent_infos(info: dict, row: int) -> dict:
+    """The infos of environment ``row`` of a step: the mean over survey vehicles
+    (sums for counts, any for range_ok) plus per-vehicle lists."""
+    out = {}
+    for key in INFO_KEYS:
+        v = info[key][row]
+        if key == "range_ok":
+            out[key] = bool(v.any())
+        elif v.dtype.kind in "iub":
+            out[key] = int(v.sum())
+        else:
+            out[key] = float(v.mean())
+        out[key + "_per_vehicle"] = v.tolist()
+    return out
