@@ -65,6 +65,14 @@ class Simulator:
         self._beacon_turn_per_substep = np.radians(
             np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
         self._beacon_depth = np.where(is_asv, 0.0, c.beacon_auv_depth_m)
+        if c.beacon_start_distance_m > 0:
+            self._beacon_start_distance_m = np.full(self.N, c.beacon_start_distance_m)
+        else:  # 0: start where the first two ranges inform most (Sousa et al., Fig. 11)
+            from .information import optimal_start_distance_m
+
+            self._beacon_start_distance_m = np.array([
+                optimal_start_distance_m(c.depth_m - d, v * c.ping_interval_s)
+                for d, v in zip(self._beacon_depth, self._beacon_max_speed)])
         paths = [build_path(c, s) for s in range(self.S)]
         W = max(len(p[0]) for p in paths)
         self._paths = np.zeros((self.S, W, 3))
@@ -134,7 +142,7 @@ class Simulator:
                    + np.radians(c.beacon_start_bearing_spread_deg) * (2 * u_ep[:, :N] - 1)
                    + 2 * np.pi * np.arange(N) / N)
         b_pos = np.zeros((B, N, 3))
-        b_h = start[:, :1, 0] + 1j * start[:, :1, 1] + c.beacon_start_distance_m * bearing_to_unit(bearing)
+        b_h = start[:, :1, 0] + 1j * start[:, :1, 1] + self._beacon_start_distance_m * bearing_to_unit(bearing)
         b_pos[..., 0], b_pos[..., 1], b_pos[..., 2] = b_h.real, b_h.imag, self._beacon_depth
         to_survey = (start[:, :1, 0] + 1j * start[:, :1, 1]) - b_h
         b_heading = to_survey / np.maximum(np.abs(to_survey), 1e-9)

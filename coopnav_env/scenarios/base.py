@@ -95,7 +95,7 @@ class ScenarioConfig:
     asv_max_speed_mps: float = 2.0  # Sousa et al.
     asv_max_turn_rate_dps: float = 30.0  # [U]
 
-    beacon_start_distance_m: float = 60.0  # from the survey's start point
+    beacon_start_distance_m: float = 60.0  # from the survey's start point; 0: the FIM-optimal distance
     beacon_start_bearing_deg: float = 225.0  # bearing of the beacon from the survey start
     beacon_start_bearing_spread_deg: float = 30.0  # randomized per episode, +/-
     action_mode: str = "velocity"  # "velocity": (v_east, v_north)/max; "heading_speed"
@@ -216,7 +216,7 @@ def _validate(c: ScenarioConfig):
         "dvl_velocity_noise_mps", "turnaround_s", "outlier_mean_excess_m",
         "temperature_uncertainty_c", "clock_offset_std_s", "clock_drift_ppm", "current_speed_mps",
         "current_speed_spread_mps", "current_gm_std_mps", "safety_distance_m",
-        "geofence_margin_m", "survey_speed_scale_error_std", "beacon_current_estimate_error_mps",
+        "geofence_margin_m", "survey_speed_scale_error_std", "beacon_start_distance_m", "beacon_current_estimate_error_mps",
     ]
     for name in nonneg:
         v = getattr(c, name)
