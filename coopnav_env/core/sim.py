@@ -165,6 +165,7 @@ class Simulator:
             s_wp_index=np.ones((B, S), dtype=np.int64),
             s_hover=np.broadcast_to(self._hover, (B, S)).copy(), s_done=np.zeros((B, S), dtype=bool),
             s_est=est, s_P=P0, s_dr=est.copy(), s_last_range_t_s=np.zeros((B, S)),
+            s_current_est=np.zeros((B, S), dtype=complex),
             b_pos=b_pos, b_heading=b_heading, b_vel=np.zeros((B, N, 3)), b_nav_err=b_err,
             b_nav_var_m2=np.broadcast_to(b_std0 ** 2, (B, N)).copy(),
             b_dvl_lock=np.ones((B, N), dtype=bool),
@@ -293,6 +294,9 @@ class Simulator:
                                        self._substep_times)  # (B,S,K)
         u_true = u_model * st.s_speed_scale[..., None]
         current = (st.current_mean + st.current_gm)[:, None]
+        # Gao & Chitre II-A: a DVL beacon's current estimate, sent with its pings, corrects
+        # the survey's water-relative dead reckoning (the DR-only track does without it)
+        current_est = st.s_current_est * dt
         max_turn = np.radians(c.survey_max_turn_rate_dps) * dt
         max_pitch = np.radians(c.survey_max_pitch_deg)
         alpha = c.los_alpha
@@ -330,7 +334,7 @@ class Simulator:
             um = u_model[..., k]
             d_h = (um * np.cos(pm) * dt) * (h * rot_meas[:, k])
             d_z = -um * np.sin(pm) * dt
-            est_h, dr_h = est_h + d_h, dr_h + d_h
+            est_h, dr_h = est_h + d_h + current_est, dr_h + d_h
             est_z, dr_z = est_z + d_z, dr_z + d_z
         st.s_heading = h
         st.s_speed_model_mps = u_model[..., -1]
@@ -339,7 +343,7 @@ class Simulator:
         st.s_dr = np.stack([dr_h.real, dr_h.imag, dr_z], -1)
         v_true = ut * np.cos(pitch) * h + current
         st.s_vel_true = np.stack([v_true.real, v_true.imag, -ut * np.sin(pitch)], -1)
-        st.s_vel_est = np.stack([d_h.real, d_h.imag, d_z], -1) / dt
+        st.s_vel_est = np.stack([d_h.real + current_est.real, d_h.imag + current_est.imag, d_z], -1) / dt
 
     def _segments(self):
         """The current path segment of every survey vehicle, as complex geometry."""
@@ -427,6 +431,9 @@ class Simulator:
             use = arrived & finite & gate_ok
             st.s_est, st.s_P, _, _ = scalar_update(st.s_est, st.s_P, z, h, H, R, use)
             fused[:, j], rejected[:, j], lost[:, j] = use, arrived & finite & ~gate_ok, is_lost
+            if c.survey_uses_beacon_current and not self._beacon_is_asv[j]:
+                sent = (st.current_mean + st.current_gm + st.b_current_err[:, j])[:, None]
+                st.s_current_est = np.where(arrived, sent, st.s_current_est)
         st.s_last_range_t_s = np.where(fused.any(1), st.t_s[:, None], st.s_last_range_t_s)
         return fused, rejected, lost, nan_r
 

@@ -37,6 +37,7 @@ class SimState:
     s_P: np.ndarray  # EKF covariance (B,S,3,3)
     s_dr: np.ndarray  # dead-reckoning-only track (B,S,3)
     s_last_range_t_s: np.ndarray  # time of the last fused range (B,S)
+    s_current_est: np.ndarray  # water current last received from a beacon AUV, complex (B,S)
     # beacons, (B, N, ...)
     b_pos: np.ndarray  # true (B,N,3)
     b_heading: np.ndarray  # complex unit (B,N)

@@ -78,9 +78,10 @@ class ScenarioConfig:
 
     # --- survey EKF (Gao & Chitre eqs. 4-13) ---------------------------------------
     initial_position_std_m: float = 2.0  # GPS fix before diving
-    process_noise_horizontal_m2ps: float = 0.06  # Q per second, east and north
+    process_noise_horizontal_m2ps: float = 0.5  # Q per second, east and north (tuned for NEES)
     process_noise_vertical_m2ps: float = 0.002  # Q per second, depth
     range_gate_probability: float = 0.999  # chi-square innovation gate (1 dof)
+    survey_uses_beacon_current: bool = True  # add the current a DVL beacon AUV sends (Gao II-A)
 
     # --- beacon AUV (DVL) -----------------------------------------------------------
     beacon_auv_max_speed_mps: float = 1.5  # STARFISH <= 1.5 m/s [U]
@@ -89,7 +90,7 @@ class ScenarioConfig:
     dvl_velocity_noise_mps: float = 0.026  # HoloOcean DVL default, ref-values section 2
     dvl_lock_loss_probability: float = 0.02  # per cycle [U]
     dvl_lock_regain_probability: float = 0.5  # per cycle [U]
-    beacon_current_estimate_error_mps: float = 0.05  # used without bottom lock [U]
+    beacon_current_estimate_error_mps: float = 0.05  # its current estimate (DVL - thrust model) [U]
 
     # --- ASV (GPS) ------------------------------------------------------------------
     asv_max_speed_mps: float = 2.0  # Sousa et al.
