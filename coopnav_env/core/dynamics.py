@@ -89,9 +89,9 @@ def turn_towards(heading, desired, max_turn_rad):
     A positive complex angle is anticlockwise, i.e. towards a smaller bearing.
     Where ``desired`` is zero the heading is kept.
     """
-    rel = np.angle(desired * heading.conj())
-    turn = np.clip(rel, -max_turn_rad, max_turn_rad)
-    return heading * np.exp(1j * turn)
+    rel = desired * heading.conj()
+    turn = np.minimum(np.maximum(np.arctan2(rel.imag, rel.real), -max_turn_rad), max_turn_rad)
+    return heading * (np.cos(turn) + 1j * np.sin(turn))
 
 
 def rate_limited_headings(heading0, desired, max_turn_rad_per_step, n_steps):

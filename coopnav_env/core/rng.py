@@ -59,14 +59,16 @@ def uniform(keys: np.ndarray, stream: int, counter: np.ndarray, shape: tuple) ->
     return u.reshape((keys.shape[0],) + tuple(shape))
 
 
+def to_normal(u: np.ndarray) -> np.ndarray:
+    """Standard normal numbers from uniforms in (0, 1) (inverse normal CDF)."""
+    return ndtri(u)
+
+
 def normal(keys: np.ndarray, stream: int, counter: np.ndarray, shape: tuple) -> np.ndarray:
     """Standard normal numbers, shape (B, *shape)."""
-    return ndtri(uniform(keys, stream, counter, shape))
+    return to_normal(uniform(keys, stream, counter, shape))
 
 
 # stream names: one per purpose, so that adding a draw never changes another
 STREAM_EPISODE = 1  # per-episode randomization (current, biases, start geometry)
-STREAM_SUBSTEP = 2  # compass, attitude and nav noise at each sub-step
-STREAM_CURRENT = 3  # Gauss-Markov current increments
-STREAM_ACOUSTIC = 4  # range noise, loss, outliers
-STREAM_SENSOR = 5  # depth, GPS, DVL lock, NaN fault injection
+STREAM_CYCLE = 2  # everything drawn in a cycle (laid out by purpose in Simulator)

@@ -88,6 +88,18 @@ class Simulator:
         self._substep_times = c.substep_s * np.arange(1, self.K + 1)
         fence = c.geofence_m
         self._fence_center = np.array([(fence[0] + fence[2]) / 2, (fence[1] + fence[3]) / 2])
+        # every random number of one cycle comes from one hash call, laid out by purpose;
+        # a new purpose goes at the end so the others keep their numbers
+        S_, N_, K_ = self.S, self.N, self.K
+        self._draw_layout = [
+            ("current", "normal", (2,)),
+            ("sensor_n", "normal", (S_, 3)), ("sensor_u", "uniform", (S_, 3)),
+            ("substep", "normal", (K_, 2, S_)),
+            ("beacon_nav_n", "normal", (N_, 4)), ("beacon_nav_u", "uniform", (N_,)),
+            ("acoustic_n", "normal", (N_, S_, 2)), ("acoustic_u", "uniform", (N_, S_, 4)),
+            ("message_u", "uniform", (N_, S_ + N_)),
+        ]
+        self._draw_size = sum(int(np.prod(shape)) for _, _, shape in self._draw_layout)
         self.obs_dim = 6 + self.S * (9 + 2 * c.observed_waypoints) + 2 * (self.N - 1)
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.state: SimState | None = None
@@ -168,6 +180,7 @@ class Simulator:
             s_current_est=np.zeros((B, S), dtype=complex),
             b_pos=b_pos, b_heading=b_heading, b_vel=np.zeros((B, N, 3)), b_nav_err=b_err,
             b_nav_var_m2=np.broadcast_to(b_std0 ** 2, (B, N)).copy(),
+            b_walk_var_m2=np.broadcast_to(b_std0 ** 2, (B, N)).copy(), b_unlocked_s=np.zeros((B, N)),
             b_dvl_lock=np.ones((B, N), dtype=bool),
             b_current_err=c.beacon_current_estimate_error_mps * (nb[..., 2] + 1j * nb[..., 3]),
             clock_offset_s=c.clock_offset_std_s * n_clock,
@@ -180,6 +193,17 @@ class Simulator:
             k_range_age_s=np.zeros((B, N, S)),
             k_peer=np.broadcast_to((b_pos + b_err)[:, None], (B, N, N, 3)).copy(),
         )
+
+    def _cycle_draws(self, cycle) -> dict:
+        """This cycle's random numbers for every environment, by purpose: name -> (B, *shape)."""
+        u = rng.uniform(self.state.keys, rng.STREAM_CYCLE, cycle, (self._draw_size,))
+        out, i = {}, 0
+        for name, kind, shape in self._draw_layout:
+            n = int(np.prod(shape))
+            block = u[:, i:i + n].reshape((u.shape[0],) + shape)
+            out[name] = rng.to_normal(block) if kind == "normal" else block
+            i += n
+        return out
 
     # ------------------------------------------------------------------------------
     def command_velocity(self, actions: np.ndarray) -> np.ndarray:
@@ -200,6 +224,7 @@ class Simulator:
         B, S, N, K = self.batch_size, self.S, self.N, self.K
         dt, T = c.substep_s, c.ping_interval_s
         cyc = st.cycle
+        draws = self._cycle_draws(cyc)
 
         # 1. beacon motion over the cycle, all sub-steps at once ----------------------
         v_cmd = self.command_velocity(actions)
@@ -213,13 +238,13 @@ class Simulator:
         st.b_vel[..., 0], st.b_vel[..., 1] = b_v.real, b_v.imag
 
         # 2. survey sub-steps ---------------------------------------------------------
-        self._integrate_survey(cyc)
+        self._integrate_survey(draws)
 
         # beacon navigation: DVL (or its fallback) for AUVs, GPS for ASVs
-        self._beacon_navigation(cyc)
+        self._beacon_navigation(draws)
 
         # the current's slowly varying part, exact over the cycle
-        n_cur = rng.normal(st.keys, rng.STREAM_CURRENT, cyc, (2,))
+        n_cur = draws["current"]
         st.current_gm = gauss_markov_step(st.current_gm, T, c.current_gm_time_constant_s, c.current_gm_std_mps,
                                           n_cur[:, 0] + 1j * n_cur[:, 1])
         st.t_s = st.t_s + T
@@ -227,8 +252,7 @@ class Simulator:
 
         # 3. EKF prediction over the cycle (eq. 6, F = I, Q accumulated), depth and GPS
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
-        n_sens = rng.normal(st.keys, rng.STREAM_SENSOR, cyc, (S, 3))
-        u_sens = rng.uniform(st.keys, rng.STREAM_SENSOR + 100, cyc, (S, 3))
+        n_sens, u_sens = draws["sensor_n"], draws["sensor_u"]
         nan_count = np.zeros((B, S), dtype=np.int64)
         z_depth = st.s_pos[..., 2] + c.depth_noise_m * n_sens[..., 0]
         z_depth = np.where(u_sens[..., 0] < c.sensor_nan_probability, np.nan, z_depth)
@@ -245,12 +269,12 @@ class Simulator:
         logdet_before = logdet_horizontal(st.s_P)
 
         # 4. acoustic ranging --------------------------------------------------------
-        fused, rejected, lost, nan_r = self._ranging(cyc)
+        fused, rejected, lost, nan_r = self._ranging(draws)
         nan_count += nan_r
         logdet_after = logdet_horizontal(st.s_P)
 
         # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
-        self._exchange_messages(cyc)
+        self._exchange_messages(draws)
 
         # 6. reward, ends, infos -------------------------------------------------------
         info_gain = (logdet_before - logdet_after).sum(-1)  # (B,)
@@ -280,11 +304,11 @@ class Simulator:
         return StepResult(self.observe(), reward, terminated, truncated, info)
 
     # ------------------------------------------------------------------------------
-    def _integrate_survey(self, cyc):
+    def _integrate_survey(self, draws):
         c, st = self.config, self.state
         B, S, K = self.batch_size, self.S, self.K
         dt = c.substep_s
-        noise = rng.normal(st.keys, rng.STREAM_SUBSTEP, cyc, (K, 2, S))
+        noise = draws["substep"]
         # measured heading = true heading rotated by bias + noise (bearing b -> b + d is
         # the complex factor exp(-1j d)); measured pitch = pitch + noise.
         rot_meas = np.exp(-1j * (st.s_compass_bias_rad[:, None, :] + np.radians(c.compass_noise_deg) * noise[:, :, 0]))
@@ -323,8 +347,8 @@ class Simulator:
                 along = ((est_h - seg["start"]) * seg["dir_conj"]).real
             q = seg["start"] + (alpha * along + (1.0 - alpha) * seg["length"]) * seg["dir"]
             h = np.where(steer, turn_towards(h, q - est_h, max_turn), h)
-            depth_cmd = seg["start_z"] + np.clip(along, 0.0, seg["length"]) * seg["slope"]
-            pitch = np.clip(c.survey_depth_gain_per_m * (pos_z - depth_cmd), -max_pitch, max_pitch)
+            depth_cmd = seg["start_z"] + np.minimum(np.maximum(along, 0.0), seg["length"]) * seg["slope"]
+            pitch = np.minimum(np.maximum(c.survey_depth_gain_per_m * (pos_z - depth_cmd), -max_pitch), max_pitch)
             # true motion: water-relative velocity plus current
             ut = u_true[..., k]
             pos_h = pos_h + (ut * np.cos(pitch) * h + current) * dt
@@ -358,12 +382,11 @@ class Simulator:
         return {"start": start, "dir": direction, "dir_conj": direction.conj(), "length": length,
                 "start_z": a[..., 2], "slope": np.where(length > 0, (b[..., 2] - a[..., 2]) / np.where(length > 0, length, 1.0), 0.0)}
 
-    def _beacon_navigation(self, cyc):
+    def _beacon_navigation(self, draws):
         c, st = self.config, self.state
         B, N = self.batch_size, self.N
         T, K, dt = c.ping_interval_s, self.K, c.substep_s
-        n = rng.normal(st.keys, rng.STREAM_SENSOR + 200, cyc, (N, 4))
-        u = rng.uniform(st.keys, rng.STREAM_SENSOR + 300, cyc, (N,))
+        n, u = draws["beacon_nav_n"], draws["beacon_nav_u"]
         auv = ~self._beacon_is_asv
         # bottom lock is lost and regained at random (per cycle)
         st.b_dvl_lock = np.where(st.b_dvl_lock, u >= c.dvl_lock_loss_probability, u < c.dvl_lock_regain_probability)
@@ -371,19 +394,22 @@ class Simulator:
         walk_std = c.dvl_velocity_noise_mps * dt * np.sqrt(K)
         drift = np.where(st.b_dvl_lock, 0.0, st.b_current_err * T)  # without lock: thrust model + current estimate
         err_h = (st.b_nav_err[..., 0] + 1j * st.b_nav_err[..., 1]) + drift + walk_std * (n[..., 0] + 1j * n[..., 1])
-        var = st.b_nav_var_m2 + walk_std ** 2 + np.where(st.b_dvl_lock, 0.0, (c.beacon_current_estimate_error_mps * T) ** 2)
+        # the variance it carries: the random walk adds up linearly, but the current-estimate
+        # error is a bias, so its part grows with the square of the time spent without lock
+        st.b_walk_var_m2 = st.b_walk_var_m2 + walk_std ** 2
+        st.b_unlocked_s = st.b_unlocked_s + np.where(st.b_dvl_lock, 0.0, T)
+        var = st.b_walk_var_m2 + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
         # ASV: a fresh GPS fix every cycle
         gps_h = c.gps_noise_m * (n[..., 2] + 1j * n[..., 3])
         err_h = np.where(auv, err_h, gps_h)
         st.b_nav_var_m2 = np.where(auv, var, c.gps_noise_m ** 2)
         st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag
 
-    def _ranging(self, cyc):
+    def _ranging(self, draws):
         """Every beacon pings every survey vehicle; fuse what arrives. Returns (B,N,S) flags."""
         c, st = self.config, self.state
         B, S, N = self.batch_size, self.S, self.N
-        n = rng.normal(st.keys, rng.STREAM_ACOUSTIC, cyc, (N, S, 2))
-        u = rng.uniform(st.keys, rng.STREAM_ACOUSTIC + 100, cyc, (N, S, 4))
+        n, u = draws["acoustic_n"], draws["acoustic_u"]
         fused = np.zeros((B, N, S), dtype=bool)
         rejected, lost, nan_r = np.zeros_like(fused), np.zeros_like(fused), np.zeros((B, S), dtype=np.int64)
         beacon_est = st.b_pos + st.b_nav_err  # what the beacons believe and transmit
@@ -437,10 +463,10 @@ class Simulator:
         st.s_last_range_t_s = np.where(fused.any(1), st.t_s[:, None], st.s_last_range_t_s)
         return fused, rejected, lost, nan_r
 
-    def _exchange_messages(self, cyc):
+    def _exchange_messages(self, draws):
         c, st = self.config, self.state
         B, S, N = self.batch_size, self.S, self.N
-        u = rng.uniform(st.keys, rng.STREAM_ACOUSTIC + 200, cyc, (N, S + N))
+        u = draws["message_u"]
         d_sb = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
         got = u[..., :S] >= acoustics.packet_loss_probability(d_sb, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
         T = c.ping_interval_s

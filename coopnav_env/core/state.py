@@ -44,6 +44,8 @@ class SimState:
     b_vel: np.ndarray  # true ground velocity (B,N,3)
     b_nav_err: np.ndarray  # own navigation estimate minus truth (B,N,3)
     b_nav_var_m2: np.ndarray  # own per-axis position variance, carried (B,N)
+    b_walk_var_m2: np.ndarray  # its white part: start fix plus DVL velocity noise (B,N)
+    b_unlocked_s: np.ndarray  # time spent without bottom lock (B,N)
     b_dvl_lock: np.ndarray  # (B,N) bool
     b_current_err: np.ndarray  # error of the current estimate used without lock, complex (B,N)
     # acoustics
