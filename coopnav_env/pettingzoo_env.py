@@ -97,6 +97,7 @@ class CoopNavParallelEnv(ParallelEnv):
             self._seed = None
         else:
             self._seed_rng = np.random.default_rng(seed)
+            self._seed = None  # an explicit seed supersedes the constructor's
         self.episode_seed = int(seed)
         obs = self.sim.reset([self.episode_seed])
         self.agents = list(self.possible_agents)
@@ -111,6 +112,10 @@ class CoopNavParallelEnv(ParallelEnv):
     def step(self, actions):
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict agent -> action, got {type(actions).__name__}")
+        if not self.agents:
+            given = f" (actions given for agents that are not alive: {list(actions)})" if actions else ""
+            raise ValueError("step() with no live agents: the episode has ended or reset() was not called; "
+                             f"call reset() first{given}")
         dead = [a for a in actions if a not in self.agents]
         if dead:
             raise ValueError(f"actions given for agents that are not alive: {dead}; alive: {self.agents}")
@@ -148,13 +153,22 @@ class CoopNavParallelEnv(ParallelEnv):
 
         if self._recorder is None:
             raise RuntimeError("render() before reset()")
-        fig = draw_episode(self._recorder, self.config)
         if self.render_mode == "rgb_array":
-            return figure_to_rgb(fig)
+            return figure_to_rgb(draw_episode(self._recorder, self.config))
         import matplotlib.pyplot as plt
 
+        # "human": draw into one pyplot window (a bare Figure is never shown by pyplot)
+        if self._viewer is None or not plt.fignum_exists(self._viewer.number):
+            self._viewer = plt.figure(figsize=(6.4, 5.6))
+        draw_episode(self._recorder, self.config, fig=self._viewer)
+        self._viewer.canvas.draw_idle()
         plt.pause(0.001)
         return None
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_viewer"] = None  # a window does not travel between processes
+        return state
 
     def close(self):
         if self._viewer is not None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -137,6 +138,15 @@ class ScenarioConfig:
     observed_waypoints: int = 2  # the survey's next planned waypoints in the observation
 
     def __post_init__(self):
+        # integers may come as numpy integers (from sweeps, YAML); store plain ints
+        for name in ("max_cycles", "n_survey", "path_repeats", "observed_waypoints"):
+            v = getattr(self, name)
+            if isinstance(v, numbers.Integral) and not isinstance(v, bool):
+                object.__setattr__(self, name, int(v))
+        for name in ("beacon_kinds", "survey_area_m", "survey_origin_m", "waypoints_m"):
+            v = getattr(self, name)
+            if isinstance(v, list):  # lists from YAML or JSON
+                object.__setattr__(self, name, tuple(tuple(x) if isinstance(x, list) else x for x in v))
         _validate(self)
 
     # derived quantities, computed in one place --------------------------------------
@@ -230,8 +240,8 @@ def _validate(c: ScenarioConfig):
         _check(_finite(v) and 0 <= v <= 1, f"scenario parameter {name} must be in [0, 1], got {v!r}")
     _check(0 < c.range_gate_probability < 1, "range_gate_probability must be in (0, 1)")
     _check(0 <= c.survey_thrust_percent <= 100, "survey_thrust_percent must be in [0, 100]")
-    _check(isinstance(c.max_cycles, int) and c.max_cycles >= 1, f"max_cycles must be an int >= 1, got {c.max_cycles!r}")
-    _check(isinstance(c.n_survey, int) and c.n_survey >= 1, f"n_survey must be an int >= 1, got {c.n_survey!r}")
+    _check(type(c.max_cycles) is int and c.max_cycles >= 1, f"max_cycles must be an int >= 1, got {c.max_cycles!r}")
+    _check(type(c.n_survey) is int and c.n_survey >= 1, f"n_survey must be an int >= 1, got {c.n_survey!r}")
     _check(c.substep_s <= c.ping_interval_s, "substep_s must not exceed ping_interval_s")
     _check(abs(c.substeps_per_cycle * c.substep_s - c.ping_interval_s) < 1e-9 * c.ping_interval_s,
            f"ping_interval_s ({c.ping_interval_s}) must be a whole multiple of substep_s ({c.substep_s})")
@@ -250,7 +260,7 @@ def _validate(c: ScenarioConfig):
            "survey_area_m must be two positive lengths (east, north)")
     _check(c.survey_path != "waypoints" or len(c.waypoints_m) >= 2,
            "survey_path='waypoints' needs at least two waypoints_m entries (east, north, depth)")
-    _check(isinstance(c.path_repeats, int) and c.path_repeats >= 1, "path_repeats must be an int >= 1")
+    _check(type(c.path_repeats) is int and c.path_repeats >= 1, "path_repeats must be an int >= 1")
     _check(c.observed_waypoints >= 1, "observed_waypoints must be >= 1")
 
 

@@ -1,0 +1,283 @@
+"""Bad input raises a clear exception naming what was wrong; nothing is silently
+accepted except finite out-of-range actions (clipped), and a NaN never enters the filter."""
+
+from __future__ import annotations
+
+import gymnasium
+import numpy as np
+import pytest
+
+import coopnav_env
+from coopnav_env.gym_env import CoopNavGymEnv
+
+
+def _env(**kw):
+    kw.setdefault("max_cycles", 5)
+    env = coopnav_env.parallel_env("gao_lawnmower", **kw)
+    env.reset(seed=0)
+    return env
+
+
+ZERO = np.zeros(2, dtype=np.float32)
+
+
+# --- actions -----------------------------------------------------------------------
+@pytest.mark.parametrize("bad", [np.zeros(3), np.zeros((1, 2)), np.zeros(1), np.float32(0.5), np.zeros((2, 2))])
+def test_wrong_action_shape(bad):
+    env = _env()
+    with pytest.raises(ValueError, match=r"beacon_0 must have shape \(2,\)"):
+        env.step({"beacon_0": bad})
+
+
+def test_non_numeric_action():
+    env = _env()
+    with pytest.raises(ValueError, match="beacon_0 is not numeric"):
+        env.step({"beacon_0": "north"})
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_non_finite_action(value):
+    env = _env()
+    with pytest.raises(ValueError, match="beacon_0 must be finite"):
+        env.step({"beacon_0": np.array([0.1, value], dtype=np.float32)})
+
+
+def test_bad_action_does_not_advance_the_env():
+    env = _env()
+    t0 = env.sim.state.t_s.copy()
+    with pytest.raises(ValueError):
+        env.step({"beacon_0": np.array([np.nan, 0.0])})
+    assert np.array_equal(env.sim.state.t_s, t0)
+    env.step({"beacon_0": ZERO})  # still usable
+
+
+def test_bad_action_names_the_offending_agent():
+    env = _env(beacon_kinds=("beacon_auv", "asv"))
+    with pytest.raises(ValueError, match="beacon_1 must be finite"):
+        env.step({"beacon_0": ZERO, "beacon_1": np.array([np.inf, 0.0])})
+
+
+def test_action_for_unknown_agent():
+    env = _env()
+    with pytest.raises(ValueError, match=r"not alive.*beacon_7"):
+        env.step({"beacon_0": ZERO, "beacon_7": ZERO})
+
+
+def test_action_after_episode_end():
+    env = _env(max_cycles=2)
+    while env.agents:
+        env.step({a: ZERO for a in env.agents})
+    with pytest.raises(ValueError, match=r"not alive.*beacon_0"):
+        env.step({"beacon_0": ZERO})
+
+
+def test_step_after_episode_end_without_actions():
+    """An empty step after the end must not advance a finished episode silently."""
+    env = _env(max_cycles=2)
+    while env.agents:
+        env.step({a: ZERO for a in env.agents})
+    t_end = env.sim.state.t_s.copy()
+    with pytest.raises((ValueError, RuntimeError), match="reset"):
+        env.step({})
+    assert np.array_equal(env.sim.state.t_s, t_end)
+
+
+def test_step_before_reset():
+    env = coopnav_env.parallel_env("gao_lawnmower")
+    with pytest.raises((ValueError, RuntimeError), match="reset"):
+        env.step({"beacon_0": ZERO})
+
+
+def test_missing_action():
+    env = _env(beacon_kinds=("beacon_auv", "asv"))
+    with pytest.raises(ValueError, match=r"no action.*beacon_1"):
+        env.step({"beacon_0": ZERO})
+
+
+def test_actions_not_a_dict():
+    env = _env()
+    with pytest.raises(ValueError, match="dict"):
+        env.step([ZERO])
+
+
+def test_gym_view_bad_actions():
+    env = CoopNavGymEnv("gao_lawnmower", max_cycles=5)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="must be finite"):
+        env.step(np.array([np.nan, 0.0], dtype=np.float32))
+    with pytest.raises(ValueError, match=r"shape \(2,\)"):
+        env.step(np.zeros(4, dtype=np.float32))
+
+
+# --- configuration -----------------------------------------------------------------
+@pytest.mark.parametrize("value", [-20.0, 0.0])
+def test_non_positive_ping_interval(value):
+    with pytest.raises(ValueError, match="ping_interval_s must be > 0"):
+        coopnav_env.parallel_env("gao_lawnmower", ping_interval_s=value)
+
+
+@pytest.mark.parametrize("value", [-1.0, 0.0])
+def test_non_positive_substep(value):
+    with pytest.raises(ValueError, match="substep_s must be > 0"):
+        coopnav_env.parallel_env("gao_lawnmower", substep_s=value)
+
+
+@pytest.mark.parametrize("ping, sub", [(20.0, 3.0), (20.0, 0.7), (10.0, 4.0)])
+def test_substep_not_dividing_ping_interval(ping, sub):
+    with pytest.raises(ValueError, match=r"ping_interval_s .* whole multiple of substep_s"):
+        coopnav_env.parallel_env("gao_lawnmower", ping_interval_s=ping, substep_s=sub)
+
+
+def test_substep_dividing_ping_interval_is_fine():
+    env = coopnav_env.parallel_env("gao_lawnmower", ping_interval_s=10.0, substep_s=0.5)
+    assert env.config.substeps_per_cycle == 20
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf")])
+def test_non_finite_parameter(value):
+    with pytest.raises(ValueError, match="current_speed_mps must be finite"):
+        coopnav_env.parallel_env("gao_lawnmower", current_speed_mps=value)
+
+
+@pytest.mark.parametrize("value", [0, -3])
+def test_bad_max_cycles(value):
+    with pytest.raises(ValueError, match="max_cycles"):
+        coopnav_env.parallel_env("gao_lawnmower", max_cycles=value)
+
+
+def test_unknown_scenario_lists_valid_ones():
+    with pytest.raises(ValueError, match=r"unknown scenario 'gao_lake'.*gao_lawnmower.*gao_sea"):
+        coopnav_env.parallel_env("gao_lake")
+    with pytest.raises(ValueError, match=r"unknown scenario.*gao_lawnmower.*gao_sea"):
+        coopnav_env.env("nope")
+
+
+def test_unknown_keyword_lists_valid_parameters():
+    with pytest.raises(ValueError, match=r"ping_intervall_s.*did you mean 'ping_interval_s'") as err:
+        coopnav_env.parallel_env("gao_lawnmower", ping_intervall_s=10.0)
+    msg = str(err.value)
+    assert "valid parameters" in msg
+    for name in ("ping_interval_s", "substep_s", "current_speed_mps", "beacon_kinds", "max_cycles"):
+        assert name in msg
+
+
+def test_unknown_keyword_through_gymnasium_make():
+    with pytest.raises(ValueError, match="unknown scenario parameter"):
+        gymnasium.make("coopnav/gao_lawnmower-v0", no_such_parameter=1)
+
+
+@pytest.mark.parametrize("mode", ["rgb", "ansi", "RGB_ARRAY"])
+def test_bad_render_mode(mode):
+    with pytest.raises(ValueError, match=rf"render_mode '{mode}'.*rgb_array"):
+        coopnav_env.parallel_env("gao_lawnmower", render_mode=mode)
+    with pytest.raises(ValueError, match=rf"render_mode '{mode}'"):
+        CoopNavGymEnv("gao_lawnmower", render_mode=mode)
+
+
+def test_unknown_beacon_kind():
+    with pytest.raises(ValueError, match=r"unknown beacon kind 'submarine'.*beacon_auv.*asv"):
+        coopnav_env.parallel_env("gao_lawnmower", beacon_kinds=("beacon_auv", "submarine"))
+
+
+def test_empty_beacon_kinds():
+    with pytest.raises(ValueError, match="beacon_kinds"):
+        coopnav_env.parallel_env("gao_lawnmower", beacon_kinds=())
+
+
+def test_unknown_survey_path():
+    with pytest.raises(ValueError, match=r"unknown survey_path 'zigzag'.*lawnmower"):
+        coopnav_env.parallel_env("gao_lawnmower", survey_path="zigzag")
+
+
+def test_unknown_action_mode_and_ranging_mode():
+    with pytest.raises(ValueError, match=r"unknown action_mode 'polar'"):
+        coopnav_env.parallel_env("gao_lawnmower", action_mode="polar")
+    with pytest.raises(ValueError, match=r"unknown ranging_mode 'usbl'"):
+        coopnav_env.parallel_env("gao_lawnmower", ranging_mode="usbl")
+
+
+def test_probability_out_of_range():
+    with pytest.raises(ValueError, match=r"sensor_nan_probability must be in \[0, 1\]"):
+        coopnav_env.parallel_env("gao_lawnmower", sensor_nan_probability=1.5)
+
+
+# --- finite out-of-range actions are clipped ---------------------------------------
+def _run(actions_seq, **kw):
+    env = coopnav_env.parallel_env("gao_lawnmower", max_cycles=len(actions_seq), **kw)
+    env.reset(seed=11)
+    out = []
+    for act in actions_seq:
+        out.append(env.step({"beacon_0": act}))
+    return out, env
+
+
+@pytest.mark.parametrize("mode", ["velocity", "heading_speed"])
+def test_out_of_range_actions_are_clipped(mode):
+    raw = [np.array([5.0, -3.0]), np.array([-1.7, 0.2]), np.array([0.3, 40.0]), np.array([-2.0, -2.0])]
+    clipped = [np.clip(a, -1.0, 1.0) for a in raw]
+    out_raw, env_raw = _run(raw, action_mode=mode)
+    out_clip, env_clip = _run(clipped, action_mode=mode)
+    for (o1, r1, te1, tr1, i1), (o2, r2, te2, tr2, i2) in zip(out_raw, out_clip):
+        for a in o1:
+            np.testing.assert_array_equal(o1[a], o2[a])
+        assert r1 == r2 and te1 == te2 and tr1 == tr2 and i1 == i2
+    np.testing.assert_array_equal(env_raw.sim.state.b_pos, env_clip.sim.state.b_pos)
+    # and clipping matters: the unclipped direction would have moved the beacon elsewhere
+    # (velocity mode: (5, -3) normalized is not (1, -1) normalized)
+    if mode == "velocity":
+        out_other, env_other = _run([raw[0] / np.linalg.norm(raw[0])] + clipped[1:], action_mode=mode)
+        assert not np.array_equal(env_other.sim.state.b_pos, env_clip.sim.state.b_pos)
+
+
+def test_gym_view_clips_like_the_parallel_env():
+    genv = CoopNavGymEnv("gao_lawnmower", max_cycles=3)
+    genv.reset(seed=4)
+    o1, r1, *_ = genv.step(np.array([3.0, -9.0], dtype=np.float32))
+    genv2 = CoopNavGymEnv("gao_lawnmower", max_cycles=3)
+    genv2.reset(seed=4)
+    o2, r2, *_ = genv2.step(np.array([1.0, -1.0], dtype=np.float32))
+    np.testing.assert_array_equal(o1, o2)
+    assert r1 == r2
+
+
+# --- a NaN from a sensor never enters the filter -------------------------------------
+@pytest.mark.parametrize("ranging_mode", ["owtt", "twtt"])
+def test_sensor_nan_is_rejected_and_counted(ranging_mode):
+    env = coopnav_env.parallel_env("gao_lawnmower", sensor_nan_probability=0.5, ranging_mode=ranging_mode,
+                                   max_cycles=25, seed=2)
+    obs, _ = env.reset(seed=2)
+    rng = np.random.default_rng(0)
+    nan_total, fused_total, steps = 0, 0, 0
+    while env.agents:
+        obs, rewards, _, _, infos = env.step({a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents})
+        steps += 1
+        st = env.sim.state
+        assert np.all(np.isfinite(st.s_est)), f"NaN/inf in the EKF estimate at step {steps}"
+        assert np.all(np.isfinite(st.s_P)), f"NaN/inf in the EKF covariance at step {steps}"
+        P = st.s_P[0, 0]
+        np.testing.assert_allclose(P, P.T, atol=1e-9)
+        assert np.all(np.linalg.eigvalsh(P) > 0)
+        # a rejected depth reading is not replaced by a made-up one: depth stays right
+        depth_err = np.abs(st.s_est[..., 2] - st.s_pos[..., 2])
+        assert np.all(depth_err < 1.0), f"depth estimate off by {depth_err.max():.2f} m at step {steps}"
+        for a in env.possible_agents:
+            if a in obs:
+                assert np.all(np.isfinite(obs[a]))
+                assert np.isfinite(rewards[a])
+        info = infos["beacon_0"]
+        assert np.isfinite(info["survey_error_m"]) and np.isfinite(info["cov_logdet"])
+        assert info["nan_rejected"] == sum(info["nan_rejected_per_vehicle"])
+        nan_total += info["nan_rejected"]
+        fused_total += info["ranges_fused"]
+    assert nan_total > 0, "no NaN measurement was counted with sensor_nan_probability=0.5"
+    # a NaN is a rejected measurement, nothing more: other measurements are still fused
+    assert fused_total > 0
+
+
+def test_no_nan_rejections_without_fault_injection():
+    env = _env(max_cycles=10)
+    total = 0
+    while env.agents:
+        _, _, _, _, infos = env.step({a: ZERO for a in env.agents})
+        total += infos["beacon_0"]["nan_rejected"]
+    assert total == 0
