@@ -9,6 +9,7 @@ uses complex numbers, east + 1j * north, so that turning is one multiplication.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
 # --- Gao & Chitre eq. (1): m du/dt = T - 1/2 Cd rho A u^2 ----------------------------
@@ -83,15 +84,22 @@ def unit_to_bearing(h):
     return np.arctan2(h.real, h.imag)
 
 
-def turn_towards(heading, desired, max_turn_rad):
-    """Rotate complex unit headings towards ``desired`` by at most ``max_turn_rad``.
+@njit(cache=True)
+def turn_toward(heading, desired, max_turn_rad):
+    """Rotate a complex unit heading towards ``desired`` by at most ``max_turn_rad``.
 
     A positive complex angle is anticlockwise, i.e. towards a smaller bearing.
     Where ``desired`` is zero the heading is kept.
     """
-    rel = desired * heading.conj()
-    turn = np.minimum(np.maximum(np.arctan2(rel.imag, rel.real), -max_turn_rad), max_turn_rad)
+    rel = desired * heading.conjugate()
+    turn = min(max(np.arctan2(rel.imag, rel.real), -max_turn_rad), max_turn_rad)
     return heading * (np.cos(turn) + 1j * np.sin(turn))
+
+
+def turn_towards(heading, desired, max_turn_rad):
+    """``turn_toward`` over arrays."""
+    return np.vectorize(lambda h, d: turn_toward(complex(h), complex(d), float(max_turn_rad)),
+                        otypes=[complex])(heading, desired)
 
 
 def rate_limited_headings(heading0, desired, max_turn_rad_per_step, n_steps):

@@ -10,6 +10,7 @@ V on the segment W_{i-1} -> W_i to get P, take Q on the segment with
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
 def _lawnmower(origin, area, spacing, depth):
@@ -75,16 +76,22 @@ def path_length_m(waypoints) -> float:
     return float(np.sum(np.linalg.norm(np.diff(waypoints[:, :2], axis=0), axis=1)))
 
 
-def los_target(est_h, seg_start, seg_end, alpha):
-    """Line-of-sight point Q and the along-track distance, for complex positions.
+@njit(cache=True)
+def los_point(est, seg_start, seg_end, alpha):
+    """Line-of-sight point Q for one vehicle (complex east + 1j*north positions).
 
-    est_h, seg_start, seg_end: complex east + 1j*north, same shape. Returns
-    (Q, along, seg_len): P = W_{i-1} + along * t (t the unit segment direction),
+    Returns (Q, along, seg_len): P = W_{i-1} + along * t is the projection of the
+    estimate V on the segment (t its unit direction), and
     Q = W_i + alpha (P - W_i) = W_{i-1} + (alpha * along + (1 - alpha) * len) * t.
     """
     d = seg_end - seg_start
-    seg_len = np.abs(d)
-    t = np.where(seg_len > 0, d / np.where(seg_len > 0, seg_len, 1.0), 1.0)
-    along = ((est_h - seg_start) * t.conj()).real
-    q = seg_start + (alpha * along + (1.0 - alpha) * seg_len) * t
-    return q, along, seg_len
+    seg_len = abs(d)
+    t = d / seg_len if seg_len > 0.0 else 1.0 + 0.0j
+    along = ((est - seg_start) * t.conjugate()).real
+    return seg_start + (alpha * along + (1.0 - alpha) * seg_len) * t, along, seg_len
+
+
+def los_target(est_h, seg_start, seg_end, alpha):
+    """``los_point`` over arrays (for analysis and tests; the simulator calls los_point)."""
+    return np.vectorize(lambda e, a, b: los_point(complex(e), complex(a), complex(b), float(alpha)),
+                        otypes=[complex, float, float])(est_h, seg_start, seg_end)

@@ -1,19 +1,19 @@
-"""The survey vehicle's extended Kalman filter (Gao & Chitre eqs. 4-13), over the batch.
+"""The survey vehicle's extended Kalman filter (Gao & Chitre eqs. 4-13).
 
-State: position (east, north, depth) in metres, shape (..., 3); covariance
-(..., 3, 3). Every function takes any number of leading batch axes and a
-boolean ``mask`` choosing the rows a measurement is applied to, so one call
-updates a whole batch with no Python loop over it. The covariance update is the
-Joseph form, which keeps P symmetric positive definite under round-off (and is
-what filterpy's ExtendedKalmanFilter does, which the tests compare against).
+State: position (east, north, depth) in metres; covariance 3 x 3. The equations
+live once, in the compiled single-filter functions ``joseph_update`` and
+``range_prediction``; the simulator's kernels call them for every filter of the
+batch, and ``scalar_update`` / ``range_model`` apply them over any leading batch
+axes from Python (for planners, analysis and the tests against filterpy). The
+covariance update is the Joseph form, which keeps P symmetric positive definite
+under round-off (and is what filterpy's ExtendedKalmanFilter does).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from scipy.stats import chi2
-
-_EYE3 = np.eye(3)
 
 
 def predict(x, P, dx, Q):
@@ -21,36 +21,114 @@ def predict(x, P, dx, Q):
     return x + dx, P + Q
 
 
-def range_model(x, velocity, delays_s, beacon):
-    """Predicted range and its Jacobian (eq. 7-8), with motion during the sound's flight.
+@njit(cache=True)
+def range_prediction(x, velocity, delays_s, beacon):
+    """Predicted range and its Jacobian (eqs. 7-8) for one filter, with the motion
+    of the vehicle while sound travels.
 
-    The filter's state is the position at the cycle's reference time; leg l of the
-    measured range ends at x + velocity * delays_s[l] (the vehicle moves while sound
-    travels). h = mean over legs of |x + v d_l - b|, H = mean of the unit vectors.
-    x, velocity, beacon: (..., 3); delays_s: (..., L). With one leg of zero delay
-    this is exactly eq. (7)-(8).
+    The state is the position at the cycle's reference time; leg l of a measured
+    range ends at x + velocity * delays_s[l]: h = mean_l |x + v d_l - b| and
+    H = mean_l of the unit vectors. With one leg of zero delay this is exactly
+    eq. (7)-(8). x, velocity, beacon: (3,); delays_s: (L,). Returns (h, H (3,)).
     """
-    rel = x[..., None, :] + velocity[..., None, :] * delays_s[..., :, None] - beacon[..., None, :]
-    dist = np.linalg.norm(rel, axis=-1)
-    unit = rel / np.maximum(dist, 1e-9)[..., None]
-    return dist.mean(-1), unit.mean(-2)
+    L = delays_s.shape[0]
+    h = 0.0
+    H = np.zeros(3)
+    for leg in range(L):
+        r0 = x[0] + velocity[0] * delays_s[leg] - beacon[0]
+        r1 = x[1] + velocity[1] * delays_s[leg] - beacon[1]
+        r2 = x[2] + velocity[2] * delays_s[leg] - beacon[2]
+        dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        inv = 1.0 / max(dist, 1e-9)
+        h += dist / L
+        H[0] += r0 * inv / L
+        H[1] += r1 * inv / L
+        H[2] += r2 * inv / L
+    return h, H
+
+
+@njit(cache=True)
+def innovation_variance(P, H, R):
+    """Eq. (11): S = H P H^T + R for one scalar measurement."""
+    S = R
+    for i in range(3):
+        for j in range(3):
+            S += H[i] * P[i, j] * H[j]
+    return S
+
+
+@njit(cache=True)
+def joseph_update(x, P, z, h, H, R):
+    """Eqs. (9)-(13) for one scalar measurement of one filter, in place. Returns (y, S)."""
+    y = z - h  # eq. (10)
+    PHt = P @ H
+    S = innovation_variance(P, H, R)  # eq. (11)
+    K = PHt / S  # eq. (12)
+    for i in range(3):
+        x[i] += K[i] * y  # eq. (9)
+    A = np.eye(3)
+    for i in range(3):
+        for j in range(3):
+            A[i, j] -= K[i] * H[j]  # I - K H
+    AP = A @ P
+    for i in range(3):  # eq. (13), Joseph form: (I - KH) P (I - KH)^T + K R K^T
+        for j in range(3):
+            v = R * K[i] * K[j]
+            for k in range(3):
+                v += AP[i, k] * A[j, k]
+            P[i, j] = v
+    return y, S
+
+
+# --- the same equations over any leading batch axes, from Python ----------------------
+@njit(cache=True)
+def _update_rows(x, P, z, h, H, R, mask, y, S):
+    for m in range(x.shape[0]):
+        y[m] = z[m] - h[m]
+        S[m] = innovation_variance(P[m], H[m], R[m])
+        if mask[m]:
+            joseph_update(x[m], P[m], z[m], h[m], H[m], R[m])
 
 
 def scalar_update(x, P, z, h, H, R, mask):
-    """Eqs. (9)-(13) for one scalar measurement, Joseph-form covariance.
+    """Eqs. (9)-(13) for one scalar measurement per filter, over leading batch axes.
 
-    z, h, R: (...); H: (..., 3); mask: (...) bool. Returns x, P, innovation y and
-    its variance S (eq. 11). Rows where mask is False are returned unchanged.
+    x (..., 3), P (..., 3, 3), H (..., 3); z, h, R, mask broadcast to (...).
+    Returns new (x, P) and the innovation y and its variance S; rows where mask
+    is False are returned unchanged.
     """
-    y = z - h  # eq. (10)
-    PHt = np.einsum("...ij,...j->...i", P, H)
-    S = np.einsum("...i,...i->...", H, PHt) + R  # eq. (11)
-    K = PHt / S[..., None]  # eq. (12)
-    x_new = x + K * y[..., None]  # eq. (9)
-    A = _EYE3 - K[..., :, None] * H[..., None, :]  # I - K H
-    P_new = A @ P @ np.swapaxes(A, -1, -2) + (R[..., None, None] * K[..., :, None] * K[..., None, :])  # eq. (13), Joseph
-    m = mask[..., None]
-    return np.where(m, x_new, x), np.where(m[..., None], P_new, P), y, S
+    lead = np.broadcast_shapes(np.shape(x)[:-1], np.shape(P)[:-2], np.shape(H)[:-1], np.shape(z), np.shape(h),
+                               np.shape(R), np.shape(mask))
+    x2 = np.array(np.broadcast_to(x, lead + (3,)), dtype=float).reshape(-1, 3)
+    P2 = np.array(np.broadcast_to(P, lead + (3, 3)), dtype=float).reshape(-1, 3, 3)
+    flat = [np.ascontiguousarray(np.broadcast_to(a, lead), dtype=float).reshape(-1) for a in (z, h, R)]
+    H2 = np.ascontiguousarray(np.broadcast_to(H, lead + (3,)), dtype=float).reshape(-1, 3)
+    m2 = np.ascontiguousarray(np.broadcast_to(mask, lead), dtype=bool).reshape(-1)
+    y, S = np.empty(len(m2)), np.empty(len(m2))
+    _update_rows(x2, P2, flat[0], flat[1], H2, flat[2], m2, y, S)
+    return x2.reshape(lead + (3,)), P2.reshape(lead + (3, 3)), y.reshape(lead), S.reshape(lead)
+
+
+@njit(cache=True)
+def _predict_rows(x, v, d, b, h, H):
+    for m in range(x.shape[0]):
+        hm, Hm = range_prediction(x[m], v[m], d[m], b[m])
+        h[m] = hm
+        H[m] = Hm
+
+
+def range_model(x, velocity, delays_s, beacon):
+    """``range_prediction`` over leading batch axes: x, velocity, beacon (..., 3);
+    delays_s (..., L). Returns h (...) and H (..., 3)."""
+    lead = np.broadcast_shapes(np.shape(x)[:-1], np.shape(velocity)[:-1], np.shape(delays_s)[:-1],
+                               np.shape(beacon)[:-1])
+    L = np.shape(delays_s)[-1]
+    args = [np.ascontiguousarray(np.broadcast_to(a, lead + (n,)), dtype=float).reshape(-1, n)
+            for a, n in ((x, 3), (velocity, 3), (delays_s, L), (beacon, 3))]
+    M = args[0].shape[0]
+    h, H = np.empty(M), np.empty((M, 3))
+    _predict_rows(*args, h, H)
+    return h.reshape(lead), H.reshape(lead + (3,))
 
 
 def gate_threshold(probability: float, dof: int = 1) -> float:

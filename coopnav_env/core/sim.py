@@ -27,10 +27,12 @@ import numpy as np
 from ..scenarios.base import ScenarioConfig
 from . import acoustics, rng
 from .dynamics import (bearing_to_unit, drag_constant, gauss_markov_step, rate_limited_headings,
-                       terminal_speed_mps, thrust_speed_profile, turn_towards, unit_to_bearing)
+                       terminal_speed_mps, thrust_speed_profile)
+from .substeps import integrate_survey
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
-from .navigation import axis_measurement, gate_threshold, predict, range_model, scalar_update
+from .fusion import fuse_depth_gps, fuse_ranges
+from .navigation import gate_threshold, predict
 from .state import SimState
 
 INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
@@ -83,6 +85,7 @@ class Simulator:
             self._paths[s, len(wp):] = wp[-1]
             self._n_wp[s], self._hover[s] = len(wp), hover
         self._gate = gate_threshold(c.range_gate_probability)
+        self._sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
         self._Q_cycle = np.diag([c.process_noise_horizontal_m2ps, c.process_noise_horizontal_m2ps,
                                  c.process_noise_vertical_m2ps]) * c.ping_interval_s
         self._substep_times = c.substep_s * np.arange(1, self.K + 1)
@@ -252,25 +255,23 @@ class Simulator:
 
         # 3. EKF prediction over the cycle (eq. 6, F = I, Q accumulated), depth and GPS
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
-        n_sens, u_sens = draws["sensor_n"], draws["sensor_u"]
         nan_count = np.zeros((B, S), dtype=np.int64)
-        z_depth = st.s_pos[..., 2] + c.depth_noise_m * n_sens[..., 0]
-        z_depth = np.where(u_sens[..., 0] < c.sensor_nan_probability, np.nan, z_depth)
-        ok = np.isfinite(z_depth)
-        nan_count += ~ok
-        st.s_est, st.s_P, _, _ = scalar_update(st.s_est, st.s_P, np.where(ok, z_depth, 0.0), st.s_est[..., 2],
-                                               axis_measurement(2, (B, S)), np.full((B, S), max(c.depth_noise_m, 1e-3) ** 2), ok)
-        surfaced = st.s_pos[..., 2] < c.gps_max_depth_m
-        if surfaced.any():
-            for axis in (0, 1):
-                z = st.s_pos[..., axis] + c.gps_noise_m * n_sens[..., 1 + axis]
-                st.s_est, st.s_P, _, _ = scalar_update(st.s_est, st.s_P, z, st.s_est[..., axis],
-                                                       axis_measurement(axis, (B, S)), np.full((B, S), c.gps_noise_m ** 2), surfaced)
+        fuse_depth_gps(st.s_est, st.s_P, st.s_pos, draws["sensor_n"], draws["sensor_u"], nan_count,
+                       c.depth_noise_m, c.gps_noise_m, c.gps_max_depth_m, c.sensor_nan_probability)
         logdet_before = logdet_horizontal(st.s_P)
 
         # 4. acoustic ranging --------------------------------------------------------
-        fused, rejected, lost, nan_r = self._ranging(draws)
-        nan_count += nan_r
+        fused = np.zeros((B, N, S), dtype=bool)
+        rejected, lost = np.zeros_like(fused), np.zeros_like(fused)
+        fuse_ranges(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel,
+                    st.b_pos + st.b_nav_err, st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s,
+                    st.clock_drift, draws["acoustic_n"], draws["acoustic_u"],
+                    st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err, self._sends_current,
+                    st.s_current_est, st.s_last_range_t_s, fused, rejected, lost, nan_count,
+                    c.ranging_mode == "twtt", c.turnaround_s, c.range_noise_std_m, c.max_range_m,
+                    c.packet_loss_near, c.packet_loss_far, c.outlier_probability, c.outlier_mean_excess_m,
+                    c.sensor_nan_probability, c.water_temperature_c, c.salinity_psu, c.temperature_uncertainty_c,
+                    self._gate)
         logdet_after = logdet_horizontal(st.s_P)
 
         # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
@@ -317,70 +318,13 @@ class Simulator:
         u_model = thrust_speed_profile(st.s_speed_model_mps, st.s_thrust_n, self._drag_k, c.survey_mass_kg,
                                        self._substep_times)  # (B,S,K)
         u_true = u_model * st.s_speed_scale[..., None]
-        current = (st.current_mean + st.current_gm)[:, None]
-        # Gao & Chitre II-A: a DVL beacon's current estimate, sent with its pings, corrects
-        # the survey's water-relative dead reckoning (the DR-only track does without it)
-        current_est = st.s_current_est * dt
-        max_turn = np.radians(c.survey_max_turn_rate_dps) * dt
-        max_pitch = np.radians(c.survey_max_pitch_deg)
-        alpha = c.los_alpha
-
-        pos_h = st.s_pos[..., 0] + 1j * st.s_pos[..., 1]
-        pos_z = st.s_pos[..., 2].copy()
-        est_h = st.s_est[..., 0] + 1j * st.s_est[..., 1]
-        est_z = st.s_est[..., 2].copy()
-        dr_h = st.s_dr[..., 0] + 1j * st.s_dr[..., 1]
-        dr_z = st.s_dr[..., 2].copy()
-        h = st.s_heading
-        steer = ~(st.s_hover | st.s_done)
-        seg = self._segments()
-        for k in range(K):
-            # line-of-sight guidance on the EKF estimate (Matos & Cruz Fig. 5)
-            along = ((est_h - seg["start"]) * seg["dir_conj"]).real
-            reached = steer & (along >= seg["length"] - c.waypoint_acceptance_m)
-            if reached.any():
-                st.s_wp_index = st.s_wp_index + reached
-                st.s_done = st.s_done | (st.s_wp_index >= st.s_n_waypoints)
-                st.s_wp_index = np.minimum(st.s_wp_index, st.s_n_waypoints - 1)
-                steer = ~(st.s_hover | st.s_done)
-                seg = self._segments()
-                along = ((est_h - seg["start"]) * seg["dir_conj"]).real
-            q = seg["start"] + (alpha * along + (1.0 - alpha) * seg["length"]) * seg["dir"]
-            h = np.where(steer, turn_towards(h, q - est_h, max_turn), h)
-            depth_cmd = seg["start_z"] + np.minimum(np.maximum(along, 0.0), seg["length"]) * seg["slope"]
-            pitch = np.minimum(np.maximum(c.survey_depth_gain_per_m * (pos_z - depth_cmd), -max_pitch), max_pitch)
-            # true motion: water-relative velocity plus current
-            ut = u_true[..., k]
-            pos_h = pos_h + (ut * np.cos(pitch) * h + current) * dt
-            pos_z = pos_z - ut * np.sin(pitch) * dt
-            # dead reckoning, eq. (4): R(measured attitude) (u_model, 0, 0) tau
-            pm = pitch + pitch_noise[:, k]
-            um = u_model[..., k]
-            d_h = (um * np.cos(pm) * dt) * (h * rot_meas[:, k])
-            d_z = -um * np.sin(pm) * dt
-            est_h, dr_h = est_h + d_h + current_est, dr_h + d_h
-            est_z, dr_z = est_z + d_z, dr_z + d_z
-        st.s_heading = h
+        integrate_survey(st.s_pos, st.s_est, st.s_dr, st.s_heading, st.s_wp_index, st.s_done,
+                         st.s_vel_true, st.s_vel_est, st.s_waypoints, st.s_n_waypoints, st.s_hover,
+                         u_model, u_true, rot_meas, pitch_noise, st.current_mean + st.current_gm,
+                         st.s_current_est, dt, c.los_alpha, c.waypoint_acceptance_m,
+                         np.radians(c.survey_max_turn_rate_dps) * dt, np.radians(c.survey_max_pitch_deg),
+                         c.survey_depth_gain_per_m)
         st.s_speed_model_mps = u_model[..., -1]
-        st.s_pos = np.stack([pos_h.real, pos_h.imag, pos_z], -1)
-        st.s_est = np.stack([est_h.real, est_h.imag, est_z], -1)
-        st.s_dr = np.stack([dr_h.real, dr_h.imag, dr_z], -1)
-        v_true = ut * np.cos(pitch) * h + current
-        st.s_vel_true = np.stack([v_true.real, v_true.imag, -ut * np.sin(pitch)], -1)
-        st.s_vel_est = np.stack([d_h.real + current_est.real, d_h.imag + current_est.imag, d_z], -1) / dt
-
-    def _segments(self):
-        """The current path segment of every survey vehicle, as complex geometry."""
-        st = self.state
-        i1 = st.s_wp_index[..., None, None]
-        a = np.take_along_axis(st.s_waypoints, np.maximum(i1 - 1, 0), axis=2)[:, :, 0]
-        b = np.take_along_axis(st.s_waypoints, i1, axis=2)[:, :, 0]
-        start, end = a[..., 0] + 1j * a[..., 1], b[..., 0] + 1j * b[..., 1]
-        d = end - start
-        length = np.abs(d)
-        direction = np.where(length > 0, d / np.where(length > 0, length, 1.0), 1.0)
-        return {"start": start, "dir": direction, "dir_conj": direction.conj(), "length": length,
-                "start_z": a[..., 2], "slope": np.where(length > 0, (b[..., 2] - a[..., 2]) / np.where(length > 0, length, 1.0), 0.0)}
 
     def _beacon_navigation(self, draws):
         c, st = self.config, self.state
@@ -404,64 +348,6 @@ class Simulator:
         err_h = np.where(auv, err_h, gps_h)
         st.b_nav_var_m2 = np.where(auv, var, c.gps_noise_m ** 2)
         st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag
-
-    def _ranging(self, draws):
-        """Every beacon pings every survey vehicle; fuse what arrives. Returns (B,N,S) flags."""
-        c, st = self.config, self.state
-        B, S, N = self.batch_size, self.S, self.N
-        n, u = draws["acoustic_n"], draws["acoustic_u"]
-        fused = np.zeros((B, N, S), dtype=bool)
-        rejected, lost, nan_r = np.zeros_like(fused), np.zeros_like(fused), np.zeros((B, S), dtype=np.int64)
-        beacon_est = st.b_pos + st.b_nav_err  # what the beacons believe and transmit
-        mean_depth = 0.5 * (st.s_pos[..., 2][:, None, :] + st.b_pos[..., 2][:, :, None])  # (B,N,S)
-        c_true = acoustics.mackenzie_sound_speed(st.temperature_c[:, None, None], c.salinity_psu, mean_depth)
-        c_assumed = acoustics.mackenzie_sound_speed(c.water_temperature_c, c.salinity_psu, mean_depth)
-        dc_dT = acoustics.mackenzie_sound_speed(c.water_temperature_c + 1.0, c.salinity_psu, mean_depth) - c_assumed
-        jitter_s = c.range_noise_std_m / c_assumed
-        for j in range(N):
-            bj = st.b_pos[:, j, None, :]  # (B,1,3)
-            cj = c_true[:, j]
-            if c.ranging_mode == "owtt":
-                tau = acoustics.travel_time_s(bj, st.s_pos, st.s_vel_true, cj)
-                clock = st.clock_offset_s[:, :, j] + st.clock_drift[:, :, j] * st.t_s[:, None]
-                t_meas = tau + clock + jitter_s[:, j] * n[:, j, :, 0]
-                r = c_assumed[:, j] * t_meas
-                delays = (r / c_assumed[:, j])[..., None]  # (B,S,1)
-                p_lost = acoustics.packet_loss_probability(np.linalg.norm(st.s_pos - bj, axis=-1), c.packet_loss_near,
-                                                           c.packet_loss_far, c.max_range_m)
-            else:  # two-way: the survey interrogates, the beacon replies after turnaround_s
-                tau1 = acoustics.travel_time_s(st.s_pos, bj, st.b_vel[:, j, None, :], cj)
-                b_reply = bj + st.b_vel[:, j, None, :] * (tau1 + c.turnaround_s)[..., None]
-                s_later = st.s_pos + st.s_vel_true * (tau1 + c.turnaround_s)[..., None]
-                tau2 = acoustics.travel_time_s(b_reply, s_later, st.s_vel_true, cj)
-                t_rt = tau1 + c.turnaround_s + tau2 + jitter_s[:, j] * np.sqrt(2.0) * n[:, j, :, 0]
-                r = 0.5 * c_assumed[:, j] * (t_rt - c.turnaround_s)
-                delays = np.stack([np.zeros_like(r), t_rt], -1)
-                p_one = acoustics.packet_loss_probability(np.linalg.norm(st.s_pos - bj, axis=-1), c.packet_loss_near,
-                                                          c.packet_loss_far, c.max_range_m)
-                p_lost = 1.0 - (1.0 - p_one) ** 2
-            is_lost = u[:, j, :, 0] < p_lost
-            outlier = u[:, j, :, 1] < c.outlier_probability
-            r = r + np.where(outlier, -c.outlier_mean_excess_m * np.log(u[:, j, :, 2]), 0.0)
-            r = np.where(u[:, j, :, 3] < c.sensor_nan_probability, np.nan, r)
-            finite = np.isfinite(r)
-            arrived = ~is_lost
-            nan_r += arrived & ~finite
-            h, H = range_model(st.s_est, st.s_vel_est, delays, beacon_est[:, j, None, :])
-            R = (c.range_noise_std_m ** 2 + st.b_nav_var_m2[:, j, None]
-                 + (h * c.temperature_uncertainty_c * dc_dT[:, j] / c_assumed[:, j]) ** 2)
-            z = np.where(finite, r, h)
-            y = z - h
-            S_innov = np.einsum("...i,...ij,...j->...", H, st.s_P, H) + R
-            gate_ok = y * y / S_innov <= self._gate
-            use = arrived & finite & gate_ok
-            st.s_est, st.s_P, _, _ = scalar_update(st.s_est, st.s_P, z, h, H, R, use)
-            fused[:, j], rejected[:, j], lost[:, j] = use, arrived & finite & ~gate_ok, is_lost
-            if c.survey_uses_beacon_current and not self._beacon_is_asv[j]:
-                sent = (st.current_mean + st.current_gm + st.b_current_err[:, j])[:, None]
-                st.s_current_est = np.where(arrived, sent, st.s_current_est)
-        st.s_last_range_t_s = np.where(fused.any(1), st.t_s[:, None], st.s_last_range_t_s)
-        return fused, rejected, lost, nan_r
 
     def _exchange_messages(self, draws):
         c, st = self.config, self.state

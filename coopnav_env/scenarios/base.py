@@ -83,7 +83,7 @@ class ScenarioConfig:
     # NEES of gao_lawnmower sits in its chi-square band (tests/test_ekf.py); it stands for the
     # biases the filter does not model (speed scale, compass bias, current estimate)
     process_noise_vertical_m2ps: float = 0.002  # Q per second, depth
-    range_gate_probability: float = 0.999  # chi-square innovation gate (1 dof)
+    range_gate_probability: float = 0.99  # chi-square innovation gate (1 dof)
     survey_uses_beacon_current: bool = True  # add the current a DVL beacon AUV sends (Gao II-A)
 
     # --- beacon AUV (DVL) -----------------------------------------------------------

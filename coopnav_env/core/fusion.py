@@ -1,0 +1,123 @@
+"""The end of a cycle: depth, GPS and acoustic ranges fused by every survey EKF.
+
+Compiled kernels written once over the batch (loops over environments, beacons
+and survey vehicles). The formulas they apply have their homes elsewhere: the
+EKF equations in navigation.py, sound speed, time of flight and packet loss in
+acoustics.py; the random numbers come in as arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .acoustics import mackenzie_sound_speed, packet_loss_probability, travel_time
+from .navigation import innovation_variance, joseph_update, range_prediction
+
+
+@njit(cache=True)
+def fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m, gps_noise_m,
+                   gps_max_depth_m, nan_probability):
+    """Depth sensor every cycle, GPS (east and north) when at the surface; NaNs rejected and counted."""
+    B, S = est.shape[0], est.shape[1]
+    H = np.zeros(3)
+    R_depth = max(depth_noise_m, 1e-3) ** 2
+    for b in range(B):
+        for s in range(S):
+            z = s_pos[b, s, 2] + depth_noise_m * sensor_n[b, s, 0]
+            if sensor_u[b, s, 0] < nan_probability:
+                z = np.nan  # fault injection: a NaN must never enter the filter
+            if np.isfinite(z):
+                H[:] = 0.0
+                H[2] = 1.0
+                joseph_update(est[b, s], P[b, s], z, est[b, s, 2], H, R_depth)
+            else:
+                nan_count[b, s] += 1
+            if s_pos[b, s, 2] < gps_max_depth_m:
+                for axis in range(2):
+                    z = s_pos[b, s, axis] + gps_noise_m * sensor_n[b, s, 1 + axis]
+                    if sensor_u[b, s, 1 + axis] < nan_probability:
+                        z = np.nan
+                    if np.isfinite(z):
+                        H[:] = 0.0
+                        H[axis] = 1.0
+                        joseph_update(est[b, s], P[b, s], z, est[b, s, axis], H, gps_noise_m ** 2)
+                    else:
+                        nan_count[b, s] += 1
+
+
+@njit(cache=True)
+def fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var, temperature_c, t_s,
+                clock_offset_s, clock_drift, acoustic_n, acoustic_u, current_sent, sends_current,
+                current_est, last_range_t_s, fused, rejected, lost, nan_count,
+                two_way, turnaround_s, range_noise_std_m, max_range_m, loss_near, loss_far,
+                outlier_probability, outlier_mean_excess_m, nan_probability, nominal_temperature_c,
+                salinity_psu, temperature_uncertainty_c, gate):
+    """Every beacon j pings every survey vehicle s; what arrives is gated and fused.
+
+    The true range comes from the time of flight between the moving vehicles at the
+    true sound speed; the vehicles convert it back with the speed they assume
+    (nominal temperature). One-way: the beacon transmits its position; the
+    survey's clock offset and drift enter the measured time. Two-way: the survey
+    interrogates, the beacon replies after ``turnaround_s`` with its position.
+    R = range noise + the beacon's own position variance (below Gao eq. 7) + the
+    sound-speed uncertainty's share. Outputs (B,N,S) flags fused / rejected (gate)
+    / lost and NaN counts (B,S); updates est, P, current_est, last_range_t_s.
+    """
+    B, N, S = b_pos.shape[0], b_pos.shape[1], est.shape[1]
+    delays = np.zeros(2 if two_way else 1)
+    zero3 = np.zeros(3)
+    for b in range(B):
+        for s in range(S):
+            any_fused = False
+            for j in range(N):
+                depth = 0.5 * (s_pos[b, s, 2] + b_pos[b, j, 2])
+                c_true = mackenzie_sound_speed(temperature_c[b], salinity_psu, depth)
+                c_assumed = mackenzie_sound_speed(nominal_temperature_c, salinity_psu, depth)
+                dc_dT = mackenzie_sound_speed(nominal_temperature_c + 1.0, salinity_psu, depth) - c_assumed
+                jitter_s = range_noise_std_m / c_assumed
+                dx = s_pos[b, s, 0] - b_pos[b, j, 0]
+                dy = s_pos[b, s, 1] - b_pos[b, j, 1]
+                dz = s_pos[b, s, 2] - b_pos[b, j, 2]
+                p_lost = packet_loss_probability(np.sqrt(dx * dx + dy * dy + dz * dz), loss_near, loss_far,
+                                                 max_range_m)
+                if two_way:
+                    tau1 = travel_time(s_pos[b, s], b_pos[b, j], b_vel[b, j], c_true)
+                    lag = tau1 + turnaround_s
+                    tau2 = travel_time(b_pos[b, j] + b_vel[b, j] * lag, s_pos[b, s] + s_vel_true[b, s] * lag,
+                                       s_vel_true[b, s], c_true)
+                    t_rt = lag + tau2 + jitter_s * np.sqrt(2.0) * acoustic_n[b, j, s, 0]
+                    r = 0.5 * c_assumed * (t_rt - turnaround_s)
+                    delays[0] = 0.0
+                    delays[1] = t_rt
+                    p_lost = 1.0 - (1.0 - p_lost) ** 2  # both legs must arrive
+                else:
+                    tau = travel_time(b_pos[b, j], s_pos[b, s], s_vel_true[b, s], c_true)
+                    clock = clock_offset_s[b, s, j] + clock_drift[b, s, j] * t_s[b]
+                    r = c_assumed * (tau + clock + jitter_s * acoustic_n[b, j, s, 0])
+                    delays[0] = r / c_assumed
+                u = acoustic_u[b, j, s]
+                if u[0] < p_lost:
+                    lost[b, j, s] = True
+                    continue
+                if u[1] < outlier_probability:  # multipath: a longer path arrives
+                    r += -outlier_mean_excess_m * np.log(u[2])
+                if u[3] < nan_probability:
+                    r = np.nan
+                if sends_current[j]:  # the ping carries the beacon's current estimate (Gao II-A)
+                    current_est[b, s] = current_sent[b, j]
+                if not np.isfinite(r):
+                    nan_count[b, s] += 1
+                    continue
+                h, H = range_prediction(est[b, s], s_vel_est[b, s], delays, b_est[b, j])
+                R = (range_noise_std_m ** 2 + b_var[b, j]
+                     + (h * temperature_uncertainty_c * dc_dT / c_assumed) ** 2)
+                y = r - h
+                if y * y / innovation_variance(P[b, s], H, R) > gate:
+                    rejected[b, j, s] = True
+                    continue
+                joseph_update(est[b, s], P[b, s], r, h, H, R)
+                fused[b, j, s] = True
+                any_fused = True
+            if any_fused:
+                last_range_t_s[b, s] = t_s[b]
