@@ -35,9 +35,9 @@ def check_action(agent: str, action) -> np.ndarray:
         raise ValueError(f"action for {agent} is not numeric: {action!r}") from err
     if a.shape != (2,):
         raise ValueError(f"action for {agent} must have shape (2,), got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ValueError(f"action for {agent} must be finite, got {a.tolist()}")
-    return np.clip(a, -1.0, 1.0)
+    return np.minimum(np.maximum(a, -1.0), 1.0)
 
 
 def agent_infos(info: dict, row: int) -> dict:
@@ -45,12 +45,12 @@ def agent_infos(info: dict, row: int) -> dict:
     (sums for counts, any for range_ok) plus per-vehicle lists."""
     out = {}
     for key in INFO_KEYS:
-        v = info[key][row]
+        values = info[key][row].tolist()
         if key == "range_ok":
-            out[key] = bool(v.any())
-        elif v.dtype.kind in "iub":
-            out[key] = int(v.sum())
+            out[key] = any(values)
+        elif isinstance(values[0], float):
+            out[key] = sum(values) / len(values)
         else:
-            out[key] = float(v.mean())
-        out[key + "_per_vehicle"] = v.tolist()
+            out[key] = int(sum(values))
+        out[key + "_per_vehicle"] = values
     return out

@@ -245,27 +245,40 @@ def test_turn_towards_limit_and_direction():
     assert float(dynamics.unit_to_bearing(h3)) == pytest.approx(1.0, abs=1e-14)
 
 
-def test_rate_limited_headings():
+def test_beacon_kernel_turns_at_the_limit_then_goes_straight():
+    """A beacon heading north, told to go east at 1 m/s, turning 30 deg per 1 s sub-step:
+    three sub-steps of turning (bearings 30, 60, 90 deg), then straight east."""
+    from coopnav_env.core.substeps import integrate_beacons
+
+    pos = np.zeros((1, 1, 3))
+    heading = np.array([[dynamics.bearing_to_unit(0.0)]])
+    vel = np.zeros((1, 1, 3))
+    turn = np.radians(30.0)
+    integrate_beacons(pos, heading, vel, np.array([[1.0 + 0.0j]]), np.array([np.cos(turn)]), np.array([np.sin(turn)]),
+                      5, 1.0)
+    # hand sum: sin30+sin60+1+1+1 east, cos30+cos60+0+0+0 north
+    assert pos[0, 0, 0] == pytest.approx(0.5 + np.sqrt(3) / 2 + 3.0, abs=1e-12)
+    assert pos[0, 0, 1] == pytest.approx(np.sqrt(3) / 2 + 0.5, abs=1e-12)
+    assert float(dynamics.unit_to_bearing(heading[0, 0])) == pytest.approx(np.pi / 2, abs=1e-12)
+    np.testing.assert_allclose(vel[0, 0, :2], [1.0, 0.0], atol=1e-12)
+    # commanded to stop: it stays and keeps its heading
+    integrate_beacons(pos, heading, vel, np.array([[0.0j]]), np.array([np.cos(turn)]), np.array([np.sin(turn)]), 5, 1.0)
+    assert pos[0, 0, 0] == pytest.approx(0.5 + np.sqrt(3) / 2 + 3.0, abs=1e-12)
+    assert float(dynamics.unit_to_bearing(heading[0, 0])) == pytest.approx(np.pi / 2, abs=1e-12)
+
+
+def test_turn_towards_step_by_step_reaches_targets_the_short_way():
     b0 = np.array([0.0, 1.0, -2.0, 3.0])
     bd = np.array([np.pi / 2, 1.0 - 0.3, 2.5, -3.0])  # +90 deg; -0.3; across +/-pi; the short way across pi
-    limit = np.full(4, 0.05)
-    n = 40
-    H = dynamics.rate_limited_headings(dynamics.bearing_to_unit(b0), dynamics.bearing_to_unit(bd), limit, n)
-    assert H.shape == (4, n)
-    np.testing.assert_allclose(np.abs(H), 1.0, atol=1e-14)
-    bear = dynamics.unit_to_bearing(H)
-    full = np.concatenate([b0[:, None], bear], -1)
-    assert np.all(np.abs(_bearing_diff(full[:, 1:], full[:, :-1])) <= 0.05 + 1e-12)
-    # total turn needed: pi/2, 0.3, 2*pi - 4.5 = 1.783, 2*pi - 6 = 0.283; all <= 0.05*40 = 2 rad
-    np.testing.assert_allclose(_bearing_diff(bear[:, -1], bd), 0.0, atol=1e-12)
-    # equals turn_towards applied step by step
     h = dynamics.bearing_to_unit(b0)
-    for k in range(n):
+    prev = b0
+    for _ in range(40):  # total turns needed: pi/2, 0.3, 1.783, 0.283 rad; all <= 0.05 * 40
         h = dynamics.turn_towards(h, dynamics.bearing_to_unit(bd), 0.05)
-        np.testing.assert_allclose(H[:, k], h, atol=1e-12)
-    # not enough steps: exactly n*limit turned towards the target
-    H5 = dynamics.rate_limited_headings(dynamics.bearing_to_unit(b0[:1]), dynamics.bearing_to_unit(bd[:1]), limit[:1], 5)
-    assert float(dynamics.unit_to_bearing(H5[0, -1])) == pytest.approx(0.25, abs=1e-12)
+        bear = dynamics.unit_to_bearing(h)
+        assert np.all(np.abs(_bearing_diff(bear, prev)) <= 0.05 + 1e-12)
+        prev = bear
+    np.testing.assert_allclose(np.abs(h), 1.0, atol=1e-12)
+    np.testing.assert_allclose(_bearing_diff(dynamics.unit_to_bearing(h), bd), 0.0, atol=1e-12)
 
 
 # ----------------------------------------------------------------------------------

@@ -9,7 +9,7 @@ uses complex numbers, east + 1j * north, so that turning is one multiplication.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, vectorize
 
 
 # --- Gao & Chitre eq. (1): m du/dt = T - 1/2 Cd rho A u^2 ----------------------------
@@ -25,24 +25,31 @@ def terminal_speed_mps(thrust_n, k):
     return np.sqrt(np.maximum(thrust_n, 0.0) / k)
 
 
-def thrust_speed_profile(u0_mps, thrust_n, k, mass_kg, times_s):
-    """Exact solution of eq. (1) with constant thrust, at ``times_s`` after u0.
+@vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
+def thrust_speed(u0_mps, thrust_n, k, mass_kg, t_s):
+    """Exact solution of eq. (1) with constant thrust: the speed t_s after u0. A ufunc.
 
-    u0 and thrust broadcast against each other (shape X); times_s has shape (K,);
-    the result has shape X + (K,). With u_inf = sqrt(T/k) and rate g = k u_inf / m:
-    below u_inf, u = u_inf tanh(atanh(u0/u_inf) + g t); above, the coth branch;
+    With u_inf = sqrt(T/k) and rate g = k u_inf / m: below u_inf,
+    u = u_inf tanh(atanh(u0/u_inf) + g t); above, u = u_inf coth(acoth(u0/u_inf) + g t);
     with zero thrust, u = u0 / (1 + k u0 t / m).
     """
+    if thrust_n <= 0.0:
+        return u0_mps / (1.0 + k * u0_mps * t_s / mass_kg)
+    u_inf = np.sqrt(thrust_n / k)
+    g = k * u_inf / mass_kg
+    ratio = u0_mps / u_inf
+    if ratio == 1.0:  # cruising: the steady state of eq. (1)
+        return u_inf
+    if ratio <= 1.0:
+        return u_inf * np.tanh(np.arctanh(min(max(ratio, 0.0), 1.0 - 1e-15)) + g * t_s)
+    return u_inf / np.tanh(np.arctanh(1.0 / max(ratio, 1.0 + 1e-15)) + g * t_s)
+
+
+def thrust_speed_profile(u0_mps, thrust_n, k, mass_kg, times_s):
+    """``thrust_speed`` at several times: u0 and thrust (shape X), times (K,) -> X + (K,)."""
     u0 = np.asarray(u0_mps, dtype=float)[..., None]
-    u_inf = terminal_speed_mps(np.asarray(thrust_n, dtype=float), k)[..., None]
-    t = np.asarray(times_s, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        g = k * u_inf / mass_kg
-        ratio = u0 / u_inf
-        below = u_inf * np.tanh(np.arctanh(np.clip(ratio, 0.0, 1.0 - 1e-15)) + g * t)
-        above = u_inf / np.tanh(np.arctanh(1.0 / np.maximum(ratio, 1.0 + 1e-15)) + g * t)
-        coast = u0 / (1.0 + k * u0 * t / mass_kg)
-    return np.where(u_inf <= 0.0, coast, np.where(ratio <= 1.0, below, above))
+    thrust = np.asarray(thrust_n, dtype=float)[..., None]
+    return thrust_speed(u0, thrust, float(k), float(mass_kg), np.asarray(times_s, dtype=float))
 
 
 # --- Gao & Chitre eq. (5): body-frame velocity into the navigation frame ---------------
@@ -85,29 +92,27 @@ def unit_to_bearing(h):
 
 
 @njit(cache=True)
-def turn_toward(heading, desired, max_turn_rad):
-    """Rotate a complex unit heading towards ``desired`` by at most ``max_turn_rad``.
-
-    A positive complex angle is anticlockwise, i.e. towards a smaller bearing.
-    Where ``desired`` is zero the heading is kept.
+def turn_toward(heading, desired, cos_max_turn, sin_max_turn):
+    """Rotate a complex unit heading towards ``desired`` by at most the angle whose
+    cosine and sine are given (precomputed: this runs every sub-step, and needs no
+    trigonometry). A positive complex angle is anticlockwise, i.e. towards a smaller
+    bearing. Where ``desired`` is zero the heading is kept.
     """
     rel = desired * heading.conjugate()
-    turn = min(max(np.arctan2(rel.imag, rel.real), -max_turn_rad), max_turn_rad)
-    return heading * (np.cos(turn) + 1j * np.sin(turn))
+    mag = abs(rel)
+    if mag == 0.0:
+        return heading
+    if rel.real >= mag * cos_max_turn:  # within reach: point straight at it
+        return desired / abs(desired)
+    if rel.imag >= 0.0:
+        return heading * (cos_max_turn + 1j * sin_max_turn)
+    return heading * (cos_max_turn - 1j * sin_max_turn)
 
 
 def turn_towards(heading, desired, max_turn_rad):
-    """``turn_toward`` over arrays."""
-    return np.vectorize(lambda h, d: turn_toward(complex(h), complex(d), float(max_turn_rad)),
-                        otypes=[complex])(heading, desired)
-
-
-def rate_limited_headings(heading0, desired, max_turn_rad_per_step, n_steps):
-    """Headings after each of n_steps constant-rate-limited turns, shape X + (n_steps,)."""
-    rel = np.angle(desired * heading0.conj())[..., None]
-    k = np.arange(1, n_steps + 1)
-    turned = np.sign(rel) * np.minimum(np.abs(rel), max_turn_rad_per_step[..., None] * k)
-    return heading0[..., None] * np.exp(1j * turned)
+    """``turn_toward`` over arrays, with the limit as an angle."""
+    cm, sm = float(np.cos(max_turn_rad)), float(np.sin(max_turn_rad))
+    return np.vectorize(lambda h, d: turn_toward(complex(h), complex(d), cm, sm), otypes=[complex])(heading, desired)
 
 
 # --- ocean current: constant + first-order Gauss-Markov ---------------------------------

@@ -9,20 +9,19 @@ acoustics.py; the random numbers come in as arrays.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .acoustics import mackenzie_sound_speed, packet_loss_probability, travel_time
 from .navigation import innovation_variance, joseph_update, range_prediction
 
 
-@njit(cache=True)
-def fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m, gps_noise_m,
+def _fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m, gps_noise_m,
                    gps_max_depth_m, nan_probability):
     """Depth sensor every cycle, GPS (east and north) when at the surface; NaNs rejected and counted."""
     B, S = est.shape[0], est.shape[1]
-    H = np.zeros(3)
     R_depth = max(depth_noise_m, 1e-3) ** 2
-    for b in range(B):
+    for b in prange(B):
+        H = np.zeros(3)
         for s in range(S):
             z = s_pos[b, s, 2] + depth_noise_m * sensor_n[b, s, 0]
             if sensor_u[b, s, 0] < nan_probability:
@@ -46,8 +45,7 @@ def fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m, 
                         nan_count[b, s] += 1
 
 
-@njit(cache=True)
-def fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var, temperature_c, t_s,
+def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var, temperature_c, t_s,
                 clock_offset_s, clock_drift, acoustic_n, acoustic_u, current_sent, sends_current,
                 current_est, last_range_t_s, fused, rejected, lost, nan_count,
                 two_way, turnaround_s, range_noise_std_m, max_range_m, loss_near, loss_far,
@@ -65,9 +63,8 @@ def fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var
     / lost and NaN counts (B,S); updates est, P, current_est, last_range_t_s.
     """
     B, N, S = b_pos.shape[0], b_pos.shape[1], est.shape[1]
-    delays = np.zeros(2 if two_way else 1)
-    zero3 = np.zeros(3)
-    for b in range(B):
+    for b in prange(B):
+        delays = np.zeros(2 if two_way else 1)
         for s in range(S):
             any_fused = False
             for j in range(N):
@@ -121,3 +118,43 @@ def fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var
                 any_fused = True
             if any_fused:
                 last_range_t_s[b, s] = t_s[b]
+
+
+# each kernel compiled twice from one source: plain, and threaded for large batches
+fuse_depth_gps = njit(cache=True)(_fuse_depth_gps)
+fuse_depth_gps_parallel = njit(cache=True, parallel=True)(_fuse_depth_gps)
+fuse_ranges = njit(cache=True)(_fuse_ranges)
+fuse_ranges_parallel = njit(cache=True, parallel=True)(_fuse_ranges)
+
+
+def _exchange_messages(s_pos, s_est, s_P, s_wp_index, s_last_range_t_s, b_pos, b_est, t_s, message_u,
+                       k_est, k_P, k_wp_index, k_age_s, k_range_age_s, k_peer, ping_interval_s,
+                       loss_near, loss_far, max_range_m):
+    """After the ranges: each survey vehicle's reply (estimate, covariance, waypoint
+    index, time since its last fused range) reaches each beacon, or is lost with the
+    range-dependent probability; beacons tell each other their positions the same
+    way. Updates what each beacon knows (k_*), in place."""
+    B, N, S = b_pos.shape[0], b_pos.shape[1], s_pos.shape[1]
+    for b in prange(B):
+        for n in range(N):
+            for s in range(S):
+                d = np.sqrt((s_pos[b, s, 0] - b_pos[b, n, 0]) ** 2 + (s_pos[b, s, 1] - b_pos[b, n, 1]) ** 2
+                            + (s_pos[b, s, 2] - b_pos[b, n, 2]) ** 2)
+                if message_u[b, n, s] >= packet_loss_probability(d, loss_near, loss_far, max_range_m):
+                    k_est[b, n, s, :] = s_est[b, s]
+                    k_P[b, n, s, :, :] = s_P[b, s, :2, :2]
+                    k_wp_index[b, n, s] = s_wp_index[b, s]
+                    k_age_s[b, n, s] = 0.0
+                    k_range_age_s[b, n, s] = t_s[b] - s_last_range_t_s[b, s]
+                else:
+                    k_age_s[b, n, s] += ping_interval_s
+                    k_range_age_s[b, n, s] += ping_interval_s
+            for m in range(N):
+                d = np.sqrt((b_pos[b, m, 0] - b_pos[b, n, 0]) ** 2 + (b_pos[b, m, 1] - b_pos[b, n, 1]) ** 2
+                            + (b_pos[b, m, 2] - b_pos[b, n, 2]) ** 2)
+                if m == n or message_u[b, n, S + m] >= packet_loss_probability(d, loss_near, loss_far, max_range_m):
+                    k_peer[b, n, m, :] = b_est[b, m]
+
+
+exchange_messages = njit(cache=True)(_exchange_messages)
+exchange_messages_parallel = njit(cache=True, parallel=True)(_exchange_messages)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+from numba import njit
 
 
 def fisher_information(target, beacons, range_std_m, horizontal=True):
@@ -37,20 +38,37 @@ def logdet_horizontal(P):
     return np.log(np.maximum(det2(P[..., :2, :2]), 1e-300))
 
 
-def error_ellipse(P, n_sigma=2.0):
-    """Semi-axes and orientation of the horizontal error ellipse of covariances P.
+@njit(cache=True)
+def ellipse_of(var_east, cov_en, var_north, n_sigma):
+    """Closed-form 2x2 eigendecomposition: (major, minor, bearing) of one covariance.
 
-    Returns (major_m, minor_m, bearing_rad): the n-sigma semi-axes and the bearing
-    (clockwise from north, in [0, pi)) of the major axis. Closed-form 2x2 eigen-
-    decomposition, so it vectorizes over any leading axes.
+    n-sigma semi-axes, and the bearing of the major axis (clockwise from north, in [0, pi)).
     """
-    a, b, c = P[..., 0, 0], P[..., 0, 1], P[..., 1, 1]  # var east, cov, var north
-    mean = 0.5 * (a + c)
-    rad = np.sqrt(0.25 * (a - c) ** 2 + b * b)
-    lam1, lam2 = mean + rad, np.maximum(mean - rad, 0.0)
-    theta_east = 0.5 * np.arctan2(2 * b, a - c)  # angle of the major axis from east, anticlockwise
-    bearing = np.mod(np.pi / 2 - theta_east, np.pi)
-    return n_sigma * np.sqrt(lam1), n_sigma * np.sqrt(lam2), bearing
+    mean = 0.5 * (var_east + var_north)
+    rad = np.sqrt(0.25 * (var_east - var_north) ** 2 + cov_en * cov_en)
+    theta_east = 0.5 * np.arctan2(2.0 * cov_en, var_east - var_north)  # from east, anticlockwise
+    bearing = (np.pi / 2 - theta_east) % np.pi
+    return n_sigma * np.sqrt(mean + rad), n_sigma * np.sqrt(max(mean - rad, 0.0)), bearing
+
+
+@njit(cache=True)
+def _ellipse_rows(a, b, c, n_sigma, major, minor, bearing):
+    for i in range(a.shape[0]):
+        major[i], minor[i], bearing[i] = ellipse_of(a[i], b[i], c[i], n_sigma)
+
+
+def error_ellipse(P, n_sigma=2.0):
+    """Semi-axes and orientation of the horizontal error ellipse of covariances P (..., n, n).
+
+    Returns (major_m, minor_m, bearing_rad) arrays of shape (...): ``ellipse_of``
+    applied to the east/north block of each covariance.
+    """
+    P = np.asarray(P, dtype=float)
+    lead = P.shape[:-2]
+    a, b, c = (np.ascontiguousarray(P[..., i, j]).reshape(-1) for i, j in ((0, 0), (0, 1), (1, 1)))
+    out = [np.empty(a.shape[0]) for _ in range(3)]
+    _ellipse_rows(a, b, c, float(n_sigma), *out)
+    return tuple(o.reshape(lead) for o in out)
 
 
 # ------------------------------------------------------------------------------------

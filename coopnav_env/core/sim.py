@@ -25,13 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scenarios.base import ScenarioConfig
-from . import acoustics, rng
-from .dynamics import (bearing_to_unit, drag_constant, gauss_markov_step, rate_limited_headings,
-                       terminal_speed_mps, thrust_speed_profile)
-from .substeps import integrate_survey
+from . import rng
+from . import fusion, observation, substeps
+from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
-from .fusion import fuse_depth_gps, fuse_ranges
 from .navigation import gate_threshold, predict
 from .state import SimState
 
@@ -64,8 +62,10 @@ class Simulator:
         is_asv = np.array([k == "asv" for k in c.beacon_kinds])
         self._beacon_is_asv = is_asv
         self._beacon_max_speed = np.where(is_asv, c.asv_max_speed_mps, c.beacon_auv_max_speed_mps)
-        self._beacon_turn_per_substep = np.radians(
-            np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
+        beacon_turn = np.radians(np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
+        self._beacon_turn_cos, self._beacon_turn_sin = np.cos(beacon_turn), np.sin(beacon_turn)
+        survey_turn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s
+        self._survey_turn_cos, self._survey_turn_sin = float(np.cos(survey_turn)), float(np.sin(survey_turn))
         self._beacon_depth = np.where(is_asv, 0.0, c.beacon_auv_depth_m)
         if c.beacon_start_distance_m > 0:
             self._beacon_start_distance_m = np.full(self.N, c.beacon_start_distance_m)
@@ -88,7 +88,14 @@ class Simulator:
         self._sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
         self._Q_cycle = np.diag([c.process_noise_horizontal_m2ps, c.process_noise_horizontal_m2ps,
                                  c.process_noise_vertical_m2ps]) * c.ping_interval_s
-        self._substep_times = c.substep_s * np.arange(1, self.K + 1)
+        self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
+        par = "_parallel" if self._parallel else ""
+        self._k_survey = getattr(substeps, "integrate_survey" + par)
+        self._k_beacons = getattr(substeps, "integrate_beacons" + par)
+        self._k_depth_gps = getattr(fusion, "fuse_depth_gps" + par)
+        self._k_ranges = getattr(fusion, "fuse_ranges" + par)
+        self._k_messages = getattr(fusion, "exchange_messages" + par)
+        self._k_observe = getattr(observation, "observe" + par)
         fence = c.geofence_m
         self._fence_center = np.array([(fence[0] + fence[2]) / 2, (fence[1] + fence[3]) / 2])
         # every random number of one cycle comes from one hash call, laid out by purpose;
@@ -102,8 +109,13 @@ class Simulator:
             ("acoustic_n", "normal", (N_, S_, 2)), ("acoustic_u", "uniform", (N_, S_, 4)),
             ("message_u", "uniform", (N_, S_ + N_)),
         ]
-        self._draw_size = sum(int(np.prod(shape)) for _, _, shape in self._draw_layout)
-        self.obs_dim = 6 + self.S * (9 + 2 * c.observed_waypoints) + 2 * (self.N - 1)
+        self._draw_slices, start = [], 0
+        for name, kind, shape in self._draw_layout:
+            size = int(np.prod(shape))
+            self._draw_slices.append((name, kind == "normal", slice(start, start + size), (self.batch_size,) + shape))
+            start += size
+        self._draw_size = start
+        self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.state: SimState | None = None
 
@@ -200,12 +212,10 @@ class Simulator:
     def _cycle_draws(self, cycle) -> dict:
         """This cycle's random numbers for every environment, by purpose: name -> (B, *shape)."""
         u = rng.uniform(self.state.keys, rng.STREAM_CYCLE, cycle, (self._draw_size,))
-        out, i = {}, 0
-        for name, kind, shape in self._draw_layout:
-            n = int(np.prod(shape))
-            block = u[:, i:i + n].reshape((u.shape[0],) + shape)
-            out[name] = rng.to_normal(block) if kind == "normal" else block
-            i += n
+        out = {}
+        for name, normal, cols, shape in self._draw_slices:
+            block = u[:, cols].reshape(shape)
+            out[name] = rng.to_normal(block) if normal else block
         return out
 
     # ------------------------------------------------------------------------------
@@ -229,16 +239,9 @@ class Simulator:
         cyc = st.cycle
         draws = self._cycle_draws(cyc)
 
-        # 1. beacon motion over the cycle, all sub-steps at once ----------------------
-        v_cmd = self.command_velocity(actions)
-        speed = np.abs(v_cmd)
-        desired = np.where(speed > 1e-9, v_cmd, st.b_heading)
-        headings = rate_limited_headings(st.b_heading, desired, np.broadcast_to(self._beacon_turn_per_substep, (B, N)), K)
-        b_h = (st.b_pos[..., 0] + 1j * st.b_pos[..., 1])[..., None] + np.cumsum(speed[..., None] * headings * dt, -1)
-        st.b_heading = headings[..., -1]
-        st.b_pos[..., 0], st.b_pos[..., 1] = b_h[..., -1].real, b_h[..., -1].imag
-        b_v = speed * st.b_heading
-        st.b_vel[..., 0], st.b_vel[..., 1] = b_v.real, b_v.imag
+        # 1. beacon motion over the cycle -------------------------------------------------
+        self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions), self._beacon_turn_cos,
+                        self._beacon_turn_sin, K, dt)
 
         # 2. survey sub-steps ---------------------------------------------------------
         self._integrate_survey(draws)
@@ -256,14 +259,14 @@ class Simulator:
         # 3. EKF prediction over the cycle (eq. 6, F = I, Q accumulated), depth and GPS
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
         nan_count = np.zeros((B, S), dtype=np.int64)
-        fuse_depth_gps(st.s_est, st.s_P, st.s_pos, draws["sensor_n"], draws["sensor_u"], nan_count,
+        self._k_depth_gps(st.s_est, st.s_P, st.s_pos, draws["sensor_n"], draws["sensor_u"], nan_count,
                        c.depth_noise_m, c.gps_noise_m, c.gps_max_depth_m, c.sensor_nan_probability)
         logdet_before = logdet_horizontal(st.s_P)
 
         # 4. acoustic ranging --------------------------------------------------------
         fused = np.zeros((B, N, S), dtype=bool)
         rejected, lost = np.zeros_like(fused), np.zeros_like(fused)
-        fuse_ranges(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel,
+        self._k_ranges(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel,
                     st.b_pos + st.b_nav_err, st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s,
                     st.clock_drift, draws["acoustic_n"], draws["acoustic_u"],
                     st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err, self._sends_current,
@@ -309,22 +312,14 @@ class Simulator:
         c, st = self.config, self.state
         B, S, K = self.batch_size, self.S, self.K
         dt = c.substep_s
-        noise = draws["substep"]
-        # measured heading = true heading rotated by bias + noise (bearing b -> b + d is
-        # the complex factor exp(-1j d)); measured pitch = pitch + noise.
-        rot_meas = np.exp(-1j * (st.s_compass_bias_rad[:, None, :] + np.radians(c.compass_noise_deg) * noise[:, :, 0]))
-        pitch_noise = np.radians(c.attitude_noise_deg) * noise[:, :, 1]
-        # eq. (1) has a closed form for constant thrust: the modelled speed at each sub-step
-        u_model = thrust_speed_profile(st.s_speed_model_mps, st.s_thrust_n, self._drag_k, c.survey_mass_kg,
-                                       self._substep_times)  # (B,S,K)
-        u_true = u_model * st.s_speed_scale[..., None]
-        integrate_survey(st.s_pos, st.s_est, st.s_dr, st.s_heading, st.s_wp_index, st.s_done,
-                         st.s_vel_true, st.s_vel_est, st.s_waypoints, st.s_n_waypoints, st.s_hover,
-                         u_model, u_true, rot_meas, pitch_noise, st.current_mean + st.current_gm,
-                         st.s_current_est, dt, c.los_alpha, c.waypoint_acceptance_m,
-                         np.radians(c.survey_max_turn_rate_dps) * dt, np.radians(c.survey_max_pitch_deg),
-                         c.survey_depth_gain_per_m)
-        st.s_speed_model_mps = u_model[..., -1]
+        noise = draws["substep"]  # (B,K,2,S): compass and pitch noise of every sub-step
+        self._k_survey(st.s_pos, st.s_est, st.s_dr, st.s_heading, st.s_wp_index, st.s_done, st.s_vel_true, st.s_vel_est,
+               st.s_speed_model_mps, st.s_waypoints, st.s_n_waypoints, st.s_hover, st.s_thrust_n, st.s_speed_scale,
+               self._drag_k, c.survey_mass_kg, st.s_compass_bias_rad, np.radians(c.compass_noise_deg) * noise[:, :, 0],
+               np.radians(c.attitude_noise_deg) * noise[:, :, 1], st.current_mean + st.current_gm,
+               st.s_current_est, dt, c.los_alpha, c.waypoint_acceptance_m,
+               self._survey_turn_cos, self._survey_turn_sin, np.radians(c.survey_max_pitch_deg),
+               c.survey_depth_gain_per_m)
 
     def _beacon_navigation(self, draws):
         c, st = self.config, self.state
@@ -351,56 +346,21 @@ class Simulator:
 
     def _exchange_messages(self, draws):
         c, st = self.config, self.state
-        B, S, N = self.batch_size, self.S, self.N
-        u = draws["message_u"]
-        d_sb = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
-        got = u[..., :S] >= acoustics.packet_loss_probability(d_sb, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
-        T = c.ping_interval_s
-        st.k_est = np.where(got[..., None], st.s_est[:, None], st.k_est)
-        st.k_P = np.where(got[..., None, None], st.s_P[:, None, :, :2, :2], st.k_P)
-        st.k_wp_index = np.where(got, st.s_wp_index[:, None], st.k_wp_index)
-        st.k_age_s = np.where(got, 0.0, st.k_age_s + T)
-        st.k_range_age_s = np.where(got, (st.t_s[:, None] - st.s_last_range_t_s)[:, None], st.k_range_age_s + T)
-        d_bb = np.linalg.norm(st.b_pos[:, :, None] - st.b_pos[:, None, :], axis=-1)  # (B,N,N)
-        got_peer = u[..., S:] >= acoustics.packet_loss_probability(d_bb, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
-        got_peer |= np.eye(N, dtype=bool)
-        st.k_peer = np.where(got_peer[..., None], (st.b_pos + st.b_nav_err)[:, None], st.k_peer)
+        self._k_messages(st.s_pos, st.s_est, st.s_P, st.s_wp_index, st.s_last_range_t_s, st.b_pos,
+                         st.b_pos + st.b_nav_err, st.t_s, draws["message_u"], st.k_est, st.k_P, st.k_wp_index,
+                         st.k_age_s, st.k_range_age_s, st.k_peer, c.ping_interval_s, c.packet_loss_near,
+                         c.packet_loss_far, c.max_range_m)
 
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
-        """What each beacon could know, normalized: (B, N, obs_dim). See the env docstring."""
+        """What each beacon could know, normalized: (B, N, obs_dim). Layout: core/observation.py."""
         c, st = self.config, self.state
-        B, S, N = self.batch_size, self.S, self.N
-        L = c.position_scale_m
-        T = c.ping_interval_s
-        own = st.b_pos + st.b_nav_err  # (B,N,3)
-        own_speed = np.linalg.norm(st.b_vel[..., :2], axis=-1) / self._beacon_max_speed
-        parts = [
-            (own[..., :2] - self._fence_center) / L,
-            st.b_heading.real[..., None], st.b_heading.imag[..., None],
-            own_speed[..., None],
-            np.sqrt(st.b_nav_var_m2)[..., None] / 10.0,
-        ]
-        rel = st.k_est - own[:, :, None, :]  # (B,N,S,3)
-        major, minor, bearing = error_ellipse(st.k_P)
-        idx = st.k_wp_index[..., None] + np.arange(c.observed_waypoints)  # (B,N,S,K)
-        idx = np.minimum(idx, st.s_n_waypoints[:, None, :, None] - 1)
-        wp = np.take_along_axis(np.broadcast_to(st.s_waypoints[:, None], (B, N) + st.s_waypoints.shape[1:]),
-                                idx[..., None], axis=3)  # (B,N,S,K,3)
-        wp_rel = (wp[..., :2] - st.k_est[:, :, :, None, :2]) / L
-        per_survey = np.concatenate([
-            rel[..., :2] / L, rel[..., 2:3] / 100.0,
-            major[..., None] / 50.0, minor[..., None] / 50.0,
-            np.cos(2 * bearing)[..., None], np.sin(2 * bearing)[..., None],
-            st.k_age_s[..., None] / (10 * T), st.k_range_age_s[..., None] / (10 * T),
-            wp_rel.reshape(B, N, S, -1),
-        ], -1)
-        parts.append(per_survey.reshape(B, N, -1))
-        if N > 1:
-            others = ~np.eye(N, dtype=bool)
-            peer_rel = (st.k_peer[..., :2] - own[:, :, None, :2]) / L  # (B,N,N,2)
-            parts.append(peer_rel[:, others].reshape(B, N, -1))
-        return np.clip(np.concatenate(parts, -1), -10.0, 10.0).astype(np.float32)
+        out = np.empty((self.batch_size, self.N, self.obs_dim))
+        self._k_observe(st.b_pos, st.b_nav_err, st.b_vel, st.b_heading, st.b_nav_var_m2, st.k_est, st.k_P,
+                        st.k_wp_index, st.k_age_s, st.k_range_age_s, st.k_peer, st.s_waypoints, st.s_n_waypoints,
+                        self._beacon_max_speed, self._fence_center, c.position_scale_m, c.ping_interval_s,
+                        c.observed_waypoints, out)
+        return out.astype(np.float32)
 
     def global_state(self) -> np.ndarray:
         """The true global state for a centralized critic: (B, state_dim), normalized."""

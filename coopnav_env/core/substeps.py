@@ -1,4 +1,4 @@
-"""The survey vehicles' sub-step loop: the one sequential part of a cycle.
+"""The sub-step loops of a cycle: survey vehicles and beacons.
 
 Inside a cycle each survey vehicle steers by line-of-sight guidance on its own
 estimate, which moves by dead reckoning, which depends on the heading just
@@ -13,29 +13,29 @@ thrust-model speeds (eq. 1) and the current come in as arrays.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from .dynamics import turn_toward
+from .dynamics import thrust_speed, turn_toward
 from .guidance import los_point
 
 
-@njit(cache=True)
-def integrate_survey(pos, est, dr, heading, wp_index, done, vel_true, vel_est,
-                     waypoints, n_waypoints, hover, u_model, u_true, rot_meas, pitch_noise,
-                     current, current_est, dt, alpha, acceptance_m, max_turn_rad, max_pitch_rad,
-                     depth_gain_per_m):
+def _integrate_survey(pos, est, dr, heading, wp_index, done, vel_true, vel_est, speed_model,
+                      waypoints, n_waypoints, hover, thrust_n, speed_scale, drag_k, mass_kg, compass_bias_rad,
+                      compass_noise_rad, pitch_noise_rad, current, current_est, dt, alpha, acceptance_m, cos_max_turn, sin_max_turn,
+                      max_pitch_rad, depth_gain_per_m):
     """Advance every survey vehicle through K sub-steps, in place.
 
     In/out: pos, est, dr (B,S,3) true, EKF and dead-reckoning positions;
     heading (B,S) complex unit; wp_index (B,S); done (B,S); vel_true, vel_est
-    (B,S,3) written with the last sub-step's velocities.
-    In: waypoints (B,S,W,3); n_waypoints, hover (B,S); u_model, u_true (B,S,K)
-    modelled and true water speeds; rot_meas (B,K,S) complex compass error
-    factor (bias + noise, bearing b -> b + d is exp(-1j d)); pitch_noise (B,K,S);
+    (B,S,3) written with the last sub-step's velocities; speed_model (B,S) the
+    water speed of eq. (1) (the vehicle's model; the truth is speed_scale times it).
+    In: waypoints (B,S,W,3); n_waypoints, hover, thrust_n, speed_scale (B,S);
+    compass_bias_rad (B,S); compass_noise_rad,
+    pitch_noise_rad (B,K,S) the sub-steps' measurement noise;
     current (B,) complex; current_est (B,S) complex (what the survey was told).
     """
-    B, S, K = u_model.shape
-    for b in range(B):
+    B, S, K = compass_noise_rad.shape[0], compass_noise_rad.shape[2], compass_noise_rad.shape[1]
+    for b in prange(B):
         for s in range(S):
             p = pos[b, s, 0] + 1j * pos[b, s, 1]
             pz = pos[b, s, 2]
@@ -50,6 +50,8 @@ def integrate_survey(pos, est, dr, heading, wp_index, done, vel_true, vel_est,
             d_z = 0.0
             ut = 0.0
             pitch = 0.0
+            u0 = speed_model[b, s]
+            um = u0
             for k in range(K):
                 w0 = waypoints[b, s, i - 1]
                 w1 = waypoints[b, s, i]
@@ -66,19 +68,22 @@ def integrate_survey(pos, est, dr, heading, wp_index, done, vel_true, vel_est,
                     a = w0[0] + 1j * w0[1]
                     q, along, seg_len = los_point(e, a, w1[0] + 1j * w1[1], alpha)
                 if steer:
-                    h = turn_toward(h, q - e, max_turn_rad)
+                    h = turn_toward(h, q - e, cos_max_turn, sin_max_turn)
                 # depth: the planned depth along the segment, held by pitch
                 frac = min(max(along, 0.0), seg_len) / seg_len if seg_len > 0.0 else 0.0
                 depth_cmd = w0[2] + frac * (w1[2] - w0[2])
                 pitch = min(max(depth_gain_per_m * (pz - depth_cmd), -max_pitch_rad), max_pitch_rad)
                 # true motion: water-relative velocity plus current
-                ut = u_true[b, s, k]
-                p += (ut * np.cos(pitch) * h + current[b]) * dt
-                pz -= ut * np.sin(pitch) * dt
+                um = thrust_speed(u0, thrust_n[b, s], drag_k, mass_kg, (k + 1) * dt)  # eq. (1), exact
+                ut = um * speed_scale[b, s]
+                cp, sp = np.cos(pitch), np.sin(pitch)
+                p += (ut * cp * h + current[b]) * dt
+                pz -= ut * sp * dt
                 # dead reckoning, eq. (4): R(measured attitude) (u_model, 0, 0) tau
-                pm = pitch + pitch_noise[b, k, s]
-                um = u_model[b, s, k]
-                d_h = (um * np.cos(pm) * dt) * (h * rot_meas[b, k, s])
+                pm = pitch + pitch_noise_rad[b, k, s]
+                # the compass reads bearing + bias + noise: bearing b -> b + d is the factor exp(-1j d)
+                err = compass_bias_rad[b, s] + compass_noise_rad[b, k, s]
+                d_h = (um * np.cos(pm) * dt) * (h * (np.cos(err) - 1j * np.sin(err)))
                 d_z = -um * np.sin(pm) * dt
                 e += d_h + current_est[b, s] * dt  # told the current by a beacon (Gao II-A)
                 ez += d_z
@@ -88,8 +93,41 @@ def integrate_survey(pos, est, dr, heading, wp_index, done, vel_true, vel_est,
             est[b, s, 0], est[b, s, 1], est[b, s, 2] = e.real, e.imag, ez
             dr[b, s, 0], dr[b, s, 1], dr[b, s, 2] = r.real, r.imag, rz
             heading[b, s] = h
+            speed_model[b, s] = um
             wp_index[b, s] = i
             v = ut * np.cos(pitch) * h + current[b]
             vel_true[b, s, 0], vel_true[b, s, 1], vel_true[b, s, 2] = v.real, v.imag, -ut * np.sin(pitch)
             ve = d_h / dt + current_est[b, s]
             vel_est[b, s, 0], vel_est[b, s, 1], vel_est[b, s, 2] = ve.real, ve.imag, d_z / dt
+
+
+def _integrate_beacons(pos, heading, vel, command, cos_max_turn, sin_max_turn, n_substeps, dt):
+    """Beacons follow their commanded ground velocity through K sub-steps, in place.
+
+    pos (B,N,3), heading (B,N) complex unit, vel (B,N,3) (written: the last
+    sub-step's velocity); command (B,N) complex ground velocity; the turn limit per
+    sub-step of each beacon as cos/sin (N,). A beacon commanded to stop keeps its
+    heading. Depth is held.
+    """
+    B, N = pos.shape[0], pos.shape[1]
+    for b in prange(B):
+        for n in range(N):
+            v = command[b, n]
+            speed = abs(v)
+            h = heading[b, n]
+            p = pos[b, n, 0] + 1j * pos[b, n, 1]
+            for _ in range(n_substeps):
+                if speed > 1e-9:
+                    h = turn_toward(h, v, cos_max_turn[n], sin_max_turn[n])
+                p += speed * h * dt
+            pos[b, n, 0], pos[b, n, 1] = p.real, p.imag
+            heading[b, n] = h
+            vel[b, n, 0], vel[b, n, 1] = (speed * h).real, (speed * h).imag
+
+
+# each kernel compiled twice from one source: plain, and threaded for large batches
+# (starting threads costs more than a batch of one takes)
+integrate_survey = njit(cache=True)(_integrate_survey)
+integrate_survey_parallel = njit(cache=True, parallel=True)(_integrate_survey)
+integrate_beacons = njit(cache=True)(_integrate_beacons)
+integrate_beacons_parallel = njit(cache=True, parallel=True)(_integrate_beacons)

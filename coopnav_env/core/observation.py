@@ -1,0 +1,92 @@
+"""What a beacon observes: the layout of its observation vector and the kernel that
+builds it from the state, for every beacon of every environment.
+
+Only what the beacon could know enters: its own navigation estimate, and what it
+last received from the survey vehicles (their reply: estimate, covariance,
+waypoint index) and from the other beacons. Layout (positions divided by
+L = ``config.position_scale_m``; everything clipped to [-OBS_BOUND, OBS_BOUND]):
+
+=====================  =====  =====================================================
+own position            2      (east, north) estimate - geofence centre, / L
+own heading             2      bearing as an (east, north) unit vector
+own speed               1      fraction of the beacon's maximum speed
+own position std        1      metres / STD_SCALE_M
+per survey vehicle s:
+  estimate              3      (east, north) - own, / L; depth - own depth, / DEPTH_SCALE_M
+  ellipse semi-axes     2      2-sigma major, minor, / ELLIPSE_SCALE_M
+  ellipse orientation   2      (cos, sin) of twice the major-axis bearing
+  ages                  2      of the reply, and since its last fused range, / (AGE_SCALE_PINGS T)
+  next waypoints        2K     (east, north) - its estimate, / L (K = observed_waypoints)
+per other beacon        2      last reported (east, north) - own, / L
+=====================  =====  =====================================================
+
+``coopnav_env.obs_layout`` decodes it (for planners and tools) with these constants.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .information import ellipse_of
+
+OWN_DIM = 6
+PER_SURVEY_FIXED = 9
+DEPTH_SCALE_M = 100.0
+ELLIPSE_SCALE_M = 50.0
+ELLIPSE_N_SIGMA = 2.0
+STD_SCALE_M = 10.0
+AGE_SCALE_PINGS = 10.0
+OBS_BOUND = 10.0
+
+
+def obs_dim(n_survey: int, n_beacons: int, observed_waypoints: int) -> int:
+    return OWN_DIM + n_survey * (PER_SURVEY_FIXED + 2 * observed_waypoints) + 2 * (n_beacons - 1)
+
+
+def _observe(b_pos, b_nav_err, b_vel, b_heading, b_nav_var, k_est, k_P, k_wp_index, k_age, k_range_age, k_peer,
+             s_waypoints, s_n_wp, max_speed, fence_center, L, T, n_waypoints_observed, out):
+    B, N, S = b_pos.shape[0], b_pos.shape[1], k_est.shape[2]
+    age_scale = AGE_SCALE_PINGS * T
+    for b in prange(B):
+        for n in range(N):
+            o = out[b, n]
+            oe = b_pos[b, n, 0] + b_nav_err[b, n, 0]
+            on = b_pos[b, n, 1] + b_nav_err[b, n, 1]
+            oz = b_pos[b, n, 2] + b_nav_err[b, n, 2]
+            o[0] = (oe - fence_center[0]) / L
+            o[1] = (on - fence_center[1]) / L
+            o[2] = b_heading[b, n].real
+            o[3] = b_heading[b, n].imag
+            o[4] = np.sqrt(b_vel[b, n, 0] ** 2 + b_vel[b, n, 1] ** 2) / max_speed[n]
+            o[5] = np.sqrt(b_nav_var[b, n]) / STD_SCALE_M
+            i = OWN_DIM
+            for s in range(S):
+                o[i] = (k_est[b, n, s, 0] - oe) / L
+                o[i + 1] = (k_est[b, n, s, 1] - on) / L
+                o[i + 2] = (k_est[b, n, s, 2] - oz) / DEPTH_SCALE_M
+                major, minor, bearing = ellipse_of(k_P[b, n, s, 0, 0], k_P[b, n, s, 0, 1], k_P[b, n, s, 1, 1],
+                                                   ELLIPSE_N_SIGMA)
+                o[i + 3] = major / ELLIPSE_SCALE_M
+                o[i + 4] = minor / ELLIPSE_SCALE_M
+                o[i + 5] = np.cos(2.0 * bearing)
+                o[i + 6] = np.sin(2.0 * bearing)
+                o[i + 7] = k_age[b, n, s] / age_scale
+                o[i + 8] = k_range_age[b, n, s] / age_scale
+                i += PER_SURVEY_FIXED
+                for w in range(n_waypoints_observed):
+                    j = min(k_wp_index[b, n, s] + w, s_n_wp[b, s] - 1)
+                    o[i] = (s_waypoints[b, s, j, 0] - k_est[b, n, s, 0]) / L
+                    o[i + 1] = (s_waypoints[b, s, j, 1] - k_est[b, n, s, 1]) / L
+                    i += 2
+            for m in range(N):
+                if m != n:
+                    o[i] = (k_peer[b, n, m, 0] - oe) / L
+                    o[i + 1] = (k_peer[b, n, m, 1] - on) / L
+                    i += 2
+            for j in range(i):
+                o[j] = min(max(o[j], -OBS_BOUND), OBS_BOUND)
+
+
+observe = njit(cache=True)(_observe)
+observe_parallel = njit(cache=True, parallel=True)(_observe)

@@ -1,0 +1,143 @@
+"""The layout of one beacon's observation vector, decoded in one place.
+
+``coopnav_env.core.observation`` builds the vector (and holds the layout's
+constants); this module is the only code outside the simulator that reads it,
+so policies and tools never index the vector by hand:
+
+    view = decode(obs, config)          # obs (D,) or (..., D)
+    view.own_en_m, view.survey_en_m, view.cov_m2, ...
+
+Layout (positions divided by ``config.position_scale_m`` = L):
+
+=====================  =====  =====================================================
+own position            2      (east, north) estimate - geofence centre, / L
+own heading             2      bearing as an (east, north) unit vector
+own speed               1      fraction of the beacon's maximum speed
+own position std        1      metres / 10
+per survey vehicle s:
+  estimate              3      (east, north) - own, / L; depth - own depth, / 100 m
+  ellipse semi-axes     2      2-sigma major, minor, / 50 m
+  ellipse orientation   2      (cos, sin) of twice the major-axis bearing
+  ages                  2      of the reply, since its last fused range, / (10 T)
+  next waypoints        2K     (east, north) - its estimate, / L (K = observed_waypoints)
+per other beacon        2      last reported (east, north) - own, / L
+=====================  =====  =====================================================
+
+``encode`` is the inverse (hand-built observations for tests and tools). Values
+clipped to [-OBS_BOUND, OBS_BOUND] by the simulator cannot be recovered beyond that bound.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .core.information import ellipse_to_covariance
+
+from .core import observation as _layout
+from .core.observation import (AGE_SCALE_PINGS, DEPTH_SCALE_M, ELLIPSE_N_SIGMA, ELLIPSE_SCALE_M,  # noqa: F401
+                               OBS_BOUND, OWN_DIM, PER_SURVEY_FIXED, STD_SCALE_M)
+
+
+def obs_dim(config) -> int:
+    """Length of one beacon's observation for ``config``."""
+    return _layout.obs_dim(config.n_survey, config.n_beacons, config.observed_waypoints)
+
+
+def fence_center_m(config) -> np.ndarray:
+    e0, n0, e1, n1 = config.geofence_m
+    return np.array([(e0 + e1) / 2, (n0 + n1) / 2])
+
+
+@dataclass
+class ObsView:
+    """A decoded observation, in metres, seconds and radians (leading batch axes kept).
+
+    own_en_m (..., 2): own estimated (east, north), absolute.
+    heading_en (..., 2): own heading as an (east, north) unit vector.
+    speed_fraction (...), own_std_m (...).
+    survey_rel_m (..., S, 3): survey estimate minus own (east, north, depth).
+    survey_en_m (..., S, 2): survey estimate, absolute (east, north).
+    depth_below_m (..., S): survey depth minus own depth (positive: deeper).
+    major_m, minor_m, bearing_rad (..., S): 2-sigma ellipse of the survey estimate.
+    cov_m2 (..., S, 2, 2): the horizontal covariance rebuilt from the ellipse.
+    reply_age_s, range_age_s (..., S).
+    waypoints_en_m (..., S, K, 2): its next planned waypoints, absolute.
+    peers_en_m (..., N-1, 2): other beacons' last reported positions, absolute.
+    """
+
+    own_en_m: np.ndarray
+    heading_en: np.ndarray
+    speed_fraction: np.ndarray
+    own_std_m: np.ndarray
+    survey_rel_m: np.ndarray
+    survey_en_m: np.ndarray
+    depth_below_m: np.ndarray
+    major_m: np.ndarray
+    minor_m: np.ndarray
+    bearing_rad: np.ndarray
+    cov_m2: np.ndarray
+    reply_age_s: np.ndarray
+    range_age_s: np.ndarray
+    waypoints_en_m: np.ndarray
+    peers_en_m: np.ndarray
+
+
+def decode(obs, config) -> ObsView:
+    """Decode observations (..., D) of ``config`` into an :class:`ObsView`."""
+    obs = np.asarray(obs, dtype=float)
+    D = obs_dim(config)
+    if obs.shape[-1:] != (D,):
+        raise ValueError(f"observation of length {obs.shape[-1:]} does not match the scenario's layout ({D})")
+    lead = obs.shape[:-1]
+    S, K, N = config.n_survey, config.observed_waypoints, config.n_beacons
+    L, T = config.position_scale_m, config.ping_interval_s
+    own = fence_center_m(config) + L * obs[..., 0:2]
+    per = obs[..., OWN_DIM:OWN_DIM + S * (PER_SURVEY_FIXED + 2 * K)].reshape(lead + (S, PER_SURVEY_FIXED + 2 * K))
+    rel = np.concatenate([L * per[..., 0:2], DEPTH_SCALE_M * per[..., 2:3]], -1)
+    survey_en = own[..., None, :] + rel[..., :2]
+    major, minor = ELLIPSE_SCALE_M * per[..., 3], ELLIPSE_SCALE_M * per[..., 4]
+    bearing = np.mod(0.5 * np.arctan2(per[..., 6], per[..., 5]), np.pi)
+    wp = survey_en[..., None, :] + L * per[..., 9:].reshape(lead + (S, K, 2))
+    peers_rel = obs[..., OWN_DIM + S * (PER_SURVEY_FIXED + 2 * K):].reshape(lead + (N - 1, 2))
+    return ObsView(
+        own_en_m=own, heading_en=obs[..., 2:4].copy(), speed_fraction=obs[..., 4].copy(),
+        own_std_m=STD_SCALE_M * obs[..., 5], survey_rel_m=rel, survey_en_m=survey_en,
+        depth_below_m=rel[..., 2], major_m=major, minor_m=minor, bearing_rad=bearing,
+        cov_m2=ellipse_to_covariance(major, minor, bearing, n_sigma=ELLIPSE_N_SIGMA),
+        reply_age_s=AGE_SCALE_PINGS * T * per[..., 7], range_age_s=AGE_SCALE_PINGS * T * per[..., 8],
+        waypoints_en_m=wp, peers_en_m=own[..., None, :] + L * peers_rel,
+    )
+
+
+def encode(config, own_en_m, survey_rel_m, major_m=4.0, minor_m=4.0, bearing_rad=0.0, heading_en=(0.0, 1.0),
+           speed_fraction=0.0, own_std_m=2.0, reply_age_s=0.0, range_age_s=0.0, waypoints_en_m=None,
+           peers_en_m=None) -> np.ndarray:
+    """Build one beacon's observation (D,) float32 from quantities in metres (the
+    inverse of :func:`decode`). survey_rel_m: (S, 3) survey estimate minus own
+    (east, north, depth); waypoints default to the survey's own estimate."""
+    S, K, N = config.n_survey, config.observed_waypoints, config.n_beacons
+    L, T = config.position_scale_m, config.ping_interval_s
+    own = np.asarray(own_en_m, dtype=float)
+    rel = np.asarray(survey_rel_m, dtype=float).reshape(S, 3)
+    b = np.broadcast_to(np.asarray(bearing_rad, float), (S,))
+    survey_en = own + rel[:, :2]
+    if waypoints_en_m is None:
+        waypoints_en_m = np.broadcast_to(survey_en[:, None, :], (S, K, 2))
+    wp_rel = (np.asarray(waypoints_en_m, float).reshape(S, K, 2) - survey_en[:, None, :]) / L
+    per = np.concatenate([
+        rel[:, :2] / L, rel[:, 2:3] / DEPTH_SCALE_M,
+        np.broadcast_to(np.asarray(major_m, float), (S,))[:, None] / ELLIPSE_SCALE_M,
+        np.broadcast_to(np.asarray(minor_m, float), (S,))[:, None] / ELLIPSE_SCALE_M,
+        np.cos(2 * b)[:, None], np.sin(2 * b)[:, None],
+        np.broadcast_to(np.asarray(reply_age_s, float), (S,))[:, None] / (AGE_SCALE_PINGS * T),
+        np.broadcast_to(np.asarray(range_age_s, float), (S,))[:, None] / (AGE_SCALE_PINGS * T),
+        wp_rel.reshape(S, 2 * K),
+    ], -1)
+    parts = [(own - fence_center_m(config)) / L, np.asarray(heading_en, float), [speed_fraction],
+             [own_std_m / STD_SCALE_M], per.reshape(-1)]
+    if N > 1:
+        peers = np.zeros((N - 1, 2)) if peers_en_m is None else np.asarray(peers_en_m, float).reshape(N - 1, 2) - own
+        parts.append((peers / L).reshape(-1))
+    return np.clip(np.concatenate([np.ravel(p) for p in parts]), -OBS_BOUND, OBS_BOUND).astype(np.float32)
