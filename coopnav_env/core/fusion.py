@@ -58,6 +58,7 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
     (nominal temperature). One-way: the beacon transmits its position; the
     survey's clock offset and drift enter the measured time. Two-way: the survey
     interrogates, the beacon replies after ``turnaround_s`` with its position.
+    range_noise_std_m is per environment (B,) (domain randomization scales it).
     R = range noise + the beacon's own position variance (below Gao eq. 7) + the
     sound-speed uncertainty's share. Outputs (B,N,S) flags fused / rejected (gate)
     / lost and NaN counts (B,S); updates est, P, current_est, last_range_t_s.
@@ -72,7 +73,7 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                 c_true = mackenzie_sound_speed(temperature_c[b], salinity_psu, depth)
                 c_assumed = mackenzie_sound_speed(nominal_temperature_c, salinity_psu, depth)
                 dc_dT = mackenzie_sound_speed(nominal_temperature_c + 1.0, salinity_psu, depth) - c_assumed
-                jitter_s = range_noise_std_m / c_assumed
+                jitter_s = range_noise_std_m[b] / c_assumed
                 dx = s_pos[b, s, 0] - b_pos[b, j, 0]
                 dy = s_pos[b, s, 1] - b_pos[b, j, 1]
                 dz = s_pos[b, s, 2] - b_pos[b, j, 2]
@@ -107,7 +108,7 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                     nan_count[b, s] += 1
                     continue
                 h, H = range_prediction(est[b, s], s_vel_est[b, s], delays, b_est[b, j])
-                R = (range_noise_std_m ** 2 + b_var[b, j]
+                R = (range_noise_std_m[b] ** 2 + b_var[b, j]
                      + (h * temperature_uncertainty_c * dc_dT / c_assumed) ** 2)
                 y = r - h
                 if y * y / innovation_variance(P[b, s], H, R) > gate:

@@ -67,23 +67,30 @@ class Simulator:
         survey_turn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s
         self._survey_turn_cos, self._survey_turn_sin = float(np.cos(survey_turn)), float(np.sin(survey_turn))
         self._beacon_depth = np.where(is_asv, 0.0, c.beacon_auv_depth_m)
+        # the path library: one (survey_path, depth_m) variant per combination of the
+        # randomization choices (just the scenario's own path without randomization)
+        self.variants = [(kind, depth) for kind in (c.randomize_survey_path or (c.survey_path,))
+                         for depth in (c.randomize_depth_m or (c.depth_m,))]
+        built = [[build_path(c.replace(survey_path=kind, depth_m=depth), s) for s in range(self.S)]
+                 for kind, depth in self.variants]
+        W = max(len(wp) for paths in built for wp, _ in paths)
+        V = len(self.variants)
+        self._paths = np.zeros((V, self.S, W, 3))
+        self._n_wp = np.zeros((V, self.S), dtype=np.int64)
+        self._hover = np.zeros((V, self.S), dtype=bool)
+        for v, paths in enumerate(built):
+            for s, (wp, hover) in enumerate(paths):
+                self._paths[v, s, :len(wp)] = wp
+                self._paths[v, s, len(wp):] = wp[-1]
+                self._n_wp[v, s], self._hover[v, s] = len(wp), hover
         if c.beacon_start_distance_m > 0:
-            self._beacon_start_distance_m = np.full(self.N, c.beacon_start_distance_m)
+            self._beacon_start_distance_m = np.full((V, self.N), c.beacon_start_distance_m)
         else:  # 0: start where the first two ranges inform most (Sousa et al., Fig. 11)
             from .information import optimal_start_distance_m
 
-            self._beacon_start_distance_m = np.array([
-                optimal_start_distance_m(c.depth_m - d, v * c.ping_interval_s)
-                for d, v in zip(self._beacon_depth, self._beacon_max_speed)])
-        paths = [build_path(c, s) for s in range(self.S)]
-        W = max(len(p[0]) for p in paths)
-        self._paths = np.zeros((self.S, W, 3))
-        self._n_wp = np.zeros(self.S, dtype=np.int64)
-        self._hover = np.zeros(self.S, dtype=bool)
-        for s, (wp, hover) in enumerate(paths):
-            self._paths[s, :len(wp)] = wp
-            self._paths[s, len(wp):] = wp[-1]
-            self._n_wp[s], self._hover[s] = len(wp), hover
+            self._beacon_start_distance_m = np.array([[
+                optimal_start_distance_m(depth - d, v * c.ping_interval_s)
+                for d, v in zip(self._beacon_depth, self._beacon_max_speed)] for _, depth in self.variants])
         self._gate = gate_threshold(c.range_gate_probability)
         self._sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
         self._Q_cycle = np.diag([c.process_noise_horizontal_m2ps, c.process_noise_horizontal_m2ps,
@@ -147,15 +154,20 @@ class Simulator:
         nb = n_ep[:, S * 4:S * 4 + N * 4].reshape(B, N, 4)  # nav error east/north, current error
         n_clock = n_ep[:, S * 4 + N * 4:S * 4 + N * 4 + S * N].reshape(B, S, N)
         nw = n_ep[:, -3:]  # temperature, Gauss-Markov current east/north
+        # domain randomization: its own stream, so scenarios without it keep their numbers
+        u_dr = rng.uniform(keys, rng.STREAM_EPISODE + 200, zero, (2,))
+        variant = np.minimum((u_dr[:, 0] * len(self.variants)).astype(np.int64), len(self.variants) - 1)
+        lo, hi = c.randomize_noise_scale or (1.0, 1.0)
+        noise_scale = lo + (hi - lo) * u_dr[:, 1]
 
-        wp = np.broadcast_to(self._paths, (B,) + self._paths.shape).copy()
+        wp = self._paths[variant].copy()
+        hover = self._hover[variant]
         start = wp[:, :, 0]
         first_leg = wp[:, :, 1, :2] - wp[:, :, 0, :2]
         heading = np.where(np.abs(first_leg[..., 0] + 1j * first_leg[..., 1]) > 0,
                            first_leg[..., 0] + 1j * first_leg[..., 1], 1j)
         heading = heading / np.abs(heading)
-        thrust = np.where(self._hover, 0.0, c.survey_thrust_percent / 100.0 * c.max_thrust_n)
-        thrust = np.broadcast_to(thrust, (B, S)).copy()
+        thrust = np.where(hover, 0.0, c.survey_thrust_percent / 100.0 * c.max_thrust_n)
         speed0 = terminal_speed_mps(thrust, self._drag_k)
         sigma0 = c.initial_position_std_m
         est = start.copy()
@@ -169,7 +181,7 @@ class Simulator:
                    + np.radians(c.beacon_start_bearing_spread_deg) * (2 * u_ep[:, :N] - 1)
                    + 2 * np.pi * np.arange(N) / N)
         b_pos = np.zeros((B, N, 3))
-        b_h = start[:, :1, 0] + 1j * start[:, :1, 1] + self._beacon_start_distance_m * bearing_to_unit(bearing)
+        b_h = start[:, :1, 0] + 1j * start[:, :1, 1] + self._beacon_start_distance_m[variant] * bearing_to_unit(bearing)
         b_pos[..., 0], b_pos[..., 1], b_pos[..., 2] = b_h.real, b_h.imag, self._beacon_depth
         to_survey = (start[:, :1, 0] + 1j * start[:, :1, 1]) - b_h
         b_heading = to_survey / np.maximum(np.abs(to_survey), 1e-9)
@@ -184,13 +196,14 @@ class Simulator:
         k_P = np.broadcast_to(P0[:, None, :, :2, :2], (B, N, S, 2, 2)).copy()
         return SimState(
             t_s=np.zeros(B), cycle=np.zeros(B, dtype=np.int64), keys=keys,
+            ep_variant=variant, ep_noise_scale=noise_scale,
             s_pos=start.copy(), s_heading=heading, s_speed_model_mps=speed0,
-            s_speed_scale=1.0 + c.survey_speed_scale_error_std * ns[..., 2],
-            s_thrust_n=thrust, s_compass_bias_rad=np.radians(c.compass_bias_std_deg) * ns[..., 3],
+            s_speed_scale=1.0 + c.survey_speed_scale_error_std * noise_scale[:, None] * ns[..., 2],
+            s_thrust_n=thrust, s_compass_bias_rad=np.radians(c.compass_bias_std_deg) * noise_scale[:, None] * ns[..., 3],
             s_vel_true=np.zeros((B, S, 3)), s_vel_est=np.zeros((B, S, 3)),
-            s_waypoints=wp, s_n_waypoints=np.broadcast_to(self._n_wp, (B, S)).copy(),
+            s_waypoints=wp, s_n_waypoints=self._n_wp[variant],
             s_wp_index=np.ones((B, S), dtype=np.int64),
-            s_hover=np.broadcast_to(self._hover, (B, S)).copy(), s_done=np.zeros((B, S), dtype=bool),
+            s_hover=hover, s_done=np.zeros((B, S), dtype=bool),
             s_est=est, s_P=P0, s_dr=est.copy(), s_last_range_t_s=np.zeros((B, S)),
             s_current_est=np.zeros((B, S), dtype=complex),
             b_pos=b_pos, b_heading=b_heading, b_vel=np.zeros((B, N, 3)), b_nav_err=b_err,
@@ -271,7 +284,7 @@ class Simulator:
                     st.clock_drift, draws["acoustic_n"], draws["acoustic_u"],
                     st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err, self._sends_current,
                     st.s_current_est, st.s_last_range_t_s, fused, rejected, lost, nan_count,
-                    c.ranging_mode == "twtt", c.turnaround_s, c.range_noise_std_m, c.max_range_m,
+                    c.ranging_mode == "twtt", c.turnaround_s, c.range_noise_std_m * st.ep_noise_scale, c.max_range_m,
                     c.packet_loss_near, c.packet_loss_far, c.outlier_probability, c.outlier_mean_excess_m,
                     c.sensor_nan_probability, c.water_temperature_c, c.salinity_psu, c.temperature_uncertainty_c,
                     self._gate)
@@ -312,7 +325,7 @@ class Simulator:
         c, st = self.config, self.state
         B, S, K = self.batch_size, self.S, self.K
         dt = c.substep_s
-        noise = draws["substep"]  # (B,K,2,S): compass and pitch noise of every sub-step
+        noise = draws["substep"] * st.ep_noise_scale[:, None, None, None]  # (B,K,2,S): compass, pitch
         self._k_survey(st.s_pos, st.s_est, st.s_dr, st.s_heading, st.s_wp_index, st.s_done, st.s_vel_true, st.s_vel_est,
                st.s_speed_model_mps, st.s_waypoints, st.s_n_waypoints, st.s_hover, st.s_thrust_n, st.s_speed_scale,
                self._drag_k, c.survey_mass_kg, st.s_compass_bias_rad, np.radians(c.compass_noise_deg) * noise[:, :, 0],

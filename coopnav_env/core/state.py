@@ -19,6 +19,9 @@ class SimState:
     t_s: np.ndarray
     cycle: np.ndarray
     keys: np.ndarray
+    # this episode's randomized scenario values (domain randomization), (B,)
+    ep_variant: np.ndarray  # index into Simulator.variants: (survey_path, depth_m)
+    ep_noise_scale: np.ndarray  # factor on the sensor and range noise levels
     # survey vehicles, (B, S, ...)
     s_pos: np.ndarray  # true position (B,S,3)
     s_heading: np.ndarray  # true heading, complex unit east + 1j*north (B,S)

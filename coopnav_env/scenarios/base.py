@@ -134,6 +134,12 @@ class ScenarioConfig:
     geofence_penalty: float = 1.0
     contact_penalty: float = 0.2  # no range of this beacon fused this cycle
 
+    # --- domain randomization: drawn per episode from the episode's seed --------------
+    randomize_survey_path: tuple = ()  # choices of survey_path; () keeps survey_path
+    randomize_depth_m: tuple = ()  # choices of depth_m; () keeps depth_m
+    randomize_noise_scale: tuple = ()  # (low, high): uniform factor on range noise, compass
+    # noise and bias, attitude noise and speed-scale error; () keeps 1
+
     # --- observation --------------------------------------------------------------------
     observed_waypoints: int = 2  # the survey's next planned waypoints in the observation
 
@@ -143,7 +149,8 @@ class ScenarioConfig:
             v = getattr(self, name)
             if isinstance(v, numbers.Integral) and not isinstance(v, bool):
                 object.__setattr__(self, name, int(v))
-        for name in ("beacon_kinds", "survey_area_m", "survey_origin_m", "waypoints_m"):
+        for name in ("beacon_kinds", "survey_area_m", "survey_origin_m", "waypoints_m", "randomize_survey_path",
+                     "randomize_depth_m", "randomize_noise_scale"):
             v = getattr(self, name)
             if isinstance(v, list):  # lists from YAML or JSON
                 object.__setattr__(self, name, tuple(tuple(x) if isinstance(x, list) else x for x in v))
@@ -262,6 +269,14 @@ def _validate(c: ScenarioConfig):
            "survey_path='waypoints' needs at least two waypoints_m entries (east, north, depth)")
     _check(type(c.path_repeats) is int and c.path_repeats >= 1, "path_repeats must be an int >= 1")
     _check(c.observed_waypoints >= 1, "observed_waypoints must be >= 1")
+    for k in c.randomize_survey_path:
+        _check(k in SURVEY_PATHS and k != "waypoints",
+               f"randomize_survey_path: {k!r} is not one of {', '.join(p for p in SURVEY_PATHS if p != 'waypoints')}")
+    for d in c.randomize_depth_m:
+        _check(_finite(d) and d >= 0, f"randomize_depth_m: depths must be finite and >= 0, got {d!r}")
+    _check(c.randomize_noise_scale == () or (len(c.randomize_noise_scale) == 2 and all(
+        _finite(v) and v >= 0 for v in c.randomize_noise_scale) and c.randomize_noise_scale[0] <= c.randomize_noise_scale[1]),
+        f"randomize_noise_scale must be () or (low, high) with 0 <= low <= high, got {c.randomize_noise_scale!r}")
 
 
 # ------------------------------------------------------------------------------------
