@@ -1,0 +1,205 @@
+"""PPO training throughput: our batched VecEnv against SuperSuit's conversion.
+
+    python benchmarks/train_throughput.py                       # sousa_asv, its YAML hyperparameters
+    python benchmarks/train_throughput.py --scenario gao_sea --rollouts 3 --json
+
+In one run, trains PPO (stable-baselines3, the scenario's configs/ppo YAML:
+n_envs, n_steps, batch size, epochs, network; VecMonitor + VecNormalize as in
+train.py) for the same number of rollouts on
+
+(a) ``CoopNavVecEnv``: one batched ``Simulator`` for all environments, one row per
+    beacon (coopnav_env/vector.py), with ``step_infos=False`` as train.py uses it
+    (``--step-infos``: every row's info dict every step, as SuperSuit's);
+(b) SuperSuit: ``pettingzoo_env_to_vec_env_v1(parallel_env(scenario))`` then
+    ``concat_vec_envs_v1(..., n_envs, num_cpus=0, base_class="stable_baselines3")``:
+    n_envs copies of the PettingZoo env stepped one after another (``--supersuit-cpus``
+    > 0 gives SuperSuit worker processes instead);
+
+and prints environment-steps per second (rows x steps / wall time of ``learn``)
+and where the time went, profiled by wrapping the innermost VecEnv: the share of
+``step``/``reset`` (the environment), the rest of collecting rollouts (policy
+forward passes, VecNormalize, the buffer) and the gradient updates. Variants
+(train.py's domain-randomization stop-gap) are left out: SuperSuit cannot build
+them, and they cost one ``Simulator.step`` per variant.
+
+A first rollout is run untimed as warm-up. Numbers depend on the machine and its
+load (the aim stated by issue 4: ours faster, environment share below 15 %).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+import warnings
+from pathlib import Path
+
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def timed(venv_class):
+    """A VecEnvWrapper that adds the wall time spent inside the wrapped VecEnv."""
+
+    class Timed(venv_class):
+        def __init__(self, venv):
+            super().__init__(venv)
+            self.env_s = 0.0
+
+        def seed(self, seed=None):
+            try:
+                return self.venv.seed(seed)
+            except AttributeError:  # SuperSuit's ConcatVecEnv: seeded by its PettingZoo env
+                return [None] * self.num_envs
+
+        def reset(self):
+            t = time.perf_counter()
+            out = self.venv.reset()
+            self.env_s += time.perf_counter() - t
+            return out
+
+        def step_async(self, actions):
+            t = time.perf_counter()
+            self.venv.step_async(actions)
+            self.env_s += time.perf_counter() - t
+
+        def step_wait(self):
+            t = time.perf_counter()
+            out = self.venv.step_wait()
+            self.env_s += time.perf_counter() - t
+            return out
+
+    return Timed
+
+
+def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int, hp: dict, step_infos=False):
+    from stable_baselines3.common.vec_env import VecEnvWrapper
+
+    if kind.startswith("coopnav"):
+        from coopnav_env.vector import CoopNavVecEnv, variant_grid
+
+        env = hp.get("env", {}) or {}
+        variants = variant_grid(env.get("variants")) if kind == "coopnav+variants" else None
+        raw = CoopNavVecEnv(scenario, n_envs=n_envs, seed=seed, variants=variants, step_infos=step_infos)
+    else:
+        import supersuit as ss
+
+        import coopnav_env
+
+        vec = ss.pettingzoo_env_to_vec_env_v1(coopnav_env.parallel_env(scenario, seed=seed))
+        raw = ss.concat_vec_envs_v1(vec, n_envs, num_cpus=supersuit_cpus, base_class="stable_baselines3")
+    return timed(VecEnvWrapper)(raw)
+
+
+def measure(kind, scenario, hp, n_envs, rollouts, seed, supersuit_cpus, step_infos=False) -> dict:
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    import train
+
+    torch.manual_seed(seed)
+    inner = build(kind, scenario, n_envs, seed, supersuit_cpus, hp, step_infos)
+    ppo_hp = dict(hp.get("ppo", {}) or {})
+    gamma = float(ppo_hp.get("gamma", 0.99))
+    norm = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, **(hp.get("normalize", {}) or {})}
+    venv = VecNormalize(VecMonitor(inner), gamma=gamma, **norm)
+    lr = train.learning_rate(ppo_hp.pop("learning_rate", 3e-4))
+    kwargs = train.policy_kwargs(ppo_hp.pop("policy_kwargs", None))
+    model = PPO(hp.get("policy", "MlpPolicy"), venv, learning_rate=lr, policy_kwargs=kwargs, seed=seed,
+                device="cpu", verbose=0, **ppo_hp)
+    per_rollout = model.n_steps * venv.num_envs
+
+    class Phases(BaseCallback):
+        def _on_training_start(self):
+            self.rollout_s, self.t = 0.0, None
+
+        def _on_rollout_start(self):
+            self.t = time.perf_counter()
+
+        def _on_rollout_end(self):
+            self.rollout_s += time.perf_counter() - self.t
+
+        def _on_step(self):
+            return True
+
+    model.learn(per_rollout)  # warm-up: one rollout and its update, untimed
+    inner.env_s = 0.0
+    phases = Phases()
+    t0 = time.perf_counter()
+    model.learn(rollouts * per_rollout, callback=phases, reset_num_timesteps=False)
+    wall = time.perf_counter() - t0
+    steps = rollouts * per_rollout
+    inner.close()
+    return {"kind": kind, "rows": venv.num_envs, "steps": steps, "wall_s": wall, "steps_per_s": steps / wall,
+            "env_s": inner.env_s, "env_share": inner.env_s / wall,
+            "rollout_other_share": (phases.rollout_s - inner.env_s) / wall,
+            "update_share": (wall - phases.rollout_s) / wall}
+
+
+def main(argv=None):
+    import train
+
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--scenario", default="sousa_asv")
+    p.add_argument("--config", help="hyperparameter YAML (default: the scenario's, as train.py)")
+    p.add_argument("--n-envs", type=int, help="override the YAML's n_envs")
+    p.add_argument("--rollouts", type=int, default=2, help="timed PPO rollouts (+ their updates) per measurement")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--supersuit-cpus", type=int, default=0)
+    p.add_argument("--only", choices=["coopnav", "supersuit", "coopnav+variants"])
+    p.add_argument("--variants", action="store_true",
+                   help="also measure CoopNavVecEnv with the YAML's variants (train.py's actual setting)")
+    p.add_argument("--step-infos", action="store_true",
+                   help="CoopNavVecEnv builds every row's info dict every step (train.py does not)")
+    p.add_argument("--threads", type=int, default=1, help="torch threads (train.py's default: 1)")
+    p.add_argument("--json", action="store_true")
+    args = p.parse_args(argv)
+    warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")  # SuperSuit's
+    from coopnav_env import list_scenarios
+
+    if args.scenario not in list_scenarios():
+        print(f"train_throughput.py: error: unknown scenario {args.scenario!r}; valid scenarios: "
+              f"{', '.join(list_scenarios())}", file=sys.stderr)
+        return 2
+    hp = train.load_hyperparameters(train.hyperparameter_file(args.scenario, args.config))
+    n_envs = args.n_envs or int(hp.get("n_envs", 16))
+    import torch
+
+    torch.set_num_threads(args.threads)
+    kinds = [args.only] if args.only else ["coopnav", "supersuit"]
+    if args.variants and "coopnav+variants" not in kinds:
+        kinds.append("coopnav+variants")
+    results = [measure(k, args.scenario, hp, n_envs, args.rollouts, args.seed, args.supersuit_cpus, args.step_infos)
+               for k in kinds]
+    meta = {"scenario": args.scenario, "n_envs": n_envs, "step_infos": args.step_infos, "n_steps": hp.get("ppo", {}).get("n_steps"),
+            "n_epochs": hp.get("ppo", {}).get("n_epochs"), "batch_size": hp.get("ppo", {}).get("batch_size"),
+            "net_arch": (hp.get("ppo", {}).get("policy_kwargs") or {}).get("net_arch"),
+            "rollouts": args.rollouts, "torch_threads": torch.get_num_threads(), "cpus": os.cpu_count(),
+            "python": platform.python_version(), "load_avg_1m": os.getloadavg()[0]}
+    by_kind = {r["kind"]: r for r in results}
+    if "coopnav" in by_kind and "supersuit" in by_kind:
+        meta["speedup"] = by_kind["coopnav"]["steps_per_s"] / by_kind["supersuit"]["steps_per_s"]
+    if args.json:
+        print(json.dumps({"meta": meta, "results": results}, indent=2))
+        return 0
+    print(f"PPO on {args.scenario}: n_envs {n_envs}, n_steps {meta['n_steps']}, batch {meta['batch_size']}, "
+          f"{meta['n_epochs']} epochs, net {meta['net_arch']}, {args.rollouts} timed rollouts, "
+          f"{meta['torch_threads']} torch threads, load {meta['load_avg_1m']:.1f}")
+    print(f"{'vec env':<18}{'rows':>6}{'steps':>9}{'wall s':>9}{'steps/s':>10}{'env':>8}{'rollout other':>15}"
+          f"{'update':>9}")
+    for r in results:
+        print(f"{r['kind']:<18}{r['rows']:>6}{r['steps']:>9}{r['wall_s']:>9.1f}{r['steps_per_s']:>10.0f}"
+              f"{r['env_share']:>8.1%}{r['rollout_other_share']:>15.1%}{r['update_share']:>9.1%}")
+    if "speedup" in meta:
+        print(f"coopnav VecEnv / SuperSuit: {meta['speedup']:.1f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

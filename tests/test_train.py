@@ -1,0 +1,186 @@
+"""train.py and agents/: a tiny training run, interrupt + resume, loading and acting.
+
+Time-boxed: short missions (10 cycles), a 16x16 network, a few thousand steps."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("stable_baselines3")
+
+import agents  # noqa: E402
+import coopnav_env  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+import train  # noqa: E402
+
+TINY = {
+    "n_envs": 4,
+    "ppo": {"n_steps": 64, "batch_size": 128, "n_epochs": 1, "policy_kwargs": {"net_arch": [16, 16]}},
+    "env": {"overrides": {"max_cycles": 10, "mission_duration_s": 200.0}},
+    "eval": {"every_steps": 512, "episodes": 2, "seed": 1000000, "baselines": []},
+    "checkpoint_every_steps": 256,
+}
+ROLLOUT = 4 * 64
+
+
+def _tiny_yaml(tmp_path, **changes):
+    hp = json.loads(json.dumps(TINY))
+    hp.update(changes)
+    path = tmp_path / "tiny.yml"
+    path.write_text(yaml.safe_dump(hp))
+    return str(path)
+
+
+def _run(tmp_path, out, timesteps, **changes):
+    return train.main(["--scenario", "sousa_asv", "--timesteps", str(timesteps), "--seed", "3", "--out", str(out),
+                       "--config", _tiny_yaml(tmp_path, **changes), "--no-progress"])
+
+
+def test_tiny_training_run_writes_a_loadable_policy(tmp_path, monkeypatch):
+    out = tmp_path / "run"
+    t0 = time.perf_counter()
+    assert _run(tmp_path, out, 1000) == 0
+    assert time.perf_counter() - t0 < 60
+    for name in ("config.yml", "model.zip", "vecnormalize.pkl", "best_model.zip", "best_vecnormalize.pkl",
+                 "best.json", "evaluations.jsonl", "checkpoints/last_checkpoint.json"):
+        assert (out / name).is_file(), name
+    assert not list(out.rglob(".*.tmp*"))  # no temporary file left behind
+    config = yaml.safe_load((out / "config.yml").read_text())
+    assert config["args"] == {"scenario": "sousa_asv", "timesteps": 1000, "seed": 3}
+    assert config["hyperparameters"]["ppo"]["n_steps"] == 64
+    assert config["scenario_config"]["max_cycles"] == 10 and config["command"].startswith("python train.py")
+    last = json.loads((out / "checkpoints/last_checkpoint.json").read_text())
+    assert last["num_timesteps"] == 4 * ROLLOUT  # 1000 rounded up to whole rollouts
+    evals = [json.loads(line) for line in (out / "evaluations.jsonl").read_text().splitlines()]
+    assert [e["num_timesteps"] for e in evals] == [512, 1024]
+    assert all(np.isfinite(e["survey_error_m"]) for e in evals)
+
+    policy = agents.load(out, scenario="sousa_asv")
+    assert policy.model.num_timesteps in (512, 1024)  # the best evaluated model
+    env = coopnav_env.parallel_env("sousa_asv", seed=0, max_cycles=5)
+    obs, _ = env.reset()
+    policy.reset()
+    while env.agents:
+        action = policy.act(obs["beacon_0"])
+        assert action.shape == (2,) and action.dtype == np.float32 and np.all(np.abs(action) <= 1)
+        assert np.array_equal(action, policy.act(obs["beacon_0"]))  # deterministic
+        obs, *_ = env.step({"beacon_0": action})
+    final = agents.load(out / "model.zip")
+    assert final.model.num_timesteps == 4 * ROLLOUT
+    assert final.act_batch(np.zeros((3, final.obs_dim))).shape == (3, 2)
+
+    # shipped the way agents/policies/<name>/ holds it: found by name, and as "ppo" of its scenario
+    shipped = tmp_path / "policies" / "ppo_sousa_asv"
+    shipped.mkdir(parents=True)
+    for name in ("model.zip", "vecnormalize.pkl", "config.yml"):
+        (shipped / name).write_bytes((out / name).read_bytes())
+    monkeypatch.setattr(agents, "POLICY_DIR", tmp_path / "policies")
+    assert agents.list_policies() == ["ppo_sousa_asv"]
+    by_name = agents.load("ppo", scenario="sousa_asv")
+    assert by_name.config.name == "sousa_asv" and by_name.config.max_cycles == 10  # the training overrides
+    one = agents.make_policy("ppo", coopnav_env.make_config("sousa_asv"), seed=(0, 0), agent=0)
+    two = agents.make_policy("ppo", coopnav_env.make_config("sousa_asv"), seed=(1, 0), agent=0)
+    assert one.model is two.model  # loaded once
+    x = np.linspace(-1, 1, one.obs_dim)
+    assert np.array_equal(one.act(x), final.act(x))
+
+
+def test_interrupted_run_resumes_to_the_same_step_count(tmp_path):
+    out = tmp_path / "run"
+    total = 3000  # 12 rollouts of 256
+    ckpt = out / "checkpoints" / "last_checkpoint.json"
+
+    def interrupt_after_first_checkpoint():
+        deadline = time.time() + 60
+        while not ckpt.exists() and time.time() < deadline:
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    killer = threading.Thread(target=interrupt_after_first_checkpoint)
+    killer.start()
+    try:
+        code = _run(tmp_path, out, total, eval={"every_steps": 0})
+    finally:
+        killer.join()
+    assert code == train.EXIT_INTERRUPTED
+    stopped = json.loads(ckpt.read_text())["num_timesteps"]
+    assert 0 < stopped < total and stopped % ROLLOUT == 0
+    assert not (out / "model.zip").exists()
+
+    assert train.main(["--resume", str(out), "--no-progress"]) == 0
+    assert json.loads(ckpt.read_text())["num_timesteps"] == 12 * ROLLOUT  # what an uninterrupted run reaches
+    policy = agents.load(out)
+    assert policy.model.num_timesteps == 12 * ROLLOUT
+    assert policy.act(np.zeros(policy.obs_dim)).shape == (2,)
+    # resuming a finished run is a no-op that still succeeds
+    assert train.main(["--resume", str(out), "--no-progress"]) == 0
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, str(ROOT / "train.py"), *args], capture_output=True, text=True,
+                          timeout=120, cwd=ROOT)
+
+
+def test_bad_input_is_one_line_and_exit_2(tmp_path):
+    r = _cli("--scenario", "nope", "--timesteps", "10", "--out", str(tmp_path / "x"))
+    assert r.returncode == 2
+    assert r.stderr.strip().count("\n") == 0 and "unknown scenario 'nope'" in r.stderr and "sousa_asv" in r.stderr
+    r = _cli("--resume", str(tmp_path))
+    assert r.returncode == 2 and "not a train.py run directory" in r.stderr
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "f").write_text("x")
+    r = _cli("--scenario", "sousa_asv", "--timesteps", "10", "--out", str(tmp_path / "full"))
+    assert r.returncode == 2 and "--resume" in r.stderr
+    r = _cli("--scenario", "sousa_asv", "--timesteps", "0", "--out", str(tmp_path / "y"))
+    assert r.returncode == 2
+    r = _cli("--resume", str(tmp_path), "--timesteps", "5")
+    assert r.returncode == 2 and "drop --timesteps" in r.stderr
+
+
+def test_bad_hyperparameters_are_a_one_line_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        _run(tmp_path, tmp_path / "run", 100, ppo={"n_stepz": 3})
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert "bad PPO hyperparameters" in err and "n_stepz" in err and "\n" not in err
+    with pytest.raises(SystemExit):
+        _run(tmp_path, tmp_path / "run2", 100, bogus=1)
+    assert "unknown section" in capsys.readouterr().err
+
+
+def test_agents_load_errors():
+    with pytest.raises(ValueError, match="scenario="):
+        agents.load("ppo")
+    with pytest.raises(ValueError, match="no policy"):
+        agents.load("no_such_policy")
+
+
+@pytest.mark.parametrize("name", agents.list_policies())
+def test_shipped_policies_load_and_act(name):
+    policy = agents.load(name)
+    assert policy.config is not None
+    env = coopnav_env.parallel_env(policy.config, seed=0, max_cycles=3)
+    obs, _ = env.reset()
+    while env.agents:
+        obs, *_ = env.step({a: policy.act(obs[a]) for a in env.agents})
+
+
+def test_evaluation_scores_a_baseline_on_the_same_seeds():
+    pytest.importorskip("baselines.fim")
+    kw = {"scenario": "sousa_asv", "variants": None, "max_cycles": 4, "mission_duration_s": 80.0}
+    a = train.evaluate(train.baseline_actor("fim_a"), kw, episodes=2, seed=5)
+    b = train.evaluate(train.baseline_actor("fim_a"), kw, episodes=2, seed=5)
+    assert a == b and len(a["survey_error_m_per_episode"]) == 2
+    static = train.evaluate(lambda obs, venv: np.zeros((venv.num_envs, 2)), kw, episodes=2, seed=5)
+    assert static["survey_error_m"] != a["survey_error_m"]

@@ -1,0 +1,545 @@
+"""Train a PPO beacon policy (stable-baselines3) on a coopnav scenario.
+
+    python train.py --scenario sousa_asv --timesteps 2000000 --seed 0 --out runs/sousa_ppo
+    python train.py --resume runs/sousa_ppo          # continue an interrupted run
+
+Read top to bottom: arguments -> hyperparameters (configs/ppo/<scenario>.yml, else
+configs/ppo/default.yml) -> seeding -> the vectorized environment -> PPO ->
+callbacks (atomic checkpoints, evaluation on fixed seeds, best model) -> learn ->
+final save. Every beacon of every environment is one row of the batch, so one
+policy drives them all (parameter sharing): ``coopnav_env.vector.CoopNavVecEnv``.
+
+What a run directory holds (``--out``):
+
+    config.yml                 the exact config used: CLI arguments, the resolved
+                               hyperparameters, the scenario's parameters, versions
+    model.zip                  the final SB3 model            } loaded by agents.load(dir)
+    vecnormalize.pkl           its observation normalization  }
+    best_model.zip, best_vecnormalize.pkl, best.json   the best evaluated model
+    checkpoints/               ckpt_<steps>.zip + ckpt_<steps>_vecnormalize.pkl,
+                               last_checkpoint.json (what --resume reads)
+    evaluations.jsonl          one line per evaluation
+    tb/                        TensorBoard logs (if tensorboard is installed)
+
+Evaluation: the deterministic policy on ``eval.episodes`` fixed seeds (environment
+``e`` of the evaluation batch is seeded ``eval.seed + e``), scored by the mean of
+``survey_error_m`` over every step of every episode (evaluate.py's
+``mean_error_m``; lower is better); the
+baselines named in ``eval.baselines`` (``fim_a``) are scored once on the same
+seeds (common random numbers). Every file is written to a temporary name and
+moved into place with ``os.replace``, so an interrupted run never leaves a half
+written checkpoint. Ctrl-C (SIGINT) or SIGTERM stops at the next rollout
+boundary after writing a checkpoint; ``--resume`` continues from the last one up
+to the same total step count, with fresh episodes (the environments' episode
+state is not saved).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import io
+import json
+import os
+import pickle
+import platform
+import shlex
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+ROOT = Path(__file__).resolve().parent
+CONFIG_DIR = ROOT / "configs" / "ppo"
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+
+def fail(message: str, code: int = EXIT_BAD_INPUT):
+    """One line on stderr and exit: bad input is not a traceback."""
+    print(f"train.py: error: {message}", file=sys.stderr)
+    sys.exit(code)
+
+
+# ----------------------------------------------------------------------------------
+# 1. arguments
+# ----------------------------------------------------------------------------------
+def positive_int(text):
+    try:
+        value = int(float(text)) if "e" in text.lower() else int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return value
+
+
+class OneLineParser(argparse.ArgumentParser):
+    def error(self, message):
+        fail(message)
+
+
+def parse_args(argv=None):
+    p = OneLineParser(description="Train a PPO beacon policy on a coopnav scenario.")
+    p.add_argument("--scenario", help="scenario name (coopnav_env.list_scenarios())")
+    p.add_argument("--timesteps", type=positive_int, help="total environment steps (rows: beacons x envs)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", help="run directory to create")
+    p.add_argument("--resume", metavar="RUN_DIR", help="continue the run in RUN_DIR from its last checkpoint")
+    p.add_argument("--n-envs", type=positive_int, help="environments in the batch (overrides the YAML)")
+    p.add_argument("--config", help="hyperparameter YAML (default: configs/ppo/<scenario>.yml, else default.yml)")
+    p.add_argument("--device", default="cpu")
+    p.add_argument("--threads", type=positive_int, default=1,
+                   help="torch threads (default 1: PPO's small batches gain little from more, and a busy "
+                        "machine makes extra threads spin)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--verbose", type=int, default=0)
+    args = p.parse_args(argv)
+    if args.resume is not None:
+        given = [f"--{n.replace('_', '-')}" for n in ("scenario", "timesteps", "out", "n_envs", "config")
+                 if getattr(args, n) is not None]
+        if given:
+            fail(f"--resume continues a run with its own config.yml; drop {', '.join(given)}")
+    else:
+        missing = [f"--{n}" for n in ("scenario", "timesteps", "out") if getattr(args, n) is None]
+        if missing:
+            fail(f"missing {', '.join(missing)} (or --resume RUN_DIR)")
+    return args
+
+
+# ----------------------------------------------------------------------------------
+# 2. hyperparameters: a small YAML per scenario (the rl-baselines3-zoo habit)
+# ----------------------------------------------------------------------------------
+def hyperparameter_file(scenario: str, explicit: str | None) -> Path:
+    if explicit:
+        path = Path(explicit)
+        if not path.is_file():
+            fail(f"no such hyperparameter file: {explicit}")
+        return path
+    for name in (f"{scenario}.yml", "default.yml"):
+        if (CONFIG_DIR / name).is_file():
+            return CONFIG_DIR / name
+    fail(f"no hyperparameter file for {scenario!r} in {CONFIG_DIR} (and no default.yml)")
+
+
+def load_hyperparameters(path: Path) -> dict:
+    with open(path) as f:
+        hp = yaml.safe_load(f) or {}
+    if not isinstance(hp, dict):
+        fail(f"{path}: expected a mapping of hyperparameters")
+    known = {"policy", "n_envs", "ppo", "normalize", "env", "eval", "checkpoint_every_steps"}
+    unknown = sorted(set(hp) - known)
+    if unknown:
+        fail(f"{path}: unknown section(s) {', '.join(unknown)}; valid: {', '.join(sorted(known))}")
+    return hp
+
+
+def learning_rate(value):
+    """A float, or "lin_<x>": linear decay from x to 0 (rl-baselines3-zoo)."""
+    if isinstance(value, str) and value.startswith("lin_"):
+        start = float(value[4:])
+        return lambda progress_remaining: progress_remaining * start
+    return float(value)
+
+
+def policy_kwargs(spec: dict | None) -> dict:
+    import torch.nn as nn
+
+    spec = dict(spec or {})
+    if "activation_fn" in spec:
+        name = spec["activation_fn"]
+        table = {"tanh": nn.Tanh, "relu": nn.ReLU, "elu": nn.ELU, "leaky_relu": nn.LeakyReLU}
+        if name not in table:
+            fail(f"unknown activation_fn {name!r}; valid: {', '.join(table)}")
+        spec["activation_fn"] = table[name]
+    return spec
+
+
+# ----------------------------------------------------------------------------------
+# 3. atomic files
+# ----------------------------------------------------------------------------------
+def atomic_write_bytes(path: Path, data: bytes):
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    with open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def atomic_write_text(path: Path, text: str):
+    atomic_write_bytes(path, text.encode())
+
+
+def save_model(model, path: Path):
+    buf = io.BytesIO()
+    model.save(buf)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def save_vecnormalize(vecnorm, path: Path):
+    """VecNormalize.save pickles the wrapper without its venv; the same, atomically."""
+    atomic_write_bytes(path, pickle.dumps(vecnorm))
+
+
+def plain(obj):
+    """Tuples -> lists, recursively, for yaml.safe_dump."""
+    if isinstance(obj, dict):
+        return {k: plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [plain(v) for v in obj]
+    return obj
+
+
+# ----------------------------------------------------------------------------------
+# 4. evaluation on fixed seeds
+# ----------------------------------------------------------------------------------
+def evaluate(act, env_kwargs: dict, episodes: int, seed: int) -> dict:
+    """Run ``act(obs (rows, D), venv) -> actions (rows, 2)`` for one episode in each of
+    ``episodes`` environments seeded ``seed + e``. Score: survey_error_m (the info's
+    mean over survey vehicles) averaged over every step of every episode, as
+    evaluate.py's ``mean_error_m``."""
+    from coopnav_env.vector import CoopNavVecEnv
+
+    venv = CoopNavVecEnv(n_envs=episodes, seed=seed, **env_kwargs)
+    N = venv.n_beacons
+    obs = venv.reset()
+    running = np.ones(episodes, dtype=bool)
+    err_sum = np.zeros(episodes)
+    steps = np.zeros(episodes)
+    while running.any():
+        obs, _, done, infos = venv.step(act(obs, venv))
+        err = np.array([infos[e * N]["survey_error_m"] for e in range(episodes)])
+        err_sum += np.where(running, err, 0.0)
+        steps += running
+        running &= ~done[::N]
+    per_episode = err_sum / steps
+    out = {"survey_error_m": float(err_sum.sum() / steps.sum()), "episodes": episodes,
+           "survey_error_m_per_episode": per_episode.round(4).tolist()}
+    if len(venv.configs) > 1:
+        out["survey_error_m_per_variant"] = [float(err_sum[venv.env_variant == g].sum()
+                                                   / steps[venv.env_variant == g].sum())
+                                             for g in range(len(venv.configs))]
+    return out
+
+
+def baseline_actor(name: str):
+    """A batch actor from one baselines policy per row (reset at the first step)."""
+    from baselines import make_policy
+
+    policies = {}
+
+    def act(obs, venv):
+        if not policies:
+            for row in range(venv.num_envs):
+                e, j = divmod(row, venv.n_beacons)
+                policies[row] = make_policy(name, venv.configs[venv.env_variant[e]],
+                                            seed=int(venv.episode_seeds[e]), agent=j)
+        return np.stack([policies[row].act(obs[row]) for row in range(venv.num_envs)])
+
+    return act
+
+
+def model_actor(model, vecnorm):
+    def act(obs, venv):
+        return model.predict(vecnorm.normalize_obs(obs), deterministic=True)[0]
+
+    return act
+
+
+# ----------------------------------------------------------------------------------
+# 5. the callback: checkpoints, evaluation, best model, stop on signal
+# ----------------------------------------------------------------------------------
+def make_callback(out: Path, hp: dict, env_kwargs: dict, vecnorm, baseline_scores: dict, state: dict):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    ckpt_dir = out / "checkpoints"
+    ckpt_every = int(hp.get("checkpoint_every_steps", 100_000))
+    ev = hp.get("eval", {}) or {}
+    eval_every = int(ev.get("every_steps", 100_000))
+    eval_episodes = int(ev.get("episodes", 32))
+    eval_seed = int(ev.get("seed", 1_000_000))
+
+    class RunCallback(BaseCallback):
+        """At every rollout start (the model has been trained on every step counted so
+        far): checkpoint and evaluate when due; stop after a signal."""
+
+        def _on_training_start(self):
+            self.trained_steps = self.last_ckpt = self.last_eval = self.model.num_timesteps
+
+        def _on_rollout_start(self):
+            self.trained_steps = steps = self.model.num_timesteps
+            if steps - self.last_ckpt >= ckpt_every:
+                self.checkpoint()
+            if eval_every > 0 and steps - self.last_eval >= eval_every:
+                self.evaluate()
+
+        def _on_step(self):
+            return not state["stop"]
+
+        def checkpoint(self):
+            steps = self.model.num_timesteps
+            if read_json(ckpt_dir / "last_checkpoint.json") == {"num_timesteps": steps, "model": f"ckpt_{steps:010d}.zip",
+                                                                 "vecnormalize": f"ckpt_{steps:010d}_vecnormalize.pkl"}:
+                return
+            ckpt_dir.mkdir(exist_ok=True)
+            model_file, stats_file = f"ckpt_{steps:010d}.zip", f"ckpt_{steps:010d}_vecnormalize.pkl"
+            save_model(self.model, ckpt_dir / model_file)
+            save_vecnormalize(vecnorm, ckpt_dir / stats_file)
+            previous = read_json(ckpt_dir / "last_checkpoint.json")
+            atomic_write_text(ckpt_dir / "last_checkpoint.json", json.dumps(
+                {"num_timesteps": steps, "model": model_file, "vecnormalize": stats_file}))
+            if previous and previous["model"] != model_file:  # keep the last two
+                for old in sorted(ckpt_dir.glob("ckpt_*.zip"))[:-2]:
+                    old.unlink(missing_ok=True)
+                    (ckpt_dir / old.name.replace(".zip", "_vecnormalize.pkl")).unlink(missing_ok=True)
+            self.last_ckpt = steps
+
+        def evaluate(self):
+            t0 = time.perf_counter()
+            result = evaluate(model_actor(self.model, vecnorm), env_kwargs, eval_episodes, eval_seed)
+            score = result["survey_error_m"]
+            record = {"num_timesteps": self.model.num_timesteps, "wall_s": round(time.perf_counter() - state["t0"], 1),
+                      "survey_error_m": score, **{f"{k}_survey_error_m": v for k, v in baseline_scores.items()}}
+            if "survey_error_m_per_variant" in result:
+                record["per_variant"] = result["survey_error_m_per_variant"]
+            with open(out / "evaluations.jsonl", "a") as f:
+                f.write(json.dumps(record) + "\n")
+            self.logger.record("eval/survey_error_m", score)
+            for k, v in baseline_scores.items():
+                self.logger.record(f"eval/{k}_survey_error_m", v)
+            best = read_json(out / "best.json")
+            if best is None or score < best["survey_error_m"]:
+                save_model(self.model, out / "best_model.zip")
+                save_vecnormalize(vecnorm, out / "best_vecnormalize.pkl")
+                atomic_write_text(out / "best.json", json.dumps(record))
+            beaten = [k for k, v in baseline_scores.items() if score < v]
+            print(f"eval @ {self.model.num_timesteps}: survey_error_m {score:.3f}"
+                  + "".join(f", {k} {v:.3f}" for k, v in baseline_scores.items())
+                  + (f" (beats {', '.join(beaten)})" if beaten else "")
+                  + f" [{time.perf_counter() - t0:.1f} s]", flush=True)
+            self.last_eval = self.model.num_timesteps
+
+    return RunCallback()
+
+
+def resume_seed(seed: int, steps: int) -> int:
+    """The seed of a run resumed at ``steps``: deterministic, and (almost surely) not
+    repeating the first run's episodes."""
+    return int(np.random.SeedSequence([int(seed) % 2**32, steps]).generate_state(1)[0] >> 1)
+
+
+def read_json(path: Path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except FileNotFoundError:
+        return None
+
+
+def versions() -> dict:
+    import gymnasium
+    import pettingzoo
+    import stable_baselines3
+    import torch
+
+    def git(*args):
+        try:
+            return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=10).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    commit = git("rev-parse", "HEAD") or None
+    dirty = bool(git("status", "--porcelain", "--untracked-files=no")) if commit else None
+    return {"python": platform.python_version(), "numpy": np.__version__, "torch": str(torch.__version__),
+            "stable_baselines3": str(stable_baselines3.__version__), "gymnasium": str(gymnasium.__version__),
+            "pettingzoo": str(pettingzoo.__version__), "git_commit": commit,
+            "git_dirty": dirty}
+
+
+# ----------------------------------------------------------------------------------
+# 6. main
+# ----------------------------------------------------------------------------------
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    from coopnav_env import list_scenarios, make_config
+
+    # --- the run directory, its config, and (when resuming) the checkpoint ----------
+    if args.resume:
+        out = Path(args.resume)
+        saved = read_json_yaml(out / "config.yml")
+        if saved is None:
+            fail(f"{out} is not a train.py run directory (no config.yml)")
+        ckpt = read_json(out / "checkpoints" / "last_checkpoint.json")
+        if ckpt is None:
+            fail(f"{out} has no checkpoint to resume from (checkpoints/last_checkpoint.json)")
+        run = saved["args"]
+        hp = saved["hyperparameters"]
+        hp_path = saved["hyperparameter_file"]
+    else:
+        if args.scenario not in list_scenarios():
+            fail(f"unknown scenario {args.scenario!r}; valid scenarios: {', '.join(list_scenarios())}")
+        out = Path(args.out)
+        if out.exists() and any(out.iterdir()):
+            fail(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
+        path = hyperparameter_file(args.scenario, args.config)
+        hp = load_hyperparameters(path)
+        if args.n_envs:
+            hp["n_envs"] = args.n_envs
+        hp_path = str(path)
+        run = {"scenario": args.scenario, "timesteps": args.timesteps, "seed": args.seed}
+        ckpt = None
+
+    scenario, total, seed = run["scenario"], int(run["timesteps"]), int(run["seed"])
+    env_spec = hp.get("env", {}) or {}
+    overrides = dict(env_spec.get("overrides", {}) or {})
+    try:
+        scenario_config = make_config(scenario, **overrides)
+    except ValueError as err:
+        fail(f"{hp_path}: {err}")
+    from coopnav_env.vector import CoopNavVecEnv, variant_grid
+
+    try:
+        variants = variant_grid(env_spec.get("variants"))
+        for v in variants:
+            scenario_config.replace(**v)
+    except ValueError as err:
+        fail(f"{hp_path}: variants: {err}")
+    env_kwargs = {"scenario": scenario, "variants": variants or None, **overrides}
+    n_envs = int(hp.get("n_envs", 16))
+    if variants and n_envs < len(variants):
+        fail(f"n_envs ({n_envs}) must be at least the number of variants ({len(variants)})")
+
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    out.mkdir(parents=True, exist_ok=True)
+    if not args.resume:
+        config = {
+            "command": "python train.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)),
+            "args": run, "hyperparameter_file": hp_path, "hyperparameters": hp,
+            "scenario_config": dataclasses.asdict(scenario_config), "variants": variants,
+            "versions": versions(),
+        }
+        atomic_write_text(out / "config.yml", yaml.safe_dump(plain(config), sort_keys=False))
+
+    # --- seeding: python, numpy, torch; the environments from the same seed ---------
+    start_steps = int(ckpt["num_timesteps"]) if ckpt else 0
+    run_seed = seed if not ckpt else resume_seed(seed, start_steps)
+    set_random_seed(run_seed)
+    torch.set_num_threads(args.threads)
+
+    # --- the environment: one batched simulator, VecMonitor, VecNormalize -----------
+    venv = VecMonitor(CoopNavVecEnv(n_envs=n_envs, seed=run_seed, step_infos=False, **env_kwargs))
+    norm = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, **(hp.get("normalize", {}) or {})}
+    ppo_hp = dict(hp.get("ppo", {}) or {})
+    gamma = float(ppo_hp.get("gamma", 0.99))
+    if ckpt:
+        with open(out / "checkpoints" / ckpt["vecnormalize"], "rb") as f:
+            vecnorm = pickle.load(f)
+        vecnorm.set_venv(venv)
+        vecnorm.training = True
+    else:
+        vecnorm = VecNormalize(venv, gamma=gamma, **norm)
+
+    # --- PPO ----------------------------------------------------------------------
+    try:
+        import tensorboard  # noqa: F401
+
+        tb_dir = str(out / "tb")
+    except ImportError:
+        tb_dir = None
+        print("tensorboard is not installed: no TensorBoard logs (pip install -e '.[train]')", file=sys.stderr)
+    if ckpt:
+        model = PPO.load(out / "checkpoints" / ckpt["model"], env=vecnorm, device=args.device,
+                         tensorboard_log=tb_dir, verbose=args.verbose)
+        model.set_random_seed(run_seed)
+    else:
+        ppo_hp.pop("policy", None)
+        lr = learning_rate(ppo_hp.pop("learning_rate", 3e-4))
+        kwargs = policy_kwargs(ppo_hp.pop("policy_kwargs", None))
+        try:
+            model = PPO(hp.get("policy", "MlpPolicy"), vecnorm, learning_rate=lr, policy_kwargs=kwargs,
+                        seed=run_seed, device=args.device, tensorboard_log=tb_dir, verbose=args.verbose, **ppo_hp)
+        except (TypeError, ValueError, AssertionError) as err:
+            fail(f"{hp_path}: bad PPO hyperparameters: {str(err).splitlines()[0] if str(err) else type(err).__name__}")
+
+    # --- baselines on the evaluation seeds (once per run) --------------------------
+    ev = hp.get("eval", {}) or {}
+    baseline_scores = read_json(out / "baseline_eval.json") or {}
+    if int(ev.get("every_steps", 100_000)) > 0:
+        for name in ev.get("baselines", []) or []:
+            if name in baseline_scores:
+                continue
+            try:
+                result = evaluate(baseline_actor(name), env_kwargs, int(ev.get("episodes", 32)),
+                                  int(ev.get("seed", 1_000_000)))
+            except ImportError as err:  # the baselines package is not there
+                print(f"baseline {name} not evaluated: {err}", file=sys.stderr)
+                continue
+            baseline_scores[name] = result["survey_error_m"]
+        atomic_write_text(out / "baseline_eval.json", json.dumps(baseline_scores))
+
+    # --- learn, stopping cleanly on SIGINT/SIGTERM -----------------------------------
+    state = {"stop": False, "t0": time.perf_counter()}
+
+    def request_stop(signum, frame):
+        state["stop"] = True
+        signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL)
+
+    old_handlers = {s: signal.signal(s, request_stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    callback = make_callback(out, hp, env_kwargs, vecnorm, baseline_scores, state)
+    progress = not args.no_progress and _has_progress_bar()
+    try:
+        model.learn(total_timesteps=max(total - start_steps, 0), callback=callback, progress_bar=progress,
+                    reset_num_timesteps=not ckpt, tb_log_name="ppo")
+    finally:
+        for s, h in old_handlers.items():
+            signal.signal(s, h)
+    if state["stop"]:
+        # the steps of the rollout cut short were not trained on: the checkpoint does not count them
+        model.num_timesteps = getattr(callback, "trained_steps", start_steps)
+        callback.checkpoint()
+        print(f"stopped at {model.num_timesteps} steps; continue with: python train.py --resume {out}",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+    # --- final evaluation and model, beside its normalization and config ----------
+    callback.checkpoint()
+    if int(ev.get("every_steps", 100_000)) > 0 and callback.last_eval != model.num_timesteps:
+        callback.evaluate()
+    save_model(model, out / "model.zip")
+    save_vecnormalize(vecnorm, out / "vecnormalize.pkl")
+    elapsed = time.perf_counter() - state["t0"]
+    print(f"done: {model.num_timesteps} steps ({model.num_timesteps - start_steps} in this run, {elapsed:.0f} s, "
+          f"{(model.num_timesteps - start_steps) / elapsed:.0f} steps/s); "
+          f"model in {out}")
+    return 0
+
+
+def read_json_yaml(path: Path):
+    try:
+        with open(path) as f:
+            return yaml.safe_load(f)
+    except FileNotFoundError:
+        return None
+
+
+def _has_progress_bar() -> bool:
+    try:
+        import rich  # noqa: F401
+        import tqdm  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+if __name__ == "__main__":
+    sys.exit(main())
