@@ -1,0 +1,242 @@
+"""The policy interface shared by the baselines and learned policies.
+
+A policy maps ONE beacon's observation vector to an action in [-1, 1]^2 and may
+keep memory between calls (``reset`` clears it). It reads nothing but that vector
+(decoded by :mod:`coopnav_env.obs_layout`) and the scenario config (ping interval,
+maximum speed, depths, geofence, acoustic range, noise levels): never the
+simulator's true state. Planners work in waypoints; :func:`waypoint_to_action`
+turns "be at this point at the next ping" into the action.
+
+    policy = make_policy("fim_a", env, seed=0)          # env, Simulator, config or name
+    policy.reset()
+    action = policy.act(obs["beacon_0"])
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from coopnav_env.core import acoustics
+from coopnav_env.obs_layout import ObsView, decode
+from coopnav_env.scenarios import ScenarioConfig, make_config
+
+FENCE_MARGIN_M = 2.0  # plan this far inside the geofence
+SAFETY_MARGIN_M = 2.0  # and this far beyond the safety distance
+PENALTY_PER_M = 10.0  # planners' soft-constraint weight (metrics are O(1))
+
+
+@dataclass(frozen=True)
+class BeaconContext:
+    """What one beacon knows from the scenario config."""
+
+    config: ScenarioConfig
+    agent_index: int
+    max_speed_mps: float
+    ping_interval_s: float
+    depth_m: float
+
+    @classmethod
+    def from_config(cls, config: ScenarioConfig, agent_index: int = 0) -> "BeaconContext":
+        if not 0 <= agent_index < config.n_beacons:
+            raise ValueError(f"agent index {agent_index} out of range for {config.n_beacons} beacon(s)")
+        asv = config.beacon_kinds[agent_index] == "asv"
+        return cls(config=config, agent_index=agent_index,
+                   max_speed_mps=config.asv_max_speed_mps if asv else config.beacon_auv_max_speed_mps,
+                   ping_interval_s=config.ping_interval_s,
+                   depth_m=0.0 if asv else config.beacon_auv_depth_m)
+
+    @property
+    def reach_m(self) -> float:
+        """Radius of the reaching set between two pings (Sousa et al. III-B)."""
+        return self.max_speed_mps * self.ping_interval_s
+
+    def violation_m(self, cand, survey_en, depth_below):
+        """Soft-constraint violation (metres, >= 0) of candidate positions cand (..., M, 2)
+        against the geofence, the safety distance (3-D, to every survey position
+        survey_en (S, 2) at depth_below (S,)) and the acoustic range."""
+        c = self.config
+        e0, n0, e1, n1 = c.geofence_m
+        m = FENCE_MARGIN_M
+        x, y = cand[..., 0], cand[..., 1]
+        v = (np.maximum(e0 + m - x, 0) + np.maximum(x - (e1 - m), 0)
+             + np.maximum(n0 + m - y, 0) + np.maximum(y - (n1 - m), 0))
+        d3 = slant_distance(cand, survey_en, depth_below)  # (..., M, S)
+        v = v + np.maximum(c.safety_distance_m + SAFETY_MARGIN_M - d3, 0).sum(-1)
+        v = v + np.maximum(d3 - c.max_range_m, 0).sum(-1)
+        return v
+
+    def delivery_probability(self, distance_m):
+        """Probability that a ping over ``distance_m`` arrives (the scenario's loss model)."""
+        c = self.config
+        return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far,
+                                                       c.max_range_m)
+
+
+def slant_distance(cand, survey_en, depth_below):
+    """3-D distances (..., M, S) from beacon candidates (..., M, 2) at the beacon's depth
+    to survey positions (S, 2) that lie depth_below (S,) deeper."""
+    rel = cand[..., :, None, :] - survey_en
+    return np.sqrt((rel ** 2).sum(-1) + np.asarray(depth_below) ** 2)
+
+
+def waypoint_to_action(ctx: BeaconContext, own_en, waypoint_en) -> np.ndarray:
+    """The action that heads for ``waypoint_en`` so as to reach it at the next ping:
+    velocity = (waypoint - own) / ping interval, as a fraction of the maximum speed
+    (norm clipped to 1); converted for ``action_mode="heading_speed"``."""
+    v = (np.asarray(waypoint_en, float) - np.asarray(own_en, float)) / (ctx.ping_interval_s * ctx.max_speed_mps)
+    norm = float(np.hypot(v[0], v[1]))
+    if norm > 1.0:
+        v = v / norm
+        norm = 1.0
+    if ctx.config.action_mode == "heading_speed":
+        bearing = float(np.arctan2(v[0], v[1])) if norm > 1e-12 else 0.0  # clockwise from north
+        return np.array([bearing / np.pi, 2.0 * norm - 1.0], dtype=np.float32)
+    return np.clip(v, -1.0, 1.0).astype(np.float32)
+
+
+class SurveyTracker:
+    """A constant-velocity model of each survey vehicle from the estimates it sends.
+
+    Keeps the latest ``window`` distinct replies (time of reply = now - reply age)
+    and fits their velocity by least squares; predictions extrapolate it (Sousa et
+    al. IV-B: "the ROV keeps moving in the same direction until the next range").
+    The fit over a few replies smooths the jumps that range updates put into the
+    estimates; with one reply the velocity is zero.
+    """
+
+    def __init__(self, window: int = 3, max_speed_mps: float = 5.0):
+        if window < 2:
+            raise ValueError("window must be >= 2")
+        self.window = int(window)
+        self.max_speed_mps = max_speed_mps
+        self.reset()
+
+    def reset(self):
+        self._t = None  # (W, S) reply times, oldest first, NaN where empty
+        self._p = None  # (W, S, 3) replies (east, north, depth below beacon)
+
+    def update(self, t_now: float, view: ObsView):
+        pos = np.concatenate([view.survey_en_m, view.depth_below_m[:, None]], -1)  # (S, 3)
+        t_reply = np.asarray(t_now - view.reply_age_s, dtype=float)
+        if self._t is None:
+            self._t = np.full((self.window,) + t_reply.shape, np.nan)
+            self._p = np.zeros((self.window,) + pos.shape)
+            self._t[-1], self._p[-1] = t_reply, pos
+            return
+        new = ~(t_reply <= self._t[-1] + 1e-6)  # a reply newer than the last kept
+        self._t = np.where(new, np.roll(self._t, -1, axis=0), self._t)
+        self._p = np.where(new[:, None], np.roll(self._p, -1, axis=0), self._p)
+        self._t[-1] = np.where(new, t_reply, self._t[-1])
+        self._p[-1] = np.where(new[:, None], pos, self._p[-1])
+
+    def velocity(self) -> np.ndarray:
+        """(S, 3) estimated velocity (east, north, depth rate): least squares over the kept replies."""
+        if self._t is None:
+            return np.zeros((0, 3))
+        ok = np.isfinite(self._t)  # (W, S)
+        n = ok.sum(0)
+        t = np.where(ok, self._t, 0.0)
+        t_mean = t.sum(0) / np.maximum(n, 1)
+        dt = np.where(ok, self._t - t_mean, 0.0)  # (W, S)
+        p_mean = (self._p * ok[..., None]).sum(0) / np.maximum(n, 1)[:, None]
+        num = (dt[..., None] * (self._p - p_mean)).sum(0)
+        den = (dt ** 2).sum(0)
+        v = np.where((den > 0)[:, None], num / np.where(den > 0, den, 1.0)[:, None], 0.0)
+        speed = np.linalg.norm(v[:, :2], axis=-1, keepdims=True)
+        return np.where(speed > self.max_speed_mps, v * self.max_speed_mps / np.maximum(speed, 1e-12), v)
+
+    def predict(self, view: ObsView, ahead_s: float) -> tuple:
+        """Survey (east, north) (S, 2) and depth below the beacon (S,) ``ahead_s`` after now."""
+        v = self.velocity()
+        dt = view.reply_age_s + ahead_s
+        en = view.survey_en_m + v[:, :2] * dt[:, None]
+        dz = view.depth_below_m + v[:, 2] * dt
+        return en, dz
+
+
+class Policy:
+    """Base class: ``act(obs) -> action`` in [-1, 1]^2, ``reset(seed=None)``.
+
+    Subclasses implement :meth:`plan` (decoded observation -> waypoint, absolute
+    east/north metres) or override :meth:`act`. ``self.t_s`` counts the time since
+    reset (one call per acoustic cycle); ``self.last_waypoint`` is kept for plots.
+    """
+
+    name = "policy"
+
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed=None):
+        self.config = config
+        self.ctx = BeaconContext.from_config(config, agent_index)
+        self.seed = seed
+        self.reset(seed)
+
+    def reset(self, seed=None):
+        if seed is not None:
+            self.seed = seed
+        self.t_s = 0.0
+        self.last_waypoint = None
+
+    def decode(self, obs) -> ObsView:
+        return decode(obs, self.config)
+
+    def plan(self, view: ObsView):
+        raise NotImplementedError
+
+    def act(self, obs) -> np.ndarray:
+        view = self.decode(obs)
+        wp = self.plan(view)
+        self.last_waypoint = np.asarray(wp, dtype=float)
+        self.t_s += self.ctx.ping_interval_s
+        return waypoint_to_action(self.ctx, view.own_en_m, wp)
+
+    def __call__(self, obs):
+        return self.act(obs)
+
+
+# ------------------------------------------------------------------------------------
+_POLICIES: dict = {}
+
+
+def register_policy(name: str):
+    def deco(cls):
+        _POLICIES[name] = cls
+        cls.name = name
+        return cls
+    return deco
+
+
+def list_policies() -> list:
+    _load_all()
+    return sorted(_POLICIES)
+
+
+def _load_all():
+    from . import ellipse, fim, simple  # noqa: F401  (register themselves)
+
+
+def resolve_config(env_or_config) -> ScenarioConfig:
+    """A ScenarioConfig from an env (any view with ``.config``), a Simulator, a
+    config or a scenario name."""
+    if isinstance(env_or_config, ScenarioConfig):
+        return env_or_config
+    if isinstance(env_or_config, str):
+        return make_config(env_or_config)
+    for obj in (env_or_config, getattr(env_or_config, "unwrapped", None)):
+        cfg = getattr(obj, "config", None)
+        if isinstance(cfg, ScenarioConfig):
+            return cfg
+    raise TypeError(f"cannot find a scenario config in {type(env_or_config).__name__}")
+
+
+def make_policy(name: str, env_or_config, seed=None, agent=0, **kwargs) -> Policy:
+    """A baseline policy by name for one beacon (``agent``: index or "beacon_k")."""
+    _load_all()
+    if name not in _POLICIES:
+        raise ValueError(f"unknown policy {name!r}; valid policies: {', '.join(sorted(_POLICIES))}")
+    if isinstance(agent, str):
+        if not agent.startswith("beacon_") or not agent[7:].isdigit():
+            raise ValueError(f"agent must be an index or 'beacon_<k>', got {agent!r}")
+        agent = int(agent[7:])
+    return _POLICIES[name](resolve_config(env_or_config), agent_index=int(agent), seed=seed, **kwargs)

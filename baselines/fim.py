@@ -1,0 +1,102 @@
+"""Sousa, Ferreira & Cruz's FIM guidance: approaches A and B (sec. III-B).
+
+After every ping the beacon's reaching set until the next ping is the disc of
+radius max speed x ping interval around it (it is treated as holonomic). The next
+waypoint is the point of that disc that maximizes
+
+* approach A, eq. (4): det of the Fisher information matrix of the two ranges
+  (current beacon position and candidate) about the survey vehicle's current
+  estimated position (the vehicle is assumed stationary between pings);
+* approach B, eqs. (5)-(6): det I(p1) + det I(p2), p1 the vehicle's current and
+  p2 its predicted position at the next ping (constant velocity from the
+  estimates it sent).
+
+Geometry is 3-D slant (the survey vehicle is ``depth_below_m`` deeper than the
+beacon, its depth known from its depth sensor), the determinant comes from
+``coopnav_env.core.information`` and the maximization is a polar grid plus a
+local refinement (``maximize_on_disc``). Soft constraints keep the waypoint inside
+the geofence, beyond the safety distance and within acoustic range; they are
+inactive in the paper's geometry. With several survey vehicles the metric is
+summed over them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from coopnav_env.core.information import maximize_on_disc, range_information_det
+
+from .base import PENALTY_PER_M, BeaconContext, Policy, SurveyTracker, register_policy
+
+
+def two_range_det(own_en, cand, target_en, depth_below):
+    """det of the horizontal FIM of two ranges, beacon at ``own_en`` (2,) now and at
+    each candidate (..., M, 2) next, about targets target_en (S, 2) depth_below (S,)
+    deeper. Returns (..., M, S); range std 1 (the argmax does not depend on it)."""
+    cand = np.asarray(cand, float)
+    S = len(target_en)
+    first = np.broadcast_to(np.append(np.asarray(own_en, float), 0.0), cand.shape[:-1] + (3,))
+    second = np.concatenate([cand, np.zeros(cand.shape[:-1] + (1,))], -1)
+    beacons = np.stack([first, second], -2)  # (..., M, 2, 3)
+    beacons = np.broadcast_to(beacons[..., None, :, :], cand.shape[:-1] + (S, 2, 3))
+    target = np.concatenate([np.asarray(target_en, float), np.asarray(depth_below, float)[:, None]], -1)  # (S, 3)
+    return range_information_det(target, beacons)
+
+
+def fim_a_waypoint(ctx: BeaconContext, own_en, target_en, depth_below, safety_en=None, safety_dz=None, **grid):
+    """Approach A: the point of the reaching disc maximizing eq. (4). Returns
+    (waypoint (2,), metric value at it)."""
+    target_en = np.atleast_2d(target_en)
+    depth_below = np.atleast_1d(np.asarray(depth_below, float))
+    s_en = target_en if safety_en is None else np.atleast_2d(safety_en)
+    s_dz = depth_below if safety_dz is None else np.atleast_1d(safety_dz)
+
+    def score(pts):
+        det = two_range_det(own_en, pts, target_en, depth_below).sum(-1)
+        return det - PENALTY_PER_M * ctx.violation_m(pts, s_en, s_dz)
+
+    return maximize_on_disc(score, np.asarray(own_en, float), ctx.reach_m, **grid)
+
+
+def fim_b_waypoint(ctx: BeaconContext, own_en, p1_en, p1_dz, p2_en, p2_dz, **grid):
+    """Approach B: the point of the reaching disc maximizing eq. (6),
+    m = det I(p1) + det I(p2). Returns (waypoint (2,), m at it)."""
+    p1_en, p2_en = np.atleast_2d(p1_en), np.atleast_2d(p2_en)
+    p1_dz, p2_dz = np.atleast_1d(np.asarray(p1_dz, float)), np.atleast_1d(np.asarray(p2_dz, float))
+
+    def score(pts):
+        m = (two_range_det(own_en, pts, p1_en, p1_dz) + two_range_det(own_en, pts, p2_en, p2_dz)).sum(-1)
+        return m - PENALTY_PER_M * ctx.violation_m(pts, p2_en, p2_dz)
+
+    return maximize_on_disc(score, np.asarray(own_en, float), ctx.reach_m, **grid)
+
+
+@register_policy("fim_a")
+class FimA(Policy):
+    """Sousa et al. approach A: maximize det I(p) of eq. (4) over the reaching set,
+    the survey vehicle assumed stationary at its last reported estimate."""
+
+    def plan(self, view):
+        wp, self.last_metric = fim_a_waypoint(self.ctx, view.own_en_m, view.survey_en_m, view.depth_below_m)
+        return wp
+
+
+@register_policy("fim_b")
+class FimB(Policy):
+    """Sousa et al. approach B: maximize det I(p1) + det I(p2) (eqs. 5-6), p2 predicted
+    one ping ahead with a constant velocity from the estimates received."""
+
+    def __init__(self, config, agent_index=0, seed=None):
+        self.tracker = SurveyTracker()
+        super().__init__(config, agent_index, seed)
+
+    def reset(self, seed=None):
+        super().reset(seed)
+        self.tracker.reset()
+
+    def plan(self, view):
+        self.tracker.update(self.t_s, view)
+        p1_en, p1_dz = self.tracker.predict(view, 0.0)
+        p2_en, p2_dz = self.tracker.predict(view, self.ctx.ping_interval_s)
+        wp, self.last_metric = fim_b_waypoint(self.ctx, view.own_en_m, p1_en, p1_dz, p2_en, p2_dz)
+        return wp

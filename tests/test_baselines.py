@@ -1,0 +1,274 @@
+"""Planners against geometries with known answers, the observation decoder, the
+Fisher-information helpers and the policy interface."""
+
+import numpy as np
+import pytest
+
+import coopnav_env
+from baselines import list_policies, make_policy, waypoint_to_action
+from baselines.base import BeaconContext, SurveyTracker
+from baselines.ellipse import ellipse_waypoint
+from baselines.fim import fim_a_waypoint, fim_b_waypoint, two_range_det
+from coopnav_env.core.information import (best_second_range_det, ellipse_to_covariance, error_ellipse,
+                                          maximize_on_disc, optimal_start_distance_m, range_information_det)
+from coopnav_env.core.sim import Simulator
+from coopnav_env.obs_layout import decode, encode, obs_dim
+
+# an ASV scenario with round numbers: 2 m/s x 20 s = 40 m reaching set, 10 m safety distance
+ASV = coopnav_env.make_config("sousa_asv", survey_path="stationary", depth_m=20.0, ping_interval_s=20.0,
+                              asv_max_speed_mps=2.0, safety_distance_m=10.0, max_cycles=60)
+SURVEY = np.array([50.0, 50.0])  # where the hand-built survey vehicles sit
+
+
+def act_waypoint(policy, obs):
+    """The waypoint a velocity action aims at: own + action * T * vmax."""
+    view = decode(obs, policy.config)
+    a = policy.act(obs)
+    return view.own_en_m + np.asarray(a, float) * policy.ctx.ping_interval_s * policy.ctx.max_speed_mps
+
+
+# ------------------------------------------------------------------------------------
+# information helpers
+
+def test_two_range_det_is_sin_squared_at_equal_depth():
+    target = np.zeros(3)
+    for ang in (0.3, 1.0, np.pi / 2, 2.5):
+        beacons = np.array([[30.0, 0, 0], [15 * np.cos(ang), 15 * np.sin(ang), 0]])
+        assert range_information_det(target, beacons) == pytest.approx(np.sin(ang) ** 2, abs=1e-12)
+
+
+def test_ellipse_covariance_round_trip():
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(20, 2, 2))
+    P = A @ np.swapaxes(A, -1, -2) + 0.1 * np.eye(2)
+    major, minor, bearing = error_ellipse(P)
+    assert np.allclose(ellipse_to_covariance(major, minor, bearing), P, atol=1e-10)
+
+
+def test_maximize_on_disc_interior_and_boundary():
+    peak = np.array([3.0, -2.0])
+
+    def score(p):
+        return -((p - peak) ** 2).sum(-1)
+
+    best, _ = maximize_on_disc(score, np.zeros(2), 10.0)
+    assert np.allclose(best, peak, atol=1e-3)
+    best, _ = maximize_on_disc(score, np.array([20.0, 0.0]), 5.0)  # peak outside: nearest boundary point
+    expect = np.array([20.0, 0.0]) + 5.0 * (peak - [20, 0]) / np.linalg.norm(peak - [20, 0])
+    assert np.allclose(best, expect, atol=1e-3)
+
+
+@pytest.mark.parametrize("h,R", [(1.0, 40.0), (5.0, 40.0), (20.0, 40.0), (50.0, 40.0), (20.0, 10.0), (5.0, 80.0)])
+def test_optimal_start_distance_is_the_argmax(h, R):
+    d = optimal_start_distance_m(h, R)
+    best = best_second_range_det(d, h, R)
+    ds = np.linspace(0.2, 4 * (R + h), 400)
+    assert best >= best_second_range_det(ds, h, R).max() - 1e-6
+    # the optimum found numerically agrees with the closed form d^2 = h^2 + R^2/2 (derived for
+    # this test: maximize [d^2/(d^2+h^2)] [y^2/(x^2+y^2+h^2)] over the disc)
+    assert d == pytest.approx(np.sqrt(h * h + R * R / 2), rel=2e-3)
+
+
+def test_optimal_start_distance_edges():
+    assert optimal_start_distance_m(0.0, 40.0) == pytest.approx(40 / np.sqrt(2))
+    assert optimal_start_distance_m(-20.0, 40.0) == optimal_start_distance_m(20.0, 40.0)
+    ds = [optimal_start_distance_m(h, 40.0) for h in (1, 5, 20, 50)]
+    assert ds == sorted(ds)  # deeper: start farther out (Fig. 11)
+    with pytest.raises(ValueError):
+        optimal_start_distance_m(5.0, 0.0)
+
+
+def test_sousa_asv_starts_at_the_optimal_distance():
+    for depth in (1.0, 50.0):
+        c = coopnav_env.make_config("sousa_asv", depth_m=depth)
+        sim = Simulator(c, 3)
+        sim.reset([0, 1, 2])
+        st = sim.state
+        dist = np.linalg.norm(st.b_pos[:, 0, :2] - st.s_pos[:, 0, :2], axis=-1)
+        expect = optimal_start_distance_m(depth, c.asv_max_speed_mps * c.ping_interval_s)
+        assert np.allclose(dist, expect, atol=1e-6)
+
+
+# ------------------------------------------------------------------------------------
+# observation layout
+
+def test_decode_matches_the_simulator_state():
+    c = coopnav_env.make_config("gao_sea", n_survey=2, beacon_kinds=("beacon_auv", "asv"))
+    sim = Simulator(c, 2)
+    sim.reset([3, 4])
+    rng = np.random.default_rng(0)
+    for _ in range(4):
+        res = sim.step(rng.uniform(-1, 1, (2, 2, 2)))
+    assert obs_dim(c) == res.obs.shape[-1]
+    v = decode(res.obs, c)
+    st = sim.state
+    own = (st.b_pos + st.b_nav_err)[..., :2]
+    assert np.allclose(v.own_en_m, own, atol=1e-3)
+    assert np.allclose(v.survey_en_m, st.k_est[..., :2], atol=1e-3)
+    assert np.allclose(v.depth_below_m, st.k_est[..., 2] - st.b_pos[..., None, 2], atol=1e-3)
+    assert np.allclose(v.cov_m2, st.k_P, atol=1e-3 * np.abs(st.k_P).max())
+    with pytest.raises(ValueError):
+        decode(res.obs[..., :-1], c)
+
+
+def test_encode_decode_round_trip():
+    obs = encode(ASV, own_en_m=[10.0, -20.0], survey_rel_m=[[30.0, 40.0, 20.0]], major_m=12.0, minor_m=3.0,
+                 bearing_rad=2.0, reply_age_s=20.0)
+    assert obs.shape == (obs_dim(ASV),)
+    v = decode(obs, ASV)
+    assert np.allclose(v.own_en_m, [10, -20], atol=1e-3)
+    assert np.allclose(v.survey_en_m, [[40, 20]], atol=1e-3)
+    assert np.allclose([v.major_m[0], v.minor_m[0], v.bearing_rad[0], v.reply_age_s[0]], [12, 3, 2, 20], atol=1e-3)
+
+
+# ------------------------------------------------------------------------------------
+# planners on hand-built geometry
+
+def test_fim_a_picks_the_tangent_point_at_equal_depth():
+    """Vehicle at the beacon's depth at the origin, beacon on the x axis: det is sin^2 of the
+    angle between the range directions, so approach A goes to where a line from the origin
+    touches the reaching disc."""
+    c = ASV.replace(depth_m=0.0)
+    R = 2.0 * c.ping_interval_s
+    for d in (60.0, 100.0):
+        own = SURVEY + [d, 0.0]
+        obs = encode(c, own_en_m=own, survey_rel_m=[[-d, 0.0, 0.0]])
+        policy = make_policy("fim_a", c)
+        wp = act_waypoint(policy, obs) - SURVEY
+        phi = np.arcsin(R / d)
+        tangent = np.sqrt(d * d - R * R) * np.array([np.cos(phi), np.sin(phi)])
+        assert np.allclose([wp[0], abs(wp[1])], tangent, atol=0.05), (wp, tangent)
+        assert policy.last_metric == pytest.approx((R / d) ** 2, abs=1e-5)
+
+
+def _brute_force(score, center, radius, n=401):
+    g = np.linspace(-radius, radius, n)
+    pts = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
+    pts = pts[(pts ** 2).sum(-1) <= radius ** 2] + center
+    return score(pts).max()
+
+
+@pytest.mark.parametrize("depth", [5.0, 20.0, 50.0])
+def test_fim_a_beats_a_dense_grid_with_depth(depth):
+    ctx = BeaconContext.from_config(ASV.replace(depth_m=depth))
+    own = SURVEY + [45.0, -20.0]
+    wp, val = fim_a_waypoint(ctx, own, SURVEY[None], [depth])
+    assert np.linalg.norm(wp - own) <= ctx.reach_m + 1e-9
+    brute = _brute_force(lambda p: two_range_det(own, p, SURVEY[None], [depth]).sum(-1), own, ctx.reach_m)
+    assert val >= brute - 1e-6
+
+
+def test_fim_b_maximizes_the_sum_of_determinants():
+    ctx = BeaconContext.from_config(ASV)
+    own = SURVEY + [20.0, 0.0]  # Sousa Fig. 6: the ROV moves from (0,0,-20) to (20,0,-20), ASV at (20,0)
+    p1, p2 = SURVEY[None], (SURVEY + [20.0, 0.0])[None]
+    wp, val = fim_b_waypoint(ctx, own, p1, [20.0], p2, [20.0])
+    brute = _brute_force(lambda p: (two_range_det(own, p, p1, [20.0]) + two_range_det(own, p, p2, [20.0])).sum(-1),
+                         own, ctx.reach_m)
+    assert val >= brute - 1e-6
+    # with the vehicle standing still, B is A with the metric doubled
+    wp_a, val_a = fim_a_waypoint(ctx, own, p1, [20.0])
+    wp_b, val_b = fim_b_waypoint(ctx, own, p1, [20.0], p1, [20.0])
+    assert val_b == pytest.approx(2 * val_a, rel=1e-6)
+
+
+def test_fim_b_predicts_with_constant_velocity():
+    c = ASV.replace(depth_m=0.0)
+    T = c.ping_interval_s
+    policy = make_policy("fim_b", c)
+    own = SURVEY + [60.0, 0.0]
+    policy.act(encode(c, own_en_m=own, survey_rel_m=[[-60.0, 0.0, 0.0]]))
+    # one ping later the vehicle has moved 20 m north; the beacon did not move
+    policy.act(encode(c, own_en_m=own, survey_rel_m=[[-60.0, 20.0, 0.0]]))
+    assert np.allclose(policy.tracker.velocity()[0, :2], [0.0, 20.0 / T], atol=1e-3)
+    view = decode(encode(c, own_en_m=own, survey_rel_m=[[-60.0, 20.0, 0.0]]), c)
+    p2, _ = policy.tracker.predict(view, T)
+    assert np.allclose(p2[0], SURVEY + [0.0, 40.0], atol=1e-2)
+    policy.reset()
+    assert policy.tracker.velocity().size == 0
+
+
+@pytest.mark.parametrize("bearing_deg,own_offset", [(0.0, (25.0, 0.0)), (90.0, (0.0, 25.0)), (45.0, (0.0, -30.0))])
+def test_ellipse_puts_the_next_range_along_the_major_axis(bearing_deg, own_offset):
+    c = ASV.replace(depth_m=5.0)
+    b = np.radians(bearing_deg)
+    obs = encode(c, own_en_m=SURVEY + own_offset, survey_rel_m=[[-own_offset[0], -own_offset[1], 5.0]],
+                 major_m=30.0, minor_m=4.0, bearing_rad=b)
+    policy = make_policy("ellipse", c)
+    wp = act_waypoint(policy, obs) - SURVEY
+    axis = np.array([np.sin(b), np.cos(b)])  # major axis (east, north)
+    cos = abs(wp @ axis) / np.linalg.norm(wp)
+    assert cos > np.cos(np.radians(5.0)), (wp, axis)
+    assert np.hypot(np.linalg.norm(wp), 5.0) >= c.safety_distance_m  # keeps the safety distance
+
+
+def test_ellipse_respects_the_geofence():
+    c = ASV.replace(depth_m=5.0)
+    e0, n0, e1, n1 = c.geofence_m
+    survey = np.array([e1 - 10.0, 50.0])  # major axis east-west, the east side is outside the fence
+    own = survey + [0.0, 30.0]
+    obs = encode(c, own_en_m=own, survey_rel_m=[[0.0, -30.0, 5.0]], major_m=30.0, minor_m=4.0,
+                 bearing_rad=np.pi / 2)
+    wp = act_waypoint(make_policy("ellipse", c), obs)
+    assert wp[0] <= e1
+    assert wp[0] < survey[0] - 15.0  # went to the west end of the axis instead
+
+
+def test_circle_orbits_and_static_holds():
+    c = ASV
+    own = SURVEY + [40.0, 0.0]
+    obs = encode(c, own_en_m=own, survey_rel_m=[[-40.0, 0.0, 20.0]])
+    wp = act_waypoint(make_policy("circle", c), obs) - SURVEY
+    assert np.linalg.norm(wp) == pytest.approx(40.0, abs=1e-3)
+    assert wp[1] > 0  # anticlockwise
+    assert np.allclose(make_policy("static", c).act(obs), 0.0)
+
+
+def test_waypoint_to_action():
+    ctx = BeaconContext.from_config(ASV)
+    assert np.allclose(waypoint_to_action(ctx, [0, 0], [20.0, 0.0]), [0.5, 0.0])
+    a = waypoint_to_action(ctx, [0, 0], [300.0, 400.0])
+    assert np.allclose(a, [0.6, 0.8])
+    ctx_h = BeaconContext.from_config(ASV.replace(action_mode="heading_speed"))
+    a = waypoint_to_action(ctx_h, [0, 0], [-20.0, 0.0])  # due west at half speed
+    assert np.allclose(a, [-0.5, 0.0], atol=1e-6)
+
+
+def test_survey_tracker_without_history_is_still():
+    tr = SurveyTracker()
+    v = decode(encode(ASV, own_en_m=[0, 0], survey_rel_m=[[10, 0, 5]]), ASV)
+    tr.update(0.0, v)
+    assert np.allclose(tr.velocity(), 0.0)
+
+
+# ------------------------------------------------------------------------------------
+# the interface, on the real environment
+
+def test_make_policy_rejects_unknown_names():
+    with pytest.raises(ValueError, match="valid policies"):
+        make_policy("nope", ASV)
+    assert {"fim_a", "fim_b", "ellipse", "static", "circle", "random"} <= set(list_policies())
+
+
+@pytest.mark.parametrize("scenario,kw", [("gao_lawnmower", {}), ("gao_sea", {"beacon_kinds": ("beacon_auv", "asv"),
+                                                                          "n_survey": 2})])
+def test_every_policy_drives_the_pettingzoo_env(scenario, kw):
+    env = coopnav_env.parallel_env(scenario, seed=0, max_cycles=3, **kw)
+    for name in list_policies():
+        obs, _ = env.reset(seed=1)
+        pols = {a: make_policy(name, env, seed=0, agent=a) for a in env.agents}
+        while env.agents:
+            actions = {a: pols[a].act(obs[a]) for a in env.agents}
+            for a in actions.values():
+                assert a.shape == (2,) and np.all(np.isfinite(a)) and np.all(np.abs(a) <= 1.0)
+            obs, *_ = env.step(actions)
+
+
+def test_random_policy_is_seeded():
+    obs = encode(ASV, own_en_m=[0, 0], survey_rel_m=[[10, 0, 5]])
+    a = [make_policy("random", ASV, seed=7).act(obs) for _ in range(2)]
+    assert np.array_equal(a[0], a[1])
+    p = make_policy("random", ASV, seed=7)
+    first = p.act(obs)
+    p.reset()
+    assert np.array_equal(p.act(obs), first)

@@ -1,0 +1,141 @@
+"""evaluate.py on tiny runs: files, columns, common random numbers, resume, sweeps and
+bad input (one line, exit status 2, before any work)."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+import evaluate  # noqa: E402
+
+TINY = ["--scenario", "gao_lawnmower", "--set", "max_cycles=3"]
+
+
+def rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp("eval") / "run")
+    code = evaluate.main(TINY + ["--policies", "static,fim_a,random", "--episodes", "2", "--seed", "5",
+                                 "--out", out])
+    assert code == 0
+    return out
+
+
+def test_outputs_and_columns(tiny_run):
+    for name in ("summary.json", "summary.md", "episodes.csv", "steps.csv", "run.json", "paths.png",
+                 "error_vs_time.png", "ellipse_axes.png"):
+        assert os.path.getsize(os.path.join(tiny_run, name)) > 0, name
+    assert not [f for f in os.listdir(tiny_run) if f.endswith(".tmp")]
+    with open(os.path.join(tiny_run, "summary.json")) as f:
+        summary = json.load(f)
+    assert summary["scenario"] == "gao_lawnmower" and summary["episodes"] == 2
+    assert set(summary["policies"]) == {"static", "fim_a", "random"}
+    keys = {"mean_error_m", "median_error_m", "p95_error_m", "std_error_m", "ci95_error_m", "final_error_m",
+            "mean_return", "ranges_fused", "outliers_rejected", "beacon_distance_m"}
+    for stats in summary["policies"].values():
+        assert keys <= set(stats)
+        lo, hi = stats["ci95_error_m"]
+        assert lo <= stats["mean_error_m"] <= hi
+    eps = rows(os.path.join(tiny_run, "episodes.csv"))
+    assert len(eps) == 3 * 2
+    assert {"policy", "episode", "seed", "mean_error_m", "final_error_m", "return", "ranges_fused",
+            "outliers_rejected", "beacon_distance_m"} <= set(eps[0])
+    assert sorted({r["seed"] for r in eps}) == ["5", "6"]
+    steps = rows(os.path.join(tiny_run, "steps.csv"))
+    assert len(steps) == 3 * 2 * 3
+    md = open(os.path.join(tiny_run, "summary.md")).read()
+    assert "| fim_a |" in md and "95% CI" in md
+
+
+def test_common_random_numbers(tiny_run):
+    """Every policy sees the same episode: the first step's dead-reckoning error (which no
+    beacon can change) is identical across policies."""
+    steps = rows(os.path.join(tiny_run, "steps.csv"))
+    first = {}
+    for r in steps:
+        if r["step"] == "1":
+            first.setdefault(r["seed"], set()).add(r["dr_error_m"])
+    assert all(len(v) == 1 for v in first.values())
+
+
+def test_resume_skips_done_episodes(tmp_path):
+    out = str(tmp_path / "r")
+    assert evaluate.main(TINY + ["--policies", "static,ellipse", "--episodes", "2", "--out", out,
+                                 "--no-figures"]) == 0
+    before = rows(os.path.join(out, "episodes.csv"))
+    # an interrupted run: the last episode of one policy is missing from the files
+    with open(os.path.join(out, "episodes.csv")) as f:
+        lines = f.readlines()
+    with open(os.path.join(out, "episodes.csv"), "w") as f:
+        f.writelines(lines[:-1])
+    assert evaluate.main(TINY + ["--policies", "static,ellipse", "--episodes", "3", "--out", out,
+                                 "--no-figures", "--resume"]) == 0
+    after = rows(os.path.join(out, "episodes.csv"))
+    assert len(after) == 2 * 3
+    keep = {(r["policy"], r["seed"]): r for r in after}
+    for r in before:  # re-run episodes reproduce, kept ones are untouched
+        assert keep[(r["policy"], r["seed"])]["mean_error_m"] == r["mean_error_m"]
+    steps = rows(os.path.join(out, "steps.csv"))
+    assert len(steps) == 2 * 3 * 3
+    # resuming into a run of another scenario is refused
+    code = evaluate.main(["--scenario", "sousa_asv", "--policies", "static", "--episodes", "1", "--out", out,
+                          "--resume"])
+    assert code == 2
+
+
+def test_sweep_writes_the_table_layout(tmp_path):
+    out = str(tmp_path / "s")
+    code = evaluate.main(["--scenario", "sousa_asv", "--set", "max_cycles=2", "--policies", "fim_a,static",
+                          "--episodes", "1", "--sweep", "depth_m=1,50", "--sweep", "survey_path=stationary,circle",
+                          "--out", out])
+    assert code == 0
+    summary = json.load(open(os.path.join(out, "summary.json")))
+    assert len(summary["cells"]) == 4
+    assert summary["cells"][0]["params"] == {"depth_m": 1.0, "survey_path": "stationary"}
+    md = open(os.path.join(out, "summary.md")).read()
+    assert "## fim_a: mean error (m) / variance (m^2)" in md
+    assert "| depth_m | stationary | circle |" in md
+    eps = rows(os.path.join(out, "episodes.csv"))
+    assert len(eps) == 4 * 2 and {"depth_m", "survey_path"} <= set(eps[0])
+    assert os.path.getsize(os.path.join(out, "sweep.png")) > 0
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--policies", "static,nope"], "unknown policy 'nope'"),
+    (["--scenario", "atlantis"], "unknown scenario 'atlantis'"),
+    (["--sweep", "depth=1,5"], "depth"),
+    (["--sweep", "survey_path=stationary,zigzag"], "zigzag"),
+    (["--sweep", "depth_m=1,deep"], "deep"),
+    (["--set", "max_cycles=2.5"], "max_cycles"),
+    (["--set", "depth_m=-3"], "depth_m"),
+    (["--episodes", "0"], "--episodes"),
+    (["--bogus"], "unrecognized"),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, argv, needle):
+    out = tmp_path / "never"
+    code = evaluate.main(["--out", str(out)] + argv)
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and needle in err, err
+    assert not out.exists()  # no work done
+
+
+def test_output_path_that_is_a_file(tmp_path):
+    f = tmp_path / "file.txt"
+    f.write_text("x")
+    proc = subprocess.run([sys.executable, os.path.join(ROOT, "evaluate.py"), "--out", str(f), "--episodes", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and "is a file" in proc.stderr
+    assert proc.stdout == ""
+    assert f.read_text() == "x"
