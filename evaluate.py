@@ -164,9 +164,16 @@ def prepare(args) -> dict:
     if not policies:
         raise UsageError("no policy given")
     valid = list_policies()
-    bad = [p for p in policies if p not in valid]
-    if bad:
-        raise UsageError(f"unknown policy {bad[0]!r}; valid policies: {', '.join(valid)}")
+    for p in policies:
+        if p not in valid:
+            try:  # a trained policy: "ppo" (the scenario's shipped one), a shipped name, or a run directory
+                import agents
+
+                agents.resolve(p, args.scenario)
+            except Exception as err:  # noqa: BLE001 - any failure to find it is a usage error
+                raise UsageError(f"unknown policy {p!r} ({err}); valid: {', '.join(valid)}, ppo, a shipped policy "
+                                 f"({', '.join(agents.list_policies()) or 'none shipped'}) or a train.py run "
+                                 "directory") from None
     if len(set(policies)) != len(policies):
         raise UsageError("a policy is listed twice")
     if args.episodes < 1:
@@ -290,10 +297,20 @@ def read_csv(path):
 # ------------------------------------------------------------------------------------
 # running episodes
 
+def make_policy(name: str, config, seed, agent: int):
+    """A planner from baselines/ by name, else a trained policy through agents/ (same interface)."""
+    import baselines
+
+    if name in baselines.list_policies():
+        return baselines.make_policy(name, config, seed=seed, agent=agent)
+    import agents
+
+    return agents.make_policy(name, config, seed=seed, agent=agent)
+
+
 def run_episodes(config, policy_name: str, seeds, progress=None):
     """Run ``policy_name`` (one instance per beacon and episode) on episodes ``seeds``
     as one batch. Returns (episode rows, step rows) without cell/policy columns."""
-    from baselines import make_policy
     from coopnav_env.core.information import error_ellipse
     from coopnav_env.core.sim import Simulator
 
@@ -358,7 +375,6 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
 
 def record_episode(config, policy_name: str, seed: int):
     """Re-run one episode and keep every snapshot (for the path figure)."""
-    from baselines import make_policy
     from coopnav_env.core.sim import Simulator
     from coopnav_env.render import EpisodeRecorder
 

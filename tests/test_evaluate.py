@@ -139,3 +139,27 @@ def test_output_path_that_is_a_file(tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1 and "is a file" in proc.stderr
     assert proc.stdout == ""
     assert f.read_text() == "x"
+
+
+def test_a_trained_run_directory_evaluates_beside_the_planners(tmp_path):
+    """--policies RUN_DIR,static: a policy written by train.py runs through agents/."""
+    pytest.importorskip("stable_baselines3")
+    import yaml
+
+    import train
+
+    hp = {"n_envs": 2, "ppo": {"n_steps": 32, "batch_size": 64, "n_epochs": 1, "policy_kwargs": {"net_arch": [8]}},
+          "env": {"overrides": {"max_cycles": 4}}, "eval": {"every_steps": 10**9, "episodes": 1, "seed": 7, "baselines": []},
+          "checkpoint_every_steps": 10**9}
+    cfg = tmp_path / "hp.yml"
+    cfg.write_text(yaml.safe_dump(hp))
+    run = tmp_path / "ppo_run"
+    assert train.main(["--scenario", "gao_lawnmower", "--timesteps", "64", "--seed", "1", "--out", str(run),
+                       "--config", str(cfg), "--no-progress"]) == 0
+    out = tmp_path / "eval"
+    code = evaluate.main(TINY + ["--policies", f"{run},static", "--episodes", "2", "--seed", "3", "--out", str(out),
+                                 "--no-figures"])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["policies"]) == {str(run), "static"}
+    assert summary["policies"][str(run)]["mean_error_m"] > 0
