@@ -273,21 +273,21 @@ class Simulator:
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
         nan_count = np.zeros((B, S), dtype=np.int64)
         self._k_depth_gps(st.s_est, st.s_P, st.s_pos, draws["sensor_n"], draws["sensor_u"], nan_count,
-                       c.depth_noise_m, c.gps_noise_m, c.gps_max_depth_m, c.sensor_nan_probability)
+                          c.depth_noise_m, c.gps_noise_m, c.gps_max_depth_m, c.sensor_nan_probability)
         logdet_before = logdet_horizontal(st.s_P)
 
         # 4. acoustic ranging --------------------------------------------------------
         fused = np.zeros((B, N, S), dtype=bool)
         rejected, lost = np.zeros_like(fused), np.zeros_like(fused)
         self._k_ranges(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel,
-                    st.b_pos + st.b_nav_err, st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s,
-                    st.clock_drift, draws["acoustic_n"], draws["acoustic_u"],
-                    st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err, self._sends_current,
-                    st.s_current_est, st.s_last_range_t_s, fused, rejected, lost, nan_count,
-                    c.ranging_mode == "twtt", c.turnaround_s, c.range_noise_std_m * st.ep_noise_scale, c.max_range_m,
-                    c.packet_loss_near, c.packet_loss_far, c.outlier_probability, c.outlier_mean_excess_m,
-                    c.sensor_nan_probability, c.water_temperature_c, c.salinity_psu, c.temperature_uncertainty_c,
-                    self._gate)
+                       st.b_pos + st.b_nav_err, st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s,
+                       st.clock_drift, draws["acoustic_n"], draws["acoustic_u"],
+                       st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err, self._sends_current,
+                       st.s_current_est, st.s_last_range_t_s, fused, rejected, lost, nan_count,
+                       c.ranging_mode == "twtt", c.turnaround_s, c.range_noise_std_m * st.ep_noise_scale, c.max_range_m,
+                       c.packet_loss_near, c.packet_loss_far, c.outlier_probability, c.outlier_mean_excess_m,
+                       c.sensor_nan_probability, c.water_temperature_c, c.salinity_psu, c.temperature_uncertainty_c,
+                       self._gate)
         logdet_after = logdet_horizontal(st.s_P)
 
         # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
@@ -323,16 +323,15 @@ class Simulator:
     # ------------------------------------------------------------------------------
     def _integrate_survey(self, draws):
         c, st = self.config, self.state
-        B, S, K = self.batch_size, self.S, self.K
         dt = c.substep_s
         noise = draws["substep"] * st.ep_noise_scale[:, None, None, None]  # (B,K,2,S): compass, pitch
-        self._k_survey(st.s_pos, st.s_est, st.s_dr, st.s_heading, st.s_wp_index, st.s_done, st.s_vel_true, st.s_vel_est,
-               st.s_speed_model_mps, st.s_waypoints, st.s_n_waypoints, st.s_hover, st.s_thrust_n, st.s_speed_scale,
-               self._drag_k, c.survey_mass_kg, st.s_compass_bias_rad, np.radians(c.compass_noise_deg) * noise[:, :, 0],
-               np.radians(c.attitude_noise_deg) * noise[:, :, 1], st.current_mean + st.current_gm,
-               st.s_current_est, dt, c.los_alpha, c.waypoint_acceptance_m,
-               self._survey_turn_cos, self._survey_turn_sin, np.radians(c.survey_max_pitch_deg),
-               c.survey_depth_gain_per_m)
+        self._k_survey(st.s_pos, st.s_est, st.s_dr, st.s_heading, st.s_wp_index, st.s_done, st.s_vel_true,
+                       st.s_vel_est, st.s_speed_model_mps, st.s_waypoints, st.s_n_waypoints, st.s_hover, st.s_thrust_n,
+                       st.s_speed_scale, self._drag_k, c.survey_mass_kg, st.s_compass_bias_rad,
+                       np.radians(c.compass_noise_deg) * noise[:, :, 0], np.radians(c.attitude_noise_deg) * noise[:, :, 1],
+                       st.current_mean + st.current_gm, st.s_current_est, dt, c.los_alpha, c.waypoint_acceptance_m,
+                       self._survey_turn_cos, self._survey_turn_sin, np.radians(c.survey_max_pitch_deg),
+                       c.survey_depth_gain_per_m)
 
     def _beacon_navigation(self, draws):
         c, st = self.config, self.state
