@@ -116,9 +116,12 @@ def _integrate_beacons(pos, heading, vel, command, cos_max_turn, sin_max_turn, n
             speed = abs(v)
             h = heading[b, n]
             p = pos[b, n, 0] + 1j * pos[b, n, 1]
-            for _ in range(n_substeps):
+            for k in range(n_substeps):
                 if speed > 1e-9:
                     h = turn_toward(h, v, cos_max_turn[n], sin_max_turn[n])
+                    if h == v / speed:  # on course: the rest of the cycle is a straight line
+                        p += speed * h * dt * (n_substeps - k)
+                        break
                 p += speed * h * dt
             pos[b, n, 0], pos[b, n, 1] = p.real, p.imag
             heading[b, n] = h
