@@ -195,6 +195,18 @@ class Policy:
         return self.act(obs)
 
 
+class TrackingPolicy(Policy):
+    """A policy that follows the survey vehicle through its replies (``self.tracker``)."""
+
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed=None):
+        self.tracker = SurveyTracker()
+        super().__init__(config, agent_index, seed)
+
+    def reset(self, seed=None):
+        super().reset(seed)
+        self.tracker.reset()
+
+
 # ------------------------------------------------------------------------------------
 _POLICIES: dict = {}
 

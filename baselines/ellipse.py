@@ -23,7 +23,7 @@ import numpy as np
 
 from coopnav_env.core.information import maximize_on_disc
 
-from .base import PENALTY_PER_M, BeaconContext, Policy, SurveyTracker, register_policy, slant_distance
+from .base import PENALTY_PER_M, BeaconContext, TrackingPolicy, register_policy, slant_distance
 
 
 def ellipse_waypoint(ctx: BeaconContext, own_en, survey_en, depth_below, P, range_var_m2, **grid):
@@ -46,16 +46,8 @@ def ellipse_waypoint(ctx: BeaconContext, own_en, survey_en, depth_below, P, rang
 
 
 @register_policy("ellipse")
-class EllipsePolicy(Policy):
+class EllipsePolicy(TrackingPolicy):
     """Gao & Chitre: the next range along the major axis of the predicted error ellipse."""
-
-    def __init__(self, config, agent_index=0, seed=None):
-        self.tracker = SurveyTracker()
-        super().__init__(config, agent_index, seed)
-
-    def reset(self, seed=None):
-        super().reset(seed)
-        self.tracker.reset()
 
     def plan(self, view):
         c, T = self.config, self.ctx.ping_interval_s

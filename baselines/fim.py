@@ -26,7 +26,7 @@ import numpy as np
 
 from coopnav_env.core.information import maximize_on_disc, range_information_det
 
-from .base import PENALTY_PER_M, BeaconContext, Policy, SurveyTracker, register_policy
+from .base import PENALTY_PER_M, BeaconContext, Policy, TrackingPolicy, register_policy
 
 
 def two_range_det(own_en, cand, target_en, depth_below):
@@ -82,17 +82,9 @@ class FimA(Policy):
 
 
 @register_policy("fim_b")
-class FimB(Policy):
+class FimB(TrackingPolicy):
     """Sousa et al. approach B: maximize det I(p1) + det I(p2) (eqs. 5-6), p2 predicted
     one ping ahead with a constant velocity from the estimates received."""
-
-    def __init__(self, config, agent_index=0, seed=None):
-        self.tracker = SurveyTracker()
-        super().__init__(config, agent_index, seed)
-
-    def reset(self, seed=None):
-        super().reset(seed)
-        self.tracker.reset()
 
     def plan(self, view):
         self.tracker.update(self.t_s, view)

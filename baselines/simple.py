@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Policy, SurveyTracker, register_policy
+from .base import Policy, TrackingPolicy, register_policy
 
 
 @register_policy("static")
@@ -20,7 +20,7 @@ class StaticPolicy(Policy):
 
 
 @register_policy("circle")
-class CirclePolicy(Policy):
+class CirclePolicy(TrackingPolicy):
     """Orbit the survey vehicle's predicted position anticlockwise at ``radius_m``,
     advancing by up to 90 % of the reaching set per ping (at most 60 degrees)."""
 
@@ -28,12 +28,7 @@ class CirclePolicy(Policy):
         if not radius_m > 0:
             raise ValueError(f"radius_m must be > 0, got {radius_m!r}")
         self.radius_m = float(radius_m)
-        self.tracker = SurveyTracker()
         super().__init__(config, agent_index, seed)
-
-    def reset(self, seed=None):
-        super().reset(seed)
-        self.tracker.reset()
 
     def plan(self, view):
         self.tracker.update(self.t_s, view)
