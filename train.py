@@ -21,12 +21,25 @@ What a run directory holds (``--out``):
     evaluations.jsonl          one line per evaluation
     tb/                        TensorBoard logs (if tensorboard is installed)
 
-Evaluation: the deterministic policy on ``eval.episodes`` fixed seeds (environment
-``e`` of the evaluation batch is seeded ``eval.seed + e``), scored by the mean of
-``survey_error_m`` over every step of every episode (evaluate.py's
-``mean_error_m``; lower is better); the
-baselines named in ``eval.baselines`` (``fim_a``) are scored once on the same
-seeds (common random numbers). Every file is written to a temporary name and
+Domain randomization: the YAML's ``env.overrides`` may set the core's per-episode
+randomization (``randomize_survey_path``, ``randomize_depth_m``,
+``randomize_noise_scale``, the current's spreads); every episode then draws its
+path kind, depth and noise from its seed inside the one batched simulator.
+
+Training reward: the YAML's ``reward:`` (``{term: weight}``, see
+``coopnav_env.vector``) replaces the environment's reward by a weighted sum of
+training signals, for training only (evaluation always scores survey_error_m).
+
+Evaluation: the deterministic policy on ``eval.episodes`` fixed seeds per cell
+(episode ``i`` of every cell is seeded ``eval.seed + i``: common random numbers
+across cells and policies), scored by the mean of ``survey_error_m`` over every
+step of every episode of every cell (evaluate.py's ``mean_error_m``; lower is
+better). ``eval.cells`` (``{survey_path: [...], depth_m: [...]}``) evaluates
+every combination as a fixed scenario (those values set, randomization off);
+without it the evaluation runs the training scenario as it is. The baselines
+named in ``eval.baselines`` (``fim_a``) are scored once on the same seeds, per
+cell too; ``evaluations.jsonl`` records the per-cell scores and how many cells
+the policy beats each baseline in. Every file is written to a temporary name and
 moved into place with ``os.replace``, so an interrupted run never leaves a half
 written checkpoint. Ctrl-C (SIGINT) or SIGTERM stops at the next rollout
 boundary after writing a checkpoint; ``--resume`` continues from the last one up
@@ -131,10 +144,17 @@ def load_hyperparameters(path: Path) -> dict:
         hp = yaml.safe_load(f) or {}
     if not isinstance(hp, dict):
         fail(f"{path}: expected a mapping of hyperparameters")
-    known = {"policy", "n_envs", "ppo", "normalize", "env", "eval", "checkpoint_every_steps"}
+    known = {"policy", "n_envs", "ppo", "normalize", "env", "eval", "checkpoint_every_steps", "reward"}
     unknown = sorted(set(hp) - known)
     if unknown:
         fail(f"{path}: unknown section(s) {', '.join(unknown)}; valid: {', '.join(sorted(known))}")
+    env = hp.get("env") or {}
+    if "variants" in env:
+        fail(f"{path}: env.variants is gone: set the core's per-episode randomization in env.overrides "
+             "(randomize_survey_path, randomize_depth_m, randomize_noise_scale)")
+    extra = sorted(set(env) - {"overrides"})
+    if extra:
+        fail(f"{path}: unknown env entr(y/ies) {', '.join(extra)}; valid: overrides")
     return hp
 
 
@@ -199,47 +219,72 @@ def plain(obj):
 # ----------------------------------------------------------------------------------
 # 4. evaluation on fixed seeds
 # ----------------------------------------------------------------------------------
-def evaluate(act, env_kwargs: dict, episodes: int, seed: int) -> dict:
+RANDOMIZATION_OFF = {"randomize_survey_path": (), "randomize_depth_m": (), "randomize_noise_scale": ()}
+
+
+def eval_cells(scenario_config, ev: dict) -> list:
+    """[(label, ScenarioConfig)] the evaluation runs: every combination of ``eval.cells``
+    ({parameter: [values]}) as a fixed scenario, or without cells the training
+    scenario (label "all"); the per-episode randomization is off in every cell (the
+    scenario's own survey_path, depth_m and noise levels unless the cell sets them)."""
+    grid = ev.get("cells") or {}
+    base = scenario_config.replace(**RANDOMIZATION_OFF)
+    if not grid:
+        return [("all", base)]
+    if not isinstance(grid, dict):
+        raise ValueError(f"eval.cells must map parameters to lists of values, got {grid!r}")
+    cells = [{}]
+    for name, values in grid.items():
+        if not isinstance(values, (list, tuple)) or not values:
+            raise ValueError(f"eval.cells entry {name!r} must be a non-empty list of values")
+        cells = [dict(c, **{name: v}) for c in cells for v in values]
+    return [(";".join(f"{k}={v}" for k, v in cell.items()), base.replace(**cell)) for cell in cells]
+
+
+def evaluate(act, cells: list, episodes: int, seed: int) -> dict:
     """Run ``act(obs (rows, D), venv) -> actions (rows, 2)`` for one episode in each of
-    ``episodes`` environments seeded ``seed + e``. Score: survey_error_m (the info's
-    mean over survey vehicles) averaged over every step of every episode, as
-    evaluate.py's ``mean_error_m``."""
+    ``episodes`` environments seeded ``seed + e`` in every cell of ``cells``
+    ([(label, ScenarioConfig)], see ``eval_cells``). Score: survey_error_m (the
+    info's mean over survey vehicles) averaged over every step of every episode of
+    every cell, as evaluate.py's ``mean_error_m``; ``per_cell`` the same per cell."""
     from coopnav_env.vector import CoopNavVecEnv
 
-    venv = CoopNavVecEnv(n_envs=episodes, seed=seed, **env_kwargs)
-    N = venv.n_beacons
-    obs = venv.reset()
-    running = np.ones(episodes, dtype=bool)
-    err_sum = np.zeros(episodes)
-    steps = np.zeros(episodes)
-    while running.any():
-        obs, _, done, infos = venv.step(act(obs, venv))
-        err = np.array([infos[e * N]["survey_error_m"] for e in range(episodes)])
-        err_sum += np.where(running, err, 0.0)
-        steps += running
-        running &= ~done[::N]
-    per_episode = err_sum / steps
-    out = {"survey_error_m": float(err_sum.sum() / steps.sum()), "episodes": episodes,
-           "survey_error_m_per_episode": per_episode.round(4).tolist()}
-    if len(venv.configs) > 1:
-        out["survey_error_m_per_variant"] = [float(err_sum[venv.env_variant == g].sum()
-                                                   / steps[venv.env_variant == g].sum())
-                                             for g in range(len(venv.configs))]
-    return out
+    per_cell, per_episode, total, count = {}, [], 0.0, 0
+    for label, config in cells:
+        venv = CoopNavVecEnv(config, n_envs=episodes, seed=seed)
+        N = venv.n_beacons
+        obs = venv.reset()
+        running = np.ones(episodes, dtype=bool)
+        err_sum = np.zeros(episodes)
+        steps = np.zeros(episodes)
+        while running.any():
+            obs, _, done, infos = venv.step(act(obs, venv))
+            err = np.array([infos[e * N]["survey_error_m"] for e in range(episodes)])
+            err_sum += np.where(running, err, 0.0)
+            steps += running
+            running &= ~done[::N]
+        per_cell[label] = float(err_sum.sum() / steps.sum())
+        per_episode.extend((err_sum / steps).round(4).tolist())
+        total += err_sum.sum()
+        count += steps.sum()
+    return {"survey_error_m": float(total / count), "episodes": episodes * len(cells),
+            "survey_error_m_per_episode": per_episode, "per_cell": per_cell}
 
 
 def baseline_actor(name: str):
-    """A batch actor from one baselines policy per row (reset at the first step)."""
+    """A batch actor from one baselines policy per row (reset at the first step of a
+    new evaluation environment)."""
     from baselines import make_policy
 
     policies = {}
 
     def act(obs, venv):
-        if not policies:
+        if policies.get("venv") is not venv:
+            policies.clear()
+            policies["venv"] = venv
             for row in range(venv.num_envs):
                 e, j = divmod(row, venv.n_beacons)
-                policies[row] = make_policy(name, venv.configs[venv.env_variant[e]],
-                                            seed=int(venv.episode_seeds[e]), agent=j)
+                policies[row] = make_policy(name, venv.config, seed=int(venv.episode_seeds[e]), agent=j)
         return np.stack([policies[row].act(obs[row]) for row in range(venv.num_envs)])
 
     return act
@@ -255,7 +300,7 @@ def model_actor(model, vecnorm):
 # ----------------------------------------------------------------------------------
 # 5. the callback: checkpoints, evaluation, best model, stop on signal
 # ----------------------------------------------------------------------------------
-def make_callback(out: Path, hp: dict, env_kwargs: dict, vecnorm, baseline_scores: dict, state: dict):
+def make_callback(out: Path, hp: dict, cells: list, vecnorm, baseline_scores: dict, state: dict):
     from stable_baselines3.common.callbacks import BaseCallback
 
     ckpt_dir = out / "checkpoints"
@@ -302,25 +347,34 @@ def make_callback(out: Path, hp: dict, env_kwargs: dict, vecnorm, baseline_score
 
         def evaluate(self):
             t0 = time.perf_counter()
-            result = evaluate(model_actor(self.model, vecnorm), env_kwargs, eval_episodes, eval_seed)
+            result = evaluate(model_actor(self.model, vecnorm), cells, eval_episodes, eval_seed)
             score = result["survey_error_m"]
-            record = {"num_timesteps": self.model.num_timesteps, "wall_s": round(time.perf_counter() - state["t0"], 1),
-                      "survey_error_m": score, **{f"{k}_survey_error_m": v for k, v in baseline_scores.items()}}
-            if "survey_error_m_per_variant" in result:
-                record["per_variant"] = result["survey_error_m_per_variant"]
+            now = time.perf_counter()
+            record = {"num_timesteps": self.model.num_timesteps, "wall_s": round(now - state["t0"], 1),
+                      "wall_s_since_start": round(now - state["started"], 1),
+                      "survey_error_m": score,
+                      **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline_scores.items()}}
+            if len(cells) > 1:
+                record["per_cell"] = {k: round(v, 4) for k, v in result["per_cell"].items()}
+                for k, v in baseline_scores.items():
+                    record[f"cells_beating_{k}"] = sum(result["per_cell"][c] < v["per_cell"][c] for c in v["per_cell"])
             with open(out / "evaluations.jsonl", "a") as f:
                 f.write(json.dumps(record) + "\n")
             self.logger.record("eval/survey_error_m", score)
             for k, v in baseline_scores.items():
-                self.logger.record(f"eval/{k}_survey_error_m", v)
+                self.logger.record(f"eval/{k}_survey_error_m", v["survey_error_m"])
+                if f"cells_beating_{k}" in record:
+                    self.logger.record(f"eval/cells_beating_{k}", record[f"cells_beating_{k}"])
             best = read_json(out / "best.json")
             if best is None or score < best["survey_error_m"]:
                 save_model(self.model, out / "best_model.zip")
                 save_vecnormalize(vecnorm, out / "best_vecnormalize.pkl")
                 atomic_write_text(out / "best.json", json.dumps(record))
-            beaten = [k for k, v in baseline_scores.items() if score < v]
+            beaten = [k for k, v in baseline_scores.items() if score < v["survey_error_m"]]
             print(f"eval @ {self.model.num_timesteps}: survey_error_m {score:.3f}"
-                  + "".join(f", {k} {v:.3f}" for k, v in baseline_scores.items())
+                  + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline_scores.items())
+                  + "".join(f", beats {k} in {record[f'cells_beating_{k}']}/{len(cells)} cells"
+                            for k in baseline_scores if f"cells_beating_{k}" in record)
                   + (f" (beats {', '.join(beaten)})" if beaten else "")
                   + f" [{time.perf_counter() - t0:.1f} s]", flush=True)
             self.last_eval = self.model.num_timesteps
@@ -366,6 +420,7 @@ def versions() -> dict:
 # 6. main
 # ----------------------------------------------------------------------------------
 def main(argv=None) -> int:
+    started = time.perf_counter()
     args = parse_args(argv)
     from coopnav_env import list_scenarios, make_config
 
@@ -402,18 +457,18 @@ def main(argv=None) -> int:
         scenario_config = make_config(scenario, **overrides)
     except ValueError as err:
         fail(f"{hp_path}: {err}")
-    from coopnav_env.vector import CoopNavVecEnv, variant_grid
+    from coopnav_env.vector import CoopNavVecEnv, check_reward_terms
 
     try:
-        variants = variant_grid(env_spec.get("variants"))
-        for v in variants:
-            scenario_config.replace(**v)
+        reward_terms = check_reward_terms(hp.get("reward"))
     except ValueError as err:
-        fail(f"{hp_path}: variants: {err}")
-    env_kwargs = {"scenario": scenario, "variants": variants or None, **overrides}
+        fail(f"{hp_path}: reward: {err}")
+    ev = hp.get("eval", {}) or {}
+    try:
+        cells = eval_cells(scenario_config, ev)
+    except ValueError as err:
+        fail(f"{hp_path}: {err}")
     n_envs = int(hp.get("n_envs", 16))
-    if variants and n_envs < len(variants):
-        fail(f"n_envs ({n_envs}) must be at least the number of variants ({len(variants)})")
 
     import torch
     from stable_baselines3 import PPO
@@ -425,7 +480,8 @@ def main(argv=None) -> int:
         config = {
             "command": "python train.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)),
             "args": run, "hyperparameter_file": hp_path, "hyperparameters": hp,
-            "scenario_config": dataclasses.asdict(scenario_config), "variants": variants,
+            "scenario_config": dataclasses.asdict(scenario_config),
+            "eval_cells": [label for label, _ in cells],
             "versions": versions(),
         }
         atomic_write_text(out / "config.yml", yaml.safe_dump(plain(config), sort_keys=False))
@@ -437,7 +493,8 @@ def main(argv=None) -> int:
     torch.set_num_threads(args.threads)
 
     # --- the environment: one batched simulator, VecMonitor, VecNormalize -----------
-    venv = VecMonitor(CoopNavVecEnv(n_envs=n_envs, seed=run_seed, step_infos=False, **env_kwargs))
+    venv = VecMonitor(CoopNavVecEnv(scenario_config, n_envs=n_envs, seed=run_seed, step_infos=False,
+                                    reward_terms=reward_terms))
     norm = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, **(hp.get("normalize", {}) or {})}
     ppo_hp = dict(hp.get("ppo", {}) or {})
     gamma = float(ppo_hp.get("gamma", 0.99))
@@ -456,7 +513,6 @@ def main(argv=None) -> int:
         tb_dir = str(out / "tb")
     except ImportError:
         tb_dir = None
-        print("tensorboard is not installed: no TensorBoard logs (pip install -e '.[train]')", file=sys.stderr)
     if ckpt:
         model = PPO.load(out / "checkpoints" / ckpt["model"], env=vecnorm, device=args.device,
                          tensorboard_log=tb_dir, verbose=args.verbose)
@@ -470,32 +526,33 @@ def main(argv=None) -> int:
                         seed=run_seed, device=args.device, tensorboard_log=tb_dir, verbose=args.verbose, **ppo_hp)
         except (TypeError, ValueError, AssertionError) as err:
             fail(f"{hp_path}: bad PPO hyperparameters: {str(err).splitlines()[0] if str(err) else type(err).__name__}")
+    if tb_dir is None:  # a note, not an error: after the inputs are known to be good, on stdout
+        print("note: tensorboard is not installed, so no TensorBoard logs (pip install -e '.[train]')")
 
     # --- baselines on the evaluation seeds (once per run) --------------------------
-    ev = hp.get("eval", {}) or {}
     baseline_scores = read_json(out / "baseline_eval.json") or {}
     if int(ev.get("every_steps", 100_000)) > 0:
         for name in ev.get("baselines", []) or []:
             if name in baseline_scores:
                 continue
             try:
-                result = evaluate(baseline_actor(name), env_kwargs, int(ev.get("episodes", 32)),
+                result = evaluate(baseline_actor(name), cells, int(ev.get("episodes", 32)),
                                   int(ev.get("seed", 1_000_000)))
             except ImportError as err:  # the baselines package is not there
                 print(f"baseline {name} not evaluated: {err}", file=sys.stderr)
                 continue
-            baseline_scores[name] = result["survey_error_m"]
+            baseline_scores[name] = {"survey_error_m": result["survey_error_m"], "per_cell": result["per_cell"]}
         atomic_write_text(out / "baseline_eval.json", json.dumps(baseline_scores))
 
     # --- learn, stopping cleanly on SIGINT/SIGTERM -----------------------------------
-    state = {"stop": False, "t0": time.perf_counter()}
+    state = {"stop": False, "t0": time.perf_counter(), "started": started}
 
     def request_stop(signum, frame):
         state["stop"] = True
         signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL)
 
     old_handlers = {s: signal.signal(s, request_stop) for s in (signal.SIGINT, signal.SIGTERM)}
-    callback = make_callback(out, hp, env_kwargs, vecnorm, baseline_scores, state)
+    callback = make_callback(out, hp, cells, vecnorm, baseline_scores, state)
     progress = not args.no_progress and _has_progress_bar()
     try:
         model.learn(total_timesteps=max(total - start_steps, 0), callback=callback, progress_bar=progress,

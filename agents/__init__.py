@@ -3,6 +3,7 @@
     import agents
     policy = agents.load("ppo_sousa_asv")            # a policy shipped in agents/policies/
     policy = agents.load("ppo", scenario="sousa_asv")  # the shipped PPO policy of a scenario
+    policy = agents.load("ppo", scenario="gao_lawnmower")  # -> ppo_gao_sea (SHARED_POLICIES)
     policy = agents.load("runs/sousa_ppo")           # a run directory written by train.py
     policy.reset()
     action = policy.act(obs["beacon_0"])             # one beacon's observation -> (2,) in [-1, 1]
@@ -29,6 +30,10 @@ from pathlib import Path
 import numpy as np
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
+# "ppo" of a scenario without a policy of its own: the shipped policy of a sister
+# scenario with the same observation layout (gao_lawnmower: the lake trial of the
+# gao_sea policy's sea trial; same vehicles, smaller area, weaker current).
+SHARED_POLICIES = {"gao_lawnmower": "ppo_gao_sea"}
 
 __all__ = ["PPOPolicy", "list_policies", "load", "make_policy", "resolve"]
 
@@ -69,7 +74,10 @@ def resolve(name_or_path, scenario=None) -> tuple:
         if name == "ppo":
             if scenario is None:
                 raise ValueError("agents.load('ppo') names the shipped PPO policy of a scenario: pass scenario=")
-            name = f"ppo_{_scenario_name(scenario)}"
+            scen = _scenario_name(scenario)
+            name = f"ppo_{scen}"
+            if not (POLICY_DIR / name).is_dir() and scen in SHARED_POLICIES:
+                name = SHARED_POLICIES[scen]
         directory = POLICY_DIR / name
         if not directory.is_dir():
             shipped = list_policies()

@@ -18,9 +18,11 @@ train.py) for the same number of rollouts on
 and prints environment-steps per second (rows x steps / wall time of ``learn``)
 and where the time went, profiled by wrapping the innermost VecEnv: the share of
 ``step``/``reset`` (the environment), the rest of collecting rollouts (policy
-forward passes, VecNormalize, the buffer) and the gradient updates. Variants
-(train.py's domain-randomization stop-gap) are left out: SuperSuit cannot build
-them, and they cost one ``Simulator.step`` per variant.
+forward passes, VecNormalize, the buffer) and the gradient updates. Both
+environments are the scenario with the YAML's ``env.overrides`` (the core's
+per-episode randomization included, as train.py trains), with the environment's
+own reward (the YAML's training ``reward:`` terms are CoopNavVecEnv's and cost
+about as much as the info dicts they replace; ``--training-reward`` adds them).
 
 A first rollout is run untimed as warm-up. Numbers depend on the machine and its
 load (the aim stated by issue 4: ours faster, environment share below 15 %).
@@ -76,26 +78,27 @@ def timed(venv_class):
     return Timed
 
 
-def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int, hp: dict, step_infos=False):
+def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int, hp: dict, step_infos=False,
+          training_reward=False):
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
-    if kind.startswith("coopnav"):
-        from coopnav_env.vector import CoopNavVecEnv, variant_grid
+    overrides = dict((hp.get("env", {}) or {}).get("overrides", {}) or {})
+    if kind == "coopnav":
+        from coopnav_env.vector import CoopNavVecEnv
 
-        env = hp.get("env", {}) or {}
-        variants = variant_grid(env.get("variants")) if kind == "coopnav+variants" else None
-        raw = CoopNavVecEnv(scenario, n_envs=n_envs, seed=seed, variants=variants, step_infos=step_infos)
+        raw = CoopNavVecEnv(scenario, n_envs=n_envs, seed=seed, step_infos=step_infos,
+                            reward_terms=hp.get("reward") if training_reward else None, **overrides)
     else:
         import supersuit as ss
 
         import coopnav_env
 
-        vec = ss.pettingzoo_env_to_vec_env_v1(coopnav_env.parallel_env(scenario, seed=seed))
+        vec = ss.pettingzoo_env_to_vec_env_v1(coopnav_env.parallel_env(scenario, seed=seed, **overrides))
         raw = ss.concat_vec_envs_v1(vec, n_envs, num_cpus=supersuit_cpus, base_class="stable_baselines3")
     return timed(VecEnvWrapper)(raw)
 
 
-def measure(kind, scenario, hp, n_envs, rollouts, seed, supersuit_cpus, step_infos=False) -> dict:
+def measure(kind, scenario, hp, n_envs, rollouts, seed, supersuit_cpus, step_infos=False, training_reward=False) -> dict:
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
@@ -104,7 +107,7 @@ def measure(kind, scenario, hp, n_envs, rollouts, seed, supersuit_cpus, step_inf
     import train
 
     torch.manual_seed(seed)
-    inner = build(kind, scenario, n_envs, seed, supersuit_cpus, hp, step_infos)
+    inner = build(kind, scenario, n_envs, seed, supersuit_cpus, hp, step_infos, training_reward)
     ppo_hp = dict(hp.get("ppo", {}) or {})
     gamma = float(ppo_hp.get("gamma", 0.99))
     norm = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, **(hp.get("normalize", {}) or {})}
@@ -152,9 +155,9 @@ def main(argv=None):
     p.add_argument("--rollouts", type=int, default=2, help="timed PPO rollouts (+ their updates) per measurement")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--supersuit-cpus", type=int, default=0)
-    p.add_argument("--only", choices=["coopnav", "supersuit", "coopnav+variants"])
-    p.add_argument("--variants", action="store_true",
-                   help="also measure CoopNavVecEnv with the YAML's variants (train.py's actual setting)")
+    p.add_argument("--only", choices=["coopnav", "supersuit"])
+    p.add_argument("--training-reward", action="store_true",
+                   help="CoopNavVecEnv computes the YAML's training reward terms (train.py does)")
     p.add_argument("--step-infos", action="store_true",
                    help="CoopNavVecEnv builds every row's info dict every step (train.py does not)")
     p.add_argument("--threads", type=int, default=1, help="torch threads (train.py's default: 1)")
@@ -173,11 +176,11 @@ def main(argv=None):
 
     torch.set_num_threads(args.threads)
     kinds = [args.only] if args.only else ["coopnav", "supersuit"]
-    if args.variants and "coopnav+variants" not in kinds:
-        kinds.append("coopnav+variants")
-    results = [measure(k, args.scenario, hp, n_envs, args.rollouts, args.seed, args.supersuit_cpus, args.step_infos)
-               for k in kinds]
-    meta = {"scenario": args.scenario, "n_envs": n_envs, "step_infos": args.step_infos, "n_steps": hp.get("ppo", {}).get("n_steps"),
+    results = [measure(k, args.scenario, hp, n_envs, args.rollouts, args.seed, args.supersuit_cpus, args.step_infos,
+                       args.training_reward) for k in kinds]
+    meta = {"scenario": args.scenario, "n_envs": n_envs, "step_infos": args.step_infos,
+            "training_reward": args.training_reward,
+            "overrides": (hp.get("env", {}) or {}).get("overrides", {}) or {}, "n_steps": hp.get("ppo", {}).get("n_steps"),
             "n_epochs": hp.get("ppo", {}).get("n_epochs"), "batch_size": hp.get("ppo", {}).get("batch_size"),
             "net_arch": (hp.get("ppo", {}).get("policy_kwargs") or {}).get("net_arch"),
             "rollouts": args.rollouts, "torch_threads": torch.get_num_threads(), "cpus": os.cpu_count(),

@@ -8,8 +8,8 @@ Every beacon of every environment is one row: ``num_envs = n_envs * n_beacons`` 
 row ``e * n_beacons + j`` is ``beacon_j`` of environment ``e``, so one policy drives
 all beacons (parameter sharing). The rows of one environment finish together.
 
-One ``step`` is ONE call of ``Simulator.step`` on the whole batch (per variant, see
-below); the only Python loop over the batch builds SB3's list of info dicts.
+One ``step`` is ONE call of ``Simulator.step`` on the whole batch; the only Python
+loop over the batch builds SB3's list of info dicts.
 
 **Seeds.** Episode ``k`` (0, 1, ...) of environment ``e`` is seeded with
 ``seed + e + k * SEED_STRIDE``. Environment ``e`` therefore starts exactly like
@@ -30,19 +30,37 @@ the env's info keys (see ``coopnav_env.views.agent_infos``).
 [-1, 1]; NaN or infinite values and wrong shapes raise ``ValueError`` naming the
 environment and beacon (``views.check_action``'s rules).
 
-**Variants (a stop-gap for domain randomization).** ``variants`` is a list of
-scenario-parameter overrides (e.g. every depth x path of Sousa's Tables I-II);
-the environments are split among them as evenly as possible, one ``Simulator``
-per variant, environment ``e`` keeping its variant for the whole run. The
-per-episode draws the core already makes (current within its spread, noise,
-start bearing) stay per episode. Each variant costs one more ``Simulator.step``
-call per step; true per-episode randomization needs per-environment parameters in
-the core (see the issue 4 notes).
+**Domain randomization** is the core's: the scenario parameters
+``randomize_survey_path``, ``randomize_depth_m`` and ``randomize_noise_scale``
+(with the current's spreads) make every episode draw its path kind, depth and
+noise scale from its own seed, inside the one ``Simulator``
+(``core.sim.Simulator._initial_state``). ``episode_cells()`` (or
+``get_attr("episode_cell")``) tells the (survey_path, depth_m) each environment's
+current episode drew.
+
+**Training reward** (``reward_terms``, train.py's YAML ``reward:``). By default a
+row's reward is the environment's (the survey EKF's information gain minus
+penalties). ``reward_terms={"error": 1.0, "penalties": 1.0}`` replaces it, for
+training only, by a weighted sum of these per-environment terms, each computed
+from the step's arrays (every beacon of an environment gets the same value):
+
+=============  ====================================================================
+``env``        the environment's reward (information gain - penalties)
+``error``      -survey_error_m: minus the true horizontal error after the cycle,
+               averaged over the survey vehicles (privileged: the simulator's
+               truth, used only as a training signal; the policy still acts on its
+               observation). Summed over an episode it is -(steps x mean error),
+               the evaluation score itself.
+``std``        -sqrt(trace of the horizontal EKF covariance) after the cycle: the
+               filter's own RMS error prediction (not privileged, less noisy)
+``logdet``     -0.5 log det of the horizontal EKF covariance after the cycle
+``penalties``  -(safety_penalty x [too close] + geofence_penalty x [outside the
+               fence]) of the beacon: the environment's penalties without its
+               contact term (a copy of the core's formula in core/sim.py)
+=============  ====================================================================
 """
 
 from __future__ import annotations
-
-import itertools
 
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
@@ -52,63 +70,57 @@ from .scenarios import make_config
 from .views import action_space, observation_space
 
 SEED_STRIDE = 1_000_003  # a prime larger than any batch: episode k of env e -> seed + e + k * SEED_STRIDE
+REWARD_TERMS = ("env", "error", "std", "logdet", "penalties")
 
 
-def variant_grid(grid: dict | None) -> list:
-    """The Cartesian product of ``{parameter: [values]}`` as a list of override dicts
-    (``{"depth_m": [1, 5], "survey_path": ["circle"]}`` -> two variants)."""
-    if not grid:
-        return []
-    names = list(grid)
-    for name in names:
-        if not isinstance(grid[name], (list, tuple)) or not grid[name]:
-            raise ValueError(f"variant grid entry {name!r} must be a non-empty list of values")
-    return [dict(zip(names, values)) for values in itertools.product(*(grid[n] for n in names))]
+def check_reward_terms(terms) -> dict | None:
+    """``{term: weight}`` validated (None or {} -> None: the environment's reward)."""
+    if not terms:
+        return None
+    if not isinstance(terms, dict):
+        raise ValueError(f"reward terms must be a mapping term -> weight, got {terms!r}")
+    out = {}
+    for name, weight in terms.items():
+        if name not in REWARD_TERMS:
+            raise ValueError(f"unknown reward term {name!r}; valid terms: {', '.join(REWARD_TERMS)}")
+        try:
+            w = float(weight)
+        except (TypeError, ValueError):
+            raise ValueError(f"reward term {name!r}: weight must be a number, got {weight!r}") from None
+        if not np.isfinite(w):
+            raise ValueError(f"reward term {name!r}: weight must be finite, got {weight!r}")
+        out[name] = w
+    return out
 
 
 class CoopNavVecEnv(VecEnv):
     """``n_envs`` environments of ``scenario``, one row per beacon. See the module docstring.
 
     Arguments: ``scenario`` (name or ``ScenarioConfig``), ``n_envs``, ``seed`` (None: a
-    random base seed), ``variants`` (list of override dicts, or None), ``step_infos``
-    (False: only the rows whose episode ends get infos, at that step; building the
-    dicts of every row is about a third of the step's time at 128 environments, and
-    PPO reads none of them), and any scenario parameter by keyword (applied before
-    the variants).
+    random base seed), ``step_infos`` (False: only the rows whose episode ends get
+    infos, at that step; building the dicts of every row is about a third of the
+    step's time at 128 environments, and PPO reads none of them), ``reward_terms``
+    (None: the environment's reward; else ``{term: weight}``, see the module
+    docstring), and any scenario parameter by keyword (``randomize_depth_m=...``
+    and the other randomization bounds included).
     """
 
     metadata = {"render_modes": []}
 
-    def __init__(self, scenario="gao_lawnmower", n_envs: int = 1, seed=None, variants=None, step_infos: bool = True,
-                 **overrides):
+    def __init__(self, scenario="gao_lawnmower", n_envs: int = 1, seed=None, step_infos: bool = True,
+                 reward_terms=None, **overrides):
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"n_envs must be an int >= 1, got {n_envs!r}")
         n_envs = int(n_envs)
-        base = make_config(scenario, **overrides)
-        configs = [base.replace(**dict(v)) for v in variants] if variants else [base]
-        if n_envs < len(configs):
-            raise ValueError(f"n_envs ({n_envs}) must be at least the number of variants ({len(configs)})")
-        sizes = [n_envs // len(configs) + (g < n_envs % len(configs)) for g in range(len(configs))]
-        self.sims = [Simulator(cfg, b) for cfg, b in zip(configs, sizes)]
-        dims = {(s.obs_dim, s.N, s.S) for s in self.sims}
-        if len(dims) != 1:
-            raise ValueError("all variants must keep n_survey, beacon_kinds and observed_waypoints "
-                             f"(observation sizes differ: {sorted(dims)})")
-        self.config = base
-        self.configs = configs
-        self.variants = [dict(v) for v in variants] if variants else []
+        self.config = make_config(scenario, **overrides)
+        self.reward_terms = check_reward_terms(reward_terms)
+        self.sim = Simulator(self.config, n_envs)
         self.n_envs = n_envs
-        self.n_beacons = self.sims[0].N
-        self.obs_dim = self.sims[0].obs_dim
-        self._slices = []
-        start = 0
-        for b in sizes:
-            self._slices.append(slice(start, start + b))
-            start += b
-        self.env_variant = np.repeat(np.arange(len(configs)), sizes)  # variant index of each environment
+        self.n_beacons = self.sim.N
+        self.obs_dim = self.sim.obs_dim
         self.render_mode = None
         self.possible_agents = [f"beacon_{j}" for j in range(self.n_beacons)]
-        super().__init__(n_envs * self.n_beacons, observation_space(self.sims[0]), action_space())
+        super().__init__(n_envs * self.n_beacons, observation_space(self.sim), action_space())
         self._base_seed = None
         self._episode = np.zeros(n_envs, dtype=np.int64)  # episodes started per environment
         self.episode_seeds = np.full(n_envs, -1, dtype=np.int64)  # seed of each current episode
@@ -116,6 +128,13 @@ class CoopNavVecEnv(VecEnv):
         self._actions = None
         self._started = False
         self.seed(seed)
+
+    def episode_cells(self) -> list:
+        """(survey_path, depth_m) of each environment's current episode (what the core's
+        randomization drew; the scenario's own values without randomization)."""
+        if self.sim.state is None:
+            raise RuntimeError("episode_cells() before reset()")
+        return [self.sim.variants[v] for v in self.sim.state.ep_variant.tolist()]
 
     # ------------------------------------------------------------------------------
     def seed(self, seed=None):
@@ -136,8 +155,7 @@ class CoopNavVecEnv(VecEnv):
 
     def reset(self):
         """Start a new episode in every environment; returns (num_envs, obs_dim)."""
-        seeds = self._next_seeds(np.arange(self.n_envs))
-        obs = np.concatenate([sim.reset(seeds[sl]) for sim, sl in zip(self.sims, self._slices)])
+        obs = self.sim.reset(self._next_seeds(np.arange(self.n_envs)))
         self._started = True
         self._actions = None
         self.reset_infos = [{} for _ in range(self.num_envs)]
@@ -171,16 +189,9 @@ class CoopNavVecEnv(VecEnv):
         if self._actions is None:
             raise RuntimeError("step_wait() without a pending step_async()")
         actions, self._actions = self._actions, None
-        if len(self.sims) == 1:
-            res = self.sims[0].step(actions)
-            obs, reward, term, trunc, info = res.obs, res.reward, res.terminated, res.truncated, res.info
-        else:
-            parts = [sim.step(actions[sl]) for sim, sl in zip(self.sims, self._slices)]
-            obs = np.concatenate([p.obs for p in parts])
-            reward = np.concatenate([p.reward for p in parts])
-            term = np.concatenate([p.terminated for p in parts])
-            trunc = np.concatenate([p.truncated for p in parts])
-            info = {k: np.concatenate([p.info[k] for p in parts]) for k in INFO_KEYS}
+        res = self.sim.step(actions)
+        obs, term, trunc, info = res.obs, res.terminated, res.truncated, res.info
+        reward = res.reward if self.reward_terms is None else self.training_reward(res)
         done = term | trunc
         if self.step_infos:
             infos = self._row_infos(info, trunc & ~term)
@@ -196,14 +207,33 @@ class CoopNavVecEnv(VecEnv):
             for i, e in enumerate(ended.tolist()):
                 for j in range(self.n_beacons):
                     infos[e * self.n_beacons + j]["terminal_observation"] = final[i, j]
-            seeds = self._next_seeds(ended)
-            obs = obs.copy()
-            for sim, sl in zip(self.sims, self._slices):
-                mask = done[sl]
-                if mask.any():
-                    obs[sl][mask] = sim.reset(seeds[np.isin(ended, np.arange(sl.start, sl.stop))], mask)[mask]
+            obs = self.sim.reset(self._next_seeds(ended), done)
         return (obs.reshape(self.num_envs, self.obs_dim), reward.reshape(-1).astype(np.float32),
                 np.repeat(done, self.n_beacons), infos)
+
+    def training_reward(self, res) -> np.ndarray:
+        """The weighted sum of ``reward_terms`` for this step, (n_envs, n_beacons)."""
+        c, st = self.config, self.sim.state
+        total = np.zeros((self.n_envs, self.n_beacons))
+        for name, w in self.reward_terms.items():
+            if name == "env":
+                term = res.reward
+            elif name == "error":
+                term = -res.info["survey_error_m"].mean(-1)[:, None]
+            elif name == "std":
+                P = st.s_P
+                term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
+            elif name == "logdet":
+                term = -0.5 * res.info["cov_logdet"].mean(-1)[:, None]
+            else:  # penalties: core/sim.py's safety and geofence terms, on this step's positions
+                dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)
+                too_close = (dist < c.safety_distance_m).any(-1)
+                fe0, fn0, fe1, fn1 = c.geofence_m
+                x, y = st.b_pos[..., 0], st.b_pos[..., 1]
+                outside = (x < fe0) | (x > fe1) | (y < fn0) | (y > fn1)
+                term = -(c.safety_penalty * too_close + c.geofence_penalty * outside)
+            total += w * term
+        return total
 
     def _row_infos(self, info: dict, time_limit: np.ndarray) -> list:
         """One info dict per row: ``views.agent_infos`` of its environment (computed for
@@ -229,7 +259,7 @@ class CoopNavVecEnv(VecEnv):
     # ------------------------------------------------------------------------------
     def global_state(self) -> np.ndarray:
         """The true global state of every environment, (n_envs, state_dim), for centralized critics."""
-        return np.concatenate([sim.global_state() for sim in self.sims])
+        return self.sim.global_state()
 
     def close(self):
         self._actions = None
@@ -241,11 +271,13 @@ class CoopNavVecEnv(VecEnv):
         return [int(i) // self.n_beacons for i in self._get_indices(indices)]
 
     def get_attr(self, attr_name, indices=None):
-        """Per row: ``config`` is its variant's config, ``episode_seed`` its episode's seed,
-        ``agent`` its beacon name; anything else is the VecEnv's own attribute."""
+        """Per row: ``episode_seed`` its episode's seed, ``episode_cell`` its episode's
+        (survey_path, depth_m), ``agent`` its beacon name; anything else (``config``
+        included) is the VecEnv's own attribute."""
         envs = self._row_envs(indices)
-        if attr_name == "config":
-            return [self.configs[self.env_variant[e]] for e in envs]
+        if attr_name == "episode_cell":
+            cells = self.episode_cells()
+            return [cells[e] for e in envs]
         if attr_name == "episode_seed":
             return [int(self.episode_seeds[e]) for e in envs]
         if attr_name == "agent":

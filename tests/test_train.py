@@ -173,14 +173,76 @@ def test_shipped_policies_load_and_act(name):
     env = coopnav_env.parallel_env(policy.config, seed=0, max_cycles=3)
     obs, _ = env.reset()
     while env.agents:
-        obs, *_ = env.step({a: policy.act(obs[a]) for a in env.agents})
+        actions = {a: policy.act(obs[a]) for a in env.agents}
+        for action in actions.values():
+            assert action.shape == (2,) and action.dtype == np.float32 and np.all(np.abs(action) <= 1)
+        obs, *_ = env.step(actions)
+    # as the shipped "ppo" of its scenario, through make_policy (evaluate.py's path)
+    scenario = policy.config.name
+    assert agents.resolve("ppo", scenario)[0] == agents.resolve(name)[0]
+    one = agents.make_policy("ppo", coopnav_env.make_config(scenario), seed=0)
+    assert np.array_equal(one.act(obs[env.possible_agents[0]]), policy.act(obs[env.possible_agents[0]]))
+
+
+def test_gao_lawnmower_shares_the_gao_sea_policy():
+    if "ppo_gao_sea" not in agents.list_policies():
+        pytest.skip("ppo_gao_sea is not shipped")
+    assert agents.resolve("ppo", "gao_lawnmower")[0] == agents.resolve("ppo_gao_sea")[0]
+    with pytest.warns(UserWarning, match="trained on 'gao_sea'"):
+        policy = agents.load("ppo", scenario="gao_lawnmower")
+    assert policy.act(np.zeros(policy.obs_dim)).shape == (2,)
 
 
 def test_evaluation_scores_a_baseline_on_the_same_seeds():
     pytest.importorskip("baselines.fim")
-    kw = {"scenario": "sousa_asv", "variants": None, "max_cycles": 4, "mission_duration_s": 80.0}
-    a = train.evaluate(train.baseline_actor("fim_a"), kw, episodes=2, seed=5)
-    b = train.evaluate(train.baseline_actor("fim_a"), kw, episodes=2, seed=5)
+    config = coopnav_env.make_config("sousa_asv", max_cycles=4, mission_duration_s=80.0)
+    cells = [("all", config)]
+    a = train.evaluate(train.baseline_actor("fim_a"), cells, episodes=2, seed=5)
+    b = train.evaluate(train.baseline_actor("fim_a"), cells, episodes=2, seed=5)
     assert a == b and len(a["survey_error_m_per_episode"]) == 2
-    static = train.evaluate(lambda obs, venv: np.zeros((venv.num_envs, 2)), kw, episodes=2, seed=5)
+    static = train.evaluate(lambda obs, venv: np.zeros((venv.num_envs, 2)), cells, episodes=2, seed=5)
     assert static["survey_error_m"] != a["survey_error_m"]
+
+
+def test_eval_cells_are_fixed_scenarios_with_randomization_off():
+    trained = coopnav_env.make_config("sousa_asv", randomize_depth_m=(1.0, 50.0),
+                                      randomize_survey_path=("circle", "spiral"), randomize_noise_scale=(0.5, 1.5))
+    cells = train.eval_cells(trained, {"cells": {"depth_m": [1.0, 50.0], "survey_path": ["circle", "spiral"]}})
+    assert [label for label, _ in cells] == ["depth_m=1.0;survey_path=circle", "depth_m=1.0;survey_path=spiral",
+                                             "depth_m=50.0;survey_path=circle", "depth_m=50.0;survey_path=spiral"]
+    for _, config in cells:
+        assert config.randomize_depth_m == () and config.randomize_survey_path == ()
+        assert config.randomize_noise_scale == ()
+    assert cells[3][1].depth_m == 50.0 and cells[3][1].survey_path == "spiral"
+    assert train.eval_cells(trained, {}) == [("all", trained.replace(**train.RANDOMIZATION_OFF))]
+    short = [(label, c.replace(max_cycles=3, mission_duration_s=0.0)) for label, c in cells]
+    result = train.evaluate(lambda obs, venv: np.zeros((venv.num_envs, 2)), short, episodes=2, seed=1)
+    assert list(result["per_cell"]) == [label for label, _ in cells]
+    assert result["survey_error_m"] == pytest.approx(np.mean(list(result["per_cell"].values())))
+
+
+def test_randomized_training_with_a_training_reward_and_per_cell_evaluation(tmp_path):
+    out = tmp_path / "run"
+    overrides = {"max_cycles": 10, "mission_duration_s": 200.0, "randomize_depth_m": [1.0, 50.0],
+                 "randomize_survey_path": ["stationary", "circle"], "randomize_noise_scale": [0.75, 1.25]}
+    code = _run(tmp_path, out, 500, env={"overrides": overrides}, reward={"error": 1.0, "penalties": 1.0},
+                eval={"every_steps": 256, "episodes": 1, "seed": 500000, "baselines": [],
+                      "cells": {"depth_m": [1.0, 50.0], "survey_path": ["stationary", "circle"]}})
+    assert code == 0
+    config = yaml.safe_load((out / "config.yml").read_text())
+    assert config["scenario_config"]["randomize_depth_m"] == [1.0, 50.0]
+    assert config["hyperparameters"]["reward"] == {"error": 1.0, "penalties": 1.0}
+    assert len(config["eval_cells"]) == 4
+    evals = [json.loads(line) for line in (out / "evaluations.jsonl").read_text().splitlines()]
+    assert len(evals[-1]["per_cell"]) == 4
+    policy = agents.load(out)
+    assert policy.config.randomize_depth_m == (1.0, 50.0)
+
+
+def test_old_variants_and_bad_reward_terms_are_one_line_errors(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        _run(tmp_path, tmp_path / "a", 100, env={"variants": {"depth_m": [1.0]}})
+    assert "randomize_depth_m" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        _run(tmp_path, tmp_path / "b", 100, reward={"nope": 1.0})
+    assert "unknown reward term 'nope'" in capsys.readouterr().err

@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import coopnav_env  # noqa: E402
-from coopnav_env.vector import SEED_STRIDE, CoopNavVecEnv, variant_grid  # noqa: E402
+from coopnav_env.vector import REWARD_TERMS, SEED_STRIDE, CoopNavVecEnv  # noqa: E402
 from coopnav_env.views import agent_infos  # noqa: E402
 
 TWO_BY_TWO = dict(beacon_kinds=("beacon_auv", "asv"), n_survey=2)
@@ -62,7 +62,7 @@ def test_shapes_dtypes_and_spaces():
         assert info["TimeLimit.truncated"] is False and "terminal_observation" not in info
         assert len(info["survey_error_m_per_vehicle"]) == 2
     assert infos[0] is not infos[1]  # the beacons of one environment get their own dicts
-    assert venv.global_state().shape == (3, venv.sims[0].state_dim)
+    assert venv.global_state().shape == (3, venv.sim.state_dim)
 
 
 def test_infos_are_the_views_agent_infos():
@@ -71,7 +71,7 @@ def test_infos_are_the_views_agent_infos():
     for _ in range(3):
         venv.step_async(np.random.default_rng(0).uniform(-1, 1, (8, 2)))
         # the same batch step, straight from a copy of the core, for the reference infos
-        ref = copy.deepcopy(venv.sims[0]).step(venv._actions).info
+        ref = copy.deepcopy(venv.sim).step(venv._actions).info
         _, _, _, infos = venv.step_wait()
         for row, info in enumerate(infos):
             expect = agent_infos(ref, row // 2)
@@ -248,10 +248,12 @@ def test_bad_arguments():
         CoopNavVecEnv("nope")
     with pytest.raises(ValueError, match="unknown scenario parameter"):
         CoopNavVecEnv("gao_lawnmower", depth=3)
-    with pytest.raises(ValueError, match="variants"):
-        CoopNavVecEnv("sousa_asv", n_envs=1, variants=[{"depth_m": 1.0}, {"depth_m": 5.0}])
-    with pytest.raises(ValueError, match="observation sizes"):
-        CoopNavVecEnv("sousa_asv", n_envs=2, variants=[{"n_survey": 1}, {"n_survey": 2}])
+    with pytest.raises(ValueError, match="randomize_depth_m"):
+        CoopNavVecEnv("sousa_asv", n_envs=2, randomize_depth_m=(-5.0,))
+    with pytest.raises(ValueError, match="unknown reward term 'errror'"):
+        CoopNavVecEnv("sousa_asv", n_envs=1, reward_terms={"errror": 1.0})
+    with pytest.raises(ValueError, match="finite"):
+        CoopNavVecEnv("sousa_asv", n_envs=1, reward_terms={"error": float("nan")})
 
 
 def test_sb3_helpers_and_wrappers():
@@ -279,30 +281,78 @@ def test_sb3_helpers_and_wrappers():
     wrapped.close()
 
 
-def test_variants_split_the_environments():
-    grid = variant_grid({"depth_m": [1.0, 50.0], "survey_path": ["circle", "spiral"]})
-    assert len(grid) == 4 and grid[1] == {"depth_m": 1.0, "survey_path": "spiral"}
-    venv = CoopNavVecEnv("sousa_asv", n_envs=6, seed=2, variants=grid)
-    assert list(venv.env_variant) == [0, 0, 1, 1, 2, 3]
-    assert [c.depth_m for c in venv.get_attr("config")] == [1.0, 1.0, 1.0, 1.0, 50.0, 50.0]
-    obs = venv.reset()
-    # environment 5 is variant 3 with seed 2 + 5: the PettingZoo env of that variant
-    env = coopnav_env.parallel_env("sousa_asv", seed=7, **grid[3])
-    p_obs, _ = env.reset()
-    assert np.array_equal(obs[5], p_obs["beacon_0"])
-    assert _compare_with_pettingzoo(_Only(venv, 5), [env], 3, np.random.default_rng(2)) == 0
+DR = dict(randomize_depth_m=(1.0, 5.0, 20.0, 50.0), randomize_survey_path=("stationary", "lawnmower", "circle", "spiral"),
+          randomize_noise_scale=(0.75, 1.25))
+
+
+def test_per_episode_randomization_is_the_cores_in_one_simulator():
+    """Randomization comes from the scenario's randomize_* parameters: one Simulator,
+    and every row still equals the PettingZoo env of the same scenario and seed,
+    across the auto-reset (which draws a new cell from the new seed)."""
+    seed = 40
+    venv = CoopNavVecEnv("sousa_asv", n_envs=16, seed=seed, max_cycles=3, mission_duration_s=0.0, **DR)
+    assert isinstance(venv.sim, coopnav_env.core.sim.Simulator) and len(venv.sim.variants) == 16
+    venv.reset()
+    cells = venv.episode_cells()
+    assert len(set(cells)) > 4  # 16 environments draw several of the 16 cells
+    assert venv.get_attr("episode_cell", indices=[5]) == [cells[5]]
+    assert [c[1] for c in cells] == [float(d) for d in venv.sim.state.s_pos[:, 0, 2]]  # each at its depth
+    picked = [3, 11]
+    envs = [coopnav_env.parallel_env("sousa_asv", seed=seed + e, max_cycles=3, mission_duration_s=0.0, **DR)
+            for e in picked]
+    for env in envs:
+        env.reset()
+    assert _compare_with_pettingzoo(_Only(venv, picked), envs, 7, np.random.default_rng(2)) == 4
+    assert venv.episode_cells() != cells  # the next episodes drew again
+
+
+def test_training_reward_terms():
+    """reward_terms replaces the reward by a weighted sum of training signals; the
+    observations, dones and infos stay the environment's."""
+    kw = dict(n_envs=3, seed=8, max_cycles=4)
+    plain = CoopNavVecEnv("gao_lawnmower", **kw, **TWO_BY_TWO)
+    shaped = CoopNavVecEnv("gao_lawnmower", reward_terms={"error": 2.0, "env": 1.0, "penalties": 0.5}, **kw,
+                           **TWO_BY_TWO)
+    plain.reset(), shaped.reset()
+    for _ in range(4):
+        a = np.random.default_rng(0).uniform(-1, 1, (6, 2))
+        o1, r1, d1, i1 = plain.step(a)
+        o2, r2, d2, i2 = shaped.step(a)
+        assert np.array_equal(o1, o2) and np.array_equal(d1, d2)
+        st, c = shaped.sim.state, shaped.config
+        dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)
+        penalties = -(c.safety_penalty * (dist < c.safety_distance_m).any(-1))  # (B, N); inside the fence here
+        for row in range(6):
+            e, j = divmod(row, 2)
+            err = np.mean(i2[row]["survey_error_m_per_vehicle"]) if not d2[row] else None
+            if err is not None:
+                expect = r1[row] + 2.0 * (-err) + 0.5 * penalties[e, j]
+                assert r2[row] == pytest.approx(expect, rel=1e-5, abs=1e-5)
+    for term in REWARD_TERMS:  # every term gives a finite reward of the right shape
+        venv = CoopNavVecEnv("sousa_asv", n_envs=2, seed=0, reward_terms={term: 1.0})
+        venv.reset()
+        r = venv.step(np.zeros((2, 2)))[1]
+        assert r.shape == (2,) and np.isfinite(r).all()
+    err_only = CoopNavVecEnv("sousa_asv", n_envs=2, seed=0, reward_terms={"error": 1.0})
+    err_only.reset()
+    _, r, _, infos = err_only.step(np.zeros((2, 2)))
+    assert np.allclose(r, [-i["survey_error_m"] for i in infos])
 
 
 class _Only:
-    """Drive a VecEnv with random actions and show one environment as if alone."""
+    """Drive a VecEnv with random actions and show some of its environments as if alone."""
 
-    def __init__(self, venv, e):
-        self.venv, self.e, self.n_beacons, self.num_envs = venv, e, venv.n_beacons, venv.n_beacons
-        self.episode_seeds = venv.episode_seeds[e:e + 1]
+    def __init__(self, venv, envs):
+        self.venv, self.envs, self.n_beacons = venv, list(envs), venv.n_beacons
+        self.num_envs = len(self.envs) * venv.n_beacons
+        self.rows = np.concatenate([np.arange(e * venv.n_beacons, (e + 1) * venv.n_beacons) for e in self.envs])
+
+    @property
+    def episode_seeds(self):
+        return self.venv.episode_seeds[self.envs]
 
     def step(self, a):
         full = np.zeros((self.venv.num_envs, 2), dtype=np.float32)
-        full[self.e * self.n_beacons:(self.e + 1) * self.n_beacons] = a
+        full[self.rows] = a
         obs, r, d, infos = self.venv.step(full)
-        rows = slice(self.e * self.n_beacons, (self.e + 1) * self.n_beacons)
-        return obs[rows], r[rows], d[rows], infos[rows]
+        return obs[self.rows], r[self.rows], d[self.rows], [infos[i] for i in self.rows]
