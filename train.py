@@ -388,10 +388,11 @@ def resume_seed(seed: int, steps: int) -> int:
     return int(np.random.SeedSequence([int(seed) % 2**32, steps]).generate_state(1)[0] >> 1)
 
 
-def read_json(path: Path):
+def read_json(path: Path, load=json.load):
+    """A JSON file's content (or YAML's, with load=yaml.safe_load), or None if it is missing."""
     try:
         with open(path) as f:
-            return json.load(f)
+            return load(f)
     except FileNotFoundError:
         return None
 
@@ -427,7 +428,7 @@ def main(argv=None) -> int:
     # --- the run directory, its config, and (when resuming) the checkpoint ----------
     if args.resume:
         out = Path(args.resume)
-        saved = read_json_yaml(out / "config.yml")
+        saved = read_json(out / "config.yml", load=yaml.safe_load)
         if saved is None:
             fail(f"{out} is not a train.py run directory (no config.yml)")
         ckpt = read_json(out / "checkpoints" / "last_checkpoint.json")
@@ -579,14 +580,6 @@ def main(argv=None) -> int:
           f"{(model.num_timesteps - start_steps) / elapsed:.0f} steps/s); "
           f"model in {out}")
     return 0
-
-
-def read_json_yaml(path: Path):
-    try:
-        with open(path) as f:
-            return yaml.safe_load(f)
-    except FileNotFoundError:
-        return None
 
 
 def _has_progress_bar() -> bool:
