@@ -452,3 +452,27 @@ def test_rng_row_equals_seed_alone():
     for other in (rng.normal(keys, 2, np.zeros(200), (50,)), rng.normal(keys, 1, np.ones(200), (50,)),
                   rng.normal(rng.env_keys(np.arange(200) + 200), 1, np.zeros(200), (50,))):
         assert abs(np.corrcoef(a, other.ravel())[0, 1]) < 4 / np.sqrt(a.size)
+
+
+def test_survey_kernel_dead_reckons_along_eq5_forward_axis():
+    """The sub-step kernel's dead-reckoning step is u_model * tau * forward_axis(measured
+    bearing, measured pitch): eq. (4) with the rotation of eq. (5), in the kernel's complex form."""
+    from coopnav_env.core.substeps import integrate_survey
+
+    depth = 10.0
+    pos = np.array([[[0.0, 0.0, depth]]])
+    est, dr = pos.copy(), pos.copy()
+    heading = np.array([[1.0 + 0.0j]])  # due east
+    waypoints = np.array([[[[0.0, 0.0, depth], [1000.0, 0.0, depth]]]])
+    u, thrust = 1.2, 1.2 ** 2 * 6.0  # cruising: thrust = k u^2 with k = 6
+    bias, compass_noise, pitch_noise = np.radians(2.0), np.radians(0.7), np.radians(1.5)
+    out_vel = np.zeros((1, 1, 3)), np.zeros((1, 1, 3))
+    integrate_survey(pos, est, dr, heading, np.array([[1]]), np.array([[False]]), *out_vel, np.array([[u]]),
+                     waypoints, np.array([[2]]), np.array([[False]]), np.array([[thrust]]), np.array([[1.0]]), 6.0,
+                     45.0, np.array([[bias]]), np.array([[[compass_noise]]]), np.array([[[pitch_noise]]]),
+                     np.array([0.0j]), np.array([[0.0j]]), 1.0, 0.5, 3.0, np.cos(0.2), np.sin(0.2),
+                     np.radians(20.0), 0.2)
+    expected = u * 1.0 * dynamics.forward_axis(np.pi / 2 + bias + compass_noise, pitch_noise)
+    np.testing.assert_allclose(dr[0, 0] - [0.0, 0.0, depth], expected, atol=1e-12)
+    np.testing.assert_allclose(est[0, 0], dr[0, 0], atol=1e-12)  # no current told: EKF and DR move alike
+    np.testing.assert_allclose(pos[0, 0, :2], [u, 0.0], atol=1e-12)  # the truth goes straight east
