@@ -213,7 +213,7 @@ class CoopNavVecEnv(VecEnv):
 
     def training_reward(self, res) -> np.ndarray:
         """The weighted sum of ``reward_terms`` for this step, (n_envs, n_beacons)."""
-        c, st = self.config, self.sim.state
+        st = self.sim.state
         total = np.zeros((self.n_envs, self.n_beacons))
         for name, w in self.reward_terms.items():
             if name == "env":
@@ -225,13 +225,8 @@ class CoopNavVecEnv(VecEnv):
                 term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
             elif name == "logdet":
                 term = -0.5 * res.info["cov_logdet"].mean(-1)[:, None]
-            else:  # penalties: core/sim.py's safety and geofence terms, on this step's positions
-                dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)
-                too_close = (dist < c.safety_distance_m).any(-1)
-                fe0, fn0, fe1, fn1 = c.geofence_m
-                x, y = st.b_pos[..., 0], st.b_pos[..., 1]
-                outside = (x < fe0) | (x > fe1) | (y < fn0) | (y > fn1)
-                term = -(c.safety_penalty * too_close + c.geofence_penalty * outside)
+            else:  # penalties: the core's safety and geofence terms of this step
+                term = -res.safety_geofence_penalty
             total += w * term
         return total
 

@@ -40,13 +40,15 @@ INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_f
 @dataclass
 class StepResult:
     """Arrays of one batched step. obs (B,N,D); reward (B,N); terminated,
-    truncated (B,); info: name -> (B,S) array per survey vehicle."""
+    truncated (B,); info: name -> (B,S) array per survey vehicle; safety_geofence_penalty
+    (B,N): the reward's safety and geofence part (for trainers that reweigh terms)."""
 
     obs: np.ndarray
     reward: np.ndarray
     terminated: np.ndarray
     truncated: np.ndarray
     info: dict
+    safety_geofence_penalty: np.ndarray
 
 
 class Simulator:
@@ -300,8 +302,8 @@ class Simulator:
         fe0, fn0, fe1, fn1 = c.geofence_m
         outside = (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
         no_contact = ~fused.any(-1)  # (B,N): none of this beacon's ranges fused
-        reward = (info_gain[:, None] - c.safety_penalty * too_close - c.geofence_penalty * outside
-                  - c.contact_penalty * no_contact)
+        safety_geofence = c.safety_penalty * too_close + c.geofence_penalty * outside
+        reward = info_gain[:, None] - safety_geofence - c.contact_penalty * no_contact
 
         terminated = st.s_done.all(-1)
         if c.mission_duration_s > 0:
@@ -318,7 +320,7 @@ class Simulator:
             "nan_rejected": nan_count,
             "packets_lost": lost.sum(1),
         }
-        return StepResult(self.observe(), reward, terminated, truncated, info)
+        return StepResult(self.observe(), reward, terminated, truncated, info, safety_geofence)
 
     # ------------------------------------------------------------------------------
     def _integrate_survey(self, draws):
