@@ -52,7 +52,8 @@ EPISODE_COLUMNS = ["cell", "policy", "episode", "seed", "steps", "duration_s", "
                    "outliers_rejected", "packets_lost", "beacon_distance_m", "safety_violations",
                    "geofence_violations"]
 STEP_COLUMNS = ["cell", "policy", "episode", "seed", "step", "t_s", "survey_error_m", "dr_error_m",
-                "ellipse_major_m", "ellipse_minor_m", "reward", "beacon_distance_m"]
+                "ellipse_major_m", "ellipse_minor_m", "reward", "beacon_distance_m", "error_x_m", "error_y_m"]
+# error_x_m, error_y_m: signed errors in the moving frame (network="moving_lbl" only; blank otherwise)
 
 
 class UsageError(Exception):
@@ -312,17 +313,18 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
     """Run ``policy_name`` (one instance per beacon and episode) on episodes ``seeds``
     as one batch. Returns (episode rows, step rows) without cell/policy columns."""
     from coopnav_env.core.information import error_ellipse
-    from coopnav_env.core.sim import Simulator
+    from coopnav_env.core import make_simulator
 
     seeds = [int(s) for s in seeds]
     B, N = len(seeds), config.n_beacons
-    sim = Simulator(config, batch_size=B)
+    sim = make_simulator(config, batch_size=B)
     obs = sim.reset(seeds)
     policies = [[make_policy(policy_name, config, seed=(s, j), agent=j) for j in range(N)] for s in seeds]
     T = config.ping_interval_s
     done = np.zeros(B, dtype=bool)
     hist = {k: [] for k in ("alive", "err", "dr", "major", "minor", "reward", "dist", "fused", "rejected", "lost",
-                             "unsafe", "outside")}
+                             "unsafe", "outside", "ex", "ey")}
+    frame = config.network == "moving_lbl"
     fe0, fn0, fe1, fn1 = config.geofence_m
     actions = np.zeros((B, N, 2))
     while not done.all():
@@ -347,7 +349,10 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
         hist["rejected"].append(res.info["outliers_rejected"].sum(-1))
         hist["lost"].append(res.info["packets_lost"].sum(-1))
         hist["unsafe"].append((dist < config.safety_distance_m).any((-1, -2)))
-        hist["outside"].append(((bx < fe0) | (bx > fe1) | (by < fn0) | (by > fn1)).any(-1))
+        hist["outside"].append(((bx < fe0) | (bx > fe1) | (by < fn0) | (by > fn1)).any(-1) & (not frame))
+        if frame:
+            hist["ex"].append(res.info["error_x_m"][:, 0])
+            hist["ey"].append(res.info["error_y_m"][:, 0])
         ended = (res.terminated | res.truncated) & ~done
         done |= ended
         if progress is not None and ended.any():
@@ -370,15 +375,17 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
                           "dr_error_m": float(dr[k]), "ellipse_major_m": float(H["major"][k, b]),
                           "ellipse_minor_m": float(H["minor"][k, b]), "reward": float(H["reward"][k, b]),
                           "beacon_distance_m": float(H["dist"][k, b])})
+            if frame:
+                steps[-1].update(error_x_m=float(H["ex"][k, b]), error_y_m=float(H["ey"][k, b]))
     return episodes, steps
 
 
 def record_episode(config, policy_name: str, seed: int):
     """Re-run one episode and keep every snapshot (for the path figure)."""
-    from coopnav_env.core.sim import Simulator
+    from coopnav_env.core import make_simulator
     from coopnav_env.render import EpisodeRecorder
 
-    sim = Simulator(config, batch_size=1)
+    sim = make_simulator(config, batch_size=1)
     obs = sim.reset([seed])
     N = config.n_beacons
     policies = [make_policy(policy_name, config, seed=(seed, j), agent=j) for j in range(N)]
@@ -422,7 +429,19 @@ def error_stats(step_rows, episode_rows, n_boot: int = 2000) -> dict:
         "final_error_m": ep_mean("final_error_m"), "mean_dr_error_m": ep_mean("mean_dr_error_m"),
         "mean_return": ep_mean("return"), "ranges_fused": ep_mean("ranges_fused"),
         "outliers_rejected": ep_mean("outliers_rejected"), "beacon_distance_m": ep_mean("beacon_distance_m"),
+        **frame_error_stats(step_rows),
     }
+
+
+def frame_error_stats(step_rows) -> dict:
+    """Moving-frame error statistics (Matos & Cruz sec. VIII): the standard deviation
+    of the x and y errors over all steps; empty for scenarios without them."""
+    ex = [float(r["error_x_m"]) for r in step_rows if r.get("error_x_m", "") != ""]
+    ey = [float(r["error_y_m"]) for r in step_rows if r.get("error_y_m", "") != ""]
+    if not ex:
+        return {}
+    return {"error_x_std_m": float(np.std(ex)), "error_y_std_m": float(np.std(ey)),
+            "error_x_mean_m": float(np.mean(ex)), "error_y_mean_m": float(np.mean(ey))}
 
 
 def summarize(plan, ep_rows, step_rows, args) -> dict:
@@ -504,6 +523,13 @@ def policy_table(stats: dict) -> str:
             f"{s['std_error_m']:.3f}", f"[{s['ci95_error_m'][0]:.3f}, {s['ci95_error_m'][1]:.3f}]",
             f"{s['final_error_m']:.3f}", f"{s['mean_dr_error_m']:.3f}", f"{s['mean_return']:.2f}",
             f"{s['ranges_fused']:.1f}", f"{s['outliers_rejected']:.1f}", f"{s['beacon_distance_m']:.1f}"]) + " |")
+    if any("error_x_std_m" in s for s in stats.values()):
+        out += ["", "Moving-frame errors (Matos & Cruz sec. VIII reports std 0.25 m in x, 0.86 m in y):", "",
+                "| policy | x error std (m) | y error std (m) | x mean | y mean |", "|---|---|---|---|---|"]
+        for p, s in stats.items():
+            if "error_x_std_m" in s:
+                out.append(f"| {p} | {s['error_x_std_m']:.3f} | {s['error_y_std_m']:.3f} | "
+                           f"{s['error_x_mean_m']:+.3f} | {s['error_y_mean_m']:+.3f} |")
     return "\n".join(out)
 
 
@@ -613,7 +639,38 @@ def draw_figures(out, plan, ep_rows, step_rows, args):
     fig.tight_layout()
     _save_figure(fig, os.path.join(out, "ellipse_axes.png"))
     written.append("ellipse_axes.png")
+    if config.network == "moving_lbl":
+        written.append(draw_frame_errors(out, policies, step_rows, args, config))
     return written
+
+
+def draw_frame_errors(out, policies, step_rows, args, config):
+    """Matos & Cruz Figs. 6-8 for the first episode of each policy: the x and y errors
+    in the moving frame and the filter's ellipse axes against time."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.5, 7.5))
+    axes = [fig.add_subplot(3, 1, i + 1) for i in range(3)]
+    for i, p in enumerate(policies):
+        rows = [r for r in step_rows if r["policy"] == p and int(r["seed"]) == args.seed and r["cell"] == step_rows[0]["cell"]]
+        if not rows:
+            continue
+        t = np.array([float(r["t_s"]) for r in rows])
+        for ax, key in zip(axes[:2], ("error_x_m", "error_y_m")):
+            v = np.array([float(r[key]) for r in rows])
+            ax.plot(t, v, color=f"C{i}", lw=0.8, label=f"{p} (std {v.std():.2f} m)")
+        # 2-sigma semi-axes -> the 1-sigma axis lengths (2 x semi-axis / 2)
+        axes[2].plot(t, [float(r["ellipse_major_m"]) for r in rows], color=f"C{i}", lw=0.9, label=f"{p} major")
+        axes[2].plot(t, [float(r["ellipse_minor_m"]) for r in rows], color=f"C{i}", lw=0.9, ls=":", label=f"{p} minor")
+    for ax, label in zip(axes, ("x error (m)", "y error (m)", "2-sigma semi-axes (m)")):
+        ax.set_ylabel(label)
+        ax.grid(True, lw=0.3)
+        ax.legend(fontsize=7)
+    axes[2].set_xlabel("time (s)")
+    fig.suptitle(f"{config.name}, seed {args.seed}: moving-frame errors (cf. Matos & Cruz Figs. 6-8)", fontsize=10)
+    fig.tight_layout()
+    _save_figure(fig, os.path.join(out, "frame_errors.png"))
+    return "frame_errors.png"
 
 
 def draw_sweep_figure(out, plan, summary):

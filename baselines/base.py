@@ -41,11 +41,12 @@ class BeaconContext:
     def from_config(cls, config: ScenarioConfig, agent_index: int = 0) -> "BeaconContext":
         if not 0 <= agent_index < config.n_beacons:
             raise ValueError(f"agent index {agent_index} out of range for {config.n_beacons} beacon(s)")
-        asv = config.beacon_kinds[agent_index] == "asv"
-        return cls(config=config, agent_index=agent_index,
-                   max_speed_mps=config.asv_max_speed_mps if asv else config.beacon_auv_max_speed_mps,
+        kind = config.beacon_kinds[agent_index]
+        speed = {"asv": config.asv_max_speed_mps, "boat": config.boat_max_speed_mps}.get(
+            kind, config.beacon_auv_max_speed_mps)
+        return cls(config=config, agent_index=agent_index, max_speed_mps=speed,
                    ping_interval_s=config.ping_interval_s,
-                   depth_m=0.0 if asv else config.beacon_auv_depth_m)
+                   depth_m=config.beacon_auv_depth_m if kind == "beacon_auv" else 0.0)
 
     @property
     def reach_m(self) -> float:
@@ -165,8 +166,13 @@ class Policy:
     """
 
     name = "policy"
+    networks = ("survey_beacons",)  # the scenario networks (ScenarioConfig.network) it can drive
 
     def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed=None):
+        if config.network not in self.networks:
+            raise ValueError(f"policy {self.name!r} drives {' / '.join(self.networks)} scenarios, not "
+                             f"network={config.network!r} ({config.name}); policies for it: "
+                             f"{', '.join(list_policies(config.network))}")
         self.config = config
         self.ctx = BeaconContext.from_config(config, agent_index)
         self.seed = seed
@@ -219,13 +225,14 @@ def register_policy(name: str):
     return deco
 
 
-def list_policies() -> list:
+def list_policies(network=None) -> list:
+    """Names of the baseline policies (those that can drive ``network``, if given)."""
     _load_all()
-    return sorted(_POLICIES)
+    return sorted(n for n, cls in _POLICIES.items() if network is None or network in cls.networks)
 
 
 def _load_all():
-    from . import ellipse, fim, simple  # noqa: F401  (register themselves)
+    from . import ellipse, fim, moving_lbl, simple  # noqa: F401  (register themselves)
 
 
 def resolve_config(env_or_config) -> ScenarioConfig:

@@ -12,6 +12,8 @@ from .base import Policy, TrackingPolicy, register_policy
 class StaticPolicy(Policy):
     """Hold position: the zero action (in heading/speed mode, speed 0)."""
 
+    networks = ("survey_beacons", "moving_lbl")
+
     def act(self, obs):
         self.t_s += self.ctx.ping_interval_s
         if self.config.action_mode == "heading_speed":
@@ -44,6 +46,8 @@ class CirclePolicy(TrackingPolicy):
 @register_policy("random")
 class RandomPolicy(Policy):
     """Uniform random actions in [-1, 1]^2 from a generator seeded by ``seed``."""
+
+    networks = ("survey_beacons", "moving_lbl")
 
     def reset(self, seed=None):
         super().reset(seed)

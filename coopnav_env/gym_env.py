@@ -10,7 +10,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-from .core.sim import Simulator
+from .core import make_simulator
 from .scenarios import make_config
 from .views import action_space, agent_infos, check_action, observation_space
 
@@ -26,7 +26,7 @@ class CoopNavGymEnv(gym.Env):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
         self.render_mode = render_mode
-        self.sim = Simulator(self.config, batch_size=1)
+        self.sim = make_simulator(self.config, batch_size=1)
         self.action_space = action_space()
         self.observation_space = observation_space(self.sim)
         self._recorder = None

@@ -42,6 +42,10 @@ from .core.observation import (AGE_SCALE_PINGS, DEPTH_SCALE_M, ELLIPSE_N_SIGMA, 
 
 def obs_dim(config) -> int:
     """Length of one beacon's observation for ``config``."""
+    if config.network == "moving_lbl":
+        from .core.moving_network import OBS_DIM
+
+        return OBS_DIM
     return _layout.obs_dim(config.n_survey, config.n_beacons, config.observed_waypoints)
 
 
@@ -141,3 +145,57 @@ def encode(config, own_en_m, survey_rel_m, major_m=4.0, minor_m=4.0, bearing_rad
         peers = np.zeros((N - 1, 2)) if peers_en_m is None else np.asarray(peers_en_m, float).reshape(N - 1, 2) - own
         parts.append((peers / L).reshape(-1))
     return np.clip(np.concatenate([np.ravel(p) for p in parts]), -OBS_BOUND, OBS_BOUND).astype(np.float32)
+
+
+# --- the boats of the moving LBL network (network="moving_lbl") -------------------------
+@dataclass
+class BoatView:
+    """A decoded boat observation (``core.moving_network.OBS_FIELDS``), in metres,
+    seconds and radians. Frame quantities are in the frame of the boats' GPS
+    positions (x from B1 to B2, y clockwise from x)."""
+
+    is_b1: np.ndarray  # (...) bool: this boat is B1 (the frame's origin)
+    own_velocity_en_mps: np.ndarray  # (..., 2)
+    other_boat_en_m: np.ndarray  # (..., 2) the other boat minus own
+    tracked_xy_m: np.ndarray  # (..., 2) the vehicle as tracked, in the frame
+    tracked_velocity_xy_mps: np.ndarray  # (..., 2)
+    fix_age_s: np.ndarray
+    has_fix: np.ndarray
+    baseline_m: np.ndarray  # GPS baseline length
+    frame_rotation_rad: np.ndarray  # since the start of the episode
+
+    @property
+    def x_axis_en(self) -> np.ndarray:
+        """Unit vector (east, north) of the frame's x axis, B1 -> B2."""
+        d = np.where(self.is_b1[..., None], self.other_boat_en_m, -self.other_boat_en_m)
+        return d / np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-9)
+
+    @property
+    def y_axis_en(self) -> np.ndarray:
+        """Unit vector of the y axis, 90 degrees clockwise from x: u(phi + 90) = (cos phi, -sin phi)."""
+        x = self.x_axis_en
+        return np.stack([x[..., 1], -x[..., 0]], -1)
+
+
+def decode_boat(obs, config) -> BoatView:
+    """Decode boat observations (..., 17) of a moving-network scenario."""
+    from .core.moving_network import AGE_SCALE_PINGS, OBS_FIELDS
+
+    if config.network != "moving_lbl":
+        raise ValueError(f"decode_boat needs a network='moving_lbl' scenario, not {config.name!r}")
+    obs = np.asarray(obs, dtype=float)
+    part, i = {}, 0
+    for name, n in OBS_FIELDS:
+        part[name] = obs[..., i:i + n]
+        i += n
+    if obs.shape[-1] != i:
+        raise ValueError(f"a boat observation has {i} values, got {obs.shape[-1]}")
+    L = config.baseline_target_m
+    rot = part["frame_rotation"]
+    return BoatView(
+        is_b1=part["role"][..., 0] > 0, own_velocity_en_mps=part["own_velocity"] * config.boat_max_speed_mps,
+        other_boat_en_m=part["other_boat"] * L, tracked_xy_m=part["tracked_xy"] * L,
+        tracked_velocity_xy_mps=part["tracked_velocity_xy"] * config.survey_speed_mps,
+        fix_age_s=part["fix_age"][..., 0] * AGE_SCALE_PINGS * config.ping_interval_s,
+        has_fix=part["has_fix"][..., 0] > 0.5, baseline_m=(1.0 + part["baseline_error"][..., 0]) * L,
+        frame_rotation_rad=np.arctan2(rot[..., 1], rot[..., 0]))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from .core.sim import Simulator
+from .core import make_simulator
 from .scenarios import make_config
 from .views import action_space, agent_infos, check_action, observation_space, state_space
 
@@ -74,7 +74,7 @@ class CoopNavParallelEnv(ParallelEnv):
         if render_mode not in (None, "human", "rgb_array"):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'human', 'rgb_array'")
         self.render_mode = render_mode
-        self.sim = Simulator(self.config, batch_size=1)
+        self.sim = make_simulator(self.config, batch_size=1)
         self.possible_agents = [f"beacon_{i}" for i in range(self.config.n_beacons)]
         self.agents = []
         self._action_space = action_space()

@@ -26,7 +26,8 @@ class EpisodeRecorder:
         self.est.append(state.s_est[row].copy())
         self.P.append(state.s_P[row, :, :2, :2].copy())
         self.beacons.append(state.b_pos[row].copy())
-        self.waypoints = state.s_waypoints[row]
+        # planned path in (east, north): a moving network's mission lives in its moving frame
+        self.waypoints = getattr(state, "waypoints_en", state.s_waypoints)[row]
         self.n_waypoints = state.s_n_waypoints[row]
 
     def arrays(self):

@@ -65,7 +65,7 @@ from __future__ import annotations
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
-from .core.sim import INFO_KEYS, Simulator
+from .core import make_simulator
 from .scenarios import make_config
 from .views import action_space, observation_space
 
@@ -114,7 +114,7 @@ class CoopNavVecEnv(VecEnv):
         n_envs = int(n_envs)
         self.config = make_config(scenario, **overrides)
         self.reward_terms = check_reward_terms(reward_terms)
-        self.sim = Simulator(self.config, n_envs)
+        self.sim = make_simulator(self.config, n_envs)
         self.n_envs = n_envs
         self.n_beacons = self.sim.N
         self.obs_dim = self.sim.obs_dim
@@ -234,7 +234,7 @@ class CoopNavVecEnv(VecEnv):
         """One info dict per row: ``views.agent_infos`` of its environment (computed for
         the whole batch at once) plus ``TimeLimit.truncated``."""
         columns = {}
-        for key in INFO_KEYS:
+        for key in self.sim.info_keys:
             v = info[key]
             if key == "range_ok":
                 agg = v.any(axis=1)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
-from .core.sim import INFO_KEYS, Simulator
 
 OBS_BOUND = 10.0
 
@@ -15,11 +14,11 @@ def action_space() -> spaces.Box:
     return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
 
 
-def observation_space(sim: Simulator) -> spaces.Box:
+def observation_space(sim) -> spaces.Box:
     return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(sim.obs_dim,), dtype=np.float32)
 
 
-def state_space(sim: Simulator) -> spaces.Box:
+def state_space(sim) -> spaces.Box:
     return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(sim.state_dim,), dtype=np.float32)
 
 
@@ -44,7 +43,7 @@ def agent_infos(info: dict, row: int) -> dict:
     """The infos of environment ``row`` of a step: the mean over survey vehicles
     (sums for counts, any for range_ok) plus per-vehicle lists."""
     out = {}
-    for key in INFO_KEYS:
+    for key in info:
         values = info[key][row].tolist()
         if key == "range_ok":
             out[key] = any(values)

@@ -248,13 +248,17 @@ def test_make_policy_rejects_unknown_names():
     with pytest.raises(ValueError, match="valid policies"):
         make_policy("nope", ASV)
     assert {"fim_a", "fim_b", "ellipse", "static", "circle", "random"} <= set(list_policies())
+    assert set(list_policies("moving_lbl")) == {"perpendicular", "abeam", "static", "random"}
+    with pytest.raises(ValueError, match="policies for it: abeam, perpendicular"):
+        make_policy("fim_a", "matos_moving_lbl")
 
 
 @pytest.mark.parametrize("scenario,kw", [("gao_lawnmower", {}), ("gao_sea", {"beacon_kinds": ("beacon_auv", "asv"),
-                                                                          "n_survey": 2})])
+                                                                          "n_survey": 2}),
+                                         ("matos_moving_lbl", {})])
 def test_every_policy_drives_the_pettingzoo_env(scenario, kw):
     env = coopnav_env.parallel_env(scenario, seed=0, max_cycles=3, **kw)
-    for name in list_policies():
+    for name in list_policies(env.config.network):
         obs, _ = env.reset(seed=1)
         pols = {a: make_policy(name, env, seed=0, agent=a) for a in env.agents}
         while env.agents:

@@ -1,0 +1,14 @@
+"""The batched simulator core: arrays in, arrays out; no PettingZoo, no plotting."""
+
+
+def make_simulator(config, batch_size: int = 1):
+    """The simulator that reads ``config``: ``config.network`` chooses between the
+    survey/beacon network (``sim.Simulator``) and the moving LBL network
+    (``moving_network.MovingNetworkSimulator``). Both expose the same interface."""
+    if config.network == "moving_lbl":
+        from .moving_network import MovingNetworkSimulator
+
+        return MovingNetworkSimulator(config, batch_size)
+    from .sim import Simulator
+
+    return Simulator(config, batch_size)

@@ -141,3 +141,91 @@ def axis_measurement(axis: int, shape):
     H = np.zeros(tuple(shape) + (3,))
     H[..., axis] = 1.0
     return H
+
+
+# --- the general update, over a batch (any state and measurement size) -------------------
+def joseph_update_batch(x, P, y, H, R, mask):
+    """Eqs. (9)-(13) for an m-vector measurement per filter, Joseph form, over a batch.
+
+    x (B, n), P (B, n, n), innovation y = z - h (B, m), H (B, m, n), R (m, m) or
+    (B, m, m), mask (B,): rows to update. Returns new (x, P) and the normalized
+    innovation squared y^T S^-1 y (B,), for gating. Rows where mask is False are
+    returned unchanged.
+    """
+    S = H @ P @ np.swapaxes(H, -1, -2) + R  # eq. (11)
+    S_inv_y = np.linalg.solve(S, y[..., None])[..., 0]
+    nis = np.einsum("bi,bi->b", y, S_inv_y)
+    K = np.swapaxes(np.linalg.solve(S, H @ P), -1, -2)  # eq. (12): P H^T S^-1 (S, P symmetric)
+    x_new = x + np.einsum("bij,bj->bi", K, y)  # eq. (9)
+    A = np.eye(x.shape[-1]) - K @ H
+    RK = (R if np.ndim(R) == 3 else np.broadcast_to(R, S.shape)) @ np.swapaxes(K, -1, -2)
+    P_new = A @ P @ np.swapaxes(A, -1, -2) + K @ RK  # eq. (13), Joseph form
+    m = np.asarray(mask, dtype=bool)
+    return np.where(m[:, None], x_new, x), np.where(m[:, None, None], P_new, P), nis
+
+
+# --- the moving-frame EKF of Matos & Cruz, section VII -----------------------------------
+# State E = (x, y, phi, c_x, c_y, l): the vehicle's position in the frame of the two
+# beacons (origin B1, x towards B2, y 90 degrees clockwise from x, seen from above),
+# the bearing phi of the frame's x axis (clockwise from north), the water current
+# relative to the frame, expressed in it (it absorbs the frame's own translation),
+# and the baseline length. The paper updates P with P - K H P; coopnav uses the
+# Joseph form (same value in exact arithmetic, stays positive definite in floats).
+FRAME_STATE = ("x_m", "y_m", "phi_rad", "current_x_mps", "current_y_mps", "baseline_m")
+
+
+@njit(cache=True)
+def frame_predict(E, P, speed_mps, heading_rad, dt_s, Q):
+    """Integrate the filter over dt_s with the measured water speed and compass heading
+    held constant, in place (one filter; E (6,), P (6, 6), Q (6, 6) per second).
+
+    State (section VII): dE/dt = F(E, v, theta) = (v cos(theta - phi) + c_x,
+    v sin(theta - phi) + c_y, 0, 0, 0, 0): with its inputs constant F is constant
+    over the step, so E advances exactly by F dt. Covariance: dP/dt = A P + P A^T + Q,
+    A = dF/dE, whose only non-zero entries are A[0,2] = v sin(theta - phi), A[1,2] =
+    -v cos(theta - phi), A[0,3] = A[1,4] = 1. A A = 0 (rows 2-5 are zero and
+    columns 0-1 are zero), so Phi = I + A dt exactly and the covariance equation has
+    the closed form P(dt) = Phi P Phi^T + Q dt + (A Q + Q A^T) dt^2/2 + A Q A^T dt^3/3.
+    """
+    rel = heading_rad - E[2]
+    c, s = np.cos(rel), np.sin(rel)
+    A = np.zeros((6, 6))
+    A[0, 2], A[0, 3] = speed_mps * s, 1.0
+    A[1, 2], A[1, 4] = -speed_mps * c, 1.0
+    E[0] += (speed_mps * c + E[3]) * dt_s
+    E[1] += (speed_mps * s + E[4]) * dt_s
+    Phi = np.eye(6) + A * dt_s
+    AQ = A @ Q
+    Qd = Q * dt_s + (AQ + AQ.T) * (dt_s * dt_s / 2.0) + AQ @ A.T * (dt_s ** 3 / 3.0)
+    P[:, :] = Phi @ P @ Phi.T + Qd
+
+
+def frame_velocity(E, speed_mps, heading_rad):
+    """The frame-relative velocity F[0:2] of section VII's model, (..., 2)."""
+    rel = heading_rad - E[..., 2]
+    return np.stack([speed_mps * np.cos(rel) + E[..., 3], speed_mps * np.sin(rel) + E[..., 4]], -1)
+
+
+def frame_range_model(E, beacon, depth_below_m, velocity_mps, delays_s):
+    """Predicted range z* to beacon B1 (beacon=1) or B2 (beacon=2) and its Jacobian
+    over the 6 states, for filters E (B, 6).
+
+    Section VII: z* = sqrt(x^2 + y^2) for B1 and sqrt((x - l)^2 + y^2) for B2; coopnav
+    measures slant ranges, so the depth below the beacons enters as a third
+    coordinate, and the vehicle's motion while the sound travels enters through leg
+    delays as in the survey EKF (``range_prediction``): the range is the mean of the
+    legs' distances from x + v d to the beacon. velocity_mps (B, 2) frame-relative;
+    delays_s (B, L) relative to the filter's time. Returns h (B,), H (B, 6).
+    """
+    B = E.shape[0]
+    pos = np.stack([E[:, 0], E[:, 1], depth_below_m * np.ones(B)], -1)
+    vel = np.concatenate([velocity_mps, np.zeros((B, 1))], -1)
+    bpos = np.zeros((B, 3))
+    if beacon == 2:
+        bpos[:, 0] = E[:, 5]
+    h, H3 = range_model(pos, vel, delays_s, bpos)
+    H = np.zeros((B, 6))
+    H[:, 0], H[:, 1] = H3[:, 0], H3[:, 1]
+    if beacon == 2:
+        H[:, 5] = -H3[:, 0]  # d z* / d l = -(x - l) / z*
+    return h, H

@@ -72,3 +72,31 @@ def normal(keys: np.ndarray, stream: int, counter: np.ndarray, shape: tuple) -> 
 # stream names: one per purpose, so that adding a draw never changes another
 STREAM_EPISODE = 1  # per-episode randomization (current, biases, start geometry)
 STREAM_CYCLE = 2  # everything drawn in a cycle (laid out by purpose in Simulator)
+
+
+class DrawLayout:
+    """Every random number of one cycle from one hash call, laid out by purpose.
+
+    ``layout`` is a list of (name, "normal" | "uniform", shape); a new purpose goes
+    at the end so that the others keep their numbers. ``draw(keys, counter)``
+    returns name -> (B, *shape).
+    """
+
+    def __init__(self, layout, batch_size: int, stream: int = STREAM_CYCLE):
+        self.layout, self.stream = list(layout), int(stream)
+        self.slices, start = [], 0
+        for name, kind, shape in self.layout:
+            if kind not in ("normal", "uniform"):
+                raise ValueError(f"draw kind must be 'normal' or 'uniform', got {kind!r}")
+            size = int(np.prod(shape))
+            self.slices.append((name, kind == "normal", slice(start, start + size), (int(batch_size),) + tuple(shape)))
+            start += size
+        self.size = start
+
+    def draw(self, keys: np.ndarray, counter: np.ndarray) -> dict:
+        u = uniform(keys, self.stream, counter, (self.size,))
+        out = {}
+        for name, normal_, cols, shape in self.slices:
+            block = u[:, cols].reshape(shape)
+            out[name] = to_normal(block) if normal_ else block
+        return out

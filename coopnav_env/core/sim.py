@@ -110,22 +110,17 @@ class Simulator:
         # every random number of one cycle comes from one hash call, laid out by purpose;
         # a new purpose goes at the end so the others keep their numbers
         S_, N_, K_ = self.S, self.N, self.K
-        self._draw_layout = [
+        self._draws = rng.DrawLayout([
             ("current", "normal", (2,)),
             ("sensor_n", "normal", (S_, 3)), ("sensor_u", "uniform", (S_, 3)),
             ("substep", "normal", (K_, 2, S_)),
             ("beacon_nav_n", "normal", (N_, 4)), ("beacon_nav_u", "uniform", (N_,)),
             ("acoustic_n", "normal", (N_, S_, 2)), ("acoustic_u", "uniform", (N_, S_, 4)),
             ("message_u", "uniform", (N_, S_ + N_)),
-        ]
-        self._draw_slices, start = [], 0
-        for name, kind, shape in self._draw_layout:
-            size = int(np.prod(shape))
-            self._draw_slices.append((name, kind == "normal", slice(start, start + size), (self.batch_size,) + shape))
-            start += size
-        self._draw_size = start
+        ], self.batch_size)
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
         self.state_dim = self.S * 10 + self.N * 7 + 3
+        self.info_keys = INFO_KEYS
         self.state: SimState | None = None
 
     # ------------------------------------------------------------------------------
@@ -226,12 +221,7 @@ class Simulator:
 
     def _cycle_draws(self, cycle) -> dict:
         """This cycle's random numbers for every environment, by purpose: name -> (B, *shape)."""
-        u = rng.uniform(self.state.keys, rng.STREAM_CYCLE, cycle, (self._draw_size,))
-        out = {}
-        for name, normal, cols, shape in self._draw_slices:
-            block = u[:, cols].reshape(shape)
-            out[name] = rng.to_normal(block) if normal else block
-        return out
+        return self._draws.draw(self.state.keys, cycle)
 
     # ------------------------------------------------------------------------------
     def command_velocity(self, actions: np.ndarray) -> np.ndarray:

@@ -13,8 +13,25 @@ from dataclasses import dataclass
 import numpy as np
 
 
+class BatchArrays:
+    """Row operations shared by the state dataclasses: every field has a leading batch axis."""
+
+    @property
+    def batch_size(self) -> int:
+        return self.t_s.shape[0]
+
+    def assign(self, mask: np.ndarray, other):
+        """Overwrite the rows where ``mask`` is True with ``other``'s rows (in order)."""
+        for f in dataclasses.fields(self):
+            getattr(self, f.name)[mask] = getattr(other, f.name)
+
+    def row(self, index: int):
+        """A batch-of-one copy of row ``index``."""
+        return type(self)(**{f.name: getattr(self, f.name)[index:index + 1].copy() for f in dataclasses.fields(self)})
+
+
 @dataclass
-class SimState:
+class SimState(BatchArrays):
     # clocks and random-number keys, (B,)
     t_s: np.ndarray
     cycle: np.ndarray
@@ -65,16 +82,3 @@ class SimState:
     k_age_s: np.ndarray  # time since that reply (B,N,S)
     k_range_age_s: np.ndarray  # time since its last fused range, as reported (B,N,S)
     k_peer: np.ndarray  # peers' last reported positions (B,N,N,3)
-
-    @property
-    def batch_size(self) -> int:
-        return self.t_s.shape[0]
-
-    def assign(self, mask: np.ndarray, other: "SimState"):
-        """Overwrite the rows where ``mask`` is True with ``other``'s rows (in order)."""
-        for f in dataclasses.fields(self):
-            getattr(self, f.name)[mask] = getattr(other, f.name)
-
-    def row(self, index: int) -> "SimState":
-        """A batch-of-one copy of row ``index``."""
-        return SimState(**{f.name: getattr(self, f.name)[index:index + 1].copy() for f in dataclasses.fields(self)})

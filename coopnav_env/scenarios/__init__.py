@@ -1,6 +1,7 @@
 """Named scenarios. Importing this package registers every scenario file."""
 
 from . import gao  # noqa: F401  (registers gao_lawnmower, gao_sea)
+from . import matos  # noqa: F401  (registers matos_moving_lbl)
 from . import sousa  # noqa: F401  (registers sousa_asv)
 from .base import ScenarioConfig, list_scenarios, make_config, parameter_names, register
 

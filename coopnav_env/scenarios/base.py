@@ -18,7 +18,8 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Callable
 
-BEACON_KINDS = ("beacon_auv", "asv")
+BEACON_KINDS = ("beacon_auv", "asv", "boat")
+NETWORKS = ("survey_beacons", "moving_lbl")
 SURVEY_PATHS = ("stationary", "lawnmower", "circle", "spiral", "line", "waypoints")
 RANGING_MODES = ("owtt", "twtt")
 ACTION_MODES = ("velocity", "heading_speed")
@@ -29,6 +30,10 @@ class ScenarioConfig:
     """Every parameter of a coopnav scenario. See the field comments for units."""
 
     name: str = "custom"
+    # which simulator reads this config: "survey_beacons" (survey vehicles in a fixed
+    # navigation frame, beacons that ping them: Gao & Chitre, Sousa et al.) or
+    # "moving_lbl" (one AUV in the frame of two beacon boats: Matos & Cruz)
+    network: str = "survey_beacons"
 
     # --- timing ---------------------------------------------------------------------
     ping_interval_s: float = 20.0  # one decision step = one acoustic cycle (Gao & Chitre: 20 s)
@@ -99,6 +104,10 @@ class ScenarioConfig:
     asv_max_speed_mps: float = 2.0  # Sousa et al.
     asv_max_turn_rate_dps: float = 30.0  # [U]
 
+    # --- boat (GPS; the beacons of the moving LBL network) -------------------------------
+    boat_max_speed_mps: float = 1.5  # small outboard boat at survey pace [U]
+    boat_max_turn_rate_dps: float = 20.0  # [U]
+
     beacon_start_distance_m: float = 60.0  # from the survey's start point; 0: the FIM-optimal distance
     beacon_start_bearing_deg: float = 225.0  # bearing of the beacon from the survey start
     beacon_start_bearing_spread_deg: float = 30.0  # randomized per episode, +/-
@@ -133,6 +142,28 @@ class ScenarioConfig:
     safety_penalty: float = 1.0
     geofence_penalty: float = 1.0
     contact_penalty: float = 0.2  # no range of this beacon fused this cycle
+
+    # --- moving LBL network (network="moving_lbl"; Matos & Cruz) --------------------------
+    # The survey waypoints are then in the boats' frame: x from B1 towards B2, y 90 deg
+    # clockwise from x (the vehicle stays at y > 0); depth as usual.
+    frame_orientation_deg: float = 90.0  # initial bearing of the frame's x axis (B1 -> B2)
+    frame_orientation_spread_deg: float = 0.0  # randomized per episode, +/-
+    baseline_target_m: float = 100.0  # the boats' intended separation (paper: 100 m)
+    boat_transit_speed_mps: float = 0.5  # boats' speed along the frame's y axis (signed) [U: "constant speed"]
+    survey_speed_mps: float = 1.0  # water speed held by the vehicle's speed controller (paper: 1 m/s)
+    speed_encoder_noise_mps: float = 0.02  # propeller-encoder water-speed noise, per sub-step [U]
+    initial_frame_orientation_std_deg: float = 5.0  # the filter's prior on phi [U]
+    initial_frame_orientation_error_deg: float = 0.0  # a fixed error added to the prior mean (tests)
+    initial_current_std_mps: float = 0.5  # prior on the frame-relative current (boats' speed unknown)
+    initial_baseline_std_m: float = 5.0  # prior on l
+    frame_q_position_m2ps: float = 0.01  # Q of the moving-frame EKF, per second: x and y [U, tuned]
+    frame_q_orientation_rad2ps: float = 1e-6  # phi
+    frame_q_current_m2ps3: float = 1e-4  # c_x, c_y (boat speed changes, current variation)
+    frame_q_baseline_m2ps: float = 0.02  # l: a random walk that follows a boat-speed mismatch (tests/test_matos.py)
+    baseline_tolerance_m: float = 10.0  # reward: |l - target| beyond this costs baseline_penalty
+    baseline_penalty: float = 0.5
+    min_baseline_distance_m: float = 15.0  # reward: the vehicle closer than this to the baseline
+    approach_penalty: float = 1.0  # (the fix degenerates on the baseline) costs approach_penalty
 
     # --- domain randomization: drawn per episode from the episode's seed --------------
     randomize_survey_path: tuple = ()  # choices of survey_path; () keeps survey_path
@@ -225,6 +256,8 @@ def _validate(c: ScenarioConfig):
         "initial_position_std_m", "beacon_auv_max_speed_mps", "asv_max_speed_mps",
         "max_range_m", "range_noise_std_m", "position_scale_m", "current_gm_time_constant_s",
         "survey_max_turn_rate_dps", "beacon_auv_max_turn_rate_dps", "asv_max_turn_rate_dps",
+        "boat_max_speed_mps", "boat_max_turn_rate_dps", "baseline_target_m", "survey_speed_mps",
+        "initial_frame_orientation_std_deg", "initial_current_std_mps", "initial_baseline_std_m",
     ]
     for name in positive:
         v = getattr(c, name)
@@ -237,6 +270,9 @@ def _validate(c: ScenarioConfig):
         "temperature_uncertainty_c", "clock_offset_std_s", "clock_drift_ppm", "current_speed_mps",
         "current_speed_spread_mps", "current_gm_std_mps", "safety_distance_m",
         "geofence_margin_m", "survey_speed_scale_error_std", "beacon_start_distance_m", "beacon_current_estimate_error_mps",
+        "frame_orientation_spread_deg", "speed_encoder_noise_mps", "frame_q_position_m2ps", "frame_q_orientation_rad2ps",
+        "frame_q_current_m2ps3", "frame_q_baseline_m2ps", "baseline_tolerance_m", "baseline_penalty",
+        "min_baseline_distance_m", "approach_penalty",
     ]
     for name in nonneg:
         v = getattr(c, name)
@@ -257,6 +293,19 @@ def _validate(c: ScenarioConfig):
            "beacon_kinds must be a non-empty tuple")
     for k in c.beacon_kinds:
         _check(k in BEACON_KINDS, f"unknown beacon kind {k!r}; valid kinds: {', '.join(BEACON_KINDS)}")
+    _check(c.network in NETWORKS, f"unknown network {c.network!r}; valid networks: {', '.join(NETWORKS)}")
+    if c.network == "moving_lbl":
+        _check(c.beacon_kinds == ("boat", "boat"),
+               f"network='moving_lbl' needs beacon_kinds=('boat', 'boat') (B1, B2), got {c.beacon_kinds!r}")
+        _check(c.n_survey == 1, f"network='moving_lbl' simulates one vehicle, got n_survey={c.n_survey}")
+        _check(c.survey_path == "waypoints", "network='moving_lbl' needs survey_path='waypoints' (frame coordinates)")
+        _check(all(len(w) == 3 and w[1] > 0 for w in c.waypoints_m),
+               "network='moving_lbl': every waypoint needs y > 0 (the vehicle must not cross the baseline)")
+        _check(abs(c.boat_transit_speed_mps) <= c.boat_max_speed_mps,
+               f"boat_transit_speed_mps ({c.boat_transit_speed_mps}) exceeds boat_max_speed_mps ({c.boat_max_speed_mps})")
+        _check(c.ranging_mode == "twtt", "network='moving_lbl' ranges by two-way travel time: ranging_mode='twtt'")
+    else:
+        _check("boat" not in c.beacon_kinds, "beacon kind 'boat' belongs to network='moving_lbl'")
     _check(c.survey_path in SURVEY_PATHS,
            f"unknown survey_path {c.survey_path!r}; valid paths: {', '.join(SURVEY_PATHS)}")
     _check(c.ranging_mode in RANGING_MODES,
