@@ -26,14 +26,18 @@ class PerpendicularPolicy(Policy):
 
     networks = ("moving_lbl",)
 
-    def velocity_en(self, view) -> np.ndarray:
-        return self.config.boat_transit_speed_mps * view.y_axis_en
+    def velocity_xy(self, view) -> np.ndarray:
+        """Ground velocity (m/s) in the boats' frame: (along B1 -> B2, across)."""
+        return np.array([0.0, self.config.boat_transit_speed_mps])
 
     def act(self, obs):
         view = decode_boat(obs, self.config)
         self.t_s += self.ctx.ping_interval_s
-        v = self.velocity_en(view)
-        return waypoint_to_action(self.ctx, np.zeros(2), v * self.ctx.ping_interval_s)
+        v = self.velocity_xy(view)
+        if self.config.action_mode == "frame_velocity":
+            return np.clip(v / self.ctx.max_speed_mps, -1.0, 1.0).astype(np.float32)
+        v_en = v[0] * view.x_axis_en + v[1] * view.y_axis_en
+        return waypoint_to_action(self.ctx, np.zeros(2), v_en * self.ctx.ping_interval_s)
 
 
 @register_policy("abeam")
@@ -48,13 +52,13 @@ class AbeamPolicy(PerpendicularPolicy):
         wp = np.asarray(config.waypoints_m, dtype=float)
         self.planned_y_m = float(wp[:, 1].mean())
 
-    def velocity_en(self, view):
+    def velocity_xy(self, view):
         c = self.config
         along_y = c.boat_transit_speed_mps
         if view.has_fix:  # a vehicle further from the baseline than planned: move towards it
             along_y = along_y + self.pace_gain_per_s * (float(view.tracked_xy_m[1]) - self.planned_y_m)
         spread = 0.5 * self.baseline_gain_per_s * (c.baseline_target_m - float(view.baseline_m))
         sign = -1.0 if view.is_b1 else 1.0  # B1 moves along -x to lengthen the baseline, B2 along +x
-        v = along_y * view.y_axis_en + sign * spread * view.x_axis_en
+        v = np.array([sign * spread, along_y])
         speed = float(np.linalg.norm(v))
         return v if speed <= c.boat_max_speed_mps else v * c.boat_max_speed_mps / speed

@@ -151,24 +151,17 @@ def encode(config, own_en_m, survey_rel_m, major_m=4.0, minor_m=4.0, bearing_rad
 @dataclass
 class BoatView:
     """A decoded boat observation (``core.moving_network.OBS_FIELDS``), in metres,
-    seconds and radians. Frame quantities are in the frame of the boats' GPS
-    positions (x from B1 to B2, y clockwise from x)."""
+    seconds and radians. Vectors are in the frame of the boats' GPS positions (x
+    from B1 to B2, y 90 degrees clockwise from x)."""
 
     is_b1: np.ndarray  # (...) bool: this boat is B1 (the frame's origin)
-    own_velocity_en_mps: np.ndarray  # (..., 2)
-    other_boat_en_m: np.ndarray  # (..., 2) the other boat minus own
-    tracked_xy_m: np.ndarray  # (..., 2) the vehicle as tracked, in the frame
+    own_velocity_xy_mps: np.ndarray  # (..., 2)
+    baseline_m: np.ndarray  # GPS baseline length
+    tracked_xy_m: np.ndarray  # (..., 2) the vehicle as tracked
     tracked_velocity_xy_mps: np.ndarray  # (..., 2)
     fix_age_s: np.ndarray
     has_fix: np.ndarray
-    baseline_m: np.ndarray  # GPS baseline length
-    frame_rotation_rad: np.ndarray  # since the start of the episode
-
-    @property
-    def x_axis_en(self) -> np.ndarray:
-        """Unit vector (east, north) of the frame's x axis, B1 -> B2."""
-        d = np.where(self.is_b1[..., None], self.other_boat_en_m, -self.other_boat_en_m)
-        return d / np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-9)
+    x_axis_en: np.ndarray  # (..., 2) unit (east, north) of the frame's x axis: (sin phi, cos phi)
 
     @property
     def y_axis_en(self) -> np.ndarray:
@@ -178,7 +171,7 @@ class BoatView:
 
 
 def decode_boat(obs, config) -> BoatView:
-    """Decode boat observations (..., 17) of a moving-network scenario."""
+    """Decode boat observations (..., OBS_DIM) of a moving-network scenario."""
     from .core.moving_network import AGE_SCALE_PINGS, OBS_FIELDS
 
     if config.network != "moving_lbl":
@@ -191,11 +184,9 @@ def decode_boat(obs, config) -> BoatView:
     if obs.shape[-1] != i:
         raise ValueError(f"a boat observation has {i} values, got {obs.shape[-1]}")
     L = config.baseline_target_m
-    rot = part["frame_rotation"]
     return BoatView(
-        is_b1=part["role"][..., 0] > 0, own_velocity_en_mps=part["own_velocity"] * config.boat_max_speed_mps,
-        other_boat_en_m=part["other_boat"] * L, tracked_xy_m=part["tracked_xy"] * L,
+        is_b1=part["role"][..., 0] > 0, own_velocity_xy_mps=part["own_velocity_xy"] * config.boat_max_speed_mps,
+        baseline_m=(1.0 + part["baseline_error"][..., 0]) * L, tracked_xy_m=part["tracked_xy"] * L,
         tracked_velocity_xy_mps=part["tracked_velocity_xy"] * config.survey_speed_mps,
         fix_age_s=part["fix_age"][..., 0] * AGE_SCALE_PINGS * config.ping_interval_s,
-        has_fix=part["has_fix"][..., 0] > 0.5, baseline_m=(1.0 + part["baseline_error"][..., 0]) * L,
-        frame_rotation_rad=np.arctan2(rot[..., 1], rot[..., 0]))
+        has_fix=part["has_fix"][..., 0] > 0.5, x_axis_en=part["frame_bearing"])

@@ -235,9 +235,15 @@ def test_perpendicular_policy_moves_both_boats_perpendicular_to_the_baseline():
     for j, agent in enumerate(env.agents):
         view = decode_boat(obs[agent], c)
         assert bool(view.is_b1) == (j == 0)
-        a = baselines.make_policy("perpendicular", env, agent=agent).act(obs[agent])
         x_axis = np.array([np.sin(np.radians(c.frame_orientation_deg)), np.cos(np.radians(c.frame_orientation_deg))])
-        # perpendicular to the baseline, with the transit speed
+        assert np.allclose(view.x_axis_en, x_axis, atol=0.1)  # the GPS frame's bearing (2 m GPS noise)
+        # in the frame: nothing along the baseline, the transit speed across it
+        a = baselines.make_policy("perpendicular", env, agent=agent).act(obs[agent])
+        assert np.allclose(a * c.boat_max_speed_mps, [0.0, c.boat_transit_speed_mps], atol=1e-6)
+        # the same boats in east/north actions: perpendicular to the baseline
+        env_en = coopnav_env.parallel_env("matos_moving_lbl", seed=3, action_mode="velocity")
+        obs_en, _ = env_en.reset(seed=3)
+        a = baselines.make_policy("perpendicular", env_en, agent=agent).act(obs_en[agent])
         assert abs(float(a @ x_axis)) < 0.05
         assert np.linalg.norm(a) * c.boat_max_speed_mps == pytest.approx(abs(c.boat_transit_speed_mps), rel=0.05)
 
@@ -249,6 +255,8 @@ def test_scenario_rejects_a_roster_it_cannot_simulate():
         make_config("matos_moving_lbl", waypoints_m=((0.0, -5.0, 2.0), (100.0, 50.0, 2.0)))
     with pytest.raises(ValueError, match="belongs to network='moving_lbl'"):
         make_config("gao_lawnmower", beacon_kinds=("boat",))
+    with pytest.raises(ValueError, match="frame_velocity' belongs to network='moving_lbl'"):
+        make_config("gao_lawnmower", action_mode="frame_velocity")
 
 
 def test_evaluate_reports_moving_frame_errors(tmp_path):

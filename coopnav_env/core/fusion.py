@@ -50,7 +50,8 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                 current_est, last_range_t_s, fused, rejected, lost, nan_count,
                 two_way, turnaround_s, range_noise_std_m, max_range_m, loss_near, loss_far,
                 outlier_probability, outlier_mean_excess_m, nan_probability, nominal_temperature_c,
-                salinity_psu, temperature_uncertainty_c, gate):
+                salinity_psu, temperature_uncertainty_c, gate, mls, mls_state, mls_range, mls_bearing,
+                mls_range_var, mls_bearing_var):
     """Every beacon j pings every survey vehicle s; what arrives is gated and fused.
 
     The true range comes from the time of flight between the moving vehicles at the
@@ -62,6 +63,14 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
     R = range noise + the beacon's own position variance (below Gao eq. 7) + the
     sound-speed uncertainty's share. Outputs (B,N,S) flags fused / rejected (gate)
     / lost and NaN counts (B,S); updates est, P, current_est, last_range_t_s.
+
+    With ``mls`` the measurements come in from the MLS sensor's analytic mode
+    (core/mls.py, run by the Simulator): mls_state (B,N,S) is 0 where beacon j did
+    not send this cycle, 1 where it sent but was not heard, 2 where range
+    ``mls_range`` and world bearing ``mls_bearing`` (clockwise from north, from the
+    survey's compass plus the measured azimuth) are there with their variances; the
+    range is fused as above, then the bearing (h = atan2(east, north) of beacon -
+    survey; its own gate).
     """
     B, N, S = b_pos.shape[0], b_pos.shape[1], est.shape[1]
     for b in prange(B):
@@ -69,6 +78,39 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
         for s in range(S):
             any_fused = False
             for j in range(N):
+                if mls:
+                    if mls_state[b, j, s] == 0:
+                        continue
+                    if mls_state[b, j, s] == 1:
+                        lost[b, j, s] = True
+                        continue
+                    delays[:] = 0.0
+                    r = mls_range[b, j, s]
+                    h, H = range_prediction(est[b, s], s_vel_est[b, s], delays, b_est[b, j])
+                    R = mls_range_var[b, j, s] + b_var[b, j]
+                    y = r - h
+                    if y * y / innovation_variance(P[b, s], H, R) > gate:
+                        rejected[b, j, s] = True
+                    else:
+                        joseph_update(est[b, s], P[b, s], r, h, H, R)
+                        fused[b, j, s] = True
+                        any_fused = True
+                    de = b_est[b, j, 0] - est[b, s, 0]
+                    dn = b_est[b, j, 1] - est[b, s, 1]
+                    rho2 = max(de * de + dn * dn, 1e-6)
+                    hb = np.arctan2(de, dn)
+                    H[0] = -dn / rho2  # d bearing / d survey east
+                    H[1] = de / rho2
+                    H[2] = 0.0
+                    R = mls_bearing_var[b, j, s] + b_var[b, j] / rho2
+                    y = (mls_bearing[b, j, s] - hb + np.pi) % (2.0 * np.pi) - np.pi
+                    if y * y / innovation_variance(P[b, s], H, R) > gate:
+                        rejected[b, j, s] = True
+                    else:
+                        joseph_update(est[b, s], P[b, s], hb + y, hb, H, R)
+                        fused[b, j, s] = True
+                        any_fused = True
+                    continue
                 depth = 0.5 * (s_pos[b, s, 2] + b_pos[b, j, 2])
                 c_true = mackenzie_sound_speed(temperature_c[b], salinity_psu, depth)
                 c_assumed = mackenzie_sound_speed(nominal_temperature_c, salinity_psu, depth)

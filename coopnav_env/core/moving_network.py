@@ -43,12 +43,13 @@ from .state import BatchArrays
 FRAME_INFO_KEYS = INFO_KEYS + ("error_x_m", "error_y_m", "phi_error_deg", "baseline_error_m", "ellipse_major_m",
                                "ellipse_minor_m", "vehicle_y_m")
 # one boat's observation, in this order (see MovingNetworkSimulator.observe)
-OBS_FIELDS = (("role", 1), ("own_velocity", 2), ("other_boat", 2), ("tracked_xy", 2), ("tracked_velocity_xy", 2),
-              ("fix_age", 1), ("has_fix", 1), ("baseline_error", 1), ("frame_rotation", 2), ("own_from_tracked", 2),
-              ("elapsed", 1))
+OBS_FIELDS = (("role", 1), ("own_velocity_xy", 2), ("baseline_error", 1), ("tracked_xy", 2),
+              ("tracked_velocity_xy", 2), ("fix_age", 1), ("has_fix", 1), ("frame_bearing", 2),
+              ("own_from_tracked_xy", 2), ("elapsed", 1))
 OBS_DIM = sum(n for _, n in OBS_FIELDS)
 AGE_SCALE_PINGS = 10.0
 TRACKER_ALPHA, TRACKER_BETA = 0.5, 0.2  # the boats' alpha-beta tracker on the fixes [U]
+REINIT_AFTER_CYCLES = 3  # the vehicle restarts its position from an LBL fix after this many gated-out cycles
 
 
 @dataclass
@@ -77,6 +78,7 @@ class FrameState(BatchArrays):
     s_dr: np.ndarray  # dead reckoning alone, world (B,1,3)
     f_E: np.ndarray  # the moving-frame EKF (B,6): x, y, phi, c_x, c_y, l
     f_P: np.ndarray  # (B,6,6)
+    f_rejected_cycles: np.ndarray  # consecutive cycles whose measurements were all gated out (B,)
     # the boats
     b_pos: np.ndarray  # (B,2,3)
     b_heading: np.ndarray  # (B,2) complex unit
@@ -254,7 +256,7 @@ class MovingNetworkSimulator:
             s_heading_meas_rad=np.arctan2(heading.real, heading.imag), s_speed_meas_mps=np.zeros(B),
             s_waypoints=wp, s_n_waypoints=np.full((B, 1), len(self._waypoints), dtype=np.int64),
             s_wp_index=np.ones((B, 1), dtype=np.int64), s_done=np.zeros((B, 1), dtype=bool), s_dr=dr,
-            f_E=E, f_P=P, b_pos=b_pos, b_heading=b_heading, b_vel=b_vel,
+            f_E=E, f_P=P, f_rejected_cycles=np.zeros(B, dtype=np.int64), b_pos=b_pos, b_heading=b_heading, b_vel=b_vel,
             b_gps_err=c.gps_noise_m * n[:, 10:14].reshape(B, 2, 2),
             k_pos=start.copy(), k_vel=np.zeros((B, 2)), k_age_s=np.zeros(B), k_has_fix=np.zeros(B, dtype=bool),
             temperature_c=c.water_temperature_c + c.temperature_uncertainty_c * n[:, 14],
@@ -263,14 +265,29 @@ class MovingNetworkSimulator:
         )
 
     # ------------------------------------------------------------------------------
+    def _gps_frame(self):
+        """The frame as the boats' GPS gives it: B1's position (B,2), x and y axes as
+        complex (east + 1j north) units (B,), the baseline length (B,)."""
+        gps = self.state.b_pos[..., :2] + self.state.b_gps_err
+        base = (gps[:, 1, 0] - gps[:, 0, 0]) + 1j * (gps[:, 1, 1] - gps[:, 0, 1])
+        length = np.abs(base)
+        x_axis = base / np.maximum(length, 1e-9)
+        return gps, x_axis, -1j * x_axis, length  # y = x turned 90 degrees clockwise
+
     def command_velocity(self, actions):
-        """Actions (B,2,2) in [-1, 1]: (v_east, v_north) / max speed, norm clipped to 1
-        (or heading/speed, as the scenario's action_mode says) -> complex (B,2)."""
+        """Actions (B,2,2) in [-1, 1] -> commanded ground velocity, complex (B,2).
+        "frame_velocity": (v_x, v_y) / max speed in the GPS frame; "velocity":
+        (v_east, v_north) / max speed (norm clipped to 1 in both); "heading_speed"."""
         vmax = self._max_speed
-        if self.config.action_mode == "velocity":
+        mode = self.config.action_mode
+        if mode in ("velocity", "frame_velocity"):
             v = actions[..., 0] + 1j * actions[..., 1]
             norm = np.abs(v)
-            return np.where(norm > 1.0, v / np.maximum(norm, 1e-12), v) * vmax
+            v = np.where(norm > 1.0, v / np.maximum(norm, 1e-12), v) * vmax
+            if mode == "frame_velocity":
+                _, x_axis, y_axis, _ = self._gps_frame()
+                v = v.real * x_axis[:, None] + v.imag * y_axis[:, None]
+            return v
         return 0.5 * (actions[..., 1] + 1.0) * vmax * bearing_to_unit(np.pi * actions[..., 0])
 
     def step(self, actions) -> StepResult:
@@ -410,7 +427,33 @@ class MovingNetworkSimulator:
         st.f_P = np.where(both[:, None, None], P_j, P_s)
         fused[:, 1] = both | only_d2
         fused[:, 2] = both
+        self._reinitialize(ex, dz, fused, rejected, sigma_r2)
         return fused, rejected
+
+    def _reinitialize(self, ex, dz, fused, rejected, sigma_r2):
+        """Recover from gate lockout. A filter whose every measurement is rejected for
+        ``REINIT_AFTER_CYCLES`` cycles (it has diverged: the gate now refuses the very
+        ranges that would correct it) restarts its position from the spherical fix of
+        this cycle's d1, d2 and l, with the fix's uncertainty; the paper does not
+        discuss this, every fielded LBL navigator needs it."""
+        st = self.state
+        st.f_rejected_cycles = np.where(fused.any(-1), 0, st.f_rejected_cycles + (rejected > 0))
+        x, y, ok = lbl.spherical_fix_batch(lbl.horizontal_range(ex["d1"], dz), lbl.horizontal_range(ex["d2"], dz),
+                                           ex["l"])
+        restart = (st.f_rejected_cycles >= REINIT_AFTER_CYCLES) & ex["ok_l"] & ok & (y > 0)
+        if not restart.any():
+            return
+        E, P = st.f_E.copy(), st.f_P.copy()
+        E[restart, 0], E[restart, 1], E[restart, 5] = x[restart], y[restart], ex["l"][restart]
+        var = 4.0 * sigma_r2[restart]  # a single fix's position variance, GDOP ~ 2 [U]
+        P[restart, :2, :] = 0.0
+        P[restart, :, :2] = 0.0
+        P[restart, 5, :] = 0.0
+        P[restart, :, 5] = 0.0
+        P[restart, 0, 0] = P[restart, 1, 1] = var
+        P[restart, 5, 5] = 6.0 * sigma_r2[restart]
+        st.f_E, st.f_P = E, P
+        st.f_rejected_cycles = np.where(restart, 0, st.f_rejected_cycles)
 
     def _track(self, ex):
         """The boats' alpha-beta tracker on the external fixes (section III)."""
@@ -430,30 +473,31 @@ class MovingNetworkSimulator:
 
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
-        """What each boat knows, normalized: (B, 2, 17). Layout (L = baseline_target_m):
-        role (+1 B1, -1 B2) (1); own velocity / max speed (east, north) (2); the other
-        boat's GPS position - own, / L (2); the vehicle as tracked, predicted to now,
-        in the GPS frame: x / L, y / L (2) and its frame velocity / survey speed (2);
-        age of the last fix / (10 T) (1); a fix was ever made (1); (l_gps - L) / L (1);
-        (cos, sin) of the frame's rotation since the start (2); own GPS position
-        relative to the tracked vehicle, (east, north) / L (2); elapsed fraction of
-        max_cycles (1)."""
+        """What each boat knows, normalized: (B, 2, OBS_DIM), fields ``OBS_FIELDS``,
+        vectors in the frame of the boats' GPS positions (x along B1 -> B2, y
+        clockwise from it), lengths / L (L = baseline_target_m): role (+1 B1, -1 B2);
+        own velocity / max speed; (l_gps - L) / L; the vehicle as tracked, predicted
+        to now: position / L and velocity / survey speed; age of the last fix /
+        (10 T); a fix was ever made; the frame's bearing (sin, cos); own position
+        minus the tracked vehicle / L; elapsed fraction of max_cycles."""
         c, st = self.config, self.state
         B, L = self.batch_size, c.baseline_target_m
-        gps = st.b_pos[..., :2] + st.b_gps_err
+        gps, x_axis, y_axis, length = self._gps_frame()
         tracked = st.k_pos + st.k_vel * st.k_age_s[:, None]
-        x, y, phi, length = lbl.world_to_frame(gps[:, 0], gps[:, 1], tracked)
-        vx = st.k_vel[:, 0] * np.sin(phi) + st.k_vel[:, 1] * np.cos(phi)
-        vy = st.k_vel[:, 0] * np.cos(phi) - st.k_vel[:, 1] * np.sin(phi)
-        rot = phi - st.ep_phi0_rad
+
+        def frame(v_en):  # (B, 2) east/north vectors -> frame (x, y)
+            return np.stack([v_en[:, 0] * x_axis.real + v_en[:, 1] * x_axis.imag,
+                             v_en[:, 0] * y_axis.real + v_en[:, 1] * y_axis.imag], -1)
+
+        rel = frame(tracked - gps[:, 0])
+        vel = frame(st.k_vel)
         out = np.empty((B, 2, OBS_DIM))
         for i in range(2):
-            other = gps[:, 1 - i] - gps[:, i]
             out[:, i] = np.column_stack([
-                np.full(B, 1.0 - 2.0 * i), st.b_vel[:, i, :2] / c.boat_max_speed_mps, other / L,
-                x / L, y / L, vx / c.survey_speed_mps, vy / c.survey_speed_mps,
-                st.k_age_s / (AGE_SCALE_PINGS * c.ping_interval_s), st.k_has_fix.astype(float), (length - L) / L,
-                np.cos(rot), np.sin(rot), (gps[:, i] - tracked) / L, st.cycle / c.max_cycles,
+                np.full(B, 1.0 - 2.0 * i), frame(st.b_vel[:, i, :2]) / c.boat_max_speed_mps, (length - L) / L,
+                rel / L, vel / c.survey_speed_mps, st.k_age_s / (AGE_SCALE_PINGS * c.ping_interval_s),
+                st.k_has_fix.astype(float), x_axis.real, x_axis.imag, frame(gps[:, i] - tracked) / L,
+                st.cycle / c.max_cycles,
             ])
         return np.clip(out, -10.0, 10.0).astype(np.float32)
 

@@ -117,7 +117,15 @@ class Simulator:
             ("beacon_nav_n", "normal", (N_, 4)), ("beacon_nav_u", "uniform", (N_,)),
             ("acoustic_n", "normal", (N_, S_, 2)), ("acoustic_u", "uniform", (N_, S_, 4)),
             ("message_u", "uniform", (N_, S_ + N_)),
+            ("mls_n", "normal", (S_, 14)),  # the MLS sensor's 13 normals and a compass reading
         ], self.batch_size)
+        self._mls = None
+        if c.acoustic_sensor == "mls":
+            from .mls import MLSConfig, MLSSensor  # built once per simulator (~0.2 s)
+
+            self._mls = MLSSensor(MLSConfig(snr_db_at_1m=c.mls_snr_db_at_1m, max_range_m=c.mls_max_range_m,
+                                            water_temperature_c=c.water_temperature_c, salinity_psu=c.salinity_psu,
+                                            depth_m=c.depth_m))
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.info_keys = INFO_KEYS
@@ -271,6 +279,7 @@ class Simulator:
         # 4. acoustic ranging --------------------------------------------------------
         fused = np.zeros((B, N, S), dtype=bool)
         rejected, lost = np.zeros_like(fused), np.zeros_like(fused)
+        mls_args = self._mls_measurements(draws)
         self._k_ranges(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel,
                        st.b_pos + st.b_nav_err, st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s,
                        st.clock_drift, draws["acoustic_n"], draws["acoustic_u"],
@@ -279,7 +288,7 @@ class Simulator:
                        c.ranging_mode == "twtt", c.turnaround_s, c.range_noise_std_m * st.ep_noise_scale, c.max_range_m,
                        c.packet_loss_near, c.packet_loss_far, c.outlier_probability, c.outlier_mean_excess_m,
                        c.sensor_nan_probability, c.water_temperature_c, c.salinity_psu, c.temperature_uncertainty_c,
-                       self._gate)
+                       self._gate, *mls_args)
         logdet_after = logdet_horizontal(st.s_P)
 
         # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
@@ -292,6 +301,8 @@ class Simulator:
         fe0, fn0, fe1, fn1 = c.geofence_m
         outside = (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
         no_contact = ~fused.any(-1)  # (B,N): none of this beacon's ranges fused
+        if self._mls is not None:  # only this cycle's sender can be heard
+            no_contact &= self._sender_mask(st.cycle - 1)
         safety_geofence = c.safety_penalty * too_close + c.geofence_penalty * outside
         reward = info_gain[:, None] - safety_geofence - c.contact_penalty * no_contact
 
@@ -311,6 +322,57 @@ class Simulator:
             "packets_lost": lost.sum(1),
         }
         return StepResult(self.observe(), reward, terminated, truncated, info, safety_geofence)
+
+    def _sender_mask(self, cycle) -> np.ndarray:
+        """(B,N): the beacon whose turn it is to send in ``cycle`` (round robin)."""
+        return (cycle % self.N)[:, None] == np.arange(self.N)[None, :]
+
+    def _mls_measurements(self, draws):
+        """This cycle's MLS sending event (acoustic_sensor="mls"), as the fusion kernel's
+        trailing arguments: state (0 silent, 1 not heard, 2 heard), range, world bearing
+        and their variances, each (B,N,S). The sender is beacon ``cycle % N`` (a round
+        robin stands in for the paper's radio scheduling). The analytic mode measures
+        the azimuth in the receiver's frame (anticlockwise positive, folded to the front
+        half-plane: two hydrophones cannot tell front from back); the survey vehicle
+        turns it into a bearing with its compass and unfolds it with its own estimate.
+        Senders beyond the sensor's window, or nearer than its array, are not heard."""
+        B, N, S = self.batch_size, self.N, self.S
+        shape = (B, N, S)
+        if self._mls is None:
+            z = np.zeros(shape)
+            return False, np.zeros(shape, dtype=np.int8), z, z, z, z
+        c, st = self.config, self.state
+        sends = self._sender_mask(st.cycle - 1)  # the cycle counter has advanced already
+        j = np.argmax(sends, axis=1)  # (B,)
+        rows = np.arange(B)
+        sender_en = st.b_pos[rows, j, :2][:, None].repeat(S, 1)  # (B,S,2)
+        sender_h = np.angle(st.b_heading[rows, j])[:, None].repeat(S, 1)
+        obs_en, obs_h = st.s_pos[..., :2], np.angle(st.s_heading)
+        dist = np.linalg.norm(sender_en - obs_en, axis=-1)
+        heard = (dist > self._mls.min_range_m) & (dist <= self._mls.config.max_range_m)
+        n = draws["mls_n"]  # (B,S,14)
+        az = np.zeros((B, S))
+        rng_m = np.zeros((B, S))
+        var_r = np.ones((B, S))
+        var_az = np.ones((B, S))
+        if heard.any():
+            m = self._mls.measure_analytic(sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard],
+                                           normals=n[heard][:, :13])
+            b_az, b_r, _ = self._mls.error_bounds(sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard])
+            az[heard], rng_m[heard] = m.azimuth_rad, m.range_m
+            var_r[heard], var_az[heard] = np.square(b_r), np.square(b_az)
+        # the compass: bearing (clockwise from north) = pi/2 - heading angle (anticlockwise from east)
+        compass_std = np.radians(c.compass_noise_deg) * st.ep_noise_scale[:, None]
+        compass = np.pi / 2 - obs_h + st.s_compass_bias_rad + compass_std * n[..., 13]
+        # unfold with the survey's estimate: a sender predicted behind is mirrored back
+        de = st.b_pos[rows, j, 0][:, None] + st.b_nav_err[rows, j, 0][:, None] - st.s_est[..., 0]
+        dn = st.b_pos[rows, j, 1][:, None] + st.b_nav_err[rows, j, 1][:, None] - st.s_est[..., 1]
+        predicted_az = (compass - np.arctan2(de, dn) + np.pi) % (2 * np.pi) - np.pi  # anticlockwise positive
+        az = np.where(np.abs(predicted_az) > np.pi / 2, np.where(az >= 0, np.pi - az, -np.pi - az), az)
+        bearing = compass - az  # a sender to port (positive azimuth) has a smaller bearing
+        state = np.where(sends[..., None], np.where(heard, 2, 1)[:, None, :], 0).astype(np.int8)
+        bcast = lambda a: np.broadcast_to(a[:, None, :], shape).copy()  # noqa: E731
+        return True, state, bcast(rng_m), bcast(bearing), bcast(var_r), bcast(var_az + compass_std ** 2)
 
     # ------------------------------------------------------------------------------
     def _integrate_survey(self, draws):

@@ -22,7 +22,8 @@ BEACON_KINDS = ("beacon_auv", "asv", "boat")
 NETWORKS = ("survey_beacons", "moving_lbl")
 SURVEY_PATHS = ("stationary", "lawnmower", "circle", "spiral", "line", "waypoints")
 RANGING_MODES = ("owtt", "twtt")
-ACTION_MODES = ("velocity", "heading_speed")
+ACOUSTIC_SENSORS = ("modem", "mls")
+ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
 
 
 @dataclass(frozen=True)
@@ -111,9 +112,16 @@ class ScenarioConfig:
     beacon_start_distance_m: float = 60.0  # from the survey's start point; 0: the FIM-optimal distance
     beacon_start_bearing_deg: float = 225.0  # bearing of the beacon from the survey start
     beacon_start_bearing_spread_deg: float = 30.0  # randomized per episode, +/-
-    action_mode: str = "velocity"  # "velocity": (v_east, v_north)/max; "heading_speed"
+    action_mode: str = "velocity"  # "velocity": (v_east, v_north)/max; "heading_speed"; "frame_velocity"
+    # (moving_lbl only): (v_x, v_y)/max in the boats' frame, x along B1 -> B2 as their GPS gives it
 
     # --- acoustics ------------------------------------------------------------------
+    # "modem": every beacon pings every survey vehicle each cycle (range only);
+    # "mls": Kottege & Zimmer's MLS array (core/mls.py, analytic mode): one beacon sends
+    # per cycle (round robin) and each survey vehicle measures its range and azimuth
+    acoustic_sensor: str = "modem"
+    mls_snr_db_at_1m: float = 30.0  # in-band SNR per sample at 1 m [U]; falls 20 log10(r)
+    mls_max_range_m: float = 60.0  # receive window; farther senders are not heard [U]
     ranging_mode: str = "owtt"  # one-way (synchronized clocks) or two-way travel time
     range_noise_std_m: float = 1.0  # timing jitter as range [U: Micro-Modem OWTT 1-3 m]
     turnaround_s: float = 0.015  # transponder turn-around delay, ref-values section 3
@@ -293,6 +301,11 @@ def _validate(c: ScenarioConfig):
            "beacon_kinds must be a non-empty tuple")
     for k in c.beacon_kinds:
         _check(k in BEACON_KINDS, f"unknown beacon kind {k!r}; valid kinds: {', '.join(BEACON_KINDS)}")
+    _check(c.acoustic_sensor in ACOUSTIC_SENSORS,
+           f"unknown acoustic_sensor {c.acoustic_sensor!r}; valid: {', '.join(ACOUSTIC_SENSORS)}")
+    _check(c.acoustic_sensor == "modem" or c.network == "survey_beacons",
+           "acoustic_sensor='mls' needs network='survey_beacons'")
+    _check(_finite(c.mls_max_range_m) and c.mls_max_range_m > 1.0, "mls_max_range_m must be > 1 m")
     _check(c.network in NETWORKS, f"unknown network {c.network!r}; valid networks: {', '.join(NETWORKS)}")
     if c.network == "moving_lbl":
         _check(c.beacon_kinds == ("boat", "boat"),
@@ -306,6 +319,7 @@ def _validate(c: ScenarioConfig):
         _check(c.ranging_mode == "twtt", "network='moving_lbl' ranges by two-way travel time: ranging_mode='twtt'")
     else:
         _check("boat" not in c.beacon_kinds, "beacon kind 'boat' belongs to network='moving_lbl'")
+        _check(c.action_mode != "frame_velocity", "action_mode='frame_velocity' belongs to network='moving_lbl'")
     _check(c.survey_path in SURVEY_PATHS,
            f"unknown survey_path {c.survey_path!r}; valid paths: {', '.join(SURVEY_PATHS)}")
     _check(c.ranging_mode in RANGING_MODES,

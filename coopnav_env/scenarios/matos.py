@@ -19,6 +19,7 @@ MATOS_MOVING_LBL = ScenarioConfig(
     name="matos_moving_lbl",
     network="moving_lbl",
     beacon_kinds=("boat", "boat"),
+    action_mode="frame_velocity",  # (along the baseline, across it): the same for any river direction
     ranging_mode="twtt",  # the vehicle interrogates, the transponders reply (section V)
     ping_interval_s=2.0,  # [U] one positioning cycle; the exchange itself takes ~0.2 s
     substep_s=0.5,
