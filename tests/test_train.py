@@ -246,3 +246,17 @@ def test_old_variants_and_bad_reward_terms_are_one_line_errors(tmp_path, capsys)
     with pytest.raises(SystemExit):
         _run(tmp_path, tmp_path / "b", 100, reward={"nope": 1.0})
     assert "unknown reward term 'nope'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("scenario", ["matos_moving_lbl", "swarm_mls"])
+def test_tiny_training_run_on_the_newer_scenarios(tmp_path, scenario):
+    """train.py trains the two boats of the moving network (parameter sharing over both
+    rows) and the swarm's sender; the result loads and runs in evaluate.py."""
+    import evaluate
+
+    out = tmp_path / scenario
+    assert train.main(["--scenario", scenario, "--timesteps", "600", "--seed", "0", "--out", str(out),
+                       "--config", _tiny_yaml(tmp_path), "--no-progress"]) == 0
+    config = coopnav_env.make_config(scenario, max_cycles=6)
+    eps, steps = evaluate.run_episodes(config, str(out), [0, 1])
+    assert len(eps) == 2 and all(np.isfinite(e["mean_error_m"]) for e in eps)

@@ -16,7 +16,13 @@ One step is one positioning cycle of ``ping_interval_s``:
    (``core.lbl.track_fix``): that, their GPS and each other's position over the
    radio is all they observe;
 5. reward: the information the vehicle's filter gained this cycle (log det of its
-   (x, y) covariance before minus after), shared by the boats, minus penalties.
+   (x, y) covariance before minus after), shared by the boats, minus penalties: a
+   boat within ``safety_distance_m`` of the vehicle; the baseline off its target
+   by more than ``baseline_tolerance_m``; the vehicle nearer the baseline than
+   ``min_baseline_distance_m``; the frame turned more than
+   ``frame_rotation_tolerance_deg`` from its start (the filter models phi as
+   constant: a turning frame makes it confidently wrong, which the information
+   term alone would reward); no range fused this cycle.
 
 It exposes the same interface as ``core.sim.Simulator`` (reset, step, observe,
 global_state, obs_dim, state_dim, info_keys, variants), so every view, the trainer
@@ -330,7 +336,9 @@ class MovingNetworkSimulator:
         off_baseline = np.abs(length - c.baseline_target_m) > c.baseline_tolerance_m
         near_baseline = y < c.min_baseline_distance_m
         no_contact = fused.sum(-1) == 0
-        team = (c.baseline_penalty * off_baseline + c.approach_penalty * near_baseline)[:, None]
+        turned = np.abs(np.angle(np.exp(1j * (phi - st.ep_phi0_rad)))) > np.radians(c.frame_rotation_tolerance_deg)
+        team = (c.baseline_penalty * off_baseline + c.approach_penalty * near_baseline
+                + c.rotation_penalty * turned)[:, None]
         penalties = c.safety_penalty * too_close + team
         info_gain = logdet_before - logdet_after
         reward = info_gain[:, None] - penalties - c.contact_penalty * no_contact[:, None]

@@ -169,7 +169,9 @@ class ScenarioConfig:
     frame_q_current_m2ps3: float = 1e-4  # c_x, c_y (boat speed changes, current variation)
     frame_q_baseline_m2ps: float = 0.02  # l: a random walk that follows a boat-speed mismatch (tests/test_matos.py)
     baseline_tolerance_m: float = 10.0  # reward: |l - target| beyond this costs baseline_penalty
-    baseline_penalty: float = 0.5
+    baseline_penalty: float = 1.0
+    frame_rotation_tolerance_deg: float = 10.0  # reward: the frame turned further than this from its
+    rotation_penalty: float = 1.0  # start costs rotation_penalty (the filter models phi as constant)
     min_baseline_distance_m: float = 15.0  # reward: the vehicle closer than this to the baseline
     approach_penalty: float = 1.0  # (the fix degenerates on the baseline) costs approach_penalty
 
@@ -280,7 +282,7 @@ def _validate(c: ScenarioConfig):
         "geofence_margin_m", "survey_speed_scale_error_std", "beacon_start_distance_m", "beacon_current_estimate_error_mps",
         "frame_orientation_spread_deg", "speed_encoder_noise_mps", "frame_q_position_m2ps", "frame_q_orientation_rad2ps",
         "frame_q_current_m2ps3", "frame_q_baseline_m2ps", "baseline_tolerance_m", "baseline_penalty",
-        "min_baseline_distance_m", "approach_penalty",
+        "min_baseline_distance_m", "approach_penalty", "frame_rotation_tolerance_deg", "rotation_penalty",
     ]
     for name in nonneg:
         v = getattr(c, name)
