@@ -2,6 +2,8 @@
 
     python train.py --scenario sousa_asv --timesteps 2000000 --seed 0 --out runs/sousa_ppo
     python train.py --resume runs/sousa_ppo          # continue an interrupted run
+    python train.py --backend rllib --scenario sousa_asv --timesteps 2000000 --num-env-runners 8 \
+        --out runs/sousa_rllib                       # Ray RLlib instead (train_rllib.py; pip install -e ".[rllib]")
 
 Read top to bottom: arguments -> hyperparameters (configs/ppo/<scenario>.yml, else
 configs/ppo/default.yml) -> seeding -> the vectorized environment -> PPO ->
@@ -81,14 +83,22 @@ def fail(message: str, code: int = EXIT_BAD_INPUT):
 # ----------------------------------------------------------------------------------
 # 1. arguments
 # ----------------------------------------------------------------------------------
-def positive_int(text):
+def _int_at_least(text, low: int) -> int:
     try:
-        value = int(float(text)) if "e" in text.lower() else int(text)
+        value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    if value < low:
+        raise argparse.ArgumentTypeError(f"must be >= {low}, got {text!r}")
     return value
+
+
+def positive_int(text):
+    return _int_at_least(text, 1)
+
+
+def nonnegative_int(text):
+    return _int_at_least(text, 0)
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -111,7 +121,22 @@ def parse_args(argv=None):
                         "machine makes extra threads spin)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--verbose", type=int, default=0)
+    p.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
+                   help="sb3: stable-baselines3 PPO on one machine (default); rllib: Ray RLlib PPO "
+                        "(train_rllib.py, configs/rllib/; pip install -e '.[rllib]')")
+    p.add_argument("--num-env-runners", type=nonnegative_int,
+                   help="rllib: env runner processes (overrides the YAML; 0: sample in this process)")
+    p.add_argument("--ray-address", help="rllib: a running Ray cluster to join ('auto', or host:port)")
+    p.add_argument("--tune", action="append", metavar="KEY=V1,V2",
+                   help="rllib: a Ray Tune grid (repeatable; KEY: seed or a PPOConfig.training keyword)")
     args = p.parse_args(argv)
+    if args.backend == "sb3":
+        given = [f"--{n.replace('_', '-')}" for n in ("num_env_runners", "ray_address", "tune")
+                 if getattr(args, n) is not None]
+        if given:
+            fail(f"{', '.join(given)} only with --backend rllib")
+    elif args.resume is not None:
+        fail("--resume is for the sb3 backend; an RLlib run keeps its last checkpoint in <out>/checkpoint")
     if args.resume is not None:
         given = [f"--{n.replace('_', '-')}" for n in ("scenario", "timesteps", "out", "n_envs", "config")
                  if getattr(args, n) is not None]
@@ -127,16 +152,17 @@ def parse_args(argv=None):
 # ----------------------------------------------------------------------------------
 # 2. hyperparameters: a small YAML per scenario (the rl-baselines3-zoo habit)
 # ----------------------------------------------------------------------------------
-def hyperparameter_file(scenario: str, explicit: str | None) -> Path:
+def hyperparameter_file(scenario: str, explicit: str | None, config_dir: Path = CONFIG_DIR) -> Path:
+    """The --config file, else config_dir/<scenario>.yml, else config_dir/default.yml."""
     if explicit:
         path = Path(explicit)
         if not path.is_file():
             fail(f"no such hyperparameter file: {explicit}")
         return path
     for name in (f"{scenario}.yml", "default.yml"):
-        if (CONFIG_DIR / name).is_file():
-            return CONFIG_DIR / name
-    fail(f"no hyperparameter file for {scenario!r} in {CONFIG_DIR} (and no default.yml)")
+        if (config_dir / name).is_file():
+            return config_dir / name
+    fail(f"no hyperparameter file for {scenario!r} in {config_dir} (and no default.yml)")
 
 
 def load_hyperparameters(path: Path) -> dict:
@@ -423,6 +449,15 @@ def versions() -> dict:
 def main(argv=None) -> int:
     started = time.perf_counter()
     args = parse_args(argv)
+    if args.backend == "rllib":  # Ray is imported only here, and only for this backend
+        try:
+            import ray  # noqa: F401
+            import ray.rllib  # noqa: F401
+        except ImportError:
+            fail('--backend rllib needs Ray RLlib, which is not installed: pip install -e ".[rllib]"')
+        import train_rllib
+
+        return train_rllib.main(args, argv)
     from coopnav_env import list_scenarios, make_config
 
     # --- the run directory, its config, and (when resuming) the checkpoint ----------

@@ -18,6 +18,10 @@ model, its VecNormalize statistics and the config it was trained with:
 
 Actions are deterministic (the mean of PPO's Gaussian, clipped to [-1, 1]), and the
 policy has no memory, so ``reset`` only exists for the interface.
+
+A run of ``train.py --backend rllib`` (its directory, its ``checkpoint/``, or any RLlib
+Algorithm checkpoint) loads the same way, through ``agents/rllib_policy.py`` (which
+imports Ray only then): ``agents.load("runs/x_rllib", scenario=...)``.
 """
 
 from __future__ import annotations
@@ -58,7 +62,12 @@ def _model_files(directory: Path):
 
 
 def resolve(name_or_path, scenario=None) -> tuple:
-    """(model zip, vecnormalize pickle or None, config.yml or None) for a name or path."""
+    """(model zip, vecnormalize pickle or None, config.yml or None) for a name or path
+    (for an RLlib run: (checkpoint directory, None, config.yml or None))."""
+    from . import rllib_policy
+
+    if rllib_policy.is_rllib_path(name_or_path):
+        return rllib_policy.resolve(name_or_path, scenario)
     path = Path(str(name_or_path))
     if path.suffix == ".zip" and path.is_file():
         stem = path.name[:-4]
@@ -95,7 +104,24 @@ def _scenario_name(scenario) -> str:
     return scenario if isinstance(scenario, str) else scenario.name
 
 
-class PPOPolicy:
+class BatchPolicy:
+    """What trained policies share: ``act`` on one observation through ``act_batch``
+    (subclasses set ``obs_dim`` and implement ``act_batch`` and ``reset``)."""
+
+    obs_dim: int
+    obs_dtype = np.float64
+
+    def act(self, obs) -> np.ndarray:
+        obs = np.asarray(obs, dtype=self.obs_dtype)
+        if obs.shape != (self.obs_dim,):
+            raise ValueError(f"observation must have shape ({self.obs_dim},), got {obs.shape}")
+        return self.act_batch(obs[None])[0]
+
+    def __call__(self, obs):
+        return self.act(obs)
+
+
+class PPOPolicy(BatchPolicy):
     """A trained SB3 policy for one beacon: ``act(obs) -> action``, ``reset()``.
 
     ``act`` takes one beacon's observation (D,) and returns a float32 (2,) action;
@@ -129,15 +155,6 @@ class PPOPolicy:
         action, _ = self.model.predict(self.normalize(obs), deterministic=True)
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
-    def act(self, obs) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64)
-        if obs.shape != (self.obs_dim,):
-            raise ValueError(f"observation must have shape ({self.obs_dim},), got {obs.shape}")
-        return self.act_batch(obs[None])[0]
-
-    def __call__(self, obs):
-        return self.act(obs)
-
     def __repr__(self):
         scen = self.config.name if self.config is not None else "?"
         return f"PPOPolicy({self.name!r}, scenario={scen!r})"
@@ -147,6 +164,10 @@ def load(name_or_path, scenario=None, device="cpu") -> PPOPolicy:
     """A trained policy by shipped name ("ppo_sousa_asv"; "ppo" with ``scenario``), run
     directory, or model .zip. With ``scenario`` (name or ScenarioConfig) its
     observation size is checked against the policy's."""
+    from . import rllib_policy
+
+    if rllib_policy.is_rllib_path(name_or_path):  # train.py --backend rllib
+        return rllib_policy.load(name_or_path, scenario=scenario, device=device)
     import yaml
     from stable_baselines3 import PPO
 
@@ -166,11 +187,11 @@ def load(name_or_path, scenario=None, device="cpu") -> PPOPolicy:
     policy = PPOPolicy(model, obs_rms, clip_obs, epsilon, config=trained_config, run_config=run_config,
                        name=Path(str(name_or_path)).name)
     if scenario is not None:
-        from coopnav_env.core.sim import Simulator
+        from coopnav_env.obs_layout import obs_dim
         from coopnav_env.scenarios import make_config
 
         target = make_config(scenario) if isinstance(scenario, str) else scenario
-        dim = Simulator(target, 1).obs_dim
+        dim = obs_dim(target)
         if dim != policy.obs_dim:
             raise ValueError(f"policy {name_or_path!r} takes observations of size {policy.obs_dim}; "
                              f"scenario {target.name!r} gives {dim}")
@@ -205,6 +226,10 @@ def make_policy(name_or_path, env_or_config=None, seed=None, agent=0) -> PPOPoli
     and episode is cheap, since the loaded model is shared (cached by resolved path).
     ``seed`` and ``agent`` are accepted for the interface; the policy ignores them
     (deterministic, and parameter-shared across beacons)."""
+    from . import rllib_policy
+
+    if rllib_policy.is_rllib_path(name_or_path):  # one module per beacon kind: the agent matters
+        return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent)
     scenario = None
     if env_or_config is not None:
         from baselines.base import resolve_config

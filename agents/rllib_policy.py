@@ -1,0 +1,292 @@
+"""RLlib checkpoints as beacon policies (the interface of ``baselines.Policy``).
+
+    import agents
+    policy = agents.load("runs/x", scenario="sousa_asv")      # a train.py --backend rllib run
+    policy = agents.load("runs/x/checkpoint")                 # an RLlib Algorithm checkpoint
+    policy = agents.load("runs/x/tune/PPO_.../checkpoint_000000")   # a Tune trial's checkpoint
+    action = policy.act(obs["beacon_0"])
+
+``agents.load`` / ``agents.make_policy`` / ``agents.resolve`` hand RLlib paths to this
+module (``is_rllib_path``), so ``evaluate.py --policies runs/x,fim_a`` runs an RLlib
+policy beside the planners and the SB3 policies. Ray and torch are imported only
+when a policy is loaded.
+
+What is loaded, from an RLlib (new API stack) ``Algorithm`` checkpoint:
+
+* the RLModule of the beacon's kind (``learner_group/learner/rl_module/<kind>``,
+  ``RLModule.from_checkpoint``; one module per beacon kind, see
+  ``coopnav_env.rllib_env``); the kind of beacon ``j`` is the scenario's
+  ``beacon_kinds[j]``;
+* the observation filter, if the run used one (``normalize_obs: true``: RLlib's
+  MeanStdFilter, ``env_runner/env_to_module_connector/MeanStdFilter``): the beacon's
+  running mean and std, frozen;
+* the run's ``config.yml`` (the nearest one in the checkpoint's directory or above):
+  the scenario it was trained on.
+
+Actions are deterministic: the mean of the module's Gaussian
+(``forward_inference`` -> ``action_dist_inputs`` -> the inference distribution's
+``to_deterministic()``), clipped to [-1, 1] (the action space; RLlib's default
+action normalization is the identity on it). No memory: ``reset`` does nothing.
+"""
+
+from __future__ import annotations
+
+import logging
+import pickle
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from agents import BatchPolicy, _trained_scenario
+
+CHECKPOINT_MARKER = "rllib_checkpoint.json"
+MODULE_DIR = Path("learner_group") / "learner" / "rl_module"
+FILTER_STATE = Path("env_runner") / "env_to_module_connector" / "MeanStdFilter" / "state.pkl"
+
+__all__ = ["RLlibPolicy", "find_checkpoint", "is_rllib_path", "load", "make_policy", "resolve"]
+
+
+# --------------------------------------------------------------------------------------
+# finding a checkpoint (no ray import: agents.resolve calls this for every path)
+def _run_config_backend(directory: Path):
+    path = directory / "config.yml"
+    if not path.is_file():
+        return None
+    try:
+        import yaml
+
+        return ((yaml.safe_load(path.read_text()) or {}).get("args", {}) or {}).get("backend")
+    except Exception:  # noqa: BLE001 - an unreadable config is not an RLlib run
+        return None
+
+
+def find_checkpoint(path) -> Path | None:
+    """The RLlib Algorithm checkpoint directory ``path`` names, or None: ``path`` itself
+    (it holds ``rllib_checkpoint.json``), or a train.py ``--backend rllib`` run
+    directory (its ``checkpoint/``)."""
+    p = Path(str(path))
+    if not p.is_dir():
+        return None
+    if (p / CHECKPOINT_MARKER).is_file():
+        return p
+    if (p / "checkpoint" / CHECKPOINT_MARKER).is_file():
+        return p / "checkpoint"
+    if _run_config_backend(p) == "rllib":
+        return p / "checkpoint"  # an unfinished run: resolve() says what is missing
+    return None
+
+
+def is_rllib_path(path) -> bool:
+    """Whether ``path`` is an RLlib checkpoint or a train.py ``--backend rllib`` run."""
+    return find_checkpoint(path) is not None
+
+
+def find_run_config(checkpoint: Path) -> Path | None:
+    """The nearest ``config.yml`` of a train.py rllib run at or above ``checkpoint``
+    (a Tune trial's checkpoint lies in ``<run>/tune/<trial>/checkpoint_*``)."""
+    for d in [checkpoint, *checkpoint.resolve().parents][:5]:
+        if (d / "config.yml").is_file() and _run_config_backend(d) == "rllib":
+            return d / "config.yml"
+    return None
+
+
+def resolve(path, scenario=None) -> tuple:
+    """(checkpoint directory, None, config.yml or None), as ``agents.resolve``; raises
+    ValueError if the run has no checkpoint (yet) or the checkpoint no module."""
+    ckpt = find_checkpoint(path)
+    if ckpt is None:
+        raise ValueError(f"{path} is not an RLlib checkpoint or train.py --backend rllib run")
+    if not (ckpt / CHECKPOINT_MARKER).is_file():
+        raise ValueError(f"{path} holds no RLlib checkpoint yet ({ckpt} is missing)")
+    modules = ckpt / MODULE_DIR
+    if not modules.is_dir() or not any(d.is_dir() for d in modules.iterdir()):
+        raise ValueError(f"{ckpt} holds no RLModule ({MODULE_DIR}/<module id>)")
+    return ckpt, None, find_run_config(ckpt)
+
+
+# --------------------------------------------------------------------------------------
+class _LoadedRun:
+    """What every beacon's policy of one checkpoint shares: modules, filters, config."""
+
+    def __init__(self, checkpoint: Path, config_path: Path | None):
+        import yaml
+
+        self.checkpoint = checkpoint
+        self.run_config = yaml.safe_load(config_path.read_text()) if config_path else {}
+        self.run_config = self.run_config or {}
+        self.trained_config = _trained_scenario(self.run_config)
+        self.module_ids = sorted(d.name for d in (checkpoint / MODULE_DIR).iterdir() if d.is_dir())
+        self._modules = {}
+        self.filters = _load_filters(checkpoint / FILTER_STATE)
+
+    def module(self, module_id: str):
+        if module_id not in self._modules:
+            from ray.rllib.core.rl_module.rl_module import RLModule
+
+            path = self.checkpoint / MODULE_DIR / module_id
+            if not path.is_dir():
+                raise ValueError(f"{self.checkpoint} has no module {module_id!r} (a beacon kind); "
+                                 f"modules: {', '.join(self.module_ids)}")
+            previous = logging.root.manager.disable
+            logging.disable(logging.WARNING)  # RLlib warns about a deprecation in its own checkpoint format
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    module = RLModule.from_checkpoint(str(path.resolve()))
+            finally:
+                logging.disable(previous)
+            module.eval()
+            self._modules[module_id] = module
+        return self._modules[module_id]
+
+
+def _load_filters(path: Path) -> dict:
+    """{agent_id: frozen ray.rllib.utils.filter.MeanStdFilter} from the checkpoint's
+    MeanStdFilter connector state (empty without one)."""
+    if not path.is_file():
+        return {}
+    from ray.rllib.utils.filter import MeanStdFilter, RunningStat
+
+    with open(path, "rb") as f:
+        state = pickle.load(f)
+    filters = {}
+    for agent_id, s in (state or {}).items():
+        if s.get("shape") is None or not s.get("running_stats"):
+            continue
+        flt = MeanStdFilter(tuple(int(v) for v in np.atleast_1d(s["shape"])), demean=s["de_mean_to_zero"],
+                            destd=s["de_std_to_one"], clip=s["clip_by_value"])
+        flt.running_stats = RunningStat.from_state(s["running_stats"][0])
+        filters[agent_id] = flt
+    return filters
+
+
+class RLlibPolicy(BatchPolicy):
+    """One beacon's policy from an RLlib checkpoint: ``act(obs) -> action``, ``reset()``.
+
+    ``act`` takes the beacon's observation (D,) and returns a float32 (2,) action;
+    ``act_batch`` takes (M, D) observations of this beacon (e.g. M environments) and
+    returns (M, 2). ``module_id`` is the beacon's kind, ``agent_id`` its name.
+    """
+
+    obs_dtype = np.float32
+
+    def __init__(self, run: _LoadedRun, agent_index: int = 0, config=None, name="rllib"):
+        self.run = run
+        self.config = config if config is not None else run.trained_config
+        self.agent_index = int(agent_index)
+        self.agent_id = f"beacon_{self.agent_index}"
+        if self.config is not None:
+            if not 0 <= self.agent_index < self.config.n_beacons:
+                raise ValueError(f"agent index {agent_index} out of range for {self.config.n_beacons} beacon(s)")
+            self.module_id = self.config.beacon_kinds[self.agent_index]
+        elif len(run.module_ids) == 1:
+            self.module_id = run.module_ids[0]
+        else:
+            raise ValueError(f"{run.checkpoint} has modules {run.module_ids}: pass scenario= to map beacons to them")
+        self.module = run.module(self.module_id)
+        self.obs_filter = run.filters.get(self.agent_id)
+        self.obs_dim = int(self.module.observation_space.shape[0])
+        self.name = name
+        self.run_config = run.run_config
+
+    def reset(self, seed=None):
+        """Stateless: nothing to clear (the interface of baselines.Policy)."""
+
+    def act_batch(self, obs) -> np.ndarray:
+        import torch
+        from ray.rllib.core.columns import Columns
+
+        obs = np.asarray(obs, dtype=np.float32)
+        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
+            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        if self.obs_filter is not None:
+            obs = self.obs_filter(obs, update=False).astype(np.float32)
+        with torch.no_grad():
+            out = self.module.forward_inference({Columns.OBS: torch.from_numpy(obs)})
+            dist = self.module.get_inference_action_dist_cls().from_logits(out[Columns.ACTION_DIST_INPUTS])
+            action = dist.to_deterministic().sample().cpu().numpy()
+        return np.clip(action.reshape(len(obs), -1), -1.0, 1.0).astype(np.float32)
+
+    def __repr__(self):
+        scen = self.config.name if self.config is not None else "?"
+        return f"RLlibPolicy({self.name!r}, scenario={scen!r}, agent={self.agent_id!r}, module={self.module_id!r})"
+
+
+_RUNS: dict = {}
+
+
+def _run(path, scenario=None) -> _LoadedRun:
+    ckpt, _, config_path = resolve(path, scenario)
+    marker = ckpt / CHECKPOINT_MARKER
+    key = (str(ckpt.resolve()), marker.stat().st_mtime_ns)
+    if key not in _RUNS:
+        _RUNS[key] = _LoadedRun(ckpt, config_path)
+    return _RUNS[key]
+
+
+def _target(scenario):
+    if scenario is None:
+        return None
+    from baselines.base import resolve_config
+
+    return resolve_config(scenario)
+
+
+def _obs_dim(config) -> int:
+    """The observation size of a scenario (as agents.load checks an SB3 policy's)."""
+    try:
+        from coopnav_env.obs_layout import obs_dim
+    except ImportError:  # an older core: one simulator
+        from coopnav_env.core.sim import Simulator
+
+        return int(Simulator(config, 1).obs_dim)
+    return int(obs_dim(config))
+
+
+def load(path, scenario=None, agent=0, device="cpu") -> RLlibPolicy:
+    """The policy of beacon ``agent`` (index or "beacon_k") from an RLlib checkpoint or
+    run directory. With ``scenario`` (name, ScenarioConfig or env) the observation
+    size is checked and the beacon's kind picks the module; without it, the scenario
+    the run trained on."""
+    if device != "cpu":
+        raise ValueError("RLlib policies load on the CPU")
+    if isinstance(agent, str):
+        if not agent.startswith("beacon_") or not agent[7:].isdigit():
+            raise ValueError(f"agent must be an index or 'beacon_<k>', got {agent!r}")
+        agent = int(agent[7:])
+    run = _run(path, scenario)
+    target = _target(scenario)
+    policy = RLlibPolicy(run, agent, config=target if target is not None else run.trained_config,
+                         name=Path(str(path)).name)
+    if target is not None:
+        dim = _obs_dim(target)
+        if dim != policy.obs_dim:
+            raise ValueError(f"policy {str(path)!r} takes observations of size {policy.obs_dim}; "
+                             f"scenario {target.name!r} gives {dim}")
+        trained = run.trained_config
+        if trained is not None and trained.name != target.name:
+            warnings.warn(f"policy {str(path)!r} was trained on {trained.name!r}, used on {target.name!r}",
+                          stacklevel=2)
+    return policy
+
+
+def make_policy(path, env_or_config=None, seed=None, agent=0) -> RLlibPolicy:
+    """``baselines.make_policy``'s signature: one policy per beacon and episode is cheap
+    (the loaded modules are shared). ``seed`` is accepted for the interface."""
+    return load(path, scenario=env_or_config, agent=agent)
+
+
+def batch_actor(path, config):
+    """``act(obs (n_envs * N, D), venv) -> (n_envs * N, 2)`` for train.py's ``evaluate``:
+    every beacon's rows through its kind's module, all environments at once."""
+    policies = [load(path, scenario=config, agent=j) for j in range(config.n_beacons)]
+    N = config.n_beacons
+
+    def act(obs, venv):
+        out = np.empty((len(obs), 2), dtype=np.float32)
+        for j, policy in enumerate(policies):
+            out[j::N] = policy.act_batch(obs[j::N])
+        return out
+
+    return act
