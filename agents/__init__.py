@@ -19,6 +19,11 @@ model, its VecNormalize statistics and the config it was trained with:
 Actions are deterministic (the mean of PPO's Gaussian, clipped to [-1, 1]), and the
 policy has no memory, so ``reset`` only exists for the interface.
 
+A directory with a ``gate.yml`` instead holds two such policy directories and a gate
+on the survey vehicle's depth below the beacon, as the observation gives it
+(``DepthGatedPolicy``): ``{kind: depth_gate, threshold_m: 12.5, shallow: <dir>,
+deep: <dir>}``, the directories relative to the gate file.
+
 A run of ``train.py --backend rllib`` (its directory, its ``checkpoint/``, or any RLlib
 Algorithm checkpoint) loads the same way, through ``agents/rllib_policy.py`` (which
 imports Ray only then): ``agents.load("runs/x_rllib", scenario=...)``.
@@ -39,14 +44,15 @@ POLICY_DIR = Path(__file__).resolve().parent / "policies"
 # gao_sea policy's sea trial; same vehicles, smaller area, weaker current).
 SHARED_POLICIES = {"gao_lawnmower": "ppo_gao_sea"}
 
-__all__ = ["PPOPolicy", "list_policies", "load", "make_policy", "resolve"]
+__all__ = ["DepthGatedPolicy", "PPOPolicy", "list_policies", "load", "make_policy", "resolve"]
 
 
 def list_policies() -> list:
     """Names of the policies shipped in agents/policies/."""
     if not POLICY_DIR.is_dir():
         return []
-    return sorted(p.name for p in POLICY_DIR.iterdir() if p.is_dir() and _model_files(p) is not None)
+    return sorted(p.name for p in POLICY_DIR.iterdir()
+                  if p.is_dir() and ((p / "gate.yml").is_file() or _model_files(p) is not None))
 
 
 def _model_files(directory: Path):
@@ -92,6 +98,8 @@ def resolve(name_or_path, scenario=None) -> tuple:
             shipped = list_policies()
             raise ValueError(f"no policy {name_or_path!r}: not a run directory, a .zip file or a shipped policy "
                              f"(shipped: {', '.join(shipped) if shipped else 'none yet'})")
+    if (directory / "gate.yml").is_file():  # two policies and a gate: DepthGatedPolicy
+        return directory / "gate.yml", None, None
     files = _model_files(directory)
     if files is None:
         raise ValueError(f"{directory} holds no model (best_model.zip, model.zip or a checkpoint)")
@@ -172,6 +180,8 @@ def load(name_or_path, scenario=None, device="cpu") -> PPOPolicy:
     from stable_baselines3 import PPO
 
     model_path, stats_path, config_path = resolve(name_or_path, scenario)
+    if model_path.name == "gate.yml":
+        return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name)
     model = PPO.load(model_path, device=device)
     obs_rms, clip_obs, epsilon = None, 10.0, 1e-8
     if stats_path is not None:
@@ -201,6 +211,52 @@ def load(name_or_path, scenario=None, device="cpu") -> PPOPolicy:
         if trained_config is None:
             policy.config = target
     return policy
+
+
+class DepthGatedPolicy(BatchPolicy):
+    """Two trained policies and a fixed gate: ``shallow`` acts where the survey vehicle's
+    depth below the beacon (its last reply, as the observation gives it; the mean over
+    survey vehicles) is below ``threshold_m``, ``deep`` elsewhere. Both see the same
+    observation; the gate is part of the policy, written in its gate.yml."""
+
+    def __init__(self, shallow, deep, threshold_m: float, name="gated"):
+        if shallow.obs_dim != deep.obs_dim:
+            raise ValueError(f"gated policies must take the same observation: {shallow.obs_dim} != {deep.obs_dim}")
+        if not np.isfinite(threshold_m):
+            raise ValueError(f"threshold_m must be finite, got {threshold_m!r}")
+        self.shallow, self.deep, self.threshold_m, self.name = shallow, deep, float(threshold_m), name
+        self.obs_dim = deep.obs_dim
+        self.config = deep.config if deep.config is not None else shallow.config
+
+    def reset(self, seed=None):
+        self.shallow.reset(seed)
+        self.deep.reset(seed)
+
+    def act_batch(self, obs) -> np.ndarray:
+        from coopnav_env.obs_layout import decode
+
+        obs = np.asarray(obs, dtype=np.float64)
+        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
+            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        depth = decode(obs, self.config).depth_below_m.mean(-1)
+        out = self.deep.act_batch(obs)
+        shallow = depth < self.threshold_m
+        if shallow.any():
+            out[shallow] = self.shallow.act_batch(obs[shallow])
+        return out
+
+    def __repr__(self):
+        return f"DepthGatedPolicy({self.name!r}, below {self.threshold_m} m: {self.shallow!r}, else {self.deep!r})"
+
+
+def _load_gated(gate_path: Path, scenario, device, name):
+    import yaml
+
+    spec = yaml.safe_load(gate_path.read_text()) or {}
+    if spec.get("kind") != "depth_gate" or not {"threshold_m", "shallow", "deep"} <= set(spec):
+        raise ValueError(f"{gate_path}: expected kind: depth_gate with threshold_m, shallow and deep")
+    parts = [load(gate_path.parent / spec[k], scenario=scenario, device=device) for k in ("shallow", "deep")]
+    return DepthGatedPolicy(*parts, threshold_m=float(spec["threshold_m"]), name=name)
 
 
 def _trained_scenario(run_config: dict):
@@ -241,5 +297,7 @@ def make_policy(name_or_path, env_or_config=None, seed=None, agent=0) -> PPOPoli
     if key not in _CACHE:
         _CACHE[key] = load(name_or_path, scenario=scenario)
     base = _CACHE[key]
+    if isinstance(base, DepthGatedPolicy):  # stateless: one instance serves every beacon and episode
+        return base
     return PPOPolicy(base.model, base.obs_rms, base.clip_obs, base.epsilon, config=base.config,
                      run_config=base.run_config, name=base.name)

@@ -260,3 +260,27 @@ def test_tiny_training_run_on_the_newer_scenarios(tmp_path, scenario):
     config = coopnav_env.make_config(scenario, max_cycles=6)
     eps, steps = evaluate.run_episodes(config, str(out), [0, 1])
     assert len(eps) == 2 and all(np.isfinite(e["mean_error_m"]) for e in eps)
+
+
+def test_depth_gated_policy_routes_by_the_observed_depth(tmp_path):
+    """agents.DepthGatedPolicy (the shipped ppo_sousa_asv): the shallow network acts where
+    the survey vehicle's observed depth below the beacon is under the threshold."""
+    from coopnav_env.obs_layout import encode
+
+    shipped = agents.load("ppo_sousa_asv")
+    assert isinstance(shipped, agents.DepthGatedPolicy) and shipped.threshold_m == 12.5
+    config = coopnav_env.make_config("sousa_asv")
+    shallow = encode(config, own_en_m=[0, 0], survey_rel_m=[[20.0, 5.0, 5.0]])
+    deep = encode(config, own_en_m=[0, 0], survey_rel_m=[[20.0, 5.0, 50.0]])
+    assert np.array_equal(shipped.act(shallow), shipped.shallow.act(shallow))
+    assert np.array_equal(shipped.act(deep), shipped.deep.act(deep))
+    both = shipped.act_batch(np.stack([shallow, deep, shallow]))  # a batch: float32 round-off aside
+    assert np.allclose(both[1], shipped.deep.act(deep), atol=1e-5)
+    assert np.allclose(both[2], shipped.shallow.act(shallow), atol=1e-5)
+    assert not np.allclose(both[0], shipped.deep.act(shallow), atol=1e-3)  # the gate made a difference
+    # a gate file must say what it is
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "gate.yml").write_text("kind: depth_gate\nthreshold_m: 10\n")
+    with pytest.raises(ValueError, match="expected kind: depth_gate with threshold_m, shallow and deep"):
+        agents.load(bad)
