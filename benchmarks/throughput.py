@@ -128,9 +128,9 @@ def core_bench(scenario, batch_size, seed=0):
     import numpy as np
 
     from coopnav_env import make_config
-    from coopnav_env.core.sim import Simulator
+    from coopnav_env.core import make_simulator
 
-    sim = Simulator(make_config(scenario), batch_size)
+    sim = make_simulator(make_config(scenario), batch_size)
     B, N = sim.batch_size, sim.N
     gen = np.random.default_rng(seed)
     sim.reset(np.arange(B))
