@@ -68,8 +68,9 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="evaluate.py", description="Evaluate coopnav policies on seeded episodes.")
     p.add_argument("--scenario", default="gao_lawnmower", help="scenario name (coopnav_env.list_scenarios())")
-    p.add_argument("--policies", default="fim_a,fim_b,ellipse,circle,static,random",
-                   help="comma-separated policy names (baselines.list_policies())")
+    p.add_argument("--policies", default=None,
+                   help="comma-separated policy names (default: every baseline that can drive the scenario, "
+                        "baselines.list_policies(network))")
     p.add_argument("--episodes", type=int, default=10, help="episodes per policy (and per sweep cell)")
     p.add_argument("--seed", type=int, default=0, help="episode i uses seed SEED + i")
     p.add_argument("--out", default="results/eval", help="output directory")
@@ -161,6 +162,8 @@ def prepare(args) -> dict:
     scenarios = coopnav_env.list_scenarios()
     if args.scenario not in scenarios:
         raise UsageError(f"unknown scenario {args.scenario!r}; valid scenarios: {', '.join(scenarios)}")
+    if args.policies is None:  # every planner that drives this scenario's network
+        args.policies = ",".join(list_policies(coopnav_env.make_config(args.scenario).network))
     policies = [p.strip() for p in args.policies.split(",") if p.strip()]
     if not policies:
         raise UsageError("no policy given")

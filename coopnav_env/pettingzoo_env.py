@@ -58,6 +58,26 @@ class CoopNavParallelEnv(ParallelEnv):
     ``outliers_rejected``, ``nan_rejected``, ``packets_lost``, and each of these as a
     per-survey-vehicle list under ``<name>_per_vehicle``.
 
+    **The moving LBL network** (``network="moving_lbl"``, scenario
+    ``matos_moving_lbl``; Matos & Cruz): the agents are two boats, ``beacon_0`` = B1
+    (the frame's origin) and ``beacon_1`` = B2, which define a moving frame; one AUV
+    navigates in it by the three-interval LBL exchange and a six-state moving-frame
+    EKF (``core/moving_network.py``). Action: with ``action_mode="frame_velocity"``
+    (its default) (v_x, v_y) / max speed in the frame the boats' GPS defines (x
+    along B1 -> B2, y 90 degrees clockwise), norm clipped to 1. Observation
+    (``core.moving_network.OBS_FIELDS``, 15 values; ``obs_layout.decode_boat``):
+    role, own velocity, baseline error, the vehicle as the boats track it
+    externally (position, velocity, fix age), the frame's bearing, own position
+    from the tracked vehicle, elapsed time. Reward: the vehicle filter's
+    information gain minus penalties for the baseline off its target, the frame
+    turned, the vehicle near the baseline, a boat near the vehicle, no range fused.
+    Infos add ``error_x_m``, ``error_y_m`` (moving-frame errors), ``phi_error_deg``,
+    ``baseline_error_m``, ``ellipse_major_m``, ``ellipse_minor_m``, ``vehicle_y_m``.
+
+    **The MLS sensor** (``acoustic_sensor="mls"``, scenario ``swarm_mls``; Kottege &
+    Zimmer): as above, but one beacon sends per cycle (round robin) and each survey
+    vehicle measures its range and azimuth with the MLS array (``core/mls.py``).
+
     **Arguments**: ``scenario`` (a name from ``coopnav_env.list_scenarios()`` or a
     ``ScenarioConfig``), ``render_mode`` (``None``, ``"rgb_array"``, ``"human"``),
     ``seed`` (used by the first ``reset()`` without a seed), ``max_cycles``, and
