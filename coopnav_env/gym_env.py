@@ -8,7 +8,6 @@ PettingZoo env (see ``CoopNavParallelEnv``), so single-agent libraries work.
 from __future__ import annotations
 
 import gymnasium as gym
-import numpy as np
 
 from .core import make_simulator
 from .scenarios import make_config

@@ -7,7 +7,6 @@ import pytest
 import coopnav_env
 from baselines import list_policies, make_policy, waypoint_to_action
 from baselines.base import BeaconContext, SurveyTracker
-from baselines.ellipse import ellipse_waypoint
 from baselines.fim import fim_a_waypoint, fim_b_waypoint, two_range_det
 from coopnav_env.core.information import (best_second_range_det, ellipse_to_covariance, error_ellipse,
                                           maximize_on_disc, optimal_start_distance_m, range_information_det)

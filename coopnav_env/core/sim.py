@@ -389,7 +389,6 @@ class Simulator:
 
     def _beacon_navigation(self, draws):
         c, st = self.config, self.state
-        B, N = self.batch_size, self.N
         T, K, dt = c.ping_interval_s, self.K, c.substep_s
         n, u = draws["beacon_nav_n"], draws["beacon_nav_u"]
         auv = ~self._beacon_is_asv

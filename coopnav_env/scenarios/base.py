@@ -15,7 +15,7 @@ import dataclasses
 import difflib
 import math
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 BEACON_KINDS = ("beacon_auv", "asv", "boat")
