@@ -220,6 +220,9 @@ class MovingNetworkSimulator:
         B = len(seeds)
         keys = rng.env_keys(seeds)
         zero = np.zeros(B, dtype=np.int64)
+        # normals: 0-1 position prior, 2 phi prior, 3-4 unused (kept so that the others keep
+        # their numbers), 5 l prior, 6-7 dead-reckoning start, 8 speed scale, 9 compass bias,
+        # 10-13 GPS, 14 temperature, 15-16 the current's Gauss-Markov part
         n = rng.normal(keys, rng.STREAM_EPISODE, zero, (17,))
         u = rng.uniform(keys, rng.STREAM_EPISODE + 100, zero, (3,))
         phi0 = np.radians(c.frame_orientation_deg + c.frame_orientation_spread_deg * (2 * u[:, 0] - 1))
