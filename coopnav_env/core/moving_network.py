@@ -43,7 +43,7 @@ from .dynamics import turn_toward
 from .guidance import build_path, los_point
 from .information import error_ellipse, logdet_horizontal
 from .navigation import frame_predict, frame_range_model, frame_velocity, gate_threshold, joseph_update_batch
-from .sim import INFO_KEYS, StepResult
+from .sim import INFO_KEYS, BatchSimulator, StepResult
 from .state import BatchArrays
 
 FRAME_INFO_KEYS = INFO_KEYS + ("error_x_m", "error_y_m", "phi_error_deg", "baseline_error_m", "ellipse_major_m",
@@ -166,7 +166,7 @@ def integrate_vehicle(pos, heading, vel_true, wp_index, done, waypoints, n_wp, s
             heading_meas[b], speed_meas[b] = theta, v
 
 
-class MovingNetworkSimulator:
+class MovingNetworkSimulator(BatchSimulator):
     """The batched moving LBL network: B independent environments of one scenario."""
 
     def __init__(self, config, batch_size: int = 1):
@@ -198,22 +198,6 @@ class MovingNetworkSimulator:
         ], B)
         self.obs_dim, self.state_dim = OBS_DIM, 24
         self.state: FrameState | None = None
-
-    # ------------------------------------------------------------------------------
-    def reset(self, seeds, mask=None) -> np.ndarray:
-        """(Re)start the environments in ``mask`` (all if None) with integer ``seeds``."""
-        seeds = np.atleast_1d(np.asarray(seeds, dtype=np.int64))
-        if mask is None:
-            if len(seeds) != self.batch_size:
-                raise ValueError(f"need {self.batch_size} seeds, got {len(seeds)}")
-            self.state = self._initial_state(seeds)
-        else:
-            mask = np.asarray(mask, dtype=bool)
-            if int(mask.sum()) != len(seeds):
-                raise ValueError("one seed per environment to reset")
-            if mask.any():
-                self.state.assign(mask, self._initial_state(seeds))
-        return self.observe()
 
     def _initial_state(self, seeds) -> FrameState:
         c = self.config
@@ -409,35 +393,28 @@ class MovingNetworkSimulator:
         dz = st.s_pos[:, 0, 2] + c.depth_noise_m * draws["depth"][:, 0]  # depth cell; boats at the surface
         vel = frame_velocity(st.f_E, st.s_speed_meas_mps, st.s_heading_meas_rad)
         fused = np.zeros((B, 3), dtype=bool)
-        rejected = np.zeros(B, dtype=np.int64)
         # d1: the legs are S1 leaving (t = 0) and S2 arriving (t3)
         h, H = frame_range_model(st.f_E, 1, dz, vel, np.stack([np.zeros(B), ex["t3"]], -1))
-        y = (ex["d1"] - h)[:, None]
         R1 = sigma_r2[:, None, None] * np.ones((B, 1, 1))
-        nis = y[:, 0] ** 2 / ((H[:, None] @ st.f_P @ H[:, :, None])[:, 0, 0] + sigma_r2)
-        ok = ex["ok_d1"] & (nis <= self._gate1)
-        rejected += ex["ok_d1"] & ~ok
-        st.f_E, st.f_P, _ = joseph_update_batch(st.f_E, st.f_P, y, H[:, None], R1, ok)
-        fused[:, 0] = ok
-        # d2 (legs: S4 leaving at t3s, S5 arriving at t6) with l when it is there
+        st.f_E, st.f_P, nis = joseph_update_batch(st.f_E, st.f_P, (ex["d1"] - h)[:, None], H[:, None], R1,
+                                                  ex["ok_d1"], self._gate1)
+        fused[:, 0] = ex["ok_d1"] & (nis <= self._gate1)
+        # d2 (legs: S4 leaving at t3s, S5 arriving at t6) with l when it is there, else alone;
+        # the two updates touch disjoint rows
         vel = frame_velocity(st.f_E, st.s_speed_meas_mps, st.s_heading_meas_rad)
         h2, H2 = frame_range_model(st.f_E, 2, dz, vel, np.stack([ex["t3s"], ex["t6"]], -1))
         Hl = np.zeros((B, 6))
         Hl[:, 5] = 1.0
         y2 = np.stack([ex["d2"] - h2, ex["l"] - st.f_E[:, 5]], -1)
         R2 = sigma_r2[:, None, None] * np.array([[1.0, -1.0], [-1.0, 6.0]])
-        H2l = np.stack([H2, Hl], 1)
-        S2 = H2l @ st.f_P @ np.swapaxes(H2l, 1, 2) + R2
-        nis2 = np.einsum("bi,bi->b", y2, np.linalg.solve(S2, y2[..., None])[..., 0])
+        alone = ex["ok_d2"] & ~ex["ok_l"]
+        st.f_E, st.f_P, nis2 = joseph_update_batch(st.f_E, st.f_P, y2, np.stack([H2, Hl], 1), R2, ex["ok_l"],
+                                                   self._gate2)
+        st.f_E, st.f_P, nis1 = joseph_update_batch(st.f_E, st.f_P, y2[:, :1], H2[:, None], R1, alone, self._gate1)
         both = ex["ok_l"] & (nis2 <= self._gate2)
-        only_d2 = ex["ok_d2"] & ~ex["ok_l"] & (y2[:, 0] ** 2 / S2[:, 0, 0] <= self._gate1)
-        rejected += (ex["ok_l"] & ~both) + (ex["ok_d2"] & ~ex["ok_l"] & ~only_d2)
-        E_j, P_j, _ = joseph_update_batch(st.f_E, st.f_P, y2, H2l, R2, both)
-        E_s, P_s, _ = joseph_update_batch(st.f_E, st.f_P, y2[:, :1], H2[:, None], R1, only_d2)
-        st.f_E = np.where(both[:, None], E_j, E_s)
-        st.f_P = np.where(both[:, None, None], P_j, P_s)
-        fused[:, 1] = both | only_d2
+        fused[:, 1] = both | (alone & (nis1 <= self._gate1))
         fused[:, 2] = both
+        rejected = np.stack([ex["ok_d1"] & ~fused[:, 0], ex["ok_l"] & ~both, alone & ~fused[:, 1]]).sum(0)
         self._reinitialize(ex, dz, fused, rejected, sigma_r2)
         return fused, rejected
 

@@ -144,13 +144,14 @@ def axis_measurement(axis: int, shape):
 
 
 # --- the general update, over a batch (any state and measurement size) -------------------
-def joseph_update_batch(x, P, y, H, R, mask):
+def joseph_update_batch(x, P, y, H, R, mask, gate=np.inf):
     """Eqs. (9)-(13) for an m-vector measurement per filter, Joseph form, over a batch.
 
     x (B, n), P (B, n, n), innovation y = z - h (B, m), H (B, m, n), R (m, m) or
-    (B, m, m), mask (B,): rows to update. Returns new (x, P) and the normalized
-    innovation squared y^T S^-1 y (B,), for gating. Rows where mask is False are
-    returned unchanged.
+    (B, m, m), mask (B,): rows to update; gate: the chi-square bound on the
+    normalized innovation squared, rows above it are not updated. Returns new
+    (x, P) and the normalized innovation squared y^T S^-1 y (B,) (a row was
+    updated where mask and nis <= gate). Other rows are returned unchanged.
     """
     S = H @ P @ np.swapaxes(H, -1, -2) + R  # eq. (11)
     S_inv_y = np.linalg.solve(S, y[..., None])[..., 0]
@@ -160,7 +161,7 @@ def joseph_update_batch(x, P, y, H, R, mask):
     A = np.eye(x.shape[-1]) - K @ H
     RK = (R if np.ndim(R) == 3 else np.broadcast_to(R, S.shape)) @ np.swapaxes(K, -1, -2)
     P_new = A @ P @ np.swapaxes(A, -1, -2) + K @ RK  # eq. (13), Joseph form
-    m = np.asarray(mask, dtype=bool)
+    m = np.asarray(mask, dtype=bool) & (nis <= gate)
     return np.where(m[:, None], x_new, x), np.where(m[:, None, None], P_new, P), nis
 
 

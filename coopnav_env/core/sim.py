@@ -51,7 +51,29 @@ class StepResult:
     safety_geofence_penalty: np.ndarray
 
 
-class Simulator:
+class BatchSimulator:
+    """What every batched simulator shares: ``reset`` over the batch or a masked part of
+    it. Subclasses set ``batch_size`` and ``state`` and implement ``_initial_state(seeds)``
+    and ``observe()``."""
+
+    def reset(self, seeds, mask=None) -> np.ndarray:
+        """(Re)start the environments in ``mask`` (all if None) with integer ``seeds``
+        (one per environment reset). Returns the observations of the whole batch."""
+        seeds = np.atleast_1d(np.asarray(seeds, dtype=np.int64))
+        if mask is None:
+            if len(seeds) != self.batch_size:
+                raise ValueError(f"need {self.batch_size} seeds, got {len(seeds)}")
+            self.state = self._initial_state(seeds)
+        else:
+            mask = np.asarray(mask, dtype=bool)
+            if int(mask.sum()) != len(seeds):
+                raise ValueError("one seed per environment to reset")
+            if mask.any():
+                self.state.assign(mask, self._initial_state(seeds))
+        return self.observe()
+
+
+class Simulator(BatchSimulator):
     """The batched coopnav core: B independent environments of one scenario."""
 
     def __init__(self, config: ScenarioConfig, batch_size: int = 1):
@@ -120,6 +142,8 @@ class Simulator:
             ("mls_n", "normal", (S_, 14)),  # the MLS sensor's 13 normals and a compass reading
         ], self.batch_size)
         self._mls = None
+        silent = np.zeros((self.batch_size, N_, S_))  # the fusion kernel's MLS arguments when there is no MLS
+        self._no_mls = (False, np.zeros(silent.shape, dtype=np.int8), silent, silent, silent, silent)
         if c.acoustic_sensor == "mls":
             from .mls import MLSConfig, MLSSensor  # built once per simulator (~0.2 s)
 
@@ -130,23 +154,6 @@ class Simulator:
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.info_keys = INFO_KEYS
         self.state: SimState | None = None
-
-    # ------------------------------------------------------------------------------
-    def reset(self, seeds, mask=None) -> np.ndarray:
-        """(Re)start the environments in ``mask`` (all if None) with integer ``seeds``
-        (one per environment reset). Returns the observations of the whole batch."""
-        seeds = np.atleast_1d(np.asarray(seeds, dtype=np.int64))
-        if mask is None:
-            if len(seeds) != self.batch_size:
-                raise ValueError(f"need {self.batch_size} seeds, got {len(seeds)}")
-            self.state = self._initial_state(seeds)
-        else:
-            mask = np.asarray(mask, dtype=bool)
-            if int(mask.sum()) != len(seeds):
-                raise ValueError("one seed per environment to reset")
-            if mask.any():
-                self.state.assign(mask, self._initial_state(seeds))
-        return self.observe()
 
     def _initial_state(self, seeds) -> SimState:
         c, S, N = self.config, self.S, self.N
@@ -339,8 +346,7 @@ class Simulator:
         B, N, S = self.batch_size, self.N, self.S
         shape = (B, N, S)
         if self._mls is None:
-            z = np.zeros(shape)
-            return False, np.zeros(shape, dtype=np.int8), z, z, z, z
+            return self._no_mls  # the kernel reads none of them
         c, st = self.config, self.state
         sends = self._sender_mask(st.cycle - 1)  # the cycle counter has advanced already
         j = np.argmax(sends, axis=1)  # (B,)
