@@ -77,11 +77,16 @@ def frame_to_world(b1_en, phi_rad, x, y):
     return b1_en + np.asarray(x)[..., None] * ux + np.asarray(y)[..., None] * uy
 
 
+def baseline(b1_en, b2_en):
+    """The frame of beacons B1, B2 (east, north) (..., 2): bearing phi of its x axis
+    (clockwise from north) and the baseline length l."""
+    base = b2_en - b1_en
+    return np.arctan2(base[..., 0], base[..., 1]), np.linalg.norm(base, axis=-1)
+
+
 def world_to_frame(b1_en, b2_en, p_en):
     """(east, north) -> frame (x, y) of the beacons B1, B2; also returns phi and l."""
-    base = b2_en - b1_en
-    length = np.linalg.norm(base, axis=-1)
-    phi = np.arctan2(base[..., 0], base[..., 1])
+    phi, length = baseline(b1_en, b2_en)
     rel = p_en - b1_en
     x = rel[..., 0] * np.sin(phi) + rel[..., 1] * np.cos(phi)
     y = rel[..., 0] * np.cos(phi) - rel[..., 1] * np.sin(phi)
@@ -172,7 +177,7 @@ def track_fix(ex, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, turnarou
     diff = cn * (ex["t_s1_b2"] - ex["t_s1_b1"])
     r1 = horizontal_range((total - diff) / 2.0, depth_below_m)
     r2 = horizontal_range((total + diff) / 2.0, depth_below_m)
-    x, y, phi, length = world_to_frame(b1_en, b2_en, b1_en)  # phi and l of the GPS baseline
+    phi, length = baseline(b1_en, b2_en)  # of the GPS positions
     fx, fy, ok = spherical_fix_batch(r1, r2, length)
     ok &= ex["ok_track"]
     return frame_to_world(b1_en, phi, fx, fy), ok

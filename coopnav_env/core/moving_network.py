@@ -104,7 +104,7 @@ class FrameState(BatchArrays):
     def s_est(self):
         """The filter's position mapped to the world through the true frame (B,1,3),
         as the logged boat positions allow after the mission (section IV)."""
-        phi = np.arctan2(*(self.b_pos[:, 1, :2] - self.b_pos[:, 0, :2]).T)
+        phi, _ = lbl.baseline(self.b_pos[:, 0, :2], self.b_pos[:, 1, :2])
         en = lbl.frame_to_world(self.b_pos[:, 0, :2], phi, self.f_E[:, 0], self.f_E[:, 1])
         return np.concatenate([en, self.s_pos[:, 0, 2:]], -1)[:, None]
 
@@ -112,7 +112,7 @@ class FrameState(BatchArrays):
     def waypoints_en(self):
         """The mission's waypoints placed in the world by the current true frame (B,1,W,3)."""
         b1 = self.b_pos[:, 0, :2]
-        phi = np.arctan2(*(self.b_pos[:, 1, :2] - b1).T)
+        phi, _ = lbl.baseline(b1, self.b_pos[:, 1, :2])
         wp = self.s_waypoints[:, 0]
         en = lbl.frame_to_world(b1[:, None], phi[:, None], wp[..., 0], wp[..., 1])
         return np.concatenate([en, wp[..., 2:]], -1)[:, None]
@@ -358,7 +358,7 @@ class MovingNetworkSimulator(BatchSimulator):
         B = self.batch_size
         depth = st.s_pos[:, 0, 2]
         c_true = mackenzie_sound_speed(st.temperature_c, c.salinity_psu, depth)
-        self._c_nominal = cn = mackenzie_sound_speed(np.full(B, c.water_temperature_c), c.salinity_psu, depth)
+        cn = mackenzie_sound_speed(np.full(B, c.water_temperature_c), c.salinity_psu, depth)
         # each detection instant is late by a jitter; a two-way range has two of them,
         # halved: sigma_t = sqrt(2) sigma_r / c gives ranges d1, d2 with std sigma_r
         sigma_r = c.range_noise_std_m * st.ep_noise_scale
@@ -373,8 +373,10 @@ class MovingNetworkSimulator(BatchSimulator):
         path = np.stack([d_b1, d_b1, base, d_b2, d_b2, d_b2, d_b2], -1)  # distance each signal travels
         lost = u[..., 0] < packet_loss_probability(path, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
         timeout = 2.0 * c.max_range_m / cn + 2.0 * c.turnaround_s
-        return lbl.exchange(v3, st.s_vel_true[:, 0], st.b_pos[:, 0], st.b_vel[:, 0], st.b_pos[:, 1], st.b_vel[:, 1],
-                            c_true, cn, jitter, late, lost, c.turnaround_s, c.turnaround_s, timeout)
+        ex = lbl.exchange(v3, st.s_vel_true[:, 0], st.b_pos[:, 0], st.b_vel[:, 0], st.b_pos[:, 1], st.b_vel[:, 1],
+                          c_true, cn, jitter, late, lost, c.turnaround_s, c.turnaround_s, timeout)
+        ex["nominal_sound_speed_mps"] = cn  # the speed everyone converts times with (tracking too)
+        return ex
 
     def _fuse(self, ex, draws):
         """Section VII's updates: d1 when S2 arrives, then d2 and l when S5 arrives.
@@ -448,7 +450,8 @@ class MovingNetworkSimulator(BatchSimulator):
         c, st = self.config, self.state
         T = c.ping_interval_s
         gps = st.b_pos[..., :2] + st.b_gps_err
-        fix, ok = lbl.track_fix(ex, gps[:, 0], gps[:, 1], c.depth_m, self._c_nominal, c.turnaround_s, c.turnaround_s)
+        fix, ok = lbl.track_fix(ex, gps[:, 0], gps[:, 1], c.depth_m, ex["nominal_sound_speed_mps"], c.turnaround_s,
+                                c.turnaround_s)
         age = st.k_age_s + T
         pred = st.k_pos + st.k_vel * age[:, None]
         resid = fix - pred
