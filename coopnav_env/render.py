@@ -54,7 +54,7 @@ def draw_episode(recorder: EpisodeRecorder, config, fig=None):
         ax.plot(true[:, s, 0], true[:, s, 1], color="k", lw=1.5, label="true" if s == 0 else None)
         ax.plot(dr[:, s, 0], dr[:, s, 1], color="tab:red", lw=1, ls="--", label="dead reckoning" if s == 0 else None)
         ax.plot(est[:, s, 0], est[:, s, 1], color="tab:blue", lw=1, label="EKF" if s == 0 else None)
-        major, minor, bearing = error_ellipse(P[-1, s], n_sigma=2.0)
+        major, minor, bearing = error_ellipse(P[-1, s])
         ax.add_patch(Ellipse((est[-1, s, 0], est[-1, s, 1]), 2 * float(major), 2 * float(minor),
                              angle=float(np.degrees(np.pi / 2 - bearing)), fill=False, color="tab:blue",
                              lw=1.5, label="2-sigma ellipse" if s == 0 else None))

@@ -9,6 +9,7 @@ import baselines
 import coopnav_env
 from coopnav_env import make_config
 from coopnav_env.core import lbl, make_simulator
+from coopnav_env.core.information import error_ellipse
 from coopnav_env.core.navigation import frame_predict, joseph_update_batch
 from coopnav_env.obs_layout import decode_boat
 
@@ -257,6 +258,27 @@ def test_scenario_rejects_a_roster_it_cannot_simulate():
         make_config("gao_lawnmower", beacon_kinds=("boat",))
     with pytest.raises(ValueError, match="frame_velocity' belongs to network='moving_lbl'"):
         make_config("gao_lawnmower", action_mode="frame_velocity")
+
+
+def test_ellipse_infos_are_two_sigma_semi_axes_of_the_filter_covariance():
+    """ellipse_major_m / ellipse_minor_m mean 2-sigma semi-axes, as in the observations and
+    evaluate.py: 2 sqrt of the eigenvalues of the filter's (x, y) covariance."""
+    from coopnav_env.core.information import ELLIPSE_N_SIGMA
+
+    assert ELLIPSE_N_SIGMA == 2.0
+    c = make_config("matos_moving_lbl", max_cycles=20)
+    B = 3
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B) + 11)
+    for _ in range(5):
+        res = sim.step(np.zeros((B, 2, 2)))
+        w = np.linalg.eigvalsh(sim.state.f_P[:, :2, :2])  # ascending
+        np.testing.assert_allclose(res.info["ellipse_major_m"][:, 0], 2.0 * np.sqrt(w[:, 1]), rtol=1e-9)
+        np.testing.assert_allclose(res.info["ellipse_minor_m"][:, 0], 2.0 * np.sqrt(w[:, 0]), rtol=1e-7)
+        # the same numbers evaluate.py writes to its steps.csv columns of these names
+        major, minor, _ = error_ellipse(sim.state.s_P)
+        assert np.array_equal(res.info["ellipse_major_m"], major)
+        assert np.array_equal(res.info["ellipse_minor_m"], minor)
 
 
 def test_evaluate_reports_moving_frame_errors(tmp_path):

@@ -304,3 +304,26 @@ def test_analytic_mode_takes_the_callers_normals(sensor):
     one = sensor.measure_analytic(sp[k], sh[k], op[k], oh[k], normals=z[k])
     assert float(one.azimuth_rad) == float(b.azimuth_rad[k]) and float(one.heading_rad) == float(b.heading_rad[k])
     assert b.azimuth_rad.shape == (n,) and b.sub_ranges_m.shape == (n, 2)
+
+
+@pytest.mark.parametrize("jitter_s", [0.0, 2e-5])
+def test_measure_with_bounds_is_the_two_calls_bit_for_bit(sensor, jitter_s):
+    """One geometry for a sending event's measurement and noise model (what the swarm
+    simulator calls): identical to measure_analytic and error_bounds called apart."""
+    s = sensor if jitter_s == 0.0 else MLSSensor(MLSConfig(sync_jitter_s=jitter_s))
+    n = 40
+    rng = np.random.default_rng(11)
+    sp = rng.uniform(1.0, 4.0, (n, 2))
+    sh = rng.uniform(-3.0, 3.0, n)
+    op, oh = np.zeros((n, 2)), rng.uniform(-1.0, 1.0, n)
+    z = rng.standard_normal((n, MLSSensor.N_NORMALS))
+    for bias in (True, False):
+        m, b = s.measure_analytic_with_bounds(sp, sh, op, oh, normals=z, interpolation_bias=bias)
+        m0 = s.measure_analytic(sp, sh, op, oh, normals=z, interpolation_bias=bias)
+        assert all(np.array_equal(x, y) for x, y in zip(m, m0))
+    assert all(np.array_equal(x, y) for x, y in zip(b, s.error_bounds(sp, sh, op, oh)))
+    m, _ = s.measure_analytic_with_bounds(sp, sh, op, oh, rng=np.random.default_rng(3))
+    m0 = s.measure_analytic(sp, sh, op, oh, rng=np.random.default_rng(3))
+    assert all(np.array_equal(x, y) for x, y in zip(m, m0))
+    with pytest.raises(ValueError, match="exactly one of rng and normals"):
+        s.measure_analytic_with_bounds(sp, sh, op, oh)

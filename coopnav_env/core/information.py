@@ -57,7 +57,11 @@ def _ellipse_rows(a, b, c, n_sigma, major, minor, bearing):
         major[i], minor[i], bearing[i] = ellipse_of(a[i], b[i], c[i], n_sigma)
 
 
-def error_ellipse(P, n_sigma=2.0):
+# The project's error ellipse: 2-sigma semi-axes, wherever an ellipse is observed, logged or drawn
+ELLIPSE_N_SIGMA = 2.0
+
+
+def error_ellipse(P, n_sigma=ELLIPSE_N_SIGMA):
     """Semi-axes and orientation of the horizontal error ellipse of covariances P (..., n, n).
 
     Returns (major_m, minor_m, bearing_rad) arrays of shape (...): ``ellipse_of``
@@ -76,7 +80,7 @@ def error_ellipse(P, n_sigma=2.0):
 # additive: the functions above keep their signatures.
 
 
-def ellipse_to_covariance(major_m, minor_m, bearing_rad, n_sigma=2.0):
+def ellipse_to_covariance(major_m, minor_m, bearing_rad, n_sigma=ELLIPSE_N_SIGMA):
     """The horizontal covariance (..., 2, 2) (east, north) of an error ellipse.
 
     The inverse of :func:`error_ellipse`: n-sigma semi-axes and the bearing of the

@@ -52,7 +52,8 @@ one batch (positions (..., 2), headings (...)), with the caller's standard norma
 ``measure_signal`` per pair with one ``PeakTracker`` per ordered pair. Pairs outside
 (``min_range_m``, ``config.max_range_m``] raise ValueError: mask them first.
 ``ideal_measurement`` is the measurement function h(x) for a filter, and
-``error_bounds`` gives one-sigma errors for its noise model.
+``error_bounds`` gives one-sigma errors for its noise model
+(``measure_analytic_with_bounds``: both from one computation of the geometry).
 
 Errata and choices (each also noted where it is implemented):
 
@@ -148,6 +149,11 @@ def _pose_arrays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_head
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{name} must be finite")
     return sp, sh, op, oh
+
+
+def _check_noise_source(rng, normals):
+    if (rng is None) == (normals is None):
+        raise ValueError("give exactly one of rng and normals")
 
 
 def _relative_pose(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
@@ -813,10 +819,33 @@ class MLSSensor:
         2 TDOA, 4 TOA (row-major i, j), 1 sync jitter, then 2 + 4 for the branch choice.
         Returns an ``MLSMeasurement`` of arrays with the batch's shape. A small-error
         model of the direct path: no outliers (lost peaks) and no reflection; see
-        ``benchmarks/mls_analytic_vs_signal.py`` for where it stands for the signal mode."""
-        if (rng is None) == (normals is None):
-            raise ValueError("give exactly one of rng and normals")
+        ``benchmarks/mls_analytic_vs_signal.py`` for where it stands for the signal mode.
+        ``measure_analytic_with_bounds`` returns this and ``error_bounds`` together."""
+        _check_noise_source(rng, normals)
         tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
+        return self._measure_from_delays(tdoa, toa, rng, normals, interpolation_bias)
+
+    def error_bounds(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad,
+                     as_printed=False):
+        """Bounds (11)-(13) at these poses with the SNR-dependent Delta-tau of
+        ``timing_std_samples`` (see ``mls_error_bounds``): (azimuth rad, range m, heading rad).
+        as_printed uses the paper's formulas with Delta-tau = the larger TDOA std."""
+        tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
+        return self._bounds_from_delays(tdoa, toa, as_printed)
+
+    def measure_analytic_with_bounds(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad,
+                                     rng=None, normals=None, interpolation_bias=True):
+        """``measure_analytic`` and ``error_bounds`` of the same poses, the geometry and
+        true delays computed once: (``MLSMeasurement``, (azimuth rad, range m, heading
+        rad) bounds), each identical to what the two methods return separately. What a
+        simulator's sending event needs: the measurement and its noise model."""
+        _check_noise_source(rng, normals)
+        tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
+        return (self._measure_from_delays(tdoa, toa, rng, normals, interpolation_bias),
+                self._bounds_from_delays(tdoa, toa))
+
+    def _measure_from_delays(self, tdoa, toa, rng, normals, interpolation_bias):
+        """``measure_analytic`` from the true delays (``true_delays``); they are not modified."""
         batch = tdoa.shape[:-1]
         if normals is None:
             if not isinstance(rng, np.random.Generator):
@@ -839,12 +868,8 @@ class MLSSensor:
             toa_m = toa + s_toa * z_toa
         return self._estimate(tdoa_m, toa_m)
 
-    def error_bounds(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad,
-                     as_printed=False):
-        """Bounds (11)-(13) at these poses with the SNR-dependent Delta-tau of
-        ``timing_std_samples`` (see ``mls_error_bounds``): (azimuth rad, range m, heading rad).
-        as_printed uses the paper's formulas with Delta-tau = the larger TDOA std."""
-        tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
+    def _bounds_from_delays(self, tdoa, toa, as_printed=False):
+        """``error_bounds`` from the true delays (``true_delays``)."""
         ideal = self._estimate(tdoa, toa)
         s_tdoa, s_toa = self.timing_std_samples(toa)
         if as_printed:

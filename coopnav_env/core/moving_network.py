@@ -41,11 +41,13 @@ from .acoustics import mackenzie_sound_speed, packet_loss_probability
 from .dynamics import bearing_to_unit, gauss_markov_step
 from .dynamics import turn_toward
 from .guidance import build_path, los_point
-from .information import error_ellipse, logdet_horizontal
+from .information import ELLIPSE_N_SIGMA, error_ellipse, logdet_horizontal
 from .navigation import frame_predict, frame_range_model, frame_velocity, gate_threshold, joseph_update_batch
 from .sim import INFO_KEYS, BatchSimulator, StepResult
 from .state import BatchArrays
 
+# ellipse_major_m / ellipse_minor_m: ELLIPSE_N_SIGMA (2-sigma) semi-axes of the filter's (x, y)
+# covariance, as in the observations, evaluate.py's steps and the plots
 FRAME_INFO_KEYS = INFO_KEYS + ("error_x_m", "error_y_m", "phi_error_deg", "baseline_error_m", "ellipse_major_m",
                                "ellipse_minor_m", "vehicle_y_m")
 # one boat's observation, in this order (see MovingNetworkSimulator.observe)
@@ -335,7 +337,7 @@ class MovingNetworkSimulator(BatchSimulator):
             terminated |= st.t_s >= c.mission_duration_s - 1e-9
         truncated = (st.cycle >= c.max_cycles) & ~terminated
         ex_, ey_ = st.f_E[:, 0] - x, st.f_E[:, 1] - y
-        major, minor, _ = error_ellipse(st.f_P, n_sigma=1.0)
+        major, minor, _ = error_ellipse(st.f_P, n_sigma=ELLIPSE_N_SIGMA)
         col = lambda a: np.asarray(a)[:, None]  # noqa: E731  (B,) -> (B, S=1)
         info = {
             "survey_error_m": col(np.hypot(ex_, ey_)),
@@ -498,7 +500,7 @@ class MovingNetworkSimulator(BatchSimulator):
         L = c.baseline_target_m
         b1, b2, v = st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], st.s_pos[:, 0, :2]
         x, y, phi, length = lbl.world_to_frame(b1, b2, v)
-        major, minor, bearing = error_ellipse(st.f_P, n_sigma=2.0)
+        major, minor, bearing = error_ellipse(st.f_P, n_sigma=ELLIPSE_N_SIGMA)
         cur = st.current_mean + st.current_gm
         parts = [
             x / L, y / L, (st.f_E[:, 0] - x) / 10.0, (st.f_E[:, 1] - y) / 10.0,

@@ -28,13 +28,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .information import ellipse_of
+from .information import ELLIPSE_N_SIGMA, ellipse_of  # noqa: F401  (ELLIPSE_N_SIGMA: part of the layout)
 
 OWN_DIM = 6
 PER_SURVEY_FIXED = 9
 DEPTH_SCALE_M = 100.0
 ELLIPSE_SCALE_M = 50.0
-ELLIPSE_N_SIGMA = 2.0
 STD_SCALE_M = 10.0
 AGE_SCALE_PINGS = 10.0
 OBS_BOUND = 10.0

@@ -362,9 +362,8 @@ class Simulator(BatchSimulator):
         var_r = np.ones((B, S))
         var_az = np.ones((B, S))
         if heard.any():
-            m = self._mls.measure_analytic(sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard],
-                                           normals=n[heard][:, :13])
-            b_az, b_r, _ = self._mls.error_bounds(sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard])
+            m, (b_az, b_r, _) = self._mls.measure_analytic_with_bounds(
+                sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard], normals=n[heard][:, :13])
             az[heard], rng_m[heard] = m.azimuth_rad, m.range_m
             var_r[heard], var_az[heard] = np.square(b_r), np.square(b_az)
         # the compass: bearing (clockwise from north) = pi/2 - heading angle (anticlockwise from east)
