@@ -28,6 +28,12 @@ randomization (``randomize_survey_path``, ``randomize_depth_m``,
 ``randomize_noise_scale``, the current's spreads); every episode then draws its
 path kind, depth and noise from its seed inside the one batched simulator.
 
+Warm start: the YAML's ``init_from:`` (a train.py run directory, a shipped policy
+name or a model .zip, as ``agents.resolve`` reads them) starts the network's weights
+and the observation normalization from that policy instead of from scratch (the
+learning-rate schedule starts afresh; the network's shape must match). A resumed
+run ignores it: the checkpoint already holds the weights.
+
 Training reward: the YAML's ``reward:`` (``{term: weight}``, see
 ``coopnav_env.vector``) replaces the environment's reward by a weighted sum of
 training signals, for training only (evaluation always scores survey_error_m).
@@ -170,7 +176,7 @@ def load_hyperparameters(path: Path) -> dict:
         hp = yaml.safe_load(f) or {}
     if not isinstance(hp, dict):
         fail(f"{path}: expected a mapping of hyperparameters")
-    known = {"policy", "n_envs", "ppo", "normalize", "env", "eval", "checkpoint_every_steps", "reward"}
+    known = {"policy", "n_envs", "ppo", "normalize", "env", "eval", "checkpoint_every_steps", "reward", "init_from"}
     unknown = sorted(set(hp) - known)
     if unknown:
         fail(f"{path}: unknown section(s) {', '.join(unknown)}; valid: {', '.join(sorted(known))}")
@@ -182,6 +188,20 @@ def load_hyperparameters(path: Path) -> dict:
     if extra:
         fail(f"{path}: unknown env entr(y/ies) {', '.join(extra)}; valid: overrides")
     return hp
+
+
+def warm_start_files(spec) -> tuple:
+    """(model zip, vecnormalize pickle or None) of the YAML's ``init_from``."""
+    import agents
+
+    try:
+        model, stats, _ = agents.resolve(str(spec))
+    except ValueError as err:
+        raise ValueError(f"init_from: {err}") from None
+    if model.suffix != ".zip":
+        raise ValueError(f"init_from: {spec!r} is not one SB3 model ({model.name}); name one of its networks, "
+                         f"e.g. {model.parent / 'shallow'}")
+    return model, stats
 
 
 def learning_rate(value):
@@ -505,6 +525,12 @@ def main(argv=None) -> int:
     except ValueError as err:
         fail(f"{hp_path}: {err}")
     n_envs = int(hp.get("n_envs", 16))
+    warm = None
+    if hp.get("init_from") and not args.resume:
+        try:
+            warm = warm_start_files(hp["init_from"])
+        except ValueError as err:
+            fail(f"{hp_path}: {err}")
 
     import torch
     from stable_baselines3 import PPO
@@ -562,6 +588,15 @@ def main(argv=None) -> int:
                         seed=run_seed, device=args.device, tensorboard_log=tb_dir, verbose=args.verbose, **ppo_hp)
         except (TypeError, ValueError, AssertionError) as err:
             fail(f"{hp_path}: bad PPO hyperparameters: {str(err).splitlines()[0] if str(err) else type(err).__name__}")
+        if warm:  # weights and normalization from another policy; the optimizer state comes with the weights
+            try:
+                model.set_parameters(str(warm[0]), exact_match=True, device=args.device)
+            except (RuntimeError, ValueError, KeyError) as err:
+                fail(f"{hp_path}: init_from {warm[0]} does not fit this network: {str(err).splitlines()[0]}")
+            if warm[1] is not None:
+                with open(warm[1], "rb") as f:
+                    source = pickle.load(f)
+                vecnorm.obs_rms, vecnorm.ret_rms = source.obs_rms.copy(), source.ret_rms.copy()
     if tb_dir is None:  # a note, not an error: after the inputs are known to be good, on stdout
         print("note: tensorboard is not installed, so no TensorBoard logs (pip install -e '.[train]')")
 

@@ -284,3 +284,38 @@ def test_depth_gated_policy_routes_by_the_observed_depth(tmp_path):
     (bad / "gate.yml").write_text("kind: depth_gate\nthreshold_m: 10\n")
     with pytest.raises(ValueError, match="expected kind: depth_gate with threshold_m, shallow and deep"):
         agents.load(bad)
+
+
+def test_init_from_starts_from_another_runs_weights_and_normalization(tmp_path, capsys):
+    import pickle
+
+    import torch
+
+    source = tmp_path / "source"
+    assert _run(tmp_path, source, 256, eval={"every_steps": 0}) == 0
+    # learning rate 0: the warm-started weights cannot move, so they must equal the source's
+    warm = tmp_path / "warm"
+    assert _run(tmp_path, warm, 256, eval={"every_steps": 0}, init_from=str(source),
+                ppo=dict(TINY["ppo"], learning_rate=0.0)) == 0
+    a, b = agents.load(source).model.policy.state_dict(), agents.load(warm).model.policy.state_dict()
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    with open(source / "vecnormalize.pkl", "rb") as f:
+        src_stats = pickle.load(f)
+    with open(warm / "vecnormalize.pkl", "rb") as f:
+        warm_stats = pickle.load(f)
+    # the statistics continued from the source's: + the first reset's 4 observations + one rollout
+    assert warm_stats.obs_rms.count == pytest.approx(src_stats.obs_rms.count + 4 + ROLLOUT)
+    # a run from scratch with the same seed ends elsewhere: the test above can fail
+    scratch = tmp_path / "scratch"
+    assert _run(tmp_path, scratch, 256, eval={"every_steps": 0}, ppo=dict(TINY["ppo"], learning_rate=0.0)) == 0
+    c = agents.load(scratch).model.policy.state_dict()
+    assert not all(torch.equal(a[k], c[k]) for k in a)
+
+    # a network of another shape, or a gate of two networks, is a one-line error
+    with pytest.raises(SystemExit):
+        _run(tmp_path, tmp_path / "bad", 256, init_from=str(source),
+             ppo=dict(TINY["ppo"], policy_kwargs={"net_arch": [8]}))
+    assert "does not fit this network" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        _run(tmp_path, tmp_path / "gate", 256, init_from="ppo_sousa_asv")
+    assert "name one of its networks" in capsys.readouterr().err
