@@ -56,7 +56,11 @@ from the step's arrays (every beacon of an environment gets the same value):
 ``logdet``     -0.5 log det of the horizontal EKF covariance after the cycle
 ``penalties``  -(safety_penalty x [too close] + geofence_penalty x [outside the
                fence]) of the beacon: the environment's penalties without its
-               contact term (a copy of the core's formula in core/sim.py)
+               contact term (the core's own, StepResult.safety_geofence_penalty)
+``rejected``   -(ranges the survey filter's innovation gate rejected this cycle),
+               summed over the survey vehicles: besides the multipath outliers the
+               gate is there for, a rejected range is a filter that has drifted
+               further than it believes (a lock-out, once every range is rejected)
 =============  ====================================================================
 """
 
@@ -70,7 +74,7 @@ from .scenarios import make_config
 from .views import action_space, observation_space
 
 SEED_STRIDE = 1_000_003  # a prime larger than any batch: episode k of env e -> seed + e + k * SEED_STRIDE
-REWARD_TERMS = ("env", "error", "std", "logdet", "penalties")
+REWARD_TERMS = ("env", "error", "std", "logdet", "penalties", "rejected")
 
 
 def check_reward_terms(terms) -> dict | None:
@@ -223,6 +227,8 @@ class CoopNavVecEnv(VecEnv):
             elif name == "std":
                 P = st.s_P
                 term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
+            elif name == "rejected":
+                term = -res.info["outliers_rejected"].sum(-1)[:, None]
             elif name == "logdet":
                 term = -0.5 * res.info["cov_logdet"].mean(-1)[:, None]
             else:  # penalties: the core's safety and geofence terms of this step

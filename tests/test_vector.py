@@ -337,6 +337,14 @@ def test_training_reward_terms():
     err_only.reset()
     _, r, _, infos = err_only.step(np.zeros((2, 2)))
     assert np.allclose(r, [-i["survey_error_m"] for i in infos])
+    # rejected: minus the ranges the survey filter gated out; every range a 200 m multipath here
+    for prob, expect in ((1.0, -1.0), (0.0, 0.0)):
+        rej = CoopNavVecEnv("sousa_asv", n_envs=2, seed=0, reward_terms={"rejected": 1.0}, outlier_probability=prob,
+                            outlier_mean_excess_m=200.0)
+        rej.reset()
+        for _ in range(3):
+            _, r, _, infos = rej.step(np.zeros((2, 2)))
+            assert np.array_equal(r, [-i["outliers_rejected"] for i in infos]) and np.all(r == expect)
 
 
 class _Only:
