@@ -1,7 +1,7 @@
 """Train a PPO beacon policy (stable-baselines3) on a coopnav scenario.
 
     python train.py --scenario sousa_asv --timesteps 2000000 --seed 0 --out runs/sousa_ppo
-    python train.py --resume runs/sousa_ppo          # continue an interrupted run
+    python train.py --resume runs/sousa_ppo          # continue an interrupted run (either backend)
     python train.py --backend rllib --scenario sousa_asv --timesteps 2000000 --num-env-runners 8 \
         --out runs/sousa_rllib                       # Ray RLlib instead (train_rllib.py; pip install -e ".[rllib]")
 
@@ -52,7 +52,10 @@ moved into place with ``os.replace``, so an interrupted run never leaves a half
 written checkpoint. Ctrl-C (SIGINT) or SIGTERM stops at the next rollout
 boundary after writing a checkpoint; ``--resume`` continues from the last one up
 to the same total step count, with fresh episodes (the environments' episode
-state is not saved).
+state is not saved). ``--resume RUN_DIR`` takes everything from the run's
+config.yml, the backend included (an RLlib run resumes on RLlib, see
+train_rllib.py); ``--scenario``, ``--timesteps`` and the other settings of the run
+cannot be given with it, nor a ``--backend`` other than the run's.
 """
 
 from __future__ import annotations
@@ -127,32 +130,53 @@ def parse_args(argv=None):
                         "machine makes extra threads spin)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--verbose", type=int, default=0)
-    p.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
+    p.add_argument("--backend", choices=("sb3", "rllib"),
                    help="sb3: stable-baselines3 PPO on one machine (default); rllib: Ray RLlib PPO "
-                        "(train_rllib.py, configs/rllib/; pip install -e '.[rllib]')")
+                        "(train_rllib.py, configs/rllib/; pip install -e '.[rllib]'); with --resume, the run's own")
     p.add_argument("--num-env-runners", type=nonnegative_int,
                    help="rllib: env runner processes (overrides the YAML; 0: sample in this process)")
     p.add_argument("--ray-address", help="rllib: a running Ray cluster to join ('auto', or host:port)")
     p.add_argument("--tune", action="append", metavar="KEY=V1,V2",
                    help="rllib: a Ray Tune grid (repeatable; KEY: seed or a PPOConfig.training keyword)")
     args = p.parse_args(argv)
-    if args.backend == "sb3":
-        given = [f"--{n.replace('_', '-')}" for n in ("num_env_runners", "ray_address", "tune")
-                 if getattr(args, n) is not None]
-        if given:
-            fail(f"{', '.join(given)} only with --backend rllib")
-    elif args.resume is not None:
-        fail("--resume is for the sb3 backend; an RLlib run keeps its last checkpoint in <out>/checkpoint")
-    if args.resume is not None:
-        given = [f"--{n.replace('_', '-')}" for n in ("scenario", "timesteps", "out", "n_envs", "config")
+    if args.resume is not None:  # the backend is the run's (resumed_backend), the rest its config.yml's
+        given = [f"--{n.replace('_', '-')}" for n in ("scenario", "timesteps", "out", "n_envs", "config", "tune")
                  if getattr(args, n) is not None]
         if given:
             fail(f"--resume continues a run with its own config.yml; drop {', '.join(given)}")
-    else:
-        missing = [f"--{n}" for n in ("scenario", "timesteps", "out") if getattr(args, n) is None]
-        if missing:
-            fail(f"missing {', '.join(missing)} (or --resume RUN_DIR)")
+        return args
+    args.backend = args.backend or "sb3"
+    if args.backend == "sb3":
+        _sb3_only(args)
+    missing = [f"--{n}" for n in ("scenario", "timesteps", "out") if getattr(args, n) is None]
+    if missing:
+        fail(f"missing {', '.join(missing)} (or --resume RUN_DIR)")
     return args
+
+
+def _sb3_only(args, why: str = ""):
+    given = [f"--{n.replace('_', '-')}" for n in ("num_env_runners", "ray_address", "tune")
+             if getattr(args, n) is not None]
+    if given:
+        fail(f"{', '.join(given)} only with --backend rllib{why}")
+
+
+def resumed_backend(args) -> str:
+    """The backend of the run ``--resume`` names (its config.yml's ``args.backend``;
+    sb3 if absent). A one-line error if that is not a run directory, if ``--backend``
+    names the other backend, or if an RLlib option is given for an SB3 run."""
+    out = Path(args.resume)
+    saved = read_json(out / "config.yml", load=yaml.safe_load) if out.is_dir() else None
+    if not isinstance(saved, dict) or not isinstance(saved.get("args"), dict):
+        fail(f"{out} is not a train.py run directory (no config.yml)")
+    backend = saved["args"].get("backend") or "sb3"
+    if backend not in ("sb3", "rllib"):
+        fail(f"{out}/config.yml: unknown backend {backend!r}")
+    if args.backend is not None and args.backend != backend:
+        fail(f"{out} is a --backend {backend} run; drop --backend {args.backend}")
+    if backend == "sb3":
+        _sb3_only(args, f" ({out} is an sb3 run)")
+    return backend
 
 
 # ----------------------------------------------------------------------------------
@@ -469,6 +493,8 @@ def versions() -> dict:
 def main(argv=None) -> int:
     started = time.perf_counter()
     args = parse_args(argv)
+    if args.resume is not None:
+        args.backend = resumed_backend(args)
     if args.backend == "rllib":  # Ray is imported only here, and only for this backend
         try:
             import ray  # noqa: F401

@@ -2,6 +2,7 @@
 
     pip install -e ".[rllib]"
     python train.py --backend rllib --scenario sousa_asv --timesteps 2000000 --num-env-runners 8 --out runs/sousa_rllib
+    python train.py --resume runs/sousa_rllib                        # continue it after Ctrl-C or a crash
     python train.py --backend rllib ... --ray-address auto          # on a running Ray cluster
     python train.py --backend rllib --scenario gao_sea --timesteps 200000 --out runs/sweep \\
         --tune lr=1e-4,3e-4 --tune seed=0,1,2                        # a Ray Tune grid
@@ -23,7 +24,25 @@ PettingZoo parallel env through ``coopnav_env.rllib_env.CoopNavRLlibEnv`` (a sma
 samples), each stepping ``num_envs_per_env_runner`` copies of the env (``--n-envs``
 overrides it); with ``--ray-address`` they spread over the cluster's nodes. The
 learner runs in the driver (``learners: {num_learners: 0}``; more learners are a
-YAML setting) with ``--threads`` torch threads. ``--resume`` is SB3's only.
+YAML setting) with ``--threads`` torch threads.
+
+**Stop and resume.** SIGINT (Ctrl-C) or SIGTERM stops the run after the current
+training iteration, writes the checkpoint and exits with status 130
+(``train.EXIT_INTERRUPTED``), printing the command that continues it:
+``python train.py --resume <out>``. train.py sees from ``config.yml`` that the run is
+an RLlib one; the scenario, total steps, seed and hyperparameters come from there
+(giving them again is an error), ``--num-env-runners`` and ``--ray-address`` may be
+given anew (by default the run's runner count, on a local Ray instance). The
+resumed run rebuilds the PPOConfig and restores the Algorithm from ``checkpoint/``
+(``algo.restore_from_path``: the modules, their optimizers, the observation
+filters, RLlib's step and iteration counts), trains until the run's total env
+steps, appends to ``progress.jsonl`` and ends with the files of a finished run.
+Its episodes are fresh ones (RLlib's and the environments' seed from the run's seed
+and the step count, as train.py's SB3 path). A run killed without a last checkpoint
+resumes from the last periodic one: the lines of ``progress.jsonl`` after it are
+dropped, since those iterations are trained again. Resuming a finished run does
+nothing (it evaluates the checkpoint if that had not been done) and succeeds. A Tune
+grid cannot be resumed.
 
 What a run directory holds (``--out``):
 
@@ -31,9 +50,11 @@ What a run directory holds (``--out``):
                        its content, the resolved RLlib AlgorithmConfig, the scenario's
                        parameters, the beacon -> module map, versions
     checkpoint/        the RLlib Algorithm checkpoint (``algo.save_to_path``), replaced
-                       whole every ``checkpoint_every_iterations`` and at the end (written
-                       beside, then renamed); ``coopnav.json`` in it: steps, iteration
-    progress.jsonl     one line per training iteration (steps, returns, survey error, time)
+                       whole every ``checkpoint_every_iterations``, on a stop and at the
+                       end (written beside, then renamed); ``coopnav.json`` in it: steps,
+                       iteration (what ``--resume`` reads)
+    progress.jsonl     one line per training iteration (steps, returns, survey error, training
+                       wall time summed over the sessions of a resumed run)
     evaluations.jsonl  the final evaluation on fixed seeds (``eval:``), as train.py's SB3 path
     baseline_eval.json the baselines on the same seeds
 
@@ -296,6 +317,51 @@ def save_checkpoint(algo, out: Path, meta: dict) -> Path:
     return final
 
 
+def resumable_checkpoint(out: Path) -> dict | None:
+    """The ``coopnav.json`` of ``out/checkpoint`` (None: nothing to resume from), after
+    tidying what a killed ``save_checkpoint`` may have left: if the process died between
+    its two renames (no ``checkpoint/``), the newest complete checkpoint beside it
+    (``.checkpoint.tmp*`` holds ``coopnav.json`` only once complete; ``.checkpoint.old*``
+    is a former ``checkpoint/``) is put back; the other leftovers are removed."""
+    from agents.rllib_policy import CHECKPOINT_MARKER
+
+    final = out / "checkpoint"
+    meta = read_json(final / "coopnav.json")
+    spares = [d for d in out.glob(".checkpoint.*") if d.is_dir()]
+    if meta is None and not final.exists():
+        complete = [(read_json(d / "coopnav.json"), d) for d in spares if (d / CHECKPOINT_MARKER).is_file()]
+        complete = [(m, d) for m, d in complete if m is not None]
+        if complete:
+            meta, best = max(complete, key=lambda md: int(md[0].get("iteration", 0)))
+            os.replace(best, final)
+            print(f"note: restored {final} from {best.name} (the last save was cut short)", file=sys.stderr)
+    for d in spares:
+        shutil.rmtree(d, ignore_errors=True)
+    if meta is None or "env_steps" not in meta or "iteration" not in meta:
+        return None
+    return meta
+
+
+def drop_lost_iterations(out: Path, iteration: int):
+    """Keep the lines of ``progress.jsonl`` up to ``iteration`` (the checkpoint a resumed
+    run continues from): a run killed without a last checkpoint logged iterations whose
+    training the checkpoint does not hold, and the resumed run trains them again."""
+    path = out / "progress.jsonl"
+    if not path.is_file():
+        return
+    lines = path.read_text().splitlines()
+
+    def kept(line):
+        try:
+            return int(json.loads(line)["iteration"]) <= iteration
+        except (ValueError, KeyError, TypeError):  # a line cut short by the kill
+            return False
+
+    keep = [line for line in lines if kept(line)]
+    if len(keep) != len(lines):
+        atomic_write_text(path, "".join(line + "\n" for line in keep))
+
+
 def metrics(result: dict) -> dict:
     """The few numbers of an RLlib result that a run records."""
     er = result.get("env_runners", {}) or {}
@@ -347,7 +413,13 @@ def baselines_on_eval_seeds(out: Path, cells, ev: dict) -> dict:
 # ----------------------------------------------------------------------------------
 # 5. one training run
 # ----------------------------------------------------------------------------------
-def run_training(config, out: Path, total: int, hp: dict, scenario_config, cells) -> int:
+def run_training(config, out: Path, total: int, hp: dict, scenario_config, cells, restore: dict | None = None) -> int:
+    """Train until ``total`` env steps (RLlib's lifetime count), checkpointing every
+    ``checkpoint_every_iterations`` and at the end, then evaluate. ``restore``: the
+    ``coopnav.json`` of ``out/checkpoint``, which the Algorithm is restored from first
+    (``restore_from_path``: the modules, optimizers, observation filters, the step and
+    iteration counts). SIGINT/SIGTERM: stop after the current iteration, checkpoint,
+    return ``train.EXIT_INTERRUPTED``."""
     ckpt_every = int(hp.get("checkpoint_every_iterations", 10) or 0)
     state = {"stop": False}
 
@@ -355,49 +427,85 @@ def run_training(config, out: Path, total: int, hp: dict, scenario_config, cells
         state["stop"] = True
         signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL)
 
-    t0 = time.perf_counter()
-    algo = config.build_algo()
-    print(f"built in {time.perf_counter() - t0:.1f} s: {config.num_env_runners} env runner(s) x "
-          f"{config.num_envs_per_env_runner} env(s), {config.num_learners} remote learner(s)", flush=True)
+    m = dict(restore) if restore else {"env_steps": 0, "iteration": 0}
+    start_steps, saved_iteration = int(m["env_steps"]), (int(m["iteration"]) if restore else None)
+    wall_before = float(m.get("wall_s") or 0.0)  # training time of the sessions before this one
     old_handlers = {s: signal.signal(s, request_stop) for s in (signal.SIGINT, signal.SIGTERM)}
-    m = {"env_steps": 0, "iteration": 0}
-    t_train = time.perf_counter()
     try:
-        while m["env_steps"] < total and not state["stop"]:
-            m = metrics(algo.train())
-            m["wall_s"] = round(time.perf_counter() - t_train, 2)
-            with open(out / "progress.jsonl", "a") as f:
-                f.write(json.dumps(m) + "\n")
-            rate = m["env_steps"] / max(m["wall_s"], 1e-9)
-            print(f"iter {m['iteration']}: {m['env_steps']} env steps ({rate:.0f}/s), return "
-                  f"{_fmt(m['episode_return_mean'])}, survey_error_m {_fmt(m['survey_error_m'])}", flush=True)
-            if ckpt_every and m["iteration"] % ckpt_every == 0:
+        t0 = time.perf_counter()
+        algo = config.build_algo()
+        try:
+            if restore:
+                algo.restore_from_path(str((out / "checkpoint").resolve()))
+            print(f"{'built and restored' if restore else 'built'} in {time.perf_counter() - t0:.1f} s: "
+                  f"{config.num_env_runners} env runner(s) x {config.num_envs_per_env_runner} env(s), "
+                  f"{config.num_learners} remote learner(s)"
+                  + (f"; resuming at {start_steps} env steps, iteration {saved_iteration}" if restore else ""),
+                  flush=True)
+            t_train = time.perf_counter()
+            while m["env_steps"] < total and not state["stop"]:
+                m = metrics(algo.train())
+                session = time.perf_counter() - t_train
+                m["wall_s"] = round(wall_before + session, 2)
+                with open(out / "progress.jsonl", "a") as f:
+                    f.write(json.dumps(m) + "\n")
+                rate = (m["env_steps"] - start_steps) / max(session, 1e-9)
+                print(f"iter {m['iteration']}: {m['env_steps']} env steps ({rate:.0f}/s), return "
+                      f"{_fmt(m['episode_return_mean'])}, survey_error_m {_fmt(m['survey_error_m'])}", flush=True)
+                if ckpt_every and m["iteration"] % ckpt_every == 0:
+                    save_checkpoint(algo, out, m)
+                    saved_iteration = m["iteration"]
+            if saved_iteration != m["iteration"]:
                 save_checkpoint(algo, out, m)
-        save_checkpoint(algo, out, m)
+        finally:
+            algo.stop()
     finally:
         for s, h in old_handlers.items():
             signal.signal(s, h)
-        algo.stop()
     if state["stop"]:
-        print(f"stopped at {m['env_steps']} env steps; the checkpoint is in {out / 'checkpoint'}", file=sys.stderr)
+        print(f"stopped at {m['env_steps']} env steps (iteration {m['iteration']}), checkpoint in "
+              f"{out / 'checkpoint'}; continue with: python train.py --resume {out}", file=sys.stderr)
         return train.EXIT_INTERRUPTED
-    ev = hp.get("eval") or {}
-    result = evaluate_checkpoint(out / "checkpoint", scenario_config, cells, ev)
-    if result is not None:
-        baseline = baselines_on_eval_seeds(out, cells, ev)
-        record = {"num_timesteps": m["env_steps"], "iteration": m["iteration"],
-                  "survey_error_m": result["survey_error_m"],
-                  **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline.items()}}
-        if len(cells) > 1:
-            record["per_cell"] = {k: round(v, 4) for k, v in result["per_cell"].items()}
-        with open(out / "evaluations.jsonl", "a") as f:
-            f.write(json.dumps(record) + "\n")
-        print(f"eval: survey_error_m {result['survey_error_m']:.3f}"
-              + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline.items()))
+    finish(out, m, hp, scenario_config, cells)
     wall = time.perf_counter() - t_train
-    print(f"done: {m['env_steps']} env steps in {wall:.0f} s ({m['env_steps'] / max(wall, 1e-9):.0f}/s); "
-          f"checkpoint in {out / 'checkpoint'}")
+    print(f"done: {m['env_steps']} env steps ({m['env_steps'] - start_steps} in this run, {wall:.0f} s, "
+          f"{(m['env_steps'] - start_steps) / max(wall, 1e-9):.0f}/s); checkpoint in {out / 'checkpoint'}")
     return 0
+
+
+def finish(out: Path, m: dict, hp: dict, scenario_config, cells):
+    """The final evaluation of ``out/checkpoint`` (``m``: its coopnav.json) on the fixed
+    seeds, appended to evaluations.jsonl, unless that file already ends with it."""
+    ev = hp.get("eval") or {}
+    done = _last_json_line(out / "evaluations.jsonl")
+    if done is not None and done.get("num_timesteps") == m["env_steps"] and done.get("iteration") == m["iteration"]:
+        return
+    result = evaluate_checkpoint(out / "checkpoint", scenario_config, cells, ev)
+    if result is None:
+        return
+    baseline = baselines_on_eval_seeds(out, cells, ev)
+    record = {"num_timesteps": m["env_steps"], "iteration": m["iteration"],
+              "survey_error_m": result["survey_error_m"],
+              **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline.items()}}
+    if len(cells) > 1:
+        record["per_cell"] = {k: round(v, 4) for k, v in result["per_cell"].items()}
+    with open(out / "evaluations.jsonl", "a") as f:
+        f.write(json.dumps(record) + "\n")
+    print(f"eval: survey_error_m {result['survey_error_m']:.3f}"
+          + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline.items()))
+
+
+def _last_json_line(path: Path) -> dict | None:
+    try:
+        lines = path.read_text().splitlines()
+    except FileNotFoundError:
+        return None
+    for line in reversed(lines):
+        try:
+            return json.loads(line)
+        except ValueError:  # a line cut short
+            continue
+    return None
 
 
 def _fmt(v):
@@ -489,23 +597,37 @@ def write_summary(out: Path, columns: list, rows: list):
 # 7. main
 # ----------------------------------------------------------------------------------
 def main(args, argv=None) -> int:
-    """``args``: train.py's parsed arguments (``--backend rllib``)."""
+    """``args``: train.py's parsed arguments (``--backend rllib``, or ``--resume`` of a
+    run whose config.yml says rllib)."""
     from coopnav_env import list_scenarios, make_config
 
-    if args.scenario not in list_scenarios():
-        fail(f"unknown scenario {args.scenario!r}; valid scenarios: {', '.join(list_scenarios())}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        fail(f"--out {out} is a file")
-    if out.exists() and any(out.iterdir()):
-        fail(f"{out} exists and is not empty; choose another --out")
-    path = hyperparameter_file(args.scenario, args.config)
-    hp = load_hyperparameters(path)
-    if args.n_envs:
-        hp.setdefault("env_runners", {})["num_envs_per_env_runner"] = args.n_envs
+    if args.resume:
+        out = Path(args.resume)
+        saved = read_json(out / "config.yml", load=yaml.safe_load)
+        run = saved["args"]
+        if run.get("tune"):
+            fail(f"{out} is a Ray Tune grid (--tune): --resume continues single runs only")
+        path, hp = saved["hyperparameter_file"], saved["hyperparameters"]
+        scenario, total, seed = run["scenario"], int(run["timesteps"]), int(run["seed"])
+        meta = resumable_checkpoint(out)
+        if meta is None:
+            fail(f"{out} has no checkpoint to resume from (checkpoint/coopnav.json); start it again with --out")
+    else:
+        if args.scenario not in list_scenarios():
+            fail(f"unknown scenario {args.scenario!r}; valid scenarios: {', '.join(list_scenarios())}")
+        out = Path(args.out)
+        if out.exists() and not out.is_dir():
+            fail(f"--out {out} is a file")
+        if out.exists() and any(out.iterdir()):
+            fail(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
+        path = hyperparameter_file(args.scenario, args.config)
+        hp = load_hyperparameters(path)
+        if args.n_envs:
+            hp.setdefault("env_runners", {})["num_envs_per_env_runner"] = args.n_envs
+        scenario, total, seed, meta = args.scenario, int(args.timesteps), int(args.seed), None
     overrides = dict((hp.get("env") or {}).get("overrides") or {})
     try:
-        scenario_config = make_config(args.scenario, **overrides)
+        scenario_config = make_config(scenario, **overrides)
     except ValueError as err:
         fail(f"{path}: {err}")
     try:
@@ -527,28 +649,40 @@ def main(args, argv=None) -> int:
     import torch
 
     torch.set_num_threads(args.threads)  # the learner runs in this process (num_learners: 0)
-    config, mapping = build_config(args.scenario, hp, args.seed, args.num_env_runners, hp_path=path)
-
-    run = {"backend": "rllib", "scenario": args.scenario, "timesteps": args.timesteps, "seed": args.seed,
-           "num_env_runners": int(config.num_env_runners or 0), "ray_address": args.ray_address,
-           "tune": {k: v for k, v in grid.items()} or None}
-    out.mkdir(parents=True, exist_ok=True)
-    record = {
-        "command": "python train.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)),
-        "args": run, "hyperparameter_file": str(path), "hyperparameters": hp,
-        "module_map": mapping, "rllib_config": config_record(config),
-        "scenario_config": dataclasses.asdict(scenario_config),
-        "eval_cells": [label for label, _ in cells], "versions": versions(),
-    }
-    atomic_write_text(out / "config.yml", yaml.safe_dump(plain(record), sort_keys=False))
+    if meta is not None:  # --resume
+        if int(meta["env_steps"]) >= total:  # trained: at most the final evaluation is missing
+            finish(out, meta, hp, scenario_config, cells)
+            print(f"done: {out} is already at {meta['env_steps']} of {total} env steps; checkpoint in "
+                  f"{out / 'checkpoint'}")
+            return 0
+        drop_lost_iterations(out, int(meta["iteration"]))
+        runners = args.num_env_runners if args.num_env_runners is not None else run.get("num_env_runners")
+        if run.get("ray_address") and not args.ray_address:
+            print(f"note: the run used --ray-address {run['ray_address']}; resuming on a local Ray instance "
+                  "(pass --ray-address to join a cluster)")
+        # fresh episodes: the environments' and RLlib's seed from the run's seed and the step count
+        config, _ = build_config(scenario, hp, train.resume_seed(seed, int(meta["env_steps"])), runners, hp_path=path)
+    else:
+        config, mapping = build_config(scenario, hp, seed, args.num_env_runners, hp_path=path)
+        run = {"backend": "rllib", "scenario": scenario, "timesteps": total, "seed": seed,
+               "num_env_runners": int(config.num_env_runners or 0), "ray_address": args.ray_address,
+               "tune": {k: v for k, v in grid.items()} or None}
+        out.mkdir(parents=True, exist_ok=True)
+        record = {
+            "command": "python train.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)),
+            "args": run, "hyperparameter_file": str(path), "hyperparameters": hp,
+            "module_map": mapping, "rllib_config": config_record(config),
+            "scenario_config": dataclasses.asdict(scenario_config),
+            "eval_cells": [label for label, _ in cells], "versions": versions(),
+        }
+        atomic_write_text(out / "config.yml", yaml.safe_dump(plain(record), sort_keys=False))
     started = init_ray(args.ray_address, hp, cpus_per_trial(config) - 1 if not grid else cpus_per_trial(config))
     import ray
 
     try:
         if grid:
-            return run_tune(config, grid, out, int(args.timesteps), hp, scenario_config, cells,
-                            env_config(args.scenario, hp, args.seed))
-        return run_training(config, out, int(args.timesteps), hp, scenario_config, cells)
+            return run_tune(config, grid, out, total, hp, scenario_config, cells, env_config(scenario, hp, seed))
+        return run_training(config, out, total, hp, scenario_config, cells, restore=meta)
     finally:
         if started:
             ray.shutdown()

@@ -1,10 +1,11 @@
 """train.py --backend rllib (Ray RLlib, new API stack): the adapter, one iteration on
 every scenario in local mode, a local head with two env runners, a checkpoint that
-agents.load and evaluate.py use, a Tune grid, and bad input.
+agents.load and evaluate.py use, an interrupted run resumed, a Tune grid, and bad
+input.
 
 Skipped when Ray is not installed (pip install -e ".[rllib]"), except the test of the
 message train.py prints then. Time-boxed: 10-cycle missions, 16x16 networks, one
-PPO iteration of a few dozen steps. Everything Ray starts stays on loopback (no
+to four PPO iterations of a few dozen steps. Everything Ray starts stays on loopback (no
 cluster networking: RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 makes Ray use 127.0.0.1
 for this machine) and is stopped by the test that started it.
 """
@@ -250,6 +251,91 @@ def test_multi_beacon_checkpoint_maps_every_beacon_to_its_kind(tmp_path, local_r
         obs, *_ = env.step(actions)
 
 
+def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, monkeypatch, capsys):
+    """SIGTERM right after the first checkpoint: exit 130 with that checkpoint; --resume
+    (nothing else on the command line) continues it to the step count of an
+    uninterrupted run, and ends with the files of a finished run; resuming it again
+    is a no-op."""
+    import train
+    import train_rllib
+
+    total = 4 * 2 * CYCLES  # four iterations of 2 * CYCLES steps
+    config = _tiny_yaml(tmp_path)
+    ref, out = tmp_path / "ref", tmp_path / "run"
+
+    def argv(run):
+        return ["--backend", "rllib", "--scenario", "sousa_asv", "--timesteps", str(total), "--out", str(run),
+                "--config", config]
+
+    assert train.main(argv(ref)) == 0
+    reached = json.loads((ref / "checkpoint" / "coopnav.json").read_text())
+    assert reached["env_steps"] >= total
+
+    save = train_rllib.save_checkpoint
+
+    def save_then_signal(algo, run_dir, meta):  # the signal arrives in the middle of the run, deterministically
+        path = save(algo, run_dir, meta)
+        if meta["iteration"] == 1:
+            os.kill(os.getpid(), signal.SIGTERM)
+        return path
+
+    monkeypatch.setattr(train_rllib, "save_checkpoint", save_then_signal)
+    capsys.readouterr()
+    assert train.main(argv(out)) == train.EXIT_INTERRUPTED
+    assert f"continue with: python train.py --resume {out}" in capsys.readouterr().err
+    stopped = json.loads((out / "checkpoint" / "coopnav.json").read_text())
+    assert stopped["iteration"] == 1 and 0 < stopped["env_steps"] < total
+    assert not (out / "evaluations.jsonl").exists() and not list(out.glob(".checkpoint*"))
+    monkeypatch.undo()
+
+    os.replace(out / "checkpoint", out / ".checkpoint.old1")  # as if killed between save_checkpoint's renames
+    assert train.main(["--resume", str(out)]) == 0
+    final = json.loads((out / "checkpoint" / "coopnav.json").read_text())
+    assert (final["env_steps"], final["iteration"]) == (reached["env_steps"], reached["iteration"])
+    progress = [json.loads(line) for line in (out / "progress.jsonl").read_text().splitlines()]
+    assert [p["iteration"] for p in progress] == list(range(1, final["iteration"] + 1))  # appended, in order
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in ref.iterdir())  # a finished run's files
+    evaluations = (out / "evaluations.jsonl").read_text()
+    assert json.loads(evaluations)["num_timesteps"] == final["env_steps"]
+    policy = agents.load(out, scenario="sousa_asv")
+    env = coopnav_env.parallel_env("sousa_asv", seed=0, max_cycles=3)
+    obs, _ = env.reset()
+    while env.agents:
+        action = policy.act(obs["beacon_0"])
+        assert env.action_space("beacon_0").contains(action)
+        obs, *_ = env.step({"beacon_0": action})
+
+    # resuming a finished run is a no-op that succeeds; a conflicting --backend is one line
+    assert train.main(["--resume", str(out), "--backend", "rllib"]) == 0
+    assert (out / "evaluations.jsonl").read_text() == evaluations
+    assert json.loads((out / "checkpoint" / "coopnav.json").read_text()) == final
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        train.main(["--resume", str(out), "--backend", "sb3"])
+    assert exc.value.code == 2
+    assert capsys.readouterr().err.strip() == f"train.py: error: {out} is a --backend rllib run; drop --backend sb3"
+
+
+@pytest.mark.parametrize("run_args, argv, needle", [
+    ({"scenario": "sousa_asv", "timesteps": 10, "seed": 0}, ["--backend", "rllib"],
+     "is a --backend sb3 run; drop --backend rllib"),
+    ({"scenario": "sousa_asv", "timesteps": 10, "seed": 0}, ["--num-env-runners", "2"],
+     "--num-env-runners only with --backend rllib"),
+    ({"backend": "rllib", "scenario": "sousa_asv", "timesteps": 10, "seed": 0, "tune": {"lr": [1e-4, 3e-4]}}, [],
+     "is a Ray Tune grid (--tune): --resume continues single runs only"),
+])
+def test_resume_takes_the_backend_from_the_run(tmp_path, capsys, ray_mod, run_args, argv, needle):
+    import train
+
+    (tmp_path / "config.yml").write_text(yaml.safe_dump({"args": run_args, "hyperparameter_file": "x.yml",
+                                                         "hyperparameters": json.loads(json.dumps(TINY))}))
+    with pytest.raises(SystemExit) as exc:
+        train.main(["--resume", str(tmp_path), *argv])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0], err
+
+
 def test_tune_grid_writes_one_summary_table(tmp_path, local_ray):
     import train
 
@@ -277,7 +363,8 @@ def test_tune_grid_writes_one_summary_table(tmp_path, local_ray):
     (["--backend", "rllib", "--tune", "lr"], "--tune expects KEY=V1,V2"),
     (["--backend", "rllib", "--tune", "seed=0,0.5"], "seed takes integers"),
     (["--num-env-runners", "2"], "only with --backend rllib"),
-    (["--backend", "rllib", "--resume", "runs/x"], "--resume is for the sb3 backend"),
+    (["--backend", "rllib", "--resume", "no/such/run"], "not a train.py run directory"),
+    (["--resume", "no/such/run", "--tune", "lr=1e-4,3e-4"], "drop --tune"),
     (["--backend", "rllib", "--num-env-runners", "-1"], "must be >= 0"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, ray_mod, argv, needle):
