@@ -82,9 +82,10 @@ def forward_axis(bearing_rad, pitch_rad):
     return np.stack([cp * np.sin(bearing_rad), cp * np.cos(bearing_rad), -np.sin(pitch_rad)], -1)
 
 
+@vectorize(["complex128(float64)"], cache=True)
 def bearing_to_unit(bearing_rad):
-    """Bearing (clockwise from north) as a complex unit east + 1j*north."""
-    return np.sin(bearing_rad) + 1j * np.cos(bearing_rad)
+    """Bearing (clockwise from north) as a complex unit east + 1j*north. A ufunc."""
+    return complex(np.sin(bearing_rad), np.cos(bearing_rad))
 
 
 def unit_to_bearing(h):

@@ -8,7 +8,7 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from numba import njit
+from numba import njit, vectorize
 
 
 def fisher_information(target, beacons, range_std_m, horizontal=True):
@@ -28,14 +28,25 @@ def fisher_information(target, beacons, range_std_m, horizontal=True):
     return np.einsum("...m,...mi,...mj->...ij", w, u, u)
 
 
+@vectorize(["float32(float32, float32, float32, float32)", "float64(float64, float64, float64, float64)"], cache=True)
+def det2_of(m00, m01, m10, m11):
+    """Determinant of a 2x2 matrix from its entries. A ufunc (kernels call it on scalars)."""
+    return m00 * m11 - m01 * m10
+
+
 def det2(M):
-    """Determinant of symmetric 2x2 matrices (..., 2, 2)."""
-    return M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
+    """Determinant of symmetric 2x2 matrices (..., 2, 2) (``det2_of``)."""
+    return det2_of(M[..., 0, 0], M[..., 0, 1], M[..., 1, 0], M[..., 1, 1])
+
+
+def floored_log(det):
+    """log of determinants, floored at 1e-300 (a collapsed covariance gives a large finite number)."""
+    return np.log(np.maximum(det, 1e-300))
 
 
 def logdet_horizontal(P):
     """log det of the east/north block of covariances (..., n, n), n >= 2."""
-    return np.log(np.maximum(det2(P[..., :2, :2]), 1e-300))
+    return floored_log(det2(P[..., :2, :2]))
 
 
 @njit(cache=True)

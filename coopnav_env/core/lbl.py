@@ -24,8 +24,46 @@ jitter (and, rarely, by a multipath excess), and every signal can be lost.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit, vectorize
 
 from . import acoustics
+
+
+@njit(cache=True)
+def fix_xy(d1, d2, length):
+    """The fix of section V for one set of ranges: x = (d1^2 - d2^2 + l^2) / (2 l) and
+    y^2 = d1^2 - x^2 (negative when the range circles do not meet)."""
+    x = (d1 * d1 - d2 * d2 + length * length) / (2.0 * length)
+    return x, d1 * d1 - x * x
+
+
+@njit(cache=True)
+def spherical_fix_of(d1, d2, length):
+    """``spherical_fix`` of one set of ranges without raising: (x, y, ok); where ok is
+    False (no solution, a non-finite input or a non-positive baseline) x and y are 0."""
+    ok = np.isfinite(d1) and np.isfinite(d2) and np.isfinite(length) and length > 0
+    x, y2 = fix_xy(d1, d2, length if ok else 1.0)
+    if not (ok and y2 >= 0):
+        return 0.0, 0.0, False
+    return x, np.sqrt(y2), True
+
+
+@njit(cache=True)
+def _fix_rows(d1, d2, length, x, y2):
+    for i in range(d1.shape[0]):
+        x[i], y2[i] = fix_xy(d1[i], d2[i], length[i])
+
+
+@njit(cache=True)
+def _fix_batch_rows(d1, d2, length, x, y, ok):
+    for i in range(d1.shape[0]):
+        x[i], y[i], ok[i] = spherical_fix_of(d1[i], d2[i], length[i])
+
+
+def _flat_args(*arrays):
+    shape = np.broadcast_shapes(*(np.shape(a) for a in arrays))
+    return shape, [np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), shape)).reshape(-1)
+                   for a in arrays]
 
 
 def spherical_fix(d1_m, d2_m, baseline_m):
@@ -44,58 +82,166 @@ def spherical_fix(d1_m, d2_m, baseline_m):
         raise ValueError(f"spherical_fix: the baseline length must be > 0, got {l}")
     if np.any(d1 < 0) or np.any(d2 < 0):
         raise ValueError(f"spherical_fix: ranges must be >= 0, got d1={d1}, d2={d2}")
-    x = (d1 ** 2 - d2 ** 2 + l ** 2) / (2 * l)
-    y2 = d1 ** 2 - x ** 2
+    shape, (a, b, c) = _flat_args(d1, d2, l)
+    x, y2 = np.empty(a.shape[0]), np.empty(a.shape[0])
+    _fix_rows(a, b, c, x, y2)
     if np.any(y2 < 0):
         raise ValueError(
             f"spherical_fix: no solution for d1={d1}, d2={d2}, l={l}: the range circles do not meet "
             "(|d1 - d2| <= l <= d1 + d2 is needed)")
-    return x, np.sqrt(y2)
+    x, y = x.reshape(shape), np.sqrt(y2).reshape(shape)
+    return (x[()], y[()]) if shape == () else (x, y)
 
 
 def spherical_fix_batch(d1_m, d2_m, baseline_m):
-    """``spherical_fix`` without raising, for the batched simulator: returns (x, y, ok);
+    """``spherical_fix_of`` over arrays, for the batched simulator: returns (x, y, ok);
     where ok is False (no solution) x and y are 0."""
-    d1, d2, l = (np.asarray(v, dtype=float) for v in (d1_m, d2_m, baseline_m))
-    ok = np.isfinite(d1) & np.isfinite(d2) & np.isfinite(l) & (l > 0)
-    l_safe = np.where(ok, l, 1.0)
-    x = (d1 ** 2 - d2 ** 2 + l_safe ** 2) / (2 * l_safe)
-    y2 = d1 ** 2 - x ** 2
-    ok &= y2 >= 0
-    return np.where(ok, x, 0.0), np.sqrt(np.where(ok, y2, 0.0)), ok
+    shape, (a, b, c) = _flat_args(d1_m, d2_m, baseline_m)
+    n = a.shape[0]
+    x, y, ok = np.empty(n), np.empty(n), np.empty(n, dtype=bool)
+    _fix_batch_rows(a, b, c, x, y, ok)
+    x, y, ok = x.reshape(shape), y.reshape(shape), ok.reshape(shape)
+    return (x, y[()], ok[()]) if shape == () else (x, y, ok)  # scalars in: x 0-d, y and ok scalars, as numpy gave
 
 
+@vectorize(["float64(float64, float64)"], cache=True)
 def horizontal_range(slant_m, depth_difference_m):
-    """Horizontal part of a slant range; NaN-free (0 when the slant range is shorter than the depth)."""
-    return np.sqrt(np.maximum(np.asarray(slant_m) ** 2 - np.asarray(depth_difference_m) ** 2, 0.0))
+    """Horizontal part of a slant range; NaN-free (0 when the slant range is shorter than the depth). A ufunc."""
+    v = slant_m * slant_m - depth_difference_m * depth_difference_m
+    return np.sqrt(0.0 if v < 0.0 else v)  # noqa: FURB136  (np.maximum(v, 0.0): NaN stays NaN)
+
+
+@njit(cache=True)
+def to_world(b1_e, b1_n, sin_phi, cos_phi, x, y):
+    """Frame (x, y) -> (east, north) of one point given B1 and the frame bearing's sine and cosine."""
+    return b1_e + x * sin_phi + y * cos_phi, b1_n + x * cos_phi + y * -sin_phi
+
+
+@njit(cache=True)
+def to_frame(rel_e, rel_n, sin_phi, cos_phi):
+    """(east, north) relative to B1 -> frame (x, y) of one point, given the frame bearing's sine and cosine."""
+    return rel_e * sin_phi + rel_n * cos_phi, rel_e * cos_phi - rel_n * sin_phi
+
+
+@njit(cache=True)
+def _to_world_rows(b1, phi, x, y, out):
+    for i in range(x.shape[0]):
+        out[i, 0], out[i, 1] = to_world(b1[i, 0], b1[i, 1], np.sin(phi[i]), np.cos(phi[i]), x[i], y[i])
+
+
+@njit(cache=True)
+def _to_frame_rows(rel, phi, x, y):
+    for i in range(x.shape[0]):
+        x[i], y[i] = to_frame(rel[i, 0], rel[i, 1], np.sin(phi[i]), np.cos(phi[i]))
 
 
 def frame_to_world(b1_en, phi_rad, x, y):
-    """Frame (x, y) -> (east, north) given B1's position (..., 2) and the frame bearing phi."""
-    ux = np.stack([np.sin(phi_rad), np.cos(phi_rad)], -1)  # u(phi)
-    uy = np.stack([np.cos(phi_rad), -np.sin(phi_rad)], -1)  # u(phi + 90 deg)
-    return b1_en + np.asarray(x)[..., None] * ux + np.asarray(y)[..., None] * uy
+    """Frame (x, y) -> (east, north) given B1's position (..., 2) and the frame bearing phi (``to_world``)."""
+    b1 = np.asarray(b1_en, dtype=float)
+    shape = np.broadcast_shapes(b1.shape[:-1], np.shape(phi_rad), np.shape(x), np.shape(y))
+    b1f = np.ascontiguousarray(np.broadcast_to(b1, shape + (2,))).reshape(-1, 2)
+    _, (p, xf, yf) = _flat_args(np.broadcast_to(phi_rad, shape), np.broadcast_to(x, shape), np.broadcast_to(y, shape))
+    out = np.empty((xf.shape[0], 2))
+    _to_world_rows(b1f, p, xf, yf, out)
+    return out.reshape(shape + (2,))
 
 
 def baseline(b1_en, b2_en):
     """The frame of beacons B1, B2 (east, north) (..., 2): bearing phi of its x axis
-    (clockwise from north) and the baseline length l."""
+    (clockwise from north) and the baseline length l. (numpy's arctan2: the
+    simulator's kernels take phi from here.)"""
     base = b2_en - b1_en
     return np.arctan2(base[..., 0], base[..., 1]), np.linalg.norm(base, axis=-1)
 
 
 def world_to_frame(b1_en, b2_en, p_en):
-    """(east, north) -> frame (x, y) of the beacons B1, B2; also returns phi and l."""
+    """(east, north) -> frame (x, y) of the beacons B1, B2 (``to_frame``); also returns phi and l."""
     phi, length = baseline(b1_en, b2_en)
-    rel = p_en - b1_en
-    x = rel[..., 0] * np.sin(phi) + rel[..., 1] * np.cos(phi)
-    y = rel[..., 0] * np.cos(phi) - rel[..., 1] * np.sin(phi)
-    return x, y, phi, length
+    rel = np.asarray(p_en, dtype=float) - b1_en
+    shape = np.broadcast_shapes(rel.shape[:-1], phi.shape)
+    relf = np.ascontiguousarray(np.broadcast_to(rel, shape + (2,))).reshape(-1, 2)
+    x, y = np.empty(relf.shape[0]), np.empty(relf.shape[0])
+    _to_frame_rows(relf, np.ascontiguousarray(np.broadcast_to(phi, shape)).reshape(-1), x, y)
+    return x.reshape(shape), y.reshape(shape), phi, length
 
 
 # the detections of one cycle, in order; draws and loss flags use this order
 DETECTIONS = ("S1@B1", "S2@vehicle", "S2@B2", "S3@vehicle", "S4@B2", "S5@vehicle", "S1@B2")
 N_DETECTIONS = len(DETECTIONS)
+
+
+@njit(cache=True)
+def _at(p, v, t, out):
+    """out = p + v t: where a vehicle at p moving at v is t seconds later (3,)."""
+    for i in range(3):
+        out[i] = p[i] + v[i] * t
+    return out
+
+
+@njit(cache=True)
+def exchange_of(vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps, sound_speed_mps,
+                nominal_sound_speed_mps, err_s, lost, turnaround_s, reaction_s, timeout_s, work):
+    """One environment's positioning cycle (see ``exchange``): positions and velocities (3,),
+    err_s (7,) each detection's timing error (jitter plus multipath excess), lost (7,);
+    work (2, 3) scratch. Returns the tuple (d1, m, d2, l, ok_d1, ok_m, ok_d2, ok_l, t3,
+    t3s, t6, t_s1_b1, t_s1_b2, t_s4_b2, ok_track, lost_count) (``EXCHANGE_FIELDS``)."""
+    c, cn, tau = sound_speed_mps, nominal_sound_speed_mps, turnaround_s
+    tt = acoustics.travel_time
+    p, q = work[0], work[1]
+    # S1: vehicle -> B1; B1 detects and replies S2 at t1
+    t_s1_b1 = tt(vehicle_m, b1_m, b1_vel_mps, c) + err_s[0]
+    t1 = t_s1_b1 + tau
+    ok1 = not lost[0]
+    _at(b1_m, b1_vel_mps, t1, p)  # B1 at t1
+    # S2 -> vehicle (t3) and -> B2, which answers S3 at t2
+    t3 = t1 + tt(p, _at(vehicle_m, vehicle_vel_mps, t1, q), vehicle_vel_mps, c) + err_s[1]
+    ok_d1 = ok1 and not lost[1]
+    t2 = t1 + tt(p, _at(b2_m, b2_vel_mps, t1, q), b2_vel_mps, c) + err_s[2] + tau
+    ok2b = ok1 and not lost[2]
+    # S3 -> vehicle (t4)
+    t4 = t2 + tt(_at(b2_m, b2_vel_mps, t2, p), _at(vehicle_m, vehicle_vel_mps, t2, q), vehicle_vel_mps, c) + err_s[3]
+    ok_m = ok2b and not lost[3]
+    # S4: the vehicle interrogates B2 on hearing S2 (or at the timeout); B2 replies S5 at t5
+    t3s = t3 + reaction_s if ok_d1 else timeout_s
+    t_s4_b2 = t3s + tt(_at(vehicle_m, vehicle_vel_mps, t3s, p), _at(b2_m, b2_vel_mps, t3s, q), b2_vel_mps,
+                       c) + err_s[4]
+    t5 = t_s4_b2 + tau
+    t6 = t5 + tt(_at(b2_m, b2_vel_mps, t5, p), _at(vehicle_m, vehicle_vel_mps, t5, q), vehicle_vel_mps, c) + err_s[5]
+    ok_d2 = not lost[4] and not lost[5]
+    # B2 also hears S1 (all beacons detect every interrogation): used for tracking
+    t_s1_b2 = tt(vehicle_m, b2_m, b2_vel_mps, c) + err_s[6]
+
+    # The vehicle's measured distances. Erratum: the paper writes d1 = (t3 - t0)/(2c),
+    # m = (t4 - t0)/c and d2 = (t6 - t3)/(2c), which have units of s^2/m; a distance is
+    # c times a time: d1 = c (t3 - t0)/2. The known turn-around delays are subtracted.
+    d1 = cn * (t3 - tau) / 2.0
+    m = cn * (t4 - 2.0 * tau)
+    d2 = cn * (t6 - t3s - tau) / 2.0
+    ok_l = ok_d1 and ok_m and ok_d2
+    l = m - d1 - d2
+    ok_track = ok1 and ok_d1 and not lost[4] and not lost[6]
+    n_lost = 0
+    for i in range(lost.shape[0]):
+        n_lost += lost[i]
+    return d1, m, d2, l, ok_d1, ok_m, ok_d2, ok_l, t3, t3s, t6, t_s1_b1, t_s1_b2, t_s4_b2, ok_track, n_lost
+
+
+EXCHANGE_FIELDS = ("d1", "m", "d2", "l", "ok_d1", "ok_m", "ok_d2", "ok_l", "t3", "t3s", "t6", "t_s1_b1", "t_s1_b2",
+                   "t_s4_b2", "ok_track", "lost_count")
+
+
+@njit(cache=True)
+def _exchange_rows(vehicle, vehicle_vel, b1, b1_vel, b2, b2_vel, c, cn, err, lost, turnaround_s, reaction_s,
+                   timeout_s, fval, flag, n_lost):
+    work = np.empty((2, 3))
+    for b in range(vehicle.shape[0]):
+        r = exchange_of(vehicle[b], vehicle_vel[b], b1[b], b1_vel[b], b2[b], b2_vel[b], c[b], cn[b], err[b], lost[b],
+                        turnaround_s, reaction_s, timeout_s[b], work)
+        fval[b, 0], fval[b, 1], fval[b, 2], fval[b, 3] = r[0], r[1], r[2], r[3]
+        flag[b, 0], flag[b, 1], flag[b, 2], flag[b, 3] = r[4], r[5], r[6], r[7]
+        fval[b, 4], fval[b, 5], fval[b, 6], fval[b, 7], fval[b, 8], fval[b, 9] = r[8], r[9], r[10], r[11], r[12], r[13]
+        flag[b, 4] = r[14]
+        n_lost[b] = r[15]
 
 
 def exchange(vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps, sound_speed_mps, nominal_sound_speed_mps,
@@ -115,49 +261,45 @@ def exchange(vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps, sou
     delays; and for the boats' tracking, the detection instants ``t_s1_b1``,
     ``t_s1_b2``, ``t_s4_b2`` with flag ``ok_track``; ``lost_count`` counts lost signals.
     """
-    c, cn = sound_speed_mps, nominal_sound_speed_mps
-    err = jitter_s + late_s
+    vec = [np.ascontiguousarray(a, dtype=float)
+           for a in (vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps)]
+    B = vec[0].shape[0]
+    per_env = [np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float)
+               for a in (sound_speed_mps, nominal_sound_speed_mps, timeout_s)]
+    err = np.ascontiguousarray(np.asarray(jitter_s, dtype=float) + late_s)
+    fval, flag, n_lost = np.empty((B, 10)), np.empty((B, 5), dtype=bool), np.empty(B, dtype=np.int64)
+    _exchange_rows(*vec, per_env[0], per_env[1], err, np.ascontiguousarray(lost, dtype=bool), float(turnaround_s),
+                   float(reaction_s), per_env[2], fval, flag, n_lost)
+    out = {}
+    for name, col in zip(("d1", "m", "d2", "l", "t3", "t3s", "t6", "t_s1_b1", "t_s1_b2", "t_s4_b2"), fval.T):
+        out[name] = col.copy()
+    for name, col in zip(("ok_d1", "ok_m", "ok_d2", "ok_l", "ok_track"), flag.T):
+        out[name] = col.copy()
+    out["lost_count"] = n_lost
+    return {k: out[k] for k in EXCHANGE_FIELDS}
 
-    def at(p, v, t):
-        return p + v * t[:, None]
 
-    # S1: vehicle -> B1; B1 detects and replies S2 at t1
-    t_s1_b1 = acoustics.travel_times(vehicle_m, b1_m, b1_vel_mps, c) + err[:, 0]
-    t1 = t_s1_b1 + turnaround_s
-    ok1 = ~lost[:, 0]
-    p_b1_t1 = at(b1_m, b1_vel_mps, t1)
-    # S2 -> vehicle (t3) and -> B2, which answers S3 at t2
-    t3 = t1 + acoustics.travel_times(p_b1_t1, at(vehicle_m, vehicle_vel_mps, t1), vehicle_vel_mps, c) + err[:, 1]
-    ok_d1 = ok1 & ~lost[:, 1]
-    t2 = t1 + acoustics.travel_times(p_b1_t1, at(b2_m, b2_vel_mps, t1), b2_vel_mps, c) + err[:, 2] + turnaround_s
-    ok2b = ok1 & ~lost[:, 2]
-    # S3 -> vehicle (t4)
-    t4 = t2 + acoustics.travel_times(at(b2_m, b2_vel_mps, t2), at(vehicle_m, vehicle_vel_mps, t2), vehicle_vel_mps,
-                                     c) + err[:, 3]
-    ok_m = ok2b & ~lost[:, 3]
-    # S4: the vehicle interrogates B2 on hearing S2 (or at the timeout); B2 replies S5 at t5
-    t3s = np.where(ok_d1, t3 + reaction_s, timeout_s)
-    t_s4_b2 = t3s + acoustics.travel_times(at(vehicle_m, vehicle_vel_mps, t3s), at(b2_m, b2_vel_mps, t3s),
-                                           b2_vel_mps, c) + err[:, 4]
-    t5 = t_s4_b2 + turnaround_s
-    t6 = t5 + acoustics.travel_times(at(b2_m, b2_vel_mps, t5), at(vehicle_m, vehicle_vel_mps, t5), vehicle_vel_mps,
-                                     c) + err[:, 5]
-    ok_d2 = ~lost[:, 4] & ~lost[:, 5]
-    # B2 also hears S1 (all beacons detect every interrogation): used for tracking
-    t_s1_b2 = acoustics.travel_times(vehicle_m, b2_m, b2_vel_mps, c) + err[:, 6]
+@njit(cache=True)
+def track_fix_of(t_s1_b1, t_s1_b2, t_s4_b2, ok_track, b1_e, b1_n, sin_phi, cos_phi, length, depth_below_m,
+                 nominal_sound_speed_mps, turnaround_s, reaction_s):
+    """``track_fix`` for one environment: the detection instants, B1's GPS position and the
+    GPS frame (bearing's sine and cosine, length). Returns (east, north, ok)."""
+    cn = nominal_sound_speed_mps
+    total = cn * (t_s4_b2 - t_s1_b1 - turnaround_s - reaction_s)
+    diff = cn * (t_s1_b2 - t_s1_b1)
+    r1 = horizontal_range((total - diff) / 2.0, depth_below_m)
+    r2 = horizontal_range((total + diff) / 2.0, depth_below_m)
+    fx, fy, ok = spherical_fix_of(r1, r2, length)
+    e, n = to_world(b1_e, b1_n, sin_phi, cos_phi, fx, fy)
+    return e, n, ok and ok_track
 
-    # The vehicle's measured distances. Erratum: the paper writes d1 = (t3 - t0)/(2c),
-    # m = (t4 - t0)/c and d2 = (t6 - t3)/(2c), which have units of s^2/m; a distance is
-    # c times a time: d1 = c (t3 - t0)/2. The known turn-around delays are subtracted.
-    d1 = cn * (t3 - turnaround_s) / 2.0
-    m = cn * (t4 - 2.0 * turnaround_s)
-    d2 = cn * (t6 - t3s - turnaround_s) / 2.0
-    ok_l = ok_d1 & ok_m & ok_d2
-    l = m - d1 - d2
-    ok_track = ok1 & ok_d1 & ~lost[:, 4] & ~lost[:, 6]
-    return {"d1": d1, "m": m, "d2": d2, "l": l, "ok_d1": ok_d1, "ok_m": ok_m, "ok_d2": ok_d2, "ok_l": ok_l,
-            "t3": t3, "t3s": t3s, "t6": t6, "t_s1_b1": t_s1_b1, "t_s1_b2": t_s1_b2, "t_s4_b2": t_s4_b2,
-            "ok_track": ok_track, "lost_count": lost.sum(-1)}
+
+@njit(cache=True)
+def _track_rows(t_a, t_b, t_c, ok_track, b1, phi, length, depth, cn, turnaround_s, reaction_s, fix, ok):
+    for b in range(t_a.shape[0]):
+        fix[b, 0], fix[b, 1], ok[b] = track_fix_of(t_a[b], t_b[b], t_c[b], ok_track[b], b1[b, 0], b1[b, 1],
+                                                   np.sin(phi[b]), np.cos(phi[b]), length[b], depth[b], cn[b],
+                                                   turnaround_s, reaction_s)
 
 
 def track_fix(ex, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, turnaround_s, reaction_s):
@@ -172,12 +314,13 @@ def track_fix(ex, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, turnarou
     cites, its ref. [8], is not among coopnav's sources; this is our reconstruction
     from the signals the section names.) Returns east/north (B, 2) and ok (B,).
     """
-    cn = nominal_sound_speed_mps
-    total = cn * (ex["t_s4_b2"] - ex["t_s1_b1"] - turnaround_s - reaction_s)
-    diff = cn * (ex["t_s1_b2"] - ex["t_s1_b1"])
-    r1 = horizontal_range((total - diff) / 2.0, depth_below_m)
-    r2 = horizontal_range((total + diff) / 2.0, depth_below_m)
     phi, length = baseline(b1_en, b2_en)  # of the GPS positions
-    fx, fy, ok = spherical_fix_batch(r1, r2, length)
-    ok &= ex["ok_track"]
-    return frame_to_world(b1_en, phi, fx, fy), ok
+    t_a = np.ascontiguousarray(ex["t_s1_b1"], dtype=float)
+    B = t_a.shape[0]
+    flat = [np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float) for a in
+            (ex["t_s1_b2"], ex["t_s4_b2"], phi, length, depth_below_m, nominal_sound_speed_mps)]
+    fix, ok = np.empty((B, 2)), np.empty(B, dtype=bool)
+    _track_rows(t_a, flat[0], flat[1], np.ascontiguousarray(ex["ok_track"], dtype=bool),
+                np.ascontiguousarray(np.broadcast_to(b1_en, (B, 2)), dtype=float), flat[2], flat[3], flat[4],
+                flat[5], float(turnaround_s), float(reaction_s), fix, ok)
+    return fix, ok

@@ -10,10 +10,10 @@ One step is one positioning cycle of ``ping_interval_s``:
    true motion = water speed x heading + current; the filter predicts with the
    measured water speed (propeller encoder) and compass heading (section VII);
 3. the three-interval exchange of section V runs in time between the moving
-   vehicles (``core.lbl.exchange``); the filter fuses d1 as it arrives, then d2 and
-   l together (their noises are correlated, see ``_fuse``);
+   vehicles (``core.lbl.exchange_of``); the filter fuses d1 as it arrives, then d2
+   and l together (their noises are correlated, see ``cycle``);
 4. the boats, which hear S1, S2 and S4 too, track the vehicle externally
-   (``core.lbl.track_fix``): that, their GPS and each other's position over the
+   (``core.lbl.track_fix_of``): that, their GPS and each other's position over the
    radio is all they observe;
 5. reward: the information the vehicle's filter gained this cycle (log det of its
    (x, y) covariance before minus after), shared by the boats, minus penalties: a
@@ -23,6 +23,11 @@ One step is one positioning cycle of ``ping_interval_s``:
    ``frame_rotation_tolerance_deg`` from its start (the filter models phi as
    constant: a turning frame makes it confidently wrong, which the information
    term alone would reward); no range fused this cycle.
+
+Steps 1-2 and 3-5 are compiled kernels written once over the batch
+(``integrate_vehicle``, ``cycle``; the observation ``observe_boats``), so a batch of
+one costs tens of microseconds; only what numpy computes differently from the C
+library (arctan2, log) is left to numpy around them.
 
 It exposes the same interface as ``core.sim.Simulator`` (reset, step, observe,
 global_state, obs_dim, state_dim, info_keys, variants), so every view, the trainer
@@ -34,15 +39,29 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from . import lbl, rng, substeps
 from .acoustics import mackenzie_sound_speed, packet_loss_probability
-from .dynamics import bearing_to_unit, gauss_markov_step
-from .dynamics import turn_toward
+from .dynamics import bearing_to_unit, gauss_markov_step, turn_toward
 from .guidance import build_path, los_point
-from .information import ELLIPSE_N_SIGMA, error_ellipse, logdet_horizontal
-from .navigation import frame_predict, frame_range_model, frame_velocity, gate_threshold, joseph_update_batch
+from .information import (
+    ELLIPSE_N_SIGMA,
+    det2_of,
+    ellipse_of,
+    error_ellipse,
+    floored_log,
+)
+from .lbl import horizontal_range
+from .navigation import (
+    frame_predict,
+    frame_range_prediction,
+    frame_velocity_of,
+    gate_threshold,
+    joseph_update_vector,
+    joseph_work,
+)
+from .numerics import complex_abs, complex_div_real
 from .sim import INFO_KEYS, BatchSimulator, StepResult
 from .state import BatchArrays
 
@@ -168,6 +187,267 @@ def integrate_vehicle(pos, heading, vel_true, wp_index, done, waypoints, n_wp, s
             heading_meas[b], speed_meas[b] = theta, v
 
 
+# the per-cycle kernel's float outputs (columns of fval), besides its integer outputs
+# (ranges fused, outliers rejected, packets lost) and a range fused (bval)
+(_F_DET_BEFORE, _F_DET_AFTER, _F_SURVEY_ERROR, _F_DR_ERROR, _F_ERROR_X, _F_ERROR_Y, _F_BASELINE_ERROR, _F_MAJOR,
+ _F_MINOR, _F_VEHICLE_Y, _F_PENALTY, _F_PENALTY_B2, _F_CONTACT, _F_PHI_ERR_SIN, _F_PHI_ERR_COS) = range(15)
+N_FVAL, N_IVAL = 15, 3
+_INFO_COLUMNS = (("survey_error_m", _F_SURVEY_ERROR), ("dr_error_m", _F_DR_ERROR), ("error_x_m", _F_ERROR_X),
+                 ("error_y_m", _F_ERROR_Y), ("baseline_error_m", _F_BASELINE_ERROR), ("ellipse_major_m", _F_MAJOR),
+                 ("ellipse_minor_m", _F_MINOR), ("vehicle_y_m", _F_VEHICLE_Y))
+# the scenario's numbers the kernel uses, in this order (MovingNetworkSimulator._scalars)
+CYCLE_SCALARS = ("salinity_psu", "water_temperature_c", "range_noise_std_m", "outlier_probability",
+                 "outlier_mean_excess_m", "packet_loss_near", "packet_loss_far", "max_range_m", "turnaround_s",
+                 "depth_noise_m", "gate1", "gate2", "depth_m", "ping_interval_s", "safety_distance_m",
+                 "safety_penalty", "baseline_target_m", "baseline_tolerance_m", "baseline_penalty",
+                 "min_baseline_distance_m", "approach_penalty", "rotation_penalty", "contact_penalty")
+
+
+@njit(cache=True)
+def _one(flag):
+    """A flag as numpy multiplies it (bool -> 1.0 or 0.0)."""
+    return 1.0 if flag else 0.0
+
+
+@njit(cache=True)
+def _dist3(a, b):
+    dx, dy, dz = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+    return np.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_depth, n_jitter, u_acoustic, log_u,
+           E, P, rejected_cycles, speed_meas, heading_meas, dr, k_pos, k_vel, k_age_s, k_has_fix, phi, length,
+           phi_gps, length_gps, turned, scalars, fval, ival, bval):
+    """Steps 3-5 of a cycle for every environment, in place: the exchange (``lbl.exchange_of``),
+    the filter's updates and its recovery (below), the boats' tracker, the reward's terms
+    and the infos (fval, ival, bval; see ``MovingNetworkSimulator.step``).
+
+    Section VII's updates: d1 when S2 arrives, then d2 and l when S5 arrives. d2 and l
+    arrive together and share detection errors: with sigma_t per detection,
+    d1 = c(e1 + e2)/2, d2 = c(e5 + e6)/2 and l = m - d1 - d2 with m = c(e1 + e3 + e4)
+    give var(d1) = var(d2) = sigma_r^2, var(l) = 6 sigma_r^2, cov(d2, l) = -sigma_r^2
+    and cov(d1, l) = 0 (e_i: the detections in ``lbl.DETECTIONS`` order). So d1 is a
+    scalar update and (d2, l) one joint update with that R (d2 alone when l is
+    missing); treating them as independent, as a naive sequential filter would,
+    overweights l. Each update passes a chi-square gate.
+
+    Recovery from gate lockout: a filter whose every measurement is rejected for
+    ``REINIT_AFTER_CYCLES`` cycles (it has diverged: the gate now refuses the very
+    ranges that would correct it) restarts its position from the spherical fix of
+    this cycle's d1, d2 and l, with the fix's uncertainty; the paper does not
+    discuss this, every fielded LBL navigator needs it.
+
+    The boats' alpha-beta tracker runs on the external fixes (section III, ``lbl.track_fix_of``).
+    phi, length (B,): the true frame's bearing and baseline, phi_gps, length_gps the
+    GPS positions' (gps (B,2,2)); log_u (B,7) the logarithms of the multipath draws.
+    """
+    (salinity, nominal_temperature_c, range_noise_std_m, outlier_probability, outlier_mean_excess_m, loss_near,
+     loss_far, max_range_m, turnaround_s, depth_noise_m, gate1, gate2, depth_m, T, safety_distance_m, safety_penalty,
+     baseline_target_m, baseline_tolerance_m, baseline_penalty, min_baseline_distance_m, approach_penalty,
+     rotation_penalty, contact_penalty) = scalars
+    n_det = n_jitter.shape[1]
+    for b in prange(s_pos.shape[0]):
+        work = np.empty((2, 3))
+        jwork = joseph_work(6, 2)
+        err = np.empty(n_det)
+        lost = np.empty(n_det, dtype=np.bool_)
+        delays = np.empty(2)
+        H = np.empty((2, 6))
+        y = np.empty(2)
+        R = np.empty((2, 2))
+        v3 = s_pos[b, 0]
+        fval[b, _F_DET_BEFORE] = det2_of(P[b, 0, 0], P[b, 0, 1], P[b, 1, 0], P[b, 1, 1])
+        # the exchange: sound speeds, detection errors, losses
+        depth = v3[2]
+        c_true = mackenzie_sound_speed(temperature_c[b], salinity, depth)
+        cn = mackenzie_sound_speed(nominal_temperature_c, salinity, depth)
+        # each detection instant is late by a jitter; a two-way range has two of them,
+        # halved: sigma_t = sqrt(2) sigma_r / c gives ranges d1, d2 with std sigma_r
+        sigma_r = range_noise_std_m * noise_scale[b]
+        jitter_scale = np.sqrt(2.0) * sigma_r / cn
+        d_b1 = _dist3(b_pos[b, 0], v3)
+        d_b2 = _dist3(b_pos[b, 1], v3)
+        base = _dist3(b_pos[b, 1], b_pos[b, 0])
+        for i in range(n_det):
+            late = -outlier_mean_excess_m * log_u[b, i] if u_acoustic[b, i, 1] < outlier_probability else 0.0
+            err[i] = jitter_scale * n_jitter[b, i] + late / c_true
+            path = d_b1 if i < 2 else (base if i == 2 else d_b2)  # the distance each signal travels
+            lost[i] = u_acoustic[b, i, 0] < packet_loss_probability(path, loss_near, loss_far, max_range_m)
+        timeout = 2.0 * max_range_m / cn + 2.0 * turnaround_s
+        (d1, _, d2, l, ok_d1, _, ok_d2, ok_l, t3, t3s, t6, t_s1_b1, t_s1_b2, t_s4_b2, ok_track,
+         n_lost) = lbl.exchange_of(v3, s_vel_true[b, 0], b_pos[b, 0], b_vel[b, 0], b_pos[b, 1], b_vel[b, 1], c_true,
+                                   cn, err, lost, turnaround_s, turnaround_s, timeout, work)
+
+        # the filter's updates
+        sigma_r2 = sigma_r * sigma_r
+        dz = depth + depth_noise_m * n_depth[b, 0]  # depth cell; boats at the surface
+        # d1: the legs are S1 leaving (t = 0) and S2 arriving (t3)
+        fused0 = False
+        if ok_d1:
+            vx, vy = frame_velocity_of(E[b], speed_meas[b], heading_meas[b])
+            delays[0], delays[1] = 0.0, t3
+            h = frame_range_prediction(E[b], 1, dz, vx, vy, delays, H[0])
+            y[0] = d1 - h
+            R[0, 0] = sigma_r2
+            _, status = joseph_update_vector(E[b], P[b], y[:1], H[:1], R[:1, :1], gate1, jwork)
+            fused0 = status == 1
+        # d2 (legs: S4 leaving at t3s, S5 arriving at t6) with l when it is there, else alone
+        both = False
+        fused1 = False
+        alone = ok_d2 and not ok_l
+        if ok_l or alone:
+            vx, vy = frame_velocity_of(E[b], speed_meas[b], heading_meas[b])
+            delays[0], delays[1] = t3s, t6
+            h2 = frame_range_prediction(E[b], 2, dz, vx, vy, delays, H[0])
+            y[0] = d2 - h2
+            if ok_l:
+                y[1] = l - E[b, 5]
+                H[1, :] = 0.0
+                H[1, 5] = 1.0
+                R[0, 0], R[0, 1], R[1, 0], R[1, 1] = sigma_r2, sigma_r2 * -1.0, sigma_r2 * -1.0, sigma_r2 * 6.0
+                _, status = joseph_update_vector(E[b], P[b], y, H, R, gate2, jwork)
+                both = status == 1
+                fused1 = both
+            else:
+                R[0, 0] = sigma_r2
+                _, status = joseph_update_vector(E[b], P[b], y[:1], H[:1], R[:1, :1], gate1, jwork)
+                fused1 = status == 1
+        n_fused = int(fused0) + int(fused1) + int(both)
+        rejected = int(ok_d1 and not fused0) + int(ok_l and not both) + int(alone and not fused1)
+        # recovery from gate lockout
+        if n_fused > 0:
+            rejected_cycles[b] = 0
+        else:
+            rejected_cycles[b] += rejected > 0
+        fx, fy, ok_fix = lbl.spherical_fix_of(horizontal_range(d1, dz), horizontal_range(d2, dz), l)
+        if rejected_cycles[b] >= REINIT_AFTER_CYCLES and ok_l and ok_fix and fy > 0:
+            E[b, 0], E[b, 1], E[b, 5] = fx, fy, l
+            for i in range(6):
+                for k in (0, 1, 5):
+                    P[b, k, i] = 0.0
+                    P[b, i, k] = 0.0
+            var = 4.0 * sigma_r2  # a single fix's position variance, GDOP ~ 2 [U]
+            P[b, 0, 0] = var
+            P[b, 1, 1] = var
+            P[b, 5, 5] = 6.0 * sigma_r2
+            rejected_cycles[b] = 0
+        fval[b, _F_DET_AFTER] = det2_of(P[b, 0, 0], P[b, 0, 1], P[b, 1, 0], P[b, 1, 1])
+
+        # the boats' tracker
+        fix_e, fix_n, ok = lbl.track_fix_of(t_s1_b1, t_s1_b2, t_s4_b2, ok_track, gps[b, 0, 0], gps[b, 0, 1],
+                                            np.sin(phi_gps[b]), np.cos(phi_gps[b]), length_gps[b], depth_m, cn,
+                                            turnaround_s, turnaround_s)
+        age = k_age_s[b] + T
+        pred_e, pred_n = k_pos[b, 0] + k_vel[b, 0] * age, k_pos[b, 1] + k_vel[b, 1] * age
+        res_e, res_n = fix_e - pred_e, fix_n - pred_n
+        if ok and not k_has_fix[b]:
+            k_pos[b, 0], k_pos[b, 1] = fix_e, fix_n
+        elif ok:
+            k_pos[b, 0], k_pos[b, 1] = pred_e + TRACKER_ALPHA * res_e, pred_n + TRACKER_ALPHA * res_n
+            k_vel[b, 0] = k_vel[b, 0] + TRACKER_BETA * res_e / age
+            k_vel[b, 1] = k_vel[b, 1] + TRACKER_BETA * res_n / age
+        k_age_s[b] = 0.0 if ok else age
+        k_has_fix[b] = k_has_fix[b] or ok
+
+        # reward terms and infos, in the true frame
+        ve, vn = v3[0], v3[1]
+        sin_phi, cos_phi = np.sin(phi[b]), np.cos(phi[b])
+        x, yv = lbl.to_frame(ve - b_pos[b, 0, 0], vn - b_pos[b, 0, 1], sin_phi, cos_phi)
+        team = (baseline_penalty * _one(abs(length[b] - baseline_target_m) > baseline_tolerance_m)
+                + approach_penalty * _one(yv < min_baseline_distance_m) + rotation_penalty * _one(turned[b]))
+        for i in range(2):
+            fval[b, _F_PENALTY + i] = safety_penalty * _one(_dist3(b_pos[b, i], v3) < safety_distance_m) + team
+        fval[b, _F_CONTACT] = contact_penalty * _one(n_fused == 0)
+        ex_, ey_ = E[b, 0] - x, E[b, 1] - yv
+        fval[b, _F_SURVEY_ERROR] = np.hypot(ex_, ey_)
+        de, dn = dr[b, 0, 0] - ve, dr[b, 0, 1] - vn
+        fval[b, _F_DR_ERROR] = np.sqrt(de * de + dn * dn)
+        fval[b, _F_ERROR_X], fval[b, _F_ERROR_Y] = ex_, ey_
+        rel = E[b, 2] - phi[b]  # wrapped by the caller (numpy's arctan2)
+        fval[b, _F_PHI_ERR_SIN], fval[b, _F_PHI_ERR_COS] = np.sin(rel), np.cos(rel)
+        fval[b, _F_BASELINE_ERROR] = E[b, 5] - length[b]
+        fval[b, _F_MAJOR], fval[b, _F_MINOR], _ = ellipse_of(P[b, 0, 0], P[b, 0, 1], P[b, 1, 1], ELLIPSE_N_SIGMA)
+        fval[b, _F_VEHICLE_Y] = yv
+        ival[b, 0], ival[b, 1], ival[b, 2] = n_fused, rejected, n_lost
+        bval[b, 0] = fused0 or fused1
+
+
+@njit(cache=True)
+def gps_frame_of(b_pos, gps_err):
+    """The frame as one environment's boat GPS gives it (b_pos (2,3), gps_err (2,2)): B1's
+    and B2's GPS positions, the x axis as a complex (east + 1j north) unit and the
+    baseline length; the y axis is x turned 90 degrees clockwise, -1j x."""
+    g1e, g1n = b_pos[0, 0] + gps_err[0, 0], b_pos[0, 1] + gps_err[0, 1]
+    g2e, g2n = b_pos[1, 0] + gps_err[1, 0], b_pos[1, 1] + gps_err[1, 1]
+    base = complex(g2e - g1e, g2n - g1n)
+    length = complex_abs(base)
+    return g1e, g1n, g2e, g2n, complex_div_real(base, max(length, 1e-9)), length
+
+
+@njit(cache=True)
+def command_velocity(actions, b_pos, gps_err, max_speed, mode, out):
+    """Actions (B,2,2) -> commanded ground velocity, complex (B,2) (``MovingNetworkSimulator.command_velocity``);
+    mode 0 "velocity", 1 "frame_velocity", 2 "heading_speed"."""
+    for b in range(actions.shape[0]):
+        x_axis = 1.0 + 0.0j
+        if mode == 1:
+            x_axis = gps_frame_of(b_pos[b], gps_err[b])[4]
+        y_axis = -1j * x_axis
+        for i in range(actions.shape[1]):
+            vmax = max_speed[i]
+            if mode == 2:
+                out[b, i] = 0.5 * (actions[b, i, 1] + 1.0) * vmax * bearing_to_unit(np.pi * actions[b, i, 0])
+                continue
+            v = complex(actions[b, i, 0], actions[b, i, 1])
+            norm = complex_abs(v)
+            if norm > 1.0:
+                v = complex_div_real(v, max(norm, 1e-12))
+            v = v * vmax
+            if mode == 1:
+                v = v.real * x_axis + v.imag * y_axis
+            out[b, i] = v
+
+
+def _observe_boats(b_pos, gps_err, b_vel, k_pos, k_vel, k_age_s, k_has_fix, cycle, L, boat_max_speed_mps,
+                   survey_speed_mps, age_scale_s, max_cycles, out):
+    """Every boat's observation (``MovingNetworkSimulator.observe``), out (B, 2, OBS_DIM) float32."""
+    for b in prange(b_pos.shape[0]):
+        g1e, g1n, g2e, g2n, xa, length = gps_frame_of(b_pos[b], gps_err[b])
+        ya = -1j * xa
+        te, tn = k_pos[b, 0] + k_vel[b, 0] * k_age_s[b], k_pos[b, 1] + k_vel[b, 1] * k_age_s[b]
+        for i in range(2):
+            o = out[b, i]
+            ge, gn = (g1e, g1n) if i == 0 else (g2e, g2n)
+            vals = (1.0 - 2.0 * i,
+                    (b_vel[b, i, 0] * xa.real + b_vel[b, i, 1] * xa.imag) / boat_max_speed_mps,
+                    (b_vel[b, i, 0] * ya.real + b_vel[b, i, 1] * ya.imag) / boat_max_speed_mps,
+                    (length - L) / L,
+                    ((te - g1e) * xa.real + (tn - g1n) * xa.imag) / L,
+                    ((te - g1e) * ya.real + (tn - g1n) * ya.imag) / L,
+                    (k_vel[b, 0] * xa.real + k_vel[b, 1] * xa.imag) / survey_speed_mps,
+                    (k_vel[b, 0] * ya.real + k_vel[b, 1] * ya.imag) / survey_speed_mps,
+                    k_age_s[b] / age_scale_s,
+                    1.0 if k_has_fix[b] else 0.0,
+                    xa.real, xa.imag,
+                    ((ge - te) * xa.real + (gn - tn) * xa.imag) / L,
+                    ((ge - te) * ya.real + (gn - tn) * ya.imag) / L,
+                    cycle[b] / max_cycles)
+            for k in range(OBS_DIM):
+                v = vals[k]
+                if v < -10.0:
+                    v = -10.0
+                elif v > 10.0:
+                    v = 10.0
+                o[k] = v
+
+
+# each kernel compiled twice from one source: plain, and threaded for large batches
+cycle = njit(cache=True)(_cycle)
+cycle_parallel = njit(cache=True, parallel=True)(_cycle)
+observe_boats = njit(cache=True)(_observe_boats)
+observe_boats_parallel = njit(cache=True, parallel=True)(_observe_boats)
+
+
 class MovingNetworkSimulator(BatchSimulator):
     """The batched moving LBL network: B independent environments of one scenario."""
 
@@ -192,7 +472,14 @@ class MovingNetworkSimulator(BatchSimulator):
                            c.frame_q_current_m2ps3, c.frame_q_current_m2ps3, c.frame_q_baseline_m2ps])
         self._gate1 = gate_threshold(c.range_gate_probability, 1)
         self._gate2 = gate_threshold(c.range_gate_probability, 2)
-        self._k_beacons = substeps.integrate_beacons_parallel if B >= 256 else substeps.integrate_beacons
+        par = B >= 256  # threaded kernels pay off only for large batches
+        self._k_beacons = substeps.integrate_beacons_parallel if par else substeps.integrate_beacons
+        self._k_cycle = cycle_parallel if par else cycle
+        self._k_observe = observe_boats_parallel if par else observe_boats
+        self._action_mode = ("velocity", "frame_velocity", "heading_speed").index(c.action_mode)
+        self._rotation_tolerance_rad = np.radians(c.frame_rotation_tolerance_deg)
+        named = {"gate1": self._gate1, "gate2": self._gate2}
+        self._scalars = tuple(float(named[k] if k in named else getattr(c, k)) for k in CYCLE_SCALARS)
         n_det = lbl.N_DETECTIONS
         self._draws = rng.DrawLayout([
             ("current", "normal", (2,)), ("substep", "normal", (self.K, 2)), ("depth", "normal", (1,)),
@@ -260,30 +547,15 @@ class MovingNetworkSimulator(BatchSimulator):
         )
 
     # ------------------------------------------------------------------------------
-    def _gps_frame(self):
-        """The frame as the boats' GPS gives it: B1's position (B,2), x and y axes as
-        complex (east + 1j north) units (B,), the baseline length (B,)."""
-        gps = self.state.b_pos[..., :2] + self.state.b_gps_err
-        base = (gps[:, 1, 0] - gps[:, 0, 0]) + 1j * (gps[:, 1, 1] - gps[:, 0, 1])
-        length = np.abs(base)
-        x_axis = base / np.maximum(length, 1e-9)
-        return gps, x_axis, -1j * x_axis, length  # y = x turned 90 degrees clockwise
-
     def command_velocity(self, actions):
         """Actions (B,2,2) in [-1, 1] -> commanded ground velocity, complex (B,2).
         "frame_velocity": (v_x, v_y) / max speed in the GPS frame; "velocity":
         (v_east, v_north) / max speed (norm clipped to 1 in both); "heading_speed"."""
-        vmax = self._max_speed
-        mode = self.config.action_mode
-        if mode in ("velocity", "frame_velocity"):
-            v = actions[..., 0] + 1j * actions[..., 1]
-            norm = np.abs(v)
-            v = np.where(norm > 1.0, v / np.maximum(norm, 1e-12), v) * vmax
-            if mode == "frame_velocity":
-                _, x_axis, y_axis, _ = self._gps_frame()
-                v = v.real * x_axis[:, None] + v.imag * y_axis[:, None]
-            return v
-        return 0.5 * (actions[..., 1] + 1.0) * vmax * bearing_to_unit(np.pi * actions[..., 0])
+        a = np.ascontiguousarray(actions, dtype=float)
+        out = np.empty(a.shape[:2], dtype=complex)
+        st = self.state
+        command_velocity(a, st.b_pos, st.b_gps_err, self._max_speed, self._action_mode, out)
+        return out
 
     def step(self, actions) -> StepResult:
         c, st = self.config, self.state
@@ -291,7 +563,7 @@ class MovingNetworkSimulator(BatchSimulator):
         draws = self._draws.draw(st.keys, st.cycle)
 
         # 1. the boats
-        self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(np.asarray(actions, dtype=float)),
+        self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions),
                         self._boat_turn_cos, self._boat_turn_sin, K, dt)
         # 2. the vehicle: guidance, motion, dead reckoning, filter prediction
         noise = draws["substep"] * st.ep_noise_scale[:, None, None]
@@ -308,161 +580,50 @@ class MovingNetworkSimulator(BatchSimulator):
         st.cycle = st.cycle + 1
         st.b_gps_err = c.gps_noise_m * draws["gps"]
 
-        # 3. the exchange and the filter's updates
-        logdet_before = logdet_horizontal(st.f_P)
-        ex = self._exchange(draws)
-        fused, rejected = self._fuse(ex, draws)
-        logdet_after = logdet_horizontal(st.f_P)
-
-        # 4. the boats' tracking
-        self._track(ex)
-
-        # 5. reward, ends, infos
-        b1, b2, v = st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], st.s_pos[:, 0, :2]
-        x, y, phi, length = lbl.world_to_frame(b1, b2, v)
-        dist = np.linalg.norm(st.b_pos - st.s_pos, axis=-1)  # (B,2)
-        too_close = dist < c.safety_distance_m
-        off_baseline = np.abs(length - c.baseline_target_m) > c.baseline_tolerance_m
-        near_baseline = y < c.min_baseline_distance_m
-        no_contact = fused.sum(-1) == 0
-        turned = np.abs(np.angle(np.exp(1j * (phi - st.ep_phi0_rad)))) > np.radians(c.frame_rotation_tolerance_deg)
-        team = (c.baseline_penalty * off_baseline + c.approach_penalty * near_baseline
-                + c.rotation_penalty * turned)[:, None]
-        penalties = c.safety_penalty * too_close + team
-        info_gain = logdet_before - logdet_after
-        reward = info_gain[:, None] - penalties - c.contact_penalty * no_contact[:, None]
+        # 3.-5. the exchange, the filter's updates, the boats' tracking, reward terms and
+        # infos, in one kernel (``cycle``). What numpy computes differently from the C
+        # library (arctan2, log) stays here: the frame bearings of the true and the GPS
+        # positions, the multipath excesses' logarithms, the wrapped frame rotation.
+        en = np.empty((2, B, 2, 2))
+        en[0] = st.b_pos[..., :2]
+        np.add(en[0], st.b_gps_err, out=en[1])
+        phi, length = lbl.baseline(en[:, :, 0], en[:, :, 1])  # (2, B): true, GPS
+        turned = np.abs(np.angle(np.exp(1j * (phi[0] - st.ep_phi0_rad)))) > self._rotation_tolerance_rad
+        log_u = np.log(draws["acoustic_u"][..., 2])
+        fval = np.empty((B, N_FVAL))
+        ival = np.empty((B, N_IVAL), dtype=np.int64)
+        bval = np.empty((B, 1), dtype=bool)
+        self._k_cycle(st.s_pos, st.s_vel_true, st.b_pos, st.b_vel, en[1], st.temperature_c, st.ep_noise_scale,
+                      draws["depth"], draws["jitter"], draws["acoustic_u"], log_u, st.f_E, st.f_P,
+                      st.f_rejected_cycles, st.s_speed_meas_mps, st.s_heading_meas_rad, st.s_dr, st.k_pos, st.k_vel,
+                      st.k_age_s, st.k_has_fix, phi[0], length[0], phi[1], length[1], turned, self._scalars,
+                      fval, ival, bval)
+        logdet = floored_log(fval[:, _F_DET_BEFORE:_F_DET_AFTER + 1])
+        info_gain = logdet[:, 0] - logdet[:, 1]
+        penalties = fval[:, _F_PENALTY:_F_PENALTY + 2]
+        reward = info_gain[:, None] - penalties - fval[:, _F_CONTACT:_F_CONTACT + 1]
 
         terminated = st.s_done[:, 0].copy()
         if c.mission_duration_s > 0:
             terminated |= st.t_s >= c.mission_duration_s - 1e-9
         truncated = (st.cycle >= c.max_cycles) & ~terminated
-        ex_, ey_ = st.f_E[:, 0] - x, st.f_E[:, 1] - y
-        major, minor, _ = error_ellipse(st.f_P, n_sigma=ELLIPSE_N_SIGMA)
-        col = lambda a: np.asarray(a)[:, None]  # noqa: E731  (B,) -> (B, S=1)
+        col = {name: fval[:, k:k + 1] for name, k in _INFO_COLUMNS}  # (B, S=1) views
         info = {
-            "survey_error_m": col(np.hypot(ex_, ey_)),
-            "dr_error_m": col(np.linalg.norm(st.s_dr[:, 0, :2] - v, axis=-1)),
-            "cov_logdet": col(logdet_after),
-            "range_ok": col(fused[:, :2].any(-1)),
-            "ranges_fused": col(fused.sum(-1)),
-            "outliers_rejected": col(rejected),
-            "nan_rejected": col(np.zeros(B, dtype=np.int64)),
-            "packets_lost": col(ex["lost_count"]),
-            "error_x_m": col(ex_), "error_y_m": col(ey_),
-            "phi_error_deg": col(np.degrees(np.angle(np.exp(1j * (st.f_E[:, 2] - phi))))),
-            "baseline_error_m": col(st.f_E[:, 5] - length),
-            "ellipse_major_m": col(major), "ellipse_minor_m": col(minor), "vehicle_y_m": col(y),
+            "survey_error_m": col["survey_error_m"],
+            "dr_error_m": col["dr_error_m"],
+            "cov_logdet": logdet[:, 1:2],
+            "range_ok": bval[:, 0:1],
+            "ranges_fused": ival[:, 0:1],
+            "outliers_rejected": ival[:, 1:2],
+            "nan_rejected": np.zeros((B, 1), dtype=np.int64),
+            "packets_lost": ival[:, 2:3],
+            "error_x_m": col["error_x_m"], "error_y_m": col["error_y_m"],
+            "phi_error_deg": np.degrees(np.arctan2(fval[:, _F_PHI_ERR_SIN], fval[:, _F_PHI_ERR_COS]))[:, None],
+            "baseline_error_m": col["baseline_error_m"],
+            "ellipse_major_m": col["ellipse_major_m"], "ellipse_minor_m": col["ellipse_minor_m"],
+            "vehicle_y_m": col["vehicle_y_m"],
         }
         return StepResult(self.observe(), reward, terminated, truncated, info, penalties)
-
-    def _exchange(self, draws):
-        c, st = self.config, self.state
-        B = self.batch_size
-        depth = st.s_pos[:, 0, 2]
-        c_true = mackenzie_sound_speed(st.temperature_c, c.salinity_psu, depth)
-        cn = mackenzie_sound_speed(np.full(B, c.water_temperature_c), c.salinity_psu, depth)
-        # each detection instant is late by a jitter; a two-way range has two of them,
-        # halved: sigma_t = sqrt(2) sigma_r / c gives ranges d1, d2 with std sigma_r
-        sigma_r = c.range_noise_std_m * st.ep_noise_scale
-        jitter = (np.sqrt(2.0) * sigma_r / cn)[:, None] * draws["jitter"]
-        u = draws["acoustic_u"]
-        late = np.where(u[..., 1] < c.outlier_probability, -c.outlier_mean_excess_m * np.log(u[..., 2]), 0.0)
-        late = late / c_true[:, None]
-        v3 = st.s_pos[:, 0]
-        d_b1 = np.linalg.norm(st.b_pos[:, 0] - v3, axis=-1)
-        d_b2 = np.linalg.norm(st.b_pos[:, 1] - v3, axis=-1)
-        base = np.linalg.norm(st.b_pos[:, 1] - st.b_pos[:, 0], axis=-1)
-        path = np.stack([d_b1, d_b1, base, d_b2, d_b2, d_b2, d_b2], -1)  # distance each signal travels
-        lost = u[..., 0] < packet_loss_probability(path, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
-        timeout = 2.0 * c.max_range_m / cn + 2.0 * c.turnaround_s
-        ex = lbl.exchange(v3, st.s_vel_true[:, 0], st.b_pos[:, 0], st.b_vel[:, 0], st.b_pos[:, 1], st.b_vel[:, 1],
-                          c_true, cn, jitter, late, lost, c.turnaround_s, c.turnaround_s, timeout)
-        ex["nominal_sound_speed_mps"] = cn  # the speed everyone converts times with (tracking too)
-        return ex
-
-    def _fuse(self, ex, draws):
-        """Section VII's updates: d1 when S2 arrives, then d2 and l when S5 arrives.
-
-        d2 and l arrive together and share detection errors: with sigma_t per
-        detection, d1 = c(e1 + e2)/2, d2 = c(e5 + e6)/2 and l = m - d1 - d2 with
-        m = c(e1 + e3 + e4) give var(d1) = var(d2) = sigma_r^2, var(l) = 6 sigma_r^2,
-        cov(d2, l) = -sigma_r^2 and cov(d1, l) = 0 (e_i: the detections in
-        ``lbl.DETECTIONS`` order). So d1 is a scalar update and (d2, l) one joint
-        update with that R; treating them as independent, as a naive sequential
-        filter would, overweights l. Each update passes a chi-square gate.
-        """
-        c, st = self.config, self.state
-        B = self.batch_size
-        sigma_r2 = (c.range_noise_std_m * st.ep_noise_scale) ** 2
-        dz = st.s_pos[:, 0, 2] + c.depth_noise_m * draws["depth"][:, 0]  # depth cell; boats at the surface
-        vel = frame_velocity(st.f_E, st.s_speed_meas_mps, st.s_heading_meas_rad)
-        fused = np.zeros((B, 3), dtype=bool)
-        # d1: the legs are S1 leaving (t = 0) and S2 arriving (t3)
-        h, H = frame_range_model(st.f_E, 1, dz, vel, np.stack([np.zeros(B), ex["t3"]], -1))
-        R1 = sigma_r2[:, None, None] * np.ones((B, 1, 1))
-        st.f_E, st.f_P, nis = joseph_update_batch(st.f_E, st.f_P, (ex["d1"] - h)[:, None], H[:, None], R1,
-                                                  ex["ok_d1"], self._gate1)
-        fused[:, 0] = ex["ok_d1"] & (nis <= self._gate1)
-        # d2 (legs: S4 leaving at t3s, S5 arriving at t6) with l when it is there, else alone;
-        # the two updates touch disjoint rows
-        vel = frame_velocity(st.f_E, st.s_speed_meas_mps, st.s_heading_meas_rad)
-        h2, H2 = frame_range_model(st.f_E, 2, dz, vel, np.stack([ex["t3s"], ex["t6"]], -1))
-        Hl = np.zeros((B, 6))
-        Hl[:, 5] = 1.0
-        y2 = np.stack([ex["d2"] - h2, ex["l"] - st.f_E[:, 5]], -1)
-        R2 = sigma_r2[:, None, None] * np.array([[1.0, -1.0], [-1.0, 6.0]])
-        alone = ex["ok_d2"] & ~ex["ok_l"]
-        st.f_E, st.f_P, nis2 = joseph_update_batch(st.f_E, st.f_P, y2, np.stack([H2, Hl], 1), R2, ex["ok_l"],
-                                                   self._gate2)
-        st.f_E, st.f_P, nis1 = joseph_update_batch(st.f_E, st.f_P, y2[:, :1], H2[:, None], R1, alone, self._gate1)
-        both = ex["ok_l"] & (nis2 <= self._gate2)
-        fused[:, 1] = both | (alone & (nis1 <= self._gate1))
-        fused[:, 2] = both
-        rejected = np.stack([ex["ok_d1"] & ~fused[:, 0], ex["ok_l"] & ~both, alone & ~fused[:, 1]]).sum(0)
-        self._reinitialize(ex, dz, fused, rejected, sigma_r2)
-        return fused, rejected
-
-    def _reinitialize(self, ex, dz, fused, rejected, sigma_r2):
-        """Recover from gate lockout. A filter whose every measurement is rejected for
-        ``REINIT_AFTER_CYCLES`` cycles (it has diverged: the gate now refuses the very
-        ranges that would correct it) restarts its position from the spherical fix of
-        this cycle's d1, d2 and l, with the fix's uncertainty; the paper does not
-        discuss this, every fielded LBL navigator needs it."""
-        st = self.state
-        st.f_rejected_cycles = np.where(fused.any(-1), 0, st.f_rejected_cycles + (rejected > 0))
-        x, y, ok = lbl.spherical_fix_batch(lbl.horizontal_range(ex["d1"], dz), lbl.horizontal_range(ex["d2"], dz),
-                                           ex["l"])
-        restart = (st.f_rejected_cycles >= REINIT_AFTER_CYCLES) & ex["ok_l"] & ok & (y > 0)
-        if not restart.any():
-            return
-        E, P = st.f_E.copy(), st.f_P.copy()
-        E[restart, 0], E[restart, 1], E[restart, 5] = x[restart], y[restart], ex["l"][restart]
-        var = 4.0 * sigma_r2[restart]  # a single fix's position variance, GDOP ~ 2 [U]
-        P[restart, :2, :] = 0.0
-        P[restart, :, :2] = 0.0
-        P[restart, 5, :] = 0.0
-        P[restart, :, 5] = 0.0
-        P[restart, 0, 0] = P[restart, 1, 1] = var
-        P[restart, 5, 5] = 6.0 * sigma_r2[restart]
-        st.f_E, st.f_P = E, P
-        st.f_rejected_cycles = np.where(restart, 0, st.f_rejected_cycles)
-
-    def _track(self, ex):
-        """The boats' alpha-beta tracker on the external fixes (section III)."""
-        c, st = self.config, self.state
-        T = c.ping_interval_s
-        gps = st.b_pos[..., :2] + st.b_gps_err
-        fix, ok = lbl.track_fix(ex, gps[:, 0], gps[:, 1], c.depth_m, ex["nominal_sound_speed_mps"], c.turnaround_s,
-                                c.turnaround_s)
-        age = st.k_age_s + T
-        pred = st.k_pos + st.k_vel * age[:, None]
-        resid = fix - pred
-        first = ok & ~st.k_has_fix
-        update = ok & st.k_has_fix
-        st.k_pos = np.where(first[:, None], fix, np.where(update[:, None], pred + TRACKER_ALPHA * resid, st.k_pos))
-        st.k_vel = np.where(update[:, None], st.k_vel + TRACKER_BETA * resid / age[:, None], st.k_vel)
-        st.k_age_s = np.where(ok, 0.0, age)
-        st.k_has_fix = st.k_has_fix | ok
 
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
@@ -472,27 +633,13 @@ class MovingNetworkSimulator(BatchSimulator):
         own velocity / max speed; (l_gps - L) / L; the vehicle as tracked, predicted
         to now: position / L and velocity / survey speed; age of the last fix /
         (10 T); a fix was ever made; the frame's bearing (sin, cos); own position
-        minus the tracked vehicle / L; elapsed fraction of max_cycles."""
+        minus the tracked vehicle / L; elapsed fraction of max_cycles (``observe_boats``)."""
         c, st = self.config, self.state
-        B, L = self.batch_size, c.baseline_target_m
-        gps, x_axis, y_axis, length = self._gps_frame()
-        tracked = st.k_pos + st.k_vel * st.k_age_s[:, None]
-
-        def frame(v_en):  # (B, 2) east/north vectors -> frame (x, y)
-            return np.stack([v_en[:, 0] * x_axis.real + v_en[:, 1] * x_axis.imag,
-                             v_en[:, 0] * y_axis.real + v_en[:, 1] * y_axis.imag], -1)
-
-        rel = frame(tracked - gps[:, 0])
-        vel = frame(st.k_vel)
-        out = np.empty((B, 2, OBS_DIM))
-        for i in range(2):
-            out[:, i] = np.column_stack([
-                np.full(B, 1.0 - 2.0 * i), frame(st.b_vel[:, i, :2]) / c.boat_max_speed_mps, (length - L) / L,
-                rel / L, vel / c.survey_speed_mps, st.k_age_s / (AGE_SCALE_PINGS * c.ping_interval_s),
-                st.k_has_fix.astype(float), x_axis.real, x_axis.imag, frame(gps[:, i] - tracked) / L,
-                st.cycle / c.max_cycles,
-            ])
-        return np.clip(out, -10.0, 10.0).astype(np.float32)
+        out = np.empty((self.batch_size, 2, OBS_DIM), dtype=np.float32)
+        self._k_observe(st.b_pos, st.b_gps_err, st.b_vel, st.k_pos, st.k_vel, st.k_age_s, st.k_has_fix, st.cycle,
+                        c.baseline_target_m, c.boat_max_speed_mps, c.survey_speed_mps,
+                        AGE_SCALE_PINGS * c.ping_interval_s, c.max_cycles, out)
+        return out
 
     def global_state(self) -> np.ndarray:
         """True state for a centralized critic (B, 24), normalized."""

@@ -7,6 +7,12 @@ batch, and ``scalar_update`` / ``range_model`` apply them over any leading batch
 axes from Python (for planners, analysis and the tests against filterpy). The
 covariance update is the Joseph form, which keeps P symmetric positive definite
 under round-off (and is what filterpy's ExtendedKalmanFilter does).
+
+The moving network's six-state filter (Matos & Cruz, below) follows the same
+pattern: ``joseph_update_vector``, ``frame_predict``, ``frame_range_prediction`` and
+``frame_velocity_of`` are compiled single-filter functions that its kernel calls;
+``joseph_update_batch``, ``frame_range_model`` and ``frame_velocity`` apply them over
+a batch from Python.
 """
 
 from __future__ import annotations
@@ -14,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 from scipy.stats import chi2
+
+from .numerics import lu_solve, matmul, matmul_at, matmul_bt, vecmat
 
 
 def predict(x, P, dx, Q):
@@ -144,6 +152,76 @@ def axis_measurement(axis: int, shape):
 
 
 # --- the general update, over a batch (any state and measurement size) -------------------
+@njit(cache=True)
+def joseph_update_vector(x, P, y, H, R, gate, work):
+    """Eqs. (9)-(13) for an m-vector measurement of one filter, Joseph form, in place.
+
+    x (n,), P (n, n), innovation y = z - h (m,), H (m, n), R (m, m); gate: the
+    chi-square bound on the normalized innovation squared. ``work`` is scratch from
+    ``joseph_work(n, m)``. The update is applied when nis <= gate. Returns
+    (nis, status): 1 updated, 0 not (gated out), -1 S singular (nis NaN). The
+    arithmetic is numpy's (core.numerics), so the moving network's outputs stayed
+    what they were when this was numpy code.
+    """
+    m, n = H.shape
+    HP, S, lu, Sy, X, A, RK, AP, T1, T2, piv = work
+    HP, S, lu, Sy, X = HP[:m], S[:m, :m], lu[:m, :m], Sy[:m], X[:m]
+    RK = RK[:m]
+    piv = piv[:m]
+    if m == 1:
+        vecmat(H[0], P, HP[0])
+    else:
+        matmul(H, P, HP)
+    matmul_bt(HP, H, S)
+    for i in range(m):
+        for j in range(m):
+            S[i, j] += R[i, j]  # eq. (11)
+    for i in range(m):
+        Sy[i, 0] = y[i]
+    if not lu_solve(S, Sy, Sy, lu, piv):
+        return np.nan, -1
+    nis = 0.0
+    for i in range(m):
+        nis += y[i] * Sy[i, 0]
+    if not nis <= gate:
+        return nis, 0
+    lu_solve(S, HP, X, lu, piv)  # X = S^-1 H P = K^T, eq. (12)
+    for i in range(n):  # eq. (9)
+        s = 0.0
+        for j in range(m):
+            s += X[j, i] * y[j]
+        x[i] += s
+    matmul_at(X, H, A)  # K H
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = (1.0 if i == j else 0.0) - A[i, j]
+    matmul(R, X, RK)
+    matmul(A, P, AP)
+    matmul_bt(AP, A, T1)
+    matmul_at(X, RK, T2)
+    for i in range(n):  # eq. (13), Joseph form: (I - KH) P (I - KH)^T + K R K^T
+        for j in range(n):
+            P[i, j] = T1[i, j] + T2[i, j]
+    return nis, 1
+
+
+@njit(cache=True)
+def joseph_work(n, m):
+    """Scratch arrays for ``joseph_update_vector`` with state size n and up to m measurements."""
+    return (np.empty((m, n)), np.empty((m, m)), np.empty((m, m)), np.empty((m, 1)), np.empty((m, n)),
+            np.empty((n, n)), np.empty((m, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
+            np.empty(m, dtype=np.int64))
+
+
+@njit(cache=True)
+def _joseph_rows(x, P, y, H, R, mask, gate, nis, singular):
+    work = joseph_work(x.shape[1], y.shape[1])
+    for b in range(x.shape[0]):
+        # a row not to update still reports its nis: gate -inf updates nothing
+        nis[b], status = joseph_update_vector(x[b], P[b], y[b], H[b], R[b], gate if mask[b] else -np.inf, work)
+        singular[b] = status < 0
+
+
 def joseph_update_batch(x, P, y, H, R, mask, gate=np.inf):
     """Eqs. (9)-(13) for an m-vector measurement per filter, Joseph form, over a batch.
 
@@ -152,17 +230,20 @@ def joseph_update_batch(x, P, y, H, R, mask, gate=np.inf):
     normalized innovation squared, rows above it are not updated. Returns new
     (x, P) and the normalized innovation squared y^T S^-1 y (B,) (a row was
     updated where mask and nis <= gate). Other rows are returned unchanged.
+    ``joseph_update_vector`` applied to every row.
     """
-    S = H @ P @ np.swapaxes(H, -1, -2) + R  # eq. (11)
-    S_inv_y = np.linalg.solve(S, y[..., None])[..., 0]
-    nis = np.einsum("bi,bi->b", y, S_inv_y)
-    K = np.swapaxes(np.linalg.solve(S, H @ P), -1, -2)  # eq. (12): P H^T S^-1 (S, P symmetric)
-    x_new = x + np.einsum("bij,bj->bi", K, y)  # eq. (9)
-    A = np.eye(x.shape[-1]) - K @ H
-    RK = (R if np.ndim(R) == 3 else np.broadcast_to(R, S.shape)) @ np.swapaxes(K, -1, -2)
-    P_new = A @ P @ np.swapaxes(A, -1, -2) + K @ RK  # eq. (13), Joseph form
-    m = np.asarray(mask, dtype=bool) & (nis <= gate)
-    return np.where(m[:, None], x_new, x), np.where(m[:, None, None], P_new, P), nis
+    x2 = np.array(x, dtype=float)
+    P2 = np.array(P, dtype=float)
+    B = x2.shape[0]
+    y2 = np.ascontiguousarray(y, dtype=float)
+    H2 = np.ascontiguousarray(H, dtype=float)
+    R2 = np.ascontiguousarray(np.broadcast_to(R, (B,) + np.shape(R)[-2:]), dtype=float)
+    m2 = np.ascontiguousarray(np.broadcast_to(mask, (B,)), dtype=bool)
+    nis, singular = np.empty(B), np.zeros(B, dtype=bool)
+    _joseph_rows(x2, P2, y2, H2, R2, m2, float(gate), nis, singular)
+    if singular.any():
+        raise np.linalg.LinAlgError("Singular matrix")
+    return x2, P2, nis
 
 
 # --- the moving-frame EKF of Matos & Cruz, section VII -----------------------------------
@@ -201,32 +282,70 @@ def frame_predict(E, P, speed_mps, heading_rad, dt_s, Q):
     P[:, :] = Phi @ P @ Phi.T + Qd
 
 
+@njit(cache=True)
+def frame_velocity_of(E, speed_mps, heading_rad):
+    """The frame-relative velocity F[0:2] of section VII's model for one filter E (6,): (v_x, v_y)."""
+    rel = heading_rad - E[2]
+    return speed_mps * np.cos(rel) + E[3], speed_mps * np.sin(rel) + E[4]
+
+
+@njit(cache=True)
+def _frame_velocity_rows(E, speed, heading, out):
+    for b in range(E.shape[0]):
+        out[b, 0], out[b, 1] = frame_velocity_of(E[b], speed[b], heading[b])
+
+
 def frame_velocity(E, speed_mps, heading_rad):
-    """The frame-relative velocity F[0:2] of section VII's model, (..., 2)."""
-    rel = heading_rad - E[..., 2]
-    return np.stack([speed_mps * np.cos(rel) + E[..., 3], speed_mps * np.sin(rel) + E[..., 4]], -1)
+    """``frame_velocity_of`` over leading batch axes: E (..., 6), speed and heading (...) -> (..., 2)."""
+    lead = np.broadcast_shapes(np.shape(E)[:-1], np.shape(speed_mps), np.shape(heading_rad))
+    E2 = np.ascontiguousarray(np.broadcast_to(E, lead + (6,)), dtype=float).reshape(-1, 6)
+    sp, hd = (np.ascontiguousarray(np.broadcast_to(a, lead), dtype=float).reshape(-1) for a in (speed_mps, heading_rad))
+    out = np.empty((E2.shape[0], 2))
+    _frame_velocity_rows(E2, sp, hd, out)
+    return out.reshape(lead + (2,))
 
 
-def frame_range_model(E, beacon, depth_below_m, velocity_mps, delays_s):
-    """Predicted range z* to beacon B1 (beacon=1) or B2 (beacon=2) and its Jacobian
-    over the 6 states, for filters E (B, 6).
+@njit(cache=True)
+def frame_range_prediction(E, beacon, depth_below_m, vx, vy, delays_s, H):
+    """Predicted range z* to beacon B1 (beacon=1) or B2 (beacon=2) of one filter E (6,)
+    and its Jacobian over the 6 states, written into H (6,); returns z*.
 
     Section VII: z* = sqrt(x^2 + y^2) for B1 and sqrt((x - l)^2 + y^2) for B2; coopnav
     measures slant ranges, so the depth below the beacons enters as a third
     coordinate, and the vehicle's motion while the sound travels enters through leg
     delays as in the survey EKF (``range_prediction``): the range is the mean of the
-    legs' distances from x + v d to the beacon. velocity_mps (B, 2) frame-relative;
-    delays_s (B, L) relative to the filter's time. Returns h (B,), H (B, 6).
+    legs' distances from x + v d to the beacon. (vx, vy) frame-relative velocity;
+    delays_s (L,) relative to the filter's time.
     """
+    pos = np.empty(3)
+    pos[0], pos[1], pos[2] = E[0], E[1], depth_below_m
+    vel = np.empty(3)
+    vel[0], vel[1], vel[2] = vx, vy, 0.0
+    bpos = np.zeros(3)
+    if beacon == 2:
+        bpos[0] = E[5]
+    h, H3 = range_prediction(pos, vel, delays_s, bpos)
+    H[:] = 0.0
+    H[0], H[1] = H3[0], H3[1]
+    if beacon == 2:
+        H[5] = -H3[0]  # d z* / d l = -(x - l) / z*
+    return h
+
+
+@njit(cache=True)
+def _frame_range_rows(E, beacon, depth, vel, delays, h, H):
+    for b in range(E.shape[0]):
+        h[b] = frame_range_prediction(E[b], beacon, depth[b], vel[b, 0], vel[b, 1], delays[b], H[b])
+
+
+def frame_range_model(E, beacon, depth_below_m, velocity_mps, delays_s):
+    """``frame_range_prediction`` for filters E (B, 6): depth_below_m (B,) or scalar,
+    velocity_mps (B, 2) frame-relative, delays_s (B, L). Returns h (B,), H (B, 6)."""
+    E = np.ascontiguousarray(E, dtype=float)
     B = E.shape[0]
-    pos = np.stack([E[:, 0], E[:, 1], depth_below_m * np.ones(B)], -1)
-    vel = np.concatenate([velocity_mps, np.zeros((B, 1))], -1)
-    bpos = np.zeros((B, 3))
-    if beacon == 2:
-        bpos[:, 0] = E[:, 5]
-    h, H3 = range_model(pos, vel, delays_s, bpos)
-    H = np.zeros((B, 6))
-    H[:, 0], H[:, 1] = H3[:, 0], H3[:, 1]
-    if beacon == 2:
-        H[:, 5] = -H3[:, 0]  # d z* / d l = -(x - l) / z*
+    depth = np.ascontiguousarray(np.broadcast_to(depth_below_m, (B,)), dtype=float)
+    vel = np.ascontiguousarray(velocity_mps, dtype=float)
+    delays = np.ascontiguousarray(delays_s, dtype=float)
+    h, H = np.empty(B), np.empty((B, 6))
+    _frame_range_rows(E, int(beacon), depth, vel, delays, h, H)
     return h, H
