@@ -222,9 +222,11 @@ def warm_start_files(spec) -> tuple:
         model, stats, _ = agents.resolve(str(spec))
     except ValueError as err:
         raise ValueError(f"init_from: {err}") from None
+    if model.name == "gate.yml":
+        raise ValueError(f"init_from: {spec!r} is a gate of two networks ({model}); name one of its networks "
+                         "(the directories that file lists)")
     if model.suffix != ".zip":
-        raise ValueError(f"init_from: {spec!r} is not one SB3 model ({model.name}); name one of its networks, "
-                         f"e.g. {model.parent / 'shallow'}")
+        raise ValueError(f"init_from: {spec!r} is not a stable-baselines3 model ({model}): an SB3 run or policy only")
     return model, stats
 
 
