@@ -172,7 +172,7 @@ class BoatView:
 
 def decode_boat(obs, config) -> BoatView:
     """Decode boat observations (..., OBS_DIM) of a moving-network scenario."""
-    from .core.moving_network import AGE_SCALE_PINGS, OBS_FIELDS
+    from .core.moving_network import OBS_FIELDS
 
     if config.network != "moving_lbl":
         raise ValueError(f"decode_boat needs a network='moving_lbl' scenario, not {config.name!r}")

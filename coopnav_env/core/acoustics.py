@@ -70,19 +70,3 @@ def travel_time_s(sender_pos_m, receiver_pos_m, receiver_vel_mps, sound_speed_mp
     return np.vectorize(travel_time, signature="(3),(3),(3),()->()")(
         np.asarray(sender_pos_m, float), np.asarray(receiver_pos_m, float),
         np.asarray(receiver_vel_mps, float), np.asarray(sound_speed_mps, float))
-
-
-@njit(cache=True)
-def _travel_rows(sender, receiver, receiver_velocity, sound_speed_mps, out):
-    for i in range(sender.shape[0]):
-        out[i] = travel_time(sender[i], receiver[i], receiver_velocity[i], sound_speed_mps[i])
-
-
-def travel_times(sender_pos_m, receiver_pos_m, receiver_vel_mps, sound_speed_mps):
-    """``travel_time`` over a batch: positions and velocity (B, 3), sound speed (B,) -> (B,) s."""
-    s = np.ascontiguousarray(sender_pos_m, dtype=float)
-    out = np.empty(s.shape[0])
-    _travel_rows(s, np.ascontiguousarray(receiver_pos_m, dtype=float),
-                 np.ascontiguousarray(receiver_vel_mps, dtype=float),
-                 np.ascontiguousarray(np.broadcast_to(sound_speed_mps, s.shape[:1]), dtype=float), out)
-    return out

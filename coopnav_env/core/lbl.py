@@ -17,7 +17,7 @@ transmission and tau the transponders' turn-around delay:
 * l = m - d1 - d2.
 
 Every instant here comes from propagating sound between vehicles that move
-while it travels (``acoustics.travel_times``), every detection is late by a
+while it travels (``acoustics.travel_time``), every detection is late by a
 jitter (and, rarely, by a multipath excess), and every signal can be lost.
 """
 

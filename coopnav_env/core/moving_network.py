@@ -62,6 +62,7 @@ from .navigation import (
     joseph_work,
 )
 from .numerics import complex_abs, complex_div_real
+from .observation import AGE_SCALE_PINGS, OBS_BOUND  # the survey network's age scale and bound
 from .sim import INFO_KEYS, BatchSimulator, StepResult
 from .state import BatchArrays
 
@@ -74,7 +75,6 @@ OBS_FIELDS = (("role", 1), ("own_velocity_xy", 2), ("baseline_error", 1), ("trac
               ("tracked_velocity_xy", 2), ("fix_age", 1), ("has_fix", 1), ("frame_bearing", 2),
               ("own_from_tracked_xy", 2), ("elapsed", 1))
 OBS_DIM = sum(n for _, n in OBS_FIELDS)
-AGE_SCALE_PINGS = 10.0
 TRACKER_ALPHA, TRACKER_BETA = 0.5, 0.2  # the boats' alpha-beta tracker on the fixes [U]
 REINIT_AFTER_CYCLES = 3  # the vehicle restarts its position from an LBL fix after this many gated-out cycles
 
@@ -434,10 +434,10 @@ def _observe_boats(b_pos, gps_err, b_vel, k_pos, k_vel, k_age_s, k_has_fix, cycl
                     cycle[b] / max_cycles)
             for k in range(OBS_DIM):
                 v = vals[k]
-                if v < -10.0:
-                    v = -10.0
-                elif v > 10.0:
-                    v = 10.0
+                if v < -OBS_BOUND:
+                    v = -OBS_BOUND
+                elif v > OBS_BOUND:
+                    v = OBS_BOUND
                 o[k] = v
 
 
@@ -647,7 +647,7 @@ class MovingNetworkSimulator(BatchSimulator):
         L = c.baseline_target_m
         b1, b2, v = st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], st.s_pos[:, 0, :2]
         x, y, phi, length = lbl.world_to_frame(b1, b2, v)
-        major, minor, bearing = error_ellipse(st.f_P, n_sigma=ELLIPSE_N_SIGMA)
+        major, minor, bearing = error_ellipse(st.f_P)
         cur = st.current_mean + st.current_gm
         parts = [
             x / L, y / L, (st.f_E[:, 0] - x) / 10.0, (st.f_E[:, 1] - y) / 10.0,
@@ -657,4 +657,4 @@ class MovingNetworkSimulator(BatchSimulator):
             st.b_vel[:, 1, 1], st.s_vel_true[:, 0, 0], st.s_vel_true[:, 0, 1], cur.real, cur.imag,
             (st.k_pos[:, 0] - v[:, 0]) / 10.0, (st.k_pos[:, 1] - v[:, 1]) / 10.0, st.cycle / c.max_cycles,
         ]
-        return np.clip(np.stack(parts, -1), -10.0, 10.0).astype(np.float32)
+        return np.clip(np.stack(parts, -1), -OBS_BOUND, OBS_BOUND).astype(np.float32)

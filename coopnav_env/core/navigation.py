@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 from scipy.stats import chi2
 
-from .numerics import lu_solve, matmul, matmul_at, matmul_bt, vecmat
+from .numerics import lu_solve, matmul, vecmat
 
 
 def predict(x, P, dx, Q):
@@ -172,7 +172,7 @@ def joseph_update_vector(x, P, y, H, R, gate, work):
         vecmat(H[0], P, HP[0])
     else:
         matmul(H, P, HP)
-    matmul_bt(HP, H, S)
+    matmul(HP, H.T, S)
     for i in range(m):
         for j in range(m):
             S[i, j] += R[i, j]  # eq. (11)
@@ -191,14 +191,14 @@ def joseph_update_vector(x, P, y, H, R, gate, work):
         for j in range(m):
             s += X[j, i] * y[j]
         x[i] += s
-    matmul_at(X, H, A)  # K H
+    matmul(X.T, H, A)  # K H
     for i in range(n):
         for j in range(n):
             A[i, j] = (1.0 if i == j else 0.0) - A[i, j]
     matmul(R, X, RK)
     matmul(A, P, AP)
-    matmul_bt(AP, A, T1)
-    matmul_at(X, RK, T2)
+    matmul(AP, A.T, T1)
+    matmul(X.T, RK, T2)
     for i in range(n):  # eq. (13), Joseph form: (I - KH) P (I - KH)^T + K R K^T
         for j in range(n):
             P[i, j] = T1[i, j] + T2[i, j]

@@ -56,34 +56,13 @@ def complex_div_real(z, d):
 @njit(cache=True)
 def matmul(A, B, out):
     """out = A @ B; every element a dot product accumulated in order with fused
-    multiply-adds (as BLAS's small-matrix kernels do). A (p, q), B (q, r)."""
+    multiply-adds (as BLAS's small-matrix kernels do). A (p, q), B (q, r); transposes
+    are passed as views (``matmul(A, B.T, out)``), which keeps the same order."""
     for i in range(A.shape[0]):
         for j in range(B.shape[1]):
             s = 0.0
             for k in range(A.shape[1]):
                 s = fma(A[i, k], B[k, j], s)
-            out[i, j] = s
-
-
-@njit(cache=True)
-def matmul_bt(A, B, out):
-    """out = A @ B.T, as ``matmul``. A (p, q), B (r, q)."""
-    for i in range(A.shape[0]):
-        for j in range(B.shape[0]):
-            s = 0.0
-            for k in range(A.shape[1]):
-                s = fma(A[i, k], B[j, k], s)
-            out[i, j] = s
-
-
-@njit(cache=True)
-def matmul_at(A, B, out):
-    """out = A.T @ B, as ``matmul``. A (q, p), B (q, r)."""
-    for i in range(A.shape[1]):
-        for j in range(B.shape[1]):
-            s = 0.0
-            for k in range(A.shape[0]):
-                s = fma(A[k, i], B[k, j], s)
             out[i, j] = s
 
 

@@ -347,6 +347,8 @@ class Simulator(BatchSimulator):
         shape = (B, N, S)
         if self._mls is None:
             return self._no_mls  # the kernel reads none of them
+        from .mls import wrap_angle_rad  # loaded already: the simulator built its MLS sensor
+
         c, st = self.config, self.state
         sends = self._sender_mask(st.cycle - 1)  # the cycle counter has advanced already
         j = np.argmax(sends, axis=1)  # (B,)
@@ -372,7 +374,7 @@ class Simulator(BatchSimulator):
         # unfold with the survey's estimate: a sender predicted behind is mirrored back
         de = st.b_pos[rows, j, 0][:, None] + st.b_nav_err[rows, j, 0][:, None] - st.s_est[..., 0]
         dn = st.b_pos[rows, j, 1][:, None] + st.b_nav_err[rows, j, 1][:, None] - st.s_est[..., 1]
-        predicted_az = (compass - np.arctan2(de, dn) + np.pi) % (2 * np.pi) - np.pi  # anticlockwise positive
+        predicted_az = wrap_angle_rad(compass - np.arctan2(de, dn))  # anticlockwise positive
         az = np.where(np.abs(predicted_az) > np.pi / 2, np.where(az >= 0, np.pi - az, -np.pi - az), az)
         bearing = compass - az  # a sender to port (positive azimuth) has a smaller bearing
         state = np.where(sends[..., None], np.where(heard, 2, 1)[:, None, :], 0).astype(np.int8)
