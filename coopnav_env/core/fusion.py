@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit, prange
 
 from .acoustics import mackenzie_sound_speed, packet_loss_probability, travel_time
-from .navigation import innovation_variance, joseph_update, range_prediction
+from .navigation import gated_update, joseph_update, range_prediction
 
 
 def _fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m, gps_noise_m,
@@ -88,13 +88,11 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                     r = mls_range[b, j, s]
                     h, H = range_prediction(est[b, s], s_vel_est[b, s], delays, b_est[b, j])
                     R = mls_range_var[b, j, s] + b_var[b, j]
-                    y = r - h
-                    if y * y / innovation_variance(P[b, s], H, R) > gate:
-                        rejected[b, j, s] = True
-                    else:
-                        joseph_update(est[b, s], P[b, s], r, h, H, R)
+                    if gated_update(est[b, s], P[b, s], r, h, H, R, gate):
                         fused[b, j, s] = True
                         any_fused = True
+                    else:
+                        rejected[b, j, s] = True
                     de = b_est[b, j, 0] - est[b, s, 0]
                     dn = b_est[b, j, 1] - est[b, s, 1]
                     rho2 = max(de * de + dn * dn, 1e-6)
@@ -103,13 +101,12 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                     H[1] = de / rho2
                     H[2] = 0.0
                     R = mls_bearing_var[b, j, s] + b_var[b, j] / rho2
-                    y = (mls_bearing[b, j, s] - hb + np.pi) % (2.0 * np.pi) - np.pi
-                    if y * y / innovation_variance(P[b, s], H, R) > gate:
-                        rejected[b, j, s] = True
-                    else:
-                        joseph_update(est[b, s], P[b, s], hb + y, hb, H, R)
+                    y = (mls_bearing[b, j, s] - hb + np.pi) % (2.0 * np.pi) - np.pi  # wrapped innovation
+                    if gated_update(est[b, s], P[b, s], hb + y, hb, H, R, gate):
                         fused[b, j, s] = True
                         any_fused = True
+                    else:
+                        rejected[b, j, s] = True
                     continue
                 depth = 0.5 * (s_pos[b, s, 2] + b_pos[b, j, 2])
                 c_true = mackenzie_sound_speed(temperature_c[b], salinity_psu, depth)
@@ -152,11 +149,9 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                 h, H = range_prediction(est[b, s], s_vel_est[b, s], delays, b_est[b, j])
                 R = (range_noise_std_m[b] ** 2 + b_var[b, j]
                      + (h * temperature_uncertainty_c * dc_dT / c_assumed) ** 2)
-                y = r - h
-                if y * y / innovation_variance(P[b, s], H, R) > gate:
+                if not gated_update(est[b, s], P[b, s], r, h, H, R, gate):
                     rejected[b, j, s] = True
                     continue
-                joseph_update(est[b, s], P[b, s], r, h, H, R)
                 fused[b, j, s] = True
                 any_fused = True
             if any_fused:

@@ -88,6 +88,17 @@ def joseph_update(x, P, z, h, H, R):
     return y, S
 
 
+@njit(cache=True)
+def gated_update(x, P, z, h, H, R, gate):
+    """``joseph_update`` if the measurement passes the chi-square gate on its normalized
+    innovation squared, (z - h)^2 / S <= gate; returns whether it was fused."""
+    y = z - h
+    if y * y / innovation_variance(P, H, R) > gate:
+        return False
+    joseph_update(x, P, z, h, H, R)
+    return True
+
+
 # --- the same equations over any leading batch axes, from Python ----------------------
 @njit(cache=True)
 def _update_rows(x, P, z, h, H, R, mask, y, S):
