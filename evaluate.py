@@ -662,7 +662,7 @@ def draw_frame_errors(out, policies, step_rows, args, config):
         for ax, key in zip(axes[:2], ("error_x_m", "error_y_m")):
             v = np.array([float(r[key]) for r in rows])
             ax.plot(t, v, color=f"C{i}", lw=0.8, label=f"{p} (std {v.std():.2f} m)")
-        # 2-sigma semi-axes -> the 1-sigma axis lengths (2 x semi-axis / 2)
+        # the step rows' ellipse columns: 2-sigma semi-axes, plotted as they are
         axes[2].plot(t, [float(r["ellipse_major_m"]) for r in rows], color=f"C{i}", lw=0.9, label=f"{p} major")
         axes[2].plot(t, [float(r["ellipse_minor_m"]) for r in rows], color=f"C{i}", lw=0.9, ls=":", label=f"{p} minor")
     for ax, label in zip(axes, ("x error (m)", "y error (m)", "2-sigma semi-axes (m)")):
