@@ -95,6 +95,7 @@ class CoopNavParallelEnv(ParallelEnv):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'human', 'rgb_array'")
         self.render_mode = render_mode
         self.sim = make_simulator(self.config, batch_size=1)
+        self.last_result = None  # the core's StepResult of the last step (training-reward wrappers read it)
         self.possible_agents = [f"beacon_{i}" for i in range(self.config.n_beacons)]
         self.agents = []
         self._action_space = action_space()
@@ -143,7 +144,7 @@ class CoopNavParallelEnv(ParallelEnv):
         if missing:
             raise ValueError(f"no action given for live agents {missing}")
         batch = np.stack([check_action(a, actions[a]) for a in self.agents])[None]
-        res = self.sim.step(batch)
+        res = self.last_result = self.sim.step(batch)  # the core's StepResult, for wrappers
         if self._recorder is not None:
             self._recorder.record(self.sim.state, 0)
         info = agent_infos(res.info, 0)

@@ -29,7 +29,7 @@ RLlib's wrapper, which falls short here in four ways (ray 2.50-2.60):
   ``coopnav_env.vector.REWARD_TERMS``: the "std" and "penalties" signals the shipped
   SB3 policies were trained with) replaces the env's reward during training; the
   wrapper can only pass the env's reward through. The adapter computes the same
-  terms with the same formulas as ``CoopNavVecEnv.training_reward``.
+  terms with the same function as ``CoopNavVecEnv`` (``vector.training_reward``).
 
 It also casts observations to the space's float32 and, by default, trims the infos
 to ``survey_error_m`` and ``dr_error_m`` (RLlib keeps every info dict of every
@@ -55,7 +55,7 @@ from ray.rllib.env.multi_agent_env import MultiAgentEnv
 
 from .pettingzoo_env import CoopNavParallelEnv
 from .scenarios import ScenarioConfig, make_config
-from .vector import SEED_STRIDE, check_reward_terms
+from .vector import SEED_STRIDE, check_reward_terms, training_reward
 
 _COPIES = itertools.count()  # environment copies made in this process (a runner's sub-envs, in order)
 
@@ -105,21 +105,6 @@ class KindMapping:
         return f"KindMapping({self.mapping!r})"
 
 
-class _LastResult:
-    """Stands in for ``sim.step`` and keeps the last ``StepResult`` (the env's
-    ``step`` returns dicts, but the training reward's "penalties" term is the core's
-    per-beacon safety + geofence penalty). A module-level class, so the env pickles."""
-
-    def __init__(self, sim):
-        self.step = sim.step  # the bound method
-        self.result = None
-        sim.step = self
-
-    def __call__(self, actions):
-        self.result = self.step(actions)
-        return self.result
-
-
 class CoopNavRLlibEnv(MultiAgentEnv):
     """A coopnav scenario as an RLlib ``MultiAgentEnv`` (new API stack): one
     ``CoopNavParallelEnv`` inside. See the module docstring for why not RLlib's
@@ -155,7 +140,6 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         self.base_seed = None if seed is None else int(seed)
         self._episodes = 0
         self._rng = np.random.default_rng()
-        self._capture = _LastResult(self.env.sim)  # the core's StepResult, for the training reward
         self.possible_agents = list(self.env.possible_agents)
         self.agents = []
         self.observation_spaces = {a: self.env.observation_space(a) for a in self.possible_agents}
@@ -186,7 +170,7 @@ class CoopNavRLlibEnv(MultiAgentEnv):
     def step(self, action_dict):
         obs, rewards, terms, truncs, infos = self.env.step(action_dict)
         if self.reward_terms is not None:
-            rewards = self.training_reward(rewards, infos)
+            rewards = self.training_reward(rewards)
         first = next(iter(infos.values()), None)
         if first is not None:
             self._err_sum += first["survey_error_m"]
@@ -202,26 +186,11 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         self.agents = list(self.env.agents)
         return obs, rewards, terms, truncs, infos
 
-    def training_reward(self, env_rewards: dict, infos: dict) -> dict:
-        """``CoopNavVecEnv.training_reward``'s weighted terms for the one environment
-        (same formulas; "penalties" is the core's safety + geofence penalty)."""
-        res, st = self._capture.result, self.env.sim.state
-        agents = list(env_rewards)
-        total = np.zeros(len(agents))
-        for name, w in self.reward_terms.items():
-            if name == "env":
-                term = np.array([env_rewards[a] for a in agents])
-            elif name == "error":
-                term = -res.info["survey_error_m"][0].mean()
-            elif name == "std":
-                P = st.s_P[0]
-                term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean()
-            elif name == "logdet":
-                term = -0.5 * res.info["cov_logdet"][0].mean()
-            else:  # penalties
-                term = -res.safety_geofence_penalty[0]
-            total = total + w * term
-        return {a: float(total[i]) for i, a in enumerate(agents)}
+    def training_reward(self, env_rewards: dict) -> dict:
+        """``vector.training_reward``'s weighted terms for the one environment, from the
+        core's StepResult of this step (``CoopNavParallelEnv.last_result``)."""
+        total = training_reward(self.reward_terms, self.env.last_result, self.env.sim.state)[0]
+        return {a: float(total[i]) for i, a in enumerate(env_rewards)}
 
     def render(self):
         return self.env.render()

@@ -97,6 +97,31 @@ def check_reward_terms(terms) -> dict | None:
     return out
 
 
+def training_reward(reward_terms: dict, res, state) -> np.ndarray:
+    """The weighted sum of ``reward_terms`` (see the module docstring) for one batched
+    step: ``res`` the core's StepResult, ``state`` the simulator's state after it.
+    Returns (B, N); every beacon of an environment gets the same value except for
+    the ``env`` and ``penalties`` terms, which are per beacon."""
+    B, N = res.reward.shape
+    total = np.zeros((B, N))
+    for name, w in reward_terms.items():
+        if name == "env":
+            term = res.reward
+        elif name == "error":
+            term = -res.info["survey_error_m"].mean(-1)[:, None]
+        elif name == "std":
+            P = state.s_P
+            term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
+        elif name == "logdet":
+            term = -0.5 * res.info["cov_logdet"].mean(-1)[:, None]
+        elif name == "rejected":
+            term = -res.info["outliers_rejected"].sum(-1)[:, None]
+        else:  # penalties: the core's safety and geofence terms of this step
+            term = -res.safety_geofence_penalty
+        total += w * term
+    return total
+
+
 class CoopNavVecEnv(VecEnv):
     """``n_envs`` environments of ``scenario``, one row per beacon. See the module docstring.
 
@@ -217,24 +242,7 @@ class CoopNavVecEnv(VecEnv):
 
     def training_reward(self, res) -> np.ndarray:
         """The weighted sum of ``reward_terms`` for this step, (n_envs, n_beacons)."""
-        st = self.sim.state
-        total = np.zeros((self.n_envs, self.n_beacons))
-        for name, w in self.reward_terms.items():
-            if name == "env":
-                term = res.reward
-            elif name == "error":
-                term = -res.info["survey_error_m"].mean(-1)[:, None]
-            elif name == "std":
-                P = st.s_P
-                term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
-            elif name == "rejected":
-                term = -res.info["outliers_rejected"].sum(-1)[:, None]
-            elif name == "logdet":
-                term = -0.5 * res.info["cov_logdet"].mean(-1)[:, None]
-            else:  # penalties: the core's safety and geofence terms of this step
-                term = -res.safety_geofence_penalty
-            total += w * term
-        return total
+        return training_reward(self.reward_terms, res, self.sim.state)
 
     def _row_infos(self, info: dict, time_limit: np.ndarray) -> list:
         """One info dict per row: ``views.agent_infos`` of its environment (computed for
