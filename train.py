@@ -362,6 +362,23 @@ def baseline_actor(name: str):
     return act
 
 
+def baselines_on_eval_seeds(out: Path, cells: list, names, episodes: int, seed: int) -> dict:
+    """The planners ``names`` scored on the evaluation seeds, once per run: read from
+    and written (atomically) to ``out/baseline_eval.json``; name -> {survey_error_m, per_cell}."""
+    scores = read_json(out / "baseline_eval.json") or {}
+    for name in names or []:
+        if name in scores:
+            continue
+        try:
+            result = evaluate(baseline_actor(name), cells, episodes, seed)
+        except ImportError as err:  # the baselines package is not there
+            print(f"baseline {name} not evaluated: {err}", file=sys.stderr)
+            continue
+        scores[name] = {"survey_error_m": result["survey_error_m"], "per_cell": result["per_cell"]}
+    atomic_write_text(out / "baseline_eval.json", json.dumps(scores))
+    return scores
+
+
 def model_actor(model, vecnorm):
     def act(obs, venv):
         return model.predict(vecnorm.normalize_obs(obs), deterministic=True)[0]
@@ -631,17 +648,8 @@ def main(argv=None) -> int:
     # --- baselines on the evaluation seeds (once per run) --------------------------
     baseline_scores = read_json(out / "baseline_eval.json") or {}
     if int(ev.get("every_steps", 100_000)) > 0:
-        for name in ev.get("baselines", []) or []:
-            if name in baseline_scores:
-                continue
-            try:
-                result = evaluate(baseline_actor(name), cells, int(ev.get("episodes", 32)),
-                                  int(ev.get("seed", 1_000_000)))
-            except ImportError as err:  # the baselines package is not there
-                print(f"baseline {name} not evaluated: {err}", file=sys.stderr)
-                continue
-            baseline_scores[name] = {"survey_error_m": result["survey_error_m"], "per_cell": result["per_cell"]}
-        atomic_write_text(out / "baseline_eval.json", json.dumps(baseline_scores))
+        baseline_scores = baselines_on_eval_seeds(out, cells, ev.get("baselines"), int(ev.get("episodes", 32)),
+                                                  int(ev.get("seed", 1_000_000)))
 
     # --- learn, stopping cleanly on SIGINT/SIGTERM -----------------------------------
     state = {"stop": False, "t0": time.perf_counter(), "started": started}

@@ -399,15 +399,11 @@ def evaluate_checkpoint(path, scenario_config, cells, ev: dict) -> dict | None:
 
 
 def baselines_on_eval_seeds(out: Path, cells, ev: dict) -> dict:
-    scores = read_json(out / "baseline_eval.json") or {}
+    """train.py's, with this backend's evaluation defaults (16 episodes, seeds 500000..)."""
     episodes = int(ev.get("episodes", 16))
-    if episodes > 0:
-        for name in ev.get("baselines", []) or []:
-            if name not in scores:
-                result = train.evaluate(train.baseline_actor(name), cells, episodes, int(ev.get("seed", 500000)))
-                scores[name] = {"survey_error_m": result["survey_error_m"], "per_cell": result["per_cell"]}
-        atomic_write_text(out / "baseline_eval.json", json.dumps(scores))
-    return scores
+    if episodes <= 0:
+        return read_json(out / "baseline_eval.json") or {}
+    return train.baselines_on_eval_seeds(out, cells, ev.get("baselines"), episodes, int(ev.get("seed", 500000)))
 
 
 # ----------------------------------------------------------------------------------
