@@ -42,9 +42,7 @@ class BeaconContext:
         if not 0 <= agent_index < config.n_beacons:
             raise ValueError(f"agent index {agent_index} out of range for {config.n_beacons} beacon(s)")
         kind = config.beacon_kinds[agent_index]
-        speed = {"asv": config.asv_max_speed_mps, "boat": config.boat_max_speed_mps}.get(
-            kind, config.beacon_auv_max_speed_mps)
-        return cls(config=config, agent_index=agent_index, max_speed_mps=speed,
+        return cls(config=config, agent_index=agent_index, max_speed_mps=config.max_speed_mps(kind),
                    ping_interval_s=config.ping_interval_s,
                    depth_m=config.beacon_auv_depth_m if kind == "beacon_auv" else 0.0)
 

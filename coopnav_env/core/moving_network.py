@@ -463,7 +463,7 @@ class MovingNetworkSimulator(BatchSimulator):
         self.info_keys = FRAME_INFO_KEYS
         wp, _ = build_path(c, 0)
         self._waypoints = wp
-        self._max_speed = np.full(2, c.boat_max_speed_mps)
+        self._max_speed = np.array(c.beacon_max_speeds_mps)
         turn = np.radians(np.full(2, c.boat_max_turn_rate_dps)) * c.substep_s
         self._boat_turn_cos, self._boat_turn_sin = np.cos(turn), np.sin(turn)
         vturn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s

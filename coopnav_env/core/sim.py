@@ -85,7 +85,7 @@ class Simulator(BatchSimulator):
         self._drag_k = drag_constant(c.survey_drag_coefficient, c.water_density_kgpm3, c.survey_cross_section_m2)
         is_asv = np.array([k == "asv" for k in c.beacon_kinds])
         self._beacon_is_asv = is_asv
-        self._beacon_max_speed = np.where(is_asv, c.asv_max_speed_mps, c.beacon_auv_max_speed_mps)
+        self._beacon_max_speed = np.array(c.beacon_max_speeds_mps)
         beacon_turn = np.radians(np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
         self._beacon_turn_cos, self._beacon_turn_sin = np.cos(beacon_turn), np.sin(beacon_turn)
         survey_turn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s

@@ -220,6 +220,20 @@ class ScenarioConfig:
         w, h = self.survey_area_m
         return float(max(w, h) / 2 + self.geofence_margin_m)
 
+    def max_speed_mps(self, kind: str) -> float:
+        """A beacon's maximum speed through the water by its kind (``BEACON_KINDS``):
+        the one place that maps a kind to its speed parameter."""
+        speeds = {"beacon_auv": self.beacon_auv_max_speed_mps, "asv": self.asv_max_speed_mps,
+                  "boat": self.boat_max_speed_mps}
+        if kind not in speeds:
+            raise ValueError(f"unknown beacon kind {kind!r}; valid: {', '.join(speeds)}")
+        return float(speeds[kind])
+
+    @property
+    def beacon_max_speeds_mps(self) -> tuple:
+        """The maximum speed of each beacon, in ``beacon_kinds`` order."""
+        return tuple(self.max_speed_mps(k) for k in self.beacon_kinds)
+
     def replace(self, **overrides) -> "ScenarioConfig":
         return dataclasses.replace(self, **check_overrides(overrides))
 

@@ -1,0 +1,143 @@
+"""Files a run leaves behind: atomic writes, JSON/YAML reads, strict JSON, version records.
+
+One home for what the trainers and the evaluation both write. Every output file is
+written to a temporary file in the same directory, flushed to disk and renamed into
+place (``os.replace``), so an interrupted run never leaves a half-written file and a
+reader never sees one.
+
+    from coopnav_env.records import atomic_write_text, version_record
+    atomic_write_text("runs/x/run.json", strict_json({"versions": version_record()}))
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import subprocess
+import tempfile
+from pathlib import Path
+
+# the checkout this package was imported from (where `git rev-parse` is asked)
+PROJECT_ROOT = Path(__file__).resolve().parent.parent
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write_bytes(path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically: a temporary file beside it (same
+    filesystem), fsync, then ``os.replace``. The file gets the umask's permissions
+    (mkstemp's 0600 would otherwise leak through). On any error, including Ctrl-C,
+    the temporary file is removed and ``path`` keeps its old content."""
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix="." + os.path.basename(path) + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def atomic_write_text(path, text: str) -> None:
+    """``atomic_write_bytes`` of ``text`` encoded as UTF-8."""
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def read_json(path):
+    """The parsed content of a JSON file, or None if the file does not exist."""
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except FileNotFoundError:
+        return None
+
+
+def read_yaml(path):
+    """The parsed content of a YAML file (safe loader), or None if it does not exist."""
+    import yaml
+
+    try:
+        with open(path) as f:
+            return yaml.safe_load(f)
+    except FileNotFoundError:
+        return None
+
+
+def plain(obj):
+    """Tuples -> lists and numpy scalars -> Python numbers, recursively (for
+    ``yaml.safe_dump`` and ``json.dumps``)."""
+    if isinstance(obj, dict):
+        return {k: plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [plain(v) for v in obj]
+    if hasattr(obj, "item") and callable(obj.item) and getattr(obj, "shape", None) == ():
+        return obj.item()
+    return obj
+
+
+def _first_non_finite(obj, where="") -> str | None:
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return where or "the value"
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            found = _first_non_finite(v, f"{where}.{k}" if where else str(k))
+            if found:
+                return found
+    if isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            found = _first_non_finite(v, f"{where}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def strict_json(obj, indent: int | None = 2) -> str:
+    """``obj`` as standard JSON text (with a final newline). NaN and infinities are not
+    JSON: they raise ``ValueError`` naming where they are (e.g. ``policies.fim_a.mean_error_m``)."""
+    obj = plain(obj)
+    bad = _first_non_finite(obj)
+    if bad is not None:
+        raise ValueError(f"not finite, cannot be written as JSON: {bad}")
+    return json.dumps(obj, indent=indent, allow_nan=False) + "\n"
+
+
+def _git(*args) -> str:
+    try:
+        return subprocess.run(["git", *args], cwd=PROJECT_ROOT, capture_output=True, text=True,
+                              timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+
+
+def version_record(packages=("numpy", "scipy", "numba", "gymnasium", "pettingzoo", "torch",
+                             "stable_baselines3", "filterpy")) -> dict:
+    """What produced a result: Python, the given packages' versions (those that are
+    installed; imported lazily, only their metadata is read), coopnav's version, and
+    the git commit of the checkout (``git_dirty``: tracked files were modified)."""
+    from importlib import metadata
+
+    out = {"python": platform.python_version()}
+    names = {"stable_baselines3": "stable-baselines3"}
+    for name in ("coopnav",) + tuple(packages):
+        try:
+            out[name] = metadata.version(names.get(name, name))
+        except metadata.PackageNotFoundError:
+            continue
+    commit = _git("rev-parse", "HEAD") or None
+    out["git_commit"] = commit
+    out["git_dirty"] = bool(_git("status", "--porcelain", "--untracked-files=no")) if commit else None
+    return out
