@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .policy import BatchPolicy, _trained_scenario
+
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
 # "ppo" of a scenario without a policy of its own: the shipped policy of a sister
 # scenario with the same observation layout (gao_lawnmower: the lake trial of the
@@ -110,23 +112,6 @@ def resolve(name_or_path, scenario=None) -> tuple:
 
 def _scenario_name(scenario) -> str:
     return scenario if isinstance(scenario, str) else scenario.name
-
-
-class BatchPolicy:
-    """What trained policies share: ``act`` on one observation through ``act_batch``
-    (subclasses set ``obs_dim`` and implement ``act_batch`` and ``reset``)."""
-
-    obs_dim: int
-    obs_dtype = np.float64
-
-    def act(self, obs) -> np.ndarray:
-        obs = np.asarray(obs, dtype=self.obs_dtype)
-        if obs.shape != (self.obs_dim,):
-            raise ValueError(f"observation must have shape ({self.obs_dim},), got {obs.shape}")
-        return self.act_batch(obs[None])[0]
-
-    def __call__(self, obs):
-        return self.act(obs)
 
 
 class PPOPolicy(BatchPolicy):
@@ -259,21 +244,6 @@ def _load_gated(gate_path: Path, scenario, device, name):
     return DepthGatedPolicy(*parts, threshold_m=float(spec["threshold_m"]), name=name)
 
 
-def _trained_scenario(run_config: dict):
-    """The ScenarioConfig a run trained on (its base scenario with the training overrides)."""
-    from coopnav_env.scenarios import make_config
-
-    args = run_config.get("args", {}) or {}
-    name = args.get("scenario")
-    if name is None:
-        return None
-    overrides = ((run_config.get("hyperparameters", {}) or {}).get("env", {}) or {}).get("overrides", {}) or {}
-    try:
-        return make_config(name, **overrides)
-    except ValueError:
-        return None
-
-
 _CACHE: dict = {}
 
 
@@ -288,7 +258,7 @@ def make_policy(name_or_path, env_or_config=None, seed=None, agent=0) -> PPOPoli
         return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent)
     scenario = None
     if env_or_config is not None:
-        from baselines.base import resolve_config
+        from coopnav_env.scenarios import resolve_config
 
         scenario = resolve_config(env_or_config)
     model_path, _, _ = resolve(name_or_path, scenario)

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents import BatchPolicy, _trained_scenario
+from agents.policy import BatchPolicy, _trained_scenario
 
 CHECKPOINT_MARKER = "rllib_checkpoint.json"
 MODULE_DIR = Path("learner_group") / "learner" / "rl_module"
@@ -228,7 +228,7 @@ def _run(path, scenario=None) -> _LoadedRun:
 def _target(scenario):
     if scenario is None:
         return None
-    from baselines.base import resolve_config
+    from coopnav_env.scenarios import resolve_config
 
     return resolve_config(scenario)
 

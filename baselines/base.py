@@ -20,7 +20,7 @@ import numpy as np
 
 from coopnav_env.core import acoustics
 from coopnav_env.obs_layout import ObsView, decode
-from coopnav_env.scenarios import ScenarioConfig, make_config
+from coopnav_env.scenarios import ScenarioConfig, resolve_config
 
 FENCE_MARGIN_M = 2.0  # plan this far inside the geofence
 SAFETY_MARGIN_M = 2.0  # and this far beyond the safety distance
@@ -224,32 +224,13 @@ def register_policy(name: str):
 
 
 def list_policies(network=None) -> list:
-    """Names of the baseline policies (those that can drive ``network``, if given)."""
-    _load_all()
+    """Names of the baseline policies (those that can drive ``network``, if given).
+    The planner modules register themselves when ``baselines`` is imported."""
     return sorted(n for n, cls in _POLICIES.items() if network is None or network in cls.networks)
-
-
-def _load_all():
-    from . import ellipse, fim, moving_lbl, simple  # noqa: F401  (register themselves)
-
-
-def resolve_config(env_or_config) -> ScenarioConfig:
-    """A ScenarioConfig from an env (any view with ``.config``), a Simulator, a
-    config or a scenario name."""
-    if isinstance(env_or_config, ScenarioConfig):
-        return env_or_config
-    if isinstance(env_or_config, str):
-        return make_config(env_or_config)
-    for obj in (env_or_config, getattr(env_or_config, "unwrapped", None)):
-        cfg = getattr(obj, "config", None)
-        if isinstance(cfg, ScenarioConfig):
-            return cfg
-    raise TypeError(f"cannot find a scenario config in {type(env_or_config).__name__}")
 
 
 def make_policy(name: str, env_or_config, seed=None, agent=0, **kwargs) -> Policy:
     """A baseline policy by name for one beacon (``agent``: index or "beacon_k")."""
-    _load_all()
     if name not in _POLICIES:
         raise ValueError(f"unknown policy {name!r}; valid policies: {', '.join(sorted(_POLICIES))}")
     if isinstance(agent, str):

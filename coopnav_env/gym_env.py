@@ -38,14 +38,14 @@ class CoopNavGymEnv(gym.Env):
             from .render import EpisodeRecorder
 
             self._recorder = EpisodeRecorder(self.config)
-            self._recorder.record(self.sim.state, 0)
-        return obs[0, 0], {}
+            self._recorder.record(self.sim.snapshot(), 0)
+        return obs[0, 0], agent_infos(self.sim.reset_info(), 0)  # the same keys as step()'s infos
 
     def step(self, action):
         a = check_action("beacon_0", action)
         res = self.sim.step(a[None, None])
         if self._recorder is not None:
-            self._recorder.record(self.sim.state, 0)
+            self._recorder.record(self.sim.snapshot(), 0)
         return (res.obs[0, 0], float(res.reward[0, 0]), bool(res.terminated[0]), bool(res.truncated[0]),
                 agent_infos(res.info, 0))
 

@@ -51,7 +51,8 @@ class CoopNavParallelEnv(ParallelEnv):
     **Episode end**: terminated when every survey vehicle has finished its path
     (or ``mission_duration_s`` has passed, if set); truncated after ``max_cycles``.
 
-    **Infos** (every agent, every step): ``survey_error_m`` (true horizontal error
+    **Infos** (every agent, every step, and from ``reset()`` with the same keys,
+    counts zero): ``survey_error_m`` (true horizontal error
     of the EKF estimate, metres, mean over survey vehicles), ``dr_error_m`` (the same
     for dead reckoning), ``cov_logdet`` (log det of the horizontal covariance, m^4),
     ``range_ok`` (a range was fused this cycle), counts ``ranges_fused``,
@@ -126,8 +127,9 @@ class CoopNavParallelEnv(ParallelEnv):
             from .render import EpisodeRecorder
 
             self._recorder = EpisodeRecorder(self.config)
-            self._recorder.record(self.sim.state, 0)
-        infos = {a: {} for a in self.agents}
+            self._recorder.record(self.sim.snapshot(), 0)
+        info = agent_infos(self.sim.reset_info(), 0)  # the same keys as step()'s (TorchRL/BenchMARL read them)
+        infos = {a: dict(info) for a in self.agents}
         return {a: obs[0, i] for i, a in enumerate(self.agents)}, infos
 
     def step(self, actions):
@@ -146,7 +148,7 @@ class CoopNavParallelEnv(ParallelEnv):
         batch = np.stack([check_action(a, actions[a]) for a in self.agents])[None]
         res = self.last_result = self.sim.step(batch)  # the core's StepResult, for wrappers
         if self._recorder is not None:
-            self._recorder.record(self.sim.state, 0)
+            self._recorder.record(self.sim.snapshot(), 0)
         info = agent_infos(res.info, 0)
         term, trunc = bool(res.terminated[0]), bool(res.truncated[0])
         agents = self.agents
@@ -162,6 +164,9 @@ class CoopNavParallelEnv(ParallelEnv):
         return obs, rewards, terms, truncs, infos
 
     def state(self):
+        """The true global state (``state_space``), for centralized critics."""
+        if self.sim.state is None:
+            raise RuntimeError("state() before reset(): call reset() first")
         return self.sim.global_state()[0]
 
     def render(self):

@@ -1,7 +1,7 @@
 """Drawing an episode: recorded snapshots in, a matplotlib figure out.
 
-Rendering reads a copy of the state after each step (``EpisodeRecorder``), so
-the simulator never knows it is being drawn. matplotlib is imported here only.
+Rendering keeps the simulator's snapshot after each step (``EpisodeRecorder``,
+``core.contract.Snapshot``), so the simulator never knows it is being drawn. matplotlib is imported here only.
 """
 
 from __future__ import annotations
@@ -19,16 +19,16 @@ class EpisodeRecorder:
         self.config = config
         self.t_s, self.true, self.dr, self.est, self.P, self.beacons = [], [], [], [], [], []
 
-    def record(self, state, row: int = 0):
-        self.t_s.append(float(state.t_s[row]))
-        self.true.append(state.s_pos[row].copy())
-        self.dr.append(state.s_dr[row].copy())
-        self.est.append(state.s_est[row].copy())
-        self.P.append(state.s_P[row, :, :2, :2].copy())
-        self.beacons.append(state.b_pos[row].copy())
-        # planned path in (east, north): a moving network's mission lives in its moving frame
-        self.waypoints = getattr(state, "waypoints_en", state.s_waypoints)[row]
-        self.n_waypoints = state.s_n_waypoints[row]
+    def record(self, snapshot, row: int = 0):
+        """Keep row ``row`` of a ``core.contract.Snapshot`` (``sim.snapshot()``)."""
+        self.t_s.append(float(snapshot.t_s[row]))
+        self.true.append(snapshot.survey_true_m[row].copy())
+        self.dr.append(snapshot.survey_dr_m[row].copy())
+        self.est.append(snapshot.survey_est_m[row].copy())
+        self.P.append(snapshot.survey_cov_en_m2[row].copy())
+        self.beacons.append(snapshot.beacon_true_m[row].copy())
+        self.waypoints = snapshot.waypoints_m[row]  # planned path in (east, north)
+        self.n_waypoints = snapshot.n_waypoints[row]
 
     def arrays(self):
         """(t (T,), true (T,S,3), dr, est, P (T,S,2,2), beacons (T,N,3))."""

@@ -189,7 +189,7 @@ class CoopNavRLlibEnv(MultiAgentEnv):
     def training_reward(self, env_rewards: dict) -> dict:
         """``vector.training_reward``'s weighted terms for the one environment, from the
         core's StepResult of this step (``CoopNavParallelEnv.last_result``)."""
-        total = training_reward(self.reward_terms, self.env.last_result, self.env.sim.state)[0]
+        total = training_reward(self.reward_terms, self.env.last_result, self.env.sim.reward_weights)[0]
         return {a: float(total[i]) for i, a in enumerate(env_rewards)}
 
     def render(self):

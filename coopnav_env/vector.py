@@ -54,9 +54,10 @@ from the step's arrays (every beacon of an environment gets the same value):
 ``std``        -sqrt(trace of the horizontal EKF covariance) after the cycle: the
                filter's own RMS error prediction (not privileged, less noisy)
 ``logdet``     -0.5 log det of the horizontal EKF covariance after the cycle
-``penalties``  -(safety_penalty x [too close] + geofence_penalty x [outside the
-               fence]) of the beacon: the environment's penalties without its
-               contact term (the core's own, StepResult.safety_geofence_penalty)
+``penalties``  minus the beacon's weighted penalty terms of the step
+               (``core.reward.PENALTY_TERMS``: safety, geofence and the moving
+               network's baseline, approach, rotation): the environment's
+               penalties without its contact term
 ``rejected``   -(ranges the survey filter's innovation gate rejected this cycle),
                summed over the survey vehicles: besides the multipath outliers the
                gate is there for, a rejected range is a filter that has drifted
@@ -70,6 +71,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
 from .core import make_simulator
+from .core.reward import penalties
 from .scenarios import make_config
 from .views import action_space, observation_space
 
@@ -97,11 +99,12 @@ def check_reward_terms(terms) -> dict | None:
     return out
 
 
-def training_reward(reward_terms: dict, res, state) -> np.ndarray:
+def training_reward(reward_terms: dict, res, weights: dict) -> np.ndarray:
     """The weighted sum of ``reward_terms`` (see the module docstring) for one batched
-    step: ``res`` the core's StepResult, ``state`` the simulator's state after it.
-    Returns (B, N); every beacon of an environment gets the same value except for
-    the ``env`` and ``penalties`` terms, which are per beacon."""
+    step: ``res`` the core's StepResult, ``weights`` the scenario's weights of its
+    reward terms (``core.reward.term_weights``). Returns (B, N); every beacon of an
+    environment gets the same value except for the ``env`` and ``penalties`` terms,
+    which are per beacon."""
     B, N = res.reward.shape
     total = np.zeros((B, N))
     for name, w in reward_terms.items():
@@ -110,14 +113,14 @@ def training_reward(reward_terms: dict, res, state) -> np.ndarray:
         elif name == "error":
             term = -res.info["survey_error_m"].mean(-1)[:, None]
         elif name == "std":
-            P = state.s_P
+            P = res.survey_cov_en_m2
             term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
         elif name == "logdet":
             term = -0.5 * res.info["cov_logdet"].mean(-1)[:, None]
         elif name == "rejected":
             term = -res.info["outliers_rejected"].sum(-1)[:, None]
-        else:  # penalties: the core's safety and geofence terms of this step
-            term = -res.safety_geofence_penalty
+        else:  # penalties: the core's weighted penalty terms of this step
+            term = -penalties(res.terms, weights)
         total += w * term
     return total
 
@@ -161,9 +164,7 @@ class CoopNavVecEnv(VecEnv):
     def episode_cells(self) -> list:
         """(survey_path, depth_m) of each environment's current episode (what the core's
         randomization drew; the scenario's own values without randomization)."""
-        if self.sim.state is None:
-            raise RuntimeError("episode_cells() before reset()")
-        return [self.sim.variants[v] for v in self.sim.state.ep_variant.tolist()]
+        return [self.sim.variants[v] for v in self.sim.episode_variants().tolist()]
 
     # ------------------------------------------------------------------------------
     def seed(self, seed=None):
@@ -187,7 +188,7 @@ class CoopNavVecEnv(VecEnv):
         obs = self.sim.reset(self._next_seeds(np.arange(self.n_envs)))
         self._started = True
         self._actions = None
-        self.reset_infos = [{} for _ in range(self.num_envs)]
+        self.reset_infos = self._row_infos(self.sim.reset_info(), np.zeros(self.n_envs, dtype=bool))
         self._reset_seeds()
         self._reset_options()
         return obs.reshape(self.num_envs, self.obs_dim)
@@ -242,7 +243,7 @@ class CoopNavVecEnv(VecEnv):
 
     def training_reward(self, res) -> np.ndarray:
         """The weighted sum of ``reward_terms`` for this step, (n_envs, n_beacons)."""
-        return training_reward(self.reward_terms, res, self.sim.state)
+        return training_reward(self.reward_terms, res, self.sim.reward_weights)
 
     def _row_infos(self, info: dict, time_limit: np.ndarray) -> list:
         """One info dict per row: ``views.agent_infos`` of its environment (computed for

@@ -4,7 +4,8 @@
 def make_simulator(config, batch_size: int = 1):
     """The simulator that reads ``config``: ``config.network`` chooses between the
     survey/beacon network (``sim.Simulator``) and the moving LBL network
-    (``moving_network.MovingNetworkSimulator``). Both expose the same interface."""
+    (``moving_network.MovingNetworkSimulator``). Both implement
+    ``contract.BatchedSimulator``."""
     if config.network == "moving_lbl":
         from .moving_network import MovingNetworkSimulator
 

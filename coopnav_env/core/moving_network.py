@@ -29,9 +29,9 @@ Steps 1-2 and 3-5 are compiled kernels written once over the batch
 one costs tens of microseconds; only what numpy computes differently from the C
 library (arctan2, log) is left to numpy around them.
 
-It exposes the same interface as ``core.sim.Simulator`` (reset, step, observe,
-global_state, obs_dim, state_dim, info_keys, variants), so every view, the trainer
-and evaluate.py run it unchanged.
+It implements the simulator contract (``core.contract.BatchedSimulator``) as
+``core.sim.Simulator`` does, so every view, the trainers and the evaluation run it
+unchanged.
 """
 
 from __future__ import annotations
@@ -63,7 +63,9 @@ from .navigation import (
 )
 from .numerics import complex_abs, complex_div_real
 from .observation import AGE_SCALE_PINGS, OBS_BOUND  # the survey network's age scale and bound
-from .sim import INFO_KEYS, BatchSimulator, StepResult
+from .contract import BatchSimulator, Snapshot, StepResult
+from .reward import MOVING_NETWORK_TERMS, term_weights, weighted_reward
+from .sim import INFO_KEYS
 from .state import BatchArrays
 
 # ellipse_major_m / ellipse_minor_m: ELLIPSE_N_SIGMA (2-sigma) semi-axes of the filter's (x, y)
@@ -121,28 +123,6 @@ class FrameState(BatchArrays):
     current_mean: np.ndarray  # complex (B,)
     current_gm: np.ndarray
 
-    @property
-    def s_est(self):
-        """The filter's position mapped to the world through the true frame (B,1,3),
-        as the logged boat positions allow after the mission (section IV)."""
-        phi, _ = lbl.baseline(self.b_pos[:, 0, :2], self.b_pos[:, 1, :2])
-        en = lbl.frame_to_world(self.b_pos[:, 0, :2], phi, self.f_E[:, 0], self.f_E[:, 1])
-        return np.concatenate([en, self.s_pos[:, 0, 2:]], -1)[:, None]
-
-    @property
-    def waypoints_en(self):
-        """The mission's waypoints placed in the world by the current true frame (B,1,W,3)."""
-        b1 = self.b_pos[:, 0, :2]
-        phi, _ = lbl.baseline(b1, self.b_pos[:, 1, :2])
-        wp = self.s_waypoints[:, 0]
-        en = lbl.frame_to_world(b1[:, None], phi[:, None], wp[..., 0], wp[..., 1])
-        return np.concatenate([en, wp[..., 2:]], -1)[:, None]
-
-    @property
-    def s_P(self):
-        """The filter's covariance (B,1,6,6); its (x, y) block gives the error ellipse."""
-        return self.f_P[:, None]
-
 
 @njit(cache=True)
 def integrate_vehicle(pos, heading, vel_true, wp_index, done, waypoints, n_wp, speed_scale, speed_mps, bias,
@@ -189,9 +169,11 @@ def integrate_vehicle(pos, heading, vel_true, wp_index, done, waypoints, n_wp, s
 
 # the per-cycle kernel's float outputs (columns of fval), besides its integer outputs
 # (ranges fused, outliers rejected, packets lost) and a range fused (bval)
+# reward terms (unweighted, 0/1): _F_SAFETY per boat, then the team's baseline, approach and contact
 (_F_DET_BEFORE, _F_DET_AFTER, _F_SURVEY_ERROR, _F_DR_ERROR, _F_ERROR_X, _F_ERROR_Y, _F_BASELINE_ERROR, _F_MAJOR,
- _F_MINOR, _F_VEHICLE_Y, _F_PENALTY, _F_PENALTY_B2, _F_CONTACT, _F_PHI_ERR_SIN, _F_PHI_ERR_COS) = range(15)
-N_FVAL, N_IVAL = 15, 3
+ _F_MINOR, _F_VEHICLE_Y, _F_SAFETY, _F_SAFETY_B2, _F_CONTACT, _F_PHI_ERR_SIN, _F_PHI_ERR_COS, _F_BASELINE_OFF,
+ _F_APPROACH) = range(17)
+N_FVAL, N_IVAL = 17, 3
 _INFO_COLUMNS = (("survey_error_m", _F_SURVEY_ERROR), ("dr_error_m", _F_DR_ERROR), ("error_x_m", _F_ERROR_X),
                  ("error_y_m", _F_ERROR_Y), ("baseline_error_m", _F_BASELINE_ERROR), ("ellipse_major_m", _F_MAJOR),
                  ("ellipse_minor_m", _F_MINOR), ("vehicle_y_m", _F_VEHICLE_Y))
@@ -199,8 +181,7 @@ _INFO_COLUMNS = (("survey_error_m", _F_SURVEY_ERROR), ("dr_error_m", _F_DR_ERROR
 CYCLE_SCALARS = ("salinity_psu", "water_temperature_c", "range_noise_std_m", "outlier_probability",
                  "outlier_mean_excess_m", "packet_loss_near", "packet_loss_far", "max_range_m", "turnaround_s",
                  "depth_noise_m", "gate1", "gate2", "depth_m", "ping_interval_s", "safety_distance_m",
-                 "safety_penalty", "baseline_target_m", "baseline_tolerance_m", "baseline_penalty",
-                 "min_baseline_distance_m", "approach_penalty", "rotation_penalty", "contact_penalty")
+                 "baseline_target_m", "baseline_tolerance_m", "min_baseline_distance_m")
 
 
 @njit(cache=True)
@@ -217,7 +198,7 @@ def _dist3(a, b):
 
 def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_depth, n_jitter, u_acoustic, log_u,
            E, P, rejected_cycles, speed_meas, heading_meas, dr, k_pos, k_vel, k_age_s, k_has_fix, phi, length,
-           phi_gps, length_gps, turned, scalars, fval, ival, bval):
+           phi_gps, length_gps, scalars, fval, ival, bval):
     """Steps 3-5 of a cycle for every environment, in place: the exchange (``lbl.exchange_of``),
     the filter's updates and its recovery (below), the boats' tracker, the reward's terms
     and the infos (fval, ival, bval; see ``MovingNetworkSimulator.step``).
@@ -242,9 +223,8 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
     GPS positions' (gps (B,2,2)); log_u (B,7) the logarithms of the multipath draws.
     """
     (salinity, nominal_temperature_c, range_noise_std_m, outlier_probability, outlier_mean_excess_m, loss_near,
-     loss_far, max_range_m, turnaround_s, depth_noise_m, gate1, gate2, depth_m, T, safety_distance_m, safety_penalty,
-     baseline_target_m, baseline_tolerance_m, baseline_penalty, min_baseline_distance_m, approach_penalty,
-     rotation_penalty, contact_penalty) = scalars
+     loss_far, max_range_m, turnaround_s, depth_noise_m, gate1, gate2, depth_m, T, safety_distance_m,
+     baseline_target_m, baseline_tolerance_m, min_baseline_distance_m) = scalars
     n_det = n_jitter.shape[1]
     for b in prange(s_pos.shape[0]):
         work = np.empty((2, 3))
@@ -353,11 +333,11 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
         ve, vn = v3[0], v3[1]
         sin_phi, cos_phi = np.sin(phi[b]), np.cos(phi[b])
         x, yv = lbl.to_frame(ve - b_pos[b, 0, 0], vn - b_pos[b, 0, 1], sin_phi, cos_phi)
-        team = (baseline_penalty * _one(abs(length[b] - baseline_target_m) > baseline_tolerance_m)
-                + approach_penalty * _one(yv < min_baseline_distance_m) + rotation_penalty * _one(turned[b]))
+        fval[b, _F_BASELINE_OFF] = _one(abs(length[b] - baseline_target_m) > baseline_tolerance_m)
+        fval[b, _F_APPROACH] = _one(yv < min_baseline_distance_m)
         for i in range(2):
-            fval[b, _F_PENALTY + i] = safety_penalty * _one(_dist3(b_pos[b, i], v3) < safety_distance_m) + team
-        fval[b, _F_CONTACT] = contact_penalty * _one(n_fused == 0)
+            fval[b, _F_SAFETY + i] = _one(_dist3(b_pos[b, i], v3) < safety_distance_m)
+        fval[b, _F_CONTACT] = _one(n_fused == 0)
         ex_, ey_ = E[b, 0] - x, E[b, 1] - yv
         fval[b, _F_SURVEY_ERROR] = np.hypot(ex_, ey_)
         de, dn = dr[b, 0, 0] - ve, dr[b, 0, 1] - vn
@@ -461,6 +441,8 @@ class MovingNetworkSimulator(BatchSimulator):
         self.S, self.N, self.K = 1, 2, c.substeps_per_cycle
         self.variants = [(c.survey_path, c.depth_m)]
         self.info_keys = FRAME_INFO_KEYS
+        self.reward_terms = MOVING_NETWORK_TERMS
+        self.reward_weights = term_weights(c, MOVING_NETWORK_TERMS)
         wp, _ = build_path(c, 0)
         self._waypoints = wp
         self._max_speed = np.array(c.beacon_max_speeds_mps)
@@ -596,12 +578,15 @@ class MovingNetworkSimulator(BatchSimulator):
         self._k_cycle(st.s_pos, st.s_vel_true, st.b_pos, st.b_vel, en[1], st.temperature_c, st.ep_noise_scale,
                       draws["depth"], draws["jitter"], draws["acoustic_u"], log_u, st.f_E, st.f_P,
                       st.f_rejected_cycles, st.s_speed_meas_mps, st.s_heading_meas_rad, st.s_dr, st.k_pos, st.k_vel,
-                      st.k_age_s, st.k_has_fix, phi[0], length[0], phi[1], length[1], turned, self._scalars,
+                      st.k_age_s, st.k_has_fix, phi[0], length[0], phi[1], length[1], self._scalars,
                       fval, ival, bval)
         logdet = floored_log(fval[:, _F_DET_BEFORE:_F_DET_AFTER + 1])
         info_gain = logdet[:, 0] - logdet[:, 1]
-        penalties = fval[:, _F_PENALTY:_F_PENALTY + 2]
-        reward = info_gain[:, None] - penalties - fval[:, _F_CONTACT:_F_CONTACT + 1]
+        team = lambda k: np.broadcast_to(fval[:, k:k + 1], (B, 2))  # noqa: E731 - one value for both boats
+        terms = {"info_gain": np.broadcast_to(info_gain[:, None], (B, 2)),
+                 "safety": fval[:, _F_SAFETY:_F_SAFETY_B2 + 1], "baseline": team(_F_BASELINE_OFF),
+                 "approach": team(_F_APPROACH), "rotation": np.broadcast_to(turned.astype(float)[:, None], (B, 2)),
+                 "contact": team(_F_CONTACT)}
 
         terminated = st.s_done[:, 0].copy()
         if c.mission_duration_s > 0:
@@ -623,7 +608,49 @@ class MovingNetworkSimulator(BatchSimulator):
             "ellipse_major_m": col["ellipse_major_m"], "ellipse_minor_m": col["ellipse_minor_m"],
             "vehicle_y_m": col["vehicle_y_m"],
         }
-        return StepResult(self.observe(), reward, terminated, truncated, info, penalties)
+        return StepResult(self.observe(), weighted_reward(terms, self.reward_weights), terminated, truncated, info, terms,
+                          st.f_P[:, None, :2, :2])
+
+    def _state_info(self) -> dict:
+        """The infos that follow from the state, in the true frame (as a step computes
+        them in its kernel): errors of the filter and of dead reckoning, the frame's
+        orientation and baseline errors, the 2-sigma ellipse, the vehicle's y."""
+        st = self.state
+        v = st.s_pos[:, 0, :2]
+        x, y, phi, length = lbl.world_to_frame(st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], v)
+        major, minor, _ = error_ellipse(st.f_P)
+        col = lambda a: np.asarray(a, dtype=float)[:, None]  # noqa: E731 - (B,) -> (B, S=1)
+        return {
+            "survey_error_m": col(np.hypot(st.f_E[:, 0] - x, st.f_E[:, 1] - y)),
+            "dr_error_m": col(np.linalg.norm(st.s_dr[:, 0, :2] - v, axis=-1)),
+            "cov_logdet": col(floored_log(st.f_P[:, 0, 0] * st.f_P[:, 1, 1] - st.f_P[:, 0, 1] * st.f_P[:, 1, 0])),
+            "error_x_m": col(st.f_E[:, 0] - x), "error_y_m": col(st.f_E[:, 1] - y),
+            "phi_error_deg": col(np.degrees(np.angle(np.exp(1j * (st.f_E[:, 2] - phi))))),
+            "baseline_error_m": col(st.f_E[:, 5] - length),
+            "ellipse_major_m": col(major), "ellipse_minor_m": col(minor), "vehicle_y_m": col(y),
+        }
+
+    def snapshot(self) -> Snapshot:
+        """Positions in the world: the filter's frame estimate and the mission's
+        waypoints placed through the true frame (as the logged boat positions allow
+        after the mission, section IV); the covariance rotated from the frame to
+        east/north."""
+        st = self.state
+        b1 = st.b_pos[:, 0, :2]
+        phi, _ = lbl.baseline(b1, st.b_pos[:, 1, :2])
+        est = np.concatenate([lbl.frame_to_world(b1, phi, st.f_E[:, 0], st.f_E[:, 1]), st.s_pos[:, 0, 2:]], -1)
+        wp = st.s_waypoints[:, 0]
+        wp_en = lbl.frame_to_world(b1[:, None], phi[:, None], wp[..., 0], wp[..., 1])
+        # frame (x, y) -> (east, north): the columns are the unit vectors of x and y (y is x turned
+        # 90 degrees clockwise), so P_en = R P_xy R^T
+        x_axis = bearing_to_unit(phi)
+        R = np.stack([np.stack([x_axis.real, x_axis.imag], -1), np.stack([x_axis.imag, -x_axis.real], -1)], -1)
+        cov = R @ st.f_P[:, :2, :2] @ np.swapaxes(R, -1, -2)
+        gps = np.concatenate([st.b_pos[..., :2] + st.b_gps_err, st.b_pos[..., 2:]], -1)
+        return Snapshot(t_s=st.t_s.copy(), survey_true_m=st.s_pos.copy(), survey_est_m=est[:, None],
+                        survey_dr_m=st.s_dr.copy(), survey_cov_en_m2=cov[:, None], beacon_true_m=st.b_pos.copy(),
+                        beacon_est_m=gps, waypoints_m=np.concatenate([wp_en, wp[..., 2:]], -1)[:, None],
+                        n_waypoints=st.s_n_waypoints.copy())
 
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:

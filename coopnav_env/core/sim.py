@@ -20,13 +20,13 @@ Nothing here knows PettingZoo or Gymnasium; views live in coopnav_env/*.py.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..scenarios.base import ScenarioConfig
 from . import rng
 from . import fusion, observation, substeps
+from .contract import BatchSimulator, Snapshot, StepResult
+from .reward import SURVEY_TERMS, term_weights, weighted_reward
 from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
@@ -35,42 +35,6 @@ from .state import SimState
 
 INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
              "outliers_rejected", "nan_rejected", "packets_lost")
-
-
-@dataclass
-class StepResult:
-    """Arrays of one batched step. obs (B,N,D); reward (B,N); terminated,
-    truncated (B,); info: name -> (B,S) array per survey vehicle; safety_geofence_penalty
-    (B,N): the reward's safety and geofence part (for trainers that reweigh terms)."""
-
-    obs: np.ndarray
-    reward: np.ndarray
-    terminated: np.ndarray
-    truncated: np.ndarray
-    info: dict
-    safety_geofence_penalty: np.ndarray
-
-
-class BatchSimulator:
-    """What every batched simulator shares: ``reset`` over the batch or a masked part of
-    it. Subclasses set ``batch_size`` and ``state`` and implement ``_initial_state(seeds)``
-    and ``observe()``."""
-
-    def reset(self, seeds, mask=None) -> np.ndarray:
-        """(Re)start the environments in ``mask`` (all if None) with integer ``seeds``
-        (one per environment reset). Returns the observations of the whole batch."""
-        seeds = np.atleast_1d(np.asarray(seeds, dtype=np.int64))
-        if mask is None:
-            if len(seeds) != self.batch_size:
-                raise ValueError(f"need {self.batch_size} seeds, got {len(seeds)}")
-            self.state = self._initial_state(seeds)
-        else:
-            mask = np.asarray(mask, dtype=bool)
-            if int(mask.sum()) != len(seeds):
-                raise ValueError("one seed per environment to reset")
-            if mask.any():
-                self.state.assign(mask, self._initial_state(seeds))
-        return self.observe()
 
 
 class Simulator(BatchSimulator):
@@ -153,6 +117,8 @@ class Simulator(BatchSimulator):
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.info_keys = INFO_KEYS
+        self.reward_terms = SURVEY_TERMS
+        self.reward_weights = term_weights(c, SURVEY_TERMS)
         self.state: SimState | None = None
 
     def _initial_state(self, seeds) -> SimState:
@@ -301,17 +267,17 @@ class Simulator(BatchSimulator):
         # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
         self._exchange_messages(draws)
 
-        # 6. reward, ends, infos -------------------------------------------------------
+        # 6. reward terms, ends, infos ------------------------------------------------
         info_gain = (logdet_before - logdet_after).sum(-1)  # (B,)
         dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
-        too_close = (dist < c.safety_distance_m).any(-1)
         fe0, fn0, fe1, fn1 = c.geofence_m
         outside = (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
         no_contact = ~fused.any(-1)  # (B,N): none of this beacon's ranges fused
         if self._mls is not None:  # only this cycle's sender can be heard
             no_contact &= self._sender_mask(st.cycle - 1)
-        safety_geofence = c.safety_penalty * too_close + c.geofence_penalty * outside
-        reward = info_gain[:, None] - safety_geofence - c.contact_penalty * no_contact
+        terms = {"info_gain": np.broadcast_to(info_gain[:, None], (B, N)),
+                 "safety": (dist < c.safety_distance_m).any(-1).astype(float),
+                 "geofence": outside.astype(float), "contact": no_contact.astype(float)}
 
         terminated = st.s_done.all(-1)
         if c.mission_duration_s > 0:
@@ -319,16 +285,33 @@ class Simulator(BatchSimulator):
         truncated = (st.cycle >= c.max_cycles) & ~terminated
 
         info = {
-            "survey_error_m": np.linalg.norm(st.s_est[..., :2] - st.s_pos[..., :2], axis=-1),
-            "dr_error_m": np.linalg.norm(st.s_dr[..., :2] - st.s_pos[..., :2], axis=-1),
-            "cov_logdet": logdet_after,
+            **self._state_info(logdet_after),
             "range_ok": fused.any(1),
             "ranges_fused": fused.sum(1),
             "outliers_rejected": rejected.sum(1),
             "nan_rejected": nan_count,
             "packets_lost": lost.sum(1),
         }
-        return StepResult(self.observe(), reward, terminated, truncated, info, safety_geofence)
+        return StepResult(self.observe(), weighted_reward(terms, self.reward_weights), terminated, truncated,
+                          {k: info[k] for k in INFO_KEYS}, terms, st.s_P[..., :2, :2])
+
+    def _state_info(self, logdet=None) -> dict:
+        """The infos that follow from the state: true horizontal errors of the filter and
+        of dead reckoning (m), log det of the horizontal covariance (B, S)."""
+        st = self.state
+        return {
+            "survey_error_m": np.linalg.norm(st.s_est[..., :2] - st.s_pos[..., :2], axis=-1),
+            "dr_error_m": np.linalg.norm(st.s_dr[..., :2] - st.s_pos[..., :2], axis=-1),
+            "cov_logdet": logdet_horizontal(st.s_P) if logdet is None else logdet,
+        }
+
+    def snapshot(self) -> Snapshot:
+        """Positions, covariance and planned paths of every environment (copies)."""
+        st = self.state
+        return Snapshot(t_s=st.t_s.copy(), survey_true_m=st.s_pos.copy(), survey_est_m=st.s_est.copy(),
+                        survey_dr_m=st.s_dr.copy(), survey_cov_en_m2=st.s_P[..., :2, :2].copy(),
+                        beacon_true_m=st.b_pos.copy(), beacon_est_m=st.b_pos + st.b_nav_err,
+                        waypoints_m=st.s_waypoints.copy(), n_waypoints=st.s_n_waypoints.copy())
 
     def _sender_mask(self, cycle) -> np.ndarray:
         """(B,N): the beacon whose turn it is to send in ``cycle`` (round robin)."""

@@ -383,3 +383,17 @@ def make_config(scenario="gao_lawnmower", **overrides) -> ScenarioConfig:
         entry = _REGISTRY[scenario]
         base = entry() if callable(entry) else entry
     return base.replace(**overrides) if overrides else base
+
+
+def resolve_config(env_or_config) -> ScenarioConfig:
+    """A ScenarioConfig from an env (any view with ``.config``), a simulator, a config
+    or a scenario name."""
+    if isinstance(env_or_config, ScenarioConfig):
+        return env_or_config
+    if isinstance(env_or_config, str):
+        return make_config(env_or_config)
+    for obj in (env_or_config, getattr(env_or_config, "unwrapped", None)):
+        cfg = getattr(obj, "config", None)
+        if isinstance(cfg, ScenarioConfig):
+            return cfg
+    raise TypeError(f"cannot find a scenario config in {type(env_or_config).__name__}")

@@ -1,0 +1,39 @@
+"""What every trained policy shares (SB3, gated, RLlib): one observation in, one
+action out, through ``act_batch``; and the scenario a run was trained on."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class BatchPolicy:
+    """What trained policies share: ``act`` on one observation through ``act_batch``
+    (subclasses set ``obs_dim`` and implement ``act_batch`` and ``reset``)."""
+
+    obs_dim: int
+    obs_dtype = np.float64
+
+    def act(self, obs) -> np.ndarray:
+        obs = np.asarray(obs, dtype=self.obs_dtype)
+        if obs.shape != (self.obs_dim,):
+            raise ValueError(f"observation must have shape ({self.obs_dim},), got {obs.shape}")
+        return self.act_batch(obs[None])[0]
+
+    def __call__(self, obs):
+        return self.act(obs)
+
+
+
+def _trained_scenario(run_config: dict):
+    """The ScenarioConfig a run trained on (its base scenario with the training overrides)."""
+    from coopnav_env.scenarios import make_config
+
+    args = run_config.get("args", {}) or {}
+    name = args.get("scenario")
+    if name is None:
+        return None
+    overrides = ((run_config.get("hyperparameters", {}) or {}).get("env", {}) or {}).get("overrides", {}) or {}
+    try:
+        return make_config(name, **overrides)
+    except ValueError:
+        return None
