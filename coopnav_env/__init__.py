@@ -21,14 +21,20 @@ def parallel_env(scenario="gao_lawnmower", **kwargs):
     return CoopNavParallelEnv(scenario, **kwargs)
 
 
+def raw_env(scenario="gao_lawnmower", **kwargs):
+    """The unwrapped AEC environment (PettingZoo's ``raw_env`` convention): the
+    parallel env seen through ``parallel_to_aec_wrapper``, without the order check."""
+    from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+
+    return parallel_to_aec_wrapper(parallel_env(scenario, **kwargs))
+
+
 def env(scenario="gao_lawnmower", **kwargs):
-    """The same environment through PettingZoo's AEC API."""
-    from pettingzoo.utils.conversions import parallel_to_aec
+    """The AEC environment as PettingZoo's own envs return it: ``raw_env`` inside
+    ``OrderEnforcingWrapper`` (which refuses ``step`` before ``reset`` and the like)."""
+    from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-    return parallel_to_aec(parallel_env(scenario, **kwargs))
-
-
-raw_env = env
+    return OrderEnforcingWrapper(raw_env(scenario, **kwargs))
 
 
 def _register_gymnasium():

@@ -228,3 +228,20 @@ def test_gymnasium_view_refuses_two_beacons():
 
     with pytest.raises(ValueError, match="one beacon"):
         CoopNavGymEnv("gao_lawnmower", beacon_kinds=("beacon_auv", "asv"))
+
+
+def test_raw_env_is_the_unwrapped_aec_env():
+    """PettingZoo's convention: ``raw_env`` the AEC env without wrappers, ``env`` it
+    inside OrderEnforcingWrapper (which refuses a step before reset)."""
+    from pettingzoo import AECEnv
+    from pettingzoo.utils.wrappers import BaseWrapper, OrderEnforcingWrapper
+
+    raw = coopnav_env.raw_env("gao_lawnmower", max_cycles=3)
+    assert isinstance(raw, AECEnv) and not isinstance(raw, BaseWrapper)
+    wrapped = coopnav_env.env("gao_lawnmower", max_cycles=3)
+    assert isinstance(wrapped, OrderEnforcingWrapper)
+    with pytest.raises(Exception, match="reset"):
+        wrapped.step(np.zeros(2, dtype=np.float32))
+    raw.reset(seed=0)
+    wrapped.reset(seed=0)
+    assert raw.observe("beacon_0").tolist() == wrapped.observe("beacon_0").tolist()
