@@ -30,11 +30,11 @@ ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
 class ScenarioConfig:
     """Every parameter of a coopnav scenario. See the field comments for units."""
 
-    name: str = "custom"
+    name: str = "custom"  # the scenario's name (make_config sets it)
     # which simulator reads this config: "survey_beacons" (survey vehicles in a fixed
     # navigation frame, beacons that ping them: Gao & Chitre, Sousa et al.) or
     # "moving_lbl" (one AUV in the frame of two beacon boats: Matos & Cruz)
-    network: str = "survey_beacons"
+    network: str = "survey_beacons"  # which simulator: see NETWORKS
 
     # --- timing ---------------------------------------------------------------------
     ping_interval_s: float = 20.0  # one decision step = one acoustic cycle (Gao & Chitre: 20 s)
@@ -43,23 +43,23 @@ class ScenarioConfig:
     mission_duration_s: float = 0.0  # > 0: the survey's mission also ends after this time
 
     # --- roster ---------------------------------------------------------------------
-    n_survey: int = 1
+    n_survey: int = 1  # survey vehicles (each flies its own copy of the path, survey_spacing_m apart)
     beacon_kinds: tuple = ("beacon_auv",)  # one entry per learning agent: "beacon_auv" | "asv"
 
     # --- survey path (the mission, planned in the navigation frame: east, north, depth)
-    survey_path: str = "lawnmower"
+    survey_path: str = "lawnmower"  # one of SURVEY_PATHS
     survey_origin_m: tuple = (0.0, 0.0)  # south-west corner of the survey area
     survey_area_m: tuple = (130.0, 100.0)  # east extent, north extent
     lawnmower_spacing_m: float = 25.0  # track spacing
     depth_m: float = 5.0  # mission depth (start depth of a spiral)
     spiral_end_depth_m: float = 0.0  # spiral: depth at the end; <= depth_m means depth_m + 20
-    circle_radius_m: float = 40.0
-    circle_laps: float = 2.0
+    circle_radius_m: float = 40.0  # survey_path="circle": radius around the area's centre
+    circle_laps: float = 2.0  # survey_path="circle": laps flown
     line_length_m: float = 100.0  # survey_path="line": back and forth along east
     path_repeats: int = 1  # the path is flown this many times, alternately forward and back
     waypoints_m: tuple = ()  # survey_path="waypoints": ((east, north, depth), ...)
     survey_spacing_m: float = 30.0  # offset between the paths of several survey vehicles
-    waypoint_acceptance_m: float = 3.0
+    waypoint_acceptance_m: float = 3.0  # a waypoint counts as reached within this horizontal distance
     los_alpha: float = 0.5  # Matos & Cruz Fig. 5: |W_i Q| = alpha |W_i P|
 
     # --- survey vehicle: thrust model of Gao & Chitre eq. (1) ---------------------
@@ -95,7 +95,7 @@ class ScenarioConfig:
     # --- beacon AUV (DVL) -----------------------------------------------------------
     beacon_auv_max_speed_mps: float = 1.5  # STARFISH <= 1.5 m/s [U]
     beacon_auv_max_turn_rate_dps: float = 12.0  # [U]
-    beacon_auv_depth_m: float = 2.0
+    beacon_auv_depth_m: float = 2.0  # the beacon AUV's constant depth [U]
     dvl_velocity_noise_mps: float = 0.026  # HoloOcean DVL default, ref-values section 2
     dvl_lock_loss_probability: float = 0.02  # per cycle [U]
     dvl_lock_regain_probability: float = 0.5  # per cycle [U]
@@ -119,36 +119,36 @@ class ScenarioConfig:
     # "modem": every beacon pings every survey vehicle each cycle (range only);
     # "mls": Kottege & Zimmer's MLS array (core/mls.py, analytic mode): one beacon sends
     # per cycle (round robin) and each survey vehicle measures its range and azimuth
-    acoustic_sensor: str = "modem"
+    acoustic_sensor: str = "modem"  # one of ACOUSTIC_SENSORS (see above)
     mls_snr_db_at_1m: float = 30.0  # in-band SNR per sample at 1 m [U]; falls 20 log10(r)
     mls_max_range_m: float = 60.0  # receive window; farther senders are not heard [U]
     ranging_mode: str = "owtt"  # one-way (synchronized clocks) or two-way travel time
     range_noise_std_m: float = 1.0  # timing jitter as range [U: Micro-Modem OWTT 1-3 m]
     turnaround_s: float = 0.015  # transponder turn-around delay, ref-values section 3
-    max_range_m: float = 1500.0
+    max_range_m: float = 1500.0  # no packet arrives beyond this range [U]
     packet_loss_near: float = 0.05  # loss probability at zero range [U, 10-50 %]
     packet_loss_far: float = 0.5  # loss probability at max_range_m [U]
     outlier_probability: float = 0.03  # multipath, ref-values section 3 [U 1-10 %]
     outlier_mean_excess_m: float = 30.0  # multipath ranges are too long by Exp(this)
     water_temperature_c: float = 28.0  # Singapore waters
-    salinity_psu: float = 30.0
+    salinity_psu: float = 30.0  # for the sound speed (Mackenzie 1981)
     temperature_uncertainty_c: float = 0.5  # true temperature differs per episode
     clock_offset_std_s: float = 1e-4  # OWTT clock offset at start (0.15 m)
     clock_drift_ppm: float = 0.01  # OWTT clock drift, per episode +/- [U]
 
     # --- ocean current (constant + first-order Gauss-Markov), per episode ------------
-    current_speed_mps: float = 0.05
+    current_speed_mps: float = 0.05  # mean speed of the constant part
     current_speed_spread_mps: float = 0.03  # uniform +/- around current_speed_mps
     current_direction_deg: float = 90.0  # direction the water flows TO, clockwise from north
-    current_direction_spread_deg: float = 45.0
+    current_direction_spread_deg: float = 45.0  # uniform +/- around current_direction_deg
     current_gm_std_mps: float = 0.02  # stationary std of the varying part, per axis
-    current_gm_time_constant_s: float = 600.0
+    current_gm_time_constant_s: float = 600.0  # correlation time of the varying part
 
     # --- reward -----------------------------------------------------------------------
-    safety_distance_m: float = 10.0
+    safety_distance_m: float = 10.0  # a beacon nearer a survey vehicle (3-D) than this is "too close"
     geofence_margin_m: float = 300.0  # fence = survey area grown by this much
-    safety_penalty: float = 1.0
-    geofence_penalty: float = 1.0
+    safety_penalty: float = 1.0  # reward weight of the "safety" term (per cycle too close)
+    geofence_penalty: float = 1.0  # reward weight of the "geofence" term (per cycle outside)
     contact_penalty: float = 0.2  # no range of this beacon fused this cycle
 
     # --- moving LBL network (network="moving_lbl"; Matos & Cruz) --------------------------
@@ -169,7 +169,7 @@ class ScenarioConfig:
     frame_q_current_m2ps3: float = 1e-4  # c_x, c_y (boat speed changes, current variation)
     frame_q_baseline_m2ps: float = 0.02  # l: a random walk that follows a boat-speed mismatch (tests/test_matos.py)
     baseline_tolerance_m: float = 10.0  # reward: |l - target| beyond this costs baseline_penalty
-    baseline_penalty: float = 1.0
+    baseline_penalty: float = 1.0  # reward weight of the "baseline" term
     frame_rotation_tolerance_deg: float = 10.0  # reward: the frame turned further than this from its
     rotation_penalty: float = 1.0  # start costs rotation_penalty (the filter models phi as constant)
     min_baseline_distance_m: float = 15.0  # reward: the vehicle closer than this to the baseline
