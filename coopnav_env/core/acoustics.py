@@ -10,6 +10,16 @@ sound travels), then turned back into a range with the sound speed the vehicles
 offset; two-way travel time (TWTT) measures a round trip through a transponder
 with a turn-around delay (shared/reference-values.md section 3).
 
+Noise: one convention for every ranging mode. Each detection of a signal (a
+receiver timestamping an arrival) is late by a white timing jitter sigma_t; the
+scenario's ``range_noise_std_m`` is that jitter as a range, c sigma_t. A one-way
+range has one detection (std c sigma_t); a two-way range r = c (t_rt - TAT) / 2
+has two (the transponder's and the interrogator's), so its variance is
+2 (c sigma_t)^2 / 4 = (c sigma_t)^2 / 2 (``ranging_variance_m2``); the moving
+network's exchange derives its correlated R from the same jitter
+(``core.moving_network``). ``tests/test_noise.py`` checks the filters' R against
+Monte Carlo variances of the simulated ranges.
+
 The functions are compiled (numba ufuncs and njit) so that the simulator's
 kernels call the same formulas that Python code calls on arrays.
 """
@@ -42,6 +52,14 @@ def packet_loss_probability(range_m, near, far, max_range_m):
         return 1.0
     frac = max(range_m, 0.0) / max_range_m
     return near + (far - near) * frac * frac
+
+
+@njit(cache=True)
+def ranging_variance_m2(detection_std_m, two_way):
+    """Variance of a range (m^2) from the per-detection jitter as range c sigma_t
+    (``detection_std_m``): one detection one-way, two halved ones two-way."""
+    v = detection_std_m * detection_std_m
+    return 0.5 * v if two_way else v
 
 
 @njit(cache=True)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .acoustics import mackenzie_sound_speed, packet_loss_probability, travel_time
+from .acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
 from .navigation import gated_update, joseph_update, range_prediction
 
 
@@ -45,6 +45,45 @@ def _fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m,
                         nan_count[b, s] += 1
 
 
+@njit(cache=True)
+def modem_range(s_pos, s_vel_true, b_pos, b_vel, c_true, c_assumed, jitter_s, n, two_way, turnaround_s, clock_s,
+                delays):
+    """The range a modem measures between a beacon and a survey vehicle (m), from the
+    time of flight between the moving vehicles at the true sound speed, turned back
+    into a range with the assumed one; ``delays`` gets the legs' times for the
+    filter's prediction. ``jitter_s`` is sigma_t, one detection's timing jitter; ``n``
+    a standard normal.
+
+    One-way: the beacon transmits at t = 0; one detection at the survey, whose clock
+    is off by ``clock_s``: r = c_assumed (tau + clock + sigma_t n).
+    Two-way: the survey interrogates, the beacon replies after ``turnaround_s``; the
+    beacon's and the survey's detections each add a jitter, so the round trip is late
+    by sqrt(2) sigma_t n and r = c_assumed (t_rt - TAT) / 2 has variance
+    (c sigma_t)^2 / 2 (``acoustics.ranging_variance_m2``).
+    """
+    if two_way:
+        tau1 = travel_time(s_pos, b_pos, b_vel, c_true)
+        lag = tau1 + turnaround_s
+        tau2 = travel_time(b_pos + b_vel * lag, s_pos + s_vel_true * lag, s_vel_true, c_true)
+        t_rt = lag + tau2 + jitter_s * np.sqrt(2.0) * n
+        delays[0] = 0.0
+        delays[1] = t_rt
+        return 0.5 * c_assumed * (t_rt - turnaround_s)
+    tau = travel_time(b_pos, s_pos, s_vel_true, c_true)
+    r = c_assumed * (tau + clock_s + jitter_s * n)
+    delays[0] = r / c_assumed
+    return r
+
+
+@njit(cache=True)
+def modem_range_variance(detection_std_m, two_way, beacon_var_m2, predicted_range_m, sound_speed_rel_std):
+    """R of a modem range (m^2): the ranging noise (``acoustics.ranging_variance_m2``),
+    the beacon's own horizontal position variance (below Gao & Chitre eq. 7), and the
+    sound speed's relative uncertainty as a scale error of the predicted range."""
+    scale = predicted_range_m * sound_speed_rel_std
+    return ranging_variance_m2(detection_std_m, two_way) + beacon_var_m2 + scale * scale
+
+
 def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var, temperature_c, t_s,
                 clock_offset_s, clock_drift, acoustic_n, acoustic_u, current_sent, sends_current,
                 current_est, last_range_t_s, fused, rejected, lost, nan_count,
@@ -59,8 +98,9 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
     (nominal temperature). One-way: the beacon transmits its position; the
     survey's clock offset and drift enter the measured time. Two-way: the survey
     interrogates, the beacon replies after ``turnaround_s`` with its position.
-    range_noise_std_m is per environment (B,) (domain randomization scales it).
-    R = range noise + the beacon's own position variance (below Gao eq. 7) + the
+    range_noise_std_m is per environment (B,) (domain randomization scales it): the
+    per-detection jitter as range (``acoustics.ranging_variance_m2``: a two-way
+    range has half its variance). R = that range variance + the beacon's own position variance (below Gao eq. 7) + the
     sound-speed uncertainty's share. Outputs (B,N,S) flags fused / rejected (gate)
     / lost and NaN counts (B,S); updates est, P, current_est, last_range_t_s.
 
@@ -118,21 +158,11 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                 dz = s_pos[b, s, 2] - b_pos[b, j, 2]
                 p_lost = packet_loss_probability(np.sqrt(dx * dx + dy * dy + dz * dz), loss_near, loss_far,
                                                  max_range_m)
+                clock = clock_offset_s[b, s, j] + clock_drift[b, s, j] * t_s[b]
+                r = modem_range(s_pos[b, s], s_vel_true[b, s], b_pos[b, j], b_vel[b, j], c_true, c_assumed, jitter_s,
+                                acoustic_n[b, j, s, 0], two_way, turnaround_s, clock, delays)
                 if two_way:
-                    tau1 = travel_time(s_pos[b, s], b_pos[b, j], b_vel[b, j], c_true)
-                    lag = tau1 + turnaround_s
-                    tau2 = travel_time(b_pos[b, j] + b_vel[b, j] * lag, s_pos[b, s] + s_vel_true[b, s] * lag,
-                                       s_vel_true[b, s], c_true)
-                    t_rt = lag + tau2 + jitter_s * np.sqrt(2.0) * acoustic_n[b, j, s, 0]
-                    r = 0.5 * c_assumed * (t_rt - turnaround_s)
-                    delays[0] = 0.0
-                    delays[1] = t_rt
                     p_lost = 1.0 - (1.0 - p_lost) ** 2  # both legs must arrive
-                else:
-                    tau = travel_time(b_pos[b, j], s_pos[b, s], s_vel_true[b, s], c_true)
-                    clock = clock_offset_s[b, s, j] + clock_drift[b, s, j] * t_s[b]
-                    r = c_assumed * (tau + clock + jitter_s * acoustic_n[b, j, s, 0])
-                    delays[0] = r / c_assumed
                 u = acoustic_u[b, j, s]
                 if u[0] < p_lost:
                     lost[b, j, s] = True
@@ -147,8 +177,8 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                     nan_count[b, s] += 1
                     continue
                 h, H = range_prediction(est[b, s], s_vel_est[b, s], delays, b_est[b, j])
-                R = (range_noise_std_m[b] ** 2 + b_var[b, j]
-                     + (h * temperature_uncertainty_c * dc_dT / c_assumed) ** 2)
+                R = modem_range_variance(range_noise_std_m[b], two_way, b_var[b, j], h,
+                                         temperature_uncertainty_c * dc_dT / c_assumed)
                 if not gated_update(est[b, s], P[b, s], r, h, H, R, gate):
                     rejected[b, j, s] = True
                     continue

@@ -42,7 +42,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import lbl, rng, substeps
-from .acoustics import mackenzie_sound_speed, packet_loss_probability
+from .acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2
 from .dynamics import bearing_to_unit, gauss_markov_step, turn_toward
 from .guidance import build_path, los_point
 from .information import (
@@ -167,6 +167,16 @@ def integrate_vehicle(pos, heading, vel_true, wp_index, done, waypoints, n_wp, s
             heading_meas[b], speed_meas[b] = theta, v
 
 
+# the noise covariance of (d1, d2, l) in units of a two-way range's variance sigma_r^2 (see ``cycle``);
+# tests/test_noise.py checks it against Monte Carlo exchanges
+EXCHANGE_COVARIANCE = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -1.0], [0.0, -1.0, 6.0]])
+
+
+def exchange_covariance_m2(detection_std_m):
+    """The covariance of the exchange's (d1, d2, l) for a per-detection jitter as range."""
+    return ranging_variance_m2(detection_std_m, True) * EXCHANGE_COVARIANCE
+
+
 # the per-cycle kernel's float outputs (columns of fval), besides its integer outputs
 # (ranges fused, outliers rejected, packets lost) and a range fused (bval)
 # reward terms (unweighted, 0/1): _F_SAFETY per boat, then the team's baseline, approach and contact
@@ -204,7 +214,8 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
     and the infos (fval, ival, bval; see ``MovingNetworkSimulator.step``).
 
     Section VII's updates: d1 when S2 arrives, then d2 and l when S5 arrives. d2 and l
-    arrive together and share detection errors: with sigma_t per detection,
+    arrive together and share detection errors: with sigma_t per detection and
+    sigma_r^2 = (c sigma_t)^2 / 2 the variance of a two-way range,
     d1 = c(e1 + e2)/2, d2 = c(e5 + e6)/2 and l = m - d1 - d2 with m = c(e1 + e3 + e4)
     give var(d1) = var(d2) = sigma_r^2, var(l) = 6 sigma_r^2, cov(d2, l) = -sigma_r^2
     and cov(d1, l) = 0 (e_i: the detections in ``lbl.DETECTIONS`` order). So d1 is a
@@ -241,10 +252,10 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
         depth = v3[2]
         c_true = mackenzie_sound_speed(temperature_c[b], salinity, depth)
         cn = mackenzie_sound_speed(nominal_temperature_c, salinity, depth)
-        # each detection instant is late by a jitter; a two-way range has two of them,
-        # halved: sigma_t = sqrt(2) sigma_r / c gives ranges d1, d2 with std sigma_r
-        sigma_r = range_noise_std_m * noise_scale[b]
-        jitter_scale = np.sqrt(2.0) * sigma_r / cn
+        # each detection instant is late by a jitter sigma_t = range_noise_std_m / c (the
+        # convention of core.acoustics); a two-way range d1, d2 has two of them, halved
+        sigma_det = range_noise_std_m * noise_scale[b]
+        jitter_scale = sigma_det / cn
         d_b1 = _dist3(b_pos[b, 0], v3)
         d_b2 = _dist3(b_pos[b, 1], v3)
         base = _dist3(b_pos[b, 1], b_pos[b, 0])
@@ -259,7 +270,7 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
                                    cn, err, lost, turnaround_s, turnaround_s, timeout, work)
 
         # the filter's updates
-        sigma_r2 = sigma_r * sigma_r
+        sigma_r2 = ranging_variance_m2(sigma_det, True)  # var(d1) = var(d2) = (c sigma_t)^2 / 2
         dz = depth + depth_noise_m * n_depth[b, 0]  # depth cell; boats at the surface
         # d1: the legs are S1 leaving (t = 0) and S2 arriving (t3)
         fused0 = False
@@ -284,7 +295,8 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
                 y[1] = l - E[b, 5]
                 H[1, :] = 0.0
                 H[1, 5] = 1.0
-                R[0, 0], R[0, 1], R[1, 0], R[1, 1] = sigma_r2, sigma_r2 * -1.0, sigma_r2 * -1.0, sigma_r2 * 6.0
+                R[0, 0], R[0, 1], R[1, 0], R[1, 1] = (sigma_r2 * EXCHANGE_COVARIANCE[1, 1], sigma_r2 * EXCHANGE_COVARIANCE[1, 2],
+                                                      sigma_r2 * EXCHANGE_COVARIANCE[2, 1], sigma_r2 * EXCHANGE_COVARIANCE[2, 2])
                 _, status = joseph_update_vector(E[b], P[b], y, H, R, gate2, jwork)
                 both = status == 1
                 fused1 = both

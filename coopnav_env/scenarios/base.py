@@ -123,7 +123,7 @@ class ScenarioConfig:
     mls_snr_db_at_1m: float = 30.0  # in-band SNR per sample at 1 m [U]; falls 20 log10(r)
     mls_max_range_m: float = 60.0  # receive window; farther senders are not heard [U]
     ranging_mode: str = "owtt"  # one-way (synchronized clocks) or two-way travel time
-    range_noise_std_m: float = 1.0  # timing jitter as range [U: Micro-Modem OWTT 1-3 m]
+    range_noise_std_m: float = 1.0  # one detection's timing jitter as range, c sigma_t: a one-way range's std; a two-way range has 1/sqrt(2) of it [U: Micro-Modem OWTT 1-3 m]
     turnaround_s: float = 0.015  # transponder turn-around delay, ref-values section 3
     max_range_m: float = 1500.0  # no packet arrives beyond this range [U]
     packet_loss_near: float = 0.05  # loss probability at zero range [U, 10-50 %]

@@ -13,6 +13,8 @@ length and its sensor noise levels (REMUS-class values from
 shared/reference-values.md section 2).
 """
 
+import math
+
 from .base import ScenarioConfig, register
 
 MATOS_MOVING_LBL = ScenarioConfig(
@@ -33,7 +35,9 @@ MATOS_MOVING_LBL = ScenarioConfig(
     baseline_target_m=100.0,  # sec. VIII: 100 m apart
     boat_transit_speed_mps=-0.5,  # [U] "constant speed", not given; negative: the boats lead, the vehicle follows
     frame_orientation_deg=90.0,  # B1 -> B2 points east; the vehicle is south of the baseline
-    range_noise_std_m=1.0,  # sec. VIII: 1 m white noise
+    # sec. VIII: 1 m white noise on the ranges; a two-way range halves the variance of
+    # the per-detection jitter that range_noise_std_m states, so sqrt(2) m per detection
+    range_noise_std_m=math.sqrt(2.0),
     outlier_probability=0.0,  # sec. VIII simulates white noise only
     packet_loss_near=0.0,  # idem; --set packet_loss_near=0.05 packet_loss_far=0.5 adds losses
     packet_loss_far=0.0,
