@@ -1,5 +1,6 @@
-"""evaluate.py on tiny runs: files, columns, common random numbers, resume, sweeps and
-bad input (one line, exit status 2, before any work)."""
+"""The evaluation (evaluation/ and its front ends evaluate.py / coopnav-evaluate) on tiny
+runs: files, columns, common random numbers, resume, sweeps, the library API against the
+command line, and bad input (one line, exit status 2, before any work)."""
 
 import csv
 import json
@@ -9,10 +10,9 @@ import sys
 
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
+from evaluation import cli as evaluate
 
-import evaluate  # noqa: E402
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 TINY = ["--scenario", "gao_lawnmower", "--set", "max_cycles=3"]
 
@@ -146,7 +146,7 @@ def test_a_trained_run_directory_evaluates_beside_the_planners(tmp_path):
     pytest.importorskip("stable_baselines3")
     import yaml
 
-    import train
+    from agents.training import cli as train
 
     hp = {"n_envs": 2, "ppo": {"n_steps": 32, "batch_size": 64, "n_epochs": 1, "policy_kwargs": {"net_arch": [8]}},
           "env": {"overrides": {"max_cycles": 4}}, "eval": {"every_steps": 10**9, "episodes": 1, "seed": 7, "baselines": []},
@@ -163,3 +163,60 @@ def test_a_trained_run_directory_evaluates_beside_the_planners(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert set(summary["policies"]) == {str(run), "static"}
     assert summary["policies"][str(run)]["mean_error_m"] > 0
+
+
+def test_library_api_gives_what_the_command_line_gives(tmp_path):
+    """run_evaluation(EvalConfig(...)) and main([...]) with the same arguments: the same
+    summary; run.json records the versions, summary.md defines its columns."""
+    from evaluation import EvalConfig, run_evaluation
+
+    cli_out, api_out = tmp_path / "cli", tmp_path / "api"
+    assert evaluate.main(["--scenario", "gao_lawnmower", "--policies", "fim_a,static", "--episodes", "2",
+                          "--set", "max_cycles=4", "--out", str(cli_out), "--no-figures"]) == 0
+    summary = run_evaluation(EvalConfig(scenario="gao_lawnmower", policies=("fim_a", "static"), episodes=2,
+                                        overrides={"max_cycles": 4}, out=str(api_out), figures=False))
+    assert summary == json.loads((cli_out / "summary.json").read_text())
+    assert summary == json.loads((api_out / "summary.json").read_text())
+    assert (api_out / "steps.csv").read_text() == (cli_out / "steps.csv").read_text()
+    run = json.loads((api_out / "run.json").read_text())
+    assert "git_commit" in run["versions"] and run["versions"]["numpy"]
+    assert run["policies"] == ["fim_a", "static"] and run["trained_policies"] == {}
+    md = (api_out / "summary.md").read_text()
+    assert "## Columns" in md and "**mean (m)** (`mean_error_m`, m)" in md and "unitless" in md
+
+
+def test_eval_config_refuses_unknown_fields_naming_the_closest():
+    from evaluation import EvalConfig, UsageError
+
+    with pytest.raises(TypeError, match="did you mean 'episodes'"):
+        EvalConfig(episods=3)
+    with pytest.raises(TypeError, match="did you mean 'overrides'"):
+        EvalConfig().replace(overides={})
+    with pytest.raises(UsageError, match="--batch-size must be >= 1"):
+        EvalConfig(batch_size=0)
+    assert EvalConfig(policies="fim_a, static").policies == ("fim_a", "static")
+
+
+def test_ppo_resolution_is_recorded(tmp_path):
+    """"ppo" on gao_lawnmower is the shipped ppo_gao_sea: run.json's trained_policies and
+    summary.md say so (resolved without loading the model)."""
+    from evaluation import EvalConfig, prepare
+    from evaluation.report import trained_lines
+
+    plan = prepare(EvalConfig(policies="ppo,static", out=str(tmp_path / "x")))
+    r = plan.trained["ppo"]
+    assert r["shipped"] == "ppo_gao_sea" and r["model"].startswith("agents/policies/ppo_gao_sea/")
+    assert "shipped policy `ppo_gao_sea`" in trained_lines(plan.trained)[0]
+    assert not (tmp_path / "x").exists()
+
+
+def test_column_docs_cover_every_column(tiny_run):
+    from evaluation.report import EPISODE_COLUMN_DOCS, STEP_COLUMN_DOCS, SUMMARY_COLUMN_DOCS
+
+    for name, docs in (("episodes.csv", EPISODE_COLUMN_DOCS), ("steps.csv", STEP_COLUMN_DOCS)):
+        with open(os.path.join(tiny_run, name), newline="") as f:
+            assert next(csv.reader(f)) == list(docs)
+        assert all(len(v) == 2 and v[1] for v in docs.values())
+    with open(os.path.join(tiny_run, "summary.json")) as f:
+        stats = next(iter(json.load(f)["policies"].values()))
+    assert set(stats) <= set(SUMMARY_COLUMN_DOCS)  # and the moving network's frame errors

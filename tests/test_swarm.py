@@ -78,7 +78,7 @@ def test_a_sender_behind_the_receiver_is_unfolded():
 
 
 def test_school_navigates_better_than_dead_reckoning():
-    from evaluate import run_episodes
+    from evaluation.episodes import run_episodes
 
     c = make_config("swarm_mls", max_cycles=120)
     eps, _ = run_episodes(c, "circle", range(4))

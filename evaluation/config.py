@@ -1,0 +1,338 @@
+"""What an evaluation is asked to do: ``EvalConfig`` (one set of defaults), the parsing
+of ``KEY=VALUE`` parameters, and ``prepare``, which checks every input and builds the
+run plan before any work is done.
+
+    from evaluation import EvalConfig
+    config = EvalConfig(scenario="sousa_asv", policies=("fim_a", "fim_b"), episodes=20,
+                        sweep={"depth_m": (1, 5, 20, 50)}, out="results/sweep")
+
+Scenario parameters (``overrides``, ``sweep``) may be given typed (``{"max_cycles": 20}``)
+or as the command line's text (``{"max_cycles": "20"}``); both parse to the same values.
+Bad input raises ``UsageError`` (a ``ValueError``) with a one-line message; an unknown
+``EvalConfig`` field raises ``TypeError`` naming the closest valid one.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import difflib
+import inspect
+import os
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from coopnav_env.records import plain
+from coopnav_env.seeds import EVALUATE_SEED
+
+
+class UsageError(ValueError):
+    """Bad input: reported as one line (exit status 2 from the command line), before any work."""
+
+
+def _check_field_names(cls):
+    """Make unknown keyword arguments of a dataclass an error naming the closest field."""
+    init = cls.__init__
+    names = [f.name for f in dataclasses.fields(cls)]
+
+    def __init__(self, *args, **kwargs):
+        unknown = [k for k in kwargs if k not in names]
+        if unknown:
+            hints = ", ".join(repr(k) + "".join(f" (did you mean {c!r}?)"
+                                                for c in difflib.get_close_matches(k, names, n=1)) for k in unknown)
+            raise TypeError(f"unknown {cls.__name__} field(s) {hints}; valid fields: {', '.join(names)}")
+        init(self, *args, **kwargs)
+
+    __init__.__doc__ = init.__doc__
+    __init__.__signature__ = inspect.signature(init)
+    cls.__init__ = __init__
+    return cls
+
+
+@_check_field_names
+@dataclass(frozen=True)
+class EvalConfig:
+    """One evaluation: which policies, on which scenario, how many seeded episodes, where.
+
+    * ``scenario``: a name of ``coopnav_env.list_scenarios()``;
+    * ``policies``: names, as a tuple or one comma-separated string: planners
+      (``baselines.list_policies()``), ``"ppo"`` (the scenario's shipped PPO policy), a
+      shipped policy (``agents.list_policies()``) or a train.py run directory; None:
+      every planner that can drive the scenario's network;
+    * ``episodes``: episodes per policy (and per sweep cell); episode ``i`` uses seed
+      ``seed + i`` for every policy (common random numbers);
+    * ``seed``: the first episode's seed (``coopnav_env.seeds.EVALUATE_SEED``);
+    * ``out``: the output directory (created);
+    * ``overrides``: scenario parameters set for the whole run (``--set KEY=VALUE``);
+    * ``sweep``: parameter -> values (a sequence, or the command line's text
+      ``"V1,V2"``), run as a grid (``--sweep KEY=V1,V2``; the first key makes the rows
+      of the tables);
+    * ``resume``: keep the episodes already in ``out`` and run only the missing ones;
+    * ``batch_size``: episodes simulated together;
+    * ``figures``: write the PNG figures;
+    * ``progress``: a progress bar on stderr (None: when stderr is a terminal).
+    """
+
+    scenario: str = "gao_lawnmower"
+    policies: tuple | None = None
+    episodes: int = 10
+    seed: int = EVALUATE_SEED
+    out: str = "results/eval"
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    sweep: Mapping[str, tuple] = field(default_factory=dict)
+    resume: bool = False
+    batch_size: int = 25
+    figures: bool = True
+    progress: bool | None = None
+
+    def __post_init__(self):
+        policies = self.policies
+        if isinstance(policies, str):
+            policies = [p.strip() for p in policies.split(",") if p.strip()]
+        if policies is not None:
+            object.__setattr__(self, "policies", tuple(str(p) for p in policies))
+        object.__setattr__(self, "out", os.fspath(self.out))
+        object.__setattr__(self, "overrides", dict(self.overrides))
+        object.__setattr__(self, "sweep", {k: tuple(split_top_level(v) if isinstance(v, str) else v)
+                                           for k, v in dict(self.sweep).items()})
+        for name, low in (("episodes", 1), ("seed", 0), ("batch_size", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise UsageError(f"{name} (--{name.replace('_', '-')}) must be an integer, got {value!r}")
+            if value < low:
+                raise UsageError(f"--{name.replace('_', '-')} must be >= {low}, got {value}")
+
+    def replace(self, **changes) -> "EvalConfig":
+        """A copy with ``changes`` (unknown names are an error)."""
+        return dataclasses.replace(self, **changes)
+
+
+# ------------------------------------------------------------------------------------
+# scenario parameters: text or typed values -> the parameter's type
+
+def split_top_level(text: str) -> list:
+    """Split on commas that are not inside brackets: '1,(2,3)' -> ['1', '(2,3)']."""
+    out, depth, cur = [], 0, []
+    for ch in text:
+        if ch in "([{":
+            depth += 1
+        elif ch in ")]}":
+            depth -= 1
+        if ch == "," and depth == 0:
+            out.append("".join(cur))
+            cur = []
+        else:
+            cur.append(ch)
+    out.append("".join(cur))
+    return [s.strip() for s in out]
+
+
+def _to_tuple(v):
+    return tuple(_to_tuple(x) for x in v) if isinstance(v, (list, tuple)) else v
+
+
+def _default(key: str):
+    from coopnav_env.scenarios import ScenarioConfig
+    from coopnav_env.scenarios.base import check_overrides
+
+    check_overrides({key: None})
+    return {f.name: f.default for f in dataclasses.fields(ScenarioConfig)}[key]
+
+
+def parse_value(key: str, text: str):
+    """Parse ``text`` as the type of scenario parameter ``key``."""
+    default = _default(key)
+    text = text.strip()
+    if text == "":
+        raise UsageError(f"empty value for {key}")
+    try:
+        if isinstance(default, bool):
+            low = text.lower()
+            if low not in ("true", "false", "1", "0", "yes", "no"):
+                raise ValueError
+            return low in ("true", "1", "yes")
+        if isinstance(default, int):
+            v = float(text)
+            if not v.is_integer():
+                raise ValueError
+            return int(v)
+        if isinstance(default, float):
+            return float(text)
+        if isinstance(default, tuple):
+            v = ast.literal_eval(text)
+            if not isinstance(v, (list, tuple)):
+                v = (v,)
+            if default and not isinstance(default[0], (tuple, list)) and len(v) != len(default):
+                raise UsageError(f"{key} takes {len(default)} values, got {len(v)}")
+            return _to_tuple(v)
+        return text
+    except (ValueError, SyntaxError):
+        raise UsageError(f"bad value {text!r} for {key} (a {type(default).__name__})") from None
+
+
+def coerce_value(key: str, value):
+    """A parameter value as the command line would give it: text is parsed
+    (``parse_value``), numbers take the parameter's type (1 -> 1.0 for a float
+    parameter, so cells and tables read the same), lists become tuples."""
+    if isinstance(value, str):
+        return parse_value(key, value)
+    default = _default(key)
+    if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(default, int) and not isinstance(default, bool) and isinstance(value, float) and value.is_integer():
+        return int(value)
+    return _to_tuple(value)
+
+
+def parse_assignment(item: str, option: str):
+    """``"KEY=VALUE"`` -> (key, value text)."""
+    if "=" not in item:
+        raise UsageError(f"{option} expects KEY=VALUE, got {item!r}")
+    key, value = item.split("=", 1)
+    return key.strip(), value
+
+
+def cell_id(cell: dict) -> str:
+    """The ``cell`` column of a sweep cell ("" without a sweep)."""
+    return ";".join(f"{k}={v}" for k, v in cell.items())
+
+
+def sweep_layout(sweep: dict):
+    """The table layout of a sweep: (row key, its values, the column cells: dicts of the
+    other keys' values, in grid order)."""
+    keys = list(sweep)
+    col_cells = [{}]
+    for k in keys[1:]:
+        col_cells = [dict(c, **{k: v}) for c in col_cells for v in sweep[k]]
+    return keys[0], list(sweep[keys[0]]), col_cells
+
+
+# ------------------------------------------------------------------------------------
+# the plan: every check before any work
+
+@dataclass
+class Plan:
+    """A checked evaluation: the policies, the grid's cells and their scenario configs,
+    what each trained policy resolved to, and the record written to run.json."""
+
+    config: EvalConfig
+    policies: list
+    cells: list
+    configs: dict  # cell_id -> ScenarioConfig
+    sweep: dict  # key -> parsed values
+    overrides: dict  # key -> parsed value
+    trained: dict  # trained policy name -> what it resolved to (see resolve_trained)
+    run_info: dict
+
+    def first_config(self):
+        """The scenario config of the first cell (the figures' episode)."""
+        return self.configs[cell_id(self.cells[0])]
+
+
+def _relative(path) -> str:
+    from coopnav_env.records import PROJECT_ROOT
+
+    path = os.path.abspath(os.fspath(path))
+    try:
+        rel = os.path.relpath(path, PROJECT_ROOT)
+    except ValueError:
+        return path
+    return path if rel.startswith("..") else rel
+
+
+def resolve_trained(name: str, scenario: str) -> dict:
+    """What a trained policy name resolved to (``agents.resolve``): the shipped policy's
+    name (None for a run directory) and its files, relative to the repository."""
+    import agents
+
+    model, stats, config = agents.resolve(name, scenario)
+    shipped = None
+    try:
+        shipped = os.path.relpath(os.path.abspath(model), agents.POLICY_DIR).split(os.sep)[0]
+    except ValueError:
+        pass
+    if shipped is not None and (shipped.startswith("..") or shipped not in agents.list_policies()):
+        shipped = None
+    return {"shipped": shipped, "model": _relative(model), "vecnormalize": None if stats is None else _relative(stats),
+            "config": None if config is None else _relative(config)}
+
+
+def _check_output(out: str):
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise UsageError(f"output path {out!r} is a file, not a directory")
+    parent = os.path.dirname(os.path.abspath(out))
+    while parent and not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if parent and not os.path.isdir(parent):
+        raise UsageError(f"output path {out!r} is under a file ({parent!r})")
+
+
+def _previous_run(out: str):
+    from coopnav_env.records import read_json
+
+    try:
+        return read_json(os.path.join(out, "run.json"))
+    except (OSError, ValueError):  # unreadable: resume as if there were none
+        return None
+
+
+def prepare(config: EvalConfig) -> Plan:
+    """Check every input of ``config`` and build the run plan; raises UsageError.
+    Writes nothing."""
+    import coopnav_env
+    from baselines import list_policies
+
+    scenarios = coopnav_env.list_scenarios()
+    if config.scenario not in scenarios:
+        raise UsageError(f"unknown scenario {config.scenario!r}; valid scenarios: {', '.join(scenarios)}")
+    policies = config.policies
+    if policies is None:  # every planner that drives this scenario's network
+        policies = list_policies(coopnav_env.make_config(config.scenario).network)
+    policies = list(policies)
+    if not policies:
+        raise UsageError("no policy given")
+    valid = list_policies()
+    trained = {}
+    for p in policies:
+        if p not in valid:
+            try:  # a trained policy: "ppo" (the scenario's shipped one), a shipped name, or a run directory
+                trained[p] = resolve_trained(p, config.scenario)
+            except Exception as err:  # noqa: BLE001 - any failure to find it is a usage error
+                import agents
+
+                raise UsageError(f"unknown policy {p!r} ({err}); valid: {', '.join(valid)}, ppo, a shipped policy "
+                                 f"({', '.join(agents.list_policies()) or 'none shipped'}) or a train.py run "
+                                 "directory") from None
+    if len(set(policies)) != len(policies):
+        raise UsageError("a policy is listed twice")
+    try:
+        overrides = {k: coerce_value(k, v) for k, v in config.overrides.items()}
+        sweep = {}
+        for key, raw in config.sweep.items():
+            if key in overrides:
+                raise UsageError(f"{key} is both --set and --sweep")
+            values = [coerce_value(key, v) for v in raw]
+            if not values:
+                raise UsageError(f"--sweep {key} has no value")
+            if len(set(map(repr, values))) != len(values):
+                raise UsageError(f"--sweep {key} repeats a value")
+            sweep[key] = values
+        cells = [{}]
+        for key, values in sweep.items():
+            cells = [dict(c, **{key: v}) for c in cells for v in values]
+        configs = {cell_id(cell): coopnav_env.make_config(config.scenario, **overrides, **cell) for cell in cells}
+    except UsageError:
+        raise
+    except ValueError as err:  # unknown parameter or invalid value, from the scenario's checks
+        raise UsageError(str(err).splitlines()[0]) from None
+    _check_output(config.out)
+    run_info = {"scenario": config.scenario, "overrides": plain(overrides), "sweep": plain(sweep),
+                "seed": config.seed, "episodes": config.episodes, "policies": policies}
+    if config.resume:
+        old = _previous_run(config.out)
+        if old is not None and (old.get("scenario") != run_info["scenario"]
+                                or old.get("overrides") != run_info["overrides"]):
+            raise UsageError(f"cannot resume: {config.out!r} holds a run of {old.get('scenario')!r} with overrides "
+                             f"{old.get('overrides')}, not {config.scenario!r} with {run_info['overrides']}")
+    return Plan(config=config, policies=policies, cells=cells, configs=configs, sweep=sweep, overrides=overrides,
+                trained=trained, run_info=run_info)

@@ -1,0 +1,160 @@
+"""Running episodes: one policy on a batch of seeded episodes of one scenario config,
+giving the rows of ``episodes.csv`` and ``steps.csv`` (``run_episodes``), and one
+episode re-run with every position kept, for the path figure (``record_episode``).
+
+    from coopnav_env import make_config
+    from evaluation.episodes import run_episodes
+    episodes, steps = run_episodes(make_config("gao_lawnmower", max_cycles=50), "fim_a", range(4))
+
+A policy is a planner of ``baselines`` or a trained policy of ``agents`` (same
+interface); one instance acts for each beacon of each episode, on that beacon's
+observation only. Everything the evaluation reads of a step comes through
+``_step_measurements``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def make_policy(name: str, config, seed, agent: int):
+    """A planner from baselines/ by name, else a trained policy through agents/ (same interface)."""
+    import baselines
+
+    if name in baselines.list_policies():
+        return baselines.make_policy(name, config, seed=seed, agent=agent)
+    import agents
+
+    return agents.make_policy(name, config, seed=seed, agent=agent)
+
+
+def _step_measurements(sim, res, config) -> dict:
+    """What the evaluation reads of the batch after a step (``res``, the step's result)
+    or after a reset (``res`` None: only the positions), from the step result and
+    ``sim.snapshot()`` (``coopnav_env.core.contract``). Arrays over the batch:
+
+    * (B,): ``survey_error_m``, ``dr_error_m``, ``ellipse_major_m``, ``ellipse_minor_m``
+      (means over survey vehicles), ``reward`` (mean over beacons), ``ranges_fused``,
+      ``outliers_rejected``, ``packets_lost`` (sums over survey vehicles),
+      ``beacon_distance_m`` (mean over beacon-survey pairs), ``safety_violation`` (a
+      pair closer than ``safety_distance_m``: the reward's ``safety`` term), ``geofence_violation``
+      (a beacon outside ``geofence_m``: its ``geofence`` term; the moving network has none), and for ``network="moving_lbl"``
+      ``error_x_m``, ``error_y_m`` (the first survey vehicle's signed error in the frame);
+    * positions: ``t_s`` (B,), ``survey_true_m``, ``survey_est_m``, ``survey_dr_m``
+      (B, S, 3), ``beacon_true_m`` (B, N, 3), ``waypoints_m`` (B, S, W, 3) and
+      ``n_waypoints`` (B, S), copies.
+    """
+    from coopnav_env.core.information import error_ellipse
+
+    snap = sim.snapshot()
+    frame = config.network == "moving_lbl"
+    out = {"t_s": np.asarray(snap.t_s, dtype=float), "survey_true_m": snap.survey_true_m,
+           "survey_est_m": snap.survey_est_m, "survey_dr_m": snap.survey_dr_m, "beacon_true_m": snap.beacon_true_m,
+           "waypoints_m": snap.waypoints_m, "n_waypoints": snap.n_waypoints}
+    if res is None:
+        return out
+    major, minor, _ = error_ellipse(res.survey_cov_en_m2)
+    dist = np.linalg.norm(snap.survey_true_m[:, None, :, :] - snap.beacon_true_m[:, :, None, :], axis=-1)  # (B,N,S)
+    no_term = np.zeros(res.reward.shape)
+    out.update({
+        "survey_error_m": res.info["survey_error_m"].mean(-1), "dr_error_m": res.info["dr_error_m"].mean(-1),
+        "ellipse_major_m": major.mean(-1), "ellipse_minor_m": minor.mean(-1), "reward": res.reward.mean(-1),
+        "beacon_distance_m": dist.mean((-1, -2)), "ranges_fused": res.info["ranges_fused"].sum(-1),
+        "outliers_rejected": res.info["outliers_rejected"].sum(-1), "packets_lost": res.info["packets_lost"].sum(-1),
+        # the reward's own indicator terms (core.reward): a beacon too close, a beacon outside the fence
+        "safety_violation": res.terms["safety"].any(-1),
+        "geofence_violation": res.terms.get("geofence", no_term).any(-1),
+    })
+    if frame:
+        out["error_x_m"] = res.info["error_x_m"][:, 0]
+        out["error_y_m"] = res.info["error_y_m"][:, 0]
+    return out
+
+
+_PER_STEP = ("survey_error_m", "dr_error_m", "ellipse_major_m", "ellipse_minor_m", "reward", "beacon_distance_m",
+             "ranges_fused", "outliers_rejected", "packets_lost", "safety_violation", "geofence_violation")
+
+
+def run_episodes(config, policy_name: str, seeds, progress=None):
+    """Run ``policy_name`` (one instance per beacon and episode) on episodes ``seeds``
+    as one batch. Returns (episode rows, step rows) without the cell/policy/episode
+    columns (see ``evaluation.report.EPISODE_COLUMN_DOCS``). ``progress(n)`` is called
+    as n episodes end."""
+    from coopnav_env.core import make_simulator
+
+    seeds = [int(s) for s in seeds]
+    B, N = len(seeds), config.n_beacons
+    sim = make_simulator(config, batch_size=B)
+    obs = sim.reset(seeds)
+    policies = [[make_policy(policy_name, config, seed=(s, j), agent=j) for j in range(N)] for s in seeds]
+    T = config.ping_interval_s
+    frame = config.network == "moving_lbl"
+    keys = _PER_STEP + (("error_x_m", "error_y_m") if frame else ())
+    done = np.zeros(B, dtype=bool)
+    hist = {k: [] for k in ("alive",) + keys}
+    actions = np.zeros((B, N, 2))
+    while not done.all():
+        for b in np.flatnonzero(~done):
+            for j in range(N):
+                actions[b, j] = policies[b][j].act(obs[b, j])
+        actions[done] = 0.0
+        res = sim.step(actions)
+        obs = res.obs
+        m = _step_measurements(sim, res, config)
+        hist["alive"].append(~done)
+        for k in keys:
+            hist[k].append(m[k])
+        ended = (res.terminated | res.truncated) & ~done
+        done |= ended
+        if progress is not None and ended.any():
+            progress(int(ended.sum()))
+    H = {k: np.array(v) for k, v in hist.items()}  # (steps, B)
+    episodes, steps = [], []
+    for b, seed in enumerate(seeds):
+        n = int(H["alive"][:, b].sum())
+        err, dr = H["survey_error_m"][:n, b], H["dr_error_m"][:n, b]
+
+        def total(k):
+            return int(H[k][:n, b].sum())
+
+        episodes.append({
+            "seed": seed, "steps": n, "duration_s": n * T, "mean_error_m": float(err.mean()),
+            "final_error_m": float(err[-1]), "max_error_m": float(err.max()), "mean_dr_error_m": float(dr.mean()),
+            "final_dr_error_m": float(dr[-1]), "return": float(H["reward"][:n, b].sum()),
+            "ranges_fused": total("ranges_fused"), "outliers_rejected": total("outliers_rejected"),
+            "packets_lost": total("packets_lost"), "beacon_distance_m": float(H["beacon_distance_m"][:n, b].mean()),
+            "safety_violations": total("safety_violation"), "geofence_violations": total("geofence_violation"),
+        })
+        for k in range(n):
+            steps.append({"seed": seed, "step": k + 1, "t_s": (k + 1) * T, "survey_error_m": float(err[k]),
+                          "dr_error_m": float(dr[k]), "ellipse_major_m": float(H["ellipse_major_m"][k, b]),
+                          "ellipse_minor_m": float(H["ellipse_minor_m"][k, b]), "reward": float(H["reward"][k, b]),
+                          "beacon_distance_m": float(H["beacon_distance_m"][k, b])})
+            if frame:
+                steps[-1].update(error_x_m=float(H["error_x_m"][k, b]), error_y_m=float(H["error_y_m"][k, b]))
+    return episodes, steps
+
+
+def record_episode(config, policy_name: str, seed: int) -> dict:
+    """Re-run one episode and keep every position (for the path figure): ``t_s`` (T,),
+    ``survey_true_m``, ``survey_est_m``, ``survey_dr_m`` (T, S, 3), ``beacon_true_m``
+    (T, N, 3), from the start (row 0) to the end; ``waypoints_m`` (S, W, 3) and
+    ``n_waypoints`` (S,) as at the end."""
+    from coopnav_env.core import make_simulator
+
+    sim = make_simulator(config, batch_size=1)
+    obs = sim.reset([seed])
+    N = config.n_beacons
+    policies = [make_policy(policy_name, config, seed=(seed, j), agent=j) for j in range(N)]
+    snaps = [_step_measurements(sim, None, config)]
+    while True:
+        a = np.stack([policies[j].act(obs[0, j]) for j in range(N)])[None]
+        res = sim.step(a)
+        obs = res.obs
+        snaps.append(_step_measurements(sim, res, config))
+        if res.terminated[0] or res.truncated[0]:
+            break
+    track = {k: np.array([s[k][0] for s in snaps])
+             for k in ("t_s", "survey_true_m", "survey_est_m", "survey_dr_m", "beacon_true_m")}
+    track["waypoints_m"], track["n_waypoints"] = snaps[-1]["waypoints_m"][0], snaps[-1]["n_waypoints"][0]
+    return track
