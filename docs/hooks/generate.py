@@ -1,0 +1,474 @@
+"""MkDocs hook: the reference pages that are generated from the code at build time.
+
+Declared in ``mkdocs.yml`` (``hooks: [docs/hooks/generate.py]``). Nothing is written
+into the source tree: the pages are added to the build's file list with
+``File.generated`` in ``on_files``.
+
+* ``reference/parameters.md``: every field of
+  ``coopnav_env.scenarios.base.ScenarioConfig`` with its type, default, unit (parsed
+  from the name's suffix) and the comment written beside or above it in
+  ``base.py``, grouped by the file's ``# --- section ---`` headers; then which
+  registered scenario overrides which parameter (``make_config(name)`` against the
+  defaults), with the comments of the scenario files.
+* ``reference/observations.md``: the observation layouts. The survey network's
+  from the layout table in ``coopnav_env.core.observation``'s docstring (or an
+  ``OBS_FIELDS`` there, if one appears) and its constants; the moving network's
+  from ``coopnav_env.core.moving_network.OBS_FIELDS``; the length of each
+  scenario's observation from ``coopnav_env.obs_layout.obs_dim``.
+
+* In any page, a line ``<!-- generated: NAME -->`` becomes the table of
+  ``evaluation.report.NAME`` (``EPISODE_COLUMN_DOCS``, ``STEP_COLUMN_DOCS``,
+  ``SUMMARY_COLUMNS``, ``FRAME_COLUMNS``): every column of the evaluation's outputs with
+  its unit, from the dicts the CSV headers and summary.md are written from. A failure is a
+  warning, which ``mkdocs build --strict`` turns into an error.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import inspect
+import io
+import logging
+import re
+import sys
+import textwrap
+import tokenize
+from pathlib import Path
+
+from mkdocs.structure.files import File
+
+log = logging.getLogger("mkdocs.hooks.generate")
+
+ROOT = Path(__file__).resolve().parents[2]  # the repository (docs/hooks/generate.py)
+if str(ROOT) not in sys.path:  # the project's packages, installed or not
+    sys.path.insert(0, str(ROOT))
+
+# unit by the last "_"-separated token of a parameter's name
+UNIT_SUFFIXES = {
+    "s": "s", "m": "m", "m2": "m²", "mps": "m/s", "deg": "deg", "dps": "deg/s", "rad": "rad",
+    "m2ps": "m²/s", "m2ps3": "m²/s³", "rad2ps": "rad²/s", "kg": "kg", "kgpm3": "kg/m³", "n": "N",
+    "c": "°C", "psu": "PSU", "db": "dB", "ppm": "ppm", "percent": "%", "hz": "Hz",
+}
+SECTION_RE = re.compile(r"^#\s*---\s*(.*?)\s*-*\s*$")
+
+
+def unit_of(name: str) -> str:
+    """The unit a parameter's name declares by its suffix; "-" when dimensionless."""
+    tokens = name.lower().split("_")
+    if len(tokens) > 2 and tokens[-2] == "per" and tokens[-1] in UNIT_SUFFIXES:  # gain_per_m
+        return "1/" + UNIT_SUFFIXES[tokens[-1]]
+    if len(tokens) > 1 and tokens[-1] in UNIT_SUFFIXES:
+        return UNIT_SUFFIXES[tokens[-1]]
+    if "db" in tokens[1:]:  # mls_snr_db_at_1m
+        return "dB"
+    return "-"
+
+
+# ------------------------------------------------------------------------------------
+# parsing the comments of a dataclass's fields
+
+@dataclasses.dataclass
+class FieldDoc:
+    name: str
+    annotation: str
+    section: str
+    comment: str
+
+
+def _comments_by_line(source: str) -> dict:
+    out = {}
+    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
+        if tok.type == tokenize.COMMENT:
+            out[tok.start[0]] = (tok.start[1], tok.string.lstrip("#").strip())
+    return out
+
+
+def field_docs(cls) -> tuple[list, dict]:
+    """(fields in source order, {section: note}) of a dataclass, with their comments.
+
+    A field's comment is the ``# ...`` at the end of its line, followed by the
+    comment-only lines directly under it when that comment was wrapped (a long line
+    that does not end in punctuation), preceded by a comment block directly above it. A block directly under a ``# --- section ---`` header
+    is the section's note when the field after it has a comment of its own.
+    """
+    path = inspect.getsourcefile(cls)
+    source = Path(path).read_text()
+    lines = source.splitlines()
+    comments = _comments_by_line(source)
+    tree = ast.parse(source)
+    node = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef) and n.name == cls.__name__)
+    fields = [n for n in node.body if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)]
+    field_at = {f.lineno: f for f in fields}
+    docs, notes = [], {}
+    section, pending, pending_after_header = "general", [], False
+    cont = None  # the FieldDoc whose comment the next comment-only lines continue
+    start = (node.body[0].end_lineno or node.body[0].lineno) + 1 if node.body else node.lineno
+    for ln in range(start, fields[-1].end_lineno + 1):
+        text = lines[ln - 1].strip()
+        if ln in field_at:
+            f = field_at[ln]
+            trailing = [comments[k][1] for k in range(f.lineno, f.end_lineno + 1)
+                        if k in comments and comments[k][0] > 0 and lines[k - 1][:comments[k][0]].strip()]
+            own = " ".join(trailing)
+            if pending and pending_after_header and own:
+                notes[section] = " ".join(pending)
+                above = ""
+            else:
+                above = " ".join(pending)
+            d = FieldDoc(f.target.id, ast.unparse(f.annotation), section, " ".join(x for x in (above, own) if x))
+            docs.append(d)
+            pending, pending_after_header = [], False
+            # comment-only lines under this field continue its comment when that comment was
+            # wrapped mid-sentence (a long line not ending in punctuation); otherwise they
+            # introduce the next field
+            wrapped = own and len(lines[f.end_lineno - 1]) > 80 and not re.search(r"[.)\]:;!?]$", own)
+            cont = d if wrapped else None
+        elif ln in field_at.values() or any(f.lineno < ln <= f.end_lineno for f in fields):
+            continue  # inside a multi-line field statement
+        elif text.startswith("#"):
+            m = SECTION_RE.match(text)
+            if m:
+                section, pending, pending_after_header, cont = m.group(1).strip() or section, [], True, None
+            elif cont is not None:
+                cont.comment += " " + text.lstrip("#").strip()
+            else:
+                pending.append(text.lstrip("#").strip())
+        elif not text:
+            cont = None  # a blank line ends a continuation; a pending block still introduces the next field
+        else:
+            cont = None
+    return docs, notes
+
+
+# ------------------------------------------------------------------------------------
+# markdown helpers
+
+def _cell(text) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _code(value) -> str:
+    r = repr(value)
+    return "`" + r.replace("|", "\\|") + "`"
+
+
+def _table(head, rows) -> str:
+    out = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
+    out += ["| " + " | ".join(_cell(c) for c in row) + " |" for row in rows]
+    return "\n".join(out)
+
+
+def _anchor(text: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
+
+
+# ------------------------------------------------------------------------------------
+# reference/parameters.md
+
+def _scenario_sources() -> dict:
+    """{scenario name: (file, source)}: the ``NAME = ScenarioConfig(name=..., ...)`` statement
+    of each scenario in coopnav_env/scenarios/*.py, verbatim with its comments."""
+    out = {}
+    for path in sorted((ROOT / "coopnav_env" / "scenarios").glob("*.py")):
+        source = path.read_text()
+        lines = source.splitlines()
+        for node in ast.parse(source).body:
+            call = node.value if isinstance(node, (ast.Assign, ast.AnnAssign)) else None
+            if not (isinstance(call, ast.Call) and getattr(call.func, "id", getattr(call.func, "attr", None))
+                    == "ScenarioConfig"):
+                continue
+            kw = {k.arg: k.value for k in call.keywords if k.arg}
+            if isinstance(kw.get("name"), ast.Constant):
+                text = "\n".join(lines[node.lineno - 1:node.end_lineno])
+                out[kw["name"].value] = (path.relative_to(ROOT).as_posix(), text)
+    return out
+
+
+def parameters_page() -> str:
+    import coopnav_env
+    from coopnav_env.scenarios.base import ScenarioConfig
+
+    docs, notes = field_docs(ScenarioConfig)
+    defaults = ScenarioConfig()
+    by_name = {f.name: f for f in dataclasses.fields(ScenarioConfig)}
+    missing = [d.name for d in docs if not d.comment]
+    out = [
+        "# Scenario parameters",
+        "",
+        "!!! info \"Generated from the code\"",
+        "    This page is generated at build time (`docs/hooks/generate.py`) from",
+        "    `coopnav_env.scenarios.base.ScenarioConfig`: its fields, defaults and the comments",
+        "    written beside them in `coopnav_env/scenarios/base.py`. Edit the comments there, not here.",
+        "",
+        "Every parameter is a keyword of `coopnav_env.parallel_env(...)`, `coopnav_env.make_config(...)`,",
+        "`evaluate.py --set KEY=VALUE` / `--sweep KEY=V1,V2` and the training YAML's `env.overrides`.",
+        "Units are in the names (the suffix: `_m` metres, `_s` seconds, `_mps` m/s, `_deg` degrees,",
+        "`_dps` deg/s, `_m2ps` m²/s, ...); the unit column is parsed from that suffix, \"-\" where the",
+        "name declares none (counts, probabilities, factors, names). `[U]` in a comment marks a value",
+        "the sources do not give (an assumption); \"ref-values section N\" cites",
+        "`shared/reference-values.md`.",
+        "",
+        f"{len(docs)} parameters in {len(dict.fromkeys(d.section for d in docs))} sections;",
+        "[which scenarios override which](#overrides-by-scenario) follows the sections.",
+        "",
+    ]
+    sections = list(dict.fromkeys(d.section for d in docs))
+    for sec in sections:
+        out += [f"## {sec[0].upper() + sec[1:]} {{#{_anchor(sec)}}}", ""]
+        if sec in notes:
+            out += [notes[sec], ""]
+        rows = []
+        for d in (x for x in docs if x.section == sec):
+            default = by_name[d.name].default
+            if default is dataclasses.MISSING:
+                default = getattr(defaults, d.name)
+            rows.append([f'<a id="{d.name}"></a>`{d.name}`', d.annotation, _code(default), unit_of(d.name), d.comment or "—"])
+        out += [_table(["parameter", "type", "default", "unit", "comment in base.py"], rows), ""]
+    if missing:
+        out += ["!!! warning \"Parameters without a comment in base.py\"",
+                "    " + ", ".join(f"`{m}`" for m in missing), ""]
+
+    # which scenario overrides what
+    names = coopnav_env.list_scenarios()
+    configs = {n: coopnav_env.make_config(n) for n in names}
+    changed = [d.name for d in docs if d.name != "name"
+               and any(getattr(configs[n], d.name) != getattr(defaults, d.name) for n in names)]
+    out += [
+        "## Overrides by scenario {#overrides-by-scenario}",
+        "",
+        "Each registered scenario (`coopnav_env.list_scenarios()`) against the defaults above:",
+        "a value where `coopnav_env.make_config(name)` differs from the default, blank where it",
+        "keeps it. Parameters no scenario changes are not listed.",
+        "",
+    ]
+    rows = []
+    for p in changed:
+        row = [f"[`{p}`](#{p})", unit_of(p),
+               _code(getattr(defaults, p))]
+        for n in names:
+            v = getattr(configs[n], p)
+            row.append(_code(v) if v != getattr(defaults, p) else "")
+        rows.append(row)
+    out += [_table(["parameter", "unit", "default"] + [f"`{n}`" for n in names], rows), ""]
+
+    # the scenario files themselves
+    sources = _scenario_sources()
+    out += ["### The scenario files", "",
+            "Each scenario's definition as written, with the comments that say where each value",
+            "comes from (a keyword may restate a default).", ""]
+    for n in names:
+        if n in sources:
+            path, text = sources[n]
+            out += [f'??? note "`{n}`: `{path}`"', "", "    ```python"]
+            out += ["    " + line if line else "" for line in text.splitlines()]
+            out += ["    ```", ""]
+    return "\n".join(out)
+
+
+# ------------------------------------------------------------------------------------
+# reference/observations.md
+
+def _rst_simple_table(doc: str) -> list:
+    """Rows (label, size, meaning, indent) of the first reST simple table in ``doc``."""
+    lines = textwrap.dedent(doc).splitlines()
+    rules = [i for i, l in enumerate(lines) if re.fullmatch(r"\s*=+(\s+=+)+\s*", l)]
+    if len(rules) < 2:
+        return []
+    rule = lines[rules[0]]
+    spans = [m.span() for m in re.finditer(r"=+", rule)]
+    rows = []
+    for line in lines[rules[0] + 1:rules[1]]:
+        if not line.strip():
+            continue
+        label = line[:spans[1][0]].rstrip()
+        size = line[spans[1][0]:spans[2][0]].strip() if len(spans) > 2 else line[spans[1][0]:].strip()
+        meaning = line[spans[2][0]:].strip() if len(spans) > 2 else ""
+        indent = len(label) - len(label.lstrip())
+        rows.append((label.strip(), size, meaning, indent))
+    return rows
+
+
+def _size(text: str, K: int):
+    t = text.replace(" ", "")
+    if not t:
+        return None
+    m = re.fullmatch(r"(\d*)K", t)
+    if m:
+        return int(m.group(1) or 1) * K
+    return int(t)
+
+
+def observations_page() -> str:
+    import coopnav_env
+    from coopnav_env import obs_layout
+    from coopnav_env.core import moving_network as mn
+    from coopnav_env.core import observation as ob
+
+    names = coopnav_env.list_scenarios()
+    configs = {n: coopnav_env.make_config(n) for n in names}
+    out = [
+        "# Observation layout",
+        "",
+        "!!! info \"Generated from the code\"",
+        "    This page is generated at build time (`docs/hooks/generate.py`) from",
+        "    `coopnav_env.core.observation` (the survey network's layout table and constants),",
+        "    `coopnav_env.core.moving_network.OBS_FIELDS` (the moving network's boats) and",
+        "    `coopnav_env.obs_layout.obs_dim`. Policies and tools never index the vector by hand:",
+        "    `coopnav_env.obs_layout.decode(obs, config)` and `decode_boat(obs, config)` read it.",
+        "",
+        f"Every observation is a `Box(-{ob.OBS_BOUND:g}, {ob.OBS_BOUND:g}, (D,), float32)` per agent "
+        f"(values clipped to ±`OBS_BOUND` = {ob.OBS_BOUND:g}), holding only what that agent could know.",
+        "",
+        "## Length by scenario",
+        "",
+    ]
+    rows = []
+    for n, c in configs.items():
+        rows.append([f"`{n}`", f"`{c.network}`", c.n_survey if c.network != "moving_lbl" else "1",
+                     c.n_beacons, c.observed_waypoints if c.network != "moving_lbl" else "—",
+                     obs_layout.obs_dim(c)])
+    out += [_table(["scenario", "network", "survey vehicles S", "beacons N", "observed waypoints K", "D"],
+                   rows), ""]
+
+    # survey network
+    out += ["## Survey network (`network=\"survey_beacons\"`)", "",
+            "One beacon's vector, in this order. Positions are divided by "
+            "L = `config.position_scale_m` (half the survey area's larger side plus the geofence margin); "
+            "T is `ping_interval_s`.", ""]
+    fields = getattr(ob, "OBS_FIELDS", None)
+    rows, per_survey, per_beacon = [], [], []
+    if fields:  # a declared field list, if the code grows one
+        for f in fields:
+            name, size = f[0], f[1]
+            meaning = f[2] if len(f) > 2 else ""
+            rows.append([f"`{name}`", size, meaning])
+        out += [_table(["field", "size", "meaning"], rows), ""]
+    else:
+        table = _rst_simple_table(ob.__doc__ or "")
+        if not table:
+            log.warning("generate.py: no layout table found in coopnav_env.core.observation's docstring")
+        group = "own"
+        for label, size, meaning, indent in table:
+            if not size and label.endswith(":"):
+                group = "survey"
+                rows.append([f"**{label.rstrip(':')}** (repeated S times)", "", ""])
+                continue
+            if indent == 0:
+                group = "beacon" if label.startswith("per other beacon") else "own"
+            rows.append([("&nbsp;&nbsp;&nbsp;&nbsp;" if indent else "") + label, size, meaning])
+            (per_survey if group == "survey" else per_beacon if group == "beacon" else []).append((label, size))
+        out += [_table(["field", "size", "meaning"], rows), "",
+                "`per other beacon` is repeated N - 1 times (the other beacons, in agent order).", ""]
+        # check the table against the code's dimension
+        for n, c in configs.items():
+            if c.network != "survey_beacons":
+                continue
+            K = c.observed_waypoints
+            own = sum(_size(s, K) or 0 for l, s, m, i in table if i == 0 and not l.startswith("per other"))
+            surv = sum(_size(s, K) or 0 for l, s in per_survey)
+            beac = sum(_size(s, K) or 0 for l, s in per_beacon)
+            total = own + c.n_survey * surv + (c.n_beacons - 1) * beac
+            if total != obs_layout.obs_dim(c):
+                log.warning(f"generate.py: the layout table of coopnav_env.core.observation sums to {total} for "
+                            f"{n}, but obs_layout.obs_dim gives {obs_layout.obs_dim(c)}")
+    consts = [(k, getattr(ob, k)) for k in ("OWN_DIM", "PER_SURVEY_FIXED", "DEPTH_SCALE_M", "ELLIPSE_SCALE_M",
+                                            "STD_SCALE_M", "AGE_SCALE_PINGS", "OBS_BOUND", "ELLIPSE_N_SIGMA")
+              if hasattr(ob, k)]
+    out += ["The layout's constants (`coopnav_env.core.observation`):", "",
+            _table(["constant", "value"], [[f"`{k}`", _code(v)] for k, v in consts]), "",
+            "D = `OWN_DIM` + S (`PER_SURVEY_FIXED` + 2K) + 2 (N - 1) "
+            "(`coopnav_env.core.observation.obs_dim`).", ""]
+    # indices for one example
+    ex = "gao_lawnmower" if "gao_lawnmower" in configs else next(n for n, c in configs.items()
+                                                                   if c.network == "survey_beacons")
+    c = configs[ex]
+    K, S, N = c.observed_waypoints, c.n_survey, c.n_beacons
+    idx, rows = 0, []
+    table = _rst_simple_table(ob.__doc__ or "") if not fields else []
+    own_rows = [(l, _size(sz, K)) for l, sz, m, i in table if i == 0 and sz and not l.startswith("per other")]
+    for l, n in own_rows:
+        rows.append([l, f"{idx}:{idx + n}"])
+        idx += n
+    for s in range(S):
+        for l, sz in per_survey:
+            n = _size(sz, K)
+            rows.append([f"survey {s}: {l}", f"{idx}:{idx + n}"])
+            idx += n
+    for j in range(N - 1):
+        for l, sz in per_beacon:
+            n = _size(sz, K)
+            rows.append([f"other beacon {j}: {l}", f"{idx}:{idx + n}"])
+            idx += n
+    if rows:
+        out += [f"Example: `{ex}` (S = {S}, N = {N}, K = {K}, D = {obs_layout.obs_dim(c)}), slices of "
+                "the vector:", "", _table(["field", "slice"], rows), ""]
+
+    # moving network
+    out += ["## Moving LBL network (`network=\"moving_lbl\"`)", "",
+            "One boat's vector (`coopnav_env.core.moving_network.OBS_FIELDS`, "
+            f"`OBS_DIM` = {mn.OBS_DIM}), in this order:", ""]
+    rows, idx = [], 0
+    with_meaning = any(len(f) > 2 for f in mn.OBS_FIELDS)  # (name, size[, meaning])
+    for f in mn.OBS_FIELDS:
+        name, n = f[0], f[1]
+        rows.append([f"`{name}`", n, f"{idx}:{idx + n}"] + ([f[2] if len(f) > 2 else "—"] if with_meaning else []))
+        idx += n
+    out += [_table(["field", "size", "slice"] + (["meaning"] if with_meaning else []), rows), ""]
+    doc = inspect.getdoc(mn.MovingNetworkSimulator.observe) or ""
+    if doc:
+        out += ["What the code says of these fields (the docstring of "
+                "`MovingNetworkSimulator.observe`):", ""]
+        out += ["> " + line if line else ">" for line in doc.splitlines()]
+        out += [""]
+    return "\n".join(out)
+
+
+# ------------------------------------------------------------------------------------
+# evaluation.md: the column tables, from evaluation.report
+
+GENERATED_RE = re.compile(r"^<!-- generated: ([A-Z_]+) -->$", re.M)
+
+
+def column_table(name: str) -> str:
+    """The Markdown table of ``evaluation.report.<name>``: a dict column -> (unit, meaning)
+    (``*_COLUMN_DOCS``) or summary key -> (summary.md header, format, unit, meaning)."""
+    from evaluation import report
+
+    docs = getattr(report, name)
+    rows, four = [], False
+    for key, value in docs.items():
+        if len(value) == 4:
+            four = True
+            header, _fmt, unit, meaning = value
+            rows.append([header, f"`{key}`", unit or "-", meaning])
+        else:
+            unit, meaning = value
+            rows.append([f"`{key}`", unit or "-", meaning])
+    if four:
+        extra = getattr(report, "SUMMARY_COLUMN_DOCS", {})
+        if name == "SUMMARY_COLUMNS":  # summary.json keys that summary.md's per-policy table does not show
+            shown = set(docs) | set(getattr(report, "FRAME_COLUMNS", {}))
+            rows += [["-", f"`{k}`", u or "-", m] for k, (u, m) in extra.items() if k not in shown]
+        return _table(["summary.md column", "summary.json key", "unit", "definition"], rows)
+    return _table(["column", "unit", "definition"], rows)
+
+
+# ------------------------------------------------------------------------------------
+# MkDocs events
+
+def on_files(files, config):
+    for uri, make in (("reference/parameters.md", parameters_page), ("reference/observations.md", observations_page)):
+        files.append(File.generated(config, uri, content=make()))
+    return files
+
+
+def on_page_markdown(markdown, page, config, files):
+    def replace(m):
+        try:
+            return column_table(m.group(1))
+        except Exception as err:  # noqa: BLE001 - any failure is a documentation error
+            log.warning(f"generate.py: {page.file.src_uri}: cannot generate {m.group(1)} from evaluation.report: {err!r}")
+            return m.group(0)
+
+    return GENERATED_RE.sub(replace, markdown)
