@@ -32,8 +32,6 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
 from coopnav_env.core.mls import MLSConfig, MLSSensor, PeakTracker, Reflection  # noqa: E402
 
 TARGET_MS = 5.0

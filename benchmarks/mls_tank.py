@@ -31,14 +31,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-from coopnav_env.core.mls import (MLSConfig, MLSSensor, PeakTracker, Reflection, error_statistics,  # noqa: E402
+from coopnav_env.core.mls import (MLSConfig, MLSSensor, PeakTracker, Reflection, error_statistics,
                                   geometric_truth, wrap_angle_rad)
 
 PAPER_TABLE_1 = {
