@@ -77,7 +77,7 @@ class CoopNavParallelEnv(ParallelEnv):
 
     **The MLS sensor** (``acoustic_sensor="mls"``, scenario ``swarm_mls``; Kottege &
     Zimmer): as above, but one beacon sends per cycle (round robin) and each survey
-    vehicle measures its range and azimuth with the MLS array (``core/mls.py``).
+    vehicle measures its range and azimuth with the MLS array (``core/mls/``).
 
     **Arguments**: ``scenario`` (a name from ``coopnav_env.list_scenarios()`` or a
     ``ScenarioConfig``), ``render_mode`` (``None``, ``"rgb_array"``, ``"human"``),

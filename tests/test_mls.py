@@ -1,4 +1,4 @@
-"""The MLS azimuth/range/heading sensor (coopnav_env/core/mls.py; Kottege & Zimmer,
+"""The MLS azimuth/range/heading sensor (coopnav_env/core/mls/; Kottege & Zimmer,
 Acoustics '08): the paper's equations on hand-computed values, noise-free geometry,
 the corrected error bounds against a numerical Jacobian, the signal level against the
 analytic mode, a short tank sweep against the paper's headline bounds, bad input and

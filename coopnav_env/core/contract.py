@@ -146,7 +146,7 @@ class BatchSimulator:
             raise RuntimeError("reset_info() before reset()")
         shape = (self.batch_size, self.S)
         info = {"range_ok": np.zeros(shape, dtype=bool)}
-        for key in ("ranges_fused", "outliers_rejected", "nan_rejected", "packets_lost"):
+        for key in ("ranges_fused", "outliers_rejected", "nan_rejected", "packets_lost", "filter_restarts"):
             info[key] = np.zeros(shape, dtype=np.int64)
         info.update(self._state_info())
         return {key: info[key] for key in self.info_keys}

@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit, prange
 
 from .acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
-from .navigation import gated_update, joseph_update, range_prediction
+from .navigation import gated_update, joseph_update, range_prediction, reinit_on_range
 
 
 def _fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m, gps_noise_m,
@@ -86,8 +86,8 @@ def modem_range_variance(detection_std_m, two_way, beacon_var_m2, predicted_rang
 
 def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var, temperature_c, t_s,
                 clock_offset_s, clock_drift, acoustic_n, acoustic_u, current_sent, sends_current,
-                current_est, last_range_t_s, fused, rejected, lost, nan_count,
-                two_way, turnaround_s, range_noise_std_m, max_range_m, loss_near, loss_far,
+                current_est, last_range_t_s, rejected_streak, restarts, fused, rejected, lost, nan_count,
+                reinit_after, two_way, turnaround_s, range_noise_std_m, max_range_m, loss_near, loss_far,
                 outlier_probability, outlier_mean_excess_m, nan_probability, nominal_temperature_c,
                 salinity_psu, temperature_uncertainty_c, gate, mls, mls_state, mls_range, mls_bearing,
                 mls_range_var, mls_bearing_var):
@@ -104,8 +104,12 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
     sound-speed uncertainty's share. Outputs (B,N,S) flags fused / rejected (gate)
     / lost and NaN counts (B,S); updates est, P, current_est, last_range_t_s.
 
+    Lock-out recovery: after ``reinit_after`` (> 0) modem ranges in a row rejected by
+    the gate with innovations of one sign, the filter restarts from the last one (``navigation.reinit_on_range``);
+    ``restarts`` (B,S) counts it.
+
     With ``mls`` the measurements come in from the MLS sensor's analytic mode
-    (core/mls.py, run by the Simulator): mls_state (B,N,S) is 0 where beacon j did
+    (core/mls/, run by the Simulator): mls_state (B,N,S) is 0 where beacon j did
     not send this cycle, 1 where it sent but was not heard, 2 where range
     ``mls_range`` and world bearing ``mls_bearing`` (clockwise from north, from the
     survey's compass plus the measured azimuth) are there with their variances; the
@@ -181,7 +185,18 @@ def _fuse_ranges(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_va
                                          temperature_uncertainty_c * dc_dT / c_assumed)
                 if not gated_update(est[b, s], P[b, s], r, h, H, R, gate):
                     rejected[b, j, s] = True
+                    # the streak counts rejected ranges in a row whose innovations share a sign (a
+                    # filter that has drifted sees them all too long or all too short; multipath
+                    # outliers are too long only, between fused ranges): +k or -k
+                    sign = 1 if r > h else -1
+                    streak = rejected_streak[b, s]
+                    rejected_streak[b, s] = streak + sign if streak * sign >= 0 else sign
+                    if (0 < reinit_after <= abs(rejected_streak[b, s])
+                            and reinit_on_range(est[b, s], P[b, s], r, h, H, R)):
+                        rejected_streak[b, s] = 0  # locked out: restarted from this range
+                        restarts[b, s] += 1
                     continue
+                rejected_streak[b, s] = 0
                 fused[b, j, s] = True
                 any_fused = True
             if any_fused:

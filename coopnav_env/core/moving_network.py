@@ -178,12 +178,12 @@ def exchange_covariance_m2(detection_std_m):
 
 
 # the per-cycle kernel's float outputs (columns of fval), besides its integer outputs
-# (ranges fused, outliers rejected, packets lost) and a range fused (bval)
+# (ranges fused, outliers rejected, packets lost, the filter restarted) and a range fused (bval)
 # reward terms (unweighted, 0/1): _F_SAFETY per boat, then the team's baseline, approach and contact
 (_F_DET_BEFORE, _F_DET_AFTER, _F_SURVEY_ERROR, _F_DR_ERROR, _F_ERROR_X, _F_ERROR_Y, _F_BASELINE_ERROR, _F_MAJOR,
  _F_MINOR, _F_VEHICLE_Y, _F_SAFETY, _F_SAFETY_B2, _F_CONTACT, _F_PHI_ERR_SIN, _F_PHI_ERR_COS, _F_BASELINE_OFF,
  _F_APPROACH) = range(17)
-N_FVAL, N_IVAL = 17, 3
+N_FVAL, N_IVAL = 17, 4
 _INFO_COLUMNS = (("survey_error_m", _F_SURVEY_ERROR), ("dr_error_m", _F_DR_ERROR), ("error_x_m", _F_ERROR_X),
                  ("error_y_m", _F_ERROR_Y), ("baseline_error_m", _F_BASELINE_ERROR), ("ellipse_major_m", _F_MAJOR),
                  ("ellipse_minor_m", _F_MINOR), ("vehicle_y_m", _F_VEHICLE_Y))
@@ -311,6 +311,7 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
             rejected_cycles[b] = 0
         else:
             rejected_cycles[b] += rejected > 0
+        restarted = 0
         fx, fy, ok_fix = lbl.spherical_fix_of(horizontal_range(d1, dz), horizontal_range(d2, dz), l)
         if rejected_cycles[b] >= REINIT_AFTER_CYCLES and ok_l and ok_fix and fy > 0:
             E[b, 0], E[b, 1], E[b, 5] = fx, fy, l
@@ -323,6 +324,7 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
             P[b, 1, 1] = var
             P[b, 5, 5] = 6.0 * sigma_r2
             rejected_cycles[b] = 0
+            restarted = 1
         fval[b, _F_DET_AFTER] = det2_of(P[b, 0, 0], P[b, 0, 1], P[b, 1, 0], P[b, 1, 1])
 
         # the boats' tracker
@@ -360,7 +362,7 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
         fval[b, _F_BASELINE_ERROR] = E[b, 5] - length[b]
         fval[b, _F_MAJOR], fval[b, _F_MINOR], _ = ellipse_of(P[b, 0, 0], P[b, 0, 1], P[b, 1, 1], ELLIPSE_N_SIGMA)
         fval[b, _F_VEHICLE_Y] = yv
-        ival[b, 0], ival[b, 1], ival[b, 2] = n_fused, rejected, n_lost
+        ival[b, 0], ival[b, 1], ival[b, 2], ival[b, 3] = n_fused, rejected, n_lost, restarted
         bval[b, 0] = fused0 or fused1
 
 
@@ -614,6 +616,7 @@ class MovingNetworkSimulator(BatchSimulator):
             "outliers_rejected": ival[:, 1:2],
             "nan_rejected": np.zeros((B, 1), dtype=np.int64),
             "packets_lost": ival[:, 2:3],
+            "filter_restarts": ival[:, 3:4],
             "error_x_m": col["error_x_m"], "error_y_m": col["error_y_m"],
             "phi_error_deg": np.degrees(np.arctan2(fval[:, _F_PHI_ERR_SIN], fval[:, _F_PHI_ERR_COS]))[:, None],
             "baseline_error_m": col["baseline_error_m"],

@@ -99,6 +99,42 @@ def gated_update(x, P, z, h, H, R, gate):
     return True
 
 
+@njit(cache=True)
+def reinit_on_range(x, P, z, h, H, R):
+    """Recovery from gate lock-out with one range (in place; x (3,), P (3, 3)).
+
+    A filter whose gate has rejected several ranges in a row has drifted further than
+    its covariance admits, and the gate now refuses the very ranges that would correct
+    it. This restarts its horizontal position from the range: the estimate moves along
+    the horizontal line of sight u = H_xy / |H_xy| (eq. 8) by y / |H_xy| (y = z - h),
+    onto the measured range; the horizontal covariance becomes R / |H_xy|^2 along u
+    (the range's own information) and, across it, the old variance plus y^2 (the
+    filter has shown it was off by at least |y|); the depth keeps its estimate and
+    variance, without cross terms. Later ranges from other bearings then pass the
+    gate and fix the across-track part. Returns False (nothing changed) when the line
+    of sight is steeper than 60 degrees, where a range barely constrains the
+    horizontal position."""
+    hx, hy = H[0], H[1]
+    g2 = hx * hx + hy * hy
+    if g2 < 0.25:  # a steep line of sight (|H_xy| < 0.5): the range says little about the horizontal position
+        return False
+    g = np.sqrt(g2)
+    ux, uy = hx / g, hy / g
+    tx, ty = -uy, ux
+    y = z - h
+    x[0] += y * ux / g
+    x[1] += y * uy / g
+    across = tx * tx * P[0, 0] + 2.0 * tx * ty * P[0, 1] + ty * ty * P[1, 1] + y * y
+    along = R / g2
+    P[0, 0] = along * ux * ux + across * tx * tx
+    P[0, 1] = P[1, 0] = along * ux * uy + across * tx * ty
+    P[1, 1] = along * uy * uy + across * ty * ty
+    for i in range(2):
+        P[i, 2] = 0.0
+        P[2, i] = 0.0
+    return True
+
+
 # --- the same equations over any leading batch axes, from Python ----------------------
 @njit(cache=True)
 def _update_rows(x, P, z, h, H, R, mask, y, S):

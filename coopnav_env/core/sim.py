@@ -34,7 +34,7 @@ from .navigation import gate_threshold, predict
 from .state import SimState
 
 INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
-             "outliers_rejected", "nan_rejected", "packets_lost")
+             "outliers_rejected", "nan_rejected", "packets_lost", "filter_restarts")
 
 
 class Simulator(BatchSimulator):
@@ -183,6 +183,7 @@ class Simulator(BatchSimulator):
             s_wp_index=np.ones((B, S), dtype=np.int64),
             s_hover=hover, s_done=np.zeros((B, S), dtype=bool),
             s_est=est, s_P=P0, s_dr=est.copy(), s_last_range_t_s=np.zeros((B, S)),
+            s_rejected_streak=np.zeros((B, S), dtype=np.int64),
             s_current_est=np.zeros((B, S), dtype=complex),
             b_pos=b_pos, b_heading=b_heading, b_vel=np.zeros((B, N, 3)), b_nav_err=b_err,
             b_nav_var_m2=np.broadcast_to(b_std0 ** 2, (B, N)).copy(),
@@ -252,12 +253,14 @@ class Simulator(BatchSimulator):
         # 4. acoustic ranging --------------------------------------------------------
         fused = np.zeros((B, N, S), dtype=bool)
         rejected, lost = np.zeros_like(fused), np.zeros_like(fused)
+        restarts = np.zeros((B, S), dtype=np.int64)
         mls_args = self._mls_measurements(draws)
         self._k_ranges(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel,
                        st.b_pos + st.b_nav_err, st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s,
                        st.clock_drift, draws["acoustic_n"], draws["acoustic_u"],
                        st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err, self._sends_current,
-                       st.s_current_est, st.s_last_range_t_s, fused, rejected, lost, nan_count,
+                       st.s_current_est, st.s_last_range_t_s, st.s_rejected_streak, restarts, fused, rejected, lost,
+                       nan_count, c.reinit_after_rejected_ranges,
                        c.ranging_mode == "twtt", c.turnaround_s, c.range_noise_std_m * st.ep_noise_scale, c.max_range_m,
                        c.packet_loss_near, c.packet_loss_far, c.outlier_probability, c.outlier_mean_excess_m,
                        c.sensor_nan_probability, c.water_temperature_c, c.salinity_psu, c.temperature_uncertainty_c,
@@ -291,6 +294,7 @@ class Simulator(BatchSimulator):
             "outliers_rejected": rejected.sum(1),
             "nan_rejected": nan_count,
             "packets_lost": lost.sum(1),
+            "filter_restarts": restarts,
         }
         return StepResult(self.observe(), weighted_reward(terms, self.reward_weights), terminated, truncated,
                           {k: info[k] for k in INFO_KEYS}, terms, st.s_P[..., :2, :2])

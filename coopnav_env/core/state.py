@@ -57,6 +57,7 @@ class SimState(BatchArrays):
     s_P: np.ndarray  # EKF covariance (B,S,3,3)
     s_dr: np.ndarray  # dead-reckoning-only track (B,S,3)
     s_last_range_t_s: np.ndarray  # time of the last fused range (B,S)
+    s_rejected_streak: np.ndarray  # ranges rejected in a row, signed by their innovations' sign (B,S) int
     s_current_est: np.ndarray  # water current last received from a beacon AUV, complex (B,S)
     # beacons, (B, N, ...)
     b_pos: np.ndarray  # true (B,N,3)

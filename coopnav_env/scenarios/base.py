@@ -90,6 +90,7 @@ class ScenarioConfig:
     # biases the filter does not model (speed scale, compass bias, current estimate)
     process_noise_vertical_m2ps: float = 0.002  # Q per second, depth
     range_gate_probability: float = 0.99  # chi-square innovation gate (1 dof)
+    reinit_after_rejected_ranges: int = 3  # survey filter: restart from the range after this many gated out in a row (0: never)
     survey_uses_beacon_current: bool = True  # add the current a DVL beacon AUV sends (Gao II-A)
 
     # --- beacon AUV (DVL) -----------------------------------------------------------
@@ -117,7 +118,7 @@ class ScenarioConfig:
 
     # --- acoustics ------------------------------------------------------------------
     # "modem": every beacon pings every survey vehicle each cycle (range only);
-    # "mls": Kottege & Zimmer's MLS array (core/mls.py, analytic mode): one beacon sends
+    # "mls": Kottege & Zimmer's MLS array (core/mls/, analytic mode): one beacon sends
     # per cycle (round robin) and each survey vehicle measures its range and azimuth
     acoustic_sensor: str = "modem"  # one of ACOUSTIC_SENSORS (see above)
     mls_snr_db_at_1m: float = 30.0  # in-band SNR per sample at 1 m [U]; falls 20 log10(r)
@@ -186,7 +187,7 @@ class ScenarioConfig:
 
     def __post_init__(self):
         # integers may come as numpy integers (from sweeps, YAML); store plain ints
-        for name in ("max_cycles", "n_survey", "path_repeats", "observed_waypoints"):
+        for name in ("max_cycles", "n_survey", "path_repeats", "observed_waypoints", "reinit_after_rejected_ranges"):
             v = getattr(self, name)
             if isinstance(v, numbers.Integral) and not isinstance(v, bool):
                 object.__setattr__(self, name, int(v))
@@ -309,6 +310,8 @@ def _validate(c: ScenarioConfig):
     _check(0 <= c.survey_thrust_percent <= 100, "survey_thrust_percent must be in [0, 100]")
     _check(type(c.max_cycles) is int and c.max_cycles >= 1, f"max_cycles must be an int >= 1, got {c.max_cycles!r}")
     _check(type(c.n_survey) is int and c.n_survey >= 1, f"n_survey must be an int >= 1, got {c.n_survey!r}")
+    _check(type(c.reinit_after_rejected_ranges) is int and 0 <= c.reinit_after_rejected_ranges <= 1000,
+           f"reinit_after_rejected_ranges must be an int in [0, 1000], got {c.reinit_after_rejected_ranges!r}")
     _check(c.substep_s <= c.ping_interval_s, "substep_s must not exceed ping_interval_s")
     _check(abs(c.substeps_per_cycle * c.substep_s - c.ping_interval_s) < 1e-9 * c.ping_interval_s,
            f"ping_interval_s ({c.ping_interval_s}) must be a whole multiple of substep_s ({c.substep_s})")

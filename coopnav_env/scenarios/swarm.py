@@ -3,7 +3,7 @@
 Three survey AUVs fly parallel lawnmower tracks 15 m apart; one well-navigated
 vehicle (a DVL beacon AUV, the learning agent) sends a maximum-length-sequence
 event each cycle and every survey vehicle within the sensor's window measures its
-range and azimuth (``core/mls.py``, analytic mode; the heading it also measures is
+range and azimuth (``core/mls/``, analytic mode; the heading it also measures is
 not fused: it says nothing about the receiver's own position). With several
 agents (``beacon_kinds=("beacon_auv",) * k``) they send in turn, a round robin
 standing in for the paper's radio scheduling. The agent is rewarded, as in every
