@@ -34,12 +34,8 @@ import platform
 import sys
 import time
 import warnings
-from pathlib import Path
 
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 
 def parse_args(argv=None):
@@ -87,7 +83,8 @@ def sb3_rate(args, n_beacons: int) -> dict:
 def rllib_rate(args, runners: int, n_beacons: int) -> dict:
     import torch
 
-    import train_rllib
+    from agents.training import rllib as trainer
+    from agents.training.config import RLlibConfig, from_dict
 
     torch.set_num_threads(1)
     hp = {
@@ -103,15 +100,15 @@ def rllib_rate(args, runners: int, n_beacons: int) -> dict:
         "learners": {"num_learners": 0},
         "env": {"overrides": {}}, "reward": {},
     }
-    config, _ = train_rllib.build_config(args.scenario, hp, 0, runners)
+    config, _ = trainer.build_config(from_dict(RLlibConfig, {**hp, "scenario": args.scenario, "seed": 0}))
     t = time.perf_counter()
     algo = config.build_algo()
     build = time.perf_counter() - t
     try:
-        first = train_rllib.metrics(algo.train())  # warm-up update
+        first = trainer.metrics(algo.train())  # warm-up update
         t = time.perf_counter()
         for _ in range(args.iterations):
-            last = train_rllib.metrics(algo.train())
+            last = trainer.metrics(algo.train())
         wall = time.perf_counter() - t
     finally:
         algo.stop()
@@ -140,7 +137,7 @@ def main(argv=None) -> int:
         cores = os.cpu_count() or 1
         ray.init(num_cpus=max(cores, needed), include_dashboard=False, log_to_driver=False,
                  object_store_memory=200 * 2**20,
-                 runtime_env={"env_vars": {"PYTHONPATH": str(ROOT), "RAY_USAGE_STATS_ENABLED": "0"}})
+                 runtime_env={"env_vars": {"RAY_USAGE_STATS_ENABLED": "0"}})
         try:
             for r in runner_counts:
                 rows.append(rllib_rate(args, r, n_beacons))

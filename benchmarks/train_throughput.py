@@ -37,11 +37,6 @@ import platform
 import sys
 import time
 import warnings
-from pathlib import Path
-
-
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 
 def timed(venv_class):
@@ -78,16 +73,17 @@ def timed(venv_class):
     return Timed
 
 
-def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int, hp: dict, step_infos=False,
+def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int, config, step_infos=False,
           training_reward=False):
+    """``config``: the scenario's ``agents.training.TrainConfig``."""
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
-    overrides = dict((hp.get("env", {}) or {}).get("overrides", {}) or {})
+    overrides = dict(config.env.overrides)
     if kind == "coopnav":
         from coopnav_env.vector import CoopNavVecEnv
 
         raw = CoopNavVecEnv(scenario, n_envs=n_envs, seed=seed, step_infos=step_infos,
-                            reward_terms=hp.get("reward") if training_reward else None, **overrides)
+                            reward_terms=config.reward if training_reward else None, **overrides)
     else:
         import supersuit as ss
 
@@ -98,23 +94,25 @@ def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int,
     return timed(VecEnvWrapper)(raw)
 
 
-def measure(kind, scenario, hp, n_envs, rollouts, seed, supersuit_cpus, step_infos=False, training_reward=False) -> dict:
+def measure(kind, scenario, config, n_envs, rollouts, seed, supersuit_cpus, step_infos=False,
+            training_reward=False) -> dict:
+    import dataclasses
+
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    import train
+    from agents.training.sb3 import learning_rate, policy_kwargs
 
     torch.manual_seed(seed)
-    inner = build(kind, scenario, n_envs, seed, supersuit_cpus, hp, step_infos, training_reward)
-    ppo_hp = dict(hp.get("ppo", {}) or {})
+    inner = build(kind, scenario, n_envs, seed, supersuit_cpus, config, step_infos, training_reward)
+    ppo_hp = dict(config.ppo)
     gamma = float(ppo_hp.get("gamma", 0.99))
-    norm = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, **(hp.get("normalize", {}) or {})}
-    venv = VecNormalize(VecMonitor(inner), gamma=gamma, **norm)
-    lr = train.learning_rate(ppo_hp.pop("learning_rate", 3e-4))
-    kwargs = train.policy_kwargs(ppo_hp.pop("policy_kwargs", None))
-    model = PPO(hp.get("policy", "MlpPolicy"), venv, learning_rate=lr, policy_kwargs=kwargs, seed=seed,
+    venv = VecNormalize(VecMonitor(inner), gamma=gamma, **dataclasses.asdict(config.normalize))
+    lr = learning_rate(ppo_hp.pop("learning_rate", 3e-4))
+    kwargs = policy_kwargs(ppo_hp.pop("policy_kwargs", None))
+    model = PPO(config.policy, venv, learning_rate=lr, policy_kwargs=kwargs, seed=seed,
                 device="cpu", verbose=0, **ppo_hp)
     per_rollout = model.n_steps * venv.num_envs
 
@@ -146,7 +144,7 @@ def measure(kind, scenario, hp, n_envs, rollouts, seed, supersuit_cpus, step_inf
 
 
 def main(argv=None):
-    import train
+    from agents.training.config import ConfigError, TrainConfig, hyperparameter_file, load_config
 
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
@@ -170,19 +168,23 @@ def main(argv=None):
         print(f"train_throughput.py: error: unknown scenario {args.scenario!r}; valid scenarios: "
               f"{', '.join(list_scenarios())}", file=sys.stderr)
         return 2
-    hp = train.load_hyperparameters(train.hyperparameter_file(args.scenario, args.config))
-    n_envs = args.n_envs or int(hp.get("n_envs", 16))
+    try:
+        config = load_config(hyperparameter_file("sb3", args.scenario, args.config), TrainConfig)
+    except ConfigError as err:
+        print(f"train_throughput.py: error: {err}", file=sys.stderr)
+        return 2
+    n_envs = args.n_envs or config.n_envs
     import torch
 
     torch.set_num_threads(args.threads)
     kinds = [args.only] if args.only else ["coopnav", "supersuit"]
-    results = [measure(k, args.scenario, hp, n_envs, args.rollouts, args.seed, args.supersuit_cpus, args.step_infos,
+    results = [measure(k, args.scenario, config, n_envs, args.rollouts, args.seed, args.supersuit_cpus, args.step_infos,
                        args.training_reward) for k in kinds]
     meta = {"scenario": args.scenario, "n_envs": n_envs, "step_infos": args.step_infos,
             "training_reward": args.training_reward,
-            "overrides": (hp.get("env", {}) or {}).get("overrides", {}) or {}, "n_steps": hp.get("ppo", {}).get("n_steps"),
-            "n_epochs": hp.get("ppo", {}).get("n_epochs"), "batch_size": hp.get("ppo", {}).get("batch_size"),
-            "net_arch": (hp.get("ppo", {}).get("policy_kwargs") or {}).get("net_arch"),
+            "overrides": config.env.overrides, "n_steps": config.ppo.get("n_steps"),
+            "n_epochs": config.ppo.get("n_epochs"), "batch_size": config.ppo.get("batch_size"),
+            "net_arch": (config.ppo.get("policy_kwargs") or {}).get("net_arch"),
             "rollouts": args.rollouts, "torch_threads": torch.get_num_threads(), "cpus": os.cpu_count(),
             "python": platform.python_version(), "load_avg_1m": os.getloadavg()[0]}
     by_kind = {r["kind"]: r for r in results}

@@ -67,10 +67,20 @@ def test_missing_ray_is_one_line_and_exit_2(tmp_path):
 # everything below needs Ray
 for _k, _v in LOOPBACK_ENV.items():  # before the first `import ray` (Ray reads them at import)
     os.environ.setdefault(_k, _v)
-sys.path.insert(0, str(ROOT))
 
 import agents  # noqa: E402
 import coopnav_env  # noqa: E402
+from agents.training import EXIT_INTERRUPTED, RLlibConfig, cli  # noqa: E402
+from agents.training import rllib as rllib_trainer  # noqa: E402
+from agents.training.config import from_dict, load_config  # noqa: E402
+
+
+def _config(scenario, hp, num_env_runners=None) -> RLlibConfig:
+    """The typed config of ``hp`` (a dict as the YAML holds it) on ``scenario``."""
+    config = from_dict(RLlibConfig, {**hp, "scenario": scenario})
+    if num_env_runners is not None:
+        config = config.replace(env_runners={**config.env_runners, "num_env_runners": num_env_runners})
+    return config
 
 
 @pytest.fixture(scope="module")
@@ -146,16 +156,15 @@ def test_one_module_per_beacon_kind(ray_mod):
 @pytest.mark.parametrize("scenario", coopnav_env.list_scenarios())
 def test_one_iteration_in_local_mode(scenario, local_ray):
     """num_env_runners=0, num_learners=0: the driver samples and learns."""
-    import train_rllib
     from coopnav_env.rllib_env import module_ids
 
     hp = json.loads(json.dumps(TINY))
-    config, mapping = train_rllib.build_config(scenario, hp, seed=0, num_env_runners=0)
+    config, mapping = rllib_trainer.build_config(_config(scenario, hp, num_env_runners=0))
     assert config.num_env_runners == 0 and config.num_learners == 0
     algo = config.build_algo()
     try:
         result = algo.train()
-        m = train_rllib.metrics(result)
+        m = rllib_trainer.metrics(result)
         modules = {k for k in result["learners"] if k != "__all_modules__"}  # the modules that learnt
     finally:
         algo.stop()
@@ -164,12 +173,11 @@ def test_one_iteration_in_local_mode(scenario, local_ray):
 
 
 def test_two_kinds_train_two_modules(local_ray):
-    import train_rllib
 
     hp = json.loads(json.dumps(TINY))
     hp["env"]["overrides"]["beacon_kinds"] = ["beacon_auv", "asv"]
     hp["env_runners"]["num_envs_per_env_runner"] = 3
-    config, mapping = train_rllib.build_config("gao_lawnmower", hp, seed=0, num_env_runners=0)
+    config, mapping = rllib_trainer.build_config(_config("gao_lawnmower", hp, num_env_runners=0))
     algo = config.build_algo()
     try:
         result = algo.train()
@@ -185,12 +193,11 @@ def test_two_kinds_train_two_modules(local_ray):
 
 def test_run_directory_loads_acts_and_evaluates(tmp_path, local_ray, capsys):
     import evaluate
-    import train
 
     out = tmp_path / "run"
     argv = ["--backend", "rllib", "--scenario", "sousa_asv", "--timesteps", str(2 * CYCLES), "--seed", "3",
             "--out", str(out), "--config", _tiny_yaml(tmp_path)]
-    assert train.main(argv) == 0
+    assert cli.main(argv) == 0
     for name in ("config.yml", "checkpoint/rllib_checkpoint.json", "checkpoint/coopnav.json", "progress.jsonl",
                  "evaluations.jsonl", "checkpoint/learner_group/learner/rl_module/asv"):
         assert (out / name).exists(), name
@@ -229,11 +236,10 @@ def test_run_directory_loads_acts_and_evaluates(tmp_path, local_ray, capsys):
 
 def test_multi_beacon_checkpoint_maps_every_beacon_to_its_kind(tmp_path, local_ray):
     """Two kinds of beacon: each beacon acts through its kind's module."""
-    import train_rllib
 
     hp = json.loads(json.dumps(TINY))
     hp["env"]["overrides"]["beacon_kinds"] = ["beacon_auv", "asv"]
-    config, _ = train_rllib.build_config("gao_lawnmower", hp, seed=0, num_env_runners=0)
+    config, _ = rllib_trainer.build_config(_config("gao_lawnmower", hp, num_env_runners=0))
     algo = config.build_algo()
     try:
         algo.train()
@@ -256,8 +262,6 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
     (nothing else on the command line) continues it to the step count of an
     uninterrupted run, and ends with the files of a finished run; resuming it again
     is a no-op."""
-    import train
-    import train_rllib
 
     total = 4 * 2 * CYCLES  # four iterations of 2 * CYCLES steps
     config = _tiny_yaml(tmp_path)
@@ -267,11 +271,11 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
         return ["--backend", "rllib", "--scenario", "sousa_asv", "--timesteps", str(total), "--out", str(run),
                 "--config", config]
 
-    assert train.main(argv(ref)) == 0
+    assert cli.main(argv(ref)) == 0
     reached = json.loads((ref / "checkpoint" / "coopnav.json").read_text())
     assert reached["env_steps"] >= total
 
-    save = train_rllib.save_checkpoint
+    save = rllib_trainer.save_checkpoint
 
     def save_then_signal(algo, run_dir, meta):  # the signal arrives in the middle of the run, deterministically
         path = save(algo, run_dir, meta)
@@ -279,9 +283,9 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
             os.kill(os.getpid(), signal.SIGTERM)
         return path
 
-    monkeypatch.setattr(train_rllib, "save_checkpoint", save_then_signal)
+    monkeypatch.setattr(rllib_trainer, "save_checkpoint", save_then_signal)
     capsys.readouterr()
-    assert train.main(argv(out)) == train.EXIT_INTERRUPTED
+    assert cli.main(argv(out)) == EXIT_INTERRUPTED
     assert f"continue with: python train.py --resume {out}" in capsys.readouterr().err
     stopped = json.loads((out / "checkpoint" / "coopnav.json").read_text())
     assert stopped["iteration"] == 1 and 0 < stopped["env_steps"] < total
@@ -289,7 +293,7 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
     monkeypatch.undo()
 
     os.replace(out / "checkpoint", out / ".checkpoint.old1")  # as if killed between save_checkpoint's renames
-    assert train.main(["--resume", str(out)]) == 0
+    assert cli.main(["--resume", str(out)]) == 0
     final = json.loads((out / "checkpoint" / "coopnav.json").read_text())
     assert (final["env_steps"], final["iteration"]) == (reached["env_steps"], reached["iteration"])
     progress = [json.loads(line) for line in (out / "progress.jsonl").read_text().splitlines()]
@@ -306,13 +310,11 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
         obs, *_ = env.step({"beacon_0": action})
 
     # resuming a finished run is a no-op that succeeds; a conflicting --backend is one line
-    assert train.main(["--resume", str(out), "--backend", "rllib"]) == 0
+    assert cli.main(["--resume", str(out), "--backend", "rllib"]) == 0
     assert (out / "evaluations.jsonl").read_text() == evaluations
     assert json.loads((out / "checkpoint" / "coopnav.json").read_text()) == final
     capsys.readouterr()
-    with pytest.raises(SystemExit) as exc:
-        train.main(["--resume", str(out), "--backend", "sb3"])
-    assert exc.value.code == 2
+    assert cli.main(["--resume", str(out), "--backend", "sb3"]) == 2
     assert capsys.readouterr().err.strip() == f"train.py: error: {out} is a --backend rllib run; drop --backend sb3"
 
 
@@ -325,24 +327,20 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
      "is a Ray Tune grid (--tune): --resume continues single runs only"),
 ])
 def test_resume_takes_the_backend_from_the_run(tmp_path, capsys, ray_mod, run_args, argv, needle):
-    import train
 
     (tmp_path / "config.yml").write_text(yaml.safe_dump({"args": run_args, "hyperparameter_file": "x.yml",
                                                          "hyperparameters": json.loads(json.dumps(TINY))}))
-    with pytest.raises(SystemExit) as exc:
-        train.main(["--resume", str(tmp_path), *argv])
-    assert exc.value.code == 2
+    assert cli.main(["--resume", str(tmp_path), *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0], err
 
 
 def test_tune_grid_writes_one_summary_table(tmp_path, local_ray):
-    import train
 
     out = tmp_path / "sweep"
     argv = ["--backend", "rllib", "--scenario", "gao_lawnmower", "--timesteps", str(2 * CYCLES), "--out", str(out),
             "--config", _tiny_yaml(tmp_path), "--tune", "lr=1e-4,3e-4"]
-    assert train.main(argv) == 0
+    assert cli.main(argv) == 0
     rows = (out / "summary.csv").read_text().splitlines()
     assert rows[0].split(",")[:3] == ["trial", "lr", "env_steps"]
     assert len(rows) == 3
@@ -368,13 +366,10 @@ def test_tune_grid_writes_one_summary_table(tmp_path, local_ray):
     (["--backend", "rllib", "--num-env-runners", "-1"], "must be >= 0"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, ray_mod, argv, needle):
-    import train
 
     if "--resume" not in argv:
         argv = argv + ["--scenario", "sousa_asv", "--timesteps", "10", "--out", str(tmp_path / "run")]
-    with pytest.raises(SystemExit) as exc:
-        train.main(argv)
-    assert exc.value.code == 2
+    assert cli.main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0], err
     assert not (tmp_path / "run").exists()
@@ -382,31 +377,27 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, ray_mod, argv, needl
 
 def test_shipped_configs_build(ray_mod):
     """configs/rllib/*.yml give valid RLlib configs (default.yml on every scenario)."""
-    import train_rllib
 
     for path in sorted((ROOT / "configs" / "rllib").glob("*.yml")):
-        hp = train_rllib.load_hyperparameters(path)
         names = [path.stem] if path.stem != "default" else coopnav_env.list_scenarios()
         for name in names:
-            config, mapping = train_rllib.build_config(name, hp, 0, None, path)
+            config, mapping = rllib_trainer.build_config(load_config(path, RLlibConfig, scenario=name))
             assert config.num_env_runners >= 0 and set(mapping) == set(coopnav_env.parallel_env(name).possible_agents)
 
 
 @pytest.mark.parametrize("yml, needle", [
-    ("ppo: {n_steps: 5}", "unexpected keyword argument 'n_steps'"),
+    ("ppo: {n_steps: 5}", "unknown ppo key (PPOConfig.training keyword) 'n_steps'"),
     ("ppo: {minibatch_size: 500, train_batch_size_per_learner: 100}", "minibatch_size"),
-    ("policy: MlpPolicy", "unknown section(s) policy"),
+    ("policy: MlpPolicy", "unknown section 'policy'"),
+    ("eval: {episdoes: 3}", "unknown eval key 'episdoes'; did you mean 'episodes'?"),
     ("reward: {bogus: 1}", "unknown reward term"),
 ])
 def test_bad_hyperparameters_are_one_line(tmp_path, capsys, ray_mod, yml, needle):
-    import train
 
     path = tmp_path / "bad.yml"
     path.write_text(yml)
-    with pytest.raises(SystemExit) as exc:
-        train.main(["--backend", "rllib", "--scenario", "sousa_asv", "--timesteps", "10", "--out",
-                    str(tmp_path / "run"), "--config", str(path)])
-    assert exc.value.code == 2
+    assert cli.main(["--backend", "rllib", "--scenario", "sousa_asv", "--timesteps", "10", "--out",
+                     str(tmp_path / "run"), "--config", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0], err
     assert not (tmp_path / "run").exists()
@@ -429,7 +420,6 @@ def _kill_group(pgid: int, sig):
 def test_local_head_and_two_env_runners(tmp_path, monkeypatch, ray_mod):
     """`ray start --head` on loopback (started and stopped here), `--ray-address` to it,
     two env runners, one training iteration."""
-    import train
 
     ray = ray_mod
     if ray.is_initialized():
@@ -466,9 +456,9 @@ def test_local_head_and_two_env_runners(tmp_path, monkeypatch, ray_mod):
                 "--num-env-runners", "2", "--ray-address", f"127.0.0.1:{port}", "--out", str(out),
                 "--config", _tiny_yaml(tmp_path, eval={"episodes": 0})]
         t_up = time.monotonic()
-        assert train.main(argv) == 0
+        assert cli.main(argv) == 0
         print(f"head up in {t_up - t_start:.1f} s, trained in {time.monotonic() - t_up:.1f} s")
-        assert not ray.is_initialized()  # train.py disconnected
+        assert not ray.is_initialized()  # the trainer disconnected
         config = yaml.safe_load((out / "config.yml").read_text())
         assert config["args"]["num_env_runners"] == 2 and config["args"]["ray_address"] == f"127.0.0.1:{port}"
         progress = [json.loads(line) for line in (out / "progress.jsonl").read_text().splitlines()]

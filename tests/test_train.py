@@ -1,4 +1,5 @@
-"""train.py and agents/: a tiny training run, interrupt + resume, loading and acting.
+"""agents.training (train.py's library) and agents/: the typed configs, a tiny training
+run, interrupt + resume, loading and acting.
 
 Time-boxed: short missions (10 cycles), a 16x16 network, a few thousand steps."""
 
@@ -19,10 +20,11 @@ pytest.importorskip("stable_baselines3")
 
 import agents  # noqa: E402
 import coopnav_env  # noqa: E402
+from agents.training import (EXIT_INTERRUPTED, ConfigError, EnvSpec, PeriodicEvalSpec, RLlibConfig,  # noqa: E402
+                             TrainConfig, cli, sb3, scoring)
+from agents.training.config import config_from_record, from_dict, load_config  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-import train  # noqa: E402
 
 TINY = {
     "n_envs": 4,
@@ -43,8 +45,8 @@ def _tiny_yaml(tmp_path, **changes):
 
 
 def _run(tmp_path, out, timesteps, **changes):
-    return train.main(["--scenario", "sousa_asv", "--timesteps", str(timesteps), "--seed", "3", "--out", str(out),
-                       "--config", _tiny_yaml(tmp_path, **changes), "--no-progress"])
+    return cli.main(["--scenario", "sousa_asv", "--timesteps", str(timesteps), "--seed", "3", "--out", str(out),
+                     "--config", _tiny_yaml(tmp_path, **changes), "--no-progress"])
 
 
 def test_tiny_training_run_writes_a_loadable_policy(tmp_path, monkeypatch):
@@ -113,18 +115,18 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path):
         code = _run(tmp_path, out, total, eval={"every_steps": 0})
     finally:
         killer.join()
-    assert code == train.EXIT_INTERRUPTED
+    assert code == EXIT_INTERRUPTED
     stopped = json.loads(ckpt.read_text())["num_timesteps"]
     assert 0 < stopped < total and stopped % ROLLOUT == 0
     assert not (out / "model.zip").exists()
 
-    assert train.main(["--resume", str(out), "--no-progress"]) == 0
+    assert cli.main(["--resume", str(out), "--no-progress"]) == 0
     assert json.loads(ckpt.read_text())["num_timesteps"] == 12 * ROLLOUT  # what an uninterrupted run reaches
     policy = agents.load(out)
     assert policy.model.num_timesteps == 12 * ROLLOUT
     assert policy.act(np.zeros(policy.obs_dim)).shape == (2,)
     # resuming a finished run is a no-op that still succeeds
-    assert train.main(["--resume", str(out), "--no-progress"]) == 0
+    assert cli.main(["--resume", str(out), "--no-progress"]) == 0
 
 
 def _cli(*args):
@@ -149,14 +151,16 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path):
 
 
 def test_bad_hyperparameters_are_a_one_line_error(tmp_path, capsys):
-    with pytest.raises(SystemExit) as exc:
-        _run(tmp_path, tmp_path / "run", 100, ppo={"n_stepz": 3})
-    assert exc.value.code == 2
+    assert _run(tmp_path, tmp_path / "run", 100, ppo={"n_stepz": 3}) == 2
     err = capsys.readouterr().err.strip()
-    assert "bad PPO hyperparameters" in err and "n_stepz" in err and "\n" not in err
-    with pytest.raises(SystemExit):
-        _run(tmp_path, tmp_path / "run2", 100, bogus=1)
-    assert "unknown section" in capsys.readouterr().err
+    assert "unknown ppo key 'n_stepz'; did you mean 'n_steps'?" in err and "\n" not in err
+    assert _run(tmp_path, tmp_path / "run2", 100, bogus=1) == 2
+    assert "unknown section 'bogus'" in capsys.readouterr().err
+    # a value SB3 refuses (batch_size 1 with normalized advantages) is caught when PPO is built
+    assert _run(tmp_path, tmp_path / "run3", 100, ppo={"n_steps": 64, "batch_size": 1}) == 2
+    err = capsys.readouterr().err.strip()
+    assert "bad PPO hyperparameters" in err and "\n" not in err
+    assert not (tmp_path / "run").exists() and not (tmp_path / "run2").exists()
 
 
 def test_agents_load_errors():
@@ -197,26 +201,26 @@ def test_evaluation_scores_a_baseline_on_the_same_seeds():
     pytest.importorskip("baselines.fim")
     config = coopnav_env.make_config("sousa_asv", max_cycles=4, mission_duration_s=80.0)
     cells = [("all", config)]
-    a = train.evaluate(train.baseline_actor("fim_a"), cells, episodes=2, seed=5)
-    b = train.evaluate(train.baseline_actor("fim_a"), cells, episodes=2, seed=5)
+    a = scoring.evaluate(scoring.baseline_actor("fim_a"), cells, episodes=2, seed=5)
+    b = scoring.evaluate(scoring.baseline_actor("fim_a"), cells, episodes=2, seed=5)
     assert a == b and len(a["survey_error_m_per_episode"]) == 2
-    static = train.evaluate(lambda obs, venv: np.zeros((venv.num_envs, 2)), cells, episodes=2, seed=5)
+    static = scoring.evaluate(lambda obs, venv: np.zeros((venv.num_envs, 2)), cells, episodes=2, seed=5)
     assert static["survey_error_m"] != a["survey_error_m"]
 
 
 def test_eval_cells_are_fixed_scenarios_with_randomization_off():
     trained = coopnav_env.make_config("sousa_asv", randomize_depth_m=(1.0, 50.0),
                                       randomize_survey_path=("circle", "spiral"), randomize_noise_scale=(0.5, 1.5))
-    cells = train.eval_cells(trained, {"cells": {"depth_m": [1.0, 50.0], "survey_path": ["circle", "spiral"]}})
+    cells = scoring.eval_cells(trained, {"depth_m": [1.0, 50.0], "survey_path": ["circle", "spiral"]})
     assert [label for label, _ in cells] == ["depth_m=1.0;survey_path=circle", "depth_m=1.0;survey_path=spiral",
                                              "depth_m=50.0;survey_path=circle", "depth_m=50.0;survey_path=spiral"]
     for _, config in cells:
         assert config.randomize_depth_m == () and config.randomize_survey_path == ()
         assert config.randomize_noise_scale == ()
     assert cells[3][1].depth_m == 50.0 and cells[3][1].survey_path == "spiral"
-    assert train.eval_cells(trained, {}) == [("all", trained.replace(**train.RANDOMIZATION_OFF))]
+    assert scoring.eval_cells(trained, {}) == [("all", trained.replace(**scoring.RANDOMIZATION_OFF))]
     short = [(label, c.replace(max_cycles=3, mission_duration_s=0.0)) for label, c in cells]
-    result = train.evaluate(lambda obs, venv: np.zeros((venv.num_envs, 2)), short, episodes=2, seed=1)
+    result = scoring.evaluate(lambda obs, venv: np.zeros((venv.num_envs, 2)), short, episodes=2, seed=1)
     assert list(result["per_cell"]) == [label for label, _ in cells]
     assert result["survey_error_m"] == pytest.approx(np.mean(list(result["per_cell"].values())))
 
@@ -240,23 +244,21 @@ def test_randomized_training_with_a_training_reward_and_per_cell_evaluation(tmp_
 
 
 def test_old_variants_and_bad_reward_terms_are_one_line_errors(tmp_path, capsys):
-    with pytest.raises(SystemExit):
-        _run(tmp_path, tmp_path / "a", 100, env={"variants": {"depth_m": [1.0]}})
+    assert _run(tmp_path, tmp_path / "a", 100, env={"variants": {"depth_m": [1.0]}}) == 2
     assert "randomize_depth_m" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        _run(tmp_path, tmp_path / "b", 100, reward={"nope": 1.0})
+    assert _run(tmp_path, tmp_path / "b", 100, reward={"nope": 1.0}) == 2
     assert "unknown reward term 'nope'" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("scenario", ["matos_moving_lbl", "swarm_mls"])
 def test_tiny_training_run_on_the_newer_scenarios(tmp_path, scenario):
-    """train.py trains the two boats of the moving network (parameter sharing over both
+    """The trainer trains the two boats of the moving network (parameter sharing over both
     rows) and the swarm's sender; the result loads and runs in evaluate.py."""
     import evaluate
 
     out = tmp_path / scenario
-    assert train.main(["--scenario", scenario, "--timesteps", "600", "--seed", "0", "--out", str(out),
-                       "--config", _tiny_yaml(tmp_path), "--no-progress"]) == 0
+    assert cli.main(["--scenario", scenario, "--timesteps", "600", "--seed", "0", "--out", str(out),
+                     "--config", _tiny_yaml(tmp_path), "--no-progress"]) == 0
     config = coopnav_env.make_config(scenario, max_cycles=6)
     eps, steps = evaluate.run_episodes(config, str(out), [0, 1])
     assert len(eps) == 2 and all(np.isfinite(e["mean_error_m"]) for e in eps)
@@ -312,10 +314,116 @@ def test_init_from_starts_from_another_runs_weights_and_normalization(tmp_path, 
     assert not all(torch.equal(a[k], c[k]) for k in a)
 
     # a network of another shape, or a gate of two networks, is a one-line error
-    with pytest.raises(SystemExit):
-        _run(tmp_path, tmp_path / "bad", 256, init_from=str(source),
-             ppo=dict(TINY["ppo"], policy_kwargs={"net_arch": [8]}))
+    assert _run(tmp_path, tmp_path / "bad", 256, init_from=str(source),
+                ppo=dict(TINY["ppo"], policy_kwargs={"net_arch": [8]})) == 2
     assert "does not fit this network" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        _run(tmp_path, tmp_path / "gate", 256, init_from="ppo_sousa_asv")
+    assert _run(tmp_path, tmp_path / "gate", 256, init_from="ppo_sousa_asv") == 2
     assert "name one of its networks" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------------
+# the typed configs, the library API, the command line's help, the import layering
+CONFIG_FILES = sorted((ROOT / "configs" / "ppo").rglob("*.yml")) + sorted((ROOT / "configs" / "rllib").glob("*.yml"))
+RUN_RECORDS = sorted((ROOT / "agents" / "policies").glob("*/config.yml")) + \
+    sorted((ROOT / "agents" / "policies").glob("*/*/config.yml"))
+
+
+def test_every_config_file_and_run_record_loads_into_its_typed_config():
+    assert len(CONFIG_FILES) >= 10 and RUN_RECORDS
+    for path in CONFIG_FILES:
+        cls = RLlibConfig if "rllib" in path.parts else TrainConfig
+        config = load_config(path, cls)
+        assert isinstance(config, cls) and config.eval.seed == 500000, path
+        again = from_dict(cls, config.to_dict())  # a loaded config round-trips through its dict
+        assert again == config, path
+    for path in RUN_RECORDS:  # the shipped policies' config.yml: args + hyperparameters
+        record = yaml.safe_load(path.read_text())
+        config = config_from_record(record)
+        assert isinstance(config, TrainConfig) and config.scenario == record["args"]["scenario"], path
+        assert config.ppo == record["hyperparameters"]["ppo"], path
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"eval": {"episdoes": 3}}, "unknown eval key 'episdoes'; did you mean 'episodes'? valid: baselines, cells, "
+                                "episodes, every_steps, seed"),
+    ({"evals": {}}, "unknown section 'evals'; did you mean 'eval'?"),
+    ({"normalize": {"norm_ob": True}}, "unknown normalize key 'norm_ob'; did you mean 'norm_obs'?"),
+    ({"ppo": {"n_stepz": 3}}, "unknown ppo key 'n_stepz'; did you mean 'n_steps'?"),
+    ({"eval": {"episodes": "many"}}, "eval.episodes must be an integer, got 'many'"),
+    ({"eval": []}, "eval must be a mapping"),
+    ({"ppo": {"policy_kwargs": {"activation_fn": "sigmoid"}}}, "unknown activation_fn 'sigmoid'"),
+])
+def test_an_unknown_key_or_a_wrong_type_is_a_one_line_error_naming_the_closest(tmp_path, data, message):
+    with pytest.raises(ConfigError) as exc:
+        from_dict(TrainConfig, data).check()
+    assert message in str(exc.value) and "\n" not in str(exc.value)
+    path = tmp_path / "bad.yml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ValueError, match=f"^{path}: "):  # a file's errors name it
+        load_config(path, TrainConfig)
+    with pytest.raises(ConfigError, match="unknown section 'every_steps'"):
+        from_dict(RLlibConfig, {"every_steps": 1})
+    with pytest.raises(ConfigError, match="unknown eval key 'every_steps'"):  # RLlib evaluates at the end only
+        from_dict(RLlibConfig, {"eval": {"every_steps": 1}})
+
+
+def test_overrides_apply_on_top_of_the_file(tmp_path):
+    config = load_config(ROOT / "configs" / "ppo" / "sousa_asv.yml", TrainConfig,
+                         {"eval.episodes": 3, "ppo.n_steps": 32, "env.overrides.max_cycles": 5},
+                         scenario="sousa_asv", timesteps=10, seed=None)
+    assert (config.eval.episodes, config.ppo["n_steps"], config.env.overrides["max_cycles"]) == (3, 32, 5)
+    assert config.ppo["batch_size"] == 4096 and config.seed == 0  # the rest is the file's, then the defaults'
+    assert TrainConfig().eval.seed == coopnav_env.seeds.VALIDATION_SEED == RLlibConfig().eval.seed
+    with pytest.raises(ConfigError, match="unknown eval key 'episdoes'; did you mean 'episodes'"):
+        load_config(None, TrainConfig, {"eval.episdoes": 3})
+
+
+def test_training_through_the_library_api(tmp_path, capsys):
+    """agents.training.sb3.train(TrainConfig, out) without the command line: the run
+    loads with agents.load; bad input raises ConfigError and writes nothing."""
+    config = TrainConfig(scenario="gao_lawnmower", timesteps=300, seed=2, n_envs=2,
+                         ppo={"n_steps": 64, "batch_size": 64, "n_epochs": 1, "policy_kwargs": {"net_arch": [8]}},
+                         env=EnvSpec(overrides={"max_cycles": 6}), eval=PeriodicEvalSpec(every_steps=128, episodes=1),
+                         checkpoint_every_steps=128)
+    out = tmp_path / "lib"
+    assert sb3.train(config, out) == 0
+    policy = agents.load(out, scenario="gao_lawnmower")
+    assert policy.config.max_cycles == 6 and policy.act(np.zeros(policy.obs_dim)).shape == (2,)
+    assert agents.load(out / "model.zip").model.num_timesteps == 3 * 128  # 300 rounded up to whole rollouts
+    record = yaml.safe_load((out / "config.yml").read_text())
+    assert config_from_record(record) == config  # the record holds the whole config
+    assert record["versions"]["coopnav"] and "git_commit" in record["versions"]
+    from agents.training import resume
+
+    assert resume(out) == 0  # a finished run: nothing to do
+    with pytest.raises(ConfigError, match="exists and is not empty"):
+        sb3.train(config, out)
+    with pytest.raises(ConfigError, match="unknown scenario 'nope'"):
+        sb3.train(config.replace(scenario="nope"), tmp_path / "never")
+    assert not (tmp_path / "never").exists()
+
+
+def test_help_teaches_defaults_required_options_and_scenarios():
+    r = _cli("--help")
+    assert r.returncode == 0
+    text = " ".join(r.stdout.split())
+    assert text.count("required unless --resume") >= 3
+    for name in coopnav_env.list_scenarios():
+        assert name in text
+    assert "(default: 1;" in text and "(default: cpu)" in text and "500000" in text
+    parser = cli.build_parser()
+    assert all(a.help for a in parser._actions)  # every option has a help line
+
+
+def test_importing_the_command_line_is_cheap_and_one_way():
+    """agents.training.cli imports neither the evaluation nor train.py (nor torch, SB3 or Ray)."""
+    code = ("import sys, agents.training.cli, agents.training.rllib; "
+            "bad = sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('evaluation', 'evaluate', 'train', 'train_rllib', 'torch', 'stable_baselines3', 'ray')); "
+            "print(bad)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd="/")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]"
+    code = "import sys, agents; print(sorted(m for m in sys.modules if m.startswith('agents.training')))"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd="/")
+    assert r.stdout.strip() == "[]"  # agents does not import its training package

@@ -1,0 +1,194 @@
+"""The training command line (``train.py``, ``coopnav-train``): argparse -> config -> trainer.
+
+    coopnav-train --scenario sousa_asv --timesteps 2000000 --out runs/sousa_ppo
+    python -m agents.training.cli --resume runs/sousa_ppo
+
+``main(argv)`` returns the exit status: 0 done, 1 a Tune trial failed, 2 bad input
+(one line on stderr, nothing written), 130 stopped by SIGINT/SIGTERM after a
+checkpoint (the line on stderr says how to continue).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from coopnav_env.seeds import VALIDATION_SEED
+
+from . import rllib, sb3
+from .common import EXIT_BAD_INPUT, command_line, read_run_record
+from .config import CONFIG_DIRS, ConfigError, config_class, hyperparameter_file, load_config, parse_value
+
+RUN_SETTINGS = ("scenario", "timesteps", "seed", "out", "n_envs", "config", "set", "tune")  # not with --resume
+RLLIB_ONLY = ("num_env_runners", "ray_address", "tune")
+
+
+def _epilog() -> str:
+    from coopnav_env import list_scenarios
+
+    return f"""\
+scenarios: {', '.join(list_scenarios())}
+
+examples:
+  train.py --scenario sousa_asv --timesteps 2000000 --out runs/sousa_ppo
+  train.py --scenario gao_sea --timesteps 500000 --out runs/g --set eval.episodes=8 --set ppo.learning_rate=lin_1e-3
+  train.py --resume runs/sousa_ppo                 continue an interrupted run (either backend)
+  train.py --backend rllib --scenario sousa_asv --timesteps 2000000 --num-env-runners 8 --out runs/sousa_rllib
+  train.py --backend rllib --scenario gao_sea --timesteps 200000 --out runs/sweep --tune lr=1e-4,3e-4 --tune seed=0,1
+
+the config: --config FILE, else {_rel(CONFIG_DIRS['sb3'])}/<scenario>.yml ({_rel(CONFIG_DIRS['rllib'])}/ with
+--backend rllib), else default.yml there; then --set, --n-envs and --seed on top. Its
+sections and defaults: agents.training.config (TrainConfig, RLlibConfig); an unknown key is
+an error naming the closest valid one. The evaluation that picks the best model runs on the
+validation seeds {VALIDATION_SEED}.. (eval.seed).
+
+a run directory: config.yml (the exact config), model.zip + vecnormalize.pkl, best_model.zip,
+checkpoints/, evaluations.jsonl, baseline_eval.json (RLlib: checkpoint/, progress.jsonl);
+agents.load(DIR) loads the policy.
+
+exit status: 0 done; 1 a Tune trial failed; 2 bad input (one line on stderr); 130 stopped by
+Ctrl-C/SIGTERM after a checkpoint (continue with --resume DIR)."""
+
+
+def _rel(path: Path) -> str:
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
+def _int_at_least(low: int):
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {text!r}")
+        return value
+
+    parse.__name__ = f"integer >= {low}"
+    return parse
+
+
+def _setting(text: str) -> tuple:
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. eval.episodes=4), got {text!r}")
+    return key.strip(), parse_value(value)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, through main's handler (exit status 2)
+        raise ConfigError(message)
+
+
+def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
+    p = _Parser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_epilog(),
+                description="Train a PPO beacon policy on a coopnav scenario: stable-baselines3 on this\n"
+                            "machine (default), or Ray RLlib (--backend rllib) for scale-out.")
+    job = p.add_argument_group("the run")
+    job.add_argument("--scenario", metavar="NAME", help="scenario to train on (required unless --resume; "
+                                                        "the names are listed below)")
+    job.add_argument("--timesteps", metavar="N", type=_int_at_least(1),
+                     help="total environment steps (rows: beacons x environments; required unless --resume)")
+    job.add_argument("--out", metavar="DIR", help="run directory to create, absent or empty (required unless --resume)")
+    job.add_argument("--resume", metavar="DIR",
+                     help="continue the run in DIR from its last checkpoint, with its own config.yml and backend "
+                          "(then none of --scenario, --timesteps, --seed, --out, --config, --set, --n-envs, --tune)")
+    job.add_argument("--seed", metavar="N", type=int,
+                     help="seed of the run (default: the config's seed, 0)")
+    job.add_argument("--backend", choices=("sb3", "rllib"),
+                     help="sb3: stable-baselines3 PPO on one machine; rllib: Ray RLlib PPO "
+                          "(pip install -e '.[rllib]') (default: sb3; with --resume the run's)")
+    cfg = p.add_argument_group("the config")
+    cfg.add_argument("--config", metavar="FILE",
+                     help="config YAML (default: configs/ppo/<scenario>.yml, or configs/rllib/ for --backend rllib, "
+                          "else default.yml there)")
+    cfg.add_argument("--set", metavar="KEY=VALUE", action="append", type=_setting,
+                     help="override one config entry, VALUE read as YAML (repeatable; e.g. eval.episodes=4, "
+                          "ppo.learning_rate=lin_1e-3, env.overrides.max_cycles=50)")
+    cfg.add_argument("--n-envs", metavar="N", type=_int_at_least(1),
+                     help="environments in the batch: n_envs (rllib: env_runners.num_envs_per_env_runner) "
+                          "(default: the config's)")
+    run = p.add_argument_group("this process")
+    run.add_argument("--device", default="cpu", help="torch device of the SB3 model (default: cpu)")
+    run.add_argument("--threads", metavar="N", type=_int_at_least(1), default=1,
+                     help="torch threads (default: 1; PPO's small batches gain little from more, and a busy "
+                          "machine makes extra threads spin)")
+    run.add_argument("--no-progress", action="store_true", help="no progress bar (default: a bar, SB3 only)")
+    run.add_argument("--verbose", metavar="N", type=int, default=0, help="SB3's verbosity, 0-2 (default: 0)")
+    ray = p.add_argument_group("--backend rllib only")
+    ray.add_argument("--num-env-runners", metavar="N", type=_int_at_least(0),
+                     help="env runner processes (0: sample in this process) (default: the config's "
+                          "env_runners.num_env_runners; with --resume the run's)")
+    ray.add_argument("--ray-address", metavar="ADDR",
+                     help="a running Ray cluster to join ('auto', or host:port) (default: start a local instance)")
+    ray.add_argument("--tune", action="append", metavar="KEY=V1,V2",
+                     help="a Ray Tune grid (repeatable; KEY: seed or a PPOConfig.training keyword such as lr)")
+    return p
+
+
+def main(argv=None) -> int:
+    """Parse ``argv`` (default ``sys.argv[1:]``), build the config and train; the exit status."""
+    prog = Path(sys.argv[0]).name if argv is None and sys.argv and sys.argv[0] else "train.py"
+    if prog in ("__main__.py", "-c", "cli.py"):
+        prog = "train.py"
+    try:
+        args = build_parser(prog).parse_args(argv)
+        return run(args, argv)
+    except ConfigError as err:
+        print(f"{prog}: error: {' '.join(str(err).splitlines())}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+def run(args, argv=None) -> int:
+    """The parsed command line -> ``sb3`` or ``rllib`` ``train``/``resume``."""
+    if args.resume is not None:
+        given = [f"--{n.replace('_', '-')}" for n in RUN_SETTINGS if getattr(args, n) is not None]
+        if given:
+            raise ConfigError(f"--resume continues a run with its own config.yml; drop {', '.join(given)}")
+        out = Path(args.resume)
+        backend = read_run_record(out)["args"].get("backend") or "sb3"
+        if backend not in ("sb3", "rllib"):
+            raise ConfigError(f"{out}/config.yml: unknown backend {backend!r}")
+        if args.backend is not None and args.backend != backend:
+            raise ConfigError(f"{out} is a --backend {backend} run; drop --backend {args.backend}")
+        if backend == "rllib":
+            return rllib.resume(out, num_env_runners=args.num_env_runners, ray_address=args.ray_address,
+                                threads=args.threads)
+        _sb3_only(args, f" ({out} is an sb3 run)")
+        return sb3.resume(out, device=args.device, threads=args.threads, progress=not args.no_progress,
+                          verbose=args.verbose)
+
+    backend = args.backend or "sb3"
+    if backend == "sb3":
+        _sb3_only(args)
+    missing = [f"--{n}" for n in ("scenario", "timesteps", "out") if getattr(args, n) is None]
+    if missing:
+        raise ConfigError(f"missing {', '.join(missing)} (or --resume RUN_DIR)")
+    if backend == "rllib":
+        rllib.require_ray()
+    path = hyperparameter_file(backend, args.scenario, args.config)
+    settings = dict(args.set or [])
+    if args.n_envs is not None:
+        settings["n_envs" if backend == "sb3" else "env_runners.num_envs_per_env_runner"] = args.n_envs
+    config = load_config(path, config_class(backend), settings, scenario=args.scenario, timesteps=args.timesteps,
+                         seed=args.seed)
+    common = {"command": command_line(argv), "hyperparameter_file": path, "threads": args.threads}
+    if backend == "rllib":
+        return rllib.train(config, args.out, num_env_runners=args.num_env_runners, ray_address=args.ray_address,
+                           tune=rllib.parse_tune(args.tune or []), **common)
+    return sb3.train(config, args.out, device=args.device, progress=not args.no_progress, verbose=args.verbose,
+                     **common)
+
+
+def _sb3_only(args, why: str = ""):
+    given = [f"--{n.replace('_', '-')}" for n in RLLIB_ONLY if getattr(args, n) is not None]
+    if given:
+        raise ConfigError(f"{', '.join(given)} only with --backend rllib{why}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,186 @@
+"""What the two trainers share: the job's scenario and evaluation cells, the run
+directory and its config.yml, resume seeds, and stopping cleanly on a signal.
+
+A run directory's ``config.yml`` (written once, atomically, when the run starts):
+
+    command               the command line that started it
+    args                  scenario, timesteps, seed (and the RLlib run's backend,
+                          num_env_runners, ray_address, tune)
+    hyperparameter_file   the YAML the config was loaded from (None: the defaults)
+    hyperparameters       the rest of the config, every default filled in
+    scenario_config       the training scenario's parameters
+    eval_cells            the labels of the evaluation cells
+    versions              coopnav_env.records.version_record()
+
+``agents.load(run_dir)`` reads the scenario from it, ``--resume`` the whole config
+(``config.config_from_record``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import shlex
+import signal
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from coopnav_env.records import atomic_write_text, plain, read_yaml, version_record
+
+from .config import ConfigError
+from .scoring import eval_cells
+
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "Job", "StopFlag", "command_line", "new_run_dir", "prepare_job",
+           "read_run_record", "resume_command", "run_config", "resume_seed", "stop_on_signals", "write_run_record"]
+
+
+@dataclasses.dataclass
+class Job:
+    """A config made concrete: the training scenario, its reward terms and the
+    evaluation cells ([(label, ScenarioConfig)])."""
+    scenario_config: object
+    reward_terms: dict
+    cells: list
+
+
+def prepare_job(config) -> Job:
+    """Check what a config names (scenario, timesteps, scenario parameters, reward
+    terms, evaluation cells and baselines) before any work; a ``ConfigError`` else."""
+    from baselines import list_policies
+    from coopnav_env import list_scenarios, make_config
+    from coopnav_env.vector import check_reward_terms
+
+    if config.scenario not in list_scenarios():
+        what = "no scenario given" if config.scenario is None else f"unknown scenario {config.scenario!r}"
+        raise ConfigError(f"{what}; valid scenarios: {', '.join(list_scenarios())}")
+    if config.timesteps is None or config.timesteps < 1:
+        raise ConfigError(f"timesteps must be a positive number of environment steps, got {config.timesteps!r}")
+    try:
+        scenario_config = make_config(config.scenario, **config.env.overrides)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"env.overrides: {err}") from None
+    try:
+        reward_terms = check_reward_terms(config.reward)
+    except ValueError as err:
+        raise ConfigError(f"reward: {err}") from None
+    try:
+        cells = eval_cells(scenario_config, config.eval.cells)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(str(err)) from None
+    for name in config.eval.baselines:
+        if name not in list_policies():
+            raise ConfigError(f"eval.baselines: unknown policy {name!r}; valid: {', '.join(list_policies())}")
+    return Job(scenario_config, reward_terms, cells)
+
+
+# ----------------------------------------------------------------------------------
+# the run directory
+# ----------------------------------------------------------------------------------
+def resume_command(out) -> str:
+    return f"python train.py --resume {out}"
+
+
+def new_run_dir(out) -> Path:
+    """``out`` as the directory of a new run: absent or empty (a ``ConfigError`` else)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} is a file")
+    if out.exists() and any(out.iterdir()):
+        raise ConfigError(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
+    return out
+
+
+def read_run_record(out) -> dict:
+    """The ``config.yml`` of run directory ``out`` (a ``ConfigError`` if there is none)."""
+    out = Path(out)
+    record = read_yaml(out / "config.yml") if out.is_dir() else None
+    if not isinstance(record, dict) or not isinstance(record.get("args"), dict):
+        raise ConfigError(f"{out} is not a train.py run directory (no config.yml)")
+    return record
+
+
+def run_config(out, cls):
+    """The config (``cls``) of run directory ``out``, from its config.yml."""
+    from .config import config_from_record
+
+    try:
+        return config_from_record(read_run_record(out), cls)
+    except ConfigError as err:
+        if "not a train.py run directory" in str(err):
+            raise
+        raise ConfigError(f"{Path(out) / 'config.yml'}: {err}") from None
+
+
+def command_line(argv=None) -> str:
+    """``python train.py <argv>`` (``sys.argv[1:]`` by default), shell-quoted."""
+    return "python train.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
+
+
+def write_run_record(out: Path, config, job: Job, *, command=None, hyperparameter_file=None, args=None,
+                     versions=None, **extra) -> dict:
+    """Write ``out/config.yml`` (see the module docstring) atomically; returns it.
+    ``args``: the record's args (default: scenario, timesteps, seed); ``versions``:
+    more version entries (e.g. Ray's); ``extra``: more top-level entries."""
+    record = {
+        "command": command,
+        "args": args if args is not None else {"scenario": config.scenario, "timesteps": config.timesteps,
+                                               "seed": config.seed},
+        "hyperparameter_file": None if hyperparameter_file is None else str(hyperparameter_file),
+        "hyperparameters": config.hyperparameters(),
+        **extra,
+        "scenario_config": dataclasses.asdict(job.scenario_config),
+        "eval_cells": [label for label, _ in job.cells],
+        "versions": {**version_record(), **(versions or {})},
+    }
+    import yaml
+
+    atomic_write_text(out / "config.yml", yaml.safe_dump(plain(record), sort_keys=False))
+    return record
+
+
+def resume_seed(seed: int, steps: int) -> int:
+    """The seed of a run resumed at ``steps``: deterministic, and (almost surely) not
+    repeating the first run's episodes."""
+    return int(np.random.SeedSequence([int(seed) % 2**32, steps]).generate_state(1)[0] >> 1)
+
+
+# ----------------------------------------------------------------------------------
+# SIGINT / SIGTERM
+# ----------------------------------------------------------------------------------
+class StopFlag:
+    """Set by SIGINT or SIGTERM while ``stop_on_signals`` is active."""
+
+    def __init__(self):
+        self.requested = False
+
+    def __bool__(self):
+        return self.requested
+
+
+@contextlib.contextmanager
+def stop_on_signals():
+    """While active, SIGINT and SIGTERM set the yielded ``StopFlag`` (the trainer
+    checkpoints and returns ``EXIT_INTERRUPTED`` at its next boundary); a second
+    signal acts as usual (KeyboardInterrupt, termination). Outside the main thread
+    (where signals cannot be caught) the flag is never set."""
+    flag = StopFlag()
+
+    def request_stop(signum, frame):
+        flag.requested = True
+        signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL)
+
+    if threading.current_thread() is not threading.main_thread():
+        yield flag
+        return
+    old = {s: signal.signal(s, request_stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield flag
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)

@@ -1,0 +1,352 @@
+"""Typed training configs: one dataclass per job, one set of defaults.
+
+    from agents.training.config import TrainConfig, load_config
+    config = load_config("configs/ppo/sousa_asv.yml", TrainConfig, scenario="sousa_asv", timesteps=2_000_000)
+    config = TrainConfig(scenario="gao_lawnmower", timesteps=4096, n_envs=4, ppo={"n_steps": 128})
+
+``TrainConfig`` is a stable-baselines3 PPO job (configs/ppo/*.yml), ``RLlibConfig`` a
+Ray RLlib one (configs/rllib/*.yml). A YAML file holds the sections of one of them
+(``scenario``, ``timesteps`` and ``seed`` usually come from the command line); what
+it leaves out takes the defaults below. An unknown key at any level is a
+``ConfigError`` (a ``ValueError``) naming the closest valid one:
+``unknown eval key 'episdoes'; did you mean 'episodes'? valid: ...``.
+
+The free-form sections are dicts checked against what reads them: ``ppo`` of a
+``TrainConfig`` holds ``stable_baselines3.PPO`` keyword arguments (checked against
+``PPO.__init__``'s signature), ``reward`` the training-reward terms of
+``coopnav_env.vector``, ``env.overrides`` scenario parameters; the RLlib sections
+(``ppo``, ``model``, ``env_runners``, ``learners``) are checked by RLlib when the
+``PPOConfig`` is built (``agents.training.rllib.build_config``).
+
+A run directory's ``config.yml`` holds its config as ``args`` (scenario, timesteps,
+seed) and ``hyperparameters`` (the rest): ``config_from_record`` reads it back.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from coopnav_env.seeds import VALIDATION_SEED
+
+PROJECT_ROOT = Path(__file__).resolve().parents[2]
+CONFIG_DIRS = {"sb3": PROJECT_ROOT / "configs" / "ppo", "rllib": PROJECT_ROOT / "configs" / "rllib"}
+ACTIVATIONS = ("tanh", "relu", "elu", "leaky_relu")  # policy_kwargs.activation_fn (torch.nn's Tanh, ReLU, ...)
+JOB_KEYS = ("scenario", "timesteps", "seed")  # a run record's ``args``; the rest is ``hyperparameters``
+# keyword arguments of PPO.__init__ that the trainer sets itself
+SB3_RESERVED = {"self", "policy", "env", "seed", "device", "tensorboard_log", "verbose", "_init_setup_model"}
+LEGACY = {"env.variants": "env.variants is gone: set the core's per-episode randomization in env.overrides "
+                          "(randomize_survey_path, randomize_depth_m, randomize_noise_scale)"}
+
+__all__ = ["ConfigError", "EnvSpec", "EvalSpec", "PeriodicEvalSpec", "NormalizeSpec", "RaySpec", "TrainConfig",
+           "RLlibConfig", "config_class", "config_from_record", "from_dict", "hyperparameter_file", "load_config",
+           "parse_value", "set_path"]
+
+
+class ConfigError(ValueError):
+    """Bad input: a config, a file or an option that cannot be used (one line)."""
+
+
+# ----------------------------------------------------------------------------------
+# the sections
+# ----------------------------------------------------------------------------------
+@dataclass
+class EnvSpec:
+    """The training scenario: its parameters (``make_config(scenario, **overrides)``),
+    the core's per-episode randomization included (``randomize_depth_m: [..]``, ...)."""
+    overrides: dict = field(default_factory=dict)
+
+
+@dataclass
+class EvalSpec:
+    """Evaluation of the deterministic policy on fixed seeds: ``episodes`` per cell
+    (episode ``i`` of every cell seeded ``seed + i``; 0: none), every combination of
+    ``cells`` (``{parameter: [values]}``, randomization off) or the training scenario,
+    and the ``baselines`` scored once on the same seeds."""
+    episodes: int = 16
+    seed: int = VALIDATION_SEED
+    cells: dict = field(default_factory=dict)
+    baselines: list = field(default_factory=list)
+
+
+@dataclass
+class PeriodicEvalSpec(EvalSpec):
+    """``EvalSpec`` every ``every_steps`` environment steps (0: never; the best model is
+    kept) and at the end (the SB3 trainer)."""
+    episodes: int = 32
+    every_steps: int = 100_000
+
+
+@dataclass
+class NormalizeSpec:
+    """``stable_baselines3`` VecNormalize: saved beside the model (vecnormalize.pkl)."""
+    norm_obs: bool = True
+    norm_reward: bool = True
+    clip_obs: float = 10.0
+    clip_reward: float = 10.0
+    epsilon: float = 1e-8
+
+
+@dataclass
+class RaySpec:
+    """The local Ray instance an RLlib run starts (ignored with ``--ray-address``)."""
+    num_cpus: typing.Optional[int] = None  # None: the machine's cores (more if the env runners need more)
+    object_store_memory_mb: float = 200.0
+    max_concurrent_trials: typing.Optional[int] = None  # a Tune grid's
+
+
+@dataclass
+class _Job:
+    """What every training job has: the scenario, the total environment steps, the
+    seed, the scenario's training parameters and the training reward
+    (``{term: weight}``, see ``coopnav_env.vector``; {}: the environment's reward)."""
+    scenario: typing.Optional[str] = None
+    timesteps: typing.Optional[int] = None
+    seed: int = 0
+    env: EnvSpec = field(default_factory=EnvSpec)
+    reward: dict = field(default_factory=dict)
+
+    def replace(self, **changes):
+        """A copy with ``changes`` (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        """Plain dicts and lists, as the YAML holds them."""
+        return dataclasses.asdict(self)
+
+    def hyperparameters(self) -> dict:
+        """``to_dict`` without the job's scenario, timesteps and seed (a run record's
+        ``hyperparameters``; those three are its ``args``)."""
+        d = {k: v for k, v in self.to_dict().items() if k not in JOB_KEYS}
+        keys = [k for k in d if k not in ("env", "reward")]
+        at = keys.index("eval") if "eval" in keys else len(keys)
+        return {k: d[k] for k in keys[:at] + ["env", "reward"] + keys[at:]}  # the YAML files' order
+
+    def check(self):
+        """Refuse what the fields' types cannot (a ``ConfigError``); returns self."""
+        return self
+
+
+@dataclass
+class TrainConfig(_Job):
+    """A stable-baselines3 PPO job (``agents.training.sb3.train``). ``ppo``: PPO
+    keyword arguments (``learning_rate`` may be ``"lin_<x>"``: linear decay from x to
+    0; ``policy_kwargs.activation_fn`` a name: tanh, relu, elu, leaky_relu); {} leaves
+    SB3's defaults. ``init_from``: start from another policy's weights and
+    normalization (a run directory, a shipped policy name, a model .zip)."""
+    policy: str = "MlpPolicy"
+    n_envs: int = 16
+    ppo: dict = field(default_factory=dict)
+    normalize: NormalizeSpec = field(default_factory=NormalizeSpec)
+    eval: PeriodicEvalSpec = field(default_factory=PeriodicEvalSpec)
+    checkpoint_every_steps: int = 100_000
+    init_from: typing.Optional[str] = None
+
+    def check(self):
+        from stable_baselines3 import PPO
+        import inspect
+
+        valid = sorted(set(inspect.signature(PPO.__init__).parameters) - SB3_RESERVED)
+        for key in self.ppo:
+            if key not in valid:
+                raise ConfigError(unknown_key_message(key, valid, "ppo key"))
+        lr = self.ppo.get("learning_rate", 3e-4)
+        if isinstance(lr, str) and lr.startswith("lin_"):
+            lr = lr[4:]
+        try:
+            float(lr)
+        except (TypeError, ValueError):
+            raise ConfigError(f"ppo.learning_rate must be a number or 'lin_<number>', got {lr!r}") from None
+        kwargs = self.ppo.get("policy_kwargs") or {}
+        if not isinstance(kwargs, dict):
+            raise ConfigError(f"ppo.policy_kwargs must be a mapping, got {kwargs!r}")
+        if "activation_fn" in kwargs and kwargs["activation_fn"] not in ACTIVATIONS:
+            raise ConfigError(f"unknown activation_fn {kwargs['activation_fn']!r}; valid: {', '.join(ACTIVATIONS)}")
+        return self
+
+
+@dataclass
+class RLlibConfig(_Job):
+    """A Ray RLlib PPO job (``agents.training.rllib.train``): ``ppo`` holds
+    ``PPOConfig.training`` keywords, ``model`` DefaultModelConfig keys, ``env_runners``
+    and ``learners`` the keywords of ``PPOConfig.env_runners`` and ``.learners``;
+    ``normalize_obs``: RLlib's MeanStdFilter per agent (saved in the checkpoint)."""
+    ppo: dict = field(default_factory=dict)
+    model: dict = field(default_factory=dict)
+    normalize_obs: bool = False
+    env_runners: dict = field(default_factory=dict)
+    learners: dict = field(default_factory=dict)
+    eval: EvalSpec = field(default_factory=EvalSpec)
+    checkpoint_every_iterations: int = 10
+    ray: RaySpec = field(default_factory=RaySpec)
+
+
+CONFIG_CLASSES = {"sb3": TrainConfig, "rllib": RLlibConfig}
+
+
+def config_class(backend: str) -> type:
+    """The config class of a backend ("sb3" or "rllib")."""
+    try:
+        return CONFIG_CLASSES[backend]
+    except KeyError:
+        raise ConfigError(unknown_key_message(backend, list(CONFIG_CLASSES), "backend")) from None
+
+
+# ----------------------------------------------------------------------------------
+# dict -> dataclass, strictly
+# ----------------------------------------------------------------------------------
+def unknown_key_message(key, valid, what: str) -> str:
+    """``unknown <what> 'foo'; did you mean 'bar'? valid: a, bar, c`` (the house style
+    of ``coopnav_env.scenarios.base.check_overrides``)."""
+    valid = sorted(valid)
+    close = difflib.get_close_matches(str(key), valid, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ";"
+    return f"unknown {what} {key!r}{hint} valid: {', '.join(valid)}"
+
+
+_KIND = {int: "an integer", float: "a number", bool: "true or false", str: "a string", dict: "a mapping",
+         list: "a list"}
+
+
+def _coerce(value, hint, where: str):
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        options = [a for a in typing.get_args(hint) if a is not type(None)]
+        if value is None:
+            return None
+        hint = options[0]
+        origin = typing.get_origin(hint)
+    if dataclasses.is_dataclass(hint):
+        return from_dict(hint, {} if value is None else value, where)
+    base = origin or hint
+    if base in (dict, list) and value is None:
+        return base()
+    ok = {int: isinstance(value, int) and not isinstance(value, bool)
+               or isinstance(value, float) and value.is_integer(),
+          float: isinstance(value, (int, float)) and not isinstance(value, bool),
+          bool: isinstance(value, bool), str: isinstance(value, str),
+          dict: isinstance(value, dict), list: isinstance(value, (list, tuple))}[base]
+    if not ok:
+        raise ConfigError(f"{where} must be {_KIND[base]}, got {value!r}")
+    return {int: int, float: float, list: list, dict: dict}.get(base, lambda v: v)(value)
+
+
+def from_dict(cls, data, where: str = ""):
+    """``cls`` (a config dataclass) from a mapping, recursively; unknown keys, legacy
+    keys and values of the wrong type are a ``ConfigError`` naming where they are."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where or 'the config'} must be a mapping, got {data!r}")
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls) if f.init]
+    kwargs = {}
+    for key, value in data.items():
+        path = f"{where}.{key}" if where else str(key)
+        if path in LEGACY:
+            raise ConfigError(LEGACY[path])
+        if key not in names:
+            raise ConfigError(unknown_key_message(key, names, f"{where} key" if where else "section"))
+        kwargs[key] = _coerce(value, hints[key], path)
+    return cls(**kwargs)
+
+
+# ----------------------------------------------------------------------------------
+# files and overrides
+# ----------------------------------------------------------------------------------
+def parse_value(text: str):
+    """A command-line value: '3e-4' -> 0.0003, '2' -> 2, '[64, 64]' -> [64, 64],
+    'true' -> True, 'null' -> None, 'tanh' -> 'tanh'."""
+    import yaml
+
+    text = str(text).strip()
+    for cast in (int, float):
+        try:
+            return cast(text)
+        except ValueError:
+            pass
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError:
+        return text
+
+
+def set_path(data: dict, dotted: str, value) -> dict:
+    """``data`` with ``data[a][b] = value`` for ``dotted`` "a.b" (sections created as
+    needed; a non-mapping on the way is a ``ConfigError``)."""
+    keys = dotted.split(".")
+    if not all(keys):
+        raise ConfigError(f"bad key {dotted!r}: expected SECTION.KEY, e.g. eval.episodes")
+    node = data
+    for i, key in enumerate(keys[:-1]):
+        child = node.get(key)
+        if child is None:
+            child = node[key] = {}
+        if not isinstance(child, dict):
+            raise ConfigError(f"{'.'.join(keys[:i + 1])} is not a section (it is {child!r})")
+        node = child
+    node[keys[-1]] = value
+    return data
+
+
+def hyperparameter_file(backend: str, scenario, explicit=None) -> Path | None:
+    """The ``explicit`` file (it must exist), else ``configs/<ppo|rllib>/<scenario>.yml``,
+    else that directory's ``default.yml``, else None (the dataclass defaults)."""
+    if explicit:
+        path = Path(explicit)
+        if not path.is_file():
+            raise ConfigError(f"no such hyperparameter file: {explicit}")
+        return path
+    directory = CONFIG_DIRS[backend]
+    for name in (f"{scenario}.yml", "default.yml"):
+        if (directory / name).is_file():
+            return directory / name
+    return None
+
+
+def read_mapping(path) -> dict:
+    """A YAML file's mapping ({} if empty); anything else is a ``ConfigError``."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"no such file: {path}") from None
+    except yaml.YAMLError as err:
+        raise ConfigError(f"{path}: not YAML: {str(err).splitlines()[0]}") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping of hyperparameters")
+    return data
+
+
+def load_config(path=None, cls=TrainConfig, settings: dict | None = None, **fields):
+    """``cls`` from the YAML file ``path`` (None: the defaults), then ``settings``
+    (``{"eval.episodes": 4, ...}``, dotted paths) and ``fields`` (top-level values
+    that are not None: ``scenario=``, ``timesteps=``, ``seed=``, ...) on top; checked.
+    Errors name the file."""
+    data = read_mapping(path) if path is not None else {}
+    if path is not None:
+        try:
+            from_dict(cls, data).check()  # the file alone: its errors name it
+        except ConfigError as err:
+            raise ConfigError(f"{path}: {err}") from None
+    for dotted, value in (settings or {}).items():
+        set_path(data, dotted, value)
+    data.update({k: v for k, v in fields.items() if v is not None})
+    return from_dict(cls, data).check()
+
+
+def config_from_record(record: dict, cls=None):
+    """The config of a run from its ``config.yml`` (``args`` + ``hyperparameters``);
+    ``cls`` None: the one of the record's backend (``args.backend``, sb3 if absent)."""
+    if not isinstance(record, dict) or not isinstance(record.get("args"), dict):
+        raise ConfigError("not a run record (no args)")
+    args = record["args"]
+    cls = cls or config_class(args.get("backend") or "sb3")
+    data = dict(record.get("hyperparameters") or {})
+    data.update({k: args[k] for k in JOB_KEYS if args.get(k) is not None})
+    return from_dict(cls, data).check()

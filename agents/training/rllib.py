@@ -1,0 +1,616 @@
+"""PPO beacon policies on Ray RLlib (new API stack), for scale-out.
+
+    pip install -e ".[rllib]"
+    python train.py --backend rllib --scenario sousa_asv --timesteps 2000000 --num-env-runners 8 --out runs/sousa_rllib
+    python train.py --resume runs/sousa_rllib                        # continue it after Ctrl-C or a crash
+    python train.py --backend rllib ... --ray-address auto          # on a running Ray cluster
+    python train.py --backend rllib --scenario gao_sea --timesteps 200000 --out runs/sweep \\
+        --tune lr=1e-4,3e-4 --tune seed=0,1,2                        # a Ray Tune grid
+
+From Python: ``agents.training.rllib.train(RLlibConfig(...), out)``. Ray is imported
+only inside the functions here, so importing this module is cheap.
+
+Read ``train`` top to bottom: the job (configs/rllib/<scenario>.yml, else
+default.yml, as an ``RLlibConfig``) -> the RLlib ``PPOConfig`` -> Ray (a small local
+instance, or ``ray_address``) -> either one training run or a Tune grid ->
+evaluation on fixed seeds -> files.
+
+**The algorithm.** RLlib's PPO on the new API stack (RLModule + Learner,
+``config.env_runners(...)``, ``config.learners(...)``), the environment the
+PettingZoo parallel env through ``coopnav_env.rllib_env.CoopNavRLlibEnv`` (a small
+``MultiAgentEnv`` adapter; its docstring says why not RLlib's
+``ParallelPettingZooEnv``). Policy mapping: one RLModule per beacon kind
+(``beacon_auv``, ``asv``, ``boat``, ...), shared by the beacons of that kind.
+``num_env_runners`` env runner processes sample in parallel (0: the driver samples),
+each stepping ``num_envs_per_env_runner`` copies of the env; with ``ray_address``
+they spread over the cluster's nodes. The learner runs in the driver (``learners:
+{num_learners: 0}``; more learners are a YAML setting) with ``threads`` torch threads.
+
+**Stop and resume.** SIGINT (Ctrl-C) or SIGTERM stops the run after the current
+training iteration, writes the checkpoint and returns ``EXIT_INTERRUPTED`` (130),
+printing the command that continues it: ``python train.py --resume <out>``. The
+resumed run takes its config from ``config.yml`` (``num_env_runners`` and
+``ray_address`` may be given anew; by default the run's runner count, on a local Ray
+instance), rebuilds the PPOConfig and restores the Algorithm from ``checkpoint/``
+(the modules, their optimizers, the observation filters, RLlib's step and iteration
+counts), trains until the run's total env steps, appends to ``progress.jsonl`` and
+ends with the files of a finished run. Its episodes are fresh ones (the seed from the
+run's seed and the step count, as the SB3 trainer's). A run killed without a last
+checkpoint resumes from the last periodic one: the lines of ``progress.jsonl`` after
+it are dropped, since those iterations are trained again. Resuming a finished run
+does nothing (it evaluates the checkpoint if that had not been done) and succeeds. A
+Tune grid cannot be resumed.
+
+What a run directory holds:
+
+    config.yml         the exact config (agents.training.common), plus the resolved RLlib
+                       AlgorithmConfig (rllib_config) and the beacon -> module map
+    checkpoint/        the RLlib Algorithm checkpoint (``algo.save_to_path``), replaced
+                       whole every ``checkpoint_every_iterations``, on a stop and at the
+                       end (written beside, then renamed); ``coopnav.json`` in it: steps,
+                       iteration (what resume reads)
+    progress.jsonl     one line per training iteration (steps, returns, survey error, training
+                       wall time summed over the sessions of a resumed run)
+    evaluations.jsonl  the final evaluation on fixed seeds (``eval:``)
+    baseline_eval.json the baselines on the same seeds
+
+``agents.load(out)`` (and so the evaluation's ``--policies out,fim_a``) loads the policy.
+
+**Tune** (``tune={"lr": [1e-4, 3e-4], "seed": [0, 1]}``, ``--tune KEY=V1,V2`` on the
+command line): the grid of every combination, one RLlib trial each, run by
+``ray.tune.Tuner`` under ``out/tune/``; KEY is ``seed`` or a ``PPOConfig.training``
+keyword (``lr``, ``gamma``, ``entropy_coeff``, ...). Afterwards every trial's final
+checkpoint is evaluated on the fixed seeds, and ``summary.csv`` and ``summary.md``
+(one table: the grid values, steps, mean episode return, the training episodes'
+survey error, the evaluation's survey error, the checkpoint) are written atomically.
+"""
+
+from __future__ import annotations
+
+import enum
+import inspect
+import json
+import os
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from coopnav_env.records import atomic_write_text, read_json
+
+from .common import (EXIT_INTERRUPTED, new_run_dir, prepare_job, read_run_record, resume_command, resume_seed,
+                     run_config, stop_on_signals, write_run_record)
+from .config import ConfigError, RLlibConfig, parse_value, unknown_key_message
+from .scoring import baselines_on_eval_seeds, evaluate
+
+os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no usage reports from training runs
+
+SUMMARY_COLUMNS = ["trial", "env_steps", "iterations", "episode_return_mean", "train_survey_error_m",
+                   "eval_survey_error_m", "checkpoint"]
+RAY_MISSING = '--backend rllib needs Ray RLlib, which is not installed: pip install -e ".[rllib]"'
+
+__all__ = ["build_config", "metrics", "parse_tune", "require_ray", "resume", "save_checkpoint", "train"]
+
+
+def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None = None, hyperparameter_file=None,
+          num_env_runners: int | None = None, ray_address: str | None = None, tune: dict | None = None,
+          threads: int = 1) -> int:
+    """Train ``config`` on RLlib into run directory ``out`` (new, or with ``resume`` the
+    run's own directory, continued from its checkpoint). ``num_env_runners`` overrides
+    ``env_runners.num_env_runners``; ``ray_address`` joins a running cluster; ``tune``
+    ({key: [values]}) runs a Tune grid instead of one run. Returns 0 when done (1 if a
+    Tune trial failed), ``EXIT_INTERRUPTED`` after SIGINT/SIGTERM (checkpoint
+    written). Bad input raises ``ConfigError`` before anything is written."""
+    require_ray()
+    out = Path(out)
+    if resume:
+        record = read_run_record(out)
+        if record["args"].get("tune"):
+            raise ConfigError(f"{out} is a Ray Tune grid (--tune): --resume continues single runs only")
+        meta = resumable_checkpoint(out)
+        if meta is None:
+            raise ConfigError(f"{out} has no checkpoint to resume from (checkpoint/coopnav.json); "
+                              "start it again with --out")
+        if num_env_runners is None:
+            num_env_runners = record["args"].get("num_env_runners")
+    else:
+        new_run_dir(out)
+        meta = None
+    if num_env_runners is not None:
+        config = config.replace(env_runners={**config.env_runners, "num_env_runners": int(num_env_runners)})
+    config.check()
+    job = prepare_job(config)
+    grid = check_tune(tune or {})
+
+    import torch
+
+    torch.set_num_threads(threads)  # the learner runs in this process (num_learners: 0)
+    if meta is not None:
+        if int(meta["env_steps"]) >= config.timesteps:  # trained: at most the final evaluation is missing
+            finish(out, meta, config, job)
+            print(f"done: {out} is already at {meta['env_steps']} of {config.timesteps} env steps; "
+                  f"checkpoint in {out / 'checkpoint'}")
+            return 0
+        drop_lost_iterations(out, int(meta["iteration"]))
+        if record["args"].get("ray_address") and not ray_address:
+            print(f"note: the run used --ray-address {record['args']['ray_address']}; resuming on a local Ray "
+                  "instance (pass --ray-address to join a cluster)")
+        # fresh episodes: the environments' and RLlib's seed from the run's seed and the step count
+        algo_config, _ = build_config(config, seed=resume_seed(config.seed, int(meta["env_steps"])))
+    else:
+        algo_config, mapping = build_config(config)
+        import ray
+
+        args = {"backend": "rllib", "scenario": config.scenario, "timesteps": config.timesteps, "seed": config.seed,
+                "num_env_runners": int(algo_config.num_env_runners or 0), "ray_address": ray_address,
+                "tune": dict(grid) or None}
+        out.mkdir(parents=True, exist_ok=True)
+        write_run_record(out, config, job, command=command, hyperparameter_file=hyperparameter_file, args=args,
+                         versions={"ray": str(ray.__version__)}, module_map=mapping,
+                         rllib_config=config_record(algo_config))
+    cpus = cpus_per_trial(algo_config)
+    started = init_ray(ray_address, config, cpus if grid else cpus - 1)
+    import ray
+
+    try:
+        if grid:
+            return run_tune(algo_config, grid, out, config, job)
+        return run_training(algo_config, out, config, job, restore=meta)
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def resume(out, **options) -> int:
+    """Continue the RLlib run in ``out`` with its own config.yml (``train``'s keyword
+    options: num_env_runners, ray_address, threads)."""
+    return train(run_config(out, RLlibConfig), out, resume=True, **options)
+
+
+def require_ray():
+    """A ``ConfigError`` (one line: how to install it) if Ray RLlib cannot be imported."""
+    try:
+        import ray  # noqa: F401
+        import ray.rllib  # noqa: F401
+    except ImportError:
+        raise ConfigError(RAY_MISSING) from None
+
+
+# ----------------------------------------------------------------------------------
+# 1. the Tune grid
+# ----------------------------------------------------------------------------------
+def training_keywords() -> set:
+    """The keywords PPOConfig.training accepts (its own and AlgorithmConfig's)."""
+    from ray.rllib.algorithms.algorithm_config import AlgorithmConfig
+    from ray.rllib.algorithms.ppo import PPOConfig
+
+    names = set()
+    for fn in (PPOConfig.training, AlgorithmConfig.training):
+        names |= {n for n, p in inspect.signature(fn).parameters.items()
+                  if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
+    return names
+
+
+def parse_tune(items: list) -> dict:
+    """``["lr=1e-4,3e-4", "seed=0,1,2"]`` -> ``{"lr": [1e-4, 3e-4], "seed": [0, 1, 2]}``
+    (values: numbers, or YAML such as ``[64,64],[128,128]``); checked by ``check_tune``."""
+    grid = {}
+    for item in items:
+        if "=" not in item:
+            raise ConfigError(f"--tune expects KEY=V1,V2,..., got {item!r}")
+        key, values = (s.strip() for s in item.split("=", 1))
+        if key in grid:
+            raise ConfigError(f"--tune {key} given twice")
+        grid[key] = split_values(key, values)
+    return grid
+
+
+def split_values(key: str, text: str) -> list:
+    """'1e-4,3e-4' -> [0.0001, 0.0003]; '[64,64],[128,128]' -> two lists (a YAML flow
+    sequence, its strings then read as numbers where they are)."""
+    import yaml
+
+    try:
+        items = yaml.safe_load(f"[{text}]")
+    except yaml.YAMLError:
+        raise ConfigError(f"--tune {key}: cannot read {text!r} as values") from None
+    if not text.strip() or text.strip().startswith(",") or text.strip().endswith(",") or ",," in text.replace(" ", ""):
+        raise ConfigError(f"--tune {key}: empty value in {text!r}")
+    return [parse_value(v) if isinstance(v, str) else v for v in items]
+
+
+def check_tune(grid: dict) -> dict:
+    """A grid's keys (seed or PPOConfig.training keywords) and values (none empty or
+    repeated; integer seeds), or a ``ConfigError``."""
+    if not grid:
+        return {}
+    valid = training_keywords()
+    for key, values in grid.items():
+        if key != "seed" and key not in valid:
+            raise ConfigError(f"--tune {key}: not seed or a PPOConfig.training keyword (lr, gamma, lambda_, "
+                              "entropy_coeff, clip_param, num_epochs, minibatch_size, ...)")
+        if not values or any(v is None or v == "" for v in values):
+            raise ConfigError(f"--tune {key}: empty value in {values!r}")
+        if len(set(map(repr, values))) != len(values):
+            raise ConfigError(f"--tune {key} repeats a value")
+        if key == "seed" and not all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+            raise ConfigError(f"--tune seed takes integers, got {values!r}")
+    return {k: list(v) for k, v in grid.items()}
+
+
+# ----------------------------------------------------------------------------------
+# 2. the RLlib config
+# ----------------------------------------------------------------------------------
+def env_config(config: RLlibConfig, seed: int) -> dict:
+    from coopnav_env.vector import check_reward_terms
+
+    return {"scenario": config.scenario, "overrides": dict(config.env.overrides), "seed": int(seed),
+            "reward_terms": check_reward_terms(config.reward),
+            "num_envs_per_env_runner": int(config.env_runners.get("num_envs_per_env_runner", 1) or 1)}
+
+
+def build_config(config: RLlibConfig, seed: int | None = None):
+    """(PPOConfig, beacon -> module map) of a job: the adapter env, one module per
+    beacon kind, the config's ``ppo``/``model``/``env_runners``/``learners`` sections.
+    ``seed``: the run's (default ``config.seed``). Bad sections are a ``ConfigError``."""
+    from ray.rllib.algorithms.ppo import PPOConfig
+    from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+    from ray.rllib.core.rl_module.rl_module import RLModuleSpec
+
+    from coopnav_env.rllib_env import CoopNavRLlibEnv, KindMapping, SurveyErrorMetrics, mean_std_filter, module_ids, \
+        module_map
+
+    seed = config.seed if seed is None else int(seed)
+    valid = training_keywords()
+    for key in config.ppo:
+        if key not in valid:
+            raise ConfigError(unknown_key_message(key, valid, "ppo key (PPOConfig.training keyword)"))
+    env_cfg = env_config(config, seed)
+    mapping = module_map(config.scenario, env_cfg["overrides"])
+    runners = {"num_env_runners": 0, **config.env_runners}
+    if config.normalize_obs:
+        runners["env_to_module_connector"] = mean_std_filter
+    try:
+        algo_config = (
+            PPOConfig()
+            .environment(CoopNavRLlibEnv, env_config=env_cfg, disable_env_checking=True)
+            .env_runners(**runners)
+            .learners(**config.learners)
+            .training(**config.ppo)
+            .multi_agent(policies=set(module_ids(mapping)), policy_mapping_fn=KindMapping(mapping),
+                         policies_to_train=module_ids(mapping))
+            .rl_module(rl_module_spec=MultiRLModuleSpec(
+                rl_module_specs={m: RLModuleSpec(model_config=dict(config.model)) for m in module_ids(mapping)}))
+            .callbacks(SurveyErrorMetrics)
+            .debugging(seed=seed, log_level="ERROR")
+            .reporting(metrics_num_episodes_for_smoothing=100)
+        )
+        algo_config.validate()
+    except (TypeError, ValueError, KeyError, AssertionError) as err:
+        raise ConfigError(f"bad RLlib hyperparameters: {' '.join(str(err).split())[:300] or type(err).__name__}") \
+            from None
+    return algo_config, mapping
+
+
+def config_record(algo_config) -> dict:
+    """The AlgorithmConfig as plain YAML-able values (callables and classes by name)."""
+    def clean(v):
+        if isinstance(v, enum.Enum):
+            return clean(v.value)
+        if isinstance(v, dict):
+            return {str(k): clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple, set)):
+            return [clean(x) for x in v]
+        if v is None or isinstance(v, (bool, int, float, str)):
+            return v
+        if isinstance(v, (np.integer, np.floating)):
+            return v.item()
+        if isinstance(v, type) or callable(v):
+            return f"{getattr(v, '__module__', '?')}.{getattr(v, '__qualname__', type(v).__name__)}"
+        return repr(v)
+
+    d = algo_config.to_dict()
+    return clean({k: v for k, v in d.items() if not k.startswith("_") or k in ("_rl_module_spec",)})
+
+
+# ----------------------------------------------------------------------------------
+# 3. Ray
+# ----------------------------------------------------------------------------------
+def init_ray(address: str | None, config: RLlibConfig, cpus_needed: int) -> bool:
+    """A small local Ray instance (the config's ``ray:``; no dashboard, no worker logs on
+    the console), or a connection to a running cluster (``address``). Returns whether
+    it started or connected Ray (False: this process was already connected, e.g. a
+    test's or a notebook's ``ray.init()``, which is used as it is)."""
+    import ray
+
+    if ray.is_initialized():
+        return False
+    runtime_env = {"env_vars": {"RAY_USAGE_STATS_ENABLED": "0"}}  # the packages are installed: no PYTHONPATH
+    if address:
+        try:
+            ray.init(address=address, log_to_driver=False, runtime_env=runtime_env)
+        except (ConnectionError, RuntimeError, ValueError) as err:
+            raise ConfigError(f"cannot connect to the Ray cluster at {address!r} ({' '.join(str(err).split())[:200]}); "
+                              "start one with 'ray start --head' (with RAY_AUTH_MODE=token: the same token on every "
+                              "node and here)") from None
+        return True
+    cores = os.cpu_count() or 1
+    num_cpus = max(config.ray.num_cpus or max(cores, cpus_needed), cpus_needed)
+    if num_cpus > cores:
+        print(f"note: {cpus_needed} CPU(s) requested by the env runners on {cores} core(s): they share the cores")
+    ray.init(num_cpus=int(num_cpus), include_dashboard=False, log_to_driver=False,
+             object_store_memory=int(config.ray.object_store_memory_mb * 2**20), runtime_env=runtime_env)
+    return True
+
+
+def cpus_per_trial(algo_config) -> int:
+    runners = int(algo_config.num_env_runners or 0)
+    return int(np.ceil(runners * float(algo_config.num_cpus_per_env_runner or 1))) + 1
+
+
+# ----------------------------------------------------------------------------------
+# 4. files
+# ----------------------------------------------------------------------------------
+def save_checkpoint(algo, out: Path, meta: dict) -> Path:
+    """The Algorithm checkpoint in ``out/checkpoint``, replaced whole: written to a
+    temporary directory beside it, then renamed into place."""
+    final = out / "checkpoint"
+    tmp = out / f".checkpoint.tmp{os.getpid()}"
+    old = out / f".checkpoint.old{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    algo.save_to_path(str(tmp.resolve()))
+    atomic_write_text(tmp / "coopnav.json", json.dumps(meta))
+    if final.exists():
+        os.replace(final, old)
+    os.replace(tmp, final)
+    shutil.rmtree(old, ignore_errors=True)
+    return final
+
+
+def resumable_checkpoint(out: Path) -> dict | None:
+    """The ``coopnav.json`` of ``out/checkpoint`` (None: nothing to resume from), after
+    tidying what a killed ``save_checkpoint`` may have left: if the process died between
+    its two renames (no ``checkpoint/``), the newest complete checkpoint beside it
+    (``.checkpoint.tmp*`` holds ``coopnav.json`` only once complete; ``.checkpoint.old*``
+    is a former ``checkpoint/``) is put back; the other leftovers are removed."""
+    from agents.rllib_policy import CHECKPOINT_MARKER
+
+    final = out / "checkpoint"
+    meta = read_json(final / "coopnav.json")
+    spares = [d for d in out.glob(".checkpoint.*") if d.is_dir()]
+    if meta is None and not final.exists():
+        complete = [(read_json(d / "coopnav.json"), d) for d in spares if (d / CHECKPOINT_MARKER).is_file()]
+        complete = [(m, d) for m, d in complete if m is not None]
+        if complete:
+            meta, best = max(complete, key=lambda md: int(md[0].get("iteration", 0)))
+            os.replace(best, final)
+            print(f"note: restored {final} from {best.name} (the last save was cut short)", file=sys.stderr)
+    for d in spares:
+        shutil.rmtree(d, ignore_errors=True)
+    if meta is None or "env_steps" not in meta or "iteration" not in meta:
+        return None
+    return meta
+
+
+def drop_lost_iterations(out: Path, iteration: int):
+    """Keep the lines of ``progress.jsonl`` up to ``iteration`` (the checkpoint a resumed
+    run continues from): a run killed without a last checkpoint logged iterations whose
+    training the checkpoint does not hold, and the resumed run trains them again."""
+    path = out / "progress.jsonl"
+    if not path.is_file():
+        return
+    lines = path.read_text().splitlines()
+
+    def kept(line):
+        try:
+            return int(json.loads(line)["iteration"]) <= iteration
+        except (ValueError, KeyError, TypeError):  # a line cut short by the kill
+            return False
+
+    keep = [line for line in lines if kept(line)]
+    if len(keep) != len(lines):
+        atomic_write_text(path, "".join(line + "\n" for line in keep))
+
+
+def metrics(result: dict) -> dict:
+    """The few numbers of an RLlib result that a run records."""
+    er = result.get("env_runners", {}) or {}
+
+    def num(v):
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            return None
+        return v if np.isfinite(v) else None
+
+    steps = result.get("num_env_steps_sampled_lifetime", er.get("num_env_steps_sampled_lifetime", 0))
+    return {"iteration": int(result.get("training_iteration", 0)), "env_steps": int(num(steps) or 0),
+            "episode_return_mean": num(er.get("episode_return_mean")),
+            "survey_error_m": num(er.get("survey_error_m")),
+            "episodes": int(num(er.get("num_episodes_lifetime")) or 0),
+            "time_s": num(result.get("time_total_s"))}
+
+
+def evaluate_checkpoint(path, config: RLlibConfig, job) -> dict | None:
+    """The deterministic policy of checkpoint ``path`` on the fixed evaluation seeds
+    (``scoring.evaluate``); None with ``eval.episodes`` 0."""
+    if config.eval.episodes <= 0:
+        return None
+    from agents.rllib_policy import batch_actor
+
+    return evaluate(batch_actor(path, job.scenario_config), job.cells, config.eval.episodes, config.eval.seed)
+
+
+# ----------------------------------------------------------------------------------
+# 5. one training run
+# ----------------------------------------------------------------------------------
+def run_training(algo_config, out: Path, config: RLlibConfig, job, restore: dict | None = None) -> int:
+    """Train until ``config.timesteps`` env steps (RLlib's lifetime count), checkpointing
+    every ``checkpoint_every_iterations`` and at the end, then evaluate. ``restore``: the
+    ``coopnav.json`` of ``out/checkpoint``, which the Algorithm is restored from first.
+    SIGINT/SIGTERM: stop after the current iteration, checkpoint, return
+    ``EXIT_INTERRUPTED``."""
+    ckpt_every = config.checkpoint_every_iterations
+    m = dict(restore) if restore else {"env_steps": 0, "iteration": 0}
+    start_steps, saved_iteration = int(m["env_steps"]), (int(m["iteration"]) if restore else None)
+    wall_before = float(m.get("wall_s") or 0.0)  # training time of the sessions before this one
+    with stop_on_signals() as stop:
+        t0 = time.perf_counter()
+        algo = algo_config.build_algo()
+        try:
+            if restore:
+                algo.restore_from_path(str((out / "checkpoint").resolve()))
+            print(f"{'built and restored' if restore else 'built'} in {time.perf_counter() - t0:.1f} s: "
+                  f"{algo_config.num_env_runners} env runner(s) x {algo_config.num_envs_per_env_runner} env(s), "
+                  f"{algo_config.num_learners} remote learner(s)"
+                  + (f"; resuming at {start_steps} env steps, iteration {saved_iteration}" if restore else ""),
+                  flush=True)
+            t_train = time.perf_counter()
+            while m["env_steps"] < config.timesteps and not stop:
+                m = metrics(algo.train())
+                session = time.perf_counter() - t_train
+                m["wall_s"] = round(wall_before + session, 2)
+                with open(out / "progress.jsonl", "a") as f:
+                    f.write(json.dumps(m) + "\n")
+                rate = (m["env_steps"] - start_steps) / max(session, 1e-9)
+                print(f"iter {m['iteration']}: {m['env_steps']} env steps ({rate:.0f}/s), return "
+                      f"{_metres(m['episode_return_mean'])}, survey_error_m {_metres(m['survey_error_m'])}",
+                      flush=True)
+                if ckpt_every and m["iteration"] % ckpt_every == 0:
+                    save_checkpoint(algo, out, m)
+                    saved_iteration = m["iteration"]
+            if saved_iteration != m["iteration"]:
+                save_checkpoint(algo, out, m)
+        finally:
+            algo.stop()
+    if stop:
+        print(f"stopped at {m['env_steps']} env steps (iteration {m['iteration']}), checkpoint in "
+              f"{out / 'checkpoint'}; continue with: {resume_command(out)}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finish(out, m, config, job)
+    wall = time.perf_counter() - t_train
+    print(f"done: {m['env_steps']} env steps ({m['env_steps'] - start_steps} in this run, {wall:.0f} s, "
+          f"{(m['env_steps'] - start_steps) / max(wall, 1e-9):.0f}/s); checkpoint in {out / 'checkpoint'}")
+    return 0
+
+
+def finish(out: Path, m: dict, config: RLlibConfig, job):
+    """The final evaluation of ``out/checkpoint`` (``m``: its coopnav.json) on the fixed
+    seeds, appended to evaluations.jsonl, unless that file already ends with it."""
+    done = _last_json_line(out / "evaluations.jsonl")
+    if done is not None and done.get("num_timesteps") == m["env_steps"] and done.get("iteration") == m["iteration"]:
+        return
+    result = evaluate_checkpoint(out / "checkpoint", config, job)
+    if result is None:
+        return
+    ev = config.eval
+    baseline = baselines_on_eval_seeds(out, job.cells, ev.baselines, ev.episodes, ev.seed)
+    record = {"num_timesteps": m["env_steps"], "iteration": m["iteration"],
+              "survey_error_m": result["survey_error_m"],
+              **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline.items()}}
+    if len(job.cells) > 1:
+        record["per_cell"] = {k: round(v, 4) for k, v in result["per_cell"].items()}
+    with open(out / "evaluations.jsonl", "a") as f:
+        f.write(json.dumps(record) + "\n")
+    print(f"eval: survey_error_m {result['survey_error_m']:.3f}"
+          + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline.items()))
+
+
+def _last_json_line(path: Path) -> dict | None:
+    try:
+        lines = path.read_text().splitlines()
+    except FileNotFoundError:
+        return None
+    for line in reversed(lines):
+        try:
+            return json.loads(line)
+        except ValueError:  # a line cut short
+            continue
+    return None
+
+
+def _metres(v) -> str:
+    return "n/a" if v is None else f"{v:.3f}"
+
+
+# ----------------------------------------------------------------------------------
+# 6. a Tune grid
+# ----------------------------------------------------------------------------------
+def run_tune(algo_config, grid: dict, out: Path, config: RLlibConfig, job) -> int:
+    from ray import tune
+
+    param_space = algo_config.to_dict()
+    for key, values in grid.items():
+        name = "lambda" if key == "lambda_" else key
+        param_space[name] = tune.grid_search(values)
+    if "seed" in grid:  # every trial's environments from its own seed
+        base_env_config = env_config(config, config.seed)
+        param_space["env_config"] = tune.sample_from(lambda spec: {**base_env_config, "seed": int(spec.config["seed"])})
+    tuner = tune.Tuner(
+        algo_config.algo_class, param_space=param_space,  # the class: the name "PPO" makes Tune import every algorithm
+        tune_config=tune.TuneConfig(max_concurrent_trials=config.ray.max_concurrent_trials, reuse_actors=False,
+                                    trial_name_creator=_trial_name, trial_dirname_creator=_trial_name),
+        run_config=tune.RunConfig(name="tune", storage_path=str(out.resolve()), verbose=0,
+                                  stop={"num_env_steps_sampled_lifetime": config.timesteps},
+                                  checkpoint_config=tune.CheckpointConfig(checkpoint_at_end=True, num_to_keep=1)))
+    t0 = time.perf_counter()
+    results = tuner.fit()
+    print(f"tune: {len(results)} trial(s) in {time.perf_counter() - t0:.0f} s", flush=True)
+    rows = []
+    for r in sorted(results, key=lambda r: r.path):
+        trial_cfg = r.config or {}
+        row = {"trial": Path(r.path).name}
+        for key in grid:
+            row[key] = trial_cfg.get("lambda" if key == "lambda_" else key)
+        if r.error is not None:
+            row.update({"env_steps": None, "iterations": None, "episode_return_mean": None,
+                        "train_survey_error_m": None, "eval_survey_error_m": None,
+                        "checkpoint": f"error: {' '.join(str(r.error).split())[:120]}"})
+            rows.append(row)
+            continue
+        m = metrics(r.metrics or {})
+        ckpt = Path(r.checkpoint.path) if r.checkpoint is not None else None
+        evaluation = evaluate_checkpoint(ckpt, config, job) if ckpt else None
+        row.update({"env_steps": m["env_steps"], "iterations": m["iteration"],
+                    "episode_return_mean": m["episode_return_mean"], "train_survey_error_m": m["survey_error_m"],
+                    "eval_survey_error_m": evaluation["survey_error_m"] if evaluation else None,
+                    "checkpoint": str(ckpt.relative_to(out.resolve())) if ckpt else None})
+        rows.append(row)
+    columns = ["trial", *grid, *SUMMARY_COLUMNS[1:]]
+    write_summary(out, columns, rows)
+    print((out / "summary.md").read_text())
+    failed = [r for r in rows if str(r.get("checkpoint") or "").startswith("error")]
+    if failed:
+        print(f"{len(failed)} trial(s) failed; see {out / 'tune'}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _trial_name(trial) -> str:
+    """``trial_<index>_<grid values>`` from Tune's experiment tag, without commas (the
+    evaluation's ``--policies`` separator) or '=': ``trial_1_lr-0.0003_seed-0``."""
+    tag = str(trial.experiment_tag).replace(",", "_").replace("=", "-").replace("/", "_").replace(" ", "")
+    return f"trial_{tag}"[:120]
+
+
+def write_summary(out: Path, columns: list, rows: list):
+    """summary.csv and summary.md (the same table), each written atomically."""
+    import csv
+    import io
+
+    def cell(v):
+        if isinstance(v, float):
+            return f"{v:.6g}"
+        return "" if v is None else str(v)
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for r in rows:
+        w.writerow([cell(r.get(c)) for c in columns])
+    atomic_write_text(out / "summary.csv", buf.getvalue())
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    lines += ["| " + " | ".join(cell(r.get(c)) for c in columns) + " |" for r in rows]
+    atomic_write_text(out / "summary.md", "\n".join(lines) + "\n")
