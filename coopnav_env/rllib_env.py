@@ -42,7 +42,7 @@ beacons of the same kind share one module (parameter sharing), different kinds
 get different modules. The module id is the kind's name.
 
 Everything here runs inside RLlib's env runner processes, so it lives in the
-installed package (``coopnav_env``), not in the top-level ``train_rllib.py``.
+installed package (``coopnav_env``); the trainer that builds it is ``agents.training.rllib``.
 """
 
 from __future__ import annotations
