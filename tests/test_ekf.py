@@ -222,13 +222,13 @@ def test_gate_threshold_is_chi_square_quantile():
 N_RUNS = 100
 
 
-def _nees_run(**overrides):
-    """NEES of every run at every cycle of gao_lawnmower, the beacon circling the survey.
+def _nees_run(scenario="gao_lawnmower", **overrides):
+    """NEES of every run at every cycle of ``scenario``, the beacon circling the survey.
 
     Returns (nees_3d, nees_2d, active): (cycles, runs) arrays; ``active`` marks the
     runs still inside their episode at that cycle.
     """
-    cfg = make_config("gao_lawnmower", **overrides)
+    cfg = make_config(scenario, **overrides)
     sim = Simulator(cfg, batch_size=N_RUNS)
     sim.reset(np.arange(N_RUNS))
     # A fixed action sequence for every run: heading (cos, sin) of an angle turning by
@@ -254,8 +254,8 @@ def _nees_run(**overrides):
     return np.array(n3), np.array(n2), np.array(active)
 
 
-def _nees_summary(**overrides):
-    n3, n2, active = _nees_run(**overrides)
+def _nees_summary(scenario="gao_lawnmower", **overrides):
+    n3, n2, active = _nees_run(scenario, **overrides)
     full = active.all(1)  # cycles at which every run is still in its episode
     m3, m2 = n3[full].mean(1), n2[full].mean(1)
     lo3, hi3 = chi2.ppf([0.025, 0.975], 3 * N_RUNS) / N_RUNS
@@ -310,8 +310,11 @@ def test_nees_harness_on_a_matched_model():
     assert lo3 <= r["mean3"] <= hi3, report
 
 
-def test_nees_consistency_gao_lawnmower():
-    """Average NEES over 100 runs inside the 95 % chi-square band (3 dof per run).
+@pytest.mark.parametrize("scenario", ["gao_lawnmower", "gao_sea"])
+def test_nees_consistency(scenario):
+    """Average NEES over 100 runs inside the 95 % chi-square band (3 dof per run), with
+    the beacon's own navigation errors (the lake trial's GPS, the sea trial's drifting
+    DVL dead reckoning with surfacing).
 
     The test asserts that the mean over cycles of the average NEES (3-D and
     horizontal) lies inside its band. Per cycle the average wanders more than the
@@ -321,7 +324,7 @@ def test_nees_consistency_gao_lawnmower():
     only that a third of the cycles lie inside, and the README reports the figure.
     Only the cycles at which all 100 runs are still in their episode count.
     """
-    r = _nees_summary()
+    r = _nees_summary(scenario)
     lo3, hi3 = r["band3"]
     lo2, hi2 = r["band2"]
     report = _format(r)

@@ -27,7 +27,7 @@ from . import rng
 from . import fusion, observation, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
 from .reward import SURVEY_TERMS, term_weights, weighted_reward
-from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps
+from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps, unit_to_bearing
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
 from .navigation import gate_threshold, predict
@@ -132,6 +132,8 @@ class Simulator(BatchSimulator):
         nb = n_ep[:, S * 4:S * 4 + N * 4].reshape(B, N, 4)  # nav error east/north, current error
         n_clock = n_ep[:, S * 4 + N * 4:S * 4 + N * 4 + S * N].reshape(B, S, N)
         nw = n_ep[:, -3:]  # temperature, Gauss-Markov current east/north
+        # the beacons' DVL heading bias and scale error: their own stream (added later)
+        n_dvl = rng.normal(keys, rng.STREAM_EPISODE + 300, zero, (2 * N,)).reshape(B, N, 2)
         # domain randomization: its own stream, so scenarios without it keep their numbers
         u_dr = rng.uniform(keys, rng.STREAM_EPISODE + 200, zero, (2,))
         variant = np.minimum((u_dr[:, 0] * len(self.variants)).astype(np.int64), len(self.variants) - 1)
@@ -190,6 +192,12 @@ class Simulator(BatchSimulator):
             b_walk_var_m2=np.broadcast_to(b_std0 ** 2, (B, N)).copy(), b_unlocked_s=np.zeros((B, N)),
             b_dvl_lock=np.ones((B, N), dtype=bool),
             b_current_err=c.beacon_current_estimate_error_mps * (nb[..., 2] + 1j * nb[..., 3]),
+            b_dvl_scale_error=c.beacon_dvl_scale_error_std * n_dvl[..., 0],
+            b_dvl_heading_bias_rad=np.radians(c.beacon_dvl_heading_bias_std_deg) * n_dvl[..., 1],
+            b_dvl_heading_phase_rad=2.0 * np.pi * rng.uniform(keys, rng.STREAM_EPISODE + 301, zero, (N,)),
+            b_travelled_m=np.zeros((B, N)),
+            b_fix_est=(b_pos[..., 0] + b_err[..., 0]) + 1j * (b_pos[..., 1] + b_err[..., 1]),
+            b_since_fix_s=np.zeros((B, N)), b_surfacings=np.zeros((B, N), dtype=np.int64),
             clock_offset_s=c.clock_offset_std_s * n_clock,
             clock_drift=c.clock_drift_ppm * 1e-6 * (2 * clock_u - 1),
             temperature_c=c.water_temperature_c + c.temperature_uncertainty_c * nw[:, 0],
@@ -227,6 +235,7 @@ class Simulator(BatchSimulator):
         draws = self._cycle_draws(cyc)
 
         # 1. beacon motion over the cycle -------------------------------------------------
+        b_start = st.b_pos[..., 0] + 1j * st.b_pos[..., 1]
         self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions), self._beacon_turn_cos,
                         self._beacon_turn_sin, K, dt)
 
@@ -234,7 +243,7 @@ class Simulator(BatchSimulator):
         self._integrate_survey(draws)
 
         # beacon navigation: DVL (or its fallback) for AUVs, GPS for ASVs
-        self._beacon_navigation(draws)
+        self._beacon_navigation(draws, st.b_pos[..., 0] + 1j * st.b_pos[..., 1] - b_start)
 
         # the current's slowly varying part, exact over the cycle
         n_cur = draws["current"]
@@ -381,7 +390,17 @@ class Simulator(BatchSimulator):
                        self._survey_turn_cos, self._survey_turn_sin, np.radians(c.survey_max_pitch_deg),
                        c.survey_depth_gain_per_m)
 
-    def _beacon_navigation(self, draws):
+    def _beacon_navigation(self, draws, moved):
+        """The beacons' own navigation over the cycle; ``moved`` (B,N) complex: their true
+        ground displacement. AUVs: DVL dead reckoning, whose error grows with the distance
+        travelled (this episode's compass error beta = b0 + b1 sin(heading + phase) and
+        velocity scale error k turn a displacement d into (1 + k) e^{-i beta} d,
+        e^{-i beta} a clockwise rotation) plus
+        the integrated white velocity noise, and with the current estimate's error while
+        bottom lock is lost; optionally a GPS fix at the surface (every
+        ``beacon_surface_every_s``, or when the own std exceeds ``beacon_surface_above_std_m``).
+        ASVs: a fresh GPS fix every cycle. The variance each carries (what enters the
+        survey filters' R) is the beacon's own error model, not its actual error."""
         c, st = self.config, self.state
         T, K, dt = c.ping_interval_s, self.K, c.substep_s
         n, u = draws["beacon_nav_n"], draws["beacon_nav_u"]
@@ -391,16 +410,40 @@ class Simulator(BatchSimulator):
         # DVL: the white velocity noise integrated over the cycle (a random walk)
         walk_std = c.dvl_velocity_noise_mps * dt * np.sqrt(K)
         drift = np.where(st.b_dvl_lock, 0.0, st.b_current_err * T)  # without lock: thrust model + current estimate
-        err_h = (st.b_nav_err[..., 0] + 1j * st.b_nav_err[..., 1]) + drift + walk_std * (n[..., 0] + 1j * n[..., 1])
-        # the variance it carries: the random walk adds up linearly, but the current-estimate
-        # error is a bias, so its part grows with the square of the time spent without lock
+        heading_err = st.b_dvl_heading_bias_rad + np.radians(c.beacon_dvl_heading_cycle_deg) * np.sin(
+            unit_to_bearing(moved) + st.b_dvl_heading_phase_rad)
+        bias = ((1.0 + st.b_dvl_scale_error) * np.exp(-1j * heading_err) - 1.0) * moved
+        err_h = ((st.b_nav_err[..., 0] + 1j * st.b_nav_err[..., 1]) + drift + bias
+                 + walk_std * (n[..., 0] + 1j * n[..., 1]))
+        # the variance it carries: the random walk adds up linearly; the current-estimate
+        # error is a bias, so its part grows with the square of the time spent without lock;
+        # the constant heading and scale errors' part grows with the square of the displacement
+        # D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2) |D|^2; the one-cycle
+        # part, which does not cancel on a lawnmower's alternating legs, at most with the square
+        # of the distance s travelled, (b1^2 / 2) s^2; half of each per axis
         st.b_walk_var_m2 = st.b_walk_var_m2 + walk_std ** 2
         st.b_unlocked_s = st.b_unlocked_s + np.where(st.b_dvl_lock, 0.0, T)
-        var = st.b_walk_var_m2 + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
-        # ASV: a fresh GPS fix every cycle
+        st.b_since_fix_s = st.b_since_fix_s + T
+        est_h = st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h
+        sigma2 = c.beacon_dvl_scale_error_std ** 2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2
+        st.b_travelled_m = st.b_travelled_m + np.abs(moved)
+        var = (st.b_walk_var_m2 + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
+               + 0.5 * sigma2 * np.abs(est_h - st.b_fix_est) ** 2
+               + 0.25 * np.radians(c.beacon_dvl_heading_cycle_deg) ** 2 * st.b_travelled_m ** 2)
+        # a GPS fix: every cycle for ASVs; at the surface when due for AUVs
         gps_h = c.gps_noise_m * (n[..., 2] + 1j * n[..., 3])
-        err_h = np.where(auv, err_h, gps_h)
-        st.b_nav_var_m2 = np.where(auv, var, c.gps_noise_m ** 2)
+        surface = auv & (((c.beacon_surface_every_s > 0) & (st.b_since_fix_s >= c.beacon_surface_every_s - 1e-9))
+                         | ((c.beacon_surface_above_std_m > 0) & (var > c.beacon_surface_above_std_m ** 2)))
+        fix = ~auv | surface
+        err_h = np.where(fix, gps_h, err_h)
+        gps_var = c.gps_noise_m ** 2
+        st.b_nav_var_m2 = np.where(fix, gps_var, var)
+        st.b_walk_var_m2 = np.where(surface, gps_var, st.b_walk_var_m2)
+        st.b_unlocked_s = np.where(surface, 0.0, st.b_unlocked_s)
+        st.b_since_fix_s = np.where(fix, 0.0, st.b_since_fix_s)
+        st.b_travelled_m = np.where(fix, 0.0, st.b_travelled_m)
+        st.b_fix_est = np.where(fix, st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h, st.b_fix_est)
+        st.b_surfacings = surface.astype(np.int64)
         st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag
 
     def _exchange_messages(self, draws):

@@ -69,6 +69,13 @@ class SimState(BatchArrays):
     b_unlocked_s: np.ndarray  # time spent without bottom lock (B,N)
     b_dvl_lock: np.ndarray  # (B,N) bool
     b_current_err: np.ndarray  # error of the current estimate used without lock, complex (B,N)
+    b_dvl_scale_error: np.ndarray  # this episode's DVL velocity scale error (fraction) (B,N)
+    b_dvl_heading_bias_rad: np.ndarray  # this episode's constant compass error of the DVL dead reckoning (B,N)
+    b_dvl_heading_phase_rad: np.ndarray  # the phase of its one-cycle (heading-dependent) part (B,N)
+    b_travelled_m: np.ndarray  # distance travelled since the last fix (B,N)
+    b_fix_est: np.ndarray  # own position estimate at the last GPS fix (start or surfacing), complex (B,N)
+    b_since_fix_s: np.ndarray  # time since that fix (B,N)
+    b_surfacings: np.ndarray  # GPS fixes taken at the surface this cycle (B,N) int
     # acoustics
     clock_offset_s: np.ndarray  # OWTT clock offset survey - beacon at t=0 (B,S,N)
     clock_drift: np.ndarray  # its drift, s/s (B,S,N)

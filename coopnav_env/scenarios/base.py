@@ -101,6 +101,14 @@ class ScenarioConfig:
     dvl_lock_loss_probability: float = 0.02  # per cycle [U]
     dvl_lock_regain_probability: float = 0.5  # per cycle [U]
     beacon_current_estimate_error_mps: float = 0.05  # its current estimate (DVL - thrust model) [U]
+    # the beacon AUV's DVL dead reckoning drifts with distance travelled (0.5-2 % of it with a
+    # magnetic compass): per episode and beacon a compass error b0 + b1 sin(heading + phase)
+    # (constant plus one-cycle, Hench & Rosman 2010) and a velocity scale error
+    beacon_dvl_heading_bias_std_deg: float = 0.5  # std of b0; residual bias 1-3 deg per run before calibration, ref-values section 2 [U]
+    beacon_dvl_heading_cycle_deg: float = 1.0  # b1, random phase: heading-dependent compass error; Hench & Rosman 2010: <1 % of track after calibration [U]
+    beacon_dvl_scale_error_std: float = 0.01  # DVL velocity scale error (A50 standard firmware ~1 %), ref-values section 2
+    beacon_surface_every_s: float = 0.0  # > 0: the beacon AUV takes a GPS fix at the surface this often (0: never)
+    beacon_surface_above_std_m: float = 0.0  # > 0: ... and whenever its own position std exceeds this (0: never)
 
     # --- ASV (GPS) ------------------------------------------------------------------
     asv_max_speed_mps: float = 2.0  # Sousa et al.
@@ -298,6 +306,9 @@ def _validate(c: ScenarioConfig):
         "frame_orientation_spread_deg", "speed_encoder_noise_mps", "frame_q_position_m2ps", "frame_q_orientation_rad2ps",
         "frame_q_current_m2ps3", "frame_q_baseline_m2ps", "baseline_tolerance_m", "baseline_penalty",
         "min_baseline_distance_m", "approach_penalty", "frame_rotation_tolerance_deg", "rotation_penalty",
+        "beacon_dvl_heading_bias_std_deg", "beacon_dvl_heading_cycle_deg", "beacon_dvl_scale_error_std",
+        "beacon_surface_every_s",
+        "beacon_surface_above_std_m",
     ]
     for name in nonneg:
         v = getattr(c, name)
