@@ -39,7 +39,7 @@ class CoopNavGymEnv(gym.Env):
 
             self._recorder = EpisodeRecorder(self.config)
             self._recorder.record(self.sim.snapshot(), 0)
-        return obs[0, 0], agent_infos(self.sim.reset_info(), 0)  # the same keys as step()'s infos
+        return obs[0, 0], agent_infos(self.sim.reset_info(), 0, self.sim.reset_beacon_info())  # step()'s keys
 
     def step(self, action):
         a = check_action("beacon_0", action)
@@ -47,7 +47,7 @@ class CoopNavGymEnv(gym.Env):
         if self._recorder is not None:
             self._recorder.record(self.sim.snapshot(), 0)
         return (res.obs[0, 0], float(res.reward[0, 0]), bool(res.terminated[0]), bool(res.truncated[0]),
-                agent_infos(res.info, 0))
+                agent_infos(res.info, 0, res.beacon_info))
 
     def render(self):
         if self.render_mode != "rgb_array" or self._recorder is None:

@@ -56,8 +56,12 @@ class CoopNavParallelEnv(ParallelEnv):
     of the EKF estimate, metres, mean over survey vehicles), ``dr_error_m`` (the same
     for dead reckoning), ``cov_logdet`` (log det of the horizontal covariance, m^4),
     ``range_ok`` (a range was fused this cycle), counts ``ranges_fused``,
-    ``outliers_rejected``, ``nan_rejected``, ``packets_lost``, and each of these as a
-    per-survey-vehicle list under ``<name>_per_vehicle``.
+    ``outliers_rejected``, ``nan_rejected``, ``packets_lost``, ``filter_restarts``
+    (lock-out recoveries), and each of these as a per-survey-vehicle list under
+    ``<name>_per_vehicle``; per survey vehicle the true horizontal error vector
+    ``survey_error_en_m`` (east, north; m) and the filter's horizontal covariance
+    ``survey_cov_en_m2`` (2x2, m^2), so that anyone can check the filter's consistency;
+    and the agent's own true navigation error ``beacon_error_m``.
 
     **The moving LBL network** (``network="moving_lbl"``, scenario
     ``matos_moving_lbl``; Matos & Cruz): the agents are two boats, ``beacon_0`` = B1
@@ -128,8 +132,9 @@ class CoopNavParallelEnv(ParallelEnv):
 
             self._recorder = EpisodeRecorder(self.config)
             self._recorder.record(self.sim.snapshot(), 0)
-        info = agent_infos(self.sim.reset_info(), 0)  # the same keys as step()'s (TorchRL/BenchMARL read them)
-        infos = {a: dict(info) for a in self.agents}
+        # the same keys as step()'s infos (TorchRL's and BenchMARL's wrappers build their spec from these)
+        info, beacon_info = self.sim.reset_info(), self.sim.reset_beacon_info()
+        infos = {a: agent_infos(info, 0, beacon_info, j) for j, a in enumerate(self.agents)}
         return {a: obs[0, i] for i, a in enumerate(self.agents)}, infos
 
     def step(self, actions):
@@ -149,14 +154,13 @@ class CoopNavParallelEnv(ParallelEnv):
         res = self.last_result = self.sim.step(batch)  # the core's StepResult, for wrappers
         if self._recorder is not None:
             self._recorder.record(self.sim.snapshot(), 0)
-        info = agent_infos(res.info, 0)
         term, trunc = bool(res.terminated[0]), bool(res.truncated[0])
         agents = self.agents
         obs = {a: res.obs[0, i] for i, a in enumerate(agents)}
         rewards = {a: float(res.reward[0, i]) for i, a in enumerate(agents)}
         terms = {a: term for a in agents}
         truncs = {a: trunc for a in agents}
-        infos = {a: dict(info) for a in agents}
+        infos = {a: agent_infos(res.info, 0, res.beacon_info, j) for j, a in enumerate(agents)}
         if term or trunc:
             self.agents = []
         if self.render_mode == "human":

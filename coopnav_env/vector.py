@@ -113,7 +113,7 @@ def training_reward(reward_terms: dict, res, weights: dict) -> np.ndarray:
         elif name == "error":
             term = -res.info["survey_error_m"].mean(-1)[:, None]
         elif name == "std":
-            P = res.survey_cov_en_m2
+            P = res.info["survey_cov_en_m2"]
             term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
         elif name == "logdet":
             term = -0.5 * res.info["cov_logdet"].mean(-1)[:, None]
@@ -188,7 +188,8 @@ class CoopNavVecEnv(VecEnv):
         obs = self.sim.reset(self._next_seeds(np.arange(self.n_envs)))
         self._started = True
         self._actions = None
-        self.reset_infos = self._row_infos(self.sim.reset_info(), np.zeros(self.n_envs, dtype=bool))
+        self.reset_infos = self._row_infos(self.sim.reset_info(), self.sim.reset_beacon_info(),
+                                           np.zeros(self.n_envs, dtype=bool))
         self._reset_seeds()
         self._reset_options()
         return obs.reshape(self.num_envs, self.obs_dim)
@@ -224,13 +225,14 @@ class CoopNavVecEnv(VecEnv):
         reward = res.reward if self.reward_terms is None else self.training_reward(res)
         done = term | trunc
         if self.step_infos:
-            infos = self._row_infos(info, trunc & ~term)
+            infos = self._row_infos(info, res.beacon_info, trunc & ~term)
         else:
             infos = [{} for _ in range(self.num_envs)]
         if done.any():
             ended = np.flatnonzero(done)
             if not self.step_infos:  # the final step's infos, on the rows that end
-                full = self._row_infos({k: v[ended] for k, v in info.items()}, (trunc & ~term)[ended])
+                full = self._row_infos({k: v[ended] for k, v in info.items()},
+                                       {k: v[ended] for k, v in res.beacon_info.items()}, (trunc & ~term)[ended])
                 for i, e in enumerate(ended.tolist()):
                     infos[e * self.n_beacons:(e + 1) * self.n_beacons] = full[i * self.n_beacons:(i + 1) * self.n_beacons]
             final = obs[ended]  # a copy: the rows are overwritten by the reset below
@@ -245,12 +247,15 @@ class CoopNavVecEnv(VecEnv):
         """The weighted sum of ``reward_terms`` for this step, (n_envs, n_beacons)."""
         return training_reward(self.reward_terms, res, self.sim.reward_weights)
 
-    def _row_infos(self, info: dict, time_limit: np.ndarray) -> list:
-        """One info dict per row: ``views.agent_infos`` of its environment (computed for
-        the whole batch at once) plus ``TimeLimit.truncated``."""
+    def _row_infos(self, info: dict, beacon_info: dict, time_limit: np.ndarray) -> list:
+        """One info dict per row: ``views.agent_infos`` of its environment and beacon
+        (the aggregates computed for the whole batch at once) plus ``TimeLimit.truncated``."""
         columns = {}
         for key in self.sim.info_keys:
             v = info[key]
+            if v.ndim > 2:  # a vector per survey vehicle
+                columns[key] = v.tolist()
+                continue
             if key == "range_ok":
                 agg = v.any(axis=1)
             elif v.dtype.kind in "iub":
@@ -262,9 +267,13 @@ class CoopNavVecEnv(VecEnv):
         columns["TimeLimit.truncated"] = time_limit.tolist()
         keys = list(columns)
         per_env = [dict(zip(keys, values)) for values in zip(*columns.values())]
-        if self.n_beacons == 1:
-            return per_env
-        return [dict(d) for d in per_env for _ in range(self.n_beacons)]
+        rows = []
+        for e, d in enumerate(per_env):
+            for j in range(self.n_beacons):
+                row = dict(d)
+                row.update({k: float(v[e, j]) for k, v in beacon_info.items()})
+                rows.append(row)
+        return rows
 
     # ------------------------------------------------------------------------------
     def global_state(self) -> np.ndarray:

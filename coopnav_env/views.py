@@ -39,11 +39,17 @@ def check_action(agent: str, action) -> np.ndarray:
     return np.minimum(np.maximum(a, -1.0), 1.0)
 
 
-def agent_infos(info: dict, row: int) -> dict:
-    """The infos of environment ``row`` of a step: the mean over survey vehicles
-    (sums for counts, any for range_ok) plus per-vehicle lists."""
+def agent_infos(info: dict, row: int, beacon_info: dict | None = None, agent: int = 0) -> dict:
+    """The infos of beacon ``agent`` in environment ``row`` of a step: for each scalar
+    info the mean over survey vehicles (sums for counts, any for range_ok) plus the
+    per-vehicle list; the vector infos (``survey_error_en_m`` (S, 2),
+    ``survey_cov_en_m2`` (S, 2, 2)) as nested lists per survey vehicle; then the beacon's own
+    (``beacon_error_m``)."""
     out = {}
     for key in info:
+        if info[key].ndim > 2:  # a vector per survey vehicle
+            out[key] = info[key][row].tolist()
+            continue
         values = info[key][row].tolist()
         if key == "range_ok":
             out[key] = any(values)
@@ -52,4 +58,6 @@ def agent_infos(info: dict, row: int) -> dict:
         else:
             out[key] = int(sum(values))
         out[key + "_per_vehicle"] = values
+    for key, v in (beacon_info or {}).items():
+        out[key] = float(v[row, agent])
     return out

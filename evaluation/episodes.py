@@ -53,7 +53,7 @@ def _step_measurements(sim, res, config) -> dict:
            "waypoints_m": snap.waypoints_m, "n_waypoints": snap.n_waypoints}
     if res is None:
         return out
-    major, minor, _ = error_ellipse(res.survey_cov_en_m2)
+    major, minor, _ = error_ellipse(res.info["survey_cov_en_m2"])
     dist = np.linalg.norm(snap.survey_true_m[:, None, :, :] - snap.beacon_true_m[:, :, None, :], axis=-1)  # (B,N,S)
     no_term = np.zeros(res.reward.shape)
     out.update({

@@ -40,10 +40,15 @@ def test_every_scenario_runs_through_the_protocol(name):
         assert res.reward.shape == (B, N)
         assert res.terminated.shape == res.truncated.shape == (B,)
         assert tuple(res.info) == tuple(sim.info_keys)
-        assert all(v.shape == (B, S) for v in res.info.values())
+        assert all(v.shape[:2] == (B, S) for v in res.info.values())
+        assert res.info["survey_error_en_m"].shape == (B, S, 2)
+        np.testing.assert_allclose(np.linalg.norm(res.info["survey_error_en_m"], axis=-1), res.info["survey_error_m"],
+                                   rtol=1e-9, atol=1e-12)
+        assert tuple(res.beacon_info) == tuple(sim.beacon_info_keys)
+        assert all(v.shape == (B, N) and np.all(v >= 0) for v in res.beacon_info.values())
         assert tuple(res.terms) == tuple(sim.reward_terms)
         assert all(np.shape(v) == (B, N) and np.all(np.isfinite(v)) for v in res.terms.values())
-        assert res.survey_cov_en_m2.shape == (B, S, 2, 2)
+        assert res.info["survey_cov_en_m2"].shape == (B, S, 2, 2)
         # the reward is the weighted sum of the terms, with the scenario's weights
         np.testing.assert_allclose(res.reward, weighted_reward(res.terms, sim.reward_weights), rtol=0, atol=1e-12)
         for term, w in sim.reward_weights.items():
@@ -52,7 +57,7 @@ def test_every_scenario_runs_through_the_protocol(name):
         # the indicators are indicators; the covariance is symmetric positive definite
         for term in set(sim.reward_terms) - {"info_gain"}:
             assert set(np.unique(res.terms[term])) <= {0.0, 1.0}
-        P = res.survey_cov_en_m2
+        P = res.info["survey_cov_en_m2"]
         np.testing.assert_allclose(P, np.swapaxes(P, -1, -2), atol=1e-9)
         assert np.all(np.linalg.eigvalsh(P) > 0)
     assert np.array_equal(sim.global_state().shape, (B, sim.state_dim))
@@ -65,7 +70,7 @@ def test_every_scenario_runs_through_the_protocol(name):
     # east/north for the moving network) the same ellipse
     err = np.linalg.norm(snap.survey_est_m[..., :2] - snap.survey_true_m[..., :2], axis=-1)
     np.testing.assert_allclose(err, results[-1].info["survey_error_m"], rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(np.linalg.eigvalsh(snap.survey_cov_en_m2), np.linalg.eigvalsh(results[-1].survey_cov_en_m2),
+    np.testing.assert_allclose(np.linalg.eigvalsh(snap.survey_cov_en_m2), np.linalg.eigvalsh(results[-1].info["survey_cov_en_m2"]),
                                rtol=1e-9)
 
 
@@ -78,7 +83,7 @@ def test_reset_info_has_the_step_keys_and_the_state_values(name):
     sim.reset([5, 6])
     info = sim.reset_info()
     assert tuple(info) == tuple(sim.info_keys)
-    assert all(v.shape == (2, sim.S) for v in info.values())
+    assert all(v.shape[:2] == (2, sim.S) for v in info.values())
     assert not info["range_ok"].any() and not info["ranges_fused"].any()
     snap = sim.snapshot()
     err = np.linalg.norm(snap.survey_est_m[..., :2] - snap.survey_true_m[..., :2], axis=-1)
@@ -237,3 +242,24 @@ def test_evaluation_reads_no_simulator_internals():
     offenders = [str(p.relative_to(ROOT)) for p in (ROOT / "evaluation").rglob("*.py")
                  if ".state." in p.read_text() or "sim.state" in p.read_text()]
     assert not offenders, offenders
+
+
+@pytest.mark.parametrize("name", ["gao_sea", "sousa_asv", "matos_moving_lbl"])
+def test_infos_let_anyone_check_the_filter(name):
+    """Every agent's infos carry the survey vehicles' true error vectors and the filters'
+    2x2 covariances, and the beacon's own true navigation error."""
+    env = coopnav_env.parallel_env(name, max_cycles=5)
+    env.reset(seed=4)
+    _, _, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
+    snap = env.unwrapped.sim.snapshot()
+    for j, agent in enumerate(env.possible_agents):
+        info = infos[agent]
+        err = np.array(info["survey_error_en_m"])
+        cov = np.array(info["survey_cov_en_m2"])
+        assert err.shape == (env.unwrapped.sim.S, 2) and cov.shape == (env.unwrapped.sim.S, 2, 2)
+        np.testing.assert_allclose(np.linalg.norm(err, axis=-1), info["survey_error_m_per_vehicle"], rtol=1e-9)
+        own = np.linalg.norm(snap.beacon_est_m[0, j, :2] - snap.beacon_true_m[0, j, :2])
+        assert info["beacon_error_m"] == pytest.approx(own, rel=1e-9, abs=1e-12)
+    if name != "matos_moving_lbl":  # east/north: the snapshot's estimate minus truth
+        np.testing.assert_allclose(np.array(infos["beacon_0"]["survey_error_en_m"]),
+                                   snap.survey_est_m[0, :, :2] - snap.survey_true_m[0, :, :2], atol=1e-9)

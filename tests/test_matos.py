@@ -260,7 +260,7 @@ def test_ellipse_infos_are_two_sigma_semi_axes_of_the_filter_covariance():
         np.testing.assert_allclose(res.info["ellipse_major_m"][:, 0], 2.0 * np.sqrt(w[:, 1]), rtol=1e-9)
         np.testing.assert_allclose(res.info["ellipse_minor_m"][:, 0], 2.0 * np.sqrt(w[:, 0]), rtol=1e-7)
         # the same numbers evaluate.py writes to its steps.csv columns of these names
-        major, minor, _ = error_ellipse(res.survey_cov_en_m2)
+        major, minor, _ = error_ellipse(res.info["survey_cov_en_m2"])
         assert np.array_equal(res.info["ellipse_major_m"], major)
         assert np.array_equal(res.info["ellipse_minor_m"], minor)
 

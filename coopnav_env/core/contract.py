@@ -43,9 +43,12 @@ class StepResult:
     * ``terms``: reward term name -> (B, N) array, unweighted (``core.reward``
       lists them: ``info_gain`` in nats, the others 0/1 indicators);
     * ``terminated``, ``truncated`` (B,) bool;
-    * ``info``: name -> (B, S) array per survey vehicle (the simulator's ``info_keys``);
-    * ``survey_cov_en_m2`` (B, S, 2, 2): each survey filter's horizontal position
-      covariance after the step (east/north; the moving network: its frame's x, y).
+    * ``info``: name -> (B, S, ...) array per survey vehicle (the simulator's
+      ``info_keys``): scalars (B, S), and the vectors ``survey_error_en_m`` (B, S, 2),
+      the estimate's true horizontal error, and ``survey_cov_en_m2`` (B, S, 2, 2), the
+      filter's horizontal covariance (east/north; the moving network: its frame's x, y);
+    * ``beacon_info``: name -> (B, N) array per beacon: ``beacon_error_m``, its own
+      navigation's true horizontal error.
     """
 
     obs: np.ndarray
@@ -54,7 +57,7 @@ class StepResult:
     truncated: np.ndarray
     info: dict
     terms: dict
-    survey_cov_en_m2: np.ndarray
+    beacon_info: dict
 
 
 @dataclass
@@ -97,6 +100,7 @@ class BatchedSimulator(Protocol):
     obs_dim: int
     state_dim: int
     info_keys: tuple  # the keys of StepResult.info, in order
+    beacon_info_keys: tuple  # the keys of StepResult.beacon_info
     reward_terms: tuple  # the keys of StepResult.terms, in order
     reward_weights: dict  # term -> the scenario's weight (core.reward.term_weights)
     variants: list  # the (survey_path, depth_m) choices of the domain randomization
@@ -104,6 +108,8 @@ class BatchedSimulator(Protocol):
     def reset(self, seeds, mask=None) -> np.ndarray: ...
 
     def reset_info(self) -> dict: ...
+
+    def reset_beacon_info(self) -> dict: ...
 
     def step(self, actions: np.ndarray) -> StepResult: ...
 
@@ -150,6 +156,12 @@ class BatchSimulator:
             info[key] = np.zeros(shape, dtype=np.int64)
         info.update(self._state_info())
         return {key: info[key] for key in self.info_keys}
+
+    def reset_beacon_info(self) -> dict:
+        """``StepResult.beacon_info`` of the current state (after ``reset``)."""
+        if self.state is None:
+            raise RuntimeError("reset_beacon_info() before reset()")
+        return self._beacon_info()
 
     def episode_variants(self) -> np.ndarray:
         """(B,) index into ``variants`` of each environment's current episode."""

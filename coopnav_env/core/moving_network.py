@@ -65,7 +65,7 @@ from .numerics import complex_abs, complex_div_real
 from .observation import AGE_SCALE_PINGS, OBS_BOUND  # the survey network's age scale and bound
 from .contract import BatchSimulator, Snapshot, StepResult
 from .reward import MOVING_NETWORK_TERMS, term_weights, weighted_reward
-from .sim import INFO_KEYS
+from .sim import BEACON_INFO_KEYS, INFO_KEYS
 from .state import BatchArrays
 
 # ellipse_major_m / ellipse_minor_m: ELLIPSE_N_SIGMA (2-sigma) semi-axes of the filter's (x, y)
@@ -455,6 +455,7 @@ class MovingNetworkSimulator(BatchSimulator):
         self.S, self.N, self.K = 1, 2, c.substeps_per_cycle
         self.variants = [(c.survey_path, c.depth_m)]
         self.info_keys = FRAME_INFO_KEYS
+        self.beacon_info_keys = BEACON_INFO_KEYS
         self.reward_terms = MOVING_NETWORK_TERMS
         self.reward_weights = term_weights(c, MOVING_NETWORK_TERMS)
         wp, _ = build_path(c, 0)
@@ -617,6 +618,8 @@ class MovingNetworkSimulator(BatchSimulator):
             "nan_rejected": np.zeros((B, 1), dtype=np.int64),
             "packets_lost": ival[:, 2:3],
             "filter_restarts": ival[:, 3:4],
+            "survey_error_en_m": np.stack([col["error_x_m"], col["error_y_m"]], -1),
+            "survey_cov_en_m2": st.f_P[:, None, :2, :2].copy(),
             "error_x_m": col["error_x_m"], "error_y_m": col["error_y_m"],
             "phi_error_deg": np.degrees(np.arctan2(fval[:, _F_PHI_ERR_SIN], fval[:, _F_PHI_ERR_COS]))[:, None],
             "baseline_error_m": col["baseline_error_m"],
@@ -624,7 +627,11 @@ class MovingNetworkSimulator(BatchSimulator):
             "vehicle_y_m": col["vehicle_y_m"],
         }
         return StepResult(self.observe(), weighted_reward(terms, self.reward_weights), terminated, truncated, info, terms,
-                          st.f_P[:, None, :2, :2])
+                          self._beacon_info())
+
+    def _beacon_info(self) -> dict:
+        """Per boat (B, 2): the true horizontal error of its GPS position (m)."""
+        return {"beacon_error_m": np.hypot(self.state.b_gps_err[..., 0], self.state.b_gps_err[..., 1])}
 
     def _state_info(self) -> dict:
         """The infos that follow from the state, in the true frame (as a step computes
@@ -640,6 +647,8 @@ class MovingNetworkSimulator(BatchSimulator):
             "dr_error_m": col(np.linalg.norm(st.s_dr[:, 0, :2] - v, axis=-1)),
             "cov_logdet": col(floored_log(st.f_P[:, 0, 0] * st.f_P[:, 1, 1] - st.f_P[:, 0, 1] * st.f_P[:, 1, 0])),
             "error_x_m": col(st.f_E[:, 0] - x), "error_y_m": col(st.f_E[:, 1] - y),
+            "survey_error_en_m": np.stack([st.f_E[:, 0] - x, st.f_E[:, 1] - y], -1)[:, None],
+            "survey_cov_en_m2": st.f_P[:, None, :2, :2].copy(),
             "phi_error_deg": col(np.degrees(np.angle(np.exp(1j * (st.f_E[:, 2] - phi))))),
             "baseline_error_m": col(st.f_E[:, 5] - length),
             "ellipse_major_m": col(major), "ellipse_minor_m": col(minor), "vehicle_y_m": col(y),

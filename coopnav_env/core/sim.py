@@ -34,7 +34,9 @@ from .navigation import gate_threshold, predict
 from .state import SimState
 
 INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
-             "outliers_rejected", "nan_rejected", "packets_lost", "filter_restarts")
+             "outliers_rejected", "nan_rejected", "packets_lost", "filter_restarts", "survey_error_en_m",
+             "survey_cov_en_m2")
+BEACON_INFO_KEYS = ("beacon_error_m",)
 
 
 class Simulator(BatchSimulator):
@@ -117,6 +119,7 @@ class Simulator(BatchSimulator):
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.info_keys = INFO_KEYS
+        self.beacon_info_keys = BEACON_INFO_KEYS
         self.reward_terms = SURVEY_TERMS
         self.reward_weights = term_weights(c, SURVEY_TERMS)
         self.state: SimState | None = None
@@ -306,17 +309,23 @@ class Simulator(BatchSimulator):
             "filter_restarts": restarts,
         }
         return StepResult(self.observe(), weighted_reward(terms, self.reward_weights), terminated, truncated,
-                          {k: info[k] for k in INFO_KEYS}, terms, st.s_P[..., :2, :2])
+                          {k: info[k] for k in INFO_KEYS}, terms, self._beacon_info())
 
     def _state_info(self, logdet=None) -> dict:
         """The infos that follow from the state: true horizontal errors of the filter and
         of dead reckoning (m), log det of the horizontal covariance (B, S)."""
         st = self.state
+        error_en = st.s_est[..., :2] - st.s_pos[..., :2]
         return {
-            "survey_error_m": np.linalg.norm(st.s_est[..., :2] - st.s_pos[..., :2], axis=-1),
+            "survey_error_m": np.linalg.norm(error_en, axis=-1),
             "dr_error_m": np.linalg.norm(st.s_dr[..., :2] - st.s_pos[..., :2], axis=-1),
             "cov_logdet": logdet_horizontal(st.s_P) if logdet is None else logdet,
+            "survey_error_en_m": error_en, "survey_cov_en_m2": st.s_P[..., :2, :2].copy(),
         }
+
+    def _beacon_info(self) -> dict:
+        """Per beacon (B, N): the true horizontal error of its own navigation (m)."""
+        return {"beacon_error_m": np.hypot(self.state.b_nav_err[..., 0], self.state.b_nav_err[..., 1])}
 
     def snapshot(self) -> Snapshot:
         """Positions, covariance and planned paths of every environment (copies)."""
