@@ -213,7 +213,7 @@ def test_gate_threshold_is_chi_square_quantile():
     assert navigation.gate_threshold(0.999) == pytest.approx(10.8276, abs=1e-4)  # 3.2905^2
     cfg = make_config("gao_lawnmower")
     sim = Simulator(cfg, batch_size=1)
-    assert sim._gate == pytest.approx(chi2.ppf(cfg.range_gate_probability, 1), rel=1e-12)
+    assert sim.gate == pytest.approx(chi2.ppf(cfg.range_gate_probability, 1), rel=1e-12)
 
 
 # ----------------------------------------------------------------------------------

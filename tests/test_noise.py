@@ -11,7 +11,7 @@ from scipy import stats
 
 from coopnav_env.core import lbl
 from coopnav_env.core.acoustics import ranging_variance_m2
-from coopnav_env.core.fusion import modem_range, modem_range_variance
+from coopnav_env.core.measurements.modem import modem_range, modem_range_variance
 from coopnav_env.core.moving_network import exchange_covariance_m2
 
 C = 1500.0

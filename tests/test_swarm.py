@@ -20,9 +20,8 @@ def test_round_robin_one_sender_per_cycle():
     c, sim = _sim(B=3, beacon_kinds=("beacon_auv", "beacon_auv"), beacon_start_distance_m=10.0)
     draws = sim._cycle_draws(sim.state.cycle)
     for cycle in range(4):
-        sim.state.cycle = np.full(3, cycle + 1)  # _mls_measurements runs after the counter advanced
-        mls, state, *_ = sim._mls_measurements(draws)
-        assert mls
+        sim.state.cycle = np.full(3, cycle + 1)  # the sensor measures after the counter advanced
+        state, *_ = sim.sensor.measure(draws)
         senders = (state > 0).any(-1)  # (B, N)
         assert np.array_equal(senders, np.tile(np.arange(2) == cycle % 2, (3, 1)))
 
@@ -63,7 +62,7 @@ def test_a_sender_behind_the_receiver_is_unfolded():
     # the line runs east and the survey starts heading east: the sender (bearing 240 deg) is astern
     assert np.angle(st.s_heading[0, 0]) == pytest.approx(0.0, abs=1e-9)
     sim.state.cycle = np.ones(1, dtype=np.int64)
-    mls, state, rng_m, bearing, var_r, var_b = sim._mls_measurements(sim._cycle_draws(np.zeros(1, dtype=np.int64)))
+    state, rng_m, bearing, var_r, var_b = sim.sensor.measure(sim._cycle_draws(np.zeros(1, dtype=np.int64)))
     los = st.b_pos[0, 0, :2] - st.s_pos[0, 0, :2]
     true_bearing = np.arctan2(los[0], los[1])  # clockwise from north
     folded_error = np.degrees(abs((bearing[0, 0, 0] - true_bearing + np.pi) % (2 * np.pi) - np.pi))

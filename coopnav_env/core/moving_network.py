@@ -4,7 +4,9 @@ two beacon boats, batched (``network = "moving_lbl"``).
 One step is one positioning cycle of ``ping_interval_s``:
 
 1. the boats' actions become ground-velocity commands (the same rate-limited
-   kernel as every beacon, ``substeps.integrate_beacons``);
+   kernel as every beacon, ``substeps.integrate_beacons``), which the boats follow
+   imperfectly (``disturb_boats``): a Gauss-Markov surge and course fluctuation
+   each, and the part of the river current their ground-speed control leaves;
 2. the vehicle is integrated in sub-steps: line-of-sight guidance (Fig. 5) on its
    filter's frame estimate, heading reference psi + phi_hat steered on the compass,
    true motion = water speed x heading + current; the filter predicts with the
@@ -113,6 +115,8 @@ class FrameState(BatchArrays):
     b_heading: np.ndarray  # (B,2) complex unit
     b_vel: np.ndarray  # (B,2,3)
     b_gps_err: np.ndarray  # this cycle's GPS error (B,2,2)
+    b_surge: np.ndarray  # each boat's ground-speed fluctuation along its heading, Gauss-Markov (B,2) m/s
+    b_steer: np.ndarray  # each boat's course-over-ground error, Gauss-Markov (B,2) rad
     # the boats' tracker of the vehicle (shared over their radio link)
     k_pos: np.ndarray  # (B,2) east, north at the last update
     k_vel: np.ndarray  # (B,2)
@@ -165,6 +169,37 @@ def integrate_vehicle(pos, heading, vel_true, wp_index, done, waypoints, n_wp, s
             dr[b, 0, 1] += v * np.cos(theta) * dt
             frame_predict(E[b], P[b], v, theta, dt, Q)
             heading_meas[b], speed_meas[b] = theta, v
+
+
+@njit(cache=True)
+def disturb_boats(pos, heading, vel, surge, steer, current, response, T):
+    """The boats' imperfect execution of their commands over one cycle, in place: after
+    ``integrate_beacons`` moved each boat at its commanded ground velocity v (vel (B,2,3),
+    its last sub-step), the boat actually made good (v + s h) exp(-1j delta) + r c: its
+    speed along its heading h off by the surge fluctuation s (surge (B,2), m/s), its course
+    off by delta (steer (B,2), rad, clockwise: bearing + delta is the factor exp(-1j delta)),
+    and the part r (``boat_current_response``) of the water current c (current (B,)
+    complex) its ground-speed control does not cancel. s and delta are held over the cycle
+    (the Gauss-Markov states are stepped exactly at the cycle's period, see ``step``); the
+    difference from the commanded motion is added to pos over the cycle T and to vel."""
+    for b in range(pos.shape[0]):
+        drift = response * current[b]
+        for n in range(pos.shape[1]):
+            v = complex(vel[b, n, 0], vel[b, n, 1])
+            d = steer[b, n]
+            made_good = (v + surge[b, n] * heading[b, n]) * complex(np.cos(d), -np.sin(d)) + drift
+            w = made_good - v
+            pos[b, n, 0] += w.real * T
+            pos[b, n, 1] += w.imag * T
+            vel[b, n, 0], vel[b, n, 1] = made_good.real, made_good.imag
+
+
+def boat_noise_step(x, T, time_constant_s, std, noise):
+    """One cycle of a boat's Gauss-Markov fluctuation (``gauss_markov_step``; white per cycle
+    when the time constant is 0)."""
+    if time_constant_s <= 0.0:
+        return std * noise
+    return gauss_markov_step(x, T, time_constant_s, std, noise)
 
 
 # the noise covariance of (d1, d2, l) in units of a two-way range's variance sigma_r^2 (see ``cycle``);
@@ -481,6 +516,7 @@ class MovingNetworkSimulator(BatchSimulator):
         self._draws = rng.DrawLayout([
             ("current", "normal", (2,)), ("substep", "normal", (self.K, 2)), ("depth", "normal", (1,)),
             ("jitter", "normal", (n_det,)), ("acoustic_u", "uniform", (n_det, 3)), ("gps", "normal", (2, 2)),
+            ("boat", "normal", (2, 2)),  # per boat: surge, course (Gauss-Markov driving noise)
         ], B)
         self.obs_dim, self.state_dim = OBS_DIM, 24
         self.state: FrameState | None = None
@@ -492,8 +528,9 @@ class MovingNetworkSimulator(BatchSimulator):
         zero = np.zeros(B, dtype=np.int64)
         # normals: 0-1 position prior, 2 phi prior, 3-4 unused (kept so that the others keep
         # their numbers), 5 l prior, 6-7 dead-reckoning start, 8 speed scale, 9 compass bias,
-        # 10-13 GPS, 14 temperature, 15-16 the current's Gauss-Markov part
-        n = rng.normal(keys, rng.STREAM_EPISODE, zero, (17,))
+        # 10-13 GPS, 14 temperature, 15-16 the current's Gauss-Markov part, 17-20 the boats'
+        # surge and course fluctuations (their stationary distribution; appended, so 0-16 keep their numbers)
+        n = rng.normal(keys, rng.STREAM_EPISODE, zero, (21,))
         u = rng.uniform(keys, rng.STREAM_EPISODE + 100, zero, (3,))
         phi0 = np.radians(c.frame_orientation_deg + c.frame_orientation_spread_deg * (2 * u[:, 0] - 1))
         L = c.baseline_target_m
@@ -541,6 +578,8 @@ class MovingNetworkSimulator(BatchSimulator):
             temperature_c=c.water_temperature_c + c.temperature_uncertainty_c * n[:, 14],
             current_mean=cur_speed * bearing_to_unit(cur_dir),
             current_gm=c.current_gm_std_mps * (n[:, 15] + 1j * n[:, 16]),
+            b_surge=c.boat_surge_noise_mps * n[:, 17:19].copy(),
+            b_steer=np.radians(c.boat_steering_noise_deg) * n[:, 19:21].copy(),
         )
 
     # ------------------------------------------------------------------------------
@@ -559,9 +598,16 @@ class MovingNetworkSimulator(BatchSimulator):
         B, K, dt, T = self.batch_size, self.K, c.substep_s, c.ping_interval_s
         draws = self._draws.draw(st.keys, st.cycle)
 
-        # 1. the boats
+        # 1. the boats: their commands, then how far their motion strays from them
         self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions),
                         self._boat_turn_cos, self._boat_turn_sin, K, dt)
+        disturb_boats(st.b_pos, st.b_heading, st.b_vel, st.b_surge, st.b_steer, st.current_mean + st.current_gm,
+                      c.boat_current_response, T)
+        n_boat = draws["boat"]
+        st.b_surge = boat_noise_step(st.b_surge, T, c.boat_noise_time_constant_s, c.boat_surge_noise_mps,
+                                     n_boat[..., 0])
+        st.b_steer = boat_noise_step(st.b_steer, T, c.boat_noise_time_constant_s,
+                                     np.radians(c.boat_steering_noise_deg), n_boat[..., 1])
         # 2. the vehicle: guidance, motion, dead reckoning, filter prediction
         noise = draws["substep"] * st.ep_noise_scale[:, None, None]
         integrate_vehicle(st.s_pos, st.s_heading, st.s_vel_true, st.s_wp_index, st.s_done, st.s_waypoints,

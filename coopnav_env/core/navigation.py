@@ -66,9 +66,10 @@ def innovation_variance(P, H, R):
 
 
 @njit(cache=True)
-def joseph_update(x, P, z, h, H, R):
-    """Eqs. (9)-(13) for one scalar measurement of one filter, in place. Returns (y, S)."""
-    y = z - h  # eq. (10)
+def joseph_update_residual(x, P, y, H, R):
+    """Eqs. (9), (11)-(13) for one scalar measurement of one filter, in place, given its
+    innovation ``y`` (filterpy's ``update(..., residual=...)``: each measurement model
+    computes its own residual, a bearing's wrapped to (-pi, pi]). Returns S."""
     PHt = P @ H
     S = innovation_variance(P, H, R)  # eq. (11)
     K = PHt / S  # eq. (12)
@@ -85,18 +86,31 @@ def joseph_update(x, P, z, h, H, R):
             for k in range(3):
                 v += AP[i, k] * A[j, k]
             P[i, j] = v
-    return y, S
+    return S
+
+
+@njit(cache=True)
+def joseph_update(x, P, z, h, H, R):
+    """Eqs. (9)-(13) for one scalar measurement z with prediction h, in place: the
+    residual is y = z - h (eq. 10). Returns (y, S)."""
+    y = z - h  # eq. (10)
+    return y, joseph_update_residual(x, P, y, H, R)
+
+
+@njit(cache=True)
+def gated_update_residual(x, P, y, H, R, gate):
+    """``joseph_update_residual`` if the innovation passes the chi-square gate on its
+    normalized square, y^2 / S <= gate; returns whether it was fused."""
+    if y * y / innovation_variance(P, H, R) > gate:
+        return False
+    joseph_update_residual(x, P, y, H, R)
+    return True
 
 
 @njit(cache=True)
 def gated_update(x, P, z, h, H, R, gate):
-    """``joseph_update`` if the measurement passes the chi-square gate on its normalized
-    innovation squared, (z - h)^2 / S <= gate; returns whether it was fused."""
-    y = z - h
-    if y * y / innovation_variance(P, H, R) > gate:
-        return False
-    joseph_update(x, P, z, h, H, R)
-    return True
+    """``gated_update_residual`` with the residual y = z - h."""
+    return gated_update_residual(x, P, z - h, H, R, gate)
 
 
 @njit(cache=True)

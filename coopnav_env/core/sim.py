@@ -24,7 +24,7 @@ import numpy as np
 
 from ..scenarios.base import ScenarioConfig
 from . import rng
-from . import fusion, observation, substeps
+from . import fusion, measurements, observation, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
 from .reward import SURVEY_TERMS, term_weights, weighted_reward
 from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps, unit_to_bearing
@@ -81,8 +81,8 @@ class Simulator(BatchSimulator):
             self._beacon_start_distance_m = np.array([[
                 optimal_start_distance_m(depth - d, v * c.ping_interval_s)
                 for d, v in zip(self._beacon_depth, self._beacon_max_speed)] for _, depth in self.variants])
-        self._gate = gate_threshold(c.range_gate_probability)
-        self._sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
+        self.gate = gate_threshold(c.range_gate_probability)  # the chi-square gate of every acoustic update
+        self.sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
         self._Q_cycle = np.diag([c.process_noise_horizontal_m2ps, c.process_noise_horizontal_m2ps,
                                  c.process_noise_vertical_m2ps]) * c.ping_interval_s
         self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
@@ -90,7 +90,6 @@ class Simulator(BatchSimulator):
         self._k_survey = getattr(substeps, "integrate_survey" + par)
         self._k_beacons = getattr(substeps, "integrate_beacons" + par)
         self._k_depth_gps = getattr(fusion, "fuse_depth_gps" + par)
-        self._k_ranges = getattr(fusion, "fuse_ranges" + par)
         self._k_messages = getattr(fusion, "exchange_messages" + par)
         self._k_observe = getattr(observation, "observe" + par)
         fence = c.geofence_m
@@ -107,15 +106,8 @@ class Simulator(BatchSimulator):
             ("message_u", "uniform", (N_, S_ + N_)),
             ("mls_n", "normal", (S_, 14)),  # the MLS sensor's 13 normals and a compass reading
         ], self.batch_size)
-        self._mls = None
-        silent = np.zeros((self.batch_size, N_, S_))  # the fusion kernel's MLS arguments when there is no MLS
-        self._no_mls = (False, np.zeros(silent.shape, dtype=np.int8), silent, silent, silent, silent)
-        if c.acoustic_sensor == "mls":
-            from .mls import MLSConfig, MLSSensor  # built once per simulator (~0.2 s)
-
-            self._mls = MLSSensor(MLSConfig(snr_db_at_1m=c.mls_snr_db_at_1m, max_range_m=c.mls_max_range_m,
-                                            water_temperature_c=c.water_temperature_c, salinity_psu=c.salinity_psu,
-                                            depth_m=c.depth_m))
+        # the survey vehicles' acoustic sensor: one measurement model (core/measurements/)
+        self.sensor = measurements.build(c.acoustic_sensor, self)
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.info_keys = INFO_KEYS
@@ -264,19 +256,9 @@ class Simulator(BatchSimulator):
 
         # 4. acoustic ranging --------------------------------------------------------
         fused = np.zeros((B, N, S), dtype=bool)
-        rejected, lost = np.zeros_like(fused), np.zeros_like(fused)
-        restarts = np.zeros((B, S), dtype=np.int64)
-        mls_args = self._mls_measurements(draws)
-        self._k_ranges(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel,
-                       st.b_pos + st.b_nav_err, st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s,
-                       st.clock_drift, draws["acoustic_n"], draws["acoustic_u"],
-                       st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err, self._sends_current,
-                       st.s_current_est, st.s_last_range_t_s, st.s_rejected_streak, restarts, fused, rejected, lost,
-                       nan_count, c.reinit_after_rejected_ranges,
-                       c.ranging_mode == "twtt", c.turnaround_s, c.range_noise_std_m * st.ep_noise_scale, c.max_range_m,
-                       c.packet_loss_near, c.packet_loss_far, c.outlier_probability, c.outlier_mean_excess_m,
-                       c.sensor_nan_probability, c.water_temperature_c, c.salinity_psu, c.temperature_uncertainty_c,
-                       self._gate, *mls_args)
+        out = measurements.FusionOutputs(fused=fused, rejected=np.zeros_like(fused), lost=np.zeros_like(fused),
+                                         nan_count=nan_count, restarts=np.zeros((B, S), dtype=np.int64))
+        self.sensor.fuse(draws, out)
         logdet_after = logdet_horizontal(st.s_P)
 
         # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
@@ -288,8 +270,9 @@ class Simulator(BatchSimulator):
         fe0, fn0, fe1, fn1 = c.geofence_m
         outside = (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
         no_contact = ~fused.any(-1)  # (B,N): none of this beacon's ranges fused
-        if self._mls is not None:  # only this cycle's sender can be heard
-            no_contact &= self._sender_mask(st.cycle - 1)
+        heard = self.sensor.heard_mask(st.cycle - 1)
+        if heard is not None:  # only this cycle's senders can be heard
+            no_contact &= heard
         terms = {"info_gain": np.broadcast_to(info_gain[:, None], (B, N)),
                  "safety": (dist < c.safety_distance_m).any(-1).astype(float),
                  "geofence": outside.astype(float), "contact": no_contact.astype(float)}
@@ -303,10 +286,10 @@ class Simulator(BatchSimulator):
             **self._state_info(logdet_after),
             "range_ok": fused.any(1),
             "ranges_fused": fused.sum(1),
-            "outliers_rejected": rejected.sum(1),
+            "outliers_rejected": out.rejected.sum(1),
             "nan_rejected": nan_count,
-            "packets_lost": lost.sum(1),
-            "filter_restarts": restarts,
+            "packets_lost": out.lost.sum(1),
+            "filter_restarts": out.restarts,
         }
         return StepResult(self.observe(), weighted_reward(terms, self.reward_weights), terminated, truncated,
                           {k: info[k] for k in INFO_KEYS}, terms, self._beacon_info())
@@ -334,57 +317,6 @@ class Simulator(BatchSimulator):
                         survey_dr_m=st.s_dr.copy(), survey_cov_en_m2=st.s_P[..., :2, :2].copy(),
                         beacon_true_m=st.b_pos.copy(), beacon_est_m=st.b_pos + st.b_nav_err,
                         waypoints_m=st.s_waypoints.copy(), n_waypoints=st.s_n_waypoints.copy())
-
-    def _sender_mask(self, cycle) -> np.ndarray:
-        """(B,N): the beacon whose turn it is to send in ``cycle`` (round robin)."""
-        return (cycle % self.N)[:, None] == np.arange(self.N)[None, :]
-
-    def _mls_measurements(self, draws):
-        """This cycle's MLS sending event (acoustic_sensor="mls"), as the fusion kernel's
-        trailing arguments: state (0 silent, 1 not heard, 2 heard), range, world bearing
-        and their variances, each (B,N,S). The sender is beacon ``cycle % N`` (a round
-        robin stands in for the paper's radio scheduling). The analytic mode measures
-        the azimuth in the receiver's frame (anticlockwise positive, folded to the front
-        half-plane: two hydrophones cannot tell front from back); the survey vehicle
-        turns it into a bearing with its compass and unfolds it with its own estimate.
-        Senders beyond the sensor's window, or nearer than its array, are not heard."""
-        B, N, S = self.batch_size, self.N, self.S
-        shape = (B, N, S)
-        if self._mls is None:
-            return self._no_mls  # the kernel reads none of them
-        from .mls import wrap_angle_rad  # loaded already: the simulator built its MLS sensor
-
-        c, st = self.config, self.state
-        sends = self._sender_mask(st.cycle - 1)  # the cycle counter has advanced already
-        j = np.argmax(sends, axis=1)  # (B,)
-        rows = np.arange(B)
-        sender_en = st.b_pos[rows, j, :2][:, None].repeat(S, 1)  # (B,S,2)
-        sender_h = np.angle(st.b_heading[rows, j])[:, None].repeat(S, 1)
-        obs_en, obs_h = st.s_pos[..., :2], np.angle(st.s_heading)
-        dist = np.linalg.norm(sender_en - obs_en, axis=-1)
-        heard = (dist > self._mls.min_range_m) & (dist <= self._mls.config.max_range_m)
-        n = draws["mls_n"]  # (B,S,14)
-        az = np.zeros((B, S))
-        rng_m = np.zeros((B, S))
-        var_r = np.ones((B, S))
-        var_az = np.ones((B, S))
-        if heard.any():
-            m, (b_az, b_r, _) = self._mls.measure_analytic_with_bounds(
-                sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard], normals=n[heard][:, :13])
-            az[heard], rng_m[heard] = m.azimuth_rad, m.range_m
-            var_r[heard], var_az[heard] = np.square(b_r), np.square(b_az)
-        # the compass: bearing (clockwise from north) = pi/2 - heading angle (anticlockwise from east)
-        compass_std = np.radians(c.compass_noise_deg) * st.ep_noise_scale[:, None]
-        compass = np.pi / 2 - obs_h + st.s_compass_bias_rad + compass_std * n[..., 13]
-        # unfold with the survey's estimate: a sender predicted behind is mirrored back
-        de = st.b_pos[rows, j, 0][:, None] + st.b_nav_err[rows, j, 0][:, None] - st.s_est[..., 0]
-        dn = st.b_pos[rows, j, 1][:, None] + st.b_nav_err[rows, j, 1][:, None] - st.s_est[..., 1]
-        predicted_az = wrap_angle_rad(compass - np.arctan2(de, dn))  # anticlockwise positive
-        az = np.where(np.abs(predicted_az) > np.pi / 2, np.where(az >= 0, np.pi - az, -np.pi - az), az)
-        bearing = compass - az  # a sender to port (positive azimuth) has a smaller bearing
-        state = np.where(sends[..., None], np.where(heard, 2, 1)[:, None, :], 0).astype(np.int8)
-        bcast = lambda a: np.broadcast_to(a[:, None, :], shape).copy()  # noqa: E731
-        return True, state, bcast(rng_m), bcast(bearing), bcast(var_r), bcast(var_az + compass_std ** 2)
 
     # ------------------------------------------------------------------------------
     def _integrate_survey(self, draws):

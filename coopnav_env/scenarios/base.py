@@ -167,6 +167,10 @@ class ScenarioConfig:
     frame_orientation_spread_deg: float = 0.0  # randomized per episode, +/-
     baseline_target_m: float = 100.0  # the boats' intended separation (paper: 100 m)
     boat_transit_speed_mps: float = 0.5  # boats' speed along the frame's y axis (signed) [U: "constant speed"]
+    boat_surge_noise_mps: float = 0.15  # m/s, stationary std of each boat's ground-speed fluctuation along its heading, Gauss-Markov [U 0.1-0.2]
+    boat_steering_noise_deg: float = 5.0  # deg, stationary std of each boat's course-over-ground error, Gauss-Markov [U]
+    boat_noise_time_constant_s: float = 30.0  # s, correlation time of the surge and course errors (0: white per cycle) [U]
+    boat_current_response: float = 0.2  # fraction of the water current the boats' ground-speed control does not cancel [U]
     survey_speed_mps: float = 1.0  # water speed held by the vehicle's speed controller (paper: 1 m/s)
     speed_encoder_noise_mps: float = 0.02  # propeller-encoder water-speed noise, per sub-step [U]
     initial_frame_orientation_std_deg: float = 5.0  # the filter's prior on phi [U]
@@ -309,6 +313,7 @@ def _validate(c: ScenarioConfig):
         "beacon_dvl_heading_bias_std_deg", "beacon_dvl_heading_cycle_deg", "beacon_dvl_scale_error_std",
         "beacon_surface_every_s",
         "beacon_surface_above_std_m",
+        "boat_surge_noise_mps", "boat_steering_noise_deg", "boat_noise_time_constant_s", "boat_current_response",
     ]
     for name in nonneg:
         v = getattr(c, name)
