@@ -95,15 +95,84 @@ def waypoint_to_action(ctx: BeaconContext, own_en, waypoint_en) -> np.ndarray:
     return np.clip(v, -1.0, 1.0).astype(np.float32)
 
 
-class SurveyTracker:
-    """A constant-velocity model of each survey vehicle from the estimates it sends.
+def advance_along_waypoints(start_en, waypoints_en, distance_m, min_leg_m: float = 1e-3):
+    """Where a vehicle that follows its planned waypoints is after ``distance_m``.
 
-    Keeps the latest ``window`` distinct replies (time of reply = now - reply age)
-    and fits their velocity by least squares; predictions extrapolate it (Sousa et
-    al. IV-B: "the ROV keeps moving in the same direction until the next range").
-    The fit over a few replies smooths the jumps that range updates put into the
-    estimates; with one reply the velocity is zero.
+    start_en (S, 2): where it is; waypoints_en (S, K, 2): its next planned
+    waypoints, in order; distance_m (S,): how far it travels. The path is the
+    polyline start -> W_1 -> ... -> W_K; with leg lengths l_i = |W_i - W_{i-1}|
+    (W_0 = start) and c_j = l_1 + ... + l_j, a distance s with c_{j-1} <= s < c_j
+    ends on leg j at
+
+        p(s) = W_{j-1} + (s - c_{j-1}) (W_j - W_{j-1}) / l_j                      (B1)
+
+    i.e. the vehicle turns at every waypoint: one at speed v that reaches W_1 after
+    d metres goes v t - d along the next leg. Beyond W_K (s > c_K) it keeps the
+    direction of the last leg, p = W_K + (s - c_K) u_K (B2), unless the plan ends
+    there: the simulator repeats the final waypoint of a path (and a vehicle that
+    holds station lists its station twice), so a last leg of zero length means
+    "stops at W_K" (B3). Legs shorter than ``min_leg_m`` are skipped.
+
+    Returns (positions (S, 2), known (S,) bool): ``known`` is False where no
+    waypoint differs from the start (none observed, or the observation's default
+    of the estimate itself); there the position is ``start_en``.
     """
+    start = np.asarray(start_en, float)
+    wp = np.asarray(waypoints_en, float)
+    s_left = np.maximum(np.asarray(distance_m, float), 0.0).copy()
+    S, K = wp.shape[0], wp.shape[1]
+    pos = start.copy()
+    known = np.zeros(S, dtype=bool)
+    for s in range(S):
+        prev, last_dir = start[s], None
+        for k in range(K):
+            leg = wp[s, k] - prev
+            length = float(np.hypot(leg[0], leg[1]))
+            if length < min_leg_m:
+                continue
+            known[s] = True
+            last_dir = leg / length
+            if s_left[s] <= length:  # (B1): ends on this leg
+                pos[s] = prev + s_left[s] * last_dir
+                s_left[s] = 0.0
+                break
+            s_left[s] -= length
+            prev = wp[s, k]
+        else:
+            if last_dir is None:
+                continue
+            ends_here = K >= 2 and np.hypot(*(wp[s, -1] - wp[s, -2])) < min_leg_m
+            pos[s] = prev if ends_here else prev + s_left[s] * last_dir  # (B3) / (B2)
+    return pos, known
+
+
+class SurveyTracker:
+    """A model of each survey vehicle's motion from the estimates it sends.
+
+    Keeps the latest ``window`` distinct replies (time of reply = now - reply age).
+    Three predictors extrapolate the last reply p_n (sent at t_n) to t = now + ahead:
+
+    * ``"chord"``: the velocity fitted by least squares to the kept replies,
+      p(t) = p_n + v_LS (t - t_n) (T1). The fit over a few replies smooths the jumps
+      that range updates put into the estimates, but on a curve its direction is
+      the chord of the last few replies, which lags the heading: on a circle
+      turning by an angle a per ping, the chord of three replies lags the heading
+      at the last reply by a.
+    * ``"heading"``: Sousa et al. IV-B, "the ROV keeps moving in the same direction
+      until the next range": the direction u_n = (p_n - p_{n-1}) / |p_n - p_{n-1}|
+      of the last two replies, p(t) = p_n + |v| u_n (t - t_n) (T2), |v| the path
+      speed below. Its lag on a circle is a / 2.
+    * :meth:`predict_along_path`: along the vehicle's planned waypoints (Gao &
+      Chitre II-C plan with "the survey AUV's desired path"), eqs. (B1)-(B3) of
+      :func:`advance_along_waypoints`, at the path speed.
+
+    The path speed is the length of the polyline of the kept replies over their
+    time span, |v| = sum_i |p_i - p_{i-1}| / (t_n - t_1) (T3): at a turn it is the
+    speed along the path, where |v_LS| is only the chord's. With one reply every
+    velocity is zero.
+    """
+
+    PREDICTORS = ("chord", "heading")
 
     def __init__(self, window: int = 3, max_speed_mps: float = 5.0):
         if window < 2:
@@ -130,8 +199,12 @@ class SurveyTracker:
         self._t[-1] = np.where(new, t_reply, self._t[-1])
         self._p[-1] = np.where(new[:, None], pos, self._p[-1])
 
+    def _cap(self, v):
+        speed = np.linalg.norm(v[:, :2], axis=-1, keepdims=True)
+        return np.where(speed > self.max_speed_mps, v * self.max_speed_mps / np.maximum(speed, 1e-12), v)
+
     def velocity(self) -> np.ndarray:
-        """(S, 3) estimated velocity (east, north, depth rate): least squares over the kept replies."""
+        """(S, 3) estimated velocity (east, north, depth rate): least squares over the kept replies (T1)."""
         if self._t is None:
             return np.zeros((0, 3))
         ok = np.isfinite(self._t)  # (W, S)
@@ -143,16 +216,54 @@ class SurveyTracker:
         num = (dt[..., None] * (self._p - p_mean)).sum(0)
         den = (dt ** 2).sum(0)
         v = np.where((den > 0)[:, None], num / np.where(den > 0, den, 1.0)[:, None], 0.0)
-        speed = np.linalg.norm(v[:, :2], axis=-1, keepdims=True)
-        return np.where(speed > self.max_speed_mps, v * self.max_speed_mps / np.maximum(speed, 1e-12), v)
+        return self._cap(v)
 
-    def predict(self, view: ObsView, ahead_s: float) -> tuple:
-        """Survey (east, north) (S, 2) and depth below the beacon (S,) ``ahead_s`` after now."""
-        v = self.velocity()
+    def speed(self) -> np.ndarray:
+        """(S,) horizontal path speed (T3): polyline length of the kept replies over their span."""
+        if self._t is None:
+            return np.zeros(0)
+        ok = np.isfinite(self._t)
+        seg_ok = ok[1:] & ok[:-1]  # consecutive kept replies (the kept ones are the newest, contiguous)
+        seg = np.linalg.norm(np.diff(self._p[..., :2], axis=0), axis=-1)  # (W-1, S)
+        length = np.where(seg_ok, seg, 0.0).sum(0)
+        span = np.where(ok.any(0), np.where(ok, self._t, -np.inf).max(0) - np.where(ok, self._t, np.inf).min(0), 0.0)
+        v = np.where(span > 0, length / np.where(span > 0, span, 1.0), 0.0)
+        return np.minimum(v, self.max_speed_mps)
+
+    def heading_velocity(self) -> np.ndarray:
+        """(S, 3) velocity of (T2): path speed (T3) along the direction of the last two
+        replies; the depth rate of the last two replies."""
+        if self._t is None:
+            return np.zeros((0, 3))
+        dt = self._t[-1] - self._t[-2]
+        ok = np.isfinite(dt) & (dt > 0)
+        d = self._p[-1] - self._p[-2]
+        dist = np.linalg.norm(d[:, :2], axis=-1)
+        u = np.where((dist > 1e-9)[:, None], d[:, :2] / np.maximum(dist, 1e-9)[:, None], 0.0)
+        v = np.zeros(d.shape)
+        v[:, :2] = np.where(ok[:, None], u * self.speed()[:, None], 0.0)
+        v[:, 2] = np.where(ok, d[:, 2] / np.where(ok, dt, 1.0), 0.0)
+        return self._cap(v)
+
+    def predict(self, view: ObsView, ahead_s: float, predictor: str = "chord") -> tuple:
+        """Survey (east, north) (S, 2) and depth below the beacon (S,) ``ahead_s`` after
+        now, with the constant velocity of ``predictor`` ((T1) or (T2))."""
+        if predictor not in self.PREDICTORS:
+            raise ValueError(f"predictor must be one of {self.PREDICTORS}, got {predictor!r}")
+        v = self.velocity() if predictor == "chord" else self.heading_velocity()
         dt = view.reply_age_s + ahead_s
         en = view.survey_en_m + v[:, :2] * dt[:, None]
         dz = view.depth_below_m + v[:, 2] * dt
         return en, dz
+
+    def predict_along_path(self, view: ObsView, ahead_s: float) -> tuple:
+        """As :meth:`predict`, along the observed planned waypoints (B1)-(B3) at the
+        path speed (T3), from the last reply over reply age + ``ahead_s``; survey
+        vehicles without observed waypoints fall back to the chord velocity (T1)."""
+        en_cv, dz = self.predict(view, ahead_s, "chord")
+        dt = view.reply_age_s + ahead_s
+        en, known = advance_along_waypoints(view.survey_en_m, view.waypoints_en_m, self.speed() * dt)
+        return np.where(known[:, None], en, en_cv), dz
 
 
 class Policy:

@@ -3,10 +3,8 @@
 "If the beacon AUV can move such that the next range measurement occurs along the
 direction of the major axis of the error ellipse, the position error of the survey
 AUV can be minimized." The planner predicts the survey vehicle's position and
-covariance at the next ping (constant velocity from the estimates it sent; the
-reported covariance plus the scenario's process noise for the elapsed time) and
-picks the point of its reaching set that maximizes the expected information of the
-next range,
+covariance at the next ping and picks the point of its reaching set that
+maximizes the expected information of the next range,
 
     P(arrive | distance) * log(1 + h^T P h / R),
 
@@ -15,6 +13,23 @@ the beacon's own position variance. h^T P h is largest along the major axis, so
 the range falls along it; the slant factor and the arrival probability set how far
 away (the acoustic-range concern of the paper), and soft constraints keep the
 safety distance and the geofence (the paper's other two criteria).
+
+The prediction. The beacon "plans its path based on the knowledge of the survey
+path" (Gao & Chitre, sec. I and II-C): the observation carries the next
+``observed_waypoints`` planned waypoints of each survey vehicle, so its position
+at the next ping is its last reported estimate moved along that plan, turning at
+the waypoints, by path speed x (reply age + ping interval)
+(``SurveyTracker.predict_along_path``, eqs. B1-B3 of
+``base.advance_along_waypoints``; the speed is eq. T3 of ``SurveyTracker``). A
+vehicle at speed v that reaches its next waypoint after d metres is predicted
+v T - d along the following leg (eq. B1), where a constant velocity puts it
+v T - d past the waypoint on the old leg's line: sqrt(2) (v T - d) off at a
+right-angle lawnmower turn (~20 m with 20 s pings). Without
+observed waypoints the prediction is the constant velocity fitted to the
+estimates it sent (eq. T1); ``predictor="chord"`` forces that (the planner
+before the plan was used). The covariance is the reported one plus the
+scenario's process noise for the elapsed time (Gao & Chitre eq. 6,
+P_{k+1|k} = P_k + Q_k).
 """
 
 from __future__ import annotations
@@ -47,12 +62,30 @@ def ellipse_waypoint(ctx: BeaconContext, own_en, survey_en, depth_below, P, rang
 
 @register_policy("ellipse")
 class EllipsePolicy(TrackingPolicy):
-    """Gao & Chitre: the next range along the major axis of the predicted error ellipse."""
+    """Gao & Chitre: the next range along the major axis of the predicted error ellipse.
+
+    predictor: ``"path"`` (default) predicts the survey vehicle along its observed
+    planned waypoints, ``"chord"`` with the constant velocity of its last replies.
+    """
+
+    PREDICTORS = ("path", "chord")
+
+    def __init__(self, config, agent_index: int = 0, seed=None, predictor: str = "path"):
+        if predictor not in self.PREDICTORS:
+            raise ValueError(f"ellipse predictor must be one of {self.PREDICTORS}, got {predictor!r}")
+        self.predictor = predictor
+        super().__init__(config, agent_index, seed)
+
+    def predict(self, view, ahead_s):
+        """The survey vehicles' (east, north) (S, 2) and depth below (S,) ``ahead_s`` after now."""
+        if self.predictor == "path":
+            return self.tracker.predict_along_path(view, ahead_s)
+        return self.tracker.predict(view, ahead_s, "chord")
 
     def plan(self, view):
         c, T = self.config, self.ctx.ping_interval_s
         self.tracker.update(self.t_s, view)
-        en, dz = self.tracker.predict(view, T)
+        en, dz = self.predict(view, T)
         grow = c.process_noise_horizontal_m2ps * (view.reply_age_s + T)
         P = view.cov_m2 + grow[:, None, None] * np.eye(2)
         R = c.range_noise_std_m ** 2 + float(view.own_std_m) ** 2

@@ -275,3 +275,113 @@ def test_random_policy_is_seeded():
     first = p.act(obs)
     p.reset()
     assert np.array_equal(p.act(obs), first)
+
+
+# ------------------------------------------------------------------------------------
+# survey predictors: along the planned path (ellipse) and the current heading (fim_b)
+
+LAWN = coopnav_env.make_config("gao_lawnmower")  # 20 s pings, observed_waypoints = 2
+
+
+def _feed(policy, config, survey_track, waypoints=None, own=(0.0, -60.0)):
+    """One act() per ping with the survey vehicle's estimate at survey_track[k] (replies
+    of age 0); returns the decoded view of the last observation."""
+    own = np.asarray(own, float)
+    for p in survey_track:
+        rel = [[p[0] - own[0], p[1] - own[1], 1.0]]
+        obs = encode(config, own_en_m=own, survey_rel_m=rel, waypoints_en_m=waypoints)
+        policy.act(obs)
+    return decode(obs, config)
+
+
+def test_advance_along_waypoints_turns_stops_and_extrapolates():
+    from baselines.base import advance_along_waypoints
+
+    start = np.array([[0.0, 0.0]] * 4)
+    wp = np.array([[[10.0, 0.0], [10.0, 20.0]],  # turn north after 10 m
+                   [[10.0, 0.0], [10.0, 20.0]],  # past the last waypoint: keeps the last leg's direction (B2)
+                   [[10.0, 0.0], [10.0, 0.0]],  # the path ends at (10, 0): stops there (B3)
+                   [[0.0, 0.0], [0.0, 0.0]]])  # nothing observed
+    pos, known = advance_along_waypoints(start, wp, np.array([24.0, 40.0, 24.0, 24.0]))
+    assert np.allclose(pos, [[10.0, 14.0], [10.0, 30.0], [10.0, 0.0], [0.0, 0.0]])
+    assert known.tolist() == [True, True, True, False]
+
+
+def test_ellipse_predicts_along_the_planned_path_at_a_lawnmower_turn():
+    """A survey vehicle running east at v = 1.2 m/s (24 m per 20 s ping) is d = 10 m from the
+    end of its lawnmower leg at (100, 0); the plan then goes 20 m north to (100, 20). One ping
+    later it is v T - d = 14 m up the north leg, at (100, 14) (hand-computed); a constant
+    velocity puts it at (114, 0), 14 sqrt(2) ~ 20 m off."""
+    T, v = LAWN.ping_interval_s, 1.2
+    track = [(90.0 - 2 * v * T, 0.0), (90.0 - v * T, 0.0), (90.0, 0.0)]
+    corner, nxt = np.array([100.0, 0.0]), np.array([100.0, 20.0])
+    truth = corner + [0.0, v * T - 10.0]
+    policy = make_policy("ellipse", LAWN)
+    view = _feed(policy, LAWN, track, waypoints=[[corner, nxt]])
+    assert policy.tracker.speed()[0] == pytest.approx(v, rel=1e-3)
+    en, _ = policy.predict(view, T)
+    assert np.linalg.norm(en[0] - truth) < 2.0, en
+    cv = make_policy("ellipse", LAWN, predictor="chord")
+    view = _feed(cv, LAWN, track, waypoints=[[corner, nxt]])
+    en_cv, _ = cv.predict(view, T)
+    assert np.linalg.norm(en_cv[0] - truth) == pytest.approx(14 * np.sqrt(2), abs=0.5)
+    # the planner aims at the predicted position: the waypoint differs from the chord planner's
+    assert not np.allclose(policy.last_waypoint, cv.last_waypoint, atol=1.0)
+
+
+def test_ellipse_without_observed_waypoints_falls_back_to_constant_velocity():
+    T, v = LAWN.ping_interval_s, 1.2
+    track = [(0.0, 0.0), (v * T, 0.0), (2 * v * T, 0.0)]
+    for config in (LAWN, LAWN.replace(observed_waypoints=1)):
+        policy = make_policy("ellipse", config)
+        view = _feed(policy, config, track)  # encode's default: the waypoints are the estimate itself
+        en, _ = policy.predict(view, T)
+        assert np.allclose(en[0], [3 * v * T, 0.0], atol=0.05)
+    with pytest.raises(ValueError, match="predictor"):
+        make_policy("ellipse", LAWN, predictor="nope")
+
+
+def test_ellipse_path_prediction_on_the_real_lawnmower():
+    """On the environment itself the planned-path prediction of the survey vehicle one ping
+    ahead is several times closer to where it really is than the constant velocity."""
+    c = LAWN.replace(max_cycles=40, randomize_survey_path=(), randomize_depth_m=(), randomize_noise_scale=())
+    sim = Simulator(c, 1)
+    obs = sim.reset([3])
+    pol = make_policy("ellipse", c)
+    err = {"path": [], "chord": []}
+    for k in range(c.max_cycles):
+        a = pol.act(obs[0, 0])
+        view = decode(obs[0, 0], c)
+        pred = {"path": pol.tracker.predict_along_path(view, c.ping_interval_s)[0][0],
+                "chord": pol.tracker.predict(view, c.ping_interval_s, "chord")[0][0]}
+        res = sim.step(a[None, None])
+        obs = res.obs
+        if k >= 3:
+            for key in err:
+                err[key].append(np.linalg.norm(pred[key] - sim.state.s_pos[0, 0, :2]))
+    assert np.mean(err["path"]) < 0.5 * np.mean(err["chord"]), {k: np.mean(e) for k, e in err.items()}
+
+
+def test_fim_b_heading_predictor_lags_half_the_chord_on_a_circle():
+    """Replies every T on a circle of radius R, turning by a per ping: the chord of the last
+    three replies (T1) points along the tangent of the middle one (lag a behind the heading
+    at the last reply), the last two replies (T2) along the tangent half-way (lag a / 2)."""
+    c = ASV.replace(depth_m=0.0)
+    T, R, a = c.ping_interval_s, 30.0, np.radians(40.0)
+    ang = np.array([0.0, a, 2 * a])  # anticlockwise from the east point
+    track = np.stack([R * np.cos(ang), R * np.sin(ang)], -1) + SURVEY
+    tangent = np.array([-np.sin(2 * a), np.cos(2 * a)])
+    lags = {}
+    for predictor in ("heading", "chord"):
+        policy = make_policy("fim_b", c, predictor=predictor)
+        assert policy.predictor == predictor
+        view = _feed(policy, c, track, own=SURVEY + [80.0, 0.0])
+        p2, _ = policy.tracker.predict(view, T, predictor)
+        step = p2[0] - track[-1]
+        lags[predictor] = np.arccos(step @ tangent / np.linalg.norm(step))
+    assert lags["heading"] == pytest.approx(a / 2, abs=1e-3)
+    assert lags["chord"] == pytest.approx(a, abs=1e-3)
+    # the path speed (T3): two chords of 2 R sin(a / 2) over 2 T
+    assert policy.tracker.speed()[0] == pytest.approx(2 * R * np.sin(a / 2) / T, rel=1e-3)
+    with pytest.raises(ValueError, match="predictor"):
+        make_policy("fim_b", c, predictor="nope")
