@@ -112,13 +112,13 @@ def test_gym_view_bad_actions():
 # --- configuration -----------------------------------------------------------------
 @pytest.mark.parametrize("value", [-20.0, 0.0])
 def test_non_positive_ping_interval(value):
-    with pytest.raises(ValueError, match="ping_interval_s must be > 0"):
+    with pytest.raises(ValueError, match=r"ping_interval_s must be in \(0, 3600\], got"):
         coopnav_env.parallel_env("gao_lawnmower", ping_interval_s=value)
 
 
 @pytest.mark.parametrize("value", [-1.0, 0.0])
 def test_non_positive_substep(value):
-    with pytest.raises(ValueError, match="substep_s must be > 0"):
+    with pytest.raises(ValueError, match=r"substep_s must be in \(0, 60\], got"):
         coopnav_env.parallel_env("gao_lawnmower", substep_s=value)
 
 
@@ -281,3 +281,49 @@ def test_no_nan_rejections_without_fault_injection():
         _, _, _, _, infos = env.step({a: ZERO for a in env.agents})
         total += infos["beacon_0"]["nan_rejected"]
     assert total == 0
+
+
+@pytest.mark.parametrize("overrides, named", [
+    ({"survey_area_m": (130.0, 1e12)}, "survey_area_m"),
+    ({"lawnmower_spacing_m": 1e-7}, "lawnmower_spacing_m"),
+    ({"circle_laps": 1e7, "survey_path": "circle"}, "circle_laps"),
+    ({"survey_area_m": (1e300, 1e300)}, "survey_area_m"),
+    ({"lawnmower_spacing_m": 0}, "lawnmower_spacing_m"),
+    ({"survey_origin_m": (float("nan"), 0.0)}, "survey_origin_m"),
+    ({"range_noise_std_m": "1.0"}, "range_noise_std_m"),
+    ({"range_noise_std_m": 1e200}, "range_noise_std_m"),
+    ({"circle_laps": -1.0}, "circle_laps"),
+    ({"line_length_m": -5.0}, "line_length_m"),
+    ({"waypoint_acceptance_m": -1.0}, "waypoint_acceptance_m"),
+    ({"max_cycles": 2.5}, "max_cycles"),
+    ({"path_repeats": 1000, "survey_path": "circle", "circle_laps": 100.0}, "waypoints"),
+])
+def test_inputs_that_used_to_hang_or_crash_are_refused_at_once(overrides, named):
+    """Each refused in well under a second with a ValueError naming the parameter and,
+    for numbers, the allowed range (they used to grow to gigabytes, hang, divide by
+    zero, or pass and give NaN observations)."""
+    import time
+
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match=named) as info:
+        coopnav_env.make_config("gao_lawnmower", **overrides)
+    assert time.perf_counter() - t0 < 1.0
+    assert "\n" not in str(info.value)
+
+
+def test_number_refusals_name_the_allowed_range():
+    with pytest.raises(ValueError, match=r"range_noise_std_m must be in \(0, 1000\], got 1e\+200"):
+        coopnav_env.make_config("gao_lawnmower", range_noise_std_m=1e200)
+    with pytest.raises(ValueError, match=r"circle_laps must be in \(0, 1000\], got -1"):
+        coopnav_env.make_config("gao_lawnmower", circle_laps=-1)
+
+
+def test_every_number_parameter_has_limits():
+    import dataclasses
+
+    from coopnav_env.scenarios.base import LIMITS, ScenarioConfig
+
+    numeric = {f.name for f in dataclasses.fields(ScenarioConfig) if type(f.default) in (int, float)}
+    assert numeric == set(LIMITS), (numeric ^ set(LIMITS))
+    for scenario in coopnav_env.list_scenarios():  # the defaults and every scenario lie inside them
+        coopnav_env.make_config(scenario)

@@ -198,16 +198,17 @@ class ScenarioConfig:
     observed_waypoints: int = 2  # the survey's next planned waypoints in the observation
 
     def __post_init__(self):
-        # integers may come as numpy integers (from sweeps, YAML); store plain ints
-        for name in ("max_cycles", "n_survey", "path_repeats", "observed_waypoints", "reinit_after_rejected_ranges"):
-            v = getattr(self, name)
-            if isinstance(v, numbers.Integral) and not isinstance(v, bool):
-                object.__setattr__(self, name, int(v))
-        for name in ("beacon_kinds", "survey_area_m", "survey_origin_m", "waypoints_m", "randomize_survey_path",
-                     "randomize_depth_m", "randomize_noise_scale"):
-            v = getattr(self, name)
-            if isinstance(v, list):  # lists from YAML or JSON
-                object.__setattr__(self, name, tuple(tuple(x) if isinstance(x, list) else x for x in v))
+        # numbers may come as numpy scalars (sweeps, YAML): store plain ints and floats;
+        # lists (YAML, JSON) become tuples. Anything else is left for _validate to refuse.
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            kind = type(f.default)
+            if kind is int and isinstance(v, numbers.Integral) and not isinstance(v, bool):
+                object.__setattr__(self, f.name, int(v))
+            elif kind is float and isinstance(v, numbers.Real) and not isinstance(v, bool):
+                object.__setattr__(self, f.name, float(v))
+            elif kind is tuple and isinstance(v, list):
+                object.__setattr__(self, f.name, tuple(tuple(x) if isinstance(x, list) else x for x in v))
         _validate(self)
 
     # derived quantities, computed in one place --------------------------------------
@@ -278,82 +279,150 @@ def _check(cond: bool, message: str):
 def _finite(x) -> bool:
     try:
         return math.isfinite(float(x))
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         return False
 
 
+# Every number's physical range, (low, high) inclusive; a low of OPEN_ZERO means "> 0".
+# Upper bounds keep what scales with a value (path length, waypoints, area, noise the
+# filter must represent) within the acoustic and mission scale of these simulations.
+OPEN_ZERO = "(0"
+LIMITS = {
+    "ping_interval_s": (OPEN_ZERO, 3600.0), "substep_s": (OPEN_ZERO, 60.0), "max_cycles": (1, 100_000),
+    "mission_duration_s": (0.0, 1e6), "n_survey": (1, 16),
+    "lawnmower_spacing_m": (OPEN_ZERO, 10_000.0), "depth_m": (0.0, 6000.0), "spiral_end_depth_m": (0.0, 6000.0),
+    "circle_radius_m": (0.0, 10_000.0), "circle_laps": (OPEN_ZERO, 1000.0), "line_length_m": (OPEN_ZERO, 20_000.0),
+    "path_repeats": (1, 1000), "survey_spacing_m": (0.0, 10_000.0), "waypoint_acceptance_m": (OPEN_ZERO, 1000.0),
+    "los_alpha": (0.0, 1.0), "survey_mass_kg": (OPEN_ZERO, 1e5), "survey_drag_coefficient": (OPEN_ZERO, 10.0),
+    "survey_cross_section_m2": (OPEN_ZERO, 100.0), "water_density_kgpm3": (900.0, 1100.0),
+    "max_thrust_n": (OPEN_ZERO, 1e5), "survey_thrust_percent": (0.0, 100.0), "survey_speed_scale_error_std": (0.0, 0.5),
+    "survey_max_turn_rate_dps": (OPEN_ZERO, 360.0), "survey_max_pitch_deg": (OPEN_ZERO, 90.0),
+    "survey_depth_gain_per_m": (0.0, 100.0), "compass_noise_deg": (0.0, 45.0), "compass_bias_std_deg": (0.0, 45.0),
+    "attitude_noise_deg": (0.0, 45.0), "depth_noise_m": (0.0, 100.0), "gps_noise_m": (0.0, 1000.0),
+    "gps_max_depth_m": (0.0, 100.0), "sensor_nan_probability": (0.0, 1.0), "initial_position_std_m": (OPEN_ZERO, 10_000.0),
+    "process_noise_horizontal_m2ps": (0.0, 10_000.0), "process_noise_vertical_m2ps": (0.0, 10_000.0),
+    "range_gate_probability": (OPEN_ZERO, 0.999999), "reinit_after_rejected_ranges": (0, 1000),
+    "beacon_auv_max_speed_mps": (OPEN_ZERO, 20.0), "beacon_auv_max_turn_rate_dps": (OPEN_ZERO, 360.0),
+    "beacon_auv_depth_m": (0.0, 6000.0), "dvl_velocity_noise_mps": (0.0, 10.0), "dvl_lock_loss_probability": (0.0, 1.0),
+    "dvl_lock_regain_probability": (0.0, 1.0), "beacon_current_estimate_error_mps": (0.0, 10.0),
+    "beacon_dvl_heading_bias_std_deg": (0.0, 45.0), "beacon_dvl_heading_cycle_deg": (0.0, 45.0),
+    "beacon_dvl_scale_error_std": (0.0, 0.5), "beacon_surface_every_s": (0.0, 1e6),
+    "beacon_surface_above_std_m": (0.0, 10_000.0), "asv_max_speed_mps": (OPEN_ZERO, 20.0),
+    "asv_max_turn_rate_dps": (OPEN_ZERO, 360.0), "boat_max_speed_mps": (OPEN_ZERO, 20.0),
+    "boat_max_turn_rate_dps": (OPEN_ZERO, 360.0), "beacon_start_distance_m": (0.0, 20_000.0),
+    "beacon_start_bearing_deg": (-360.0, 360.0), "beacon_start_bearing_spread_deg": (0.0, 360.0),
+    "mls_snr_db_at_1m": (-50.0, 150.0), "mls_max_range_m": (1.0, 10_000.0), "range_noise_std_m": (OPEN_ZERO, 1000.0),
+    "turnaround_s": (0.0, 10.0), "max_range_m": (OPEN_ZERO, 100_000.0), "packet_loss_near": (0.0, 1.0),
+    "packet_loss_far": (0.0, 1.0), "outlier_probability": (0.0, 1.0), "outlier_mean_excess_m": (0.0, 10_000.0),
+    "water_temperature_c": (-2.0, 40.0), "salinity_psu": (0.0, 45.0), "temperature_uncertainty_c": (0.0, 20.0),
+    "clock_offset_std_s": (0.0, 10.0), "clock_drift_ppm": (0.0, 10_000.0), "current_speed_mps": (0.0, 10.0),
+    "current_speed_spread_mps": (0.0, 10.0), "current_direction_deg": (-360.0, 360.0),
+    "current_direction_spread_deg": (0.0, 360.0), "current_gm_std_mps": (0.0, 10.0),
+    "current_gm_time_constant_s": (OPEN_ZERO, 1e7), "safety_distance_m": (0.0, 10_000.0),
+    "geofence_margin_m": (0.0, 100_000.0), "safety_penalty": (0.0, 1e6), "geofence_penalty": (0.0, 1e6),
+    "contact_penalty": (0.0, 1e6), "frame_orientation_deg": (-360.0, 360.0), "frame_orientation_spread_deg": (0.0, 360.0),
+    "baseline_target_m": (OPEN_ZERO, 10_000.0), "boat_transit_speed_mps": (-20.0, 20.0),
+    "boat_surge_noise_mps": (0.0, 5.0), "boat_steering_noise_deg": (0.0, 90.0),
+    "boat_noise_time_constant_s": (0.0, 1e5), "boat_current_response": (0.0, 1.0),
+    "survey_speed_mps": (OPEN_ZERO, 20.0), "speed_encoder_noise_mps": (0.0, 5.0),
+    "initial_frame_orientation_std_deg": (OPEN_ZERO, 180.0), "initial_frame_orientation_error_deg": (-180.0, 180.0),
+    "initial_current_std_mps": (OPEN_ZERO, 10.0), "initial_baseline_std_m": (OPEN_ZERO, 1000.0),
+    "frame_q_position_m2ps": (0.0, 10_000.0), "frame_q_orientation_rad2ps": (0.0, 10.0),
+    "frame_q_current_m2ps3": (0.0, 100.0), "frame_q_baseline_m2ps": (0.0, 10_000.0),
+    "baseline_tolerance_m": (0.0, 10_000.0), "baseline_penalty": (0.0, 1e6), "frame_rotation_tolerance_deg": (0.0, 360.0),
+    "rotation_penalty": (0.0, 1e6), "min_baseline_distance_m": (0.0, 10_000.0), "approach_penalty": (0.0, 1e6),
+    "observed_waypoints": (1, 64),
+}
+COORDINATE_LIMIT_M = 1e6  # |east|, |north| of origins and waypoints
+AREA_LIMIT_M = 20_000.0  # each side of the survey area
+MAX_WAYPOINTS = 100_000  # a path that needs more is refused before it is built
+
+
+def _range_text(lo, hi) -> str:
+    return f"(0, {hi:g}]" if lo is OPEN_ZERO else f"[{lo:g}, {hi:g}]"
+
+
+def _check_number(name, v, kind):
+    """Type, finiteness and range of one number field."""
+    if kind is int:
+        _check(isinstance(v, numbers.Integral) and not isinstance(v, bool),
+               f"scenario parameter {name} must be an integer, got {v!r}")
+    else:
+        _check(isinstance(v, numbers.Real) and not isinstance(v, bool),
+               f"scenario parameter {name} must be a number, got {v!r}")
+        _check(_finite(v), f"scenario parameter {name} must be finite, got {v!r}")
+    lo, hi = LIMITS[name]
+    ok = (v > 0 if lo is OPEN_ZERO else v >= lo) and v <= hi
+    _check(ok, f"scenario parameter {name} must be in {_range_text(lo, hi)}, got {v!r}")
+
+
+def _check_coordinates(name, values, n):
+    _check(isinstance(values, tuple) and len(values) == n,
+           f"scenario parameter {name} must be {n} numbers, got {values!r}")
+    for v in values:
+        _check(isinstance(v, numbers.Real) and not isinstance(v, bool) and _finite(v) and abs(v) <= COORDINATE_LIMIT_M,
+               f"scenario parameter {name} must hold finite numbers within +-{COORDINATE_LIMIT_M:g} m, got {values!r}")
+
+
+def waypoint_count(c, path: str) -> int:
+    """How many waypoints ``guidance.build_path`` makes for ``path`` (before repeats)."""
+    if path == "lawnmower":
+        return 2 * (int(math.floor(c.survey_area_m[1] / c.lawnmower_spacing_m + 1e-9)) + 1)
+    if path in ("circle", "spiral"):
+        return max(int(math.ceil(c.circle_laps * 24)), 2) + 1
+    if path == "waypoints":
+        return len(c.waypoints_m)
+    return 2
+
+
 def _validate(c: ScenarioConfig):
+    # every field by the type of its default: numbers against LIMITS, strings, flags
     for f in dataclasses.fields(c):
-        v = getattr(c, f.name)
-        if isinstance(v, float) and not _finite(v):
-            raise ValueError(f"scenario parameter {f.name} must be finite, got {v!r}")
-    positive = [
-        "ping_interval_s", "substep_s", "survey_mass_kg", "survey_drag_coefficient",
-        "survey_cross_section_m2", "water_density_kgpm3", "max_thrust_n",
-        "initial_position_std_m", "beacon_auv_max_speed_mps", "asv_max_speed_mps",
-        "max_range_m", "range_noise_std_m", "position_scale_m", "current_gm_time_constant_s",
-        "survey_max_turn_rate_dps", "beacon_auv_max_turn_rate_dps", "asv_max_turn_rate_dps",
-        "boat_max_speed_mps", "boat_max_turn_rate_dps", "baseline_target_m", "survey_speed_mps",
-        "initial_frame_orientation_std_deg", "initial_current_std_mps", "initial_baseline_std_m",
-    ]
-    for name in positive:
-        v = getattr(c, name)
-        _check(_finite(v) and v > 0, f"scenario parameter {name} must be > 0, got {v!r}")
-    nonneg = [
-        "mission_duration_s", "depth_m", "lawnmower_spacing_m", "circle_radius_m",
-        "compass_noise_deg", "compass_bias_std_deg", "attitude_noise_deg", "depth_noise_m",
-        "gps_noise_m", "process_noise_horizontal_m2ps", "process_noise_vertical_m2ps",
-        "dvl_velocity_noise_mps", "turnaround_s", "outlier_mean_excess_m",
-        "temperature_uncertainty_c", "clock_offset_std_s", "clock_drift_ppm", "current_speed_mps",
-        "current_speed_spread_mps", "current_gm_std_mps", "safety_distance_m",
-        "geofence_margin_m", "survey_speed_scale_error_std", "beacon_start_distance_m", "beacon_current_estimate_error_mps",
-        "frame_orientation_spread_deg", "speed_encoder_noise_mps", "frame_q_position_m2ps", "frame_q_orientation_rad2ps",
-        "frame_q_current_m2ps3", "frame_q_baseline_m2ps", "baseline_tolerance_m", "baseline_penalty",
-        "min_baseline_distance_m", "approach_penalty", "frame_rotation_tolerance_deg", "rotation_penalty",
-        "beacon_dvl_heading_bias_std_deg", "beacon_dvl_heading_cycle_deg", "beacon_dvl_scale_error_std",
-        "beacon_surface_every_s",
-        "beacon_surface_above_std_m",
-        "boat_surge_noise_mps", "boat_steering_noise_deg", "boat_noise_time_constant_s", "boat_current_response",
-    ]
-    for name in nonneg:
-        v = getattr(c, name)
-        _check(_finite(v) and v >= 0, f"scenario parameter {name} must be >= 0, got {v!r}")
-    for name in ["packet_loss_near", "packet_loss_far", "outlier_probability", "dvl_lock_loss_probability",
-                 "dvl_lock_regain_probability", "sensor_nan_probability", "los_alpha"]:
-        v = getattr(c, name)
-        _check(_finite(v) and 0 <= v <= 1, f"scenario parameter {name} must be in [0, 1], got {v!r}")
-    _check(0 < c.range_gate_probability < 1, "range_gate_probability must be in (0, 1)")
-    _check(0 <= c.survey_thrust_percent <= 100, "survey_thrust_percent must be in [0, 100]")
-    _check(type(c.max_cycles) is int and c.max_cycles >= 1, f"max_cycles must be an int >= 1, got {c.max_cycles!r}")
-    _check(type(c.n_survey) is int and c.n_survey >= 1, f"n_survey must be an int >= 1, got {c.n_survey!r}")
-    _check(type(c.reinit_after_rejected_ranges) is int and 0 <= c.reinit_after_rejected_ranges <= 1000,
-           f"reinit_after_rejected_ranges must be an int in [0, 1000], got {c.reinit_after_rejected_ranges!r}")
+        v, kind = getattr(c, f.name), type(f.default)
+        if kind in (int, float):
+            _check_number(f.name, v, kind)
+        elif kind is str:
+            _check(isinstance(v, str), f"scenario parameter {f.name} must be a string, got {v!r}")
+        elif kind is bool:
+            _check(isinstance(v, bool), f"scenario parameter {f.name} must be True or False, got {v!r}")
+        elif kind is tuple:
+            _check(isinstance(v, tuple), f"scenario parameter {f.name} must be a tuple (or list), got {v!r}")
     _check(c.substep_s <= c.ping_interval_s, "substep_s must not exceed ping_interval_s")
     _check(abs(c.substeps_per_cycle * c.substep_s - c.ping_interval_s) < 1e-9 * c.ping_interval_s,
            f"ping_interval_s ({c.ping_interval_s}) must be a whole multiple of substep_s ({c.substep_s})")
-    _check(c.substeps_per_cycle <= 4095, "at most 4095 sub-steps per cycle")
-    _check(isinstance(c.beacon_kinds, tuple) and len(c.beacon_kinds) >= 1,
-           "beacon_kinds must be a non-empty tuple")
+    _check(c.substeps_per_cycle <= 4095,
+           f"substep_s ({c.substep_s:g}) gives {c.substeps_per_cycle} sub-steps per cycle; at most 4095")
+    _check(len(c.beacon_kinds) >= 1, "beacon_kinds must be a non-empty tuple")
+    _check(len(c.beacon_kinds) <= 16, f"at most 16 beacons, got {len(c.beacon_kinds)}")
     for k in c.beacon_kinds:
-        _check(k in BEACON_KINDS, f"unknown beacon kind {k!r}; valid kinds: {', '.join(BEACON_KINDS)}")
+        _check(isinstance(k, str) and k in BEACON_KINDS,
+               f"beacon_kinds: unknown beacon kind {k!r}; valid kinds: {', '.join(BEACON_KINDS)}")
     _check(c.acoustic_sensor in ACOUSTIC_SENSORS,
            f"unknown acoustic_sensor {c.acoustic_sensor!r}; valid: {', '.join(ACOUSTIC_SENSORS)}")
     _check(c.acoustic_sensor == "modem" or c.network == "survey_beacons",
            "acoustic_sensor='mls' needs network='survey_beacons'")
-    _check(_finite(c.mls_max_range_m) and c.mls_max_range_m > 1.0, "mls_max_range_m must be > 1 m")
     _check(c.network in NETWORKS, f"unknown network {c.network!r}; valid networks: {', '.join(NETWORKS)}")
+    _check_coordinates("survey_origin_m", c.survey_origin_m, 2)
+    _check_coordinates("survey_area_m", c.survey_area_m, 2)
+    _check(all(0 < v <= AREA_LIMIT_M for v in c.survey_area_m),
+           f"scenario parameter survey_area_m must be two lengths in (0, {AREA_LIMIT_M:g}] m, got {c.survey_area_m!r}")
+    _check(len(c.waypoints_m) <= MAX_WAYPOINTS, f"waypoints_m has more than {MAX_WAYPOINTS} entries")
+    for w in c.waypoints_m:
+        _check(isinstance(w, tuple) and len(w) == 3, f"waypoints_m entries must be (east, north, depth), got {w!r}")
+        _check_coordinates("waypoints_m", w, 3)
+        _check(0 <= w[2] <= 6000, f"waypoints_m depths must be in [0, 6000] m, got {w!r}")
     if c.network == "moving_lbl":
         _check(c.beacon_kinds == ("boat", "boat"),
                f"network='moving_lbl' needs beacon_kinds=('boat', 'boat') (B1, B2), got {c.beacon_kinds!r}")
         _check(c.n_survey == 1, f"network='moving_lbl' simulates one vehicle, got n_survey={c.n_survey}")
         _check(c.survey_path == "waypoints", "network='moving_lbl' needs survey_path='waypoints' (frame coordinates)")
-        _check(all(len(w) == 3 and w[1] > 0 for w in c.waypoints_m),
-               "network='moving_lbl': every waypoint needs y > 0 (the vehicle must not cross the baseline)")
+        _check(all(w[1] > 0 for w in c.waypoints_m),
+               "waypoints_m: network='moving_lbl' needs y > 0 in every waypoint (the vehicle must not cross the baseline)")
         _check(abs(c.boat_transit_speed_mps) <= c.boat_max_speed_mps,
                f"boat_transit_speed_mps ({c.boat_transit_speed_mps}) exceeds boat_max_speed_mps ({c.boat_max_speed_mps})")
         _check(c.ranging_mode == "twtt", "network='moving_lbl' ranges by two-way travel time: ranging_mode='twtt'")
     else:
-        _check("boat" not in c.beacon_kinds, "beacon kind 'boat' belongs to network='moving_lbl'")
+        _check("boat" not in c.beacon_kinds, "beacon_kinds: the kind 'boat' belongs to network='moving_lbl'")
         _check(c.action_mode != "frame_velocity", "action_mode='frame_velocity' belongs to network='moving_lbl'")
     _check(c.survey_path in SURVEY_PATHS,
            f"unknown survey_path {c.survey_path!r}; valid paths: {', '.join(SURVEY_PATHS)}")
@@ -361,20 +430,24 @@ def _validate(c: ScenarioConfig):
            f"unknown ranging_mode {c.ranging_mode!r}; valid modes: {', '.join(RANGING_MODES)}")
     _check(c.action_mode in ACTION_MODES,
            f"unknown action_mode {c.action_mode!r}; valid modes: {', '.join(ACTION_MODES)}")
-    _check(len(c.survey_area_m) == 2 and all(_finite(v) and v > 0 for v in c.survey_area_m),
-           "survey_area_m must be two positive lengths (east, north)")
     _check(c.survey_path != "waypoints" or len(c.waypoints_m) >= 2,
            "survey_path='waypoints' needs at least two waypoints_m entries (east, north, depth)")
-    _check(type(c.path_repeats) is int and c.path_repeats >= 1, "path_repeats must be an int >= 1")
-    _check(c.observed_waypoints >= 1, "observed_waypoints must be >= 1")
     for k in c.randomize_survey_path:
-        _check(k in SURVEY_PATHS and k != "waypoints",
+        _check(isinstance(k, str) and k in SURVEY_PATHS and k != "waypoints",
                f"randomize_survey_path: {k!r} is not one of {', '.join(p for p in SURVEY_PATHS if p != 'waypoints')}")
+    _check(len(c.randomize_depth_m) <= 64, "randomize_depth_m: at most 64 depths")
     for d in c.randomize_depth_m:
-        _check(_finite(d) and d >= 0, f"randomize_depth_m: depths must be finite and >= 0, got {d!r}")
+        _check(isinstance(d, numbers.Real) and not isinstance(d, bool) and _finite(d) and 0 <= d <= 6000,
+               f"randomize_depth_m: depths must be numbers in [0, 6000] m, got {d!r}")
     _check(c.randomize_noise_scale == () or (len(c.randomize_noise_scale) == 2 and all(
-        _finite(v) and v >= 0 for v in c.randomize_noise_scale) and c.randomize_noise_scale[0] <= c.randomize_noise_scale[1]),
-        f"randomize_noise_scale must be () or (low, high) with 0 <= low <= high, got {c.randomize_noise_scale!r}")
+        isinstance(v, numbers.Real) and not isinstance(v, bool) and _finite(v) and 0 <= v <= 100
+        for v in c.randomize_noise_scale) and c.randomize_noise_scale[0] <= c.randomize_noise_scale[1]),
+        f"randomize_noise_scale must be () or (low, high) with 0 <= low <= high <= 100, got {c.randomize_noise_scale!r}")
+    # what scales with the values: the number of waypoints a path needs
+    for path in set(c.randomize_survey_path or (c.survey_path,)):
+        n = waypoint_count(c, path) * (c.path_repeats if path != "stationary" else 1)
+        _check(n <= MAX_WAYPOINTS, f"survey_path={path!r} with these parameters needs {n} waypoints (at most "
+                                   f"{MAX_WAYPOINTS}): raise lawnmower_spacing_m or lower circle_laps/path_repeats")
 
 
 # ------------------------------------------------------------------------------------
