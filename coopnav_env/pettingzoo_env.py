@@ -7,6 +7,7 @@ from pettingzoo import ParallelEnv
 
 from .core import make_simulator
 from .scenarios import make_config
+from .seeds import check_seed
 from .views import action_space, agent_infos, check_action, observation_space, state_space
 
 
@@ -106,8 +107,8 @@ class CoopNavParallelEnv(ParallelEnv):
         self._action_space = action_space()
         self._observation_space = observation_space(self.sim)
         self.state_space = state_space(self.sim)
-        self._seed = seed
-        self._seed_rng = np.random.default_rng(seed)
+        self._seed = None if seed is None else check_seed(seed)
+        self._seed_rng = np.random.default_rng(self._seed)
         self._recorder = None
         self._viewer = None
 
@@ -122,6 +123,7 @@ class CoopNavParallelEnv(ParallelEnv):
             seed = self._seed if self._seed is not None else int(self._seed_rng.integers(2**31))
             self._seed = None
         else:
+            seed = check_seed(seed)
             self._seed_rng = np.random.default_rng(seed)
             self._seed = None  # an explicit seed supersedes the constructor's
         self.episode_seed = int(seed)

@@ -73,6 +73,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from .core import make_simulator
 from .core.reward import penalties
 from .scenarios import make_config
+from .seeds import check_seed
 from .views import action_space, observation_space
 
 SEED_STRIDE = 1_000_003  # a prime larger than any batch: episode k of env e -> seed + e + k * SEED_STRIDE
@@ -172,7 +173,7 @@ class CoopNavVecEnv(VecEnv):
         Returns the first episode's seed of every row."""
         if seed is None:
             seed = int(np.random.SeedSequence().generate_state(1, dtype=np.uint32)[0] >> 1)
-        self._base_seed = int(seed)
+        self._base_seed = check_seed(seed)
         self._episode[:] = 0
         self._started = False
         return [self._base_seed + e for e in range(self.n_envs) for _ in range(self.n_beacons)]

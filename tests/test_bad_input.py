@@ -327,3 +327,34 @@ def test_every_number_parameter_has_limits():
     assert numeric == set(LIMITS), (numeric ^ set(LIMITS))
     for scenario in coopnav_env.list_scenarios():  # the defaults and every scenario lie inside them
         coopnav_env.make_config(scenario)
+
+
+@pytest.mark.parametrize("seed", [-1, 2**62, 2**63, 1.5, "3", True, None])
+def test_pettingzoo_env_and_vecenv_refuse_the_same_seeds(seed):
+    """One rule for seeds (coopnav_env.seeds.check_seed): integers in [0, 2**62 - 1]."""
+    from coopnav_env.vector import CoopNavVecEnv
+
+    if seed is None:  # None means "draw one" in both
+        coopnav_env.parallel_env("gao_lawnmower").reset(seed=None)
+        CoopNavVecEnv("gao_lawnmower", n_envs=1, seed=None).reset()
+        return
+    with pytest.raises(ValueError, match="seed must be"):
+        coopnav_env.parallel_env("gao_lawnmower").reset(seed=seed)
+    with pytest.raises(ValueError, match="seed must be"):
+        CoopNavVecEnv("gao_lawnmower", n_envs=1, seed=seed)
+
+
+def test_largest_seed_runs_in_both_views():
+    from coopnav_env.seeds import MAX_SEED
+    from coopnav_env.vector import CoopNavVecEnv
+
+    env = coopnav_env.parallel_env("gao_lawnmower", max_cycles=2)
+    obs, _ = env.reset(seed=MAX_SEED)
+    venv = CoopNavVecEnv("gao_lawnmower", n_envs=1, seed=MAX_SEED, max_cycles=2)
+    assert np.array_equal(venv.reset()[0], obs["beacon_0"])
+
+
+def test_state_before_reset_is_one_clear_error():
+    env = coopnav_env.parallel_env("gao_lawnmower")
+    with pytest.raises(RuntimeError, match=r"state\(\) before reset\(\)"):
+        env.state()

@@ -258,11 +258,14 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
     missing); treating them as independent, as a naive sequential filter would,
     overweights l. Each update passes a chi-square gate.
 
-    Recovery from gate lockout: a filter whose every measurement is rejected for
-    ``REINIT_AFTER_CYCLES`` cycles (it has diverged: the gate now refuses the very
-    ranges that would correct it) restarts its position from the spherical fix of
-    this cycle's d1, d2 and l, with the fix's uncertainty; the paper does not
-    discuss this, every fielded LBL navigator needs it.
+    Recovery from gate lockout: a filter that has a measurement rejected in each of
+    ``REINIT_AFTER_CYCLES`` consecutive cycles (it has diverged: the gate now refuses
+    the very ranges that would correct it) restarts its position from the spherical
+    fix of this cycle's d1, d2 and l, with the fix's uncertainty; the paper does not
+    discuss this, every fielded LBL navigator needs it. Counting cycles with every
+    measurement rejected is not enough: a filter whose error runs along the circle
+    around one beacon keeps passing that beacon's range (and l) while the other's is
+    refused, and drifts off along the circle (seen with the boats' speed noise).
 
     The boats' alpha-beta tracker runs on the external fixes (section III, ``lbl.track_fix_of``).
     phi, length (B,): the true frame's bearing and baseline, phi_gps, length_gps the
@@ -342,10 +345,10 @@ def _cycle(s_pos, s_vel_true, b_pos, b_vel, gps, temperature_c, noise_scale, n_d
         n_fused = int(fused0) + int(fused1) + int(both)
         rejected = int(ok_d1 and not fused0) + int(ok_l and not both) + int(alone and not fused1)
         # recovery from gate lockout
-        if n_fused > 0:
+        if rejected == 0:
             rejected_cycles[b] = 0
         else:
-            rejected_cycles[b] += rejected > 0
+            rejected_cycles[b] += 1
         restarted = 0
         fx, fy, ok_fix = lbl.spherical_fix_of(horizontal_range(d1, dz), horizontal_range(d2, dz), l)
         if rejected_cycles[b] >= REINIT_AFTER_CYCLES and ok_l and ok_fix and fy > 0:
