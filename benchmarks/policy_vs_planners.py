@@ -107,10 +107,10 @@ def is_planner(spec: str) -> bool:
 
 def run_cell(config, spec: str, seeds: list) -> np.ndarray:
     """Per-episode mean survey_error_m of policy ``spec`` on ``seeds`` (one batch)."""
-    from coopnav_env.core.sim import Simulator
+    from coopnav_env.core import make_simulator
 
     B, N = len(seeds), config.n_beacons
-    sim = Simulator(config, batch_size=B)
+    sim = make_simulator(config, batch_size=B)
     obs = sim.reset(np.asarray(seeds, dtype=np.int64))
     if is_planner(spec):
         from baselines import make_policy
