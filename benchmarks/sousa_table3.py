@@ -39,6 +39,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from benchmarks.policy_vs_planners import t_interval
+
 PATHS = ("stationary", "lawnmower", "circle", "spiral")
 PATH_TITLES = {"stationary": "Stationary", "lawnmower": "Lawn Mower", "circle": "Circular", "spiral": "Spiral"}
 APPROACHES = (("A", "fim_a", {}), ("B (heading)", "fim_b", {"predictor": "heading"}),
@@ -87,17 +89,6 @@ def _job(job):
     t = time.perf_counter()
     mean, var = run_episodes(config, policy, kwargs, seeds)
     return path, label, mean, var, time.perf_counter() - t
-
-
-def t_interval(x) -> tuple:
-    from scipy import stats
-
-    x = np.asarray(x, float)
-    m = float(x.mean())
-    if len(x) < 2:
-        return m, m, m
-    h = float(stats.t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / np.sqrt(len(x)))
-    return m, m - h, m + h
 
 
 def table3_marks(means: dict) -> dict:
