@@ -17,7 +17,8 @@ import sys
 
 import numpy as np
 
-from benchmarks.policy_vs_planners import run_cell, t_interval
+from evaluation.episodes import run_episodes
+from evaluation.paired import t_interval
 
 FLOORS = ("static", "random")
 
@@ -41,7 +42,8 @@ def main(argv=None) -> int:
     for scenario in args.scenarios.split(","):
         config = coopnav_env.make_config(scenario)
         planners = [q for q in list_policies(config.network) if q not in FLOORS]
-        scores = {q: run_cell(config, q, seeds) for q in planners + list(FLOORS)}
+        scores = {q: np.array([r["mean_error_m"] for r in run_episodes(config, q, seeds)[0]])
+                  for q in planners + list(FLOORS)}
         for q in planners:
             cells = []
             for floor in FLOORS:

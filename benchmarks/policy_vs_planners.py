@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from evaluation.paired import t_interval
+
 RANDOMIZATION_OFF = {"randomize_survey_path": (), "randomize_depth_m": (), "randomize_noise_scale": ()}
 
 
@@ -154,17 +156,6 @@ def with_warnings_quiet():
     import warnings
 
     warnings.filterwarnings("ignore", message=".*was trained on.*")
-
-
-def t_interval(x) -> tuple:
-    from scipy import stats
-
-    x = np.asarray(x, float)
-    m = float(x.mean())
-    if len(x) < 2:
-        return m, m, m
-    h = float(stats.t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / np.sqrt(len(x)))
-    return m, m - h, m + h
 
 
 def main(argv=None) -> int:

@@ -39,7 +39,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from benchmarks.policy_vs_planners import t_interval
+from evaluation.paired import t_interval
 
 PATHS = ("stationary", "lawnmower", "circle", "spiral")
 PATH_TITLES = {"stationary": "Stationary", "lawnmower": "Lawn Mower", "circle": "Circular", "spiral": "Spiral"}
