@@ -8,13 +8,25 @@
     policy.reset()
     action = policy.act(obs["beacon_0"])             # one beacon's observation -> (2,) in [-1, 1]
 
-A policy directory (a train.py run, or ``agents/policies/<name>/``) holds the SB3
-model, its VecNormalize statistics and the config it was trained with:
+A policy directory (a train.py run, or ``agents/policies/<name>/``) holds the policy
+network, its observation normalization and the config it was trained with, as data
+only (safetensors tensors + JSON; ``agents.formats``), never a pickle:
 
-    config.yml                       written by train.py (scenario, hyperparameters, command)
-    best_model.zip + best_vecnormalize.pkl   preferred when present (the best evaluated)
-    model.zip + vecnormalize.pkl             else the final model
-    checkpoints/last_checkpoint.json         else the last checkpoint (an unfinished run)
+    config.yml                                 written by train.py (scenario, hyperparameters, command)
+    best_model.safetensors + best_vecnormalize.safetensors   preferred when present (the best evaluated)
+    model.safetensors + vecnormalize.safetensors             else the final model
+    checkpoints/last_checkpoint.json           else the last checkpoint (an unfinished run); the
+                                               files it names must lie in checkpoints/
+
+A run trained with normalized observations (its config.yml or model file says so)
+whose normalization file is missing is refused (``PolicyFormatError``), rather than
+acting on unnormalized observations.
+
+The old pickle-based formats (an SB3 ``.zip``, a VecNormalize ``.pkl``, an RLlib
+checkpoint) can run code when loaded: they are refused (``PickleRefused``, one line)
+unless ``trust_pickle=True`` (``--trust-pickle`` of evaluate.py and train.py), which
+also trusts those files for the rest of the process. ``python -m agents.convert
+SRC --out NEW_DIR --trust-pickle`` converts one, once, to the safe format.
 
 Actions are deterministic (the mean of PPO's Gaussian, clipped to [-1, 1]), and the
 policy has no memory, so ``reset`` only exists for the interface.
@@ -22,22 +34,23 @@ policy has no memory, so ``reset`` only exists for the interface.
 A directory with a ``gate.yml`` instead holds two such policy directories and a gate
 on the survey vehicle's depth below the beacon, as the observation gives it
 (``DepthGatedPolicy``): ``{kind: depth_gate, threshold_m: 12.5, shallow: <dir>,
-deep: <dir>}``, the directories relative to the gate file.
+deep: <dir>}``, the directories relative to the gate file (and inside its directory).
 
 A run of ``train.py --backend rllib`` (its directory, its ``checkpoint/``, or any RLlib
 Algorithm checkpoint) loads the same way, through ``agents/rllib_policy.py`` (which
-imports Ray only then): ``agents.load("runs/x_rllib", scenario=...)``.
+imports Ray only then): ``agents.load("runs/x_rllib", scenario=...)``; an RLlib
+checkpoint is pickle-based, so see ``agents.rllib_policy`` for what is trusted.
 """
 
 from __future__ import annotations
 
 import json
-import pickle
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from .formats import PickleRefused, PolicyFormatError, check_inside, refuse_pickle
 from .policy import BatchPolicy, _trained_scenario
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
@@ -45,44 +58,155 @@ POLICY_DIR = Path(__file__).resolve().parent / "policies"
 # scenario with the same observation layout (gao_lawnmower: the lake trial of the
 # gao_sea policy's sea trial; same vehicles, smaller area, weaker current).
 SHARED_POLICIES = {"gao_lawnmower": "ppo_gao_sea"}
+# (model, normalization) of a run directory, in order of preference: the safe format,
+# then the old pickle-based one (refused unless trusted)
+RUN_FILES = (("best_model.safetensors", "best_vecnormalize.safetensors"),
+             ("model.safetensors", "vecnormalize.safetensors"))
+LEGACY_RUN_FILES = (("best_model.zip", "best_vecnormalize.pkl"), ("model.zip", "vecnormalize.pkl"))
 
-__all__ = ["DepthGatedPolicy", "PPOPolicy", "list_policies", "load", "make_policy", "resolve"]
+__all__ = ["DepthGatedPolicy", "PPOPolicy", "PickleRefused", "PolicyFormatError", "list_policies", "load",
+           "make_policy", "resolve", "trust_pickle"]
+
+_TRUSTED: set = set()  # pickle-based files the caller trusted (trust_pickle=True) in this process
+
+
+def trust_pickle(*paths):
+    """Trust these pickle-based files (resolved paths) for the rest of the process, as
+    ``trust_pickle=True`` does for the files it resolves."""
+    for path in paths:
+        if path is not None:
+            _TRUSTED.add(str(Path(path).resolve()))
+
+
+def _is_legacy(path) -> bool:
+    return path is not None and Path(path).suffix != ".safetensors"
+
+
+def _check_trusted(paths, trusted: bool):
+    """Refuse the pickle-based ones of ``paths`` unless ``trusted`` (then remember them),
+    and safe-format files that hold a pickle or a zip archive instead."""
+    from .formats import sniff
+
+    for path in paths:
+        if path is not None and not _is_legacy(path) and Path(path).is_file():
+            sniff(path)
+    legacy = [p for p in paths if _is_legacy(p)]
+    if trusted:
+        trust_pickle(*legacy)
+        return
+    untrusted = [str(p) for p in legacy if str(Path(p).resolve()) not in _TRUSTED]
+    if untrusted:
+        refuse_pickle(" and ".join(untrusted), "a pickle-based file" if len(untrusted) == 1 else
+                      "are pickle-based files")
 
 
 def list_policies() -> list:
     """Names of the policies shipped in agents/policies/."""
     if not POLICY_DIR.is_dir():
         return []
-    return sorted(p.name for p in POLICY_DIR.iterdir()
-                  if p.is_dir() and ((p / "gate.yml").is_file() or _model_files(p) is not None))
+
+    def has_model(p):
+        try:
+            return (p / "gate.yml").is_file() or _model_files(p) is not None
+        except (ValueError, OSError):
+            return False
+
+    return sorted(p.name for p in POLICY_DIR.iterdir() if p.is_dir() and has_model(p))
 
 
 def _model_files(directory: Path):
-    """(model zip, vecnormalize pickle) of a policy directory, or None."""
-    for model, stats in (("best_model.zip", "best_vecnormalize.pkl"), ("model.zip", "vecnormalize.pkl")):
+    """(model file, normalization file, which may be missing) of a policy directory, or
+    None: the best model, the final one (the safe format first, then the old one), else
+    the last checkpoint. A ``PolicyFormatError`` if last_checkpoint.json names a file outside checkpoints/."""
+    for model, stats in RUN_FILES:
+        if (directory / model).is_file():
+            return directory / model, directory / stats
+    for model, stats in LEGACY_RUN_FILES:
         if (directory / model).is_file():
             return directory / model, directory / stats
     last = directory / "checkpoints" / "last_checkpoint.json"
     if last.is_file():
-        info = json.loads(last.read_text())
-        return directory / "checkpoints" / info["model"], directory / "checkpoints" / info["vecnormalize"]
+        try:
+            info = json.loads(last.read_text())
+            names = str(info["model"]), str(info["vecnormalize"])
+        except (ValueError, KeyError, TypeError):
+            raise PolicyFormatError(f"{last} is not a checkpoint record (model, vecnormalize)") from None
+        ckpt_dir = directory / "checkpoints"
+        model, stats = (check_inside(ckpt_dir, n, f"{last}: file") for n in names)
+        return model, stats
     return None
 
 
-def resolve(name_or_path, scenario=None) -> tuple:
-    """(model zip, vecnormalize pickle or None, config.yml or None) for a name or path
-    (for an RLlib run: (checkpoint directory, None, config.yml or None))."""
+def _config_norm_obs(config_path) -> bool | None:
+    """Whether a run's config.yml says it trained on normalized observations (None: it
+    does not say: no config, or not an SB3 run)."""
+    if config_path is None:
+        return None
+    import yaml
+
+    try:
+        record = yaml.safe_load(Path(config_path).read_text()) or {}
+    except (OSError, yaml.YAMLError):
+        return None
+    if not isinstance(record, dict) or not isinstance(record.get("args"), dict):
+        return None
+    if (record["args"].get("backend") or "sb3") != "sb3":
+        return None
+    norm = ((record.get("hyperparameters") or {}).get("normalize") or {})
+    return bool(norm.get("norm_obs", True)) if isinstance(norm, dict) else None
+
+
+def _model_norm_obs(model_path) -> bool | None:
+    """The ``norm_obs`` a safe model file's header records (None: unknown)."""
+    if _is_legacy(model_path):
+        return None
+    try:
+        from safetensors import safe_open
+
+        with safe_open(str(model_path), framework="np") as f:
+            value = json.loads((f.metadata() or {}).get("coopnav", "{}")).get("norm_obs")
+    except Exception:  # noqa: BLE001 - a damaged file is reported when it is loaded
+        return None
+    return None if value is None else bool(value)
+
+
+def _check_normalization(model, stats, config):
+    """The normalization file ``stats`` (or None if missing); a ``PolicyFormatError`` if
+    the run was trained with normalized observations and it is missing."""
+    if stats is not None and Path(stats).is_file():
+        return Path(stats)
+    said = _config_norm_obs(config)
+    why = f"{config} says normalize.norm_obs: true"
+    if said is None:
+        said, why = _model_norm_obs(model), f"{model} records norm_obs: true"
+    if said:
+        missing = stats if stats is not None else Path(model).parent / "vecnormalize.safetensors"
+        raise PolicyFormatError(f"{missing} is missing, but the policy was trained on normalized observations "
+                                f"({why}): refused (it would act on unnormalized observations)")
+    return None
+
+
+def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
+    """(model file, normalization file or None, config.yml or None) for a name or path
+    (for an RLlib run: (checkpoint directory, None, config.yml or None); for a gated
+    policy: (gate.yml, None, None)). Refuses (``PolicyFormatError``) pickle-based files
+    unless ``trust_pickle``, a missing normalization file of a normalized run, and
+    checkpoint records pointing outside the run directory."""
     from . import rllib_policy
 
     if rllib_policy.is_rllib_path(name_or_path):
-        return rllib_policy.resolve(name_or_path, scenario)
+        return rllib_policy.resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     path = Path(str(name_or_path))
-    if path.suffix == ".zip" and path.is_file():
-        stem = path.name[:-4]
-        candidates = [path.with_name(stem + "_vecnormalize.pkl"),
-                      path.with_name("best_vecnormalize.pkl" if stem == "best_model" else "vecnormalize.pkl")]
-        stats = next((c for c in candidates if c.is_file()), None)
-        config = next((d / "config.yml" for d in (path.parent, path.parent.parent) if (d / "config.yml").is_file()), None)
+    if path.suffix in (".zip", ".safetensors") and path.is_file():
+        stem = path.name[:-len(path.suffix)]
+        ext = ".pkl" if path.suffix == ".zip" else ".safetensors"
+        candidates = [path.with_name(stem + "_vecnormalize" + ext),
+                      path.with_name(("best_vecnormalize" if stem == "best_model" else "vecnormalize") + ext)]
+        stats = next((c for c in candidates if c.is_file()), candidates[-1])
+        config = next((d / "config.yml" for d in (path.parent, path.parent.parent) if (d / "config.yml").is_file()),
+                      None)
+        stats = _check_normalization(path, stats, config)
+        _check_trusted([path, stats], trust_pickle)
         return path, stats, config
     if path.is_dir():
         directory = path
@@ -98,20 +222,45 @@ def resolve(name_or_path, scenario=None) -> tuple:
         directory = POLICY_DIR / name
         if not directory.is_dir():
             shipped = list_policies()
-            raise ValueError(f"no policy {name_or_path!r}: not a run directory, a .zip file or a shipped policy "
+            raise ValueError(f"no policy {name_or_path!r}: not a run directory, a model file or a shipped policy "
                              f"(shipped: {', '.join(shipped) if shipped else 'none yet'})")
     if (directory / "gate.yml").is_file():  # two policies and a gate: DepthGatedPolicy
         return directory / "gate.yml", None, None
     files = _model_files(directory)
     if files is None:
-        raise ValueError(f"{directory} holds no model (best_model.zip, model.zip or a checkpoint)")
+        raise ValueError(f"{directory} holds no model (best_model.safetensors, model.safetensors or a checkpoint)")
     model, stats = files
     config = directory / "config.yml"
-    return model, (stats if stats.is_file() else None), (config if config.is_file() else None)
+    config = config if config.is_file() else None
+    stats = _check_normalization(model, stats, config)
+    _check_trusted([model, stats], trust_pickle)
+    return model, stats, config
 
 
 def _scenario_name(scenario) -> str:
     return scenario if isinstance(scenario, str) else scenario.name
+
+
+class LoadedModel:
+    """What a loaded SB3 policy keeps of its model: the policy network (an SB3
+    ``ActorCriticPolicy``), its spaces and the steps it was trained for; ``predict``
+    as SB3's ``model.predict``."""
+
+    def __init__(self, policy, num_timesteps: int = 0):
+        self.policy = policy
+        self.observation_space = policy.observation_space
+        self.action_space = policy.action_space
+        self.num_timesteps = int(num_timesteps)
+
+    def predict(self, observation, deterministic: bool = True):
+        return self.policy.predict(observation, deterministic=deterministic)
+
+
+class RunningStats:
+    """Frozen observation statistics (``mean``, ``var``) of a run's normalization."""
+
+    def __init__(self, mean, var, count=0.0):
+        self.mean, self.var, self.count = np.asarray(mean, np.float64), np.asarray(var, np.float64), float(count)
 
 
 class PPOPolicy(BatchPolicy):
@@ -153,34 +302,63 @@ class PPOPolicy(BatchPolicy):
         return f"PPOPolicy({self.name!r}, scenario={scen!r})"
 
 
-def load(name_or_path, scenario=None, device="cpu") -> PPOPolicy:
+def load_model(model_path, device="cpu") -> LoadedModel:
+    """The policy network of a model file (safe format; a trusted .zip only after
+    ``resolve`` accepted it)."""
+    from . import formats
+
+    if _is_legacy(model_path):
+        _check_trusted([model_path], False)
+        ppo = formats.legacy_model(model_path, device=device)
+        return LoadedModel(ppo.policy, ppo.num_timesteps)
+    spec, state, _ = formats.read_model(model_path)
+    return LoadedModel(formats.build_policy(spec, state, where=model_path, device=device),
+                       spec.get("num_timesteps", 0))
+
+
+def load_stats(stats_path) -> dict | None:
+    """A normalization file's statistics (``formats.vecnormalize_stats``' dict), or None."""
+    from . import formats
+
+    if stats_path is None:
+        return None
+    if _is_legacy(stats_path):
+        _check_trusted([stats_path], False)
+        return formats.legacy_vecnormalize(stats_path)
+    return formats.read_vecnormalize(stats_path)
+
+
+def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPolicy:
     """A trained policy by shipped name ("ppo_sousa_asv"; "ppo" with ``scenario``), run
-    directory, or model .zip. With ``scenario`` (name or ScenarioConfig) its
-    observation size is checked against the policy's."""
+    directory, or model file. With ``scenario`` (name or ScenarioConfig) its
+    observation size is checked against the policy's. Nothing is unpickled unless
+    ``trust_pickle`` (then an old SB3 .zip/.pkl or an RLlib checkpoint loads)."""
     from . import rllib_policy
 
     if rllib_policy.is_rllib_path(name_or_path):  # train.py --backend rllib
-        return rllib_policy.load(name_or_path, scenario=scenario, device=device)
+        return rllib_policy.load(name_or_path, scenario=scenario, device=device, trust_pickle=trust_pickle)
     import yaml
-    from stable_baselines3 import PPO
 
-    model_path, stats_path, config_path = resolve(name_or_path, scenario)
+    model_path, stats_path, config_path = resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     if model_path.name == "gate.yml":
-        return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name)
-    model = PPO.load(model_path, device=device)
+        return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name,
+                           trust_pickle=trust_pickle)
+    model = load_model(model_path, device=device)
     obs_rms, clip_obs, epsilon = None, 10.0, 1e-8
-    if stats_path is not None:
-        with open(stats_path, "rb") as f:
-            vecnorm = pickle.load(f)
-        if getattr(vecnorm, "norm_obs", True):
-            obs_rms = vecnorm.obs_rms
-        clip_obs, epsilon = vecnorm.clip_obs, vecnorm.epsilon
+    stats = load_stats(stats_path)
+    if stats is not None:
+        if stats["norm_obs"]:
+            obs_rms = RunningStats(stats["obs_mean"], stats["obs_var"], stats["obs_count"])
+        clip_obs, epsilon = stats["clip_obs"], stats["epsilon"]
     run_config, trained_config = {}, None
     if config_path is not None:
         run_config = yaml.safe_load(config_path.read_text()) or {}
         trained_config = _trained_scenario(run_config)
     policy = PPOPolicy(model, obs_rms, clip_obs, epsilon, config=trained_config, run_config=run_config,
                        name=Path(str(name_or_path)).name)
+    if obs_rms is not None and obs_rms.mean.shape != (policy.obs_dim,):
+        raise PolicyFormatError(f"{stats_path}: normalization of shape {obs_rms.mean.shape} does not fit the "
+                                f"network's observations ({policy.obs_dim},)")
     if scenario is not None:
         from coopnav_env.obs_layout import obs_dim
         from coopnav_env.scenarios import make_config
@@ -234,38 +412,40 @@ class DepthGatedPolicy(BatchPolicy):
         return f"DepthGatedPolicy({self.name!r}, below {self.threshold_m} m: {self.shallow!r}, else {self.deep!r})"
 
 
-def _load_gated(gate_path: Path, scenario, device, name):
+def _load_gated(gate_path: Path, scenario, device, name, trust_pickle=False):
     import yaml
 
     spec = yaml.safe_load(gate_path.read_text()) or {}
     if spec.get("kind") != "depth_gate" or not {"threshold_m", "shallow", "deep"} <= set(spec):
         raise ValueError(f"{gate_path}: expected kind: depth_gate with threshold_m, shallow and deep")
-    parts = [load(gate_path.parent / spec[k], scenario=scenario, device=device) for k in ("shallow", "deep")]
+    dirs = [check_inside(gate_path.parent, str(spec[k]), f"{gate_path}: {k}") for k in ("shallow", "deep")]
+    parts = [load(d, scenario=scenario, device=device, trust_pickle=trust_pickle) for d in dirs]
     return DepthGatedPolicy(*parts, threshold_m=float(spec["threshold_m"]), name=name)
 
 
 _CACHE: dict = {}
 
 
-def make_policy(name_or_path, env_or_config=None, seed=None, agent=0) -> PPOPolicy:
+def make_policy(name_or_path, env_or_config=None, seed=None, agent=0, trust_pickle=False) -> PPOPolicy:
     """``baselines.make_policy``'s signature for trained policies: one policy per beacon
     and episode is cheap, since the loaded model is shared (cached by resolved path).
     ``seed`` and ``agent`` are accepted for the interface; the policy ignores them
-    (deterministic, and parameter-shared across beacons)."""
+    (deterministic, and parameter-shared across beacons). ``trust_pickle``: as ``load``."""
     from . import rllib_policy
 
     if rllib_policy.is_rllib_path(name_or_path):  # one module per beacon kind: the agent matters
-        return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent)
+        return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent,
+                                        trust_pickle=trust_pickle)
     scenario = None
     if env_or_config is not None:
         from coopnav_env.scenarios import resolve_config
 
         scenario = resolve_config(env_or_config)
-    model_path, _, _ = resolve(name_or_path, scenario)
+    model_path, _, _ = resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     key = (str(Path(model_path).resolve()), Path(model_path).stat().st_mtime_ns,
            None if scenario is None else scenario)
     if key not in _CACHE:
-        _CACHE[key] = load(name_or_path, scenario=scenario)
+        _CACHE[key] = load(name_or_path, scenario=scenario, trust_pickle=trust_pickle)
     base = _CACHE[key]
     if isinstance(base, DepthGatedPolicy):  # stateless: one instance serves every beacon and episode
         return base

@@ -23,6 +23,24 @@ What is loaded, from an RLlib (new API stack) ``Algorithm`` checkpoint:
 * the run's ``config.yml`` (the nearest one in the checkpoint's directory or above):
   the scenario it was trained on.
 
+**Pickle.** RLlib's own checkpoint files are read by unpickling
+(``class_and_ctor_args.pkl``, ``module_state.pkl``, the filter's ``state.pkl``), which
+runs whatever code they hold. So a checkpoint is loaded from its **safe export**,
+``<checkpoint>/policy_export/`` (written by train.py beside every checkpoint, or by
+``python -m agents.convert CKPT --out NEW --trust-pickle``), data only:
+
+* ``<module_id>.safetensors``: the RLModule's ``state_dict``; header metadata
+  ``coopnav`` (JSON): the module class (only ``DefaultPPOTorchRLModule`` with
+  ``PPOCatalog`` is rebuilt), observation and action spaces, ``inference_only``,
+  ``model_config``;
+* ``filters.safetensors`` (with ``normalize_obs``): each beacon's frozen MeanStdFilter
+  mean and std; metadata: shape, demean, destd, clip.
+
+A checkpoint without the export is refused (``agents.formats.PickleRefused``, one
+line) unless ``trust_pickle=True`` (``--trust-pickle``), which also trusts that
+checkpoint for the rest of the process. Trust only checkpoints you trained or got
+from someone you trust.
+
 Actions are deterministic: the mean of the module's Gaussian
 (``forward_inference`` -> ``action_dist_inputs`` -> the inference distribution's
 ``to_deterministic()``), clipped to [-1, 1] (the action space; RLlib's default
@@ -43,6 +61,10 @@ from agents.policy import BatchPolicy, _trained_scenario
 CHECKPOINT_MARKER = "rllib_checkpoint.json"
 MODULE_DIR = Path("learner_group") / "learner" / "rl_module"
 FILTER_STATE = Path("env_runner") / "env_to_module_connector" / "MeanStdFilter" / "state.pkl"
+EXPORT_DIR = "policy_export"
+FILTERS_FILE = "filters.safetensors"
+MODULE_FORMAT, FILTER_FORMAT = "coopnav-rllib-module", "coopnav-rllib-filters"
+SMALL_NUMBER = 1e-6  # ray.rllib.utils.filter's, in MeanStdFilter's std
 
 __all__ = ["RLlibPolicy", "find_checkpoint", "is_rllib_path", "load", "make_policy", "resolve"]
 
@@ -91,9 +113,10 @@ def find_run_config(checkpoint: Path) -> Path | None:
     return None
 
 
-def resolve(path, scenario=None) -> tuple:
+def resolve(path, scenario=None, trust_pickle=False) -> tuple:
     """(checkpoint directory, None, config.yml or None), as ``agents.resolve``; raises
-    ValueError if the run has no checkpoint (yet) or the checkpoint no module."""
+    ValueError if the run has no checkpoint (yet) or the checkpoint no module, and
+    ``PickleRefused`` unless ``trust_pickle`` (or the checkpoint was trusted before)."""
     ckpt = find_checkpoint(path)
     if ckpt is None:
         raise ValueError(f"{path} is not an RLlib checkpoint or train.py --backend rllib run")
@@ -102,7 +125,24 @@ def resolve(path, scenario=None) -> tuple:
     modules = ckpt / MODULE_DIR
     if not modules.is_dir() or not any(d.is_dir() for d in modules.iterdir()):
         raise ValueError(f"{ckpt} holds no RLModule ({MODULE_DIR}/<module id>)")
+    import agents
+
+    export = _export_files(ckpt)
+    if export:
+        agents._check_trusted(export, False)  # safetensors: refused only if one holds a pickle instead
+    elif not trust_pickle and str(ckpt.resolve()) not in agents._TRUSTED:  # RLlib's own files are pickle-based
+        from agents.formats import refuse_pickle
+
+        refuse_pickle(ckpt, f"an RLlib checkpoint without its safe export ({EXPORT_DIR}/), read by unpickling")
+    else:
+        agents._check_trusted([ckpt], True)
     return ckpt, None, find_run_config(ckpt)
+
+
+def _export_files(ckpt: Path) -> list:
+    """The safe export's files of checkpoint ``ckpt`` (empty: none)."""
+    d = ckpt / EXPORT_DIR
+    return sorted(d.glob("*.safetensors")) if d.is_dir() else []
 
 
 # --------------------------------------------------------------------------------------
@@ -116,11 +156,24 @@ class _LoadedRun:
         self.run_config = yaml.safe_load(config_path.read_text()) if config_path else {}
         self.run_config = self.run_config or {}
         self.trained_config = _trained_scenario(self.run_config)
-        self.module_ids = sorted(d.name for d in (checkpoint / MODULE_DIR).iterdir() if d.is_dir())
+        self.export = checkpoint / EXPORT_DIR if _export_files(checkpoint) else None
         self._modules = {}
-        self.filters = _load_filters(checkpoint / FILTER_STATE)
+        if self.export is not None:  # data only
+            self.module_ids = sorted(f.name[:-len(".safetensors")] for f in self.export.glob("*.safetensors")
+                                     if f.name != FILTERS_FILE)
+            self.filters = read_filters(self.export / FILTERS_FILE)
+        else:  # RLlib's pickle-based files: only for a trusted checkpoint (resolve checked)
+            self.module_ids = sorted(d.name for d in (checkpoint / MODULE_DIR).iterdir() if d.is_dir())
+            self.filters = _load_filters(checkpoint / FILTER_STATE)
 
     def module(self, module_id: str):
+        if module_id not in self._modules and self.export is not None:
+            if module_id not in self.module_ids:
+                raise ValueError(f"{self.checkpoint} has no module {module_id!r} (a beacon kind); "
+                                 f"modules: {', '.join(self.module_ids)}")
+            module = read_module(self.export / f"{module_id}.safetensors")
+            module.eval()
+            self._modules[module_id] = module
         if module_id not in self._modules:
             from ray.rllib.core.rl_module.rl_module import RLModule
 
@@ -159,6 +212,139 @@ def _load_filters(path: Path) -> dict:
         flt.running_stats = RunningStat.from_state(s["running_stats"][0])
         filters[agent_id] = flt
     return filters
+
+
+class FrozenMeanStd:
+    """RLlib's MeanStdFilter with frozen statistics (``update=False``): the same arithmetic."""
+
+    def __init__(self, mean, std, demean=True, destd=True, clip=10.0):
+        self.mean, self.std = np.asarray(mean), np.asarray(std)  # their dtype, as RLlib's filter has them
+        self.demean, self.destd, self.clip = bool(demean), bool(destd), clip
+
+    def __call__(self, x, update=False):
+        x = np.asarray(x)
+        orig_dtype = x.dtype
+        if self.demean:
+            x = x - self.mean
+        if self.destd:
+            x = x / (self.std + SMALL_NUMBER)
+        if self.clip:
+            x = np.clip(x, -self.clip, self.clip)
+        return x.astype(orig_dtype)
+
+
+# --------------------------------------------------------------------------------------
+# the safe export: writing (from a trusted checkpoint) and reading (no pickle)
+def _module_spec(module) -> dict:
+    from agents.formats import _box, _plain
+
+    cls = type(module)
+    if cls.__name__ != "DefaultPPOTorchRLModule":
+        raise ValueError(f"only DefaultPPOTorchRLModule modules can be exported, got {cls.__name__}")
+    config = module.model_config
+    if not isinstance(config, dict):
+        import dataclasses
+
+        config = dataclasses.asdict(config)
+    return {"format": MODULE_FORMAT, "version": 1, "module_class": cls.__name__, "catalog_class": "PPOCatalog",
+            "observation_space": _box(module.observation_space), "action_space": _box(module.action_space),
+            "inference_only": bool(module.inference_only), "model_config": _plain(config, "model_config")}
+
+
+def export(checkpoint, out_dir=None) -> Path:
+    """Write the safe export of a TRUSTED RLlib checkpoint (this reads its pickles) into
+    ``out_dir`` (default ``<checkpoint>/policy_export``), every file atomically."""
+    import json
+
+    from safetensors.numpy import save as save_np
+    from safetensors.torch import save as save_pt
+
+    from coopnav_env.records import atomic_write_bytes
+
+    checkpoint = Path(checkpoint)
+    out_dir = Path(out_dir) if out_dir is not None else checkpoint / EXPORT_DIR
+    out_dir.mkdir(parents=True, exist_ok=True)
+    run = _LoadedRun.__new__(_LoadedRun)
+    run.checkpoint, run._modules, run.export = checkpoint, {}, None
+    run.module_ids = sorted(d.name for d in (checkpoint / MODULE_DIR).iterdir() if d.is_dir())
+    for module_id in run.module_ids:
+        module = run.module(module_id)
+        tensors = {k: v.detach().cpu().contiguous().clone() for k, v in module.state_dict().items()}
+        atomic_write_bytes(out_dir / f"{module_id}.safetensors",
+                           save_pt(tensors, metadata={"coopnav": json.dumps(_module_spec(module))}))
+    filters = _load_filters(checkpoint / FILTER_STATE)
+    if filters:
+        tensors, meta = {}, {"format": FILTER_FORMAT, "version": 1, "agents": {}}
+        for agent_id, flt in filters.items():
+            tensors[f"{agent_id}.mean"] = np.ascontiguousarray(np.asarray(flt.running_stats.mean))  # dtype kept
+            tensors[f"{agent_id}.std"] = np.ascontiguousarray(np.asarray(flt.running_stats.std))
+            meta["agents"][agent_id] = {"demean": bool(flt.demean), "destd": bool(flt.destd),
+                                        "clip": None if flt.clip is None else float(flt.clip)}
+        atomic_write_bytes(out_dir / FILTERS_FILE, save_np(tensors, metadata={"coopnav": json.dumps(meta)}))
+    return out_dir
+
+
+def _open_export(path: Path, framework: str, expected: str) -> tuple:
+    import json
+
+    from safetensors import safe_open
+
+    from agents.formats import PolicyFormatError, sniff
+
+    sniff(path)
+    try:
+        with safe_open(str(path), framework=framework) as f:
+            meta = json.loads((f.metadata() or {}).get("coopnav", "null"))
+            tensors = {k: f.get_tensor(k) for k in f.keys()}
+    except Exception as err:  # noqa: BLE001 - safetensors' errors vary by version
+        raise PolicyFormatError(f"{path} is not a valid safetensors file ({str(err).splitlines()[0]})") from None
+    if not isinstance(meta, dict) or meta.get("format") != expected:
+        raise PolicyFormatError(f"{path} is not a {expected} file (no coopnav metadata)")
+    return tensors, meta
+
+
+def read_module(path: Path):
+    """The RLModule of an export file: DefaultPPOTorchRLModule rebuilt from its JSON, the
+    tensors loaded into it (no pickle)."""
+    from agents.formats import PolicyFormatError, _unbox
+
+    tensors, spec = _open_export(path, "pt", MODULE_FORMAT)
+    if spec.get("module_class") != "DefaultPPOTorchRLModule" or spec.get("catalog_class") != "PPOCatalog":
+        raise PolicyFormatError(f"{path}: unsupported module class {spec.get('module_class')!r}")
+    from ray.rllib.algorithms.ppo.ppo_catalog import PPOCatalog
+    from ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import DefaultPPOTorchRLModule
+
+    previous = logging.root.manager.disable
+    logging.disable(logging.WARNING)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            module = DefaultPPOTorchRLModule(observation_space=_unbox(spec["observation_space"], path),
+                                             action_space=_unbox(spec["action_space"], path),
+                                             inference_only=bool(spec.get("inference_only", False)),
+                                             model_config=dict(spec.get("model_config") or {}),
+                                             catalog_class=PPOCatalog)
+    finally:
+        logging.disable(previous)
+    try:
+        module.load_state_dict(tensors, strict=True)
+    except RuntimeError as err:
+        raise PolicyFormatError(f"{path} does not fit the module it describes: {str(err).splitlines()[0]}") from None
+    return module
+
+
+def read_filters(path: Path) -> dict:
+    """{agent_id: FrozenMeanStd} of an export's filters file (empty without one)."""
+    if not path.is_file():
+        return {}
+    from agents.formats import PolicyFormatError
+
+    tensors, meta = _open_export(path, "np", FILTER_FORMAT)
+    try:
+        return {agent_id: FrozenMeanStd(tensors[f"{agent_id}.mean"], tensors[f"{agent_id}.std"], s["demean"],
+                                        s["destd"], s["clip"]) for agent_id, s in meta["agents"].items()}
+    except (KeyError, TypeError) as err:
+        raise PolicyFormatError(f"{path}: incomplete filter statistics ({err})") from None
 
 
 class RLlibPolicy(BatchPolicy):
@@ -216,8 +402,8 @@ class RLlibPolicy(BatchPolicy):
 _RUNS: dict = {}
 
 
-def _run(path, scenario=None) -> _LoadedRun:
-    ckpt, _, config_path = resolve(path, scenario)
+def _run(path, scenario=None, trust_pickle=False) -> _LoadedRun:
+    ckpt, _, config_path = resolve(path, scenario, trust_pickle=trust_pickle)
     marker = ckpt / CHECKPOINT_MARKER
     key = (str(ckpt.resolve()), marker.stat().st_mtime_ns)
     if key not in _RUNS:
@@ -244,18 +430,18 @@ def _obs_dim(config) -> int:
     return int(obs_dim(config))
 
 
-def load(path, scenario=None, agent=0, device="cpu") -> RLlibPolicy:
+def load(path, scenario=None, agent=0, device="cpu", trust_pickle=False) -> RLlibPolicy:
     """The policy of beacon ``agent`` (index or "beacon_k") from an RLlib checkpoint or
     run directory. With ``scenario`` (name, ScenarioConfig or env) the observation
     size is checked and the beacon's kind picks the module; without it, the scenario
-    the run trained on."""
+    the run trained on. Refused unless ``trust_pickle`` (see the module docstring)."""
     if device != "cpu":
         raise ValueError("RLlib policies load on the CPU")
     if isinstance(agent, str):
         if not agent.startswith("beacon_") or not agent[7:].isdigit():
             raise ValueError(f"agent must be an index or 'beacon_<k>', got {agent!r}")
         agent = int(agent[7:])
-    run = _run(path, scenario)
+    run = _run(path, scenario, trust_pickle=trust_pickle)
     target = _target(scenario)
     policy = RLlibPolicy(run, agent, config=target if target is not None else run.trained_config,
                          name=Path(str(path)).name)
@@ -271,16 +457,17 @@ def load(path, scenario=None, agent=0, device="cpu") -> RLlibPolicy:
     return policy
 
 
-def make_policy(path, env_or_config=None, seed=None, agent=0) -> RLlibPolicy:
+def make_policy(path, env_or_config=None, seed=None, agent=0, trust_pickle=False) -> RLlibPolicy:
     """``baselines.make_policy``'s signature: one policy per beacon and episode is cheap
     (the loaded modules are shared). ``seed`` is accepted for the interface."""
-    return load(path, scenario=env_or_config, agent=agent)
+    return load(path, scenario=env_or_config, agent=agent, trust_pickle=trust_pickle)
 
 
 def batch_actor(path, config):
     """``act(obs (n_envs * N, D), venv) -> (n_envs * N, 2)`` for train.py's ``evaluate``:
-    every beacon's rows through its kind's module, all environments at once."""
-    policies = [load(path, scenario=config, agent=j) for j in range(config.n_beacons)]
+    every beacon's rows through its kind's module, all environments at once (the
+    trainer's own checkpoint, just written: trusted)."""
+    policies = [load(path, scenario=config, agent=j, trust_pickle=True) for j in range(config.n_beacons)]
     N = config.n_beacons
 
     def act(obs, venv):
@@ -290,3 +477,24 @@ def batch_actor(path, config):
         return out
 
     return act
+
+
+def convert(src, out):
+    """``agents.convert`` of a TRUSTED RLlib run or checkpoint: a copy of it (an RLlib run
+    directory stays resumable with --trust-pickle) with the safe export written into its
+    checkpoint, which ``agents.load`` then reads without unpickling."""
+    import shutil
+
+    src, out = Path(src), Path(out)
+    ckpt = find_checkpoint(src)
+    if ckpt is None or not (ckpt / CHECKPOINT_MARKER).is_file():
+        from agents.formats import PolicyFormatError
+
+        raise PolicyFormatError(f"{src} holds no RLlib checkpoint")
+    if out.is_dir() and not any(out.iterdir()):  # agents.convert allows an empty --out: copytree creates it
+        out.rmdir()
+    shutil.copytree(src, out, symlinks=True)
+    new_ckpt = out / ckpt.relative_to(src) if ckpt != src else out
+    shutil.rmtree(new_ckpt / EXPORT_DIR, ignore_errors=True)  # never keep an export that came with it
+    export(new_ckpt)
+    return new_ckpt

@@ -199,7 +199,8 @@ def test_run_directory_loads_acts_and_evaluates(tmp_path, local_ray, capsys):
             "--out", str(out), "--config", _tiny_yaml(tmp_path)]
     assert cli.main(argv) == 0
     for name in ("config.yml", "checkpoint/rllib_checkpoint.json", "checkpoint/coopnav.json", "progress.jsonl",
-                 "evaluations.jsonl", "checkpoint/learner_group/learner/rl_module/asv"):
+                 "evaluations.jsonl", "checkpoint/learner_group/learner/rl_module/asv",
+                 "checkpoint/policy_export/asv.safetensors", "checkpoint/policy_export/filters.safetensors"):
         assert (out / name).exists(), name
     assert not list(out.glob(".checkpoint*"))  # no temporary checkpoint left behind
     config = yaml.safe_load((out / "config.yml").read_text())
@@ -247,7 +248,18 @@ def test_multi_beacon_checkpoint_maps_every_beacon_to_its_kind(tmp_path, local_r
     finally:
         algo.stop()
     scen = coopnav_env.make_config("gao_lawnmower", beacon_kinds=("beacon_auv", "asv"), max_cycles=3)
+    with pytest.raises(agents.PickleRefused, match="--trust-pickle"):  # RLlib's own files: pickle
+        agents.make_policy(tmp_path / "ckpt", scen, seed=0, agent=0)
+    trusted = [agents.make_policy(tmp_path / "ckpt", scen, seed=0, agent=j, trust_pickle=True) for j in range(2)]
+    from agents import rllib_policy
+
+    rllib_policy.export(tmp_path / "ckpt")  # the safe export: the same policies, no pickle read
+    rllib_policy._RUNS.clear()
     policies = [agents.make_policy(tmp_path / "ckpt", scen, seed=0, agent=j) for j in range(2)]
+    assert policies[0].run.export is not None
+    obs = np.random.default_rng(0).normal(size=(8, policies[0].obs_dim)).astype(np.float32)
+    for a, b in zip(trusted, policies):
+        assert np.array_equal(a.act_batch(obs), b.act_batch(obs))
     assert [p.module_id for p in policies] == ["beacon_auv", "asv"]
     env = coopnav_env.parallel_env(scen, seed=1)
     obs, _ = env.reset()
@@ -293,7 +305,10 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
     monkeypatch.undo()
 
     os.replace(out / "checkpoint", out / ".checkpoint.old1")  # as if killed between save_checkpoint's renames
-    assert cli.main(["--resume", str(out)]) == 0
+    capsys.readouterr()
+    assert cli.main(["--resume", str(out)]) == 2  # RLlib's checkpoint is pickle-based: --trust-pickle
+    assert "--trust-pickle" in capsys.readouterr().err
+    assert cli.main(["--resume", str(out), "--trust-pickle"]) == 0
     final = json.loads((out / "checkpoint" / "coopnav.json").read_text())
     assert (final["env_steps"], final["iteration"]) == (reached["env_steps"], reached["iteration"])
     progress = [json.loads(line) for line in (out / "progress.jsonl").read_text().splitlines()]
@@ -310,7 +325,7 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
         obs, *_ = env.step({"beacon_0": action})
 
     # resuming a finished run is a no-op that succeeds; a conflicting --backend is one line
-    assert cli.main(["--resume", str(out), "--backend", "rllib"]) == 0
+    assert cli.main(["--resume", str(out), "--backend", "rllib", "--trust-pickle"]) == 0
     assert (out / "evaluations.jsonl").read_text() == evaluations
     assert json.loads((out / "checkpoint" / "coopnav.json").read_text()) == final
     capsys.readouterr()

@@ -54,10 +54,11 @@ def test_tiny_training_run_writes_a_loadable_policy(tmp_path, monkeypatch):
     t0 = time.perf_counter()
     assert _run(tmp_path, out, 1000) == 0
     assert time.perf_counter() - t0 < 60
-    for name in ("config.yml", "model.zip", "vecnormalize.pkl", "best_model.zip", "best_vecnormalize.pkl",
-                 "best.json", "evaluations.jsonl", "checkpoints/last_checkpoint.json"):
+    for name in ("config.yml", "model.safetensors", "vecnormalize.safetensors", "best_model.safetensors",
+                 "best_vecnormalize.safetensors", "best.json", "evaluations.jsonl", "checkpoints/last_checkpoint.json"):
         assert (out / name).is_file(), name
     assert not list(out.rglob(".*.tmp*"))  # no temporary file left behind
+    assert not [f for f in out.rglob("*") if f.suffix in (".zip", ".pkl")]  # no pickle-based file
     config = yaml.safe_load((out / "config.yml").read_text())
     assert config["args"] == {"scenario": "sousa_asv", "timesteps": 1000, "seed": 3}
     assert config["hyperparameters"]["ppo"]["n_steps"] == 64
@@ -78,14 +79,14 @@ def test_tiny_training_run_writes_a_loadable_policy(tmp_path, monkeypatch):
         assert action.shape == (2,) and action.dtype == np.float32 and np.all(np.abs(action) <= 1)
         assert np.array_equal(action, policy.act(obs["beacon_0"]))  # deterministic
         obs, *_ = env.step({"beacon_0": action})
-    final = agents.load(out / "model.zip")
+    final = agents.load(out / "model.safetensors")
     assert final.model.num_timesteps == 4 * ROLLOUT
     assert final.act_batch(np.zeros((3, final.obs_dim))).shape == (3, 2)
 
     # shipped the way agents/policies/<name>/ holds it: found by name, and as "ppo" of its scenario
     shipped = tmp_path / "policies" / "ppo_sousa_asv"
     shipped.mkdir(parents=True)
-    for name in ("model.zip", "vecnormalize.pkl", "config.yml"):
+    for name in ("model.safetensors", "vecnormalize.safetensors", "config.yml"):
         (shipped / name).write_bytes((out / name).read_bytes())
     monkeypatch.setattr(agents, "POLICY_DIR", tmp_path / "policies")
     assert agents.list_policies() == ["ppo_sousa_asv"]
@@ -118,7 +119,7 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path):
     assert code == EXIT_INTERRUPTED
     stopped = json.loads(ckpt.read_text())["num_timesteps"]
     assert 0 < stopped < total and stopped % ROLLOUT == 0
-    assert not (out / "model.zip").exists()
+    assert not (out / "model.safetensors").exists()
 
     assert cli.main(["--resume", str(out), "--no-progress"]) == 0
     assert json.loads(ckpt.read_text())["num_timesteps"] == 12 * ROLLOUT  # what an uninterrupted run reaches
@@ -289,9 +290,9 @@ def test_depth_gated_policy_routes_by_the_observed_depth(tmp_path):
 
 
 def test_init_from_starts_from_another_runs_weights_and_normalization(tmp_path, capsys):
-    import pickle
-
     import torch
+
+    from agents.formats import read_vecnormalize
 
     source = tmp_path / "source"
     assert _run(tmp_path, source, 256, eval={"every_steps": 0}) == 0
@@ -301,12 +302,10 @@ def test_init_from_starts_from_another_runs_weights_and_normalization(tmp_path, 
                 ppo=dict(TINY["ppo"], learning_rate=0.0)) == 0
     a, b = agents.load(source).model.policy.state_dict(), agents.load(warm).model.policy.state_dict()
     assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
-    with open(source / "vecnormalize.pkl", "rb") as f:
-        src_stats = pickle.load(f)
-    with open(warm / "vecnormalize.pkl", "rb") as f:
-        warm_stats = pickle.load(f)
+    src_stats = read_vecnormalize(source / "vecnormalize.safetensors")
+    warm_stats = read_vecnormalize(warm / "vecnormalize.safetensors")
     # the statistics continued from the source's: + the first reset's 4 observations + one rollout
-    assert warm_stats.obs_rms.count == pytest.approx(src_stats.obs_rms.count + 4 + ROLLOUT)
+    assert warm_stats["obs_count"] == pytest.approx(src_stats["obs_count"] + 4 + ROLLOUT)
     # a run from scratch with the same seed ends elsewhere: the test above can fail
     scratch = tmp_path / "scratch"
     assert _run(tmp_path, scratch, 256, eval={"every_steps": 0}, ppo=dict(TINY["ppo"], learning_rate=0.0)) == 0
@@ -389,7 +388,7 @@ def test_training_through_the_library_api(tmp_path, capsys):
     assert sb3.train(config, out) == 0
     policy = agents.load(out, scenario="gao_lawnmower")
     assert policy.config.max_cycles == 6 and policy.act(np.zeros(policy.obs_dim)).shape == (2,)
-    assert agents.load(out / "model.zip").model.num_timesteps == 3 * 128  # 300 rounded up to whole rollouts
+    assert agents.load(out / "model.safetensors").model.num_timesteps == 3 * 128  # 300 rounded up to whole rollouts
     record = yaml.safe_load((out / "config.yml").read_text())
     assert config_from_record(record) == config  # the record holds the whole config
     assert record["versions"]["coopnav"] and "git_commit" in record["versions"]

@@ -14,6 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from agents.formats import PolicyFormatError
 from coopnav_env.seeds import VALIDATION_SEED
 
 from . import rllib, sb3
@@ -43,9 +44,10 @@ sections and defaults: agents.training.config (TrainConfig, RLlibConfig); an unk
 an error naming the closest valid one. The evaluation that picks the best model runs on the
 validation seeds {VALIDATION_SEED}.. (eval.seed).
 
-a run directory: config.yml (the exact config), model.zip + vecnormalize.pkl, best_model.zip,
-checkpoints/, evaluations.jsonl, baseline_eval.json (RLlib: checkpoint/, progress.jsonl);
-agents.load(DIR) loads the policy.
+a run directory: config.yml (the exact config), model.safetensors + vecnormalize.safetensors,
+best_model.safetensors, checkpoints/, evaluations.jsonl, baseline_eval.json (RLlib: checkpoint/,
+progress.jsonl); agents.load(DIR) loads the policy. --resume of a run stopped before its first
+checkpoint starts it from scratch with its config.yml.
 
 exit status: 0 done; 1 a Tune trial failed; 2 bad input (one line on stderr); 130 stopped by
 Ctrl-C/SIGTERM after a checkpoint (continue with --resume DIR)."""
@@ -119,6 +121,11 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
                           "machine makes extra threads spin)")
     run.add_argument("--no-progress", action="store_true", help="no progress bar (default: a bar, SB3 only)")
     run.add_argument("--verbose", metavar="N", type=int, default=0, help="SB3's verbosity, 0-2 (default: 0)")
+    run.add_argument("--trust-pickle", action="store_true",
+                     help="accept pickle-based files, which can run code when loaded: an old run's .zip/.pkl "
+                          "checkpoints (--resume), an old init_from policy, an RLlib checkpoint (--resume of an "
+                          "rllib run); only for files you trust (default: refused; convert them once with "
+                          "python -m agents.convert SRC --out NEW_DIR --trust-pickle)")
     ray = p.add_argument_group("--backend rllib only")
     ray.add_argument("--num-env-runners", metavar="N", type=_int_at_least(0),
                      help="env runner processes (0: sample in this process) (default: the config's "
@@ -138,7 +145,7 @@ def main(argv=None) -> int:
     try:
         args = build_parser(prog).parse_args(argv)
         return run(args, argv)
-    except ConfigError as err:
+    except (ConfigError, PolicyFormatError) as err:
         print(f"{prog}: error: {' '.join(str(err).splitlines())}", file=sys.stderr)
         return EXIT_BAD_INPUT
 
@@ -157,10 +164,10 @@ def run(args, argv=None) -> int:
             raise ConfigError(f"{out} is a --backend {backend} run; drop --backend {args.backend}")
         if backend == "rllib":
             return rllib.resume(out, num_env_runners=args.num_env_runners, ray_address=args.ray_address,
-                                threads=args.threads)
+                                threads=args.threads, trust_pickle=args.trust_pickle)
         _sb3_only(args, f" ({out} is an sb3 run)")
         return sb3.resume(out, device=args.device, threads=args.threads, progress=not args.no_progress,
-                          verbose=args.verbose)
+                          verbose=args.verbose, trust_pickle=args.trust_pickle)
 
     backend = args.backend or "sb3"
     if backend == "sb3":
@@ -181,7 +188,7 @@ def run(args, argv=None) -> int:
         return rllib.train(config, args.out, num_env_runners=args.num_env_runners, ray_address=args.ray_address,
                            tune=rllib.parse_tune(args.tune or []), **common)
     return sb3.train(config, args.out, device=args.device, progress=not args.no_progress, verbose=args.verbose,
-                     **common)
+                     trust_pickle=args.trust_pickle, **common)
 
 
 def _sb3_only(args, why: str = ""):

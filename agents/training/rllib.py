@@ -28,7 +28,8 @@ they spread over the cluster's nodes. The learner runs in the driver (``learners
 
 **Stop and resume.** SIGINT (Ctrl-C) or SIGTERM stops the run after the current
 training iteration, writes the checkpoint and returns ``EXIT_INTERRUPTED`` (130),
-printing the command that continues it: ``python train.py --resume <out>``. The
+printing the command that continues it: ``python train.py --resume <out> --trust-pickle``
+(RLlib's checkpoint is pickle-based: the flag says you trust your own run). The
 resumed run takes its config from ``config.yml`` (``num_env_runners`` and
 ``ray_address`` may be given anew; by default the run's runner count, on a local Ray
 instance), rebuilds the PPOConfig and restores the Algorithm from ``checkpoint/``
@@ -48,13 +49,19 @@ What a run directory holds:
     checkpoint/        the RLlib Algorithm checkpoint (``algo.save_to_path``), replaced
                        whole every ``checkpoint_every_iterations``, on a stop and at the
                        end (written beside, then renamed); ``coopnav.json`` in it: steps,
-                       iteration (what resume reads)
+                       iteration (what resume reads); ``policy_export/`` in it: the
+                       modules and observation filters as safetensors + JSON, what
+                       agents.load reads (RLlib's own files are pickle-based)
     progress.jsonl     one line per training iteration (steps, returns, survey error, training
                        wall time summed over the sessions of a resumed run)
     evaluations.jsonl  the final evaluation on fixed seeds (``eval:``)
     baseline_eval.json the baselines on the same seeds
 
-``agents.load(out)`` (and so the evaluation's ``--policies out,fim_a``) loads the policy.
+``agents.load(out)`` (and so the evaluation's ``--policies out,fim_a``) loads the policy,
+from ``checkpoint/policy_export/`` (no pickle). **Resuming** restores RLlib's own
+checkpoint, which is pickle-based: ``--resume`` needs ``--trust-pickle`` (your own run;
+never a checkpoint from an untrusted source). A run stopped before its first
+checkpoint starts again from scratch with its config.yml.
 
 **Tune** (``tune={"lr": [1e-4, 3e-4], "seed": [0, 1]}``, ``--tune KEY=V1,V2`` on the
 command line): the grid of every combination, one RLlib trial each, run by
@@ -96,23 +103,31 @@ __all__ = ["build_config", "metrics", "parse_tune", "require_ray", "resume", "sa
 
 def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None = None, hyperparameter_file=None,
           num_env_runners: int | None = None, ray_address: str | None = None, tune: dict | None = None,
-          threads: int = 1) -> int:
+          threads: int = 1, trust_pickle: bool = False) -> int:
     """Train ``config`` on RLlib into run directory ``out`` (new, or with ``resume`` the
     run's own directory, continued from its checkpoint). ``num_env_runners`` overrides
     ``env_runners.num_env_runners``; ``ray_address`` joins a running cluster; ``tune``
     ({key: [values]}) runs a Tune grid instead of one run. Returns 0 when done (1 if a
     Tune trial failed), ``EXIT_INTERRUPTED`` after SIGINT/SIGTERM (checkpoint
-    written). Bad input raises ``ConfigError`` before anything is written."""
+    written). Bad input raises ``ConfigError`` before anything is written. Resuming
+    restores RLlib's checkpoint, which is pickle-based: refused unless ``trust_pickle``
+    (``--trust-pickle``); a run stopped before its first checkpoint starts again from
+    scratch with its config.yml."""
     require_ray()
     out = Path(out)
+    restart = False
     if resume:
         record = read_run_record(out)
         if record["args"].get("tune"):
             raise ConfigError(f"{out} is a Ray Tune grid (--tune): --resume continues single runs only")
         meta = resumable_checkpoint(out)
         if meta is None:
-            raise ConfigError(f"{out} has no checkpoint to resume from (checkpoint/coopnav.json); "
-                              "start it again with --out")
+            restart = True
+        elif not trust_pickle:
+            from agents.formats import PickleRefused
+
+            raise PickleRefused(f"{out / 'checkpoint'} is an RLlib checkpoint, which is read by unpickling and can "
+                                f"run code: refused; if you trust it (your own run), pass --trust-pickle")
         if num_env_runners is None:
             num_env_runners = record["args"].get("num_env_runners")
     else:
@@ -139,6 +154,11 @@ def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None
                   "instance (pass --ray-address to join a cluster)")
         # fresh episodes: the environments' and RLlib's seed from the run's seed and the step count
         algo_config, _ = build_config(config, seed=resume_seed(config.seed, int(meta["env_steps"])))
+    elif restart:  # stopped before its first checkpoint: again from step 0, with its config.yml
+        (out / "progress.jsonl").unlink(missing_ok=True)
+        print(f"note: {out} has no checkpoint yet (stopped before its first one): starting it from scratch with "
+              "its config.yml", file=sys.stderr)
+        algo_config, _ = build_config(config)
     else:
         algo_config, mapping = build_config(config)
         import ray
@@ -165,7 +185,7 @@ def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None
 
 def resume(out, **options) -> int:
     """Continue the RLlib run in ``out`` with its own config.yml (``train``'s keyword
-    options: num_env_runners, ray_address, threads)."""
+    options: num_env_runners, ray_address, threads, trust_pickle)."""
     return train(run_config(out, RLlibConfig), out, resume=True, **options)
 
 
@@ -361,6 +381,9 @@ def save_checkpoint(algo, out: Path, meta: dict) -> Path:
     old = out / f".checkpoint.old{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     algo.save_to_path(str(tmp.resolve()))
+    from agents.rllib_policy import export
+
+    export(tmp)  # policy_export/: the modules and filters as data, what agents.load reads (no pickle)
     atomic_write_text(tmp / "coopnav.json", json.dumps(meta))
     if final.exists():
         os.replace(final, old)
@@ -487,7 +510,7 @@ def run_training(algo_config, out: Path, config: RLlibConfig, job, restore: dict
             algo.stop()
     if stop:
         print(f"stopped at {m['env_steps']} env steps (iteration {m['iteration']}), checkpoint in "
-              f"{out / 'checkpoint'}; continue with: {resume_command(out)}", file=sys.stderr)
+              f"{out / 'checkpoint'}; continue with: {resume_command(out)} --trust-pickle", file=sys.stderr)
         return EXIT_INTERRUPTED
     finish(out, m, config, job)
     wall = time.perf_counter() - t_train
@@ -572,6 +595,10 @@ def run_tune(algo_config, grid: dict, out: Path, config: RLlibConfig, job) -> in
             continue
         m = metrics(r.metrics or {})
         ckpt = Path(r.checkpoint.path) if r.checkpoint is not None else None
+        if ckpt is not None:  # the trial's own checkpoint: its safe export, what agents.load reads
+            from agents.rllib_policy import export
+
+            export(ckpt)
         evaluation = evaluate_checkpoint(ckpt, config, job) if ckpt else None
         row.update({"env_steps": m["env_steps"], "iterations": m["iteration"],
                     "episode_return_mean": m["episode_return_mean"], "train_survey_error_m": m["survey_error_m"],

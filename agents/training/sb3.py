@@ -12,14 +12,15 @@ model, stops on a signal) -> final save. Every beacon of every environment is on
 row of the batch, so one policy drives them all (parameter sharing:
 ``coopnav_env.vector.CoopNavVecEnv``).
 
-What a run directory holds:
+What a run directory holds (data only, no pickle: ``agents.formats``):
 
     config.yml                 the exact config (see agents.training.common)
-    model.zip                  the final SB3 model            } loaded by agents.load(dir)
-    vecnormalize.pkl           its observation normalization  }
-    best_model.zip, best_vecnormalize.pkl, best.json   the best evaluated model
-    checkpoints/               ckpt_<steps>.zip + ckpt_<steps>_vecnormalize.pkl (the
-                               last two), last_checkpoint.json (what resume reads)
+    model.safetensors          the final policy network (+ optimizer)  } loaded by agents.load(dir)
+    vecnormalize.safetensors   its observation normalization           }
+    best_model.safetensors, best_vecnormalize.safetensors, best.json   the best evaluated model
+    checkpoints/               ckpt_<steps>.safetensors (weights, Adam state, step count) +
+                               ckpt_<steps>_vecnormalize.safetensors (the last two),
+                               last_checkpoint.json (what resume reads)
     evaluations.jsonl          one line per evaluation
     baseline_eval.json         the baselines on the evaluation seeds
     tb/                        TensorBoard logs (if tensorboard is installed)
@@ -28,23 +29,31 @@ Every file is written to a temporary name and moved into place, so an interrupte
 run never leaves a half-written checkpoint. SIGINT or SIGTERM stops at the next
 rollout boundary after writing a checkpoint (``EXIT_INTERRUPTED``); ``resume``
 continues from the last one up to the same total step count, with fresh episodes
-(the environments' episode state is not saved).
+(the environments' episode state is not saved): PPO is rebuilt from config.yml and
+the checkpoint's weights, optimizer state and step count are loaded into it. A run
+stopped before its first checkpoint (config.yml, no checkpoint) resumes from
+scratch with its config.yml (a note on stderr says so). A run directory of the old
+pickle-based format (``.zip``/``.pkl`` checkpoints) is refused unless
+``trust_pickle`` (``--trust-pickle``), and so is a ``last_checkpoint.json`` naming a
+file outside ``checkpoints/``.
 
-Warm start (``init_from``): the network's weights and the observation normalization
-from another policy (the learning-rate schedule starts afresh; the network's shape
-must match); a resumed run ignores it (the checkpoint holds the weights).
+Warm start (``init_from``): the network's weights, optimizer state and observation
+normalization from another policy (the learning-rate schedule starts afresh; the
+network's shape must match); a resumed run ignores it (the checkpoint holds the
+weights). Pickle-based sources are refused unless ``trust_pickle``.
 """
 
 from __future__ import annotations
 
-import io
 import json
-import pickle
 import sys
 import time
 from pathlib import Path
 
-from coopnav_env.records import atomic_write_bytes, atomic_write_text, read_json
+from coopnav_env.records import atomic_write_text, read_json
+
+from agents import formats
+from agents.formats import PolicyFormatError
 
 from .common import (EXIT_INTERRUPTED, new_run_dir, prepare_job, resume_command, resume_seed, run_config,
                      stop_on_signals, write_run_record)
@@ -56,27 +65,28 @@ __all__ = ["learning_rate", "policy_kwargs", "resume", "train", "warm_start_file
 
 def train(config: TrainConfig, out, resume: bool = False, *, command: str | None = None,
           hyperparameter_file=None, device: str = "cpu", threads: int = 1, progress: bool = False,
-          verbose: int = 0) -> int:
+          verbose: int = 0, trust_pickle: bool = False) -> int:
     """Train ``config`` into run directory ``out`` (new, or with ``resume`` the run's own
     directory, continued from its last checkpoint). Returns 0 when done,
     ``EXIT_INTERRUPTED`` after SIGINT/SIGTERM (checkpoint written). Bad input raises
     ``ConfigError`` before anything is written. ``command`` and
     ``hyperparameter_file`` are recorded in config.yml; ``threads``: torch threads
-    (1: PPO's small batches gain little from more)."""
+    (1: PPO's small batches gain little from more); ``trust_pickle``: accept
+    pickle-based checkpoints and ``init_from`` files (they can run code)."""
     started = time.perf_counter()
     out = Path(out)
 
     # --- the run directory: a new one, or the checkpoint to continue from -----------
+    ckpt = None
     if resume:
-        ckpt = read_json(out / "checkpoints" / "last_checkpoint.json")
-        if ckpt is None:
-            raise ConfigError(f"{out} has no checkpoint to resume from (checkpoints/last_checkpoint.json)")
+        ckpt = checkpoint_files(out, trust_pickle)
     else:
         new_run_dir(out)
-        ckpt = None
     config.check()
     job = prepare_job(config)
-    warm = warm_start_files(config.init_from) if config.init_from and not resume else None
+    if resume and ckpt is None:  # stopped before its first checkpoint: start it again with its config.yml
+        restart_from_scratch(out)
+    warm = warm_start_files(config.init_from, trust_pickle) if config.init_from and not ckpt else None
 
     import torch
     from stable_baselines3 import PPO
@@ -94,22 +104,22 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     # --- the environment: one batched simulator, VecMonitor, VecNormalize -----------
     venv = VecMonitor(CoopNavVecEnv(job.scenario_config, n_envs=config.n_envs, seed=run_seed, step_infos=False,
                                     reward_terms=job.reward_terms))
-    if ckpt:
-        with open(out / "checkpoints" / ckpt["vecnormalize"], "rb") as f:
-            vecnorm = pickle.load(f)
-        vecnorm.set_venv(venv)
-        vecnorm.training = True
+    ckpt_stats = _read_stats(ckpt["vecnormalize"]) if ckpt else None
+    if ckpt_stats is not None:  # the checkpoint's statistics and settings, training on
+        s = ckpt_stats
+        vecnorm = VecNormalize(venv, gamma=s["gamma"], norm_obs=s["norm_obs"], norm_reward=s["norm_reward"],
+                               clip_obs=s["clip_obs"], clip_reward=s["clip_reward"], epsilon=s["epsilon"])
+        _restore(vecnorm, s, ckpt["vecnormalize"])
     else:
         norm = config.normalize
         vecnorm = VecNormalize(venv, gamma=float(config.ppo.get("gamma", 0.99)), norm_obs=norm.norm_obs,
                                norm_reward=norm.norm_reward, clip_obs=norm.clip_obs, clip_reward=norm.clip_reward,
                                epsilon=norm.epsilon)
 
-    # --- PPO ----------------------------------------------------------------------
+    # --- PPO: built from the config; a checkpoint's or init_from's state loaded into it
     tb_dir = str(out / "tb") if _installed("tensorboard") else None
-    if ckpt:
-        model = PPO.load(out / "checkpoints" / ckpt["model"], env=vecnorm, device=device,
-                         tensorboard_log=tb_dir, verbose=verbose)
+    if ckpt and ckpt["model"].suffix == ".zip":  # an old run's checkpoint, trusted (--trust-pickle)
+        model = PPO.load(ckpt["model"], env=vecnorm, device=device, tensorboard_log=tb_dir, verbose=verbose)
         model.set_random_seed(run_seed)
     else:
         ppo = dict(config.ppo)
@@ -120,15 +130,12 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
                         device=device, tensorboard_log=tb_dir, verbose=verbose, **ppo)
         except (TypeError, ValueError, AssertionError, KeyError) as err:
             raise ConfigError(f"bad PPO hyperparameters: {_first_line(err)}") from None
-        if warm:  # weights and normalization from another policy; the optimizer state comes with the weights
-            try:
-                model.set_parameters(str(warm[0]), exact_match=True, device=device)
-            except (RuntimeError, ValueError, KeyError) as err:
-                raise ConfigError(f"init_from {warm[0]} does not fit this network: {_first_line(err)}") from None
+        if ckpt:  # weights, optimizer state and step count of the checkpoint
+            load_state(model, ckpt["model"], device, what=f"checkpoint {ckpt['model']}", restore_steps=True)
+        elif warm:  # weights, optimizer state and normalization from another policy
+            load_state(model, warm[0], device, what=f"init_from {warm[0]}")
             if warm[1] is not None:
-                with open(warm[1], "rb") as f:
-                    source = pickle.load(f)
-                vecnorm.obs_rms, vecnorm.ret_rms = source.obs_rms.copy(), source.ret_rms.copy()
+                _restore(vecnorm, _read_stats(warm[1]), warm[1])
     out.mkdir(parents=True, exist_ok=True)  # the inputs are good: the first file of a new run
     if not resume:
         write_run_record(out, config, job, command=command, hyperparameter_file=hyperparameter_file)
@@ -160,8 +167,8 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     callback.checkpoint()
     if ev.every_steps > 0 and callback.last_eval != model.num_timesteps:
         callback.evaluate()
-    save_model(model, out / "model.zip")
-    save_vecnormalize(vecnorm, out / "vecnormalize.pkl")
+    save_model(model, out / "model.safetensors", vecnorm)
+    save_vecnormalize(vecnorm, out / "vecnormalize.safetensors")
     elapsed = time.perf_counter() - t0
     trained = model.num_timesteps - start_steps
     print(f"done: {model.num_timesteps} steps ({trained} in this run, {elapsed:.0f} s, "
@@ -171,27 +178,117 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
 
 def resume(out, **options) -> int:
     """Continue the SB3 run in ``out`` with its own config.yml (``train``'s keyword
-    options: device, threads, progress, verbose)."""
+    options: device, threads, progress, verbose, trust_pickle)."""
     return train(run_config(out, TrainConfig), out, resume=True, **options)
 
 
 # ----------------------------------------------------------------------------------
 # pieces of train
 # ----------------------------------------------------------------------------------
-def warm_start_files(spec) -> tuple:
-    """(model zip, vecnormalize pickle or None) of ``init_from`` (``agents.resolve``)."""
+RESTART_OUTPUTS = ("evaluations.jsonl", "best.json", "best_model.safetensors", "best_vecnormalize.safetensors",
+                   "baseline_eval.json")
+
+
+def checkpoint_files(out: Path, trust_pickle: bool = False) -> dict | None:
+    """``last_checkpoint.json`` of run ``out`` with its files as paths (None: no
+    checkpoint yet). Its files must lie in ``checkpoints/`` and, if pickle-based,
+    be trusted; a ``ConfigError`` else."""
     import agents
 
+    ckpt_dir = out / "checkpoints"
+    last = ckpt_dir / "last_checkpoint.json"
+    if not last.is_file():
+        return None
     try:
-        model, stats, _ = agents.resolve(str(spec))
+        info = json.loads(last.read_text())
+        entry = {"num_timesteps": int(info["num_timesteps"]), "model": str(info["model"]),
+                 "vecnormalize": str(info["vecnormalize"])}
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ConfigError(f"{last} is not a checkpoint record (num_timesteps, model, vecnormalize)") from None
+    try:
+        for key in ("model", "vecnormalize"):
+            entry[key] = formats.check_inside(ckpt_dir, entry[key], f"{last}: {key}")
+        agents._check_trusted([entry["model"], entry["vecnormalize"]], trust_pickle)
+    except PolicyFormatError as err:
+        raise ConfigError(str(err)) from None
+    for key in ("model", "vecnormalize"):
+        if not entry[key].is_file():
+            raise ConfigError(f"{last} names {entry[key].name}, which is missing from {ckpt_dir}")
+    return entry
+
+
+def restart_from_scratch(out: Path):
+    """``--resume`` of a run stopped before its first checkpoint: it starts again from
+    step 0 with its config.yml (the outputs of the lost start are removed)."""
+    removed = [name for name in RESTART_OUTPUTS if (out / name).is_file()]
+    if (out / "model.safetensors").is_file():
+        raise ConfigError(f"{out} holds a final model but no checkpoint record (checkpoints/last_checkpoint.json): "
+                          "not resumable")
+    for name in removed:
+        (out / name).unlink()
+    print(f"note: {out} has no checkpoint yet (stopped before its first one): starting it from scratch with its "
+          f"config.yml" + (f" (removed {', '.join(removed)})" if removed else ""), file=sys.stderr)
+
+
+def warm_start_files(spec, trust_pickle: bool = False) -> tuple:
+    """(model file, normalization file or None) of ``init_from`` (``agents.resolve``)."""
+    import agents
+    from agents import rllib_policy
+
+    if rllib_policy.is_rllib_path(str(spec)):
+        raise ConfigError(f"init_from: {spec!r} is not a stable-baselines3 model (an RLlib run): an SB3 run or "
+                          "policy only")
+    try:
+        model, stats, _ = agents.resolve(str(spec), trust_pickle=trust_pickle)
     except ValueError as err:
         raise ConfigError(f"init_from: {err}") from None
     if model.name == "gate.yml":
         raise ConfigError(f"init_from: {spec!r} is a gate of two networks ({model}); name one of its networks "
                           "(the directories that file lists)")
-    if model.suffix != ".zip":
+    if model.suffix not in (".zip", ".safetensors"):
         raise ConfigError(f"init_from: {spec!r} is not a stable-baselines3 model ({model}): an SB3 run or policy only")
     return model, stats
+
+
+def load_state(model, path: Path, device, what: str, restore_steps: bool = False):
+    """Load a model file's network weights (and optimizer state, if it holds one) into
+    ``model`` (a PPO built from the config); with ``restore_steps`` its step count too.
+    A trusted pickle-based .zip goes through SB3's ``set_parameters``."""
+    if path.suffix == ".zip":
+        try:
+            model.set_parameters(str(path), exact_match=True, device=device)
+        except (RuntimeError, ValueError, KeyError) as err:
+            raise ConfigError(f"{what} does not fit this network: {_first_line(err)}") from None
+        return
+    try:
+        spec, state, optim = formats.read_model(path)
+    except PolicyFormatError as err:
+        raise ConfigError(str(err)) from None
+    try:
+        model.policy.load_state_dict(state, strict=True)
+        if optim is not None:
+            model.policy.optimizer.load_state_dict(optim)
+    except (RuntimeError, ValueError, KeyError) as err:
+        raise ConfigError(f"{what} does not fit this network: {_first_line(err)}") from None
+    if restore_steps:
+        model.num_timesteps = int(spec.get("num_timesteps", 0))
+        model._n_updates = int(spec.get("n_updates", 0))
+
+
+def _read_stats(path) -> dict:
+    import agents
+
+    try:
+        return agents.load_stats(path)
+    except PolicyFormatError as err:
+        raise ConfigError(str(err)) from None
+
+
+def _restore(vecnorm, stats: dict, path):
+    try:
+        formats.restore_vecnormalize(vecnorm, stats)
+    except PolicyFormatError as err:
+        raise ConfigError(f"{path}: {err}") from None
 
 
 def learning_rate(value):
@@ -213,15 +310,14 @@ def policy_kwargs(spec: dict | None) -> dict:
     return spec
 
 
-def save_model(model, path: Path):
-    buf = io.BytesIO()
-    model.save(buf)
-    atomic_write_bytes(path, buf.getvalue())
+def save_model(model, path: Path, vecnorm=None):
+    """The model file (network weights, optimizer state, step count; ``agents.formats``), atomically."""
+    formats.save_model(model, path, norm_obs=None if vecnorm is None else vecnorm.norm_obs)
 
 
 def save_vecnormalize(vecnorm, path: Path):
-    """VecNormalize.save pickles the wrapper without its venv; the same, atomically."""
-    atomic_write_bytes(path, pickle.dumps(vecnorm))
+    """The VecNormalize running statistics and settings (``agents.formats``), atomically."""
+    formats.save_vecnormalize(vecnorm, path)
 
 
 def model_actor(model, vecnorm):
@@ -255,19 +351,21 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
 
         def checkpoint(self):
             steps = self.model.num_timesteps
-            entry = {"num_timesteps": steps, "model": f"ckpt_{steps:010d}.zip",
-                     "vecnormalize": f"ckpt_{steps:010d}_vecnormalize.pkl"}
+            entry = {"num_timesteps": steps, "model": f"ckpt_{steps:010d}.safetensors",
+                     "vecnormalize": f"ckpt_{steps:010d}_vecnormalize.safetensors"}
             previous = read_json(ckpt_dir / "last_checkpoint.json")
             if previous == entry:
                 return
             ckpt_dir.mkdir(exist_ok=True)
-            save_model(self.model, ckpt_dir / entry["model"])
+            save_model(self.model, ckpt_dir / entry["model"], vecnorm)
             save_vecnormalize(vecnorm, ckpt_dir / entry["vecnormalize"])
             atomic_write_text(ckpt_dir / "last_checkpoint.json", json.dumps(entry))
             if previous and previous["model"] != entry["model"]:  # keep the last two
-                for old in sorted(ckpt_dir.glob("ckpt_*.zip"))[:-2]:
+                models = sorted(p for p in ckpt_dir.glob("ckpt_*.safetensors")
+                                if not p.name.endswith("_vecnormalize.safetensors"))
+                for old in models[:-2]:
                     old.unlink(missing_ok=True)
-                    (ckpt_dir / old.name.replace(".zip", "_vecnormalize.pkl")).unlink(missing_ok=True)
+                    (ckpt_dir / old.name.replace(".safetensors", "_vecnormalize.safetensors")).unlink(missing_ok=True)
             self.last_ckpt = steps
 
         def evaluate(self):
@@ -291,8 +389,8 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
                     self.logger.record(f"eval/cells_beating_{k}", record[f"cells_beating_{k}"])
             best = read_json(out / "best.json")
             if best is None or score < best["survey_error_m"]:
-                save_model(self.model, out / "best_model.zip")
-                save_vecnormalize(vecnorm, out / "best_vecnormalize.pkl")
+                save_model(self.model, out / "best_model.safetensors", vecnorm)
+                save_vecnormalize(vecnorm, out / "best_vecnormalize.safetensors")
                 atomic_write_text(out / "best.json", json.dumps(record))
             beaten = [k for k, v in baseline_scores.items() if score < v["survey_error_m"]]
             print(f"eval @ {self.model.num_timesteps}: survey_error_m {score:.3f}"
