@@ -121,11 +121,13 @@ def reinit_on_range(x, P, z, h, H, R):
     its covariance admits, and the gate now refuses the very ranges that would correct
     it. This restarts its horizontal position from the range: the estimate moves along
     the horizontal line of sight u = H_xy / |H_xy| (eq. 8) by y / |H_xy| (y = z - h),
-    onto the measured range; the horizontal covariance becomes R / |H_xy|^2 along u
-    (the range's own information) and, across it, the old variance plus y^2 (the
-    filter has shown it was off by at least |y|); the depth keeps its estimate and
-    variance, without cross terms. Later ranges from other bearings then pass the
-    gate and fix the across-track part. Returns False (nothing changed) when the line
+    onto the measured range; the horizontal covariance becomes (R + y^2) / |H_xy|^2
+    along u and, across it, the old variance plus y^2: the filter has shown it was off
+    by at least |y|, and a restart that trusted the one range (R along u) would let a
+    beacon that follows the survey's reported estimate drag it away, restart after
+    restart (a 1.9 km runaway on one of 50 sousa_asv episodes with the circle
+    planner). The depth keeps its estimate and variance, without cross terms. Later
+    ranges, from other bearings too, then pass the gate and fix the rest. Returns False (nothing changed) when the line
     of sight is steeper than 60 degrees, where a range barely constrains the
     horizontal position."""
     hx, hy = H[0], H[1]
@@ -139,7 +141,7 @@ def reinit_on_range(x, P, z, h, H, R):
     x[0] += y * ux / g
     x[1] += y * uy / g
     across = tx * tx * P[0, 0] + 2.0 * tx * ty * P[0, 1] + ty * ty * P[1, 1] + y * y
-    along = R / g2
+    along = (R + y * y) / g2
     P[0, 0] = along * ux * ux + across * tx * tx
     P[0, 1] = P[1, 0] = along * ux * uy + across * tx * ty
     P[1, 1] = along * uy * uy + across * ty * ty
