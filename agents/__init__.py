@@ -50,7 +50,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .formats import PickleRefused, PolicyFormatError, check_inside, refuse_pickle
+from .formats import (_TRUSTED, PickleRefused, PolicyFormatError, _check_trusted, _is_legacy, check_inside,  # noqa: F401
+                      refuse_pickle, trust_pickle)
 from .policy import BatchPolicy, _trained_scenario
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
@@ -66,39 +67,6 @@ LEGACY_RUN_FILES = (("best_model.zip", "best_vecnormalize.pkl"), ("model.zip", "
 
 __all__ = ["DepthGatedPolicy", "PPOPolicy", "PickleRefused", "PolicyFormatError", "list_policies", "load",
            "make_policy", "resolve", "trust_pickle"]
-
-_TRUSTED: set = set()  # pickle-based files the caller trusted (trust_pickle=True) in this process
-
-
-def trust_pickle(*paths):
-    """Trust these pickle-based files (resolved paths) for the rest of the process, as
-    ``trust_pickle=True`` does for the files it resolves."""
-    for path in paths:
-        if path is not None:
-            _TRUSTED.add(str(Path(path).resolve()))
-
-
-def _is_legacy(path) -> bool:
-    return path is not None and Path(path).suffix != ".safetensors"
-
-
-def _check_trusted(paths, trusted: bool):
-    """Refuse the pickle-based ones of ``paths`` unless ``trusted`` (then remember them),
-    and safe-format files that hold a pickle or a zip archive instead."""
-    from .formats import sniff
-
-    for path in paths:
-        if path is not None and not _is_legacy(path) and Path(path).is_file():
-            sniff(path)
-    legacy = [p for p in paths if _is_legacy(p)]
-    if trusted:
-        trust_pickle(*legacy)
-        return
-    untrusted = [str(p) for p in legacy if str(Path(p).resolve()) not in _TRUSTED]
-    if untrusted:
-        refuse_pickle(" and ".join(untrusted), "a pickle-based file" if len(untrusted) == 1 else
-                      "are pickle-based files")
-
 
 def list_policies() -> list:
     """Names of the policies shipped in agents/policies/."""

@@ -398,3 +398,35 @@ def legacy_model_parts(path, norm_obs=None, device="cpu") -> tuple:
 
 def _first_line(err) -> str:
     return str(err).splitlines()[0] if str(err) else type(err).__name__
+
+
+# --- which pickle-based files the caller trusted, for this process ----------------------
+_TRUSTED: set = set()  # pickle-based files the caller trusted (trust_pickle=True) in this process
+
+
+def trust_pickle(*paths):
+    """Trust these pickle-based files (resolved paths) for the rest of the process, as
+    ``trust_pickle=True`` does for the files it resolves."""
+    for path in paths:
+        if path is not None:
+            _TRUSTED.add(str(Path(path).resolve()))
+
+
+def _is_legacy(path) -> bool:
+    return path is not None and Path(path).suffix != ".safetensors"
+
+
+def _check_trusted(paths, trusted: bool):
+    """Refuse the pickle-based ones of ``paths`` unless ``trusted`` (then remember them),
+    and safe-format files that hold a pickle or a zip archive instead."""
+    for path in paths:
+        if path is not None and not _is_legacy(path) and Path(path).is_file():
+            sniff(path)
+    legacy = [p for p in paths if _is_legacy(p)]
+    if trusted:
+        trust_pickle(*legacy)
+        return
+    untrusted = [str(p) for p in legacy if str(Path(p).resolve()) not in _TRUSTED]
+    if untrusted:
+        refuse_pickle(" and ".join(untrusted), "a pickle-based file" if len(untrusted) == 1 else
+                      "are pickle-based files")

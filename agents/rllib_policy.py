@@ -125,17 +125,17 @@ def resolve(path, scenario=None, trust_pickle=False) -> tuple:
     modules = ckpt / MODULE_DIR
     if not modules.is_dir() or not any(d.is_dir() for d in modules.iterdir()):
         raise ValueError(f"{ckpt} holds no RLModule ({MODULE_DIR}/<module id>)")
-    import agents
+    from agents.formats import _TRUSTED, _check_trusted
 
     export = _export_files(ckpt)
     if export:
-        agents._check_trusted(export, False)  # safetensors: refused only if one holds a pickle instead
-    elif not trust_pickle and str(ckpt.resolve()) not in agents._TRUSTED:  # RLlib's own files are pickle-based
+        _check_trusted(export, False)  # safetensors: refused only if one holds a pickle instead
+    elif not trust_pickle and str(ckpt.resolve()) not in _TRUSTED:  # RLlib's own files are pickle-based
         from agents.formats import refuse_pickle
 
         refuse_pickle(ckpt, f"an RLlib checkpoint without its safe export ({EXPORT_DIR}/), read by unpickling")
     else:
-        agents._check_trusted([ckpt], True)
+        _check_trusted([ckpt], True)
     return ckpt, None, find_run_config(ckpt)
 
 
