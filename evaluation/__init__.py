@@ -44,14 +44,25 @@ interrupted run leaves no half-written file):
   against time; Matos & Cruz Fig. 8), ``frame_errors.png`` for the moving network; a
   sweep draws ``sweep.png`` instead (``evaluation.figures``).
 
-``resume`` (``--resume``) keeps the episodes already in ``episodes.csv``/``steps.csv``
-(same scenario and overrides) and runs only the missing ones. Bad input (an unknown
-policy, scenario or parameter, a bad value, an output path that is a file) raises
-``UsageError`` (on the command line: a one-line error and exit status 2) before any work.
+One run at a time owns ``out`` (a lock, ``evaluation.outdir``): a second run is refused,
+and an earlier result there is kept unless ``overwrite`` (``--overwrite``) replaces it
+or ``resume`` (``--resume``) continues it. ``resume`` checks the scenario, overrides,
+sweep and seed against run.json, keeps every episode whose rows are complete in both
+CSV files (the others are run again, said on stderr) and runs the missing ones; the run
+then covers the earlier policies plus ``policies`` and the larger episode count. The
+CSV floats are exact, so a resumed run's summary.json is byte-identical to an
+uninterrupted run's. Bad input (an unknown policy, scenario or parameter, a bad value
+or seed, a policy that cannot drive the scenario, an output directory in use or
+holding another result) raises ``UsageError`` (on the command line: a one-line error
+and exit status 2) before anything is written; a non-finite result raises
+``EvaluationError`` naming the episode (exit status 1); Ctrl-C raises
+``EvaluationInterrupted`` with the finished batches on disk (exit status 130, and the
+command that resumes is printed).
 
-Modules: ``config`` (EvalConfig, input checks), ``episodes`` (running episodes),
-``stats`` (statistics), ``report`` (columns, CSV, summary.md), ``figures``, ``run``
-(the whole evaluation), ``cli`` (the command line). Importing this package is cheap:
+Modules: ``config`` (EvalConfig, input checks), ``outdir`` (the output directory: lock,
+earlier results), ``resume`` (what resume keeps), ``errors`` (UsageError), ``episodes``
+(running episodes), ``stats`` (statistics), ``report`` (columns, CSV, summary.md),
+``figures``, ``run`` (the whole evaluation), ``cli`` (the command line). Importing this package is cheap:
 the names below load their module on first use.
 """
 
@@ -61,7 +72,8 @@ import importlib
 
 _EXPORTS = {
     "EvalConfig": "config", "UsageError": "config", "prepare": "config",
-    "EvalResult": "run", "evaluate": "run", "run_evaluation": "run",
+    "EvalResult": "run", "evaluate": "run", "run_evaluation": "run", "EvaluationError": "run",
+    "EvaluationInterrupted": "run",
     "run_episodes": "episodes", "record_episode": "episodes", "make_policy": "episodes",
     "error_stats": "stats", "summarize": "stats",
     "EPISODE_COLUMNS": "report", "STEP_COLUMNS": "report", "EPISODE_COLUMN_DOCS": "report",

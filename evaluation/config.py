@@ -18,16 +18,17 @@ import ast
 import dataclasses
 import difflib
 import inspect
+import numbers
 import os
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from coopnav_env.records import plain
-from coopnav_env.seeds import EVALUATE_SEED
+from coopnav_env.seeds import EVALUATE_SEED, MAX_SEED, check_seed
+
+from .errors import UsageError  # defined there (every module raises it), used and re-exported here
 
 
-class UsageError(ValueError):
-    """Bad input: reported as one line (exit status 2 from the command line), before any work."""
 
 
 def _check_field_names(cls):
@@ -60,14 +61,22 @@ class EvalConfig:
       shipped policy (``agents.list_policies()``) or a train.py run directory; None:
       every planner that can drive the scenario's network;
     * ``episodes``: episodes per policy (and per sweep cell); episode ``i`` uses seed
-      ``seed + i`` for every policy (common random numbers);
-    * ``seed``: the first episode's seed (``coopnav_env.seeds.EVALUATE_SEED``);
-    * ``out``: the output directory (created);
+      ``seed + i`` for every policy (common random numbers); None: 10, or with
+      ``resume`` the earlier run's;
+    * ``seed``: the first episode's seed (``coopnav_env.seeds.EVALUATE_SEED``); the
+      last, ``seed + episodes - 1``, must not exceed ``coopnav_env.seeds.MAX_SEED``
+      (``coopnav_env.seeds.check_seed``);
+    * ``out``: the output directory (created; one run at a time: a second writer is
+      refused, and an earlier result is kept unless ``resume`` or ``overwrite``);
     * ``overrides``: scenario parameters set for the whole run (``--set KEY=VALUE``);
     * ``sweep``: parameter -> values (a sequence, or the command line's text
       ``"V1,V2"``), run as a grid (``--sweep KEY=V1,V2``; the first key makes the rows
       of the tables);
-    * ``resume``: keep the episodes already in ``out`` and run only the missing ones;
+    * ``resume``: keep the episodes already in ``out`` (same scenario, overrides, sweep
+      and seed; every kept episode complete in both CSV files) and run the missing ones;
+      the run then covers the earlier run's policies plus ``policies`` (None: the
+      earlier ones) and the larger of the two episode counts;
+    * ``overwrite``: replace an earlier result in ``out``;
     * ``batch_size``: episodes simulated together;
     * ``figures``: write the PNG figures;
     * ``progress``: a progress bar on stderr (None: when stderr is a terminal).
@@ -75,15 +84,17 @@ class EvalConfig:
 
     scenario: str = "gao_lawnmower"
     policies: tuple | None = None
-    episodes: int = 10
+    episodes: int | None = 10
     seed: int = EVALUATE_SEED
     out: str = "results/eval"
     overrides: Mapping[str, Any] = field(default_factory=dict)
     sweep: Mapping[str, tuple] = field(default_factory=dict)
     resume: bool = False
+    overwrite: bool = False
     batch_size: int = 25
     figures: bool = True
     progress: bool | None = None
+    trust_pickle: bool = False  # accept pickle-based trained policies (they can run code): --trust-pickle
 
     def __post_init__(self):
         policies = self.policies
@@ -95,12 +106,22 @@ class EvalConfig:
         object.__setattr__(self, "overrides", dict(self.overrides))
         object.__setattr__(self, "sweep", {k: tuple(split_top_level(v) if isinstance(v, str) else v)
                                            for k, v in dict(self.sweep).items()})
-        for name, low in (("episodes", 1), ("seed", 0), ("batch_size", 1)):
+        for name in ("episodes", "batch_size"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int):
+            if value is None and name == "episodes":
+                continue
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral):
                 raise UsageError(f"{name} (--{name.replace('_', '-')}) must be an integer, got {value!r}")
-            if value < low:
-                raise UsageError(f"--{name.replace('_', '-')} must be >= {low}, got {value}")
+            object.__setattr__(self, name, int(value))
+            if value < 1:
+                raise UsageError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
+        try:  # the seed range every tool shares
+            object.__setattr__(self, "seed", check_seed(self.seed, "--seed"))
+        except ValueError as err:
+            raise UsageError(str(err)) from None
+        if self.resume and self.overwrite:
+            raise UsageError("--resume keeps the episodes in the output directory, --overwrite replaces them: "
+                             "give one of them")
 
     def replace(self, **changes) -> "EvalConfig":
         """A copy with ``changes`` (unknown names are an error)."""
@@ -223,6 +244,14 @@ class Plan:
     overrides: dict  # key -> parsed value
     trained: dict  # trained policy name -> what it resolved to (see resolve_trained)
     run_info: dict
+    episodes: int = 0  # episodes per policy and cell (with resume: the larger of the run's and the config's)
+    previous: dict | None = None  # run.json of the earlier run in ``out`` that resume extends
+    out_state: tuple = ()  # what ``out`` held when checked (``outdir.snapshot``)
+
+    @property
+    def seeds(self) -> list:
+        """The episodes' seeds: seed + i."""
+        return [self.config.seed + i for i in range(self.episodes)]
 
     def first_config(self):
         """The scenario config of the first cell (the figures' episode)."""
@@ -240,12 +269,13 @@ def _relative(path) -> str:
     return path if rel.startswith("..") else rel
 
 
-def resolve_trained(name: str, scenario: str) -> dict:
+def resolve_trained(name: str, scenario: str, trust_pickle: bool = False) -> dict:
     """What a trained policy name resolved to (``agents.resolve``): the shipped policy's
-    name (None for a run directory) and its files, relative to the repository."""
+    name (None for a run directory) and its files, relative to the repository.
+    ``trust_pickle`` trusts its pickle-based files for the rest of the process."""
     import agents
 
-    model, stats, config = agents.resolve(name, scenario)
+    model, stats, config = agents.resolve(name, scenario, trust_pickle=trust_pickle)
     shipped = None
     try:
         shipped = os.path.relpath(os.path.abspath(model), agents.POLICY_DIR).split(os.sep)[0]
@@ -267,44 +297,115 @@ def _check_output(out: str):
         raise UsageError(f"output path {out!r} is under a file ({parent!r})")
 
 
-def _previous_run(out: str):
-    from coopnav_env.records import read_json
+def _ppo_scenarios() -> list:
+    """The scenarios whose "ppo" resolves to a shipped policy."""
+    import agents
+    import coopnav_env
 
-    try:
-        return read_json(os.path.join(out, "run.json"))
-    except (OSError, ValueError):  # unreadable: resume as if there were none
-        return None
+    out = []
+    for name in coopnav_env.list_scenarios():
+        try:
+            agents.resolve("ppo", name)
+        except Exception:  # noqa: BLE001 - no shipped policy for it
+            continue
+        out.append(name)
+    return out
+
+
+def _unknown_policy(p: str, scenario: str, err: Exception, valid: list) -> UsageError:
+    import agents
+
+    if p == "ppo":
+        return UsageError(f"scenario {scenario!r} has no shipped policy, so 'ppo' names nothing; scenarios with "
+                          f"one: {', '.join(_ppo_scenarios()) or 'none'} (or give a train.py run directory)")
+    first = (str(err).strip().splitlines() or [type(err).__name__])[0]
+    return UsageError(f"unknown policy {p!r} ({first}); valid: {', '.join(valid)}, ppo, a shipped policy "
+                      f"({', '.join(agents.list_policies()) or 'none shipped'}) or a train.py run directory")
+
+
+def _first_line(err: BaseException) -> str:
+    return (str(err).strip().splitlines() or [type(err).__name__])[0]
+
+
+def check_policies(plan: "Plan") -> None:
+    """Check that every policy of ``plan`` loads and drives every cell's scenario: one
+    observation of the first episode per beacon, each answered by a finite (2,) action.
+    Raises UsageError naming the policy (and the model, for a trained one)."""
+    from .episodes import check_policy
+
+    seen = set()
+    for cell in plan.cells:
+        cid = cell_id(cell)
+        scenario_config = plan.configs[cid]
+        key = repr(scenario_config)
+        if key in seen:
+            continue
+        seen.add(key)
+        where = plan.config.scenario + (f" ({cid})" if cid else "")
+        for p in plan.policies:
+            try:
+                check_policy(p, scenario_config, plan.config.seed)
+            except KeyboardInterrupt:
+                raise
+            except Exception as err:  # noqa: BLE001 - a policy that cannot act here is bad input
+                if p in plan.trained:
+                    model = plan.trained[p]["model"]
+                    raise UsageError(f"policy {p!r} (model {model}) cannot drive {where}: {_first_line(err)}") from None
+                raise UsageError(f"policy {p!r} cannot drive {where}: {_first_line(err)}") from None
 
 
 def prepare(config: EvalConfig) -> Plan:
     """Check every input of ``config`` and build the run plan; raises UsageError.
-    Writes nothing."""
+    Writes nothing. Checks the output directory too (``outdir.check_existing``): an
+    earlier result there needs ``resume`` or ``overwrite``, and ``resume`` the same
+    scenario, overrides, sweep and seed; and that every policy loads and can drive
+    every cell's scenario (``check_policies``)."""
     import coopnav_env
     from baselines import list_policies
+
+    from . import outdir
 
     scenarios = coopnav_env.list_scenarios()
     if config.scenario not in scenarios:
         raise UsageError(f"unknown scenario {config.scenario!r}; valid scenarios: {', '.join(scenarios)}")
-    policies = config.policies
-    if policies is None:  # every planner that drives this scenario's network
-        policies = list_policies(coopnav_env.make_config(config.scenario).network)
-    policies = list(policies)
+    _check_output(config.out)
+    outdir.check_not_in_use(config.out)
+    out_state = outdir.snapshot(config.out)
+    previous = outdir.read_previous(config.out) if config.resume else None
+    given = None if config.policies is None else list(config.policies)
+    if given is not None:
+        if not given:
+            raise UsageError("no policy given")
+        if len(set(given)) != len(given):
+            raise UsageError("a policy is listed twice")
+    if previous is not None:  # resume extends the earlier run: its policies, then the new ones
+        policies = list(previous["policies"]) + [p for p in given or [] if p not in previous["policies"]]
+        episodes = previous["episodes"] if config.episodes is None else max(previous["episodes"], config.episodes)
+    else:
+        if given is None:  # every planner that drives this scenario's network
+            given = list_policies(coopnav_env.make_config(config.scenario).network)
+        policies = given
+        episodes = 10 if config.episodes is None else config.episodes
     if not policies:
         raise UsageError("no policy given")
+    last_seed = config.seed + episodes - 1
+    if last_seed > MAX_SEED:
+        raise UsageError(f"--seed {config.seed} with {episodes} episodes reaches seed {last_seed}, above the largest "
+                         f"valid seed {MAX_SEED} (coopnav_env.seeds.MAX_SEED)")
     valid = list_policies()
     trained = {}
     for p in policies:
         if p not in valid:
             try:  # a trained policy: "ppo" (the scenario's shipped one), a shipped name, or a run directory
-                trained[p] = resolve_trained(p, config.scenario)
-            except Exception as err:  # noqa: BLE001 - any failure to find it is a usage error
+                trained[p] = resolve_trained(p, config.scenario, config.trust_pickle)
+            except ValueError as err:  # found but refused (agents.PolicyFormatError): pickle, normalization, ...
                 import agents
 
-                raise UsageError(f"unknown policy {p!r} ({err}); valid: {', '.join(valid)}, ppo, a shipped policy "
-                                 f"({', '.join(agents.list_policies()) or 'none shipped'}) or a train.py run "
-                                 "directory") from None
-    if len(set(policies)) != len(policies):
-        raise UsageError("a policy is listed twice")
+                if not isinstance(err, agents.PolicyFormatError):
+                    raise _unknown_policy(p, config.scenario, err, valid) from None
+                raise UsageError(f"policy {p!r}: {_first_line(err)}") from None
+            except Exception as err:  # noqa: BLE001 - any failure to find it is a usage error
+                raise _unknown_policy(p, config.scenario, err, valid) from None
     try:
         overrides = {k: coerce_value(k, v) for k, v in config.overrides.items()}
         sweep = {}
@@ -325,14 +426,10 @@ def prepare(config: EvalConfig) -> Plan:
         raise
     except ValueError as err:  # unknown parameter or invalid value, from the scenario's checks
         raise UsageError(str(err).splitlines()[0]) from None
-    _check_output(config.out)
     run_info = {"scenario": config.scenario, "overrides": plain(overrides), "sweep": plain(sweep),
-                "seed": config.seed, "episodes": config.episodes, "policies": policies}
-    if config.resume:
-        old = _previous_run(config.out)
-        if old is not None and (old.get("scenario") != run_info["scenario"]
-                                or old.get("overrides") != run_info["overrides"]):
-            raise UsageError(f"cannot resume: {config.out!r} holds a run of {old.get('scenario')!r} with overrides "
-                             f"{old.get('overrides')}, not {config.scenario!r} with {run_info['overrides']}")
-    return Plan(config=config, policies=policies, cells=cells, configs=configs, sweep=sweep, overrides=overrides,
-                trained=trained, run_info=run_info)
+                "seed": config.seed, "episodes": episodes, "policies": policies}
+    outdir.check_existing(config, run_info, previous, trained)
+    plan = Plan(config=config, policies=policies, cells=cells, configs=configs, sweep=sweep, overrides=overrides,
+                trained=trained, run_info=run_info, episodes=episodes, previous=previous, out_state=out_state)
+    check_policies(plan)
+    return plan

@@ -28,6 +28,20 @@ def make_policy(name: str, config, seed, agent: int):
     return agents.make_policy(name, config, seed=seed, agent=agent)
 
 
+def check_policy(name: str, config, seed: int) -> None:
+    """Check that ``name`` loads and drives ``config``'s scenario: a simulator of one
+    episode (``seed``) is reset, one policy per beacon answers its first observation with
+    a finite (2,) action. Raises what the policy raises, or ValueError."""
+    from coopnav_env.core import make_simulator
+
+    sim = make_simulator(config, batch_size=1)
+    obs = sim.reset([int(seed)])
+    for j in range(config.n_beacons):
+        action = np.asarray(make_policy(name, config, seed=(int(seed), j), agent=j).act(obs[0, j]), dtype=float)
+        if action.shape != (2,) or not np.isfinite(action).all():
+            raise ValueError(f"beacon_{j}'s action is {action!r}, not two finite numbers")
+
+
 def _step_measurements(sim, res, config) -> dict:
     """What the evaluation reads of the batch after a step (``res``, the step's result)
     or after a reset (``res`` None: only the positions), from the step result and

@@ -104,7 +104,9 @@ SUMMARY_COLUMN_DOCS.update({
 # CSV
 
 def csv_text(columns, rows) -> str:
-    """``rows`` (dicts) as CSV text with header ``columns``; floats to 6 significant digits."""
+    """``rows`` (dicts) as CSV text with header ``columns``; floats written exactly (the
+    shortest text that reads back to the same float), so that statistics computed again
+    from the file (``--resume``) are those computed from the numbers themselves."""
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
     w.writeheader()
@@ -115,7 +117,7 @@ def csv_text(columns, rows) -> str:
 
 def _fmt(v):
     if isinstance(v, (float, np.floating)):
-        return f"{float(v):.6g}"
+        return repr(float(v))
     return v
 
 

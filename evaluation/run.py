@@ -7,19 +7,25 @@ steps.csv after every batch, then run.json, summary.json, summary.md and the fig
                                         episodes=2, out="results/x"))
 
 Nothing is written before every input is checked; bad input raises ``UsageError``.
+One run at a time holds the output directory (``outdir.OutputLock``); ``--resume``
+keeps only complete episodes (``resume.kept_rows``) and the rows are kept in the
+grid's order with exact floats, so a resumed run's summary.json is byte-identical to
+an uninterrupted run's.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from typing import NamedTuple
 
 from coopnav_env.records import atomic_write_text, strict_json, version_record
 
-from .config import EvalConfig, UsageError, cell_id, prepare
+from .config import EvalConfig, cell_id, prepare
 from .episodes import run_episodes
-from .report import EPISODE_COLUMNS, STEP_COLUMNS, csv_text, markdown, read_csv
+from .report import EPISODE_COLUMNS, STEP_COLUMNS, csv_text, markdown
+from .resume import kept_rows
 from .stats import summarize
 
 
@@ -33,14 +39,18 @@ class EvalResult(NamedTuple):
     files: list
 
 
-def _kept_rows(out: str):
-    """The episode and step rows of an earlier run in ``out`` that are complete in both files."""
-    ep_rows, step_rows = read_csv(os.path.join(out, "episodes.csv")), read_csv(os.path.join(out, "steps.csv"))
-    have_steps = {(r["cell"], r["policy"], r["seed"]) for r in step_rows}
-    ep_rows = [r for r in ep_rows if (r["cell"], r["policy"], r["seed"]) in have_steps]
-    have_eps = {(r["cell"], r["policy"], r["seed"]) for r in ep_rows}
-    step_rows = [r for r in step_rows if (r["cell"], r["policy"], r["seed"]) in have_eps]
-    return ep_rows, step_rows
+class EvaluationError(RuntimeError):
+    """The evaluation ran but its result cannot be summarized (a non-finite value in an
+    episode, named); on the command line one line and exit status 1."""
+
+
+class EvaluationInterrupted(KeyboardInterrupt):
+    """Ctrl-C (or SIGTERM on the command line) during an evaluation: ``saved`` of
+    ``total`` episodes are on disk in ``out``; ``--resume`` runs the rest."""
+
+    def __init__(self, out: str, saved: int, total: int):
+        super().__init__(f"interrupted: {saved} of {total} episodes saved in {out!r}")
+        self.out, self.saved, self.total = out, saved, total
 
 
 def _progress_bar(config: EvalConfig, total: int):
@@ -52,37 +62,109 @@ def _progress_bar(config: EvalConfig, total: int):
     return tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True)
 
 
-def evaluate(config: EvalConfig) -> EvalResult:
-    """Run the evaluation ``config`` describes and write its files (see ``evaluation``)."""
+def _row_order(plan):
+    """Sort keys of episode and step rows: the grid's order (cell, policy, episode, step),
+    whatever order they were run in, so a resumed run's files and sums are an
+    uninterrupted run's."""
+    cells = {cell_id(c): i for i, c in enumerate(plan.cells)}
+    policies = {p: i for i, p in enumerate(plan.policies)}
+
+    def episode_key(r):
+        return cells[r["cell"]], policies[r["policy"]], int(r["episode"])
+
+    def step_key(r):
+        return cells[r["cell"]], policies[r["policy"]], int(r["episode"]), int(r["step"])
+
+    return episode_key, step_key
+
+
+def _check_finite(ep_rows, step_rows):
+    """EvaluationError naming the first episode with a NaN or infinite value."""
+    from .resume import STEP_FLOATS
+
+    checks = [(r, EPISODE_COLUMNS[4:], "episodes.csv") for r in ep_rows]
+    checks += [(r, STEP_FLOATS + ("error_x_m", "error_y_m"), "steps.csv") for r in step_rows]
+    for r, columns, where in checks:
+        for k in columns:
+            v = r.get(k, "")
+            if v == "" or v is None:
+                continue
+            if not math.isfinite(float(v)):
+                step = f" step {r['step']}" if "step" in r else ""
+                cell = f" in cell {r['cell']}" if r["cell"] else ""
+                raise EvaluationError(f"episode {r['episode']} (seed {r['seed']}) of policy {r['policy']!r}{cell}"
+                                      f"{step}: {k} is {float(v)} in {where}; summary.json not written")
+
+
+def evaluate(config: EvalConfig, command: str | None = None) -> EvalResult:
+    """Run the evaluation ``config`` describes and write its files (see ``evaluation``).
+    Holds a lock on ``config.out`` while it runs (``command``: how the run was started,
+    shown to a second writer). Raises UsageError (bad input, nothing written),
+    EvaluationError (a non-finite result) or EvaluationInterrupted (Ctrl-C: what was
+    finished stays on disk)."""
+    from . import outdir
+
     plan = prepare(config)
     out = config.out
-    try:
-        os.makedirs(out, exist_ok=True)
-    except OSError as err:
-        raise UsageError(f"cannot create output directory {out!r}: {err.strerror}") from None
+    with outdir.OutputLock(out, command):
+        if outdir.snapshot(out) != plan.out_state:  # changed since the checks: check again, under the lock
+            plan = prepare(config)
+        saved = [0]
+        try:
+            return _run_locked(plan, saved)
+        except KeyboardInterrupt as err:
+            total = len(plan.cells) * len(plan.policies) * plan.episodes
+            raise EvaluationInterrupted(out, saved[0], total) from err
+
+
+def _run_locked(plan, saved: list) -> EvalResult:
+    from . import outdir
+
+    config, out = plan.config, plan.config.out
+    if config.overwrite:
+        outdir.clear(out)
     ep_path, st_path = os.path.join(out, "episodes.csv"), os.path.join(out, "steps.csv")
-    ep_rows, step_rows = _kept_rows(out) if config.resume else ([], [])
-    run_record = dict(plan.run_info, trained_policies=plan.trained, versions=version_record())
-    atomic_write_text(os.path.join(out, "run.json"), strict_json(run_record))
+    ep_rows, step_rows, notes = kept_rows(out, plan) if config.resume else ([], [], [])
+    for note in notes:
+        print(f"resuming: {note}", file=sys.stderr)
+    saved[0] = len(ep_rows)
+    previous = plan.previous or {}
+    run_record = dict(plan.run_info, trained_policies=plan.trained, format_version=outdir.FORMAT_VERSION,
+                      versions=version_record())
+    earlier = [v for v in previous.get("earlier_versions", []) + [previous.get("versions")]
+               if isinstance(v, dict) and v != run_record["versions"]]
+    if earlier:
+        run_record["earlier_versions"] = earlier  # what produced the episodes kept by resume
     done = {(r["cell"], r["policy"], str(r["seed"])) for r in ep_rows}
     ep_columns = EPISODE_COLUMNS[:1] + list(plan.sweep) + EPISODE_COLUMNS[1:]
-    seeds_all = [config.seed + i for i in range(config.episodes)]
     todo = []
     for cell in plan.cells:
         cid = cell_id(cell)
         for p in plan.policies:
-            missing = [(i, s) for i, s in enumerate(seeds_all) if (cid, p, str(s)) not in done]
+            missing = [(i, s) for i, s in enumerate(plan.seeds) if (cid, p, str(s)) not in done]
             for k in range(0, len(missing), config.batch_size):
                 todo.append((cell, p, missing[k:k + config.batch_size]))
     total = sum(len(m) for _, _, m in todo)
-    skipped = len(plan.cells) * len(plan.policies) * config.episodes - total
-    if skipped and config.resume:
+    skipped = len(plan.cells) * len(plan.policies) * plan.episodes - total
+    if config.resume and plan.previous is not None:
+        old_p, old_e = previous["policies"], previous["episodes"]
+        if old_p != plan.policies or old_e != plan.episodes:
+            print(f"resuming: {out!r} held {old_e} episode(s) of {', '.join(old_p)}; the run now covers "
+                  f"{plan.episodes} of {', '.join(plan.policies)}", file=sys.stderr)
         print(f"resuming: {skipped} episode(s) already done, {total} to run", file=sys.stderr)
+    episode_key, step_key = _row_order(plan)
 
     def write_rows():
+        ep_rows.sort(key=episode_key)
+        step_rows.sort(key=step_key)
+        # steps first: an episode's row is written only once its steps are on disk
         atomic_write_text(st_path, csv_text(STEP_COLUMNS, step_rows))
         atomic_write_text(ep_path, csv_text(ep_columns, ep_rows))
+        saved[0] = len(ep_rows)
 
+    if todo:
+        outdir.remove_summaries(out)  # summaries exist only while they match the CSV files
+    atomic_write_text(os.path.join(out, "run.json"), strict_json(run_record))
     bar = _progress_bar(config, total)
     try:
         for cell, p, chunk in todo:
@@ -102,10 +184,15 @@ def evaluate(config: EvalConfig) -> EvalResult:
     finally:
         if bar is not None:
             bar.close()
-    if not todo:  # rewrite in the current column layout anyway
+    if not todo:  # rewrite in the current layout anyway
         write_rows()
+    _check_finite(ep_rows, step_rows)
     summary = summarize(plan, ep_rows, step_rows)
-    atomic_write_text(os.path.join(out, "summary.json"), strict_json(summary))
+    try:
+        summary_text = strict_json(summary)
+    except ValueError as err:
+        raise EvaluationError(f"summary.json not written: {err}") from None
+    atomic_write_text(os.path.join(out, "summary.json"), summary_text)
     md = markdown(summary, plan)
     atomic_write_text(os.path.join(out, "summary.md"), md + "\n")
     files = ["run.json", "summary.json", "summary.md", "episodes.csv", "steps.csv"]

@@ -78,7 +78,7 @@ def summarize(plan, ep_rows, step_rows) -> dict:
     cell_stats = [{"params": plain(cell),
                    "policies": _per_policy(policies, ep_rows, step_rows, {cell_id(cell)})} for cell in cells]
     config = plan.config
-    summary = {"scenario": config.scenario, "episodes": config.episodes, "seed": config.seed,
+    summary = {"scenario": config.scenario, "episodes": plan.episodes, "seed": config.seed,
                "overrides": plan.run_info["overrides"]}
     if plan.sweep:
         summary["sweep"] = plan.run_info["sweep"]

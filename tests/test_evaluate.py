@@ -199,7 +199,7 @@ def test_eval_config_refuses_unknown_fields_naming_the_closest():
 
 def test_ppo_resolution_is_recorded(tmp_path):
     """"ppo" on gao_lawnmower is the shipped ppo_gao_sea: run.json's trained_policies and
-    summary.md say so (resolved without loading the model)."""
+    summary.md say so; prepare checks that it drives the scenario and writes nothing."""
     from evaluation import EvalConfig, prepare
     from evaluation.report import trained_lines
 
