@@ -1,5 +1,9 @@
 """The batched simulator core: arrays in, arrays out; no PettingZoo, no plotting."""
 
+from ._cache import clear_stale_kernels
+
+clear_stale_kernels()  # numba's cache does not follow edits across modules (see _cache.py)
+
 
 def make_simulator(config, batch_size: int = 1):
     """The simulator that reads ``config``: ``config.network`` chooses between the
