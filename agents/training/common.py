@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from coopnav_env.records import atomic_write_text, plain, read_yaml, version_record
+from coopnav_env.seeds import refuse_test_seeds
 
 from .config import ConfigError
 from .scoring import eval_cells
@@ -61,6 +62,11 @@ def prepare_job(config) -> Job:
         raise ConfigError(f"{what}; valid scenarios: {', '.join(list_scenarios())}")
     if config.timesteps is None or config.timesteps < 1:
         raise ConfigError(f"timesteps must be a positive number of environment steps, got {config.timesteps!r}")
+    try:  # the benchmark's test seeds are never trained or validated on (coopnav_env.seeds.TEST_SEEDS)
+        refuse_test_seeds(config.seed, 1, "seed")
+        refuse_test_seeds(config.eval.seed, config.eval.episodes, "eval.seed")
+    except ValueError as err:
+        raise ConfigError(str(err)) from None
     try:
         scenario_config = make_config(config.scenario, **config.env.overrides)
     except (TypeError, ValueError) as err:

@@ -1,0 +1,572 @@
+"""The benchmark: named task sets (``evaluation.tasks``), fixed test seeds that training
+never draws (``coopnav_env.seeds.TEST_SEEDS``), a fixed episode count, and one table
+that says which policy beat the best planner where.
+
+    coopnav-benchmark --tasks sousa_grid --policies ppo --out results/bench
+    python -m evaluation.benchmark --tasks sousa_grid,gao_sea --policies ppo,runs/my_run --out results/bench
+    python -m evaluation.benchmark --list
+
+Every task set's planners (those that drive its network, without the floors) and floors
+(``static``, ``random``) always run; ``--policies`` adds challengers: planner names,
+``ppo`` (the scenario's shipped policy), a shipped policy or a train.py run
+directory. Episode ``i`` of every task and policy is seeded ``TEST_SEEDS[i]`` (common
+random numbers), so policies are compared episode by episode.
+
+Per task and policy (``results.json``, strict JSON; ``results.md``, Markdown; both
+written atomically into ``--out``):
+
+* ``mean_error_m``: the mean over episodes of each episode's mean survey error
+  (``episodes.mean_error_m``: the mean over its steps), with its 95 % t interval
+  (``ci95_error_m``) and the per-episode values (``episode_mean_error_m``);
+* ``ranges_fused``: ranges fused per episode (pings used), mean and per episode;
+* ``paired``: the per-episode difference to the task's best planner (the planner with
+  the lowest ``mean_error_m``; negative: better than it), its mean and 95 % t interval
+  (``evaluation.paired.t_interval``), and a verdict: ``win`` (the interval lies below
+  0), ``loss`` (above 0), ``tie`` (it holds 0), ``best`` (the best planner itself);
+* a policy that cannot drive a task (a trained policy built for another team size, say)
+  is ``n/a`` there, with the reason; it wins nothing there.
+
+Per task ``wins`` lists the policies that won; per task set ``summary`` counts each
+policy's wins, ties, losses and n/a. A run with other than the benchmark's episode
+count, or with ``--set``, says in both files that it is not a benchmark result.
+
+From Python (no lock on the output directory):
+
+    from evaluation.benchmark import build_results, plan_benchmark, run_benchmark, write_results
+    plan = plan_benchmark("gao_sea", "ppo", out="results/bench")
+    write_results("results/bench", build_results(plan, run_benchmark(plan)))
+
+Exit status: 0 done; 2 bad input (an unknown task set, policy or parameter, a policy
+that can drive no task, an output directory in use or holding a result without
+``--overwrite``): one line on stderr, nothing written; 1 a result that cannot be
+written (a non-finite error, named); 130 interrupted (nothing written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import shlex
+import signal
+import sys
+
+import numpy as np
+
+from coopnav_env.records import atomic_write_text, plain, strict_json, version_record
+from coopnav_env.seeds import TEST_SEED, TEST_SEED_COUNT, TEST_SEEDS
+
+from .errors import UsageError
+from .tasks import BENCHMARK_VERSION, TASK_SETS, get_task_set
+
+RESULT_FILES = ("results.json", "results.md")
+VERDICTS = ("win", "tie", "loss")
+
+__all__ = ["BenchmarkPlan", "RESULT_FILES", "build_results", "compare_task", "main", "plan_benchmark",
+           "render_markdown", "run_benchmark", "summarize_task_set", "write_results"]
+
+
+# ------------------------------------------------------------------------------------
+# statistics (pure: arrays in, dicts out)
+
+def compare_task(episode_errors: dict, planners, ranges_fused: dict | None = None, skipped: dict | None = None,
+                 confidence: float = 0.95) -> dict:
+    """One task's statistics from ``episode_errors`` (policy -> per-episode mean errors,
+    episode ``i`` of every policy on the same seed; None: the policy cannot drive the
+    task, for the reason in ``skipped``), ``planners`` (the names the best planner is
+    chosen from) and ``ranges_fused`` (policy -> ranges fused per episode). Returns
+    ``{"best_planner", "policies": {name: stats}, "wins"}`` (see the module docstring)."""
+    from .paired import t_interval
+
+    ranges_fused, skipped = ranges_fused or {}, skipped or {}
+    runs = {p: np.asarray(v, dtype=float) for p, v in episode_errors.items() if v is not None}
+    lengths = {len(v) for v in runs.values()}
+    if len(lengths) > 1:
+        raise ValueError(f"policies played different numbers of episodes: {sorted(lengths)}")
+    candidates = [p for p in planners if p in runs]
+    if not candidates:
+        raise ValueError("no planner ran on this task")
+    best = min(candidates, key=lambda p: (float(runs[p].mean()), candidates.index(p)))
+    out, wins = {}, []
+    for p, v in episode_errors.items():
+        if v is None:
+            out[p] = {"skipped": skipped.get(p, "cannot drive this task")}
+            continue
+        x = runs[p]
+        mean, lo, hi = t_interval(x, confidence)
+        stats = {"episodes": int(x.size), "mean_error_m": mean, "ci95_error_m": [lo, hi],
+                 "episode_mean_error_m": x.tolist()}
+        rf = ranges_fused.get(p)
+        if rf is not None:
+            rf = np.asarray(rf, dtype=float)
+            stats["ranges_fused"] = float(rf.mean())
+            stats["episode_ranges_fused"] = rf.tolist()
+        if p == best:
+            stats["paired"] = {"vs": best, "mean_m": 0.0, "ci95_m": [0.0, 0.0], "verdict": "best"}
+        else:
+            d_mean, d_lo, d_hi = t_interval(x - runs[best], confidence)
+            verdict = "win" if d_hi < 0 else "loss" if d_lo > 0 else "tie"
+            stats["paired"] = {"vs": best, "mean_m": d_mean, "ci95_m": [d_lo, d_hi], "verdict": verdict}
+            if verdict == "win":
+                wins.append(p)
+        out[p] = stats
+    return {"best_planner": best, "policies": out, "wins": wins}
+
+
+def summarize_task_set(tasks: dict, policies) -> dict:
+    """Per policy the count of each verdict over ``tasks`` (task -> ``compare_task``'s
+    result): ``{policy: {"win", "tie", "loss", "best", "n/a", "tasks_won"}}``."""
+    out = {}
+    for p in policies:
+        counts = {"win": 0, "tie": 0, "loss": 0, "best": 0, "n/a": 0, "tasks_won": []}
+        for name, task in tasks.items():
+            stats = task["policies"].get(p)
+            if stats is None or "skipped" in stats:
+                counts["n/a"] += 1
+                continue
+            verdict = stats["paired"]["verdict"]
+            counts[verdict] += 1
+            if verdict == "win":
+                counts["tasks_won"].append(name)
+        out[p] = counts
+    return out
+
+
+# ------------------------------------------------------------------------------------
+# the plan: every check before any work
+
+@dataclasses.dataclass
+class SetPlan:
+    """One task set of a run: its columns, each task's config, and the policies that
+    cannot drive a task (task -> {policy: the reason})."""
+    task_set: object
+    columns: list  # planners, floors, then the challengers
+    configs: dict  # task name -> ScenarioConfig
+    cannot: dict  # task name -> {policy: reason}
+    trained: dict  # policy -> what it resolved to (evaluation.config.resolve_trained)
+
+
+@dataclasses.dataclass
+class BenchmarkPlan:
+    """A checked run (``plan_benchmark``): the task sets, the challengers, the episodes
+    per task and policy, the ``--set`` overrides and the output directory."""
+    sets: list
+    challengers: list
+    episodes: int
+    overrides: dict
+    out: str
+
+    @property
+    def seeds(self) -> list:
+        """The episodes' seeds: ``TEST_SEEDS[i]`` for i < episodes."""
+        return list(TEST_SEEDS[:self.episodes])
+
+    @property
+    def official(self) -> bool:
+        """Whether this run is a benchmark result: every set's own episode count, no --set."""
+        return not self.overrides and all(self.episodes == s.task_set.episodes for s in self.sets)
+
+    def total_episodes(self) -> int:
+        """Episodes the run plays (tasks x policies that can drive them x episodes)."""
+        return sum((len(s.columns) - len(s.cannot[task])) * self.episodes for s in self.sets for task in s.configs)
+
+
+def _first_line(err: BaseException) -> str:
+    return (str(err).strip().splitlines() or [type(err).__name__])[0]
+
+
+def _split(text) -> list:
+    if text is None:
+        return []
+    if isinstance(text, str):
+        text = text.split(",")
+    return [str(t).strip() for t in text if str(t).strip()]
+
+
+def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides: dict | None = None,
+                   out: str = "results/benchmark", overwrite: bool = False, trust_pickle: bool = False,
+                   check_out: bool = True) -> BenchmarkPlan:
+    """Check everything and build the plan; raises UsageError (one line). ``tasks``: task
+    set names (a list or "a,b"; "all": every set); ``policies``: the challengers;
+    ``episodes``: None: each set's own count (the same for every set); ``overrides``:
+    scenario parameters set on every task (a quick look, not the benchmark)."""
+    from baselines import list_policies
+
+    from . import outdir
+    from .config import _unknown_policy, coerce_value, resolve_trained
+    from .episodes import check_policy
+
+    names = _split(tasks)
+    if names == ["all"]:
+        names = list(TASK_SETS)
+    if not names:
+        raise UsageError(f"no task set given; valid: {', '.join(TASK_SETS)}, all")
+    if len(set(names)) != len(names):
+        raise UsageError("a task set is listed twice")
+    sets = []
+    for n in names:
+        try:
+            sets.append(get_task_set(n))
+        except KeyError:
+            raise UsageError(f"unknown task set {n!r}; valid: {', '.join(TASK_SETS)}, all") from None
+    challengers = _split(policies)
+    if len(set(challengers)) != len(challengers):
+        raise UsageError("a policy is listed twice")
+    if episodes is None:
+        counts = {s.episodes for s in sets}
+        if len(counts) > 1:
+            raise UsageError(f"the task sets have different episode counts ({sorted(counts)}): run them separately")
+        episodes = counts.pop()
+    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)):
+        raise UsageError(f"--episodes must be an integer, got {episodes!r}")
+    if not 2 <= episodes <= TEST_SEED_COUNT:
+        raise UsageError(f"--episodes must be in [2, {TEST_SEED_COUNT}] (an interval needs two), got {episodes}")
+    if check_out:
+        if os.path.exists(out) and not os.path.isdir(out):
+            raise UsageError(f"output path {out!r} is a file, not a directory")
+        outdir.check_not_in_use(out)
+        held = [f for f in RESULT_FILES if os.path.exists(os.path.join(out, f))]
+        if held and not overwrite:
+            raise UsageError(f"{out!r} holds a benchmark result ({', '.join(held)}); use --overwrite to replace it "
+                             "or another --out")
+        if outdir.has_results(out):
+            raise UsageError(f"{out!r} holds an evaluate.py result; use another --out")
+    try:
+        overrides = {k: coerce_value(k, v) for k, v in (overrides or {}).items()}
+    except UsageError:
+        raise
+    except ValueError as err:
+        raise UsageError(_first_line(err)) from None
+    seed = TEST_SEEDS[0]
+    plans, drivable = [], {p: 0 for p in challengers}
+    for ts in sets:
+        base = list(ts.planners) + list(ts.floors)
+        columns = base + [p for p in challengers if p not in base]
+        trained, unresolved = {}, {}
+        for p in columns:
+            if p in list_policies():
+                if p not in list_policies(ts.network):
+                    unresolved[p] = f"planner {p!r} cannot drive the {ts.network} network"
+                continue
+            try:
+                trained[p] = resolve_trained(p, ts.scenario, trust_pickle)
+            except ValueError as err:
+                import agents
+
+                if isinstance(err, agents.PolicyFormatError):
+                    raise UsageError(f"policy {p!r}: {_first_line(err)}") from None
+                unresolved[p] = _first_line(_unknown_policy(p, ts.scenario, err, list_policies()))
+            except Exception as err:  # noqa: BLE001 - any failure to find it
+                unresolved[p] = _first_line(_unknown_policy(p, ts.scenario, err, list_policies()))
+        configs, cannot = {}, {}
+        for task in ts.tasks:
+            try:
+                configs[task.name] = config = task.config(ts.scenario, **overrides)
+            except ValueError as err:
+                raise UsageError(f"task {ts.name}/{task.name}: {_first_line(err)}") from None
+            cannot[task.name] = {}
+            for p in columns:
+                if p in unresolved:
+                    cannot[task.name][p] = unresolved[p]
+                    continue
+                try:
+                    check_policy(p, config, seed)
+                except KeyboardInterrupt:
+                    raise
+                except Exception as err:  # noqa: BLE001 - a policy that cannot act here
+                    if p not in challengers:
+                        raise UsageError(f"planner {p!r} cannot drive task {ts.name}/{task.name}: "
+                                         f"{_first_line(err)}") from None
+                    cannot[task.name][p] = _first_line(err)
+                    continue
+                if p in drivable:
+                    drivable[p] += 1
+        plans.append(SetPlan(ts, columns, configs, cannot, trained))
+    for p, n in drivable.items():
+        if n == 0:
+            reasons = [r for s in plans for c in s.cannot.values() for q, r in c.items() if q == p]
+            raise UsageError(f"policy {p!r} can drive no task of {', '.join(names)}: {reasons[0]}")
+    return BenchmarkPlan(plans, challengers, int(episodes), overrides, out)
+
+
+# ------------------------------------------------------------------------------------
+# running
+
+def _progress_bar(total: int, show: bool | None):
+    show = sys.stderr.isatty() if show is None else show
+    if not (total and show):
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True)
+
+
+def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
+    """Run every (task set, task, policy) of ``plan`` on the test seeds; returns
+    ``{set: {task: {policy: {"mean_error_m": [...], "ranges_fused": [...]} or None}}}``."""
+    from .episodes import run_episodes
+
+    bar = _progress_bar(plan.total_episodes(), progress)
+    raw = {}
+    try:
+        for sp in plan.sets:
+            raw[sp.task_set.name] = per_set = {}
+            for task, config in sp.configs.items():
+                per_set[task] = per_task = {}
+                for p in sp.columns:
+                    if p in sp.cannot[task]:
+                        per_task[p] = None
+                        continue
+                    if bar is not None:
+                        bar.set_description(f"{sp.task_set.name}/{task} {p}", refresh=False)
+                    rows, _ = run_episodes(config, p, plan.seeds, progress=None if bar is None else bar.update)
+                    per_task[p] = {"mean_error_m": [r["mean_error_m"] for r in rows],
+                                   "ranges_fused": [r["ranges_fused"] for r in rows]}
+    finally:
+        if bar is not None:
+            bar.close()
+    return raw
+
+
+def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) -> dict:
+    """results.json's content from ``raw`` (``run_benchmark``'s result)."""
+    first = TEST_SEED
+    sets = {}
+    for sp in plan.sets:
+        ts = sp.task_set
+        tasks = {}
+        for task in ts.tasks:
+            per_task = raw[ts.name][task.name]
+            errors = {p: None if v is None else v["mean_error_m"] for p, v in per_task.items()}
+            ranges = {p: v["ranges_fused"] for p, v in per_task.items() if v is not None}
+            result = compare_task(errors, ts.planners, ranges_fused=ranges, skipped=sp.cannot[task.name])
+            tasks[task.name] = {"overrides": plain(dict(task.overrides)), "about": task.about, **result}
+        sets[ts.name] = {
+            "scenario": ts.scenario, "about": ts.about, "episodes": plan.episodes, "benchmark_episodes": ts.episodes,
+            "planners": list(ts.planners), "floors": list(ts.floors), "challengers": list(plan.challengers),
+            "columns": list(sp.columns), "trained_policies": sp.trained, "tasks": tasks,
+            "summary": summarize_task_set(tasks, sp.columns),
+        }
+    return {
+        "benchmark_version": BENCHMARK_VERSION,
+        "official": plan.official,
+        "not_official_because": _not_official(plan),
+        "command": command,
+        "episodes": plan.episodes,
+        "seeds": {"first": first, "last": first + plan.episodes - 1, "rule": "episode i: TEST_SEEDS[i] = first + i"},
+        "set_overrides": plain(plan.overrides),
+        "confidence": 0.95,
+        "task_sets": sets,
+        "versions": version_record(),
+    }
+
+
+def _not_official(plan: BenchmarkPlan) -> list:
+    why = []
+    for sp in plan.sets:
+        if plan.episodes != sp.task_set.episodes:
+            why.append(f"{plan.episodes} episodes per task, not {sp.task_set.name}'s {sp.task_set.episodes}")
+    if plan.overrides:
+        why.append("--set " + " ".join(f"{k}={v}" for k, v in plan.overrides.items()))
+    return why
+
+
+# ------------------------------------------------------------------------------------
+# results.md
+
+def _num(x: float, digits: int = 3) -> str:
+    return f"{x:.{digits}f}"
+
+
+def _ranges(stats: dict) -> str:
+    if "skipped" in stats:
+        return "n/a"
+    return f"{stats['ranges_fused']:.1f}" if "ranges_fused" in stats else "-"
+
+
+def render_markdown(results: dict) -> str:
+    """results.md: per task set the errors, the paired differences to the best planner,
+    the ranges fused and the wins."""
+    v = results["versions"]
+    commit = (v.get("git_commit") or "unknown")[:12] + (" (modified)" if v.get("git_dirty") else "")
+    lines = [f"# coopnav benchmark v{results['benchmark_version']}", ""]
+    if not results["official"]:
+        lines += [f"**Not a benchmark result**: {'; '.join(results['not_official_because'])}.", ""]
+    lines += [f"Commit {commit}, coopnav {v.get('coopnav', '?')}; {results['episodes']} episodes per task and "
+              f"policy on the test seeds {results['seeds']['first']} + i (i < {results['episodes']}), the same "
+              "for every policy.", ""]
+    if results.get("command"):
+        lines += [f"Command: `{results['command']}`", ""]
+    for name, s in results["task_sets"].items():
+        cols = s["columns"]
+        lines += [f"## {name} ({s['scenario']})", "", s["about"] + ".", "",
+                  f"Planners: {', '.join(s['planners'])}; floors: {', '.join(s['floors'])}; challengers: "
+                  f"{', '.join(s['challengers']) or 'none'}.", ""]
+        trained = {p: t for p, t in s["trained_policies"].items() if t}
+        for p, t in trained.items():
+            lines.append(f"- `{p}`: {t.get('shipped') or 'run directory'}, model `{t['model']}`")
+        if trained:
+            lines.append("")
+        lines += ["### Mean survey error (m), 95 % t interval", "",
+                  "Mean over episodes of each episode's mean error; **bold**: the task's best planner.", "",
+                  "| task | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
+        for task, t in s["tasks"].items():
+            cells = []
+            for p in cols:
+                st = t["policies"][p]
+                if "skipped" in st:
+                    cells.append("n/a")
+                    continue
+                text = f"{_num(st['mean_error_m'])} [{_num(st['ci95_error_m'][0])}, {_num(st['ci95_error_m'][1])}]"
+                cells.append(f"**{text}**" if p == t["best_planner"] else text)
+            lines.append(f"| {task} | " + " | ".join(cells) + " |")
+        lines += ["", "### Paired difference to the best planner (m), 95 % t interval", "",
+                  "Per episode, policy minus the task's best planner on the same seed; negative: lower error. "
+                  "win: the interval lies below 0; loss: above 0; tie: it holds 0.", "",
+                  "| task | best planner | " + " | ".join(cols) + " | wins |",
+                  "|---|---|" + "---|" * len(cols) + "---|"]
+        for task, t in s["tasks"].items():
+            cells = []
+            for p in cols:
+                st = t["policies"][p]
+                if "skipped" in st:
+                    cells.append("n/a")
+                elif st["paired"]["verdict"] == "best":
+                    cells.append("best")
+                else:
+                    d = st["paired"]
+                    cells.append(f"{_num(d['mean_m'], 3)} [{_num(d['ci95_m'][0], 3)}, {_num(d['ci95_m'][1], 3)}] "
+                                 f"{d['verdict']}")
+            wins = ", ".join(t["wins"]) or "-"
+            lines.append(f"| {task} | {t['best_planner']} | " + " | ".join(cells) + f" | {wins} |")
+        lines += ["", "### Ranges fused per episode (pings used)", "",
+                  "| task | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
+        for task, t in s["tasks"].items():
+            cells = [_ranges(t["policies"][p]) for p in cols]
+            lines.append(f"| {task} | " + " | ".join(cells) + " |")
+        n = len(s["tasks"])
+        lines += ["", f"### Wins over {n} tasks", "",
+                  "| policy | wins | ties | losses | best planner | n/a | tasks won |", "|---|---|---|---|---|---|---|"]
+        for p in cols:
+            c = s["summary"][p]
+            lines.append(f"| {p} | {c['win']} | {c['tie']} | {c['loss']} | {c['best']} | {c['n/a']} | "
+                         f"{', '.join(c['tasks_won']) or '-'} |")
+        skipped = sorted({(p, st["skipped"]) for t in s["tasks"].values() for p, st in t["policies"].items()
+                          if "skipped" in st})
+        if skipped:
+            lines += ["", "n/a: " + "; ".join(f"`{p}`: {why}" for p, why in skipped)]
+        lines.append("")
+    return "\n".join(lines)
+
+
+def write_results(out: str, results: dict) -> list:
+    """Write results.json (strict JSON) and results.md atomically; returns their names.
+    A non-finite value raises ValueError naming it, before anything is written."""
+    text = strict_json(results)
+    md = render_markdown(results)
+    os.makedirs(out, exist_ok=True)
+    atomic_write_text(os.path.join(out, "results.json"), text)
+    atomic_write_text(os.path.join(out, "results.md"), md)
+    return list(RESULT_FILES)
+
+
+# ------------------------------------------------------------------------------------
+# the command line
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise UsageError(message)
+
+
+def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
+    p = _Parser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter,
+                description="Run policies on the benchmark's task sets (fixed test seeds, never trained on) "
+                            "against the planners, and write results.json and results.md to OUT.",
+                epilog="task sets: " + ", ".join(f"{n} ({s.scenario}, {len(s.tasks)} tasks)"
+                                                 for n, s in TASK_SETS.items())
+                       + "\nexample:\n  %(prog)s --tasks sousa_grid --policies ppo --out results/bench")
+    p.add_argument("--tasks", default=None, help="comma-separated task sets, or all")
+    p.add_argument("--policies", default=None,
+                   help="challengers, comma-separated: ppo, a shipped policy, a train.py run directory, or planners "
+                        "(the task sets' planners and floors always run)")
+    p.add_argument("--episodes", type=int, default=None,
+                   help="episodes per task and policy (default: the task set's, 50); another count is a quick "
+                        "look, not a benchmark result")
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                   help="set a scenario parameter on every task (a quick look, not a benchmark result)")
+    p.add_argument("--out", default="results/benchmark", help="output directory (default: results/benchmark)")
+    p.add_argument("--overwrite", action="store_true", help="replace a benchmark result already in OUT")
+    p.add_argument("--list", action="store_true", help="list the task sets and their tasks, and exit")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (default: one on a terminal)")
+    p.add_argument("--trust-pickle", action="store_true",
+                   help="accept trained policies in pickle-based formats (only files you trust)")
+    return p
+
+
+def list_text() -> str:
+    lines = []
+    for n, s in TASK_SETS.items():
+        lines.append(f"{n}: scenario {s.scenario}, {s.episodes} episodes per task; planners "
+                     f"{', '.join(s.planners)}; floors {', '.join(s.floors)}")
+        for t in s.tasks:
+            ov = ", ".join(f"{k}={v}" for k, v in t.overrides.items()) or "as configured"
+            lines.append(f"  {t.name}: {ov}")
+    return "\n".join(lines)
+
+
+def main(argv=None, prog: str | None = None) -> int:
+    """The command line; returns the exit status (0; 2 bad input; 1 a result that cannot be
+    written; 130 interrupted)."""
+    prog = prog or "coopnav-benchmark"
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:  # SIGTERM stops the run like Ctrl-C
+        previous_handler = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # not the main thread
+        previous_handler = None
+    try:
+        return _main(argv, prog)
+    finally:
+        if previous_handler is not None:
+            signal.signal(signal.SIGTERM, previous_handler)
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def _main(argv: list, prog: str) -> int:
+    from . import outdir
+    from .config import parse_assignment
+
+    try:
+        args = build_parser(prog).parse_args(argv)
+        if args.list:
+            print(list_text())
+            return 0
+        if args.tasks is None:
+            raise UsageError(f"--tasks is required: {', '.join(TASK_SETS)} or all")
+        sets = dict(parse_assignment(item, "--set") for item in args.sets)
+        plan = plan_benchmark(args.tasks, args.policies, args.episodes, sets, args.out, args.overwrite,
+                              args.trust_pickle)
+        command = " ".join([prog, shlex.join(argv)]).strip()
+        with outdir.OutputLock(args.out, command):
+            raw = run_benchmark(plan, progress=False if args.no_progress else None)
+            results = build_results(plan, raw, command)
+            try:
+                files = write_results(args.out, results)
+            except ValueError as err:
+                print(f"{prog}: error: {_first_line(err)}; nothing written", file=sys.stderr)
+                return 1
+    except UsageError as err:
+        print(f"{prog}: error: {_first_line(err)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted; nothing written", file=sys.stderr)
+        return 130
+    print(render_markdown(results))
+    print(f"\nwrote {args.out}/: {', '.join(files)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(prog="python -m evaluation.benchmark"))

@@ -1,0 +1,138 @@
+"""The benchmark's task sets, as data (``evaluation.benchmark`` runs them).
+
+A task is a name and scenario overrides (``make_config(scenario, **overrides)``); a
+task set is a scenario, its tasks, the episode count every policy plays on every
+task, and the planners the challengers are compared with. Episode ``i`` of every task
+and policy is seeded ``coopnav_env.seeds.TEST_SEEDS[i]`` (common random numbers),
+seeds the trainers refuse (``coopnav_env.seeds.refuse_test_seeds``).
+
+* ``planners``: those of ``baselines.list_policies(network)`` other than the floors;
+  per task the one with the lowest mean error is the "best planner" a challenger has
+  to beat;
+* ``floors``: ``static`` and ``random``, reported for scale, never the best planner.
+
+Changing a task set changes the benchmark: bump ``BENCHMARK_VERSION`` (results.json
+and results.md carry it, so that results of different versions are not compared).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from types import MappingProxyType
+
+BENCHMARK_VERSION = 1
+EPISODES = 50  # per task and policy: the benchmark's count
+FLOORS = ("static", "random")
+
+__all__ = ["BENCHMARK_VERSION", "EPISODES", "FLOORS", "TASK_SETS", "Task", "TaskSet", "get_task_set",
+           "list_task_sets"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Task:
+    """One benchmark task: a name (unique in its set) and scenario overrides."""
+    name: str
+    overrides: MappingProxyType
+    about: str = ""
+
+    def config(self, scenario: str, **extra):
+        """The task's ``ScenarioConfig`` (``extra``: more overrides on top, e.g. ``--set``)."""
+        from coopnav_env import make_config
+
+        return make_config(scenario, **{**self.overrides, **extra})
+
+
+@dataclasses.dataclass(frozen=True)
+class TaskSet:
+    """A named set of tasks on one scenario, ``episodes`` per task and policy."""
+    name: str
+    scenario: str
+    tasks: tuple
+    episodes: int = EPISODES
+    about: str = ""
+
+    @property
+    def network(self) -> str:
+        from coopnav_env import make_config
+
+        return make_config(self.scenario).network
+
+    @property
+    def planners(self) -> list:
+        """The planners compared against: those that drive the network, minus the floors."""
+        from baselines import list_policies
+
+        return [p for p in list_policies(self.network) if p not in FLOORS]
+
+    @property
+    def floors(self) -> list:
+        from baselines import list_policies
+
+        return [p for p in FLOORS if p in list_policies(self.network)]
+
+    def task(self, name: str) -> Task:
+        for t in self.tasks:
+            if t.name == name:
+                return t
+        raise KeyError(name)
+
+
+def _task(name: str, about: str = "", **overrides) -> Task:
+    return Task(name, MappingProxyType(dict(overrides)), about)
+
+
+def _sousa_grid() -> tuple:
+    """Sousa et al. Tables I-II: depth x survey path, 16 cells."""
+    return tuple(_task(f"{path}_{depth:g}m", f"survey_path={path}, depth_m={depth:g}", depth_m=float(depth),
+                       survey_path=path)
+                 for depth in (1, 5, 20, 50) for path in ("stationary", "lawnmower", "circle", "spiral"))
+
+
+_SETS = (
+    TaskSet("sousa_grid", "sousa_asv", _sousa_grid(),
+            about="one ASV helping an ROV: the 16 cells of Sousa et al.'s Tables I-II (depth x survey path)"),
+    TaskSet("gao_lawnmower", "gao_lawnmower", (
+        _task("lake", "the lake trial as published"),
+        _task("deep_20m", "the survey at 20 m instead of 3 m", depth_m=20.0),
+        _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
+        _task("spiral", "a descending spiral instead of the lawnmower", survey_path="spiral"),
+        _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
+        _task("two_surveys", "team: two survey AUVs, one beacon", n_survey=2),
+    ), about="Gao & Chitre's lake trial and variations (depth, current, path, team)"),
+    TaskSet("gao_sea", "gao_sea", (
+        _task("sea", "the sea trial as published (0.3 m/s current)"),
+        _task("calm", "a 0.05 m/s current", current_speed_mps=0.05, current_speed_spread_mps=0.03),
+        _task("current_0.6", "a 0.6 m/s current", current_speed_mps=0.6),
+        _task("deep_30m", "the survey at 30 m instead of 5 m", depth_m=30.0),
+        _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
+    ), about="Gao & Chitre's sea trial and variations (current, depth, team)"),
+    TaskSet("swarm_mls", "swarm_mls", (
+        _task("swarm3", "three survey AUVs with MLS ranging, as configured"),
+        _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
+        _task("swarm2", "team: two survey AUVs", n_survey=2),
+        _task("swarm5", "team: five survey AUVs", n_survey=5),
+        _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
+    ), about="Kottege & Zimmer's MLS swarm and variations (current, team size)"),
+    TaskSet("matos_moving_lbl", "matos_moving_lbl", (
+        _task("paper", "Matos & Cruz's moving baseline as published"),
+        _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
+        _task("short_baseline", "a 50 m baseline instead of 100", baseline_target_m=50.0),
+        _task("frame_north", "the frame oriented north (0 deg) instead of east", frame_orientation_deg=0.0),
+        _task("noisy_ranges", "3 m range noise instead of 1.4", range_noise_std_m=3.0),
+    ), about="Matos & Cruz's moving long baseline (two boats) and variations"),
+)
+
+TASK_SETS = MappingProxyType({s.name: s for s in _SETS})
+
+
+def list_task_sets() -> list:
+    """The task sets' names."""
+    return list(TASK_SETS)
+
+
+def get_task_set(name: str) -> TaskSet:
+    """The task set ``name`` (a ``KeyError`` naming the valid ones else)."""
+    try:
+        return TASK_SETS[name]
+    except KeyError:
+        raise KeyError(f"unknown task set {name!r}; valid: {', '.join(TASK_SETS)}") from None
