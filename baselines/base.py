@@ -340,12 +340,32 @@ def list_policies(network=None) -> list:
     return sorted(n for n, cls in _POLICIES.items() if network is None or network in cls.networks)
 
 
+_SCHEDULER = None  # baselines.schedule.make_scheduled, set when that module is imported
+
+
+def register_scheduler(fn):
+    """Called by ``baselines.schedule`` (which imports this module, not the other way round)."""
+    global _SCHEDULER
+    _SCHEDULER = fn
+    return fn
+
+
 def make_policy(name: str, env_or_config, seed=None, agent=0, **kwargs) -> Policy:
-    """A baseline policy by name for one beacon (``agent``: index or "beacon_k")."""
-    if name not in _POLICIES:
-        raise ValueError(f"unknown policy {name!r}; valid policies: {', '.join(sorted(_POLICIES))}")
+    """A baseline policy by name for one beacon (``agent``: index or "beacon_k").
+
+    With ``channel_mode="decide"`` a name ``"<motion>+<schedule>"`` combines a planner
+    with a transmit schedule (``baselines.schedule``: clock, tdma, event), and a plain
+    planner name gets ``schedule.DEFAULT_SCHEDULE``."""
+    motion, _, schedule = name.partition("+")
+    if motion not in _POLICIES:
+        raise ValueError(f"unknown policy {motion!r}; valid policies: {', '.join(sorted(_POLICIES))}")
     if isinstance(agent, str):
         if not agent.startswith("beacon_") or not agent[7:].isdigit():
             raise ValueError(f"agent must be an index or 'beacon_<k>', got {agent!r}")
         agent = int(agent[7:])
-    return _POLICIES[name](resolve_config(env_or_config), agent_index=int(agent), seed=seed, **kwargs)
+    config = resolve_config(env_or_config)
+    if schedule or config.channel_mode == "decide":
+        if _SCHEDULER is None:
+            raise ValueError(f"{name!r}: transmit schedules need baselines.schedule imported (import baselines)")
+        return _SCHEDULER(_POLICIES[motion], schedule, config, int(agent), seed, **kwargs)
+    return _POLICIES[motion](config, agent_index=int(agent), seed=seed, **kwargs)

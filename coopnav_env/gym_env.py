@@ -26,7 +26,7 @@ class CoopNavGymEnv(gym.Env):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
         self.render_mode = render_mode
         self.sim = make_simulator(self.config, batch_size=1)
-        self.action_space = action_space()
+        self.action_space = action_space(self.sim)
         self.observation_space = observation_space(self.sim)
         self._recorder = None
 
@@ -42,7 +42,7 @@ class CoopNavGymEnv(gym.Env):
         return obs[0, 0], agent_infos(self.sim.reset_info(), 0, self.sim.reset_beacon_info())  # step()'s keys
 
     def step(self, action):
-        a = check_action("beacon_0", action)
+        a = check_action("beacon_0", action, self.action_space.shape[0])
         res = self.sim.step(a[None, None])
         if self._recorder is not None:
             self._recorder.record(self.sim.snapshot(), 0)

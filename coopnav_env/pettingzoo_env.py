@@ -30,6 +30,12 @@ class CoopNavParallelEnv(ParallelEnv):
     clipped to 1); with ``"heading_speed"``, (bearing / pi, speed fraction * 2 - 1).
     Turn rates are limited by the vehicle kind. Finite out-of-range actions are
     clipped; NaN, infinite or wrongly shaped actions raise ``ValueError``.
+    With ``channel_mode="decide"`` (scenario ``sousa_ping``) the action is
+    ``Box(-1, 1, (3,))``: the motion, then the transmit decision, transmit this
+    decision slot when ``action[2] > 0`` (a (2,) action transmits every slot);
+    the pings and replies then share one channel (``core/channel.py``), the reward
+    gains a ``ping`` term (-``ping_penalty`` per ping) and the infos ``pings``,
+    ``collisions`` and ``energy_J`` per beacon and cycle.
 
     **Observation** (per beacon): ``Box(-10, 10, (D,), float32)``, only what the
     beacon could know, positions divided by the scenario's ``position_scale_m``:
@@ -104,7 +110,7 @@ class CoopNavParallelEnv(ParallelEnv):
         self.last_result = None  # the core's StepResult of the last step (training-reward wrappers read it)
         self.possible_agents = [f"beacon_{i}" for i in range(self.config.n_beacons)]
         self.agents = []
-        self._action_space = action_space()
+        self._action_space = action_space(self.sim)
         self._observation_space = observation_space(self.sim)
         self.state_space = state_space(self.sim)
         self._seed = None if seed is None else check_seed(seed)
@@ -152,7 +158,8 @@ class CoopNavParallelEnv(ParallelEnv):
         missing = [a for a in self.agents if a not in actions]
         if missing:
             raise ValueError(f"no action given for live agents {missing}")
-        batch = np.stack([check_action(a, actions[a]) for a in self.agents])[None]
+        dim = self._action_space.shape[0]
+        batch = np.stack([check_action(a, actions[a], dim) for a in self.agents])[None]
         res = self.last_result = self.sim.step(batch)  # the core's StepResult, for wrappers
         if self._recorder is not None:
             self._recorder.record(self.sim.snapshot(), 0)

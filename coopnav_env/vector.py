@@ -26,7 +26,8 @@ the episode) and ``info["TimeLimit.truncated"]`` (True when the episode was cut 
 observation returned is the first one of its next episode. Every row's info has
 the env's info keys (see ``coopnav_env.views.agent_infos``).
 
-**Actions**: ``(num_envs, 2)``; finite out-of-range values are clipped to
+**Actions**: ``(num_envs, 2)`` (``(num_envs, 3)`` with ``channel_mode="decide"``:
+the third component > 0 transmits this slot); finite out-of-range values are clipped to
 [-1, 1]; NaN or infinite values and wrong shapes raise ``ValueError`` naming the
 environment and beacon (``views.check_action``'s rules).
 
@@ -153,7 +154,7 @@ class CoopNavVecEnv(VecEnv):
         self.obs_dim = self.sim.obs_dim
         self.render_mode = None
         self.possible_agents = [f"beacon_{j}" for j in range(self.n_beacons)]
-        super().__init__(n_envs * self.n_beacons, observation_space(self.sim), action_space())
+        super().__init__(n_envs * self.n_beacons, observation_space(self.sim), action_space(self.sim))
         self._base_seed = None
         self._episode = np.zeros(n_envs, dtype=np.int64)  # episodes started per environment
         self.episode_seeds = np.full(n_envs, -1, dtype=np.int64)  # seed of each current episode
@@ -197,20 +198,25 @@ class CoopNavVecEnv(VecEnv):
 
     # ------------------------------------------------------------------------------
     def check_actions(self, actions) -> np.ndarray:
-        """``actions`` (num_envs, 2) as float64 (n_envs, n_beacons, 2), clipped to [-1, 1]."""
+        """``actions`` (num_envs, D) as float64 (n_envs, n_beacons, D), clipped to [-1, 1]; D
+        is the action space's 2, or 3 with ``channel_mode="decide"`` (which also takes D = 2,
+        the motion alone: transmit every slot)."""
         try:
             a = np.asarray(actions, dtype=np.float64)
         except (TypeError, ValueError) as err:
             raise ValueError(f"actions are not numeric: {type(actions).__name__}") from err
-        if a.shape != (self.num_envs, 2):
-            raise ValueError(f"actions must have shape ({self.num_envs}, 2) (one row per beacon of every "
+        dim = self.action_space.shape[0]
+        if a.shape != (self.num_envs, dim) and not (dim == 3 and a.shape == (self.num_envs, 2)):
+            raise ValueError(f"actions must have shape ({self.num_envs}, {dim}) (one row per beacon of every "
                              f"environment), got shape {a.shape}")
         finite = np.isfinite(a).all(axis=1)
         if not finite.all():
             row = int(np.flatnonzero(~finite)[0])
             e, j = divmod(row, self.n_beacons)
             raise ValueError(f"action for env {e} beacon_{j} (row {row}) must be finite, got {a[row].tolist()}")
-        return np.clip(a, -1.0, 1.0).reshape(self.n_envs, self.n_beacons, 2)
+        if a.shape[1] != dim:  # the motion alone: transmit, as the fixed clock does
+            a = np.concatenate([a, np.ones((self.num_envs, 1))], 1)
+        return np.clip(a, -1.0, 1.0).reshape(self.n_envs, self.n_beacons, dim)
 
     def step_async(self, actions):
         if not self._started:

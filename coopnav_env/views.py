@@ -9,9 +9,19 @@ from gymnasium import spaces
 OBS_BOUND = 10.0
 
 
-def action_space() -> spaces.Box:
-    """Every beacon's action: two numbers in [-1, 1] (see the scenario's action_mode)."""
-    return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+def action_dim(sim_or_config=None) -> int:
+    """Components of a beacon's action: 2 (the motion), 3 with ``channel_mode="decide"``
+    (the motion, then the transmit decision: transmit this slot when it is > 0)."""
+    if sim_or_config is None:
+        return 2
+    config = getattr(sim_or_config, "config", sim_or_config)
+    return 3 if getattr(config, "channel_mode", "clock") == "decide" else 2
+
+
+def action_space(sim=None) -> spaces.Box:
+    """Every beacon's action: numbers in [-1, 1], two for the motion (see the scenario's
+    action_mode) and, with ``channel_mode="decide"``, a third: transmit when > 0."""
+    return spaces.Box(-1.0, 1.0, shape=(action_dim(sim),), dtype=np.float32)
 
 
 def observation_space(sim) -> spaces.Box:
@@ -22,20 +32,24 @@ def state_space(sim) -> spaces.Box:
     return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(sim.state_dim,), dtype=np.float32)
 
 
-def check_action(agent: str, action) -> np.ndarray:
-    """One agent's action as a float array of shape (2,), clipped to [-1, 1].
+def check_action(agent: str, action, dim: int = 2) -> np.ndarray:
+    """One agent's action as a float array of shape (dim,), clipped to [-1, 1].
 
     Raises ValueError naming the agent for a wrong shape or a NaN/infinite value;
-    finite out-of-range values are clipped, as users of Box spaces expect.
+    finite out-of-range values are clipped, as users of Box spaces expect. With
+    ``dim=3`` (``channel_mode="decide"``) a two-component action (the motion alone)
+    is accepted too and means "transmit every slot", the fixed clock.
     """
     try:
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise ValueError(f"action for {agent} is not numeric: {action!r}") from err
-    if a.shape != (2,):
-        raise ValueError(f"action for {agent} must have shape (2,), got shape {a.shape}")
+    if a.shape != (dim,) and not (dim == 3 and a.shape == (2,)):
+        raise ValueError(f"action for {agent} must have shape ({dim},), got shape {a.shape}")
     if not np.isfinite(a).all():
         raise ValueError(f"action for {agent} must be finite, got {a.tolist()}")
+    if a.shape != (dim,):
+        a = np.append(a, 1.0)  # the motion alone: transmit, as the fixed clock does
     return np.minimum(np.maximum(a, -1.0), 1.0)
 
 

@@ -25,6 +25,9 @@ term             value per beacon and cycle                              weight
 ``rotation``     1 if the frame turned more than                           -``rotation_penalty``
                  ``frame_rotation_tolerance_deg`` from its start (moving
                  network)
+``ping``         1 if the beacon transmitted a ping this cycle (only with  -``ping_penalty``
+                 ``channel_mode="decide"``: the price of the channel and
+                 of the transmit energy, ``core.channel``)
 ===============  ======================================================  ====================
 """
 
@@ -41,10 +44,12 @@ TERM_WEIGHTS = {
     "baseline": "baseline_penalty",
     "approach": "approach_penalty",
     "rotation": "rotation_penalty",
+    "ping": "ping_penalty",
 }
 SURVEY_TERMS = ("info_gain", "safety", "geofence", "contact")
+CHANNEL_TERMS = SURVEY_TERMS + ("ping",)  # the survey network with channel_mode="decide"
 MOVING_NETWORK_TERMS = ("info_gain", "safety", "baseline", "approach", "rotation", "contact")
-PENALTY_TERMS = ("safety", "geofence", "baseline", "approach", "rotation")  # all but information and contact
+PENALTY_TERMS = ("safety", "geofence", "baseline", "approach", "rotation", "ping")  # all but information and contact
 
 
 def term_weights(config, terms) -> dict:

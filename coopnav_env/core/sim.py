@@ -13,6 +13,9 @@ Data flow in one step (one decision = one acoustic cycle of ``ping_interval_s``)
    and are fused sequentially (eqs. 7-13) after a chi-square innovation gate;
 5. the survey vehicles reply with their estimate and covariance, which each beacon
    receives or loses; beacons exchange their own positions the same way;
+   with ``channel_mode="decide"`` only the beacons whose action's third component is
+   > 0 ping, and the pings and replies share one channel in time (``core.channel``:
+   propagation, collisions, half-duplex, transmit energy) before the random losses;
 6. rewards, observations, terminations and infos are computed from the arrays.
 
 Nothing here knows PettingZoo or Gymnasium; views live in coopnav_env/*.py.
@@ -24,9 +27,9 @@ import numpy as np
 
 from ..scenarios.base import ScenarioConfig
 from . import rng
-from . import fusion, measurements, observation, substeps
+from . import channel, fusion, measurements, observation, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
-from .reward import SURVEY_TERMS, term_weights, weighted_reward
+from .reward import CHANNEL_TERMS, SURVEY_TERMS, term_weights, weighted_reward
 from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps, unit_to_bearing
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
@@ -37,6 +40,7 @@ INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_f
              "outliers_rejected", "nan_rejected", "packets_lost", "filter_restarts", "survey_error_en_m",
              "survey_cov_en_m2")
 BEACON_INFO_KEYS = ("beacon_error_m",)
+CHANNEL_BEACON_INFO_KEYS = BEACON_INFO_KEYS + ("pings", "collisions", "energy_J")  # channel_mode="decide"
 
 
 class Simulator(BatchSimulator):
@@ -111,9 +115,13 @@ class Simulator(BatchSimulator):
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.info_keys = INFO_KEYS
-        self.beacon_info_keys = BEACON_INFO_KEYS
-        self.reward_terms = SURVEY_TERMS
-        self.reward_weights = term_weights(c, SURVEY_TERMS)
+        # the shared channel (channel_mode="decide"): its own terms and beacon infos; the
+        # fixed clock keeps the original ones
+        self.channel = channel.Channel(self) if c.channel_mode == "decide" else None
+        self.action_dim = 3 if self.channel is not None else 2
+        self.beacon_info_keys = CHANNEL_BEACON_INFO_KEYS if self.channel is not None else BEACON_INFO_KEYS
+        self.reward_terms = CHANNEL_TERMS if self.channel is not None else SURVEY_TERMS
+        self.reward_weights = term_weights(c, self.reward_terms)
         self.state: SimState | None = None
 
     def _initial_state(self, seeds) -> SimState:
@@ -193,6 +201,8 @@ class Simulator(BatchSimulator):
             b_travelled_m=np.zeros((B, N)),
             b_fix_est=(b_pos[..., 0] + b_err[..., 0]) + 1j * (b_pos[..., 1] + b_err[..., 1]),
             b_since_fix_s=np.zeros((B, N)), b_surfacings=np.zeros((B, N), dtype=np.int64),
+            b_pings=np.zeros((B, N), dtype=np.int64), b_collisions=np.zeros((B, N), dtype=np.int64),
+            b_energy_j=np.zeros((B, N)),
             clock_offset_s=c.clock_offset_std_s * n_clock,
             clock_drift=c.clock_drift_ppm * 1e-6 * (2 * clock_u - 1),
             temperature_c=c.water_temperature_c + c.temperature_uncertainty_c * nw[:, 0],
@@ -210,7 +220,8 @@ class Simulator(BatchSimulator):
 
     # ------------------------------------------------------------------------------
     def command_velocity(self, actions: np.ndarray) -> np.ndarray:
-        """Actions (B,N,2) in [-1, 1] -> commanded ground velocity, complex (B,N)."""
+        """Actions (B,N,2) in [-1, 1] (their first two components) -> commanded ground
+        velocity, complex (B,N)."""
         vmax = self._beacon_max_speed
         if self.config.action_mode == "velocity":
             v = actions[..., 0] + 1j * actions[..., 1]
@@ -222,12 +233,15 @@ class Simulator(BatchSimulator):
         return speed * bearing_to_unit(bearing)
 
     def step(self, actions: np.ndarray) -> StepResult:
-        """Advance every environment one acoustic cycle. actions: (B, N, 2) finite."""
+        """Advance every environment one acoustic cycle. actions: (B, N, 2) finite; with
+        ``channel_mode="decide"`` (B, N, 3), the third component > 0 to transmit this
+        slot (a (B, N, 2) action transmits every slot, the fixed clock)."""
         c, st = self.config, self.state
         B, S, N, K = self.batch_size, self.S, self.N, self.K
         dt, T = c.substep_s, c.ping_interval_s
         cyc = st.cycle
         draws = self._cycle_draws(cyc)
+        transmit = self.channel.transmit_mask(actions, cyc) if self.channel is not None else None
 
         # 1. beacon motion over the cycle -------------------------------------------------
         b_start = st.b_pos[..., 0] + 1j * st.b_pos[..., 1]
@@ -258,11 +272,24 @@ class Simulator(BatchSimulator):
         fused = np.zeros((B, N, S), dtype=bool)
         out = measurements.FusionOutputs(fused=fused, rejected=np.zeros_like(fused), lost=np.zeros_like(fused),
                                          nan_count=nan_count, restarts=np.zeros((B, S), dtype=np.int64))
-        self.sensor.fuse(draws, out)
+        if self.channel is None:
+            self.sensor.fuse(draws, out)
+        else:  # the shared channel: only the pings it delivers are measured
+            ping_ok, ping_slot = self.channel.pings(transmit)
+            self.sensor.transmit = transmit
+            self.sensor.fuse(draws, out, heard=ping_ok)
         logdet_after = logdet_horizontal(st.s_P)
 
         # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
-        self._exchange_messages(draws)
+        if self.channel is None:
+            self._exchange_messages(draws)
+        else:  # a survey vehicle replies once per slot if it decoded a ping (core/channel.py)
+            replied = (ping_ok & ~out.lost).any(1)
+            reply_ok, peer_ok, _ = self.channel.replies(transmit, replied)
+            self.channel.exchange(draws, reply_ok, peer_ok)
+            st.b_pings = transmit.astype(np.int64)
+            st.b_collisions = ping_slot[2][:, :N, N:].sum(-1).astype(np.int64)
+            st.b_energy_j = transmit * self.channel.ping_energy_j
 
         # 6. reward terms, ends, infos ------------------------------------------------
         info_gain = (logdet_before - logdet_after).sum(-1)  # (B,)
@@ -276,6 +303,8 @@ class Simulator(BatchSimulator):
         terms = {"info_gain": np.broadcast_to(info_gain[:, None], (B, N)),
                  "safety": (dist < c.safety_distance_m).any(-1).astype(float),
                  "geofence": outside.astype(float), "contact": no_contact.astype(float)}
+        if self.channel is not None:
+            terms["ping"] = transmit.astype(float)
 
         terminated = st.s_done.all(-1)
         if c.mission_duration_s > 0:
@@ -307,8 +336,15 @@ class Simulator(BatchSimulator):
         }
 
     def _beacon_info(self) -> dict:
-        """Per beacon (B, N): the true horizontal error of its own navigation (m)."""
-        return {"beacon_error_m": np.hypot(self.state.b_nav_err[..., 0], self.state.b_nav_err[..., 1])}
+        """Per beacon (B, N): the true horizontal error of its own navigation (m); with
+        ``channel_mode="decide"`` also this cycle's ``pings`` (0 or 1), ``collisions``
+        (survey vehicles at which its ping collided with another packet) and
+        ``energy_J`` (transmit energy, J)."""
+        st = self.state
+        info = {"beacon_error_m": np.hypot(st.b_nav_err[..., 0], st.b_nav_err[..., 1])}
+        if self.channel is not None:
+            info.update(pings=st.b_pings.copy(), collisions=st.b_collisions.copy(), energy_J=st.b_energy_j.copy())
+        return info
 
     def snapshot(self) -> Snapshot:
         """Positions, covariance and planned paths of every environment (copies)."""

@@ -76,6 +76,9 @@ class SimState(BatchArrays):
     b_fix_est: np.ndarray  # own position estimate at the last GPS fix (start or surfacing), complex (B,N)
     b_since_fix_s: np.ndarray  # time since that fix (B,N)
     b_surfacings: np.ndarray  # GPS fixes taken at the surface this cycle (B,N) int
+    b_pings: np.ndarray  # packets it transmitted this cycle (channel_mode="decide"; else 0) (B,N) int
+    b_collisions: np.ndarray  # its pings lost to a collision at a survey vehicle this cycle (B,N) int
+    b_energy_j: np.ndarray  # transmit energy it spent this cycle, J (B,N)
     # acoustics
     clock_offset_s: np.ndarray  # OWTT clock offset survey - beacon at t=0 (B,S,N)
     clock_drift: np.ndarray  # its drift, s/s (B,S,N)

@@ -24,6 +24,8 @@ SURVEY_PATHS = ("stationary", "lawnmower", "circle", "spiral", "line", "waypoint
 RANGING_MODES = ("owtt", "twtt")
 ACOUSTIC_SENSORS = ("modem", "mls")
 ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
+CHANNEL_MODES = ("clock", "decide")
+SLOWEST_SOUND_SPEED_MPS = 1400.0  # below any sea water's (Mackenzie 1981 at -2 degC, 25 ppt: ~1430 m/s): bounds a packet's flight time
 
 
 @dataclass(frozen=True)
@@ -144,6 +146,19 @@ class ScenarioConfig:
     temperature_uncertainty_c: float = 0.5  # true temperature differs per episode
     clock_offset_std_s: float = 1e-4  # OWTT clock offset at start (0.15 m)
     clock_drift_ppm: float = 0.01  # OWTT clock drift, per episode +/- [U]
+
+    # --- the acoustic channel as a shared, costly resource (core/channel.py) -----------
+    # "clock": every beacon pings every cycle and the channel is free (the papers);
+    # "decide": each ping_interval_s is a decision slot, a beacon transmits when its
+    # action's third component is > 0, and the packets share one half-duplex channel in
+    # time (collisions, propagation delays, transmit energy); needs modem OWTT ranging
+    channel_mode: str = "clock"  # one of CHANNEL_MODES (see above)
+    modem_bit_rate_bps: float = 80.0  # WHOI Micro-Modem FH-FSK, the slowest of its 80-5400 bps, ref-values section 3
+    ping_packet_bits: int = 64  # a beacon's ping: id, send time, own position and variance [U]
+    reply_packet_bits: int = 128  # a survey vehicle's reply: estimate, covariance, waypoint index, range age [U]
+    transmit_power_w: float = 40.0  # electrical power while a modem transmits [U: tens of watts]
+    ping_penalty: float = 0.0  # reward weight of the "ping" term (per ping a beacon transmits)
+    tdma_frame_slots: int = 0  # > 0: beacon j may transmit only in slots k with k mod this == j mod this (0: any slot)
 
     # --- ocean current (constant + first-order Gauss-Markov), per episode ------------
     current_speed_mps: float = 0.05  # mean speed of the constant part
@@ -331,7 +346,9 @@ LIMITS = {
     "frame_q_current_m2ps3": (0.0, 100.0), "frame_q_baseline_m2ps": (0.0, 10_000.0),
     "baseline_tolerance_m": (0.0, 10_000.0), "baseline_penalty": (0.0, 1e6), "frame_rotation_tolerance_deg": (0.0, 360.0),
     "rotation_penalty": (0.0, 1e6), "min_baseline_distance_m": (0.0, 10_000.0), "approach_penalty": (0.0, 1e6),
-    "observed_waypoints": (1, 64),
+    "observed_waypoints": (1, 64), "modem_bit_rate_bps": (OPEN_ZERO, 1e6), "ping_packet_bits": (1, 1_000_000),
+    "reply_packet_bits": (1, 1_000_000), "transmit_power_w": (0.0, 10_000.0), "ping_penalty": (0.0, 1e6),
+    "tdma_frame_slots": (0, 1024),
 }
 COORDINATE_LIMIT_M = 1e6  # |east|, |north| of origins and waypoints
 AREA_LIMIT_M = 20_000.0  # each side of the survey area
@@ -424,6 +441,19 @@ def _validate(c: ScenarioConfig):
     else:
         _check("boat" not in c.beacon_kinds, "beacon_kinds: the kind 'boat' belongs to network='moving_lbl'")
         _check(c.action_mode != "frame_velocity", "action_mode='frame_velocity' belongs to network='moving_lbl'")
+    _check(c.channel_mode in CHANNEL_MODES,
+           f"unknown channel_mode {c.channel_mode!r}; valid modes: {', '.join(CHANNEL_MODES)}")
+    if c.channel_mode == "decide":
+        _check(c.network == "survey_beacons" and c.acoustic_sensor == "modem" and c.ranging_mode == "owtt",
+               "channel_mode='decide' needs network='survey_beacons', acoustic_sensor='modem' and ranging_mode='owtt' "
+               "(a beacon's ping is the one-way range)")
+        # the slot holds the pings, their flight, the turn-around, the replies and theirs
+        need = ((c.ping_packet_bits + c.reply_packet_bits) / c.modem_bit_rate_bps
+                + 2.0 * c.max_range_m / SLOWEST_SOUND_SPEED_MPS + c.turnaround_s)
+        _check(need <= c.ping_interval_s,
+               f"channel_mode='decide': a slot of ping_interval_s={c.ping_interval_s:g} s cannot hold a ping and a reply "
+               f"({need:.3f} s: (ping_packet_bits + reply_packet_bits) / modem_bit_rate_bps + 2 max_range_m / "
+               f"{SLOWEST_SOUND_SPEED_MPS:g} m/s + turnaround_s); raise the bit rate or the slot, or lower max_range_m")
     _check(c.survey_path in SURVEY_PATHS,
            f"unknown survey_path {c.survey_path!r}; valid paths: {', '.join(SURVEY_PATHS)}")
     _check(c.ranging_mode in RANGING_MODES,

@@ -61,11 +61,13 @@ def modem_range_variance(detection_std_m, two_way, beacon_var_m2, predicted_rang
 
 def _fuse(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var, temperature_c, t_s, clock_offset_s,
           clock_drift, acoustic_n, acoustic_u, current_sent, sends_current, current_est, last_range_t_s,
-          rejected_streak, range_noise_std_m, params, fused, rejected, lost, nan_count, restarts):
+          rejected_streak, range_noise_std_m, params, heard, fused, rejected, lost, nan_count, restarts):
     """Every beacon j pings every survey vehicle s; what arrives is gated and fused, in
     place (est, P, current_est, last_range_t_s, rejected_streak; the flags). ``params``:
     the scenario's scalars in ``PARAMS`` order; range_noise_std_m (B,) per environment
-    (domain randomization scales it)."""
+    (domain randomization scales it); ``heard`` (B, N, S) bool: the pings the channel
+    delivers (``core.channel``; all True on the fixed clock's free channel), the others
+    are neither measured nor counted lost."""
     (reinit_after, two_way, turnaround_s, max_range_m, loss_near, loss_far, outlier_probability,
      outlier_mean_excess_m, nan_probability, nominal_temperature_c, salinity_psu, temperature_uncertainty_c,
      gate) = params
@@ -75,6 +77,8 @@ def _fuse(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var, temp
         for s in range(S):
             any_fused = False
             for j in range(N):
+                if not heard[b, j, s]:
+                    continue
                 depth = 0.5 * (s_pos[b, s, 2] + b_pos[b, j, 2])
                 c_true = mackenzie_sound_speed(temperature_c[b], salinity_psu, depth)
                 c_assumed = mackenzie_sound_speed(nominal_temperature_c, salinity_psu, depth)
@@ -144,19 +148,28 @@ class ModemRanging:
         self.params = (int(self.params[0]), bool(self.params[1])) + tuple(float(v) for v in self.params[2:])
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
         self.sim = sim
+        self.transmit = None  # (B, N) set by the simulator each cycle in channel_mode="decide"
+        self._all_heard = None
 
     def heard_mask(self, cycle):
-        """(B, N): beacons that ping this cycle: all of them."""
-        return None
+        """(B, N): beacons that ping this cycle: all of them (None) on the fixed clock; in
+        ``channel_mode="decide"`` those that chose to transmit (``self.transmit``)."""
+        return self.transmit
 
-    def fuse(self, draws, out):
+    def fuse(self, draws, out, heard=None):
+        """Fuse this cycle's ranges; ``heard`` (B, N, S): the pings the channel delivered
+        (None: every ping, the fixed clock)."""
         sim = self.sim
+        if heard is None:
+            if self._all_heard is None or self._all_heard.shape[0] != sim.batch_size:
+                self._all_heard = np.ones((sim.batch_size, sim.N, sim.S), dtype=bool)
+            heard = self._all_heard
         c, st = sim.config, sim.state
         self.kernel(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel, st.b_pos + st.b_nav_err,
                     st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s, st.clock_drift, draws["acoustic_n"],
                     draws["acoustic_u"], st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err,
                     sim.sends_current, st.s_current_est, st.s_last_range_t_s, st.s_rejected_streak,
-                    c.range_noise_std_m * st.ep_noise_scale, self.params, out.fused, out.rejected, out.lost,
+                    c.range_noise_std_m * st.ep_noise_scale, self.params, heard, out.fused, out.rejected, out.lost,
                     out.nan_count, out.restarts)
 
 

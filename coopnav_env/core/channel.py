@@ -1,0 +1,244 @@
+"""The acoustic channel as a shared, costly resource, simulated in time over one slot.
+
+Used by ``channel_mode="decide"`` (``ScenarioConfig``); with ``"clock"`` (the
+default, the papers' setting) none of this runs and every beacon pings every cycle
+on a free channel.
+
+One decision slot of ``ping_interval_s``, times relative to the slot's ping instant
+(the end of the vehicles' motion over the slot, when the modem model measures its
+ranges):
+
+1. **Pings.** Every beacon that decided to transmit starts its ping at t = 0; it
+   lasts ``D_ping = ping_packet_bits / modem_bit_rate_bps`` (a packet's duration is
+   its bits over the bit rate). The ping is the one-way range (the survey vehicle
+   timestamps its arrival) and tells the other beacons the sender's position.
+2. **Replies.** Every survey vehicle that decoded at least one ping replies once per
+   slot, with one broadcast packet of ``D_reply = reply_packet_bits /
+   modem_bit_rate_bps`` (its estimate, covariance, waypoint index, range age), at the
+   fixed time ``t_reply = D_ping + max_range_m / SLOWEST_SOUND_SPEED_MPS +
+   turnaround_s``: when every ping from within acoustic range has arrived, plus the
+   modem's turn-around. A fixed reply time keeps the reply out of the way of the
+   pings it answers; the scenario's validation makes the slot long enough to hold
+   it and its flight (``scenarios.base._validate``).
+3. **Propagation.** A packet sent at t by vehicle v reaches vehicle w at t + tau,
+   tau the time of flight from v's position at t to w moving at constant velocity
+   (``acoustics.travel_time``, the modem's time of flight, at the true sound speed
+   of the pair's mean depth). It occupies w's receiver over [t + tau, t + tau + D].
+4. **Losses.** A packet from beyond ``max_range_m`` is not heard (and too weak to
+   disturb others). A packet is lost at w if (a) another heard packet's arrival
+   overlaps it at w: a collision, both are lost; (b) w transmits during any part of
+   it: half-duplex, a modem cannot hear while it sends. Intervals that only touch
+   do not overlap. What survives still meets the range-dependent random loss
+   (``acoustics.packet_loss_probability``) with the draws the fixed clock uses:
+   ``acoustic_u[..., 0]`` for the ping at a survey vehicle (inside the modem
+   model), ``message_u`` for replies and for pings heard by other beacons.
+5. **Energy.** A transmission costs ``transmit_power_w x D`` joules.
+
+The timeline is resolved by :func:`resolve_slot` over all V = N + S vehicles of
+each environment (beacons first, then survey vehicles), with at most one packet per
+vehicle per slot, which is exactly the slot above. ``tests/test_channel.py`` checks
+it against hand-computed timelines.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..scenarios.base import SLOWEST_SOUND_SPEED_MPS
+from .acoustics import mackenzie_sound_speed, packet_loss_probability, travel_time
+
+
+def packet_duration_s(bits, bit_rate_bps):
+    """How long a packet of ``bits`` occupies the channel at ``bit_rate_bps`` (s): bits / bit rate."""
+    d = np.asarray(bits, dtype=float) / np.asarray(bit_rate_bps, dtype=float)
+    return float(d) if d.ndim == 0 else d
+
+
+def transmit_energy_j(power_w, duration_s, packets=1):
+    """Electrical energy of ``packets`` transmissions of ``duration_s`` each at ``power_w`` (J)."""
+    return packets * power_w * duration_s
+
+
+def reply_time_s(config) -> float:
+    """When a survey vehicle's reply starts, after the slot's ping instant (s): the ping's
+    duration, the longest flight from within acoustic range and the turn-around."""
+    c = config
+    return (packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps) + c.max_range_m / SLOWEST_SOUND_SPEED_MPS
+            + c.turnaround_s)
+
+
+def _resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, arrival, delivered, collided,
+                  deaf):
+    """One slot's packets at every receiver, in place.
+
+    pos, vel (B, V, 3): positions at t = 0 and constant velocities; tx_start (B, V):
+    when each vehicle starts its one packet (NaN: silent); tx_dur (B, V) its duration;
+    temperature_c (B,): the true water temperature (sound speed, Mackenzie 1981).
+    Outputs (B, V, V), [sender, receiver]: ``arrival`` start of the packet at the
+    receiver (NaN: not sent or out of range), ``delivered`` (heard, no collision, the
+    receiver not transmitting), ``collided`` (another heard arrival overlaps it),
+    ``deaf`` (the receiver transmits while it arrives).
+    """
+    B, V = pos.shape[0], pos.shape[1]
+    for b in prange(B):
+        src = np.empty(3)
+        rcv = np.empty(3)
+        for v in range(V):
+            for w in range(V):
+                arrival[b, v, w] = np.nan
+                delivered[b, v, w] = False
+                collided[b, v, w] = False
+                deaf[b, v, w] = False
+        for v in range(V):
+            t0 = tx_start[b, v]
+            if not np.isfinite(t0):
+                continue
+            for w in range(V):
+                if w == v:
+                    continue
+                for k in range(3):
+                    src[k] = pos[b, v, k] + vel[b, v, k] * t0
+                    rcv[k] = pos[b, w, k] + vel[b, w, k] * t0
+                d = np.sqrt((rcv[0] - src[0]) ** 2 + (rcv[1] - src[1]) ** 2 + (rcv[2] - src[2]) ** 2)
+                if d > max_range_m:
+                    continue
+                c = mackenzie_sound_speed(temperature_c[b], salinity_psu, 0.5 * (src[2] + rcv[2]))
+                arrival[b, v, w] = t0 + travel_time(src, rcv, vel[b, w], c)
+        for w in range(V):
+            for v in range(V):
+                a = arrival[b, v, w]
+                if not np.isfinite(a):
+                    continue
+                e = a + tx_dur[b, v]
+                # half-duplex: the receiver's own transmission overlaps the arrival
+                t_own = tx_start[b, w]
+                if np.isfinite(t_own) and t_own < e and a < t_own + tx_dur[b, w]:
+                    deaf[b, v, w] = True
+                for u in range(V):
+                    a2 = arrival[b, u, w]
+                    if u != v and np.isfinite(a2) and a2 < e and a < a2 + tx_dur[b, u]:
+                        collided[b, v, w] = True
+                        break
+                delivered[b, v, w] = not (deaf[b, v, w] or collided[b, v, w])
+
+
+resolve_slot_kernel = njit(cache=True)(_resolve_slot)
+resolve_slot_kernel_parallel = njit(cache=True, parallel=True)(_resolve_slot)
+
+
+def resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, parallel=False):
+    """:func:`_resolve_slot` on fresh output arrays: (arrival, delivered, collided, deaf), each (B, V, V)."""
+    pos, vel = np.ascontiguousarray(pos, float), np.ascontiguousarray(vel, float)
+    tx_start, tx_dur = np.ascontiguousarray(tx_start, float), np.ascontiguousarray(tx_dur, float)
+    B, V = pos.shape[:2]
+    arrival = np.empty((B, V, V))
+    flags = [np.empty((B, V, V), dtype=bool) for _ in range(3)]
+    kernel = resolve_slot_kernel_parallel if parallel else resolve_slot_kernel
+    kernel(pos, vel, tx_start, tx_dur, np.ascontiguousarray(temperature_c, float), float(salinity_psu),
+           float(max_range_m), arrival, *flags)
+    return (arrival, *flags)
+
+
+def _exchange_messages(s_pos, s_est, s_P, s_wp_index, s_last_range_t_s, b_pos, b_est, t_s, message_u, reply_ok,
+                       peer_ok, k_est, k_P, k_wp_index, k_age_s, k_range_age_s, k_peer, ping_interval_s, loss_near,
+                       loss_far, max_range_m):
+    """``fusion.exchange_messages`` through the channel: a survey vehicle's reply reaches
+    beacon n only where ``reply_ok`` (B, N, S) (it replied and the channel delivered it),
+    a beacon's position only where ``peer_ok`` (B, N, N) [receiver, sender] (it pinged and
+    the channel delivered it); either then still meets the random loss of the fixed clock
+    (same draws, same formula)."""
+    B, N, S = b_pos.shape[0], b_pos.shape[1], s_pos.shape[1]
+    for b in prange(B):
+        for n in range(N):
+            for s in range(S):
+                d = np.sqrt((s_pos[b, s, 0] - b_pos[b, n, 0]) ** 2 + (s_pos[b, s, 1] - b_pos[b, n, 1]) ** 2
+                            + (s_pos[b, s, 2] - b_pos[b, n, 2]) ** 2)
+                if reply_ok[b, n, s] and message_u[b, n, s] >= packet_loss_probability(d, loss_near, loss_far,
+                                                                                       max_range_m):
+                    k_est[b, n, s, :] = s_est[b, s]
+                    k_P[b, n, s, :, :] = s_P[b, s, :2, :2]
+                    k_wp_index[b, n, s] = s_wp_index[b, s]
+                    k_age_s[b, n, s] = 0.0
+                    k_range_age_s[b, n, s] = t_s[b] - s_last_range_t_s[b, s]
+                else:
+                    k_age_s[b, n, s] += ping_interval_s
+                    k_range_age_s[b, n, s] += ping_interval_s
+            for m in range(N):
+                if m == n:
+                    k_peer[b, n, m, :] = b_est[b, m]
+                    continue
+                d = np.sqrt((b_pos[b, m, 0] - b_pos[b, n, 0]) ** 2 + (b_pos[b, m, 1] - b_pos[b, n, 1]) ** 2
+                            + (b_pos[b, m, 2] - b_pos[b, n, 2]) ** 2)
+                if peer_ok[b, n, m] and message_u[b, n, S + m] >= packet_loss_probability(d, loss_near, loss_far,
+                                                                                          max_range_m):
+                    k_peer[b, n, m, :] = b_est[b, m]
+
+
+exchange_messages = njit(cache=True)(_exchange_messages)
+exchange_messages_parallel = njit(cache=True, parallel=True)(_exchange_messages)
+
+
+class Channel:
+    """The channel of one simulator in ``channel_mode="decide"``: the scenario's packet
+    durations, reply time and energy per ping gathered once; ``pings`` and ``replies``
+    resolve a slot in two passes (the replies depend on which pings were decoded)."""
+
+    def __init__(self, sim):
+        c = sim.config
+        self.sim = sim
+        self.N, self.S = sim.N, sim.S
+        self.ping_s = packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps)
+        self.reply_s = packet_duration_s(c.reply_packet_bits, c.modem_bit_rate_bps)
+        self.reply_at_s = reply_time_s(c)
+        self.ping_energy_j = transmit_energy_j(c.transmit_power_w, self.ping_s)
+        self.tx_dur = np.concatenate([np.full(self.N, self.ping_s), np.full(self.S, self.reply_s)])
+        self.parallel = sim.batch_size >= 256
+        self._k_exchange = exchange_messages_parallel if self.parallel else exchange_messages
+
+    def transmit_mask(self, actions, cycle):
+        """(B, N) bool: who transmits this slot. The third action component > 0; a
+        two-component action (the motion alone) transmits every slot, as the fixed clock;
+        with ``tdma_frame_slots`` F > 0, beacon j only in slots k with k mod F == j mod F."""
+        c = self.sim.config
+        B, N = actions.shape[0], actions.shape[1]
+        tx = actions[..., 2] > 0.0 if actions.shape[-1] > 2 else np.ones((B, N), dtype=bool)
+        if c.tdma_frame_slots > 0:
+            F = c.tdma_frame_slots
+            tx = tx & ((np.asarray(cycle)[:, None] % F) == (np.arange(N)[None, :] % F))
+        return tx
+
+    def _timeline(self, beacon_tx, survey_tx):
+        st, c = self.sim.state, self.sim.config
+        B = st.b_pos.shape[0]
+        pos = np.concatenate([st.b_pos, st.s_pos], 1)
+        vel = np.concatenate([st.b_vel, st.s_vel_true], 1)
+        start = np.concatenate([np.where(beacon_tx, 0.0, np.nan), np.where(survey_tx, self.reply_at_s, np.nan)], 1)
+        return resolve_slot(pos, vel, start, np.broadcast_to(self.tx_dur, (B, self.N + self.S)), st.temperature_c,
+                            c.salinity_psu, c.max_range_m, self.parallel)
+
+    def pings(self, beacon_tx):
+        """The pings alone: (B, N, S) delivered at the survey vehicles (before the random
+        loss), and the whole resolution (arrival, delivered, collided, deaf)."""
+        N = self.N
+        out = self._timeline(beacon_tx, np.zeros((beacon_tx.shape[0], self.S), dtype=bool))
+        return out[1][:, :N, N:], out
+
+    def replies(self, beacon_tx, survey_tx):
+        """The whole slot with the replies of ``survey_tx`` (B, S): (reply_ok (B, N, S),
+        peer_ok (B, N, N) [receiver, sender], resolution)."""
+        N = self.N
+        out = self._timeline(beacon_tx, survey_tx)
+        delivered = out[1]
+        return (np.ascontiguousarray(np.swapaxes(delivered[:, N:, :N], 1, 2)),
+                np.ascontiguousarray(np.swapaxes(delivered[:, :N, :N], 1, 2)), out)
+
+    def exchange(self, draws, reply_ok, peer_ok):
+        """The replies and the peers' positions as ``Simulator._exchange_messages`` does
+        them, through the channel's masks."""
+        sim = self.sim
+        c, st = sim.config, sim.state
+        self._k_exchange(st.s_pos, st.s_est, st.s_P, st.s_wp_index, st.s_last_range_t_s, st.b_pos,
+                         st.b_pos + st.b_nav_err, st.t_s, draws["message_u"], reply_ok, peer_ok, st.k_est, st.k_P,
+                         st.k_wp_index, st.k_age_s, st.k_range_age_s, st.k_peer, c.ping_interval_s, c.packet_loss_near,
+                         c.packet_loss_far, c.max_range_m)
