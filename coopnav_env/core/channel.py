@@ -46,7 +46,8 @@ import numpy as np
 from numba import njit, prange
 
 from ..scenarios.base import SLOWEST_SOUND_SPEED_MPS
-from .acoustics import mackenzie_sound_speed, packet_loss_probability, travel_time
+from . import fusion
+from .acoustics import mackenzie_sound_speed, travel_time
 
 
 def packet_duration_s(bits, bit_rate_bps):
@@ -140,43 +141,6 @@ def resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_ra
     return (arrival, *flags)
 
 
-def _exchange_messages(s_pos, s_est, s_P, s_wp_index, s_last_range_t_s, b_pos, b_est, t_s, message_u, reply_ok,
-                       peer_ok, k_est, k_P, k_wp_index, k_age_s, k_range_age_s, k_peer, ping_interval_s, loss_near,
-                       loss_far, max_range_m):
-    """``fusion.exchange_messages`` through the channel: a survey vehicle's reply reaches
-    beacon n only where ``reply_ok`` (B, N, S) (it replied and the channel delivered it),
-    a beacon's position only where ``peer_ok`` (B, N, N) [receiver, sender] (it pinged and
-    the channel delivered it); either then still meets the random loss of the fixed clock
-    (same draws, same formula)."""
-    B, N, S = b_pos.shape[0], b_pos.shape[1], s_pos.shape[1]
-    for b in prange(B):
-        for n in range(N):
-            for s in range(S):
-                d = np.sqrt((s_pos[b, s, 0] - b_pos[b, n, 0]) ** 2 + (s_pos[b, s, 1] - b_pos[b, n, 1]) ** 2
-                            + (s_pos[b, s, 2] - b_pos[b, n, 2]) ** 2)
-                if reply_ok[b, n, s] and message_u[b, n, s] >= packet_loss_probability(d, loss_near, loss_far,
-                                                                                       max_range_m):
-                    k_est[b, n, s, :] = s_est[b, s]
-                    k_P[b, n, s, :, :] = s_P[b, s, :2, :2]
-                    k_wp_index[b, n, s] = s_wp_index[b, s]
-                    k_age_s[b, n, s] = 0.0
-                    k_range_age_s[b, n, s] = t_s[b] - s_last_range_t_s[b, s]
-                else:
-                    k_age_s[b, n, s] += ping_interval_s
-                    k_range_age_s[b, n, s] += ping_interval_s
-            for m in range(N):
-                if m == n:
-                    k_peer[b, n, m, :] = b_est[b, m]
-                    continue
-                d = np.sqrt((b_pos[b, m, 0] - b_pos[b, n, 0]) ** 2 + (b_pos[b, m, 1] - b_pos[b, n, 1]) ** 2
-                            + (b_pos[b, m, 2] - b_pos[b, n, 2]) ** 2)
-                if peer_ok[b, n, m] and message_u[b, n, S + m] >= packet_loss_probability(d, loss_near, loss_far,
-                                                                                          max_range_m):
-                    k_peer[b, n, m, :] = b_est[b, m]
-
-
-exchange_messages = njit(cache=True)(_exchange_messages)
-exchange_messages_parallel = njit(cache=True, parallel=True)(_exchange_messages)
 
 
 class Channel:
@@ -194,7 +158,7 @@ class Channel:
         self.ping_energy_j = transmit_energy_j(c.transmit_power_w, self.ping_s)
         self.tx_dur = np.concatenate([np.full(self.N, self.ping_s), np.full(self.S, self.reply_s)])
         self.parallel = sim.batch_size >= 256
-        self._k_exchange = exchange_messages_parallel if self.parallel else exchange_messages
+        self._k_exchange = fusion.exchange_messages_parallel if self.parallel else fusion.exchange_messages
 
     def transmit_mask(self, actions, cycle):
         """(B, N) bool: who transmits this slot. The third action component > 0; a

@@ -52,20 +52,23 @@ fuse_depth_gps = njit(cache=True)(_fuse_depth_gps)
 fuse_depth_gps_parallel = njit(cache=True, parallel=True)(_fuse_depth_gps)
 
 
-def _exchange_messages(s_pos, s_est, s_P, s_wp_index, s_last_range_t_s, b_pos, b_est, t_s, message_u,
-                       k_est, k_P, k_wp_index, k_age_s, k_range_age_s, k_peer, ping_interval_s,
-                       loss_near, loss_far, max_range_m):
+def _exchange_messages(s_pos, s_est, s_P, s_wp_index, s_last_range_t_s, b_pos, b_est, t_s, message_u, reply_ok,
+                       peer_ok, k_est, k_P, k_wp_index, k_age_s, k_range_age_s, k_peer, ping_interval_s, loss_near,
+                       loss_far, max_range_m):
     """After the ranges: each survey vehicle's reply (estimate, covariance, waypoint
     index, time since its last fused range) reaches each beacon, or is lost with the
     range-dependent probability; beacons tell each other their positions the same
-    way. Updates what each beacon knows (k_*), in place."""
+    way. Updates what each beacon knows (k_*), in place. ``reply_ok`` (B, N, S) and
+    ``peer_ok`` (B, N, N) [receiver, sender] say what the acoustic channel delivered
+    (``core/channel.py``; all True on the fixed clock, where only the random loss acts)."""
     B, N, S = b_pos.shape[0], b_pos.shape[1], s_pos.shape[1]
     for b in prange(B):
         for n in range(N):
             for s in range(S):
                 d = np.sqrt((s_pos[b, s, 0] - b_pos[b, n, 0]) ** 2 + (s_pos[b, s, 1] - b_pos[b, n, 1]) ** 2
                             + (s_pos[b, s, 2] - b_pos[b, n, 2]) ** 2)
-                if message_u[b, n, s] >= packet_loss_probability(d, loss_near, loss_far, max_range_m):
+                if reply_ok[b, n, s] and message_u[b, n, s] >= packet_loss_probability(d, loss_near, loss_far,
+                                                                                       max_range_m):
                     k_est[b, n, s, :] = s_est[b, s]
                     k_P[b, n, s, :, :] = s_P[b, s, :2, :2]
                     k_wp_index[b, n, s] = s_wp_index[b, s]
@@ -75,9 +78,13 @@ def _exchange_messages(s_pos, s_est, s_P, s_wp_index, s_last_range_t_s, b_pos, b
                     k_age_s[b, n, s] += ping_interval_s
                     k_range_age_s[b, n, s] += ping_interval_s
             for m in range(N):
+                if m == n:
+                    k_peer[b, n, m, :] = b_est[b, m]
+                    continue
                 d = np.sqrt((b_pos[b, m, 0] - b_pos[b, n, 0]) ** 2 + (b_pos[b, m, 1] - b_pos[b, n, 1]) ** 2
                             + (b_pos[b, m, 2] - b_pos[b, n, 2]) ** 2)
-                if m == n or message_u[b, n, S + m] >= packet_loss_probability(d, loss_near, loss_far, max_range_m):
+                if peer_ok[b, n, m] and message_u[b, n, S + m] >= packet_loss_probability(d, loss_near, loss_far,
+                                                                                          max_range_m):
                     k_peer[b, n, m, :] = b_est[b, m]
 
 

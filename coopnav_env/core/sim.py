@@ -95,6 +95,9 @@ class Simulator(BatchSimulator):
         self._k_beacons = getattr(substeps, "integrate_beacons" + par)
         self._k_depth_gps = getattr(fusion, "fuse_depth_gps" + par)
         self._k_messages = getattr(fusion, "exchange_messages" + par)
+        # the fixed clock's channel delivers every reply and position (only the random loss acts)
+        self._all_replies = np.ones((self.batch_size, self.N, self.S), dtype=bool)
+        self._all_peers = np.ones((self.batch_size, self.N, self.N), dtype=bool)
         self._k_observe = getattr(observation, "observe" + par)
         fence = c.geofence_m
         self._fence_center = np.array([(fence[0] + fence[2]) / 2, (fence[1] + fence[3]) / 2])
@@ -426,7 +429,8 @@ class Simulator(BatchSimulator):
     def _exchange_messages(self, draws):
         c, st = self.config, self.state
         self._k_messages(st.s_pos, st.s_est, st.s_P, st.s_wp_index, st.s_last_range_t_s, st.b_pos,
-                         st.b_pos + st.b_nav_err, st.t_s, draws["message_u"], st.k_est, st.k_P, st.k_wp_index,
+                         st.b_pos + st.b_nav_err, st.t_s, draws["message_u"], self._all_replies, self._all_peers,
+                         st.k_est, st.k_P, st.k_wp_index,
                          st.k_age_s, st.k_range_age_s, st.k_peer, c.ping_interval_s, c.packet_loss_near,
                          c.packet_loss_far, c.max_range_m)
 
