@@ -110,6 +110,7 @@ def is_planner(spec: str) -> bool:
 def run_cell(config, spec: str, seeds: list) -> np.ndarray:
     """Per-episode mean survey_error_m of policy ``spec`` on ``seeds`` (one batch)."""
     from coopnav_env.core import make_simulator
+    from coopnav_env.views import action_dim
 
     B, N = len(seeds), config.n_beacons
     sim = make_simulator(config, batch_size=B)
@@ -120,7 +121,7 @@ def run_cell(config, spec: str, seeds: list) -> np.ndarray:
         policies = [[make_policy(spec, config, seed=(s, j), agent=j) for j in range(N)] for s in seeds]
 
         def act(obs, alive):
-            a = np.zeros((B, N, 2))
+            a = np.zeros((B, N, action_dim(sim)))
             for b in np.flatnonzero(alive):
                 for j in range(N):
                     a[b, j] = policies[b][j].act(obs[b, j])
@@ -131,7 +132,7 @@ def run_cell(config, spec: str, seeds: list) -> np.ndarray:
         policy = agents.load(spec, scenario=config.name if spec == "ppo" else None)
 
         def act(obs, alive):
-            return policy.act_batch(obs.reshape(B * N, -1)).reshape(B, N, 2).astype(np.float64)
+            return policy.act_batch(obs.reshape(B * N, -1)).reshape(B, N, -1).astype(np.float64)
 
     alive = np.ones(B, dtype=bool)
     err_sum, steps = np.zeros(B), np.zeros(B)

@@ -31,15 +31,18 @@ def make_policy(name: str, config, seed, agent: int):
 def check_policy(name: str, config, seed: int) -> None:
     """Check that ``name`` loads and drives ``config``'s scenario: a simulator of one
     episode (``seed``) is reset, one policy per beacon answers its first observation with
-    a finite (2,) action. Raises what the policy raises, or ValueError."""
+    a finite action of the scenario's shape (``views.action_dim``: 2, or 3 with a
+    transmit decision). Raises what the policy raises, or ValueError."""
     from coopnav_env.core import make_simulator
+    from coopnav_env.views import action_dim
 
     sim = make_simulator(config, batch_size=1)
     obs = sim.reset([int(seed)])
+    dim = action_dim(sim)
     for j in range(config.n_beacons):
         action = np.asarray(make_policy(name, config, seed=(int(seed), j), agent=j).act(obs[0, j]), dtype=float)
-        if action.shape != (2,) or not np.isfinite(action).all():
-            raise ValueError(f"beacon_{j}'s action is {action!r}, not two finite numbers")
+        if action.shape != (dim,) or not np.isfinite(action).all():
+            raise ValueError(f"beacon_{j}'s action is {action!r}, not {dim} finite numbers")
 
 
 def _step_measurements(sim, res, config) -> dict:
@@ -106,7 +109,9 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
     keys = _PER_STEP + (("error_x_m", "error_y_m") if frame else ())
     done = np.zeros(B, dtype=bool)
     hist = {k: [] for k in ("alive",) + keys}
-    actions = np.zeros((B, N, 2))
+    from coopnav_env.views import action_dim
+
+    actions = np.zeros((B, N, action_dim(sim)))
     while not done.all():
         for b in np.flatnonzero(~done):
             for j in range(N):

@@ -113,6 +113,13 @@ _SETS = (
         _task("swarm5", "team: five survey AUVs", n_survey=5),
         _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
     ), about="Kottege & Zimmer's MLS swarm and variations (current, team size)"),
+    TaskSet("sousa_ping", "sousa_ping", (
+        _task("lawnmower_5m", "two ASVs share the channel: lawnmower at 5 m", survey_path="lawnmower", depth_m=5.0),
+        _task("lawnmower_20m", "lawnmower at 20 m", survey_path="lawnmower", depth_m=20.0),
+        _task("circle_5m", "circle at 5 m", survey_path="circle", depth_m=5.0),
+        _task("circle_20m", "circle at 20 m", survey_path="circle", depth_m=20.0),
+    ), about="when to ping: two ASVs decide motion and transmission on one half-duplex channel; the planners "
+             "transmit on a TDMA schedule"),
     TaskSet("matos_moving_lbl", "matos_moving_lbl", (
         _task("paper", "Matos & Cruz's moving baseline as published"),
         _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),

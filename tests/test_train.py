@@ -179,8 +179,9 @@ def test_shipped_policies_load_and_act(name):
     obs, _ = env.reset()
     while env.agents:
         actions = {a: policy.act(obs[a]) for a in env.agents}
-        for action in actions.values():
-            assert action.shape == (2,) and action.dtype == np.float32 and np.all(np.abs(action) <= 1)
+        for a, action in actions.items():
+            assert action.shape == env.action_space(a).shape and action.dtype == np.float32
+            assert np.all(np.abs(action) <= 1)
         obs, *_ = env.step(actions)
     # as the shipped "ppo" of its scenario, through make_policy (evaluate.py's path)
     scenario = policy.config.name
