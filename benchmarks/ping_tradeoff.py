@@ -4,7 +4,7 @@ several rates and thresholds and for trained policies, on common random numbers.
     python benchmarks/ping_tradeoff.py --episodes 50 --seed 400000 --policies runs/ping_ppo \\
         --figure docs/figures/ping_tradeoff.png --markdown results/ping_tradeoff.md
 
-Every schedule drives the ASVs with ``fim_a`` (``baselines.schedule``): ``tdma`` with
+Every schedule drives the ASVs with ``fim_a`` or ``ellipse`` (``baselines.schedule``): ``tdma`` with
 frames of 2 (the default: the two ASVs take turns every slot), 4, 8 and 16 slots,
 ``event_tdma`` at several thresholds, and ``clock`` (both ASVs every slot, colliding).
 A trained policy decides motion and transmission itself (its third action component).
@@ -75,9 +75,12 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     config = coopnav_env.make_config(args.scenario)
     seeds = list(range(args.seed, args.seed + args.episodes))
-    rows = [("fim_a+clock", "fim_a+clock", {"every": 1}), ("fim_a+tdma", "fim_a+tdma", {})]
-    rows += [(f"fim_a+tdma F={f}", "fim_a+tdma", {"frame": f}) for f in (4, 8, 16)]
-    rows += [(f"fim_a+event_tdma {t:g}", "fim_a+event_tdma", {"threshold_nats": t}) for t in (0.3, 0.5, 0.8, 1.2)]
+    rows = [("fim_a+clock", "fim_a+clock", {"every": 1})]
+    for motion in ("fim_a", "ellipse"):
+        rows += [(f"{motion}+tdma", f"{motion}+tdma", {})]
+        rows += [(f"{motion}+tdma F={f}", f"{motion}+tdma", {"frame": f}) for f in (4, 8, 16)]
+        rows += [(f"{motion}+event_tdma {t:g}", f"{motion}+event_tdma", {"threshold_nats": t})
+                 for t in (0.3, 0.5, 0.8, 1.2)]
     rows += [(spec, spec, {}) for spec in args.policies.split(",") if spec]
     results = {}
     for label, spec, kw in rows:
@@ -90,13 +93,14 @@ def main(argv=None) -> int:
     for label, (e, pg, c, en) in results.items():
         m, lo, hi = t_interval(e)
         lines.append(f"| {label} | {m:.3f} [{lo:.3f}, {hi:.3f}] | {pg.mean():.1f} | {c.mean():.1f} | {en.mean() / 1e3:.2f} |")
-    ref = results["fim_a+tdma"]
-    for spec in [s for s in args.policies.split(",") if s]:
-        e, pg, _, _ = results[spec]
-        m, lo, hi = t_interval(e - ref[0])
-        pm, plo, phi = t_interval(pg / np.maximum(ref[1], 1) - 1)
-        lines += ["", f"{spec} minus fim_a+tdma (paired): error {m:+.3f} m [{lo:+.3f}, {hi:+.3f}], "
-                  f"pings {100 * pm:+.1f} % [{100 * plo:+.1f}, {100 * phi:+.1f}]"]
+    for ref_name in ("fim_a+tdma", "ellipse+tdma"):  # the fixed clock of a shared channel, per motion planner
+        ref = results[ref_name]
+        for spec in [s for s in args.policies.split(",") if s]:
+            e, pg, _, _ = results[spec]
+            m, lo, hi = t_interval(e - ref[0])
+            pm, plo, phi = t_interval(pg / np.maximum(ref[1], 1) - 1)
+            lines += ["", f"{spec} minus {ref_name} (paired): error {m:+.3f} m [{lo:+.3f}, {hi:+.3f}], "
+                      f"pings {100 * pm:+.1f} % [{100 * plo:+.1f}, {100 * phi:+.1f}]"]
     text = "\n".join(lines)
     print(text)
     if args.markdown:
@@ -114,9 +118,11 @@ def main(argv=None) -> int:
         fig = Figure(figsize=(7.0, 4.6))
         FigureCanvasAgg(fig)
         ax = fig.add_subplot(1, 1, 1)
-        groups = {"tdma (fim_a), frames 2-16": "tdma", "event_tdma (fim_a), thresholds": "event", "clock (collides)": "clock"}
-        for title, key in groups.items():
-            pts = [(r[1].mean(), r[0].mean()) for lab, r in results.items() if key in lab.split("+")[-1]]
+        groups = {f"{m}+{k}": (m, k) for m in ("fim_a", "ellipse") for k in ("tdma", "event")}
+        groups["fim_a+clock (collides)"] = ("fim_a", "clock")
+        for title, (motion, key) in groups.items():
+            pts = [(r[1].mean(), r[0].mean()) for lab, r in results.items()
+                   if lab.startswith(motion + "+") and lab.split("+")[1].startswith(key)]
             if pts:
                 x, y = zip(*sorted(pts))
                 ax.plot(x, y, "o-" if len(pts) > 1 else "s", label=title)
