@@ -81,6 +81,7 @@ def _step_measurements(sim, res, config) -> dict:
         # the reward's own indicator terms (core.reward): a beacon too close, a beacon outside the fence
         "safety_violation": res.terms["safety"].any(-1),
         "geofence_violation": res.terms.get("geofence", no_term).any(-1),
+        **_channel_use(res, config),
     })
     if frame:
         out["error_x_m"] = res.info["error_x_m"][:, 0]
@@ -88,8 +89,24 @@ def _step_measurements(sim, res, config) -> dict:
     return out
 
 
+def _channel_use(res, config) -> dict:
+    """Pings, collisions and transmit energy of the step, summed over beacons (B,). With
+    ``channel_mode="decide"`` the simulator reports them (``core/channel.py``); on the
+    fixed clock every beacon pings once per cycle, nothing collides (the clock does not
+    simulate the channel), and each ping costs the scenario's modem energy."""
+    if "pings" in res.beacon_info:
+        return {k: res.beacon_info[k].sum(-1) for k in ("pings", "collisions", "energy_J")}
+    from coopnav_env.core.channel import packet_duration_s, transmit_energy_j
+
+    pings = np.full(res.reward.shape[0], float(config.n_beacons))
+    joules = transmit_energy_j(config.transmit_power_w, packet_duration_s(config.ping_packet_bits,
+                                                                           config.modem_bit_rate_bps))
+    return {"pings": pings, "collisions": np.zeros_like(pings), "energy_J": pings * joules}
+
+
 _PER_STEP = ("survey_error_m", "dr_error_m", "ellipse_major_m", "ellipse_minor_m", "reward", "beacon_distance_m",
-             "ranges_fused", "outliers_rejected", "packets_lost", "safety_violation", "geofence_violation")
+             "ranges_fused", "outliers_rejected", "packets_lost", "safety_violation", "geofence_violation", "pings",
+             "collisions", "energy_J")
 
 
 def run_episodes(config, policy_name: str, seeds, progress=None):
@@ -143,6 +160,8 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
             "ranges_fused": total("ranges_fused"), "outliers_rejected": total("outliers_rejected"),
             "packets_lost": total("packets_lost"), "beacon_distance_m": float(H["beacon_distance_m"][:n, b].mean()),
             "safety_violations": total("safety_violation"), "geofence_violations": total("geofence_violation"),
+            "pings": total("pings"), "collisions": total("collisions"),
+            "energy_J": float(H["energy_J"][:n, b].sum()),
         })
         for k in range(n):
             steps.append({"seed": seed, "step": k + 1, "t_s": (k + 1) * T, "survey_error_m": float(err[k]),

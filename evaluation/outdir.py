@@ -26,7 +26,7 @@ from coopnav_env.records import atomic_write_text, read_json, strict_json
 
 from .errors import UsageError
 
-FORMAT_VERSION = 2  # 2: CSV floats written with repr (exact); 1 (absent): rounded to 6 significant digits
+FORMAT_VERSION = 3  # 3: + pings, collisions, energy_J; 2: CSV floats written with repr (exact); 1 (absent): rounded
 RESULT_FILES = ("run.json", "episodes.csv", "steps.csv", "summary.json", "summary.md")
 SUMMARY_FILES = ("summary.json", "summary.md")
 FIGURE_FILES = ("paths.png", "error_vs_time.png", "ellipse_axes.png", "frame_errors.png", "sweep.png")

@@ -49,6 +49,9 @@ EPISODE_COLUMN_DOCS = {
     "beacon_distance_m": ("m", "beacon-survey distance (3-D, mean over pairs) averaged over the steps"),
     "safety_violations": ("count", "steps with a beacon closer to a survey vehicle than safety_distance_m"),
     "geofence_violations": ("count", "steps with a beacon outside geofence_m (never for the moving network)"),
+    "pings": ("count", "pings the beacons transmitted (on the fixed clock: every beacon every cycle)"),
+    "collisions": ("count", "pings lost to overlapping arrivals (channel_mode='decide' only; 0 on the fixed clock)"),
+    "energy_J": ("J", "transmit energy of the pings: pings x transmit_power_w x the ping's duration"),
 }
 STEP_COLUMN_DOCS = {
     **_IDENTITY_DOCS,
@@ -85,6 +88,8 @@ SUMMARY_COLUMNS = {
     "outliers_rejected": ("outliers rej.", "{:.1f}", "count per episode",
                           "ranges rejected as outliers, mean over episodes"),
     "beacon_distance_m": ("beacon dist. (m)", "{:.1f}", "m", "beacon-survey distance, mean over episodes"),
+    "pings": ("pings", "{:.1f}", "count per episode", "pings transmitted, mean over episodes"),
+    "energy_J": ("energy (J)", "{:.0f}", "J per episode", "transmit energy of the pings, mean over episodes"),
 }
 FRAME_COLUMNS = {  # moving network only
     "error_x_std_m": ("x error std (m)", "{:.3f}", "m", "standard deviation of error_x_m over all steps"),

@@ -21,7 +21,7 @@ from .report import EPISODE_COLUMNS, STEP_COLUMNS, _fmt
 
 _INT = re.compile(r"-?[0-9]+\Z")
 EPISODE_INTS = ("steps", "ranges_fused", "outliers_rejected", "packets_lost", "safety_violations",
-                "geofence_violations")
+                "geofence_violations", "pings", "collisions")
 STEP_FLOATS = ("t_s", "survey_error_m", "dr_error_m", "ellipse_major_m", "ellipse_minor_m", "reward",
                "beacon_distance_m")
 

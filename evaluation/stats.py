@@ -45,6 +45,7 @@ def error_stats(step_rows, episode_rows, n_boot: int = 2000) -> dict:
         "final_error_m": ep_mean("final_error_m"), "mean_dr_error_m": ep_mean("mean_dr_error_m"),
         "mean_return": ep_mean("return"), "ranges_fused": ep_mean("ranges_fused"),
         "outliers_rejected": ep_mean("outliers_rejected"), "beacon_distance_m": ep_mean("beacon_distance_m"),
+        "pings": ep_mean("pings"), "energy_J": ep_mean("energy_J"),
         **frame_error_stats(step_rows),
     }
 
