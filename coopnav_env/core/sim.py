@@ -279,7 +279,6 @@ class Simulator(BatchSimulator):
             self.sensor.fuse(draws, out)
         else:  # the shared channel: only the pings it delivers are measured
             ping_ok, ping_slot = self.channel.pings(transmit)
-            self.sensor.transmit = transmit
             self.sensor.fuse(draws, out, heard=ping_ok)
         logdet_after = logdet_horizontal(st.s_P)
 
@@ -300,7 +299,7 @@ class Simulator(BatchSimulator):
         fe0, fn0, fe1, fn1 = c.geofence_m
         outside = (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
         no_contact = ~fused.any(-1)  # (B,N): none of this beacon's ranges fused
-        heard = self.sensor.heard_mask(st.cycle - 1)
+        heard = self.sensor.heard_mask(st.cycle - 1) if transmit is None else transmit  # who could be heard
         if heard is not None:  # only this cycle's senders can be heard
             no_contact &= heard
         terms = {"info_gain": np.broadcast_to(info_gain[:, None], (B, N)),

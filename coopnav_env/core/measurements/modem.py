@@ -148,13 +148,12 @@ class ModemRanging:
         self.params = (int(self.params[0]), bool(self.params[1])) + tuple(float(v) for v in self.params[2:])
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
         self.sim = sim
-        self.transmit = None  # (B, N) set by the simulator each cycle in channel_mode="decide"
         self._all_heard = None
 
     def heard_mask(self, cycle):
-        """(B, N): beacons that ping this cycle: all of them (None) on the fixed clock; in
-        ``channel_mode="decide"`` those that chose to transmit (``self.transmit``)."""
-        return self.transmit
+        """(B, N): beacons that ping this cycle: all of them (None). With
+        ``channel_mode="decide"`` the simulator masks by the beacons' transmit decisions."""
+        return None
 
     def fuse(self, draws, out, heard=None):
         """Fuse this cycle's ranges; ``heard`` (B, N, S): the pings the channel delivered
