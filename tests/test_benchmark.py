@@ -87,8 +87,9 @@ def test_the_trainers_accept_seeds_below_the_limit():
     from agents.training import PeriodicEvalSpec, TrainConfig
     from agents.training.common import prepare_job
 
-    prepare_job(TrainConfig(scenario="gao_lawnmower", timesteps=100, seed=TRAINING_SEED_LIMIT - 1,
-                            eval=PeriodicEvalSpec(seed=TRAINING_SEED_LIMIT - 32, episodes=32)))
+    job = prepare_job(TrainConfig(scenario="gao_lawnmower", timesteps=100, seed=TRAINING_SEED_LIMIT - 1,
+                                  eval=PeriodicEvalSpec(seed=TRAINING_SEED_LIMIT - 32, episodes=32)))
+    assert job.scenario_config.name == "gao_lawnmower"  # accepted: a job, not a ConfigError
 
 
 def test_train_py_refuses_a_test_seed_with_one_line_and_exit_2(tmp_path, capsys):
