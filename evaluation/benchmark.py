@@ -374,6 +374,23 @@ def _not_official(plan: BenchmarkPlan) -> list:
 # ------------------------------------------------------------------------------------
 # results.md
 
+def _cells(task: dict, cols: list, cell) -> list:
+    """One table row's cells: ``cell(policy, stats, task)`` for each policy, "n/a" where skipped."""
+    return ["n/a" if "skipped" in task["policies"][p] else cell(p, task["policies"][p], task) for p in cols]
+
+
+def _mean_cell(policy, st, task) -> str:
+    text = f"{_num(st['mean_error_m'])} [{_num(st['ci95_error_m'][0])}, {_num(st['ci95_error_m'][1])}]"
+    return f"**{text}**" if policy == task["best_planner"] else text
+
+
+def _paired_cell(policy, st, task) -> str:
+    d = st["paired"]
+    if d["verdict"] == "best":
+        return "best"
+    return f"{_num(d['mean_m'], 3)} [{_num(d['ci95_m'][0], 3)}, {_num(d['ci95_m'][1], 3)}] {d['verdict']}"
+
+
 def _num(x: float, digits: int = 3) -> str:
     return f"{x:.{digits}f}"
 
@@ -411,32 +428,14 @@ def render_markdown(results: dict) -> str:
                   "Mean over episodes of each episode's mean error; **bold**: the task's best planner.", "",
                   "| task | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
         for task, t in s["tasks"].items():
-            cells = []
-            for p in cols:
-                st = t["policies"][p]
-                if "skipped" in st:
-                    cells.append("n/a")
-                    continue
-                text = f"{_num(st['mean_error_m'])} [{_num(st['ci95_error_m'][0])}, {_num(st['ci95_error_m'][1])}]"
-                cells.append(f"**{text}**" if p == t["best_planner"] else text)
-            lines.append(f"| {task} | " + " | ".join(cells) + " |")
+            lines.append(f"| {task} | " + " | ".join(_cells(t, cols, _mean_cell)) + " |")
         lines += ["", "### Paired difference to the best planner (m), 95 % t interval", "",
                   "Per episode, policy minus the task's best planner on the same seed; negative: lower error. "
                   "win: the interval lies below 0; loss: above 0; tie: it holds 0.", "",
                   "| task | best planner | " + " | ".join(cols) + " | wins |",
                   "|---|---|" + "---|" * len(cols) + "---|"]
         for task, t in s["tasks"].items():
-            cells = []
-            for p in cols:
-                st = t["policies"][p]
-                if "skipped" in st:
-                    cells.append("n/a")
-                elif st["paired"]["verdict"] == "best":
-                    cells.append("best")
-                else:
-                    d = st["paired"]
-                    cells.append(f"{_num(d['mean_m'], 3)} [{_num(d['ci95_m'][0], 3)}, {_num(d['ci95_m'][1], 3)}] "
-                                 f"{d['verdict']}")
+            cells = _cells(t, cols, _paired_cell)
             wins = ", ".join(t["wins"]) or "-"
             lines.append(f"| {task} | {t['best_planner']} | " + " | ".join(cells) + f" | {wins} |")
         lines += ["", "### Ranges fused per episode (pings used)", "",

@@ -235,21 +235,13 @@ def test_sousa_ping_runs_through_the_protocol():
     sim.reset(np.arange(3) + 40)
     assert tuple(sim.reset_beacon_info()) == tuple(sim.beacon_info_keys) == (
         "beacon_error_m", "pings", "collisions", "energy_J")
-    rng = np.random.default_rng(0)
-    for _ in range(6):
-        res = sim.step(rng.uniform(-1, 1, (3, 2, 3)))
-        assert isinstance(res, StepResult)
-        assert res.obs.shape == (3, 2, sim.obs_dim) and res.obs.dtype == np.float32
-        assert tuple(res.terms) == tuple(sim.reward_terms) == ("info_gain", "safety", "geofence", "contact", "ping")
-        np.testing.assert_allclose(res.reward, weighted_reward(res.terms, sim.reward_weights), rtol=0, atol=1e-12)
-        for term, w in sim.reward_weights.items():
-            param = TERM_WEIGHTS[term]
-            assert w == (1.0 if param is None else -getattr(config, param))
-        for term in set(sim.reward_terms) - {"info_gain"}:
-            assert set(np.unique(res.terms[term])) <= {0.0, 1.0}
-        assert tuple(res.beacon_info) == tuple(sim.beacon_info_keys)
-        assert all(v.shape == (3, 2) and np.all(v >= 0) for v in res.beacon_info.values())
-        assert tuple(res.info) == tuple(sim.info_keys)
+    # the protocol checks of every scenario (shapes, the reward as the weighted sum of
+    # indicator terms, infos) run on sousa_ping in tests/test_contract.py; here what the
+    # channel adds: the ping term and the channel's beacon infos
+    res = sim.step(np.random.default_rng(0).uniform(-1, 1, (3, 2, 3)))
+    assert isinstance(res, StepResult)
+    assert tuple(res.terms) == tuple(sim.reward_terms) == ("info_gain", "safety", "geofence", "contact", "ping")
+    assert tuple(res.beacon_info) == tuple(sim.beacon_info_keys)
 
 
 def test_a_batch_row_equals_the_standalone_env():

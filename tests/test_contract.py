@@ -14,6 +14,7 @@ import coopnav_env
 from coopnav_env.core import make_simulator
 from coopnav_env.core.contract import BatchedSimulator, Snapshot, StepResult
 from coopnav_env.core.reward import TERM_WEIGHTS, weighted_reward
+from coopnav_env.views import action_dim
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = coopnav_env.list_scenarios()
@@ -24,7 +25,8 @@ def _run(name, B=3, steps=6, **overrides):
     sim = make_simulator(config, B)
     sim.reset(np.arange(B) + 40)
     rng = np.random.default_rng(0)
-    results = [sim.step(rng.uniform(-1, 1, (B, config.n_beacons, 2))) for _ in range(steps)]
+    dim = action_dim(sim)  # 3 where the scenario has a transmit decision (channel_mode="decide")
+    results = [sim.step(rng.uniform(-1, 1, (B, config.n_beacons, dim))) for _ in range(steps)]
     return config, sim, results
 
 
