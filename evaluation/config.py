@@ -166,6 +166,13 @@ def parse_value(key: str, text: str):
     text = text.strip()
     if text == "":
         raise UsageError(f"empty value for {key}")
+    value = _parse(key, text, default)
+    if default and isinstance(default, tuple) and isinstance(default[0], (int, float)) and len(value) != len(default):
+        raise UsageError(f"{key} takes {len(default)} values, got {len(value)}")  # a point or an area
+    return value
+
+
+def _parse(key: str, text: str, default):
     try:
         if isinstance(default, bool):
             low = text.lower()
@@ -180,11 +187,14 @@ def parse_value(key: str, text: str):
         if isinstance(default, float):
             return float(text)
         if isinstance(default, tuple):
+            if default and isinstance(default[0], str):  # names: beacon_kinds=asv,beacon_auv (quotes optional)
+                v = tuple(w.strip().strip("'\"") for w in text.strip("()[]").split(","))
+                if not all(v):
+                    raise ValueError
+                return v
             v = ast.literal_eval(text)
             if not isinstance(v, (list, tuple)):
                 v = (v,)
-            if default and not isinstance(default[0], (tuple, list)) and len(v) != len(default):
-                raise UsageError(f"{key} takes {len(default)} values, got {len(v)}")
             return _to_tuple(v)
         return text
     except (ValueError, SyntaxError):

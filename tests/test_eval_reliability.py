@@ -432,3 +432,22 @@ def test_resume_after_sigkill_at_random_moments_is_exact(tmp_path, long_ref, tri
     out = str(tmp_path / "o")
     _kill_and_resume(out, [rng.uniform(0.5, 3.0) for _ in range(3)])
     assert results(out) == results(long_ref)
+
+
+def test_set_parses_tuples_of_names_and_checks_the_length_of_points(tmp_path, capsys):
+    """beacon_kinds takes any number of names (quotes optional); survey_area_m exactly two numbers."""
+    from evaluation.config import parse_value
+
+    assert parse_value("beacon_kinds", "asv,beacon_auv") == ("asv", "beacon_auv")
+    assert parse_value("beacon_kinds", "['asv', 'beacon_auv']") == ("asv", "beacon_auv")
+    assert parse_value("beacon_kinds", "asv") == ("asv",)
+    assert parse_value("survey_area_m", "100, 80") == (100.0, 80.0)
+    code, _, err = run_main(["--scenario", "gao_sea", "--set", "survey_area_m=1,2,3", "--out",
+                             str(tmp_path / "never")], capsys)
+    assert code == 2 and err.strip() == "evaluate.py: error: survey_area_m takes 2 values, got 3", err
+    code, _, err = run_main(["--scenario", "gao_sea", "--set", "beacon_kinds=asv,,", "--out",
+                             str(tmp_path / "never")], capsys)
+    assert code == 2 and "bad value" in err and "beacon_kinds" in err and len(err.strip().splitlines()) == 1
+    code, _, err = run_main(["--scenario", "gao_sea", "--set", "beacon_kinds=asv,boat_x", "--out",
+                             str(tmp_path / "never")], capsys)
+    assert code == 2 and "boat_x" in err and len(err.strip().splitlines()) == 1, err
