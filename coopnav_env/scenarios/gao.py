@@ -14,7 +14,12 @@ paper does not say how the sea trial's beacon navigated beyond its DVL; here its
 DVL dead reckoning drifts with distance travelled (heading and scale errors,
 ``ScenarioConfig``) and it surfaces for a GPS fix whenever its own position std
 exceeds 5 m [U], as small AUVs that "surface often and use a GPS" do (sec. I).
+
+``gao_team`` (not in the paper) is the sea trial with two survey AUVs and two beacons
+of different kinds, the DVL beacon AUV and an ASV, which have to share the work.
 """
+
+import dataclasses
 
 from .base import ScenarioConfig, register
 
@@ -54,5 +59,20 @@ GAO_SEA = ScenarioConfig(
     beacon_surface_above_std_m=5.0,  # a GPS fix at the surface when its DVL dead reckoning has drifted [U]
 )
 
+# A team of two beacons of different kinds helping two survey AUVs (not in the paper):
+# gao_sea's two survey vehicles fly the lawnmower 60 m apart, helped by the DVL beacon
+# AUV of gao_sea and an ASV with GPS (sousa_asv's vehicle: no navigation drift, but at
+# the surface, so its ranges to the survey at depth are slant ranges, and faster).
+# Which beacon helps which survey, and from where, is the team's choice; the planners
+# run per beacon, each on its own observation.
+GAO_TEAM = dataclasses.replace(
+    GAO_SEA,
+    name="gao_team",
+    n_survey=2,
+    survey_spacing_m=60.0,  # [U] the two lawnmowers overlap by 60 % of the 150 m width
+    beacon_kinds=("asv", "beacon_auv"),
+)
+
 register("gao_lawnmower", GAO_LAWNMOWER)
 register("gao_sea", GAO_SEA)
+register("gao_team", GAO_TEAM)
