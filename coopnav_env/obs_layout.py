@@ -42,10 +42,10 @@ from .core.observation import (AGE_SCALE_PINGS, DEPTH_SCALE_M, ELLIPSE_N_SIGMA, 
 
 def obs_dim(config) -> int:
     """Length of one beacon's observation for ``config``."""
-    if config.network == "moving_lbl":
-        from .core.moving_network import OBS_DIM
+    if config.network == "moving_lbl":  # a mission in the world adds the river's fields
+        from .core.moving_network import obs_dim_of
 
-        return OBS_DIM
+        return obs_dim_of(config)
     return _layout.obs_dim(config.n_survey, config.n_beacons, config.observed_waypoints)
 
 
@@ -162,6 +162,12 @@ class BoatView:
     fix_age_s: np.ndarray
     has_fix: np.ndarray
     x_axis_en: np.ndarray  # (..., 2) unit (east, north) of the frame's x axis: (sin phi, cos phi)
+    own_from_tracked_xy_m: np.ndarray | None = None  # (..., 2) own GPS position minus the tracked vehicle
+    # a mission in the world (mission_frame="world", ``core.moving_network.RIVER_OBS_FIELDS``); else None
+    bank_offset_m: np.ndarray | None = None  # (...) own GPS offset from the centerline, + right of the mission
+    river_direction_xy: np.ndarray | None = None  # (..., 2) unit direction of the mission along the river ahead
+    river_ahead_from_own_xy_m: np.ndarray | None = None  # (..., 2) that river point minus own (RIVER_LEAD_BASELINES L
+    # ahead of the tracked vehicle)
 
     @property
     def y_axis_en(self) -> np.ndarray:
@@ -171,22 +177,28 @@ class BoatView:
 
 
 def decode_boat(obs, config) -> BoatView:
-    """Decode boat observations (..., OBS_DIM) of a moving-network scenario."""
-    from .core.moving_network import OBS_FIELDS
+    """Decode boat observations (..., obs_dim(config)) of a moving-network scenario."""
+    from .core.moving_network import obs_fields
 
     if config.network != "moving_lbl":
         raise ValueError(f"decode_boat needs a network='moving_lbl' scenario, not {config.name!r}")
     obs = np.asarray(obs, dtype=float)
     part, i = {}, 0
-    for name, n in OBS_FIELDS:
+    for name, n in obs_fields(config):
         part[name] = obs[..., i:i + n]
         i += n
     if obs.shape[-1] != i:
         raise ValueError(f"a boat observation has {i} values, got {obs.shape[-1]}")
     L = config.baseline_target_m
+    river = {}
+    if "bank_offset" in part:
+        river = dict(bank_offset_m=part["bank_offset"][..., 0] * 0.5 * config.river_width_m,
+                     river_direction_xy=part["river_direction_xy"],
+                     river_ahead_from_own_xy_m=part["river_ahead_from_own_xy"] * L)
     return BoatView(
         is_b1=part["role"][..., 0] > 0, own_velocity_xy_mps=part["own_velocity_xy"] * config.boat_max_speed_mps,
         baseline_m=(1.0 + part["baseline_error"][..., 0]) * L, tracked_xy_m=part["tracked_xy"] * L,
         tracked_velocity_xy_mps=part["tracked_velocity_xy"] * config.survey_speed_mps,
         fix_age_s=part["fix_age"][..., 0] * AGE_SCALE_PINGS * config.ping_interval_s,
-        has_fix=part["has_fix"][..., 0] > 0.5, x_axis_en=part["frame_bearing"])
+        has_fix=part["has_fix"][..., 0] > 0.5, x_axis_en=part["frame_bearing"],
+        own_from_tracked_xy_m=part["own_from_tracked_xy"] * L, **river)

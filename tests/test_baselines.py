@@ -247,7 +247,7 @@ def test_make_policy_rejects_unknown_names():
     with pytest.raises(ValueError, match="valid policies"):
         make_policy("nope", ASV)
     assert {"fim_a", "fim_b", "ellipse", "static", "circle", "random"} <= set(list_policies())
-    assert set(list_policies("moving_lbl")) == {"perpendicular", "abeam", "static", "random"}
+    assert set(list_policies("moving_lbl")) == {"perpendicular", "abeam", "river_escort", "static", "random"}
     with pytest.raises(ValueError, match="policies for it: abeam, perpendicular"):
         make_policy("fim_a", "matos_moving_lbl")
 

@@ -26,6 +26,21 @@ One step is one positioning cycle of ``ping_interval_s``:
    constant: a turning frame makes it confidently wrong, which the information
    term alone would reward); no range fused this cycle.
 
+**A mission in the world** (``mission_frame="world"``, scenario ``matos_river``): the
+paper gives the vehicle its mission in the moving frame (section VI), so where the
+boats go hardly matters to it. With ``"world"`` the mission's waypoints are (east,
+north, depth) along a river (``core.river``), and at the start of every cycle they
+are re-expressed in the frame the boats' GPS gives (B1's GPS position and the bearing
+of B2's from it, which the boats telemeter to the vehicle with the exchange; the
+vehicle has no other world reference): the vehicle still navigates in the frame with
+the moving-frame EKF, but where it must go in the frame now depends on where the
+boats are, and boats that stay behind lose it. The river's current is spatially
+varying: its mean speed along the local downstream direction of the centerline (at
+each boat and at the vehicle, held over the cycle) plus the usual Gauss-Markov part.
+Reward: the ``bank`` term (a boat farther than ``river_width_m`` / 2 from the
+centerline) is added and the ``rotation`` term is 0, since the frame must turn with
+the river. The boats also observe the river (``RIVER_OBS_FIELDS``).
+
 Steps 1-2 and 3-5 are compiled kernels written once over the batch
 (``integrate_vehicle``, ``cycle``; the observation ``observe_boats``), so a batch of
 one costs tens of microseconds; only what numpy computes differently from the C
@@ -43,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from . import lbl, rng, substeps
+from . import lbl, river, rng, substeps
 from .acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2
 from .dynamics import bearing_to_unit, gauss_markov_step, turn_toward
 from .guidance import build_path, los_point
@@ -66,7 +81,7 @@ from .navigation import (
 from .numerics import complex_abs, complex_div_real
 from .observation import AGE_SCALE_PINGS, OBS_BOUND  # the survey network's age scale and bound
 from .contract import BatchSimulator, Snapshot, StepResult
-from .reward import MOVING_NETWORK_TERMS, term_weights, weighted_reward
+from .reward import MOVING_NETWORK_TERMS, RIVER_NETWORK_TERMS, term_weights, weighted_reward
 from .sim import BEACON_INFO_KEYS, INFO_KEYS
 from .state import BatchArrays
 
@@ -81,6 +96,23 @@ OBS_FIELDS = (("role", 1), ("own_velocity_xy", 2), ("baseline_error", 1), ("trac
 OBS_DIM = sum(n for _, n in OBS_FIELDS)
 TRACKER_ALPHA, TRACKER_BETA = 0.5, 0.2  # the boats' alpha-beta tracker on the fixes [U]
 REINIT_AFTER_CYCLES = 3  # the vehicle restarts its position from an LBL fix after this many gated-out cycles
+# appended for a mission in the world (mission_frame="world"; see MovingNetworkSimulator.observe)
+RIVER_OBS_FIELDS = (("bank_offset", 1), ("river_direction_xy", 2), ("river_ahead_from_own_xy", 2))
+RIVER_OBS_DIM = sum(n for _, n in RIVER_OBS_FIELDS)
+RIVER_LEAD_BASELINES = 0.5  # the river point the boats observe (and start at) lies this many baselines
+# ahead of the vehicle along the river: the paper's geometry, the vehicle 50 m from a 100 m baseline
+RIVER_STATE_DIM = 2  # global_state's extra values for a world mission: the boats' offsets from the centerline
+
+
+def obs_fields(config) -> tuple:
+    """One boat's observation fields for ``config``: ``OBS_FIELDS``, and ``RIVER_OBS_FIELDS``
+    after them for a mission in the world."""
+    return OBS_FIELDS + (RIVER_OBS_FIELDS if config.mission_frame == "world" else ())
+
+
+def obs_dim_of(config) -> int:
+    """The length of one boat's observation for ``config``."""
+    return sum(n for _, n in obs_fields(config))
 
 
 @dataclass
@@ -473,6 +505,48 @@ def _observe_boats(b_pos, gps_err, b_vel, k_pos, k_vel, k_age_s, k_has_fix, cycl
                 o[k] = v
 
 
+@njit(cache=True)
+def observe_river(b_pos, gps_err, k_pos, k_vel, k_age_s, pts, cum, direction, lead_m, L, half_width_m, out):
+    """The river part of every boat's observation (``RIVER_OBS_FIELDS``), out (B, 2,
+    RIVER_OBS_DIM) float32, vectors in the boats' GPS frame as in ``observe_boats``: the
+    boat's offset from the centerline (GPS position; + right of the mission direction)
+    / (river_width_m / 2), so that +-1 are the banks; the river's unit direction of the
+    mission at the point ``lead_m`` ahead of the tracked vehicle along the centerline;
+    that point minus the boat's GPS position / L. direction: +1 a downstream mission,
+    -1 upstream (``river.mission_direction``)."""
+    for b in range(b_pos.shape[0]):
+        g1e, g1n, g2e, g2n, xa, _ = gps_frame_of(b_pos[b], gps_err[b])
+        ya = -1j * xa
+        te, tn = k_pos[b, 0] + k_vel[b, 0] * k_age_s[b], k_pos[b, 1] + k_vel[b, 1] * k_age_s[b]
+        s_v = river.project(te, tn, pts, cum)[0]
+        pe, pn, de, dn = river.point_at(s_v + direction * lead_m, pts, cum)
+        de, dn = direction * de, direction * dn
+        for i in range(2):
+            ge, gn = (g1e, g1n) if i == 0 else (g2e, g2n)
+            off = river.project(ge, gn, pts, cum)[1]
+            vals = (direction * off / half_width_m,
+                    de * xa.real + dn * xa.imag, de * ya.real + dn * ya.imag,
+                    ((pe - ge) * xa.real + (pn - gn) * xa.imag) / L,
+                    ((pe - ge) * ya.real + (pn - gn) * ya.imag) / L)
+            for k in range(RIVER_OBS_DIM):
+                v = vals[k]
+                if v < -OBS_BOUND:
+                    v = -OBS_BOUND
+                elif v > OBS_BOUND:
+                    v = OBS_BOUND
+                out[b, i, k] = v
+
+
+def frame_waypoints(b_pos, gps_err, world_waypoints):
+    """A world mission in the frame the boats' GPS gives (what the vehicle computes from
+    the telemetered B1 position and bearing to B2): frame x and y (B, W) of the world
+    waypoints (W, >=2) through B1's and B2's GPS positions, b_pos (B,2,>=2) plus gps_err
+    (B,2,2) (``lbl.world_to_frame``, section II's frame)."""
+    g = b_pos[:, :, :2] + gps_err
+    x, y, _, _ = lbl.world_to_frame(g[:, 0:1], g[:, 1:2], world_waypoints[None, :, :2])
+    return x, y
+
+
 # each kernel compiled twice from one source: plain, and threaded for large batches
 cycle = njit(cache=True)(_cycle)
 cycle_parallel = njit(cache=True, parallel=True)(_cycle)
@@ -494,10 +568,14 @@ class MovingNetworkSimulator(BatchSimulator):
         self.variants = [(c.survey_path, c.depth_m)]
         self.info_keys = FRAME_INFO_KEYS
         self.beacon_info_keys = BEACON_INFO_KEYS
-        self.reward_terms = MOVING_NETWORK_TERMS
-        self.reward_weights = term_weights(c, MOVING_NETWORK_TERMS)
+        self._world = c.mission_frame == "world"
+        self.reward_terms = RIVER_NETWORK_TERMS if self._world else MOVING_NETWORK_TERMS
+        self.reward_weights = term_weights(c, self.reward_terms)
         wp, _ = build_path(c, 0)
-        self._waypoints = wp
+        self._waypoints = wp  # frame (x, y, depth), or (east, north, depth) for a world mission
+        if self._world:
+            self._river_pts, self._river_cum = river.centerline_of(c.river_centerline_m)
+            self._mission_dir = river.mission_direction(wp, self._river_pts, self._river_cum)
         self._max_speed = np.array(c.beacon_max_speeds_mps)
         turn = np.radians(np.full(2, c.boat_max_turn_rate_dps)) * c.substep_s
         self._boat_turn_cos, self._boat_turn_sin = np.cos(turn), np.sin(turn)
@@ -521,7 +599,8 @@ class MovingNetworkSimulator(BatchSimulator):
             ("jitter", "normal", (n_det,)), ("acoustic_u", "uniform", (n_det, 3)), ("gps", "normal", (2, 2)),
             ("boat", "normal", (2, 2)),  # per boat: surge, course (Gauss-Markov driving noise)
         ], B)
-        self.obs_dim, self.state_dim = OBS_DIM, 24
+        self.obs_dim = obs_dim_of(c)
+        self.state_dim = 24 + (RIVER_STATE_DIM if self._world else 0)
         self.state: FrameState | None = None
 
     def _initial_state(self, seeds) -> FrameState:
@@ -535,11 +614,21 @@ class MovingNetworkSimulator(BatchSimulator):
         # surge and course fluctuations (their stationary distribution; appended, so 0-16 keep their numbers)
         n = rng.normal(keys, rng.STREAM_EPISODE, zero, (21,))
         u = rng.uniform(keys, rng.STREAM_EPISODE + 100, zero, (3,))
-        phi0 = np.radians(c.frame_orientation_deg + c.frame_orientation_spread_deg * (2 * u[:, 0] - 1))
         L = c.baseline_target_m
         b_pos = np.zeros((B, 2, 3))
-        b2 = L * bearing_to_unit(phi0)
-        b_pos[:, 1, 0], b_pos[:, 1, 1] = b2.real, b2.imag
+        if self._world:
+            # the boats' cross section RIVER_LEAD_BASELINES ahead of the vehicle's start along
+            # the river, B1 on the left of the mission direction (river.cross_section_at)
+            pts, cum, direction = self._river_pts, self._river_cum, self._mission_dir
+            s0 = float(river.arc_length_of(self._waypoints[0, :2], pts, cum))
+            b1_en, b2_en, phi_w = river.cross_section_at(s0 + direction * RIVER_LEAD_BASELINES * L, pts, cum,
+                                                         direction, L)
+            phi0 = np.full(B, phi_w)
+            b_pos[:, 0, :2], b_pos[:, 1, :2] = b1_en, b2_en
+        else:
+            phi0 = np.radians(c.frame_orientation_deg + c.frame_orientation_spread_deg * (2 * u[:, 0] - 1))
+            b2 = L * bearing_to_unit(phi0)
+            b_pos[:, 1, 0], b_pos[:, 1, 1] = b2.real, b2.imag
         y_axis = bearing_to_unit(phi0 + np.pi / 2)
         transit = c.boat_transit_speed_mps * y_axis
         b_heading = np.repeat((np.where(c.boat_transit_speed_mps < 0, -y_axis, y_axis))[:, None], 2, 1)
@@ -547,12 +636,20 @@ class MovingNetworkSimulator(BatchSimulator):
         b_vel[..., 0], b_vel[..., 1] = transit.real[:, None], transit.imag[:, None]
 
         wp = np.broadcast_to(self._waypoints, (B,) + self._waypoints.shape)[:, None].copy()
-        x0, y0, z0 = self._waypoints[0]
-        start = lbl.frame_to_world(np.zeros((B, 2)), phi0, np.full(B, x0), np.full(B, y0))
+        gps_err = c.gps_noise_m * n[:, 10:14].reshape(B, 2, 2)
+        if self._world:  # the vehicle starts at its first world waypoint; its mission goes to the frame
+            start = np.broadcast_to(self._waypoints[0, :2], (B, 2)).copy()
+            z0 = self._waypoints[0, 2]
+            x0, y0, _, _ = lbl.world_to_frame(b_pos[:, 0, :2], b_pos[:, 1, :2], start)
+            first = np.broadcast_to(self._waypoints[1, :2] - self._waypoints[0, :2], (B, 2))
+            wp[:, 0, :, 0], wp[:, 0, :, 1] = frame_waypoints(b_pos, gps_err, self._waypoints)
+        else:
+            x0, y0, z0 = self._waypoints[0]
+            start = lbl.frame_to_world(np.zeros((B, 2)), phi0, np.full(B, x0), np.full(B, y0))
+            x1, y1, _ = self._waypoints[1]
+            first = lbl.frame_to_world(np.zeros((B, 2)), phi0, np.full(B, x1), np.full(B, y1)) - start
         s_pos = np.zeros((B, 1, 3))
         s_pos[:, 0, :2], s_pos[:, 0, 2] = start, z0
-        x1, y1, _ = self._waypoints[1]
-        first = lbl.frame_to_world(np.zeros((B, 2)), phi0, np.full(B, x1), np.full(B, y1)) - start
         heading = (first[:, 0] + 1j * first[:, 1]) / np.maximum(np.hypot(first[:, 0], first[:, 1]), 1e-9)
         sigma0 = c.initial_position_std_m
         sphi = np.radians(c.initial_frame_orientation_std_deg)
@@ -566,6 +663,8 @@ class MovingNetworkSimulator(BatchSimulator):
         dr[:, 0, :2] += sigma0 * n[:, 6:8]
         cur_speed = np.maximum(c.current_speed_mps + c.current_speed_spread_mps * (2 * u[:, 1] - 1), 0.0)
         cur_dir = np.radians(c.current_direction_deg + c.current_direction_spread_deg * (2 * u[:, 2] - 1))
+        # a river's current flows along the river (``_river_currents``): current_mean holds its speed
+        current_mean = cur_speed + 0j if self._world else cur_speed * bearing_to_unit(cur_dir)
         return FrameState(
             t_s=np.zeros(B), cycle=np.zeros(B, dtype=np.int64), keys=keys, ep_variant=np.zeros(B, dtype=np.int64),
             ep_noise_scale=np.ones(B), ep_phi0_rad=phi0,
@@ -576,10 +675,10 @@ class MovingNetworkSimulator(BatchSimulator):
             s_waypoints=wp, s_n_waypoints=np.full((B, 1), len(self._waypoints), dtype=np.int64),
             s_wp_index=np.ones((B, 1), dtype=np.int64), s_done=np.zeros((B, 1), dtype=bool), s_dr=dr,
             f_E=E, f_P=P, f_rejected_cycles=np.zeros(B, dtype=np.int64), b_pos=b_pos, b_heading=b_heading, b_vel=b_vel,
-            b_gps_err=c.gps_noise_m * n[:, 10:14].reshape(B, 2, 2),
+            b_gps_err=gps_err,
             k_pos=start.copy(), k_vel=np.zeros((B, 2)), k_age_s=np.zeros(B), k_has_fix=np.zeros(B, dtype=bool),
             temperature_c=c.water_temperature_c + c.temperature_uncertainty_c * n[:, 14],
-            current_mean=cur_speed * bearing_to_unit(cur_dir),
+            current_mean=current_mean,
             current_gm=c.current_gm_std_mps * (n[:, 15] + 1j * n[:, 16]),
             b_surge=c.boat_surge_noise_mps * n[:, 17:19].copy(),
             b_steer=np.radians(c.boat_steering_noise_deg) * n[:, 19:21].copy(),
@@ -601,11 +700,26 @@ class MovingNetworkSimulator(BatchSimulator):
         B, K, dt, T = self.batch_size, self.K, c.substep_s, c.ping_interval_s
         draws = self._draws.draw(st.keys, st.cycle)
 
+        if self._world:
+            # the mission through the frame the boats telemeter (their GPS at the cycle's start),
+            # and the river's current where the boats and the vehicle are
+            st.s_waypoints[:, 0, :, 0], st.s_waypoints[:, 0, :, 1] = frame_waypoints(st.b_pos, st.b_gps_err,
+                                                                                     self._waypoints)
+            boat_current, vehicle_current = self._river_currents()
+        else:
+            vehicle_current = st.current_mean + st.current_gm
         # 1. the boats: their commands, then how far their motion strays from them
         self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions),
                         self._boat_turn_cos, self._boat_turn_sin, K, dt)
-        disturb_boats(st.b_pos, st.b_heading, st.b_vel, st.b_surge, st.b_steer, st.current_mean + st.current_gm,
-                      c.boat_current_response, T)
+        if self._world:  # each boat in its own water (views of one boat each)
+            for i in range(2):
+                disturb_boats(st.b_pos[:, i:i + 1], st.b_heading[:, i:i + 1], st.b_vel[:, i:i + 1],
+                              st.b_surge[:, i:i + 1], st.b_steer[:, i:i + 1], boat_current[:, i].copy(),
+                              c.boat_current_response, T)
+            bank = (np.abs(self._boat_offsets_m()) > 0.5 * c.river_width_m).astype(float)
+        else:
+            disturb_boats(st.b_pos, st.b_heading, st.b_vel, st.b_surge, st.b_steer, vehicle_current,
+                          c.boat_current_response, T)
         n_boat = draws["boat"]
         st.b_surge = boat_noise_step(st.b_surge, T, c.boat_noise_time_constant_s, c.boat_surge_noise_mps,
                                      n_boat[..., 0])
@@ -616,7 +730,7 @@ class MovingNetworkSimulator(BatchSimulator):
         integrate_vehicle(st.s_pos, st.s_heading, st.s_vel_true, st.s_wp_index, st.s_done, st.s_waypoints,
                           st.s_n_waypoints, st.s_speed_scale, c.survey_speed_mps, st.s_compass_bias_rad,
                           np.radians(c.compass_noise_deg) * noise[:, :, 0], c.speed_encoder_noise_mps * noise[:, :, 1],
-                          st.current_mean + st.current_gm, st.f_E, st.f_P, self._Q, st.s_dr, st.s_heading_meas_rad,
+                          vehicle_current, st.f_E, st.f_P, self._Q, st.s_dr, st.s_heading_meas_rad,
                           st.s_speed_meas_mps, dt, c.los_alpha, c.waypoint_acceptance_m, self._turn_cos,
                           self._turn_sin, K)
         n_cur = draws["current"]
@@ -635,6 +749,8 @@ class MovingNetworkSimulator(BatchSimulator):
         np.add(en[0], st.b_gps_err, out=en[1])
         phi, length = lbl.baseline(en[:, :, 0], en[:, :, 1])  # (2, B): true, GPS
         turned = np.abs(np.angle(np.exp(1j * (phi[0] - st.ep_phi0_rad)))) > self._rotation_tolerance_rad
+        if self._world:
+            turned[:] = False  # the frame must turn with the river: no rotation term (see the module docstring)
         log_u = np.log(draws["acoustic_u"][..., 2])
         fval = np.empty((B, N_FVAL))
         ival = np.empty((B, N_IVAL), dtype=np.int64)
@@ -651,6 +767,8 @@ class MovingNetworkSimulator(BatchSimulator):
                  "safety": fval[:, _F_SAFETY:_F_SAFETY_B2 + 1], "baseline": team(_F_BASELINE_OFF),
                  "approach": team(_F_APPROACH), "rotation": np.broadcast_to(turned.astype(float)[:, None], (B, 2)),
                  "contact": team(_F_CONTACT)}
+        if self._world:
+            terms["bank"] = bank
 
         terminated = st.s_done[:, 0].copy()
         if c.mission_duration_s > 0:
@@ -681,6 +799,23 @@ class MovingNetworkSimulator(BatchSimulator):
     def _beacon_info(self) -> dict:
         """Per boat (B, 2): the true horizontal error of its GPS position (m)."""
         return {"beacon_error_m": np.hypot(self.state.b_gps_err[..., 0], self.state.b_gps_err[..., 1])}
+
+    def _boat_offsets_m(self) -> np.ndarray:
+        """Each boat's true signed offset from the river's centerline (B, 2), m (+ right of downstream)."""
+        return river.offsets(self.state.b_pos[..., :2], self._river_pts, self._river_cum)[0]
+
+    def _river_currents(self) -> tuple:
+        """The river's current at each boat (B, 2) and at the vehicle (B,), complex m/s: the
+        episode's mean speed along the local downstream direction of the centerline (the
+        nearest segment's, ``river.project``) plus the Gauss-Markov part, which is the same
+        everywhere. [U] a plug flow: no slower water near the banks, no secondary flow in
+        the bends."""
+        st = self.state
+        pts, cum = self._river_pts, self._river_cum
+        _, t_boats = river.offsets(st.b_pos[..., :2], pts, cum)
+        _, t_vehicle = river.offsets(st.s_pos[:, 0, :2], pts, cum)
+        speed = st.current_mean.real  # the river's mean speed (see _initial_state)
+        return speed[:, None] * t_boats + st.current_gm[:, None], speed * t_vehicle + st.current_gm
 
     def _state_info(self) -> dict:
         """The infos that follow from the state, in the true frame (as a step computes
@@ -713,7 +848,11 @@ class MovingNetworkSimulator(BatchSimulator):
         phi, _ = lbl.baseline(b1, st.b_pos[:, 1, :2])
         est = np.concatenate([lbl.frame_to_world(b1, phi, st.f_E[:, 0], st.f_E[:, 1]), st.s_pos[:, 0, 2:]], -1)
         wp = st.s_waypoints[:, 0]
-        wp_en = lbl.frame_to_world(b1[:, None], phi[:, None], wp[..., 0], wp[..., 1])
+        if self._world:  # the mission itself
+            wp = np.broadcast_to(self._waypoints, wp.shape)
+            wp_en = wp[..., :2]
+        else:
+            wp_en = lbl.frame_to_world(b1[:, None], phi[:, None], wp[..., 0], wp[..., 1])
         # frame (x, y) -> (east, north): the columns are the unit vectors of x and y (y is x turned
         # 90 degrees clockwise), so P_en = R P_xy R^T
         x_axis = bearing_to_unit(phi)
@@ -727,28 +866,40 @@ class MovingNetworkSimulator(BatchSimulator):
 
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
-        """What each boat knows, normalized: (B, 2, OBS_DIM), fields ``OBS_FIELDS``,
+        """What each boat knows, normalized: (B, 2, obs_dim), fields ``obs_fields(config)``,
         vectors in the frame of the boats' GPS positions (x along B1 -> B2, y
         clockwise from it), lengths / L (L = baseline_target_m): role (+1 B1, -1 B2);
         own velocity / max speed; (l_gps - L) / L; the vehicle as tracked, predicted
         to now: position / L and velocity / survey speed; age of the last fix /
         (10 T); a fix was ever made; the frame's bearing (sin, cos); own position
-        minus the tracked vehicle / L; elapsed fraction of max_cycles (``observe_boats``)."""
+        minus the tracked vehicle / L; elapsed fraction of max_cycles (``observe_boats``).
+        A mission in the world appends ``RIVER_OBS_FIELDS`` (``observe_river``): the boat's
+        offset from the centerline / (river_width_m / 2), the river's direction and the
+        centerline point ``RIVER_LEAD_BASELINES`` L ahead of the tracked vehicle, minus
+        the boat's position, / L: where to go (the boats know the river's map)."""
         c, st = self.config, self.state
         out = np.empty((self.batch_size, 2, OBS_DIM), dtype=np.float32)
         self._k_observe(st.b_pos, st.b_gps_err, st.b_vel, st.k_pos, st.k_vel, st.k_age_s, st.k_has_fix, st.cycle,
                         c.baseline_target_m, c.boat_max_speed_mps, c.survey_speed_mps,
                         AGE_SCALE_PINGS * c.ping_interval_s, c.max_cycles, out)
+        if self._world:
+            extra = np.empty((self.batch_size, 2, RIVER_OBS_DIM), dtype=np.float32)
+            L = c.baseline_target_m
+            observe_river(st.b_pos, st.b_gps_err, st.k_pos, st.k_vel, st.k_age_s, self._river_pts, self._river_cum,
+                          self._mission_dir, RIVER_LEAD_BASELINES * L, L, 0.5 * c.river_width_m, extra)
+            out = np.concatenate([out, extra], -1)
         return out
 
     def global_state(self) -> np.ndarray:
-        """True state for a centralized critic (B, 24), normalized."""
+        """True state for a centralized critic (B, state_dim), normalized: 24 values, and for a
+        mission in the world the boats' offsets from the river's centerline / (width / 2) and
+        the current at the vehicle in place of the uniform one."""
         c, st = self.config, self.state
         L = c.baseline_target_m
         b1, b2, v = st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], st.s_pos[:, 0, :2]
         x, y, phi, length = lbl.world_to_frame(b1, b2, v)
         major, minor, bearing = error_ellipse(st.f_P)
-        cur = st.current_mean + st.current_gm
+        cur = self._river_currents()[1] if self._world else st.current_mean + st.current_gm
         parts = [
             x / L, y / L, (st.f_E[:, 0] - x) / 10.0, (st.f_E[:, 1] - y) / 10.0,
             np.sin(st.f_E[:, 2] - phi), (st.f_E[:, 5] - length) / 10.0, (length - L) / L,
@@ -757,4 +908,7 @@ class MovingNetworkSimulator(BatchSimulator):
             st.b_vel[:, 1, 1], st.s_vel_true[:, 0, 0], st.s_vel_true[:, 0, 1], cur.real, cur.imag,
             (st.k_pos[:, 0] - v[:, 0]) / 10.0, (st.k_pos[:, 1] - v[:, 1]) / 10.0, st.cycle / c.max_cycles,
         ]
+        if self._world:
+            off = self._boat_offsets_m() / (0.5 * c.river_width_m)
+            parts += [off[:, 0], off[:, 1]]
         return np.clip(np.stack(parts, -1), -OBS_BOUND, OBS_BOUND).astype(np.float32)

@@ -25,6 +25,11 @@ term             value per beacon and cycle                              weight
 ``rotation``     1 if the frame turned more than                           -``rotation_penalty``
                  ``frame_rotation_tolerance_deg`` from its start (moving
                  network)
+``bank``         1 if the boat is farther than ``river_width_m`` / 2      -``bank_penalty``
+                 from the river's centerline (moving network with
+                 ``mission_frame="world"``: a river survey; there the
+                 ``rotation`` term is always 0, the frame must turn
+                 with the river)
 ``ping``         1 if the beacon transmitted a ping this cycle (only with  -``ping_penalty``
                  ``channel_mode="decide"``: the price of the channel and
                  of the transmit energy, ``core.channel``)
@@ -45,11 +50,14 @@ TERM_WEIGHTS = {
     "approach": "approach_penalty",
     "rotation": "rotation_penalty",
     "ping": "ping_penalty",
+    "bank": "bank_penalty",
 }
 SURVEY_TERMS = ("info_gain", "safety", "geofence", "contact")
 CHANNEL_TERMS = SURVEY_TERMS + ("ping",)  # the survey network with channel_mode="decide"
 MOVING_NETWORK_TERMS = ("info_gain", "safety", "baseline", "approach", "rotation", "contact")
-PENALTY_TERMS = ("safety", "geofence", "baseline", "approach", "rotation", "ping")  # all but information and contact
+RIVER_NETWORK_TERMS = MOVING_NETWORK_TERMS + ("bank",)  # the moving network with mission_frame="world"
+# all but information and contact
+PENALTY_TERMS = ("safety", "geofence", "baseline", "approach", "rotation", "ping", "bank")
 
 
 def term_weights(config, terms) -> dict:

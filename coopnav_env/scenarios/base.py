@@ -25,6 +25,8 @@ RANGING_MODES = ("owtt", "twtt")
 ACOUSTIC_SENSORS = ("modem", "mls")
 ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
 CHANNEL_MODES = ("clock", "decide")
+MISSION_FRAMES = ("frame", "world")  # where a moving-network mission's waypoints live (mission_frame)
+MAX_RIVER_POINTS = 10_000  # vertices of river_centerline_m
 SLOWEST_SOUND_SPEED_MPS = 1400.0  # below any sea water's (Mackenzie 1981 at -2 degC, 25 ppt: ~1430 m/s): bounds a packet's flight time
 
 
@@ -202,6 +204,13 @@ class ScenarioConfig:
     rotation_penalty: float = 1.0  # start costs rotation_penalty (the filter models phi as constant)
     min_baseline_distance_m: float = 15.0  # reward: the vehicle closer than this to the baseline
     approach_penalty: float = 1.0  # (the fix degenerates on the baseline) costs approach_penalty
+    # where the vehicle's mission lives: "frame", waypoints_m in the boats' frame (x, y, depth), the
+    # paper's; "world", waypoints_m in (east, north, depth), re-expressed in the frame every cycle
+    # through the boats' GPS (they telemeter B1's position and the bearing to B2): a river survey
+    mission_frame: str = "frame"  # one of MISSION_FRAMES (moving_lbl only; see above)
+    river_centerline_m: tuple = ()  # mission_frame="world": the river's centerline ((east, north), ...), listed downstream; its current flows along it
+    river_width_m: float = 150.0  # mission_frame="world": bank to bank; a boat farther than half of it from the centerline is on the bank [U]
+    bank_penalty: float = 1.0  # reward weight of the "bank" term (per boat and cycle outside the river)
 
     # --- domain randomization: drawn per episode from the episode's seed --------------
     randomize_survey_path: tuple = ()  # choices of survey_path; () keeps survey_path
@@ -346,6 +355,7 @@ LIMITS = {
     "frame_q_current_m2ps3": (0.0, 100.0), "frame_q_baseline_m2ps": (0.0, 10_000.0),
     "baseline_tolerance_m": (0.0, 10_000.0), "baseline_penalty": (0.0, 1e6), "frame_rotation_tolerance_deg": (0.0, 360.0),
     "rotation_penalty": (0.0, 1e6), "min_baseline_distance_m": (0.0, 10_000.0), "approach_penalty": (0.0, 1e6),
+    "river_width_m": (OPEN_ZERO, 10_000.0), "bank_penalty": (0.0, 1e6),
     "observed_waypoints": (1, 64), "modem_bit_rate_bps": (OPEN_ZERO, 1e6), "ping_packet_bits": (1, 1_000_000),
     "reply_packet_bits": (1, 1_000_000), "transmit_power_w": (0.0, 10_000.0), "ping_penalty": (0.0, 1e6),
     "tdma_frame_slots": (0, 1024),
@@ -379,6 +389,20 @@ def _check_coordinates(name, values, n):
     for v in values:
         _check(isinstance(v, numbers.Real) and not isinstance(v, bool) and _finite(v) and abs(v) <= COORDINATE_LIMIT_M,
                f"scenario parameter {name} must hold finite numbers within +-{COORDINATE_LIMIT_M:g} m, got {values!r}")
+
+
+def _check_river(c):
+    """mission_frame="world": the river's centerline, a polyline of at least two distinct
+    consecutive (east, north) points."""
+    pts = c.river_centerline_m
+    _check(2 <= len(pts) <= MAX_RIVER_POINTS,
+           f"scenario parameter river_centerline_m must hold 2 to {MAX_RIVER_POINTS} (east, north) points for "
+           f"mission_frame='world', got {len(pts)}")
+    for p in pts:
+        _check(isinstance(p, tuple), f"river_centerline_m entries must be (east, north), got {p!r}")
+        _check_coordinates("river_centerline_m", p, 2)
+    _check(all(a != b for a, b in zip(pts, pts[1:])),
+           "scenario parameter river_centerline_m must not repeat a point twice in a row")
 
 
 def waypoint_count(c, path: str) -> int:
@@ -432,15 +456,27 @@ def _validate(c: ScenarioConfig):
         _check(c.beacon_kinds == ("boat", "boat"),
                f"network='moving_lbl' needs beacon_kinds=('boat', 'boat') (B1, B2), got {c.beacon_kinds!r}")
         _check(c.n_survey == 1, f"network='moving_lbl' simulates one vehicle, got n_survey={c.n_survey}")
-        _check(c.survey_path == "waypoints", "network='moving_lbl' needs survey_path='waypoints' (frame coordinates)")
-        _check(all(w[1] > 0 for w in c.waypoints_m),
-               "waypoints_m: network='moving_lbl' needs y > 0 in every waypoint (the vehicle must not cross the baseline)")
+        _check(c.mission_frame in MISSION_FRAMES,
+               f"unknown mission_frame {c.mission_frame!r}; valid: {', '.join(MISSION_FRAMES)}")
+        _check(c.survey_path == "waypoints",
+               f"network='moving_lbl' needs survey_path='waypoints' ({c.mission_frame} coordinates)")
+        if c.mission_frame == "frame":
+            _check(all(w[1] > 0 for w in c.waypoints_m),
+                   "waypoints_m: network='moving_lbl' needs y > 0 in every waypoint (the vehicle must not cross the baseline)")
+            _check(c.river_centerline_m == (),
+                   "river_centerline_m needs mission_frame='world' (a frame mission ignores the river); valid: ()")
+        else:
+            _check_river(c)
         _check(abs(c.boat_transit_speed_mps) <= c.boat_max_speed_mps,
                f"boat_transit_speed_mps ({c.boat_transit_speed_mps}) exceeds boat_max_speed_mps ({c.boat_max_speed_mps})")
         _check(c.ranging_mode == "twtt", "network='moving_lbl' ranges by two-way travel time: ranging_mode='twtt'")
     else:
         _check("boat" not in c.beacon_kinds, "beacon_kinds: the kind 'boat' belongs to network='moving_lbl'")
         _check(c.action_mode != "frame_velocity", "action_mode='frame_velocity' belongs to network='moving_lbl'")
+        _check(c.mission_frame == "frame",
+               f"mission_frame={c.mission_frame!r} belongs to network='moving_lbl'; valid: frame")
+        _check(c.river_centerline_m == (),
+               "river_centerline_m belongs to network='moving_lbl' with mission_frame='world'")
     _check(c.channel_mode in CHANNEL_MODES,
            f"unknown channel_mode {c.channel_mode!r}; valid modes: {', '.join(CHANNEL_MODES)}")
     if c.channel_mode == "decide":
