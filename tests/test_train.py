@@ -190,6 +190,20 @@ def test_shipped_policies_load_and_act(name):
     assert np.array_equal(one.act(obs[env.possible_agents[0]]), policy.act(obs[env.possible_agents[0]]))
 
 
+@pytest.mark.parametrize("scenario", coopnav_env.list_scenarios())
+def test_every_scenario_names_a_shipped_policy_that_drives_it(scenario):
+    """``--policies ppo`` names a shipped policy on every scenario (issue 15), and it acts
+    on the scenario's own observations."""
+    model, _, _ = agents.resolve("ppo", scenario)
+    assert model.is_file() and model.is_relative_to(agents.POLICY_DIR)
+    config = coopnav_env.make_config(scenario)
+    policy = agents.make_policy("ppo", config, seed=0)
+    env = coopnav_env.parallel_env(config, seed=0, max_cycles=2)
+    obs, _ = env.reset()
+    action = policy.act(obs[env.possible_agents[0]])
+    assert action.shape == env.action_space(env.possible_agents[0]).shape and np.all(np.isfinite(action))
+
+
 def test_gao_lawnmower_shares_the_gao_sea_policy():
     if "ppo_gao_sea" not in agents.list_policies():
         pytest.skip("ppo_gao_sea is not shipped")
@@ -427,3 +441,44 @@ def test_importing_the_command_line_is_cheap_and_one_way():
     code = "import sys, agents; print(sorted(m for m in sys.modules if m.startswith('agents.training')))"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd="/")
     assert r.stdout.strip() == "[]"  # agents does not import its training package
+
+
+def test_imitation_clones_the_planner_before_ppo(tmp_path):
+    """The imitate: path (agents.training.imitation): a tiny run clones the circle planner,
+    evaluates the clone at step 0, records what it did; the clone acts like the planner on
+    an episode it never saw."""
+    from baselines import make_policy
+
+    out = tmp_path / "bc"
+    changes = {"imitate": {"planner": "circle", "steps": 2000, "epochs": 30, "batch_size": 256},
+               "ppo": {**TINY["ppo"], "learning_rate": 1e-9, "policy_kwargs": {"net_arch": [64, 64]}}}
+    assert cli.main(["--scenario", "sousa_asv", "--timesteps", "256", "--seed", "0", "--out", str(out),
+                     "--config", _tiny_yaml(tmp_path, **changes), "--no-progress"]) == 0
+    record = yaml.safe_load((out / "config.yml").read_text())
+    assert record["imitation"]["planner"] == "circle" and record["imitation"]["steps"] >= 2000
+    assert record["hyperparameters"]["imitate"]["planner"] == "circle"
+    evals = [json.loads(line) for line in (out / "evaluations.jsonl").read_text().splitlines()]
+    assert evals[0]["num_timesteps"] == 0  # the clone, scored before PPO changes it
+
+    config = coopnav_env.make_config("sousa_asv", max_cycles=10, mission_duration_s=200.0)
+    clone = agents.load(out / "model.safetensors", scenario=config)
+    env = coopnav_env.parallel_env(config, seed=12345)
+    planner = make_policy("circle", config, seed=0)
+    obs, _ = env.reset()
+    errors = []
+    while env.agents:
+        o = obs["beacon_0"]
+        want = planner.act(o)
+        errors.append(np.abs(clone.act(o) - want).mean())
+        obs, *_ = env.step({"beacon_0": want})
+    # an untrained network acts ~0, off by ~0.6 on average; the clone follows the planner
+    assert np.mean(errors) < 0.25, np.mean(errors)
+
+
+def test_imitation_refuses_a_planner_that_cannot_drive_the_scenario(tmp_path, capsys):
+    out = tmp_path / "never"
+    code = cli.main(["--scenario", "sousa_asv", "--timesteps", "256", "--out", str(out), "--config",
+                     _tiny_yaml(tmp_path, imitate={"planner": "abeam"}), "--no-progress"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "imitate.planner 'abeam' cannot drive 'sousa_asv'" in err and "\n" not in err
+    assert not out.exists()

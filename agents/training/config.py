@@ -42,7 +42,7 @@ SB3_RESERVED = {"self", "policy", "env", "seed", "device", "tensorboard_log", "v
 LEGACY = {"env.variants": "env.variants is gone: set the core's per-episode randomization in env.overrides "
                           "(randomize_survey_path, randomize_depth_m, randomize_noise_scale)"}
 
-__all__ = ["ConfigError", "EnvSpec", "EvalSpec", "PeriodicEvalSpec", "NormalizeSpec", "RaySpec", "TrainConfig",
+__all__ = ["ConfigError", "EnvSpec", "EvalSpec", "ImitateSpec", "PeriodicEvalSpec", "NormalizeSpec", "RaySpec", "TrainConfig",
            "RLlibConfig", "config_class", "config_from_record", "from_dict", "hyperparameter_file", "load_config",
            "parse_value", "set_path"]
 
@@ -89,6 +89,20 @@ class NormalizeSpec:
     clip_obs: float = 10.0
     clip_reward: float = 10.0
     epsilon: float = 1e-8
+
+
+@dataclass
+class ImitateSpec:
+    """Behaviour cloning of a planner before PPO (``agents.training.imitation``):
+    ``planner`` (a planner that drives the scenario's network; None: off) drives the
+    training environments for ``steps`` row-steps, then the actor's mean is fitted to
+    its actions and the critic to the returns, ``epochs`` passes in minibatches of
+    ``batch_size`` at ``learning_rate``."""
+    planner: typing.Optional[str] = None
+    steps: int = 200_000
+    epochs: int = 20
+    batch_size: int = 4096
+    learning_rate: float = 1e-3
 
 
 @dataclass
@@ -145,6 +159,7 @@ class TrainConfig(_Job):
     eval: PeriodicEvalSpec = field(default_factory=PeriodicEvalSpec)
     checkpoint_every_steps: int = 100_000
     init_from: typing.Optional[str] = None
+    imitate: ImitateSpec = field(default_factory=ImitateSpec)
 
     def check(self):
         from stable_baselines3 import PPO
@@ -166,6 +181,15 @@ class TrainConfig(_Job):
             raise ConfigError(f"ppo.policy_kwargs must be a mapping, got {kwargs!r}")
         if "activation_fn" in kwargs and kwargs["activation_fn"] not in ACTIVATIONS:
             raise ConfigError(f"unknown activation_fn {kwargs['activation_fn']!r}; valid: {', '.join(ACTIVATIONS)}")
+        im = self.imitate
+        if im.planner is not None:
+            for key in ("steps", "epochs", "batch_size"):
+                if getattr(im, key) < 1:
+                    raise ConfigError(f"imitate.{key} must be at least 1, got {getattr(im, key)}")
+            if not im.learning_rate > 0:
+                raise ConfigError(f"imitate.learning_rate must be positive, got {im.learning_rate}")
+            if self.init_from:
+                raise ConfigError("imitate and init_from both set the starting weights: choose one")
         return self
 
 

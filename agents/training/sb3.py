@@ -87,6 +87,13 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     if resume and ckpt is None:  # stopped before its first checkpoint: start it again with its config.yml
         restart_from_scratch(out)
     warm = warm_start_files(config.init_from, trust_pickle) if config.init_from and not ckpt else None
+    if config.imitate.planner is not None:
+        from baselines import list_policies
+
+        valid = list_policies(job.scenario_config.network)
+        if config.imitate.planner not in valid:
+            raise ConfigError(f"imitate.planner {config.imitate.planner!r} cannot drive {config.scenario!r}; "
+                              f"valid: {', '.join(valid)}")
 
     import torch
     from stable_baselines3 import PPO
@@ -102,8 +109,9 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     torch.set_num_threads(threads)
 
     # --- the environment: one batched simulator, VecMonitor, VecNormalize -----------
-    venv = VecMonitor(CoopNavVecEnv(job.scenario_config, n_envs=config.n_envs, seed=run_seed, step_infos=False,
-                                    reward_terms=job.reward_terms))
+    raw_env = CoopNavVecEnv(job.scenario_config, n_envs=config.n_envs, seed=run_seed, step_infos=False,
+                            reward_terms=job.reward_terms)
+    venv = VecMonitor(raw_env)
     ckpt_stats = _read_stats(ckpt["vecnormalize"]) if ckpt else None
     if ckpt_stats is not None:  # the checkpoint's statistics and settings, training on
         s = ckpt_stats
@@ -136,9 +144,17 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
             load_state(model, warm[0], device, what=f"init_from {warm[0]}")
             if warm[1] is not None:
                 _restore(vecnorm, _read_stats(warm[1]), warm[1])
+    imitation = None
+    if config.imitate.planner is not None and not ckpt:  # behaviour cloning before PPO (a resumed run has it)
+        from .imitation import imitate
+
+        imitation = imitate(model, vecnorm, raw_env, config.imitate, run_seed)
+        print(f"imitated {imitation['planner']}: {imitation['steps']} steps, action rms error "
+              f"{imitation['action_rms_error']}, {imitation['seconds']} s", flush=True)
     out.mkdir(parents=True, exist_ok=True)  # the inputs are good: the first file of a new run
     if not resume:
-        write_run_record(out, config, job, command=command, hyperparameter_file=hyperparameter_file)
+        write_run_record(out, config, job, command=command, hyperparameter_file=hyperparameter_file,
+                         **({"imitation": imitation} if imitation else {}))
     if tb_dir is None:  # a note, not an error: after the inputs are known to be good, on stdout
         print("note: tensorboard is not installed, so no TensorBoard logs (pip install -e '.[train]')")
 
@@ -338,6 +354,8 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
     class RunCallback(BaseCallback):
         def _on_training_start(self):
             self.trained_steps = self.last_ckpt = self.last_eval = self.model.num_timesteps
+            if config.imitate.planner is not None and ev.every_steps > 0 and self.model.num_timesteps == 0:
+                self.evaluate()  # the cloned planner, before PPO changes it
 
         def _on_rollout_start(self):
             self.trained_steps = steps = self.model.num_timesteps
@@ -373,7 +391,10 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
             result = evaluate(model_actor(self.model, vecnorm), cells, ev.episodes, ev.seed)
             score = result["survey_error_m"]
             now = time.perf_counter()
+            clock["eval_s"] = clock.get("eval_s", 0.0) + (now - t0)
+            # wall_s: since learning started, validations included; train_s: without them
             record = {"num_timesteps": self.model.num_timesteps, "wall_s": round(now - clock["t0"], 1),
+                      "train_s": round(now - clock["t0"] - clock["eval_s"], 1),
                       "wall_s_since_start": round(now - clock["started"], 1), "survey_error_m": score,
                       **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline_scores.items()}}
             if len(cells) > 1:

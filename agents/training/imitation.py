@@ -1,0 +1,112 @@
+"""Behaviour cloning of a planner into a PPO policy before reinforcement learning.
+
+A config's ``imitate:`` block (``ImitateSpec``) names a planner that drives the
+scenario's network (``baselines``: ``river_escort``, ``abeam``, ``ellipse``, ...). Before
+PPO's first rollout, ``imitate``:
+
+1. drives the training environments (the run's own ``CoopNavVecEnv`` under its
+   VecNormalize, seeded as the run) with the planner for ``steps`` row-steps, each row
+   a beacon with its own planner copy (reset when its episode ends), recording the raw
+   observations, the planner's actions, the rewards PPO would see (normalized when the
+   run normalizes rewards) and the episode ends; VecNormalize's observation statistics
+   are updated on the way, as they would be by training;
+2. fits, with Adam, the actor's mean action to the planner's action (mean squared
+   error) and the critic to the discounted returns of those rewards (``gamma`` of the
+   PPO config; the returns of the rows' unfinished last episodes are cut at the end of
+   the collection), ``epochs`` passes over the data in minibatches of ``batch_size``,
+   on the observations normalized with the final statistics. The action noise
+   (``log_std``) is left at ``log_std_init``.
+
+PPO then starts from a policy that acts like the planner, with a critic that knows
+roughly what that is worth: the field's remedy (demonstration-initialized RL) when
+exploring from scratch rarely finds what a heuristic does by construction, as in
+``matos_river``, where boats must escort a vehicle 1.6 km down a winding river. The
+environment steps spent here are reported (``imitation`` in the run's config.yml and
+on stdout), not counted in ``timesteps``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+__all__ = ["imitate"]
+
+
+def collect(vecnorm, raw_env, planner: str, steps: int, seed: int) -> dict:
+    """Drive ``vecnorm`` (a VecNormalize over ``raw_env``'s rows, possibly through other
+    wrappers) with ``planner`` for at least ``steps`` row-steps."""
+    from baselines import make_policy
+
+    config, N = raw_env.config, raw_env.n_beacons
+    rows = raw_env.num_envs
+    policies = [make_policy(planner, config, seed=(seed, r), agent=r % N) for r in range(rows)]
+    vecnorm.reset()
+    raw = vecnorm.get_original_obs()
+    n_steps = -(-steps // rows)
+    obs = np.empty((n_steps, rows, raw.shape[-1]), dtype=np.float32)
+    acts = np.empty((n_steps, rows, raw_env.action_space.shape[0]), dtype=np.float32)
+    rewards = np.empty((n_steps, rows), dtype=np.float32)
+    dones = np.empty((n_steps, rows), dtype=bool)
+    for t in range(n_steps):
+        obs[t] = raw
+        acts[t] = np.stack([p.act(raw[r]) for r, p in enumerate(policies)])
+        _, rewards[t], dones[t], _ = vecnorm.step(acts[t])
+        raw = vecnorm.get_original_obs()
+        for r in np.flatnonzero(dones[t]):
+            policies[r].reset()
+    return {"obs": obs, "actions": acts, "rewards": rewards, "dones": dones}
+
+
+def discounted_returns(rewards: np.ndarray, dones: np.ndarray, gamma: float) -> np.ndarray:
+    """Per row, sum_k gamma^k r_{t+k} up to the episode's end (rewards, dones (T, rows));
+    the rows' last, unfinished episodes are cut at T."""
+    out = np.zeros_like(rewards, dtype=np.float64)
+    running = np.zeros(rewards.shape[1])
+    for t in range(rewards.shape[0] - 1, -1, -1):
+        running = rewards[t] + gamma * running * (~dones[t])
+        out[t] = running
+    return out
+
+
+def imitate(model, vecnorm, raw_env, spec, seed: int) -> dict:
+    """Clone ``spec.planner`` into ``model`` (an SB3 PPO whose env is ``vecnorm``); returns
+    what was done (steps, final losses, seconds)."""
+    import torch
+
+    t0 = time.perf_counter()
+    data = collect(vecnorm, raw_env, spec.planner, spec.steps, seed)
+    gamma = float(model.gamma)
+    returns = discounted_returns(data["rewards"], data["dones"], gamma)
+    obs = vecnorm.normalize_obs(data["obs"].reshape(-1, data["obs"].shape[-1]))
+    device = model.policy.device
+    x = torch.as_tensor(obs, dtype=torch.float32, device=device)
+    a = torch.as_tensor(data["actions"].reshape(len(obs), -1), dtype=torch.float32, device=device)
+    g = torch.as_tensor(returns.reshape(-1), dtype=torch.float32, device=device)
+    policy = model.policy
+    optimizer = torch.optim.Adam(policy.parameters(), lr=spec.learning_rate)
+    rng = np.random.default_rng(seed)
+    n = len(x)
+    actor_loss = critic_loss = float("nan")
+    policy.set_training_mode(True)
+    for _ in range(spec.epochs):
+        order = torch.as_tensor(rng.permutation(n), device=device)
+        for start in range(0, n, spec.batch_size):
+            idx = order[start:start + spec.batch_size]
+            mean = policy.get_distribution(x[idx]).distribution.mean
+            value = policy.predict_values(x[idx]).squeeze(-1)
+            la = ((mean - a[idx]) ** 2).mean()
+            lv = ((value - g[idx]) ** 2).mean()
+            optimizer.zero_grad()
+            (la + 0.5 * lv).backward()
+            torch.nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
+            optimizer.step()
+            actor_loss, critic_loss = float(la.detach()), float(lv.detach())
+    policy.set_training_mode(False)
+    with torch.no_grad():
+        mean = policy.get_distribution(x).distribution.mean.clamp(-1.0, 1.0)
+        rms = float(torch.sqrt(((mean - a) ** 2).mean()))
+    return {"planner": spec.planner, "steps": int(n), "epochs": spec.epochs, "action_rms_error": round(rms, 4),
+            "actor_loss": round(actor_loss, 5), "critic_loss": round(critic_loss, 5),
+            "seconds": round(time.perf_counter() - t0, 1)}
