@@ -1,0 +1,100 @@
+"""One line per task set and challenger from benchmark results: the 20 % aim, at a glance.
+
+    python benchmarks/benchmark_summary.py results/bench_*/results.json
+    python benchmarks/benchmark_summary.py results/bench_*/results.json --markdown docs/_summary.md
+
+Reads the ``results.json`` files that ``python -m evaluation.benchmark`` writes and, for
+every task set and trained challenger in them, prints (and with ``--markdown`` writes,
+atomically) one table row:
+
+* the mean over the tasks it can drive of its mean error, and the same mean of each
+  task's best planner (the planner with the lowest mean error on that task);
+* their relative difference (%), the issue's aim being -20 % or lower;
+* the paired difference over the task set: per episode seed, the mean over the tasks of
+  its error minus the task's best planner's on that seed (episode i of every task has
+  the same seed, so a seed's differences are not independent across tasks), then the
+  mean and 95 % t interval (``evaluation.paired.t_interval``) over the seeds;
+* wins, ties and losses over the tasks (each task's own 95 % interval, as in results.md),
+  and the tasks it cannot drive (``n/a``).
+
+Nothing is recomputed from episodes: the numbers are those of results.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from evaluation.paired import t_interval
+
+AIM = -0.20  # the issue's aim: a mean error at least 20 % below the best planner's
+
+
+def rows(results: dict) -> list:
+    """(task set, challenger, n tasks, n/a, mean, best planners' mean, relative, paired mean,
+    paired interval, wins, ties, losses, official) for every trained challenger."""
+    out = []
+    for set_name, ts in results["task_sets"].items():
+        for challenger in ts["challengers"]:
+            mine, best, diffs, verdicts, na = [], [], [], [], 0
+            for task in ts["tasks"].values():
+                entry = task["policies"].get(challenger)
+                if entry is None or "mean_error_m" not in entry:
+                    na += 1
+                    continue
+                planner = task["policies"][task["best_planner"]]
+                mine.append(entry["mean_error_m"])
+                best.append(planner["mean_error_m"])
+                diffs.append(np.subtract(entry["episode_mean_error_m"], planner["episode_mean_error_m"]))
+                verdicts.append(entry["paired"]["verdict"])
+            if not mine:
+                continue
+            mean, best_mean = float(np.mean(mine)), float(np.mean(best))
+            # per seed, the mean over the tasks (episode i of every task has the same seed, so the
+            # tasks' differences on one seed are not independent); then the t interval over seeds
+            per_seed = np.mean(np.stack(diffs), axis=0)
+            pooled, lo, hi = t_interval(per_seed)
+            out.append((set_name, challenger, len(mine), na, mean, best_mean, mean / best_mean - 1.0,
+                        pooled, (lo, hi), verdicts.count("win"),
+                        verdicts.count("tie"), verdicts.count("loss"), bool(results.get("official"))))
+    return out
+
+
+def markdown(all_rows: list) -> str:
+    lines = ["| task set | policy | tasks (n/a) | mean error (m) | best planners (m) | relative | "
+             "paired, pooled (m) [95 %] | wins / ties / losses | 20 % aim |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for (s, c, n, na, mean, best, rel, pm, (lo, hi), w, t, l, official) in all_rows:
+        aim = "met" if rel <= AIM and hi < 0 else f"not met ({rel * 100:+.0f} %)"
+        mark = "" if official else " (not official)"
+        lines.append(f"| `{s}`{mark} | `{c}` | {n} ({na}) | {mean:.3f} | {best:.3f} | {rel * 100:+.1f} % | "
+                     f"{pm:+.3f} [{lo:+.3f}, {hi:+.3f}] | {w} / {t} / {l} | {aim} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="benchmark_summary.py", description=__doc__.split("\n\n")[0])
+    p.add_argument("results", nargs="+", type=Path, help="results.json files of evaluation.benchmark")
+    p.add_argument("--markdown", type=Path, help="also write the table here")
+    args = p.parse_args(argv)
+    all_rows = []
+    for path in args.results:
+        try:
+            all_rows.extend(rows(json.loads(path.read_text())))
+        except (OSError, ValueError, KeyError) as err:
+            p.error(f"{path}: not a benchmark results.json ({type(err).__name__}: {err})")
+    text = markdown(all_rows)
+    print(text)
+    if args.markdown:
+        from coopnav_env.records import atomic_write_text
+
+        atomic_write_text(args.markdown, text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
