@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 from types import MappingProxyType
 
-BENCHMARK_VERSION = 1
+BENCHMARK_VERSION = 2  # 2: the gao_team and matos_river task sets
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
 
@@ -106,6 +106,14 @@ _SETS = (
         _task("deep_30m", "the survey at 30 m instead of 5 m", depth_m=30.0),
         _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
     ), about="Gao & Chitre's sea trial and variations (current, depth, team)"),
+    TaskSet("gao_team", "gao_team", (
+        _task("team", "an ASV and a beacon AUV help two survey AUVs 60 m apart, as configured"),
+        _task("calm", "a 0.05 m/s current", current_speed_mps=0.05, current_speed_spread_mps=0.03),
+        _task("current_0.5", "a 0.5 m/s current", current_speed_mps=0.5),
+        _task("deep_30m", "the surveys at 30 m instead of 5 m", depth_m=30.0),
+        _task("apart_120m", "the two surveys 120 m apart instead of 60", survey_spacing_m=120.0),
+    ), about="cooperation: an ASV and a beacon AUV (different kinds) help two survey AUVs; the planners run "
+             "per beacon"),
     TaskSet("swarm_mls", "swarm_mls", (
         _task("swarm3", "three survey AUVs with MLS ranging, as configured"),
         _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
@@ -127,6 +135,14 @@ _SETS = (
         _task("frame_north", "the frame oriented north (0 deg) instead of east", frame_orientation_deg=0.0),
         _task("noisy_ranges", "3 m range noise instead of 1.4", range_noise_std_m=3.0),
     ), about="Matos & Cruz's moving long baseline (two boats) and variations"),
+    TaskSet("matos_river", "matos_river", (
+        _task("river", "down the 1.6 km winding river, as configured"),
+        _task("current_0.5", "a 0.5 m/s river current instead of 0.3", current_speed_mps=0.5),
+        _task("narrow_120m", "a 120 m wide river instead of 150", river_width_m=120.0),
+        _task("short_baseline", "a 60 m baseline instead of 100", baseline_target_m=60.0),
+        _task("noisy_ranges", "3 m range noise instead of 1.4", range_noise_std_m=3.0),
+    ), about="the moving network with the vehicle's mission in the world, down a winding river: the boats "
+             "must escort it"),
 )
 
 TASK_SETS = MappingProxyType({s.name: s for s in _SETS})
