@@ -1,7 +1,7 @@
 """One line per task set and challenger from benchmark results: the 20 % aim, at a glance.
 
     python benchmarks/benchmark_summary.py results/bench_*/results.json
-    python benchmarks/benchmark_summary.py results/bench_*/results.json --markdown docs/_summary.md
+    python benchmarks/benchmark_summary.py results/bench_*/results.json --per-task --markdown summary.md
 
 Reads the ``results.json`` files that ``python -m evaluation.benchmark`` writes and, for
 every task set and trained challenger in them, prints (and with ``--markdown`` writes,
@@ -76,18 +76,49 @@ def markdown(all_rows: list) -> str:
     return "\n".join(lines)
 
 
+def per_task_markdown(results: dict) -> str:
+    """Per task set, one row per task: the best planner and its mean error, each trained
+    challenger's mean error and paired difference with its verdict (``--per-task``)."""
+    out = []
+    for set_name, ts in results["task_sets"].items():
+        head = ["task", "best planner (m)"] + [f"`{c}` (m)" for c in ts["challengers"]] + \
+               [f"`{c}` - best [95 %]" for c in ts["challengers"]]
+        lines = [f"**`{set_name}`**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for task_name, task in ts["tasks"].items():
+            best = task["best_planner"]
+            cells = [f"`{task_name}`", f"`{best}` {task['policies'][best]['mean_error_m']:.3f}"]
+            diffs = []
+            for c in ts["challengers"]:
+                e = task["policies"].get(c)
+                if e is None or "mean_error_m" not in e:
+                    cells.append("n/a")
+                    diffs.append("n/a")
+                    continue
+                cells.append(f"{e['mean_error_m']:.3f}")
+                pm, (lo, hi), verdict = e["paired"]["mean_m"], e["paired"]["ci95_m"], e["paired"]["verdict"]
+                diffs.append(f"{pm:+.3f} [{lo:+.3f}, {hi:+.3f}] {verdict}")
+            lines.append("| " + " | ".join(cells + diffs) + " |")
+        out.append("\n".join(lines))
+    return "\n\n".join(out)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="benchmark_summary.py", description=__doc__.split("\n\n")[0])
     p.add_argument("results", nargs="+", type=Path, help="results.json files of evaluation.benchmark")
     p.add_argument("--markdown", type=Path, help="also write the table here")
+    p.add_argument("--per-task", action="store_true", help="also one table per task set: every task's best "
+                                                           "planner and each challenger's paired difference")
     args = p.parse_args(argv)
-    all_rows = []
+    all_rows, tables = [], []
     for path in args.results:
         try:
-            all_rows.extend(rows(json.loads(path.read_text())))
+            results = json.loads(path.read_text())
+            all_rows.extend(rows(results))
+            if args.per_task:
+                tables.append(per_task_markdown(results))
         except (OSError, ValueError, KeyError) as err:
             p.error(f"{path}: not a benchmark results.json ({type(err).__name__}: {err})")
-    text = markdown(all_rows)
+    text = "\n\n".join([markdown(all_rows)] + tables)
     print(text)
     if args.markdown:
         from coopnav_env.records import atomic_write_text
