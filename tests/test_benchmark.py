@@ -191,7 +191,6 @@ def test_a_tiny_run_of_the_command(tmp_path, capsys):
 @pytest.mark.parametrize("argv, message", [
     (["--tasks", "nope"], "unknown task set 'nope'"),
     (["--tasks", "gao_sea", "--policies", "fim_x"], "policy 'fim_x' can drive no task"),
-    (["--tasks", "matos_moving_lbl", "--policies", "ppo"], "has no shipped policy"),
     (["--tasks", "gao_sea", "--episodes", "1"], "--episodes must be in [2,"),
     (["--tasks", "gao_sea", "--set", "bogus=1"], "unknown scenario parameter"),
     (["--policies", "ppo"], "--tasks is required"),
@@ -202,6 +201,18 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, argv, message):
     assert benchmark.main(argv + ["--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err, err
+    assert not out.exists()
+
+
+def test_ppo_without_a_shipped_policy_is_one_line(tmp_path, capsys, monkeypatch):
+    """Every scenario ships one; with none (an empty policy directory) 'ppo' is bad input."""
+    import agents
+
+    monkeypatch.setattr(agents, "POLICY_DIR", tmp_path / "none")
+    out = tmp_path / "bench"
+    assert benchmark.main(["--tasks", "matos_moving_lbl", "--policies", "ppo", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "has no shipped policy" in err, err
     assert not out.exists()
 
 
