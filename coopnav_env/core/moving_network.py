@@ -472,6 +472,16 @@ def command_velocity(actions, b_pos, gps_err, max_speed, mode, out):
             out[b, i] = v
 
 
+@njit(cache=True)
+def _clip_obs(v):
+    """An observation value clipped to [-OBS_BOUND, OBS_BOUND]."""
+    if v < -OBS_BOUND:
+        return -OBS_BOUND
+    if v > OBS_BOUND:
+        return OBS_BOUND
+    return v
+
+
 def _observe_boats(b_pos, gps_err, b_vel, k_pos, k_vel, k_age_s, k_has_fix, cycle, L, boat_max_speed_mps,
                    survey_speed_mps, age_scale_s, max_cycles, out):
     """Every boat's observation (``MovingNetworkSimulator.observe``), out (B, 2, OBS_DIM) float32."""
@@ -497,12 +507,7 @@ def _observe_boats(b_pos, gps_err, b_vel, k_pos, k_vel, k_age_s, k_has_fix, cycl
                     ((ge - te) * ya.real + (gn - tn) * ya.imag) / L,
                     cycle[b] / max_cycles)
             for k in range(OBS_DIM):
-                v = vals[k]
-                if v < -OBS_BOUND:
-                    v = -OBS_BOUND
-                elif v > OBS_BOUND:
-                    v = OBS_BOUND
-                o[k] = v
+                o[k] = _clip_obs(vals[k])
 
 
 @njit(cache=True)
@@ -529,12 +534,7 @@ def observe_river(b_pos, gps_err, k_pos, k_vel, k_age_s, pts, cum, direction, le
                     ((pe - ge) * xa.real + (pn - gn) * xa.imag) / L,
                     ((pe - ge) * ya.real + (pn - gn) * ya.imag) / L)
             for k in range(RIVER_OBS_DIM):
-                v = vals[k]
-                if v < -OBS_BOUND:
-                    v = -OBS_BOUND
-                elif v > OBS_BOUND:
-                    v = OBS_BOUND
-                out[b, i, k] = v
+                out[b, i, k] = _clip_obs(vals[k])
 
 
 def frame_waypoints(b_pos, gps_err, world_waypoints):
