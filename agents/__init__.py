@@ -3,7 +3,6 @@
     import agents
     policy = agents.load("ppo_sousa_asv")            # a policy shipped in agents/policies/
     policy = agents.load("ppo", scenario="sousa_asv")  # the shipped PPO policy of a scenario
-    policy = agents.load("ppo", scenario="gao_lawnmower")  # -> ppo_gao_sea (SHARED_POLICIES)
     policy = agents.load("runs/sousa_ppo")           # a run directory written by train.py
     policy.reset()
     action = policy.act(obs["beacon_0"])             # one beacon's observation -> (2,) in [-1, 1]
@@ -55,10 +54,6 @@ from .formats import (_TRUSTED, PickleRefused, PolicyFormatError, _check_trusted
 from .policy import BatchPolicy, _trained_scenario
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
-# "ppo" of a scenario without a policy of its own: the shipped policy of a sister
-# scenario with the same observation layout (gao_lawnmower: the lake trial of the
-# gao_sea policy's sea trial; same vehicles, smaller area, weaker current).
-SHARED_POLICIES = {"gao_lawnmower": "ppo_gao_sea"}
 # (model, normalization) of a run directory, in order of preference: the safe format,
 # then the old pickle-based one (refused unless trusted)
 RUN_FILES = (("best_model.safetensors", "best_vecnormalize.safetensors"),
@@ -185,8 +180,6 @@ def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
                 raise ValueError("agents.load('ppo') names the shipped PPO policy of a scenario: pass scenario=")
             scen = _scenario_name(scenario)
             name = f"ppo_{scen}"
-            if not (POLICY_DIR / name).is_dir() and scen in SHARED_POLICIES:
-                name = SHARED_POLICIES[scen]
         directory = POLICY_DIR / name
         if not directory.is_dir():
             shipped = list_policies()

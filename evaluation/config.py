@@ -187,12 +187,17 @@ def _parse(key: str, text: str, default):
         if isinstance(default, float):
             return float(text)
         if isinstance(default, tuple):
+            names = tuple(w.strip().strip("'\"") for w in text.strip("()[]").split(","))
             if default and isinstance(default[0], str):  # names: beacon_kinds=asv,beacon_auv (quotes optional)
-                v = tuple(w.strip().strip("'\"") for w in text.strip("()[]").split(","))
-                if not all(v):
+                if not all(names):
                     raise ValueError
-                return v
-            v = ast.literal_eval(text)
+                return names
+            try:
+                v = ast.literal_eval(text)
+            except (ValueError, SyntaxError):
+                if default or not all(names):  # numbers expected
+                    raise
+                return names  # randomize_survey_path=lawnmower,spiral
             if not isinstance(v, (list, tuple)):
                 v = (v,)
             return _to_tuple(v)

@@ -443,6 +443,8 @@ def test_set_parses_tuples_of_names_and_checks_the_length_of_points(tmp_path, ca
     assert parse_value("beacon_kinds", "['asv', 'beacon_auv']") == ("asv", "beacon_auv")
     assert parse_value("beacon_kinds", "asv") == ("asv",)
     assert parse_value("survey_area_m", "100, 80") == (100.0, 80.0)
+    assert parse_value("randomize_survey_path", "lawnmower,spiral") == ("lawnmower", "spiral")
+    assert parse_value("randomize_depth_m", "3,20") == (3.0, 20.0)
     code, _, err = run_main(["--scenario", "gao_sea", "--set", "survey_area_m=1,2,3", "--out",
                              str(tmp_path / "never")], capsys)
     assert code == 2 and err.strip() == "evaluate.py: error: survey_area_m takes 2 values, got 3", err

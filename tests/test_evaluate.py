@@ -198,15 +198,15 @@ def test_eval_config_refuses_unknown_fields_naming_the_closest():
 
 
 def test_ppo_resolution_is_recorded(tmp_path):
-    """"ppo" on gao_lawnmower is the shipped ppo_gao_sea: run.json's trained_policies and
+    """"ppo" on gao_lawnmower is the shipped ppo_gao_lawnmower: run.json's trained_policies and
     summary.md say so; prepare checks that it drives the scenario and writes nothing."""
     from evaluation import EvalConfig, prepare
     from evaluation.report import trained_lines
 
     plan = prepare(EvalConfig(policies="ppo,static", out=str(tmp_path / "x")))
     r = plan.trained["ppo"]
-    assert r["shipped"] == "ppo_gao_sea" and r["model"].startswith("agents/policies/ppo_gao_sea/")
-    assert "shipped policy `ppo_gao_sea`" in trained_lines(plan.trained)[0]
+    assert r["shipped"] == "ppo_gao_lawnmower" and r["model"].startswith("agents/policies/ppo_gao_lawnmower/")
+    assert "shipped policy `ppo_gao_lawnmower`" in trained_lines(plan.trained)[0]
     assert not (tmp_path / "x").exists()
 
 

@@ -204,15 +204,6 @@ def test_every_scenario_names_a_shipped_policy_that_drives_it(scenario):
     assert action.shape == env.action_space(env.possible_agents[0]).shape and np.all(np.isfinite(action))
 
 
-def test_gao_lawnmower_shares_the_gao_sea_policy():
-    if "ppo_gao_sea" not in agents.list_policies():
-        pytest.skip("ppo_gao_sea is not shipped")
-    assert agents.resolve("ppo", "gao_lawnmower")[0] == agents.resolve("ppo_gao_sea")[0]
-    with pytest.warns(UserWarning, match="trained on 'gao_sea'"):
-        policy = agents.load("ppo", scenario="gao_lawnmower")
-    assert policy.act(np.zeros(policy.obs_dim)).shape == (2,)
-
-
 def test_evaluation_scores_a_baseline_on_the_same_seeds():
     pytest.importorskip("baselines.fim")
     config = coopnav_env.make_config("sousa_asv", max_cycles=4, mission_duration_s=80.0)
