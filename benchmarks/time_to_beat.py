@@ -48,13 +48,15 @@ DEFAULT_CONFIG = ROOT / "configs" / "ppo" / "sousa_fast.yml"
 
 
 def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budget_s: float, threads: int,
-                       timesteps: int, baseline: str = "fim_a") -> dict:
-    """Train one seed until its validation beats ``baseline`` or ``budget_s`` of training;
-    returns its validations and times."""
+                       timesteps: int, baseline: str = "fim_a", margin: float = 0.0, eval_episodes=None) -> dict:
+    """Train one seed until its validation is below ``(1 - margin)`` times ``baseline``'s,
+    or ``budget_s`` of training; returns its validations and times."""
     cmd = [sys.executable, str(ROOT / "train.py"), "--scenario", "sousa_asv", "--config", str(config),
            "--seed", str(seed), "--timesteps", str(timesteps), "--out", str(out), "--threads", str(threads),
            "--no-progress", "--set", f"eval.every_steps={eval_every}", "--set", f"eval.baselines=[{baseline}]",
            "--set", f"checkpoint_every_steps={10 * timesteps}"]
+    if eval_episodes is not None:
+        cmd += ["--set", f"eval.episodes={eval_episodes}"]
     started = time.perf_counter()
     log = open(out.parent / f"seed_{seed}.log", "w")  # the trainer's output, kept beside the run
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT)
@@ -66,7 +68,7 @@ def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budg
             if path.is_file():
                 records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
             for r in records:
-                if r["survey_error_m"] < r[f"{baseline}_survey_error_m"]:
+                if r["survey_error_m"] < (1.0 - margin) * r[f"{baseline}_survey_error_m"]:
                     beaten = r
                     break
             if beaten or (records and records[-1].get("train_s", 0.0) >= budget_s):
@@ -112,6 +114,9 @@ def figure(result: dict, path: Path):
                     marker="*", ms=14, color=line.get_color())
     base = result["runs"][0]["baseline_survey_error_m"]
     ax.axhline(base, color="k", ls="--", lw=1, label=f"{result['baseline']} ({base:.3f} m)")
+    if result.get("margin"):
+        ax.axhline((1 - result["margin"]) * base, color="k", ls=":", lw=1,
+                   label=f"{result['margin']:.0%} below {result['baseline']}: the beat")
     med = result["median_time_to_beat_s"]
     ax.axvline(med, color="grey", ls=":", lw=1.5, label=f"median time to beat: {med:.0f} s")
     ax.set_xlabel("training time (s, validations excluded)")
@@ -136,6 +141,10 @@ def main(argv=None) -> int:
     p.add_argument("--eval-every", type=int, default=65536, help="steps between validations (default: %(default)s)")
     p.add_argument("--budget-s", type=float, default=600.0, help="training seconds per seed before giving up "
                                                                  "(default: %(default)s)")
+    p.add_argument("--margin", type=float, default=0.0, help="beat = validation below (1 - margin) x fim_a's "
+                                                              "(default: %(default)s)")
+    p.add_argument("--eval-episodes", type=int, default=None, help="validation episodes per cell (default: the "
+                                                                    "config's eval.episodes)")
     p.add_argument("--threads", type=int, default=2, help="torch threads (default: %(default)s, the two cores)")
     p.add_argument("--out", type=Path, default=ROOT / "results" / "time_to_beat",
                    help="output directory; runs/seed_N holds each run, its best model the one that beat fim_a "
@@ -150,6 +159,10 @@ def main(argv=None) -> int:
         p.error(f"--config: no file {args.config}")
     if args.eval_every < 1 or args.budget_s <= 0 or args.threads < 1:
         p.error("--eval-every, --budget-s and --threads must be positive")
+    if not 0.0 <= args.margin < 1.0:
+        p.error(f"--margin must be in [0, 1), got {args.margin}")
+    if args.eval_episodes is not None and args.eval_episodes < 1:
+        p.error(f"--eval-episodes must be at least 1, got {args.eval_episodes}")
     from coopnav_env.records import atomic_write_text, version_record
 
     if (args.out / "time_to_beat.json").exists() and not args.overwrite:
@@ -163,7 +176,7 @@ def main(argv=None) -> int:
         run_dir.parent.mkdir(parents=True, exist_ok=True)
         load_before = os.getloadavg()[0]
         run = train_until_beaten(args.config, seed, run_dir, args.eval_every, args.budget_s, args.threads,
-                                 timesteps=50_000_000)
+                                 timesteps=50_000_000, margin=args.margin, eval_episodes=args.eval_episodes)
         run["load_average_1min_before"] = round(load_before, 2)
         run["run_dir"] = str(run_dir)
         runs.append(run)
@@ -174,7 +187,7 @@ def main(argv=None) -> int:
     result = {"command": " ".join(["python", "benchmarks/time_to_beat.py", *(argv or sys.argv[1:])]),
               "config": str(args.config.relative_to(ROOT) if args.config.resolve().is_relative_to(ROOT)
                             else args.config),
-              "baseline": "fim_a", "cores": os.cpu_count(), "threads": args.threads, "machine": platform.processor()
+              "baseline": "fim_a", "margin": args.margin, "cores": os.cpu_count(), "threads": args.threads, "machine": platform.processor()
               or platform.machine(), "median_time_to_beat_s": median,
               "median_is_upper_bound": not all(r["beaten"] for r in runs), "budget_s": args.budget_s,
               "runs": runs, "versions": version_record()}
