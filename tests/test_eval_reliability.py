@@ -28,8 +28,10 @@ EVALUATE = [sys.executable, os.path.join(ROOT, "evaluate.py")]
 # a fast run (one batch per episode, so several batch files are written)
 FAST = ["--scenario", "gao_lawnmower", "--set", "max_cycles=12", "--policies", "static,fim_a", "--episodes", "3",
         "--batch-size", "1", "--no-figures"]
-# a run of a few seconds (episodes of ~240 steps), to be killed, interrupted or locked out
-LONG = ["--scenario", "sousa_asv", "--set", "max_cycles=200", "--policies", "static,fim_a", "--episodes", "3",
+# a run of several seconds (episodes of ~200 steps, fim_a last), to be killed, interrupted or locked
+# out: long enough that a signal sent when episodes.csv first appears lands before the run ends
+# (with 3 episodes a fast machine finished first, exit 0)
+LONG = ["--scenario", "sousa_asv", "--set", "max_cycles=200", "--policies", "static,fim_a", "--episodes", "8",
         "--batch-size", "1", "--no-figures"]
 
 
