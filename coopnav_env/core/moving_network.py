@@ -210,13 +210,14 @@ def disturb_boats(pos, heading, vel, surge, steer, current, response, T):
     its last sub-step), the boat actually made good (v + s h) exp(-1j delta) + r c: its
     speed along its heading h off by the surge fluctuation s (surge (B,2), m/s), its course
     off by delta (steer (B,2), rad, clockwise: bearing + delta is the factor exp(-1j delta)),
-    and the part r (``boat_current_response``) of the water current c (current (B,)
-    complex) its ground-speed control does not cancel. s and delta are held over the cycle
+    and the part r (``boat_current_response``) of the water current c where the boat is
+    (current (B,2) complex: the same for both in uniform water, each its own in a river)
+    that its ground-speed control does not cancel. s and delta are held over the cycle
     (the Gauss-Markov states are stepped exactly at the cycle's period, see ``step``); the
     difference from the commanded motion is added to pos over the cycle T and to vel."""
     for b in range(pos.shape[0]):
-        drift = response * current[b]
         for n in range(pos.shape[1]):
+            drift = response * current[b, n]
             v = complex(vel[b, n, 0], vel[b, n, 1])
             d = steer[b, n]
             made_good = (v + surge[b, n] * heading[b, n]) * complex(np.cos(d), -np.sin(d)) + drift
@@ -705,21 +706,18 @@ class MovingNetworkSimulator(BatchSimulator):
             # and the river's current where the boats and the vehicle are
             st.s_waypoints[:, 0, :, 0], st.s_waypoints[:, 0, :, 1] = frame_waypoints(st.b_pos, st.b_gps_err,
                                                                                      self._waypoints)
-            boat_current, vehicle_current = self._river_currents()
+            boat_current, vehicle_current = self._river_currents(self._river_at_boats()[1])
         else:
             vehicle_current = st.current_mean + st.current_gm
         # 1. the boats: their commands, then how far their motion strays from them
         self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions),
                         self._boat_turn_cos, self._boat_turn_sin, K, dt)
-        if self._world:  # each boat in its own water (views of one boat each)
-            for i in range(2):
-                disturb_boats(st.b_pos[:, i:i + 1], st.b_heading[:, i:i + 1], st.b_vel[:, i:i + 1],
-                              st.b_surge[:, i:i + 1], st.b_steer[:, i:i + 1], boat_current[:, i].copy(),
-                              c.boat_current_response, T)
-            bank = (np.abs(self._boat_offsets_m()) > 0.5 * c.river_width_m).astype(float)
-        else:
-            disturb_boats(st.b_pos, st.b_heading, st.b_vel, st.b_surge, st.b_steer, vehicle_current,
-                          c.boat_current_response, T)
+        if not self._world:  # uniform water: the vehicle's current at both boats
+            boat_current = np.repeat(vehicle_current[:, None], 2, axis=1)
+        disturb_boats(st.b_pos, st.b_heading, st.b_vel, st.b_surge, st.b_steer, boat_current,
+                      c.boat_current_response, T)
+        if self._world:
+            bank = (np.abs(self._river_at_boats()[0]) > 0.5 * c.river_width_m).astype(float)  # after the move
         n_boat = draws["boat"]
         st.b_surge = boat_noise_step(st.b_surge, T, c.boat_noise_time_constant_s, c.boat_surge_noise_mps,
                                      n_boat[..., 0])
@@ -800,20 +798,19 @@ class MovingNetworkSimulator(BatchSimulator):
         """Per boat (B, 2): the true horizontal error of its GPS position (m)."""
         return {"beacon_error_m": np.hypot(self.state.b_gps_err[..., 0], self.state.b_gps_err[..., 1])}
 
-    def _boat_offsets_m(self) -> np.ndarray:
-        """Each boat's true signed offset from the river's centerline (B, 2), m (+ right of downstream)."""
-        return river.offsets(self.state.b_pos[..., :2], self._river_pts, self._river_cum)[0]
+    def _river_at_boats(self) -> tuple:
+        """Each boat's true signed offset from the river's centerline (B, 2), m (+ right of
+        downstream), and the downstream unit tangent there (B, 2) complex (``river.offsets``)."""
+        return river.offsets(self.state.b_pos[..., :2], self._river_pts, self._river_cum)
 
-    def _river_currents(self) -> tuple:
-        """The river's current at each boat (B, 2) and at the vehicle (B,), complex m/s: the
-        episode's mean speed along the local downstream direction of the centerline (the
-        nearest segment's, ``river.project``) plus the Gauss-Markov part, which is the same
-        everywhere. [U] a plug flow: no slower water near the banks, no secondary flow in
-        the bends."""
+    def _river_currents(self, t_boats) -> tuple:
+        """The river's current at each boat (B, 2) and at the vehicle (B,), complex m/s, given
+        the tangents at the boats (``_river_at_boats``): the episode's mean speed along the
+        local downstream direction of the centerline (the nearest segment's,
+        ``river.project``) plus the Gauss-Markov part, which is the same everywhere. [U] a
+        plug flow: no slower water near the banks, no secondary flow in the bends."""
         st = self.state
-        pts, cum = self._river_pts, self._river_cum
-        _, t_boats = river.offsets(st.b_pos[..., :2], pts, cum)
-        _, t_vehicle = river.offsets(st.s_pos[:, 0, :2], pts, cum)
+        _, t_vehicle = river.offsets(st.s_pos[:, 0, :2], self._river_pts, self._river_cum)
         speed = st.current_mean.real  # the river's mean speed (see _initial_state)
         return speed[:, None] * t_boats + st.current_gm[:, None], speed * t_vehicle + st.current_gm
 
@@ -899,7 +896,11 @@ class MovingNetworkSimulator(BatchSimulator):
         b1, b2, v = st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], st.s_pos[:, 0, :2]
         x, y, phi, length = lbl.world_to_frame(b1, b2, v)
         major, minor, bearing = error_ellipse(st.f_P)
-        cur = self._river_currents()[1] if self._world else st.current_mean + st.current_gm
+        if self._world:  # the boats projected once, for the current and their offsets
+            boat_off, boat_tangent = self._river_at_boats()
+            cur = self._river_currents(boat_tangent)[1]
+        else:
+            cur = st.current_mean + st.current_gm
         parts = [
             x / L, y / L, (st.f_E[:, 0] - x) / 10.0, (st.f_E[:, 1] - y) / 10.0,
             np.sin(st.f_E[:, 2] - phi), (st.f_E[:, 5] - length) / 10.0, (length - L) / L,
@@ -909,6 +910,6 @@ class MovingNetworkSimulator(BatchSimulator):
             (st.k_pos[:, 0] - v[:, 0]) / 10.0, (st.k_pos[:, 1] - v[:, 1]) / 10.0, st.cycle / c.max_cycles,
         ]
         if self._world:
-            off = self._boat_offsets_m() / (0.5 * c.river_width_m)
+            off = boat_off / (0.5 * c.river_width_m)
             parts += [off[:, 0], off[:, 1]]
         return np.clip(np.stack(parts, -1), -OBS_BOUND, OBS_BOUND).astype(np.float32)
