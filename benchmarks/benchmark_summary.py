@@ -40,17 +40,15 @@ def rows(results: dict) -> list:
     out = []
     for set_name, ts in results["task_sets"].items():
         for challenger in ts["challengers"]:
-            mine, best, diffs, verdicts, na = [], [], [], [], 0
+            mine, best, diffs = [], [], []
             for task in ts["tasks"].values():
                 entry = task["policies"].get(challenger)
                 if entry is None or "mean_error_m" not in entry:
-                    na += 1
                     continue
                 planner = task["policies"][task["best_planner"]]
                 mine.append(entry["mean_error_m"])
                 best.append(planner["mean_error_m"])
                 diffs.append(np.subtract(entry["episode_mean_error_m"], planner["episode_mean_error_m"]))
-                verdicts.append(entry["paired"]["verdict"])
             if not mine:
                 continue
             mean, best_mean = float(np.mean(mine)), float(np.mean(best))
@@ -58,9 +56,9 @@ def rows(results: dict) -> list:
             # tasks' differences on one seed are not independent); then the t interval over seeds
             per_seed = np.mean(np.stack(diffs), axis=0)
             pooled, lo, hi = t_interval(per_seed)
-            out.append((set_name, challenger, len(mine), na, mean, best_mean, mean / best_mean - 1.0,
-                        pooled, (lo, hi), verdicts.count("win"),
-                        verdicts.count("tie"), verdicts.count("loss"), bool(results.get("official"))))
+            wins = ts["summary"][challenger]  # the benchmark's own count of the tasks' verdicts
+            out.append((set_name, challenger, len(mine), wins["n/a"], mean, best_mean, mean / best_mean - 1.0,
+                        pooled, (lo, hi), wins["win"], wins["tie"], wins["loss"], bool(results.get("official"))))
     return out
 
 
