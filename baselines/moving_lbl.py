@@ -32,6 +32,12 @@ from coopnav_env.obs_layout import decode_boat
 from .base import Policy, register_policy, waypoint_to_action
 
 
+def _speed_limited(v, max_speed_mps):
+    """Velocity v (m/s) scaled down to max_speed_mps if faster."""
+    speed = float(np.linalg.norm(v))
+    return v if speed <= max_speed_mps else v * max_speed_mps / speed
+
+
 @register_policy("perpendicular")
 class PerpendicularPolicy(Policy):
     """Constant speed perpendicular to the baseline (Matos & Cruz sec. VIII)."""
@@ -77,8 +83,7 @@ class AbeamPolicy(PerpendicularPolicy):
         spread = 0.5 * self.baseline_gain_per_s * (c.baseline_target_m - float(view.baseline_m))
         sign = -1.0 if view.is_b1 else 1.0  # B1 moves along -x to lengthen the baseline, B2 along +x
         v = np.array([sign * spread, along_y])
-        speed = float(np.linalg.norm(v))
-        return v if speed <= c.boat_max_speed_mps else v * c.boat_max_speed_mps / speed
+        return _speed_limited(v, c.boat_max_speed_mps)
 
 
 @register_policy("river_escort")
@@ -107,5 +112,4 @@ class RiverEscortPolicy(AbeamPolicy):
         half = min(0.5 * c.baseline_target_m, max(0.5 * c.river_width_m - self.bank_margin_m, 0.0))
         to_target = np.asarray(view.river_ahead_from_own_xy_m, dtype=float) + side * half * u
         v = np.asarray(view.tracked_velocity_xy_mps, dtype=float) + self.gain_per_s * to_target
-        speed = float(np.linalg.norm(v))
-        return v if speed <= c.boat_max_speed_mps else v * c.boat_max_speed_mps / speed
+        return _speed_limited(v, c.boat_max_speed_mps)
