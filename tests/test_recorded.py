@@ -6,7 +6,8 @@ On the machine that recorded them the replay is equal bit for bit; set
 ``COOPNAV_BITWISE=1`` to demand that (a refactor must pass it there). Across machines
 numpy and numba pick SIMD code by CPU (AVX2 and AVX-512 ``sin``/``cos``/``exp`` differ by
 an ulp or two), so by default each array must agree within ``RTOL`` of its largest
-magnitude (measured between an AVX-512 Xeon and an AVX2 EPYC: at most 2e-13).
+magnitude (measured: at most 2e-13 between two
+machines' recordings; docs/reliability.md#reproducibility).
 """
 
 from __future__ import annotations
