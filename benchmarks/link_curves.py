@@ -150,8 +150,8 @@ def timeline(path: Path) -> None:
     for ax in (ax1, ax2):
         ax.set_xlim(0.0, 21.0)
         ax.set_xlabel("time within the slot (s)")
-    fig.text(0.01, 0.005, "per vehicle: its transmission (top lane), then its receptions, one lane per sender, coloured by "
-             "sender; hatched red: lost", fontsize=7)
+    fig.text(0.01, 0.005, "per vehicle: its transmission (top lane), then its receptions, one lane per sender, "
+             "coloured by sender; hatched red: lost", fontsize=7)
     fig.tight_layout(rect=(0, 0.02, 1, 1))
     _save(fig, path)
 

@@ -103,9 +103,10 @@ def test_success_falls_with_range_and_faster_at_a_higher_band():
     assert p25[0] > 0.999 and p25[-1] < 1e-6
     far = r > 4000.0
     assert np.all(p25[far] < p10[far])  # absorption: 6.1 dB/km at 25 kHz, 1.2 at 10
-    # 5 km: 25 kHz mostly lost (SNR ~5.9 dB), 10 kHz mostly through
+    # 5 km at 25 kHz: SNR = 185 - 104.50 - 74.59 = 5.90 dB (integrated band noise), 2.9 dB
+    # over the threshold: P(detect) = exp(-10^(-0.29)) = exp(-0.5129) = 0.599; PER ~ 0
     at5 = L.success_probability(5000.0, 256, L.LinkParams(band=L.Band(25.0, 4000.0)))
-    assert 0.4 < at5 < 0.8
+    assert at5 == pytest.approx(0.599, abs=0.002)
 
 
 # --------------------------------------------------------------------------- timing
@@ -173,6 +174,12 @@ def test_capture_a_near_ping_survives_a_far_one():
     assert o.sir_db[0, 2, 0] == pytest.approx(-25.4943, abs=1e-3)
     assert o.captured[0, 1, 0] and not o.captured[0, 2, 0]
     assert o.p_success[0, 1, 0] > 0.99 and o.p_success[0, 2, 0] == 0.0
+    # at 1 kHz absorption is negligible and the SIR is the spreading's 20 dB:
+    # 20 + 0.0690041 x 0.9 = 20.0621 dB
+    pos = np.array([[[0.0, 0, 0], [100.0, 0, 0], [1000.0, 0, 0]]])
+    tx = L.SlotTransmissions(pos, np.zeros_like(pos), np.array([[NAN, 0.0, 0.0]]), 5.0, 185.0, 256)
+    o = L.slot_timeline(tx, C, L.LinkParams(band=L.Band(1.0, 400.0)))
+    assert o.sir_db[0, 1, 0] == pytest.approx(20.0621, abs=1e-3) and o.captured[0, 1, 0]
 
 
 def test_two_equal_overlapping_pings_are_both_lost():

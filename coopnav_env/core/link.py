@@ -226,6 +226,14 @@ class SlotOutcome(NamedTuple):
     p_success: np.ndarray
 
 
+# The defaults as module-level singletons (records are immutable; used as argument defaults).
+DEFAULT_BAND = Band()
+DEFAULT_NOISE = NoiseConditions()
+DEFAULT_LINK = LinkParams()
+DEFAULT_FRAMING = MicroModemFraming()
+DEFAULT_POWER = PowerModel()
+
+
 class _KernelScalars(NamedTuple):
     """The scalars the slot kernel needs, all float (numba takes a NamedTuple)."""
 
@@ -285,7 +293,7 @@ def noise_psd_db(f_khz, shipping, wind_mps):
                              + 10.0 ** (nth / 10.0))
 
 
-def band_noise_db(band: Band = Band(), noise: NoiseConditions = NoiseConditions(), integrate: bool = True,
+def band_noise_db(band: Band = DEFAULT_BAND, noise: NoiseConditions = DEFAULT_NOISE, integrate: bool = True,
                   points: int = 201) -> float:
     """Noise power in the band, dB re 1 uPa^2: the PSD integrated over
     [fc - B/2, fc + B/2] (trapezoid on ``points`` frequencies, linear power) or, with
@@ -308,7 +316,7 @@ def received_level_db(source_level_db, range_m, f_khz, spreading_k, directivity_
     return source_level_db - transmission_loss_db(range_m, f_khz, spreading_k) + directivity_index_db
 
 
-def snr_db(range_m, params: LinkParams = LinkParams(), source_level_db=None, noise_db=None):
+def snr_db(range_m, params: LinkParams = DEFAULT_LINK, source_level_db=None, noise_db=None):
     """In-band SNR = SL - TL + DI - NL_band (dB) at ``range_m`` (array or scalar).
     ``source_level_db`` defaults to the link's; ``noise_db`` to ``band_noise_db``."""
     sl = params.source_level_db if source_level_db is None else source_level_db
@@ -372,7 +380,7 @@ def _scalars(params: LinkParams, noise_db=None) -> _KernelScalars:
                           float(params.bit_rate_bps))
 
 
-def success_probability(range_m, n_bits, params: LinkParams = LinkParams(), noise_db=None):
+def success_probability(range_m, n_bits, params: LinkParams = DEFAULT_LINK, noise_db=None):
     """P(a packet of ``n_bits`` is decoded at ``range_m``) on a free channel:
     P(detect | SNR) x (1 - PER(SNR, n)). Arrays broadcast."""
     s = _scalars(params, noise_db)
@@ -413,7 +421,7 @@ def frames_needed(framing: MicroModemFraming, payload_bits) -> int:
     return n
 
 
-def packet_duration_s(framing: MicroModemFraming = MicroModemFraming(), payload_bits=256) -> float:
+def packet_duration_s(framing: MicroModemFraming = DEFAULT_FRAMING, payload_bits=256) -> float:
     """How long one Micro-Modem packet occupies the water (s):
     [cycle-init + gap] + probe + null + n x frame + (n - 1) x inter-frame gap, with
     frame = 8 x frame_bytes / bit rate. Default (FH-FSK rate 0, one 32-byte frame):
@@ -434,17 +442,17 @@ def acoustic_power_w(source_level_db, directivity_index_db):
     return 10.0 ** ((source_level_db - SL_ONE_WATT_DB - directivity_index_db) / 10.0)
 
 
-def electrical_power_w(source_level_db, power: PowerModel = PowerModel(), directivity_index_db=0.0):
+def electrical_power_w(source_level_db, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
     """Electrical power while transmitting (W): acoustic power / efficiency."""
     return acoustic_power_w(np.asarray(source_level_db, float), directivity_index_db) / power.efficiency
 
 
-def transmit_energy_j(source_level_db, duration_s, power: PowerModel = PowerModel(), directivity_index_db=0.0):
+def transmit_energy_j(source_level_db, duration_s, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
     """Electrical energy of a transmission (J): electrical power x duration."""
     return electrical_power_w(source_level_db, power, directivity_index_db) * np.asarray(duration_s, float)
 
 
-def receive_energy_j(duration_s, power: PowerModel = PowerModel()):
+def receive_energy_j(duration_s, power: PowerModel = DEFAULT_POWER):
     """Energy spent receiving for ``duration_s`` (J): receive power x duration."""
     return power.receive_power_w * np.asarray(duration_s, float)
 
@@ -527,7 +535,7 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, s):
     return arrival, end, rng, rl, snr, sir, overlapped, capt, deaf, p
 
 
-def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = LinkParams(),
+def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = DEFAULT_LINK,
                   noise_db=None) -> SlotOutcome:
     """Resolve one slot of packets at every receiver with the sonar equation.
 
