@@ -143,6 +143,9 @@ def test_energy_from_source_level_by_hand():
     assert L.transmit_energy_j(185.0, 5.0) == pytest.approx(526.0536, abs=1e-3)
     # 3 dB more source level doubles the power; a 3 dB DI gives it for free
     assert L.acoustic_power_w(188.0, 3.0) == pytest.approx(26.3027, abs=1e-4)
+    # the inverse: the scenario's 40 W electrical [U] at 25 %: 10 W acoustic, 170.8 + 10 = 180.8 dB
+    assert L.source_level_from_power_db(40.0) == pytest.approx(180.8)
+    assert L.source_level_from_power_db(L.electrical_power_w(185.0)) == pytest.approx(185.0)
     # receiving 5 s at 0.3 W [U]: 1.5 J
     assert L.receive_energy_j(5.0) == pytest.approx(1.5)
 
@@ -255,6 +258,18 @@ def test_moving_receiver_and_batch_axis():
     assert o.arrival_s[0, 1, 0] == pytest.approx(1500.0 / 1502.0, rel=1e-9)
     assert o.arrival_s[1, 1, 0] == pytest.approx(1.0)
     assert o.range_m[0, 1, 0] == pytest.approx(C * 1500.0 / 1502.0, rel=1e-9)
+
+
+def test_noise_per_environment():
+    # the same 3 km link in two environments, band noise 74.6 and 104.6 dB: SNR 22.5 and
+    # -7.5 dB (TL 87.85): P = exp(-10^-1.95) = 0.989 and exp(-10^1.05) ~ 1e-5
+    pos = np.zeros((2, 2, 3))
+    pos[:, 1, 0] = 3000.0
+    tx = L.SlotTransmissions(pos, np.zeros_like(pos), np.array([[NAN, 0.0], [NAN, 0.0]]), 5.0, 185.0, 256)
+    o = L.slot_timeline(tx, C, noise_db=np.array([74.6, 104.6]))
+    assert o.snr_db[0, 1, 0] - o.snr_db[1, 1, 0] == pytest.approx(30.0)
+    assert o.p_success[0, 1, 0] > 0.98
+    assert o.p_success[1, 1, 0] < 0.001
 
 
 def test_draw_delivered_uses_the_callers_uniforms():

@@ -33,8 +33,7 @@ Sources (cited again where each constant is defined):
   underwater acoustic communication channel", ACM SIGMOBILE MC2R 11(4), 2007
   (WUWNet'06): path loss A(l, f) = l^k a(f)^l, Thorp's a(f), the four noise terms.
 - W. H. Thorp, "Analytic description of the low-frequency attenuation coefficient",
-  JASA 42:270, 1967 (the formula as quoted by Stojanovic 2007 and by Jensen et al.,
-  Computational Ocean Acoustics, Sec. 1.5.2).
+  JASA 42:270, 1967 (the formula as quoted by Stojanovic 2007).
 - R. J. Urick, Principles of Underwater Sound, 3rd ed., 1983: the sonar equation;
   SL = 170.8 + 10 log10(P_acoustic / 1 W) + DI dB re 1 uPa at 1 m.
 - L. Freitag et al., "The WHOI Micro-Modem: an acoustic communications and
@@ -102,7 +101,7 @@ class LinkParams(NamedTuple):
     """The link budget that turns a range into a success probability.
 
     - ``source_level_db``: SL, dB re 1 uPa at 1 m. 185 [U]: Micro-Modem transducers
-      are quoted at 185-190 dB; not found in a primary source here.
+      are said to reach 185-190 dB (issue 21's brief); no source found here.
     - ``spreading_k``: 2 spherical (default, conservative), 1.5 "practical"
       (Stojanovic 2007).
     - ``directivity_index_db``: DI, 0 for the omnidirectional transducers of small
@@ -112,7 +111,7 @@ class LinkParams(NamedTuple):
       ``detection_probability``.
     - ``logistic_width_db``: the logistic's scale, 2 dB [U].
     - ``capture_threshold_db``: the SIR a reception needs to survive an overlapping
-      one, 10 dB [U] (a common capture figure for FSK receivers).
+      one, 10 dB [U].
     - ``bit_rate_bps``: the data rate in the packet error rate, 80 bps (Micro-Modem
       rate 0, acomms.whoi.edu).
     """
@@ -239,7 +238,6 @@ class _KernelScalars(NamedTuple):
 
     center_khz: float
     bandwidth_hz: float
-    band_noise_db: float
     spreading_k: float
     directivity_index_db: float
     detection_threshold_db: float
@@ -332,7 +330,7 @@ def detection_probability(snr_db, threshold_db, logistic_width_db):
     ``logistic_width_db`` <= 0 (the default of ``LinkParams`` maps to it): the
     probability that a Rayleigh-faded SNR exceeds the threshold,
     P = exp(-thr_lin / snr_lin): the instantaneous SNR of a Rayleigh-fading channel is
-    exponentially distributed about its mean (Proakis, Digital Communications, Ch. 14).
+    exponentially distributed about its mean (Proakis, Digital Communications, fading channels).
     Chosen because it has no free width (a logistic's width is a guess), it follows
     from the physics of shallow-water multipath without a dominant path, and it is
     pessimistic: P = 0.90 needs 10 dB of margin. A Rician model (a direct path plus
@@ -369,12 +367,11 @@ def _success_probability(snr, n_bits, s):
     return pd * (1.0 - packet_error_rate(snr, s.bandwidth_hz, s.bit_rate_bps, n_bits))
 
 
-def _scalars(params: LinkParams, noise_db=None) -> _KernelScalars:
+def _scalars(params: LinkParams) -> _KernelScalars:
     if params.detection_model not in ("rayleigh", "logistic"):
         raise ValueError(f"detection_model must be 'rayleigh' or 'logistic', not {params.detection_model!r}")
     width = params.logistic_width_db if params.detection_model == "logistic" else 0.0
-    nl = band_noise_db(params.band, params.noise) if noise_db is None else float(noise_db)
-    return _KernelScalars(float(params.band.center_khz), float(params.band.bandwidth_hz), nl,
+    return _KernelScalars(float(params.band.center_khz), float(params.band.bandwidth_hz),
                           float(params.spreading_k), float(params.directivity_index_db),
                           float(params.detection_threshold_db), float(width), float(params.capture_threshold_db),
                           float(params.bit_rate_bps))
@@ -382,11 +379,10 @@ def _scalars(params: LinkParams, noise_db=None) -> _KernelScalars:
 
 def success_probability(range_m, n_bits, params: LinkParams = DEFAULT_LINK, noise_db=None):
     """P(a packet of ``n_bits`` is decoded at ``range_m``) on a free channel:
-    P(detect | SNR) x (1 - PER(SNR, n)). Arrays broadcast."""
-    s = _scalars(params, noise_db)
-    snr = snr_db(range_m, params, noise_db=s.band_noise_db)
-    width = s.logistic_width_db
-    pd = detection_probability(snr, s.detection_threshold_db, width)
+    P(detect | SNR) x (1 - PER(SNR, n)). Arrays broadcast (``noise_db`` too)."""
+    s = _scalars(params)
+    snr = snr_db(range_m, params, noise_db=noise_db)
+    pd = detection_probability(snr, s.detection_threshold_db, s.logistic_width_db)
     return pd * (1.0 - packet_error_rate(snr, s.bandwidth_hz, s.bit_rate_bps, np.asarray(n_bits, float)))
 
 
@@ -447,6 +443,14 @@ def electrical_power_w(source_level_db, power: PowerModel = DEFAULT_POWER, direc
     return acoustic_power_w(np.asarray(source_level_db, float), directivity_index_db) / power.efficiency
 
 
+def source_level_from_power_db(electrical_power_w, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
+    """The source level a modem drawing ``electrical_power_w`` while transmitting
+    radiates: SL = 170.8 + 10 log10(efficiency x P_electrical) + DI (dB re 1 uPa at
+    1 m; Urick 1983). The inverse of ``electrical_power_w``."""
+    p_ac = np.asarray(electrical_power_w, float) * power.efficiency
+    return SL_ONE_WATT_DB + 10.0 * np.log10(p_ac) + directivity_index_db
+
+
 def transmit_energy_j(source_level_db, duration_s, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
     """Electrical energy of a transmission (J): electrical power x duration."""
     return electrical_power_w(source_level_db, power, directivity_index_db) * np.asarray(duration_s, float)
@@ -477,8 +481,9 @@ def staggered_offsets_s(n_senders: int, packet_s: float, max_range_m: float, sou
 
 
 @njit(cache=True)
-def _slot_kernel(pos, vel, start, dur, sl, bits, c, s):
-    """One slot's receptions at every receiver; see ``slot_timeline``. c (B, V, V)."""
+def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
+    """One slot's receptions at every receiver; see ``slot_timeline``. c (B, V, V),
+    noise_db (B,)."""
     B, V = pos.shape[0], pos.shape[1]
     arrival = np.full((B, V, V), np.nan)
     end = np.full((B, V, V), np.nan)
@@ -510,7 +515,7 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, s):
                 rng[b, v, w] = c[b, v, w] * tau
                 rl[b, v, w] = received_level_db(sl[b, v], rng[b, v, w], s.center_khz, s.spreading_k,
                                                 s.directivity_index_db)
-                snr[b, v, w] = rl[b, v, w] - s.band_noise_db
+                snr[b, v, w] = rl[b, v, w] - noise_db[b]
         # 2. interference, capture, half duplex, success probability
         for w in range(V):
             for v in range(V):
@@ -550,7 +555,9 @@ def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = D
 
     ``sound_speed_mps`` broadcasts to (B, V, V) [sender, receiver]: a scalar, a (B,)
     per-environment value as ``[:, None, None]``, or per pair (the channel's
-    Mackenzie speed at the pair's mean depth). ``noise_db`` overrides the band noise.
+    Mackenzie speed at the pair's mean depth). ``noise_db``, a scalar or (B,) (domain
+    randomization of the sea state), overrides ``band_noise_db(params.band,
+    params.noise)``.
 
     Every sender interferes at every receiver however far (its RL falls with TL), so
     there is no hard interference range. Simplifications: any overlap counts in full
@@ -576,8 +583,10 @@ def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = D
     if c.ndim == 1:
         c = c[:, None, None]
     c = np.ascontiguousarray(np.broadcast_to(c, (B, V, V)))
+    nl = band_noise_db(params.band, params.noise) if noise_db is None else noise_db
+    nl = np.ascontiguousarray(np.broadcast_to(np.asarray(nl, float), (B,)))
     out = _slot_kernel(pos, vel, bv(tx.tx_start_s), bv(tx.duration_s), bv(tx.source_level_db), bv(tx.payload_bits),
-                       c, _scalars(params, noise_db))
+                       c, nl, _scalars(params))
     return SlotOutcome(*out)
 
 
