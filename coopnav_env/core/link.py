@@ -5,11 +5,10 @@ quadratic-in-range loss of ``acoustics.packet_loss_probability`` and the hard 15
 interference cut of ``channel``:
 
 1. **Transmission loss** (Urick's spreading plus Thorp's absorption, as written in
-   Stojanovic 2007, Sec. 2 "path loss"): TL(r, f) = k 10 log10(r / 1 m) + a(f) r / 1000,
+   Stojanovic 2007, path loss): TL(r, f) = k 10 log10(r / 1 m) + a(f) r / 1000,
    with a(f) in dB/km from Thorp's formula (f in kHz) and k = 2 (spherical) or 1.5
    ("practical"). ``thorp_absorption_db_per_km``, ``transmission_loss_db``.
-2. **Ambient noise** (the empirical Wenz/Coates model of Stojanovic 2007, Sec. 2
-   "noise": turbulence, shipping s in [0, 1], wind w in m/s, thermal), a power
+2. **Ambient noise** (the empirical Wenz/Coates model of Stojanovic 2007: turbulence, shipping s in [0, 1], wind w in m/s, thermal), a power
    spectral density in dB re 1 uPa^2/Hz; over a band B either integrated or
    NL(fc) + 10 log10(B). ``noise_psd_db``, ``band_noise_db``.
 3. **Sonar equation** (passive form for a one-way link, Urick 1983):
@@ -42,12 +41,12 @@ Sources (cited again where each constant is defined):
 - acomms.whoi.edu/micro-modem: 80-5400 bps; FSK bandwidth 4 kHz, PSK 5 kHz; the
   packet table's "signal length = probe + null + packet" (rate 6: 3.25 s against a
   2.95 s packet, so probe + null = 0.30 s, derived).
-- goby-acomms Micro-Modem driver (GobySoft/goby, ``mm_driver.cpp``):
+- goby-acomms Micro-Modem driver (GobySoft/goby, ``goby::acomms::MMDriver``):
   ``PACKET_FRAME_COUNT = {1, 3, 3, 2, 2, 8}``, ``PACKET_SIZE = {32, 64, 64, 256,
   256, 256}`` bytes for rates 0-5: rate 0 (FH-FSK, 80 bps) is one 32-byte frame.
 - S. Singh et al., "Underwater acoustic navigation with the WHOI Micro-Modem",
-  OCEANS 2006: a data packet follows a cycle-init packet; one-way travel times from
-  synchronous clocks.
+  OCEANS 2006, and issue 21's text: a data packet follows a cycle-init packet (the
+  paper not re-read here).
 
 [U] marks a value that is a guess (the project's convention). Units are in every
 name: _db (dB), _hz/_khz, _m, _s, _w, _j, _mps.
@@ -137,14 +136,15 @@ class MicroModemFraming(NamedTuple):
     - ``bit_rate_bps`` 80: FH-FSK rate 0 (acomms.whoi.edu "80-5400 bps"; Freitag et
       al. 2005).
     - ``frame_bytes`` 32 and ``max_frames`` 1: rate 0's frame size and frame count
-      (goby ``mm_driver.cpp`` ``PACKET_SIZE[0]``, ``PACKET_FRAME_COUNT[0]``). A frame
+      (goby-acomms ``MMDriver::PACKET_SIZE[0]``, ``PACKET_FRAME_COUNT[0]``). A frame
       is sent whole (padded), so it lasts 8 x 32 / 80 = 3.2 s (derived).
     - ``probe_s`` 0.2 and ``probe_gap_s`` 0.1: their sum, 0.30 s, is the probe + null
       of acomms.whoi.edu's packet table (rate 6: 3.25 s signal, 2.95 s packet,
       derived); the split between them is [U], and that FSK packets have the same
       probe as PSK ones is [U].
     - ``cycle_init_s`` 1.0 and ``cycle_init_gap_s`` 0.5: the cycle-init packet that
-      precedes data (Singh et al. 2006) and the pause after it; durations [U].
+      precedes data (issue 21; Singh et al. 2006) and the pause after it; durations
+      [U].
     - ``inter_frame_gap_s`` 0.0 [U]: immaterial for rate 0 (one frame).
     - ``with_cycle_init`` True: a cycle-init precedes the data (a modem that sends a
       data packet without one, as a mini-packet ping might, sets False).
