@@ -564,13 +564,15 @@ def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = D
     (no partial-overlap weighting), and capture does not depend on which packet the
     receiver locked onto first [U].
 
-    How ``core/channel.py`` uses it (after the channel refactor, issue 21):
-    ``Channel._timeline`` builds ``SlotTransmissions`` from the state (beacons then
-    survey vehicles, pings at their offsets, replies at the reply time), calls this
-    in place of ``resolve_slot``, and draws delivery with ``draw_delivered`` on the
-    uniforms it already has (``acoustic_u``, ``message_u``), replacing both the
-    collision flags and ``packet_loss_probability``; ``collided`` becomes
-    ``overlapped & ~captured``.
+    How ``core/channel.py`` uses it (after the channel refactor, issue 21; the full
+    plan is in docs/scenarios/acoustic-link.md): ``Channel._timeline`` builds
+    ``SlotTransmissions`` from the state (beacons then survey vehicles, pings at their
+    offsets, replies at the reply time) and calls this in place of ``resolve_slot``.
+    ``captured & ~deaf`` replaces ``delivered`` as the channel's mask; ``1 -
+    p_success`` replaces ``packet_loss_probability`` where the modem and message
+    kernels draw their loss (``acoustic_u[..., 0]``, ``message_u``), or, without
+    touching those kernels, ``draw_delivered`` on the same uniforms with their own
+    loss set to zero. ``collided`` becomes ``overlapped & ~captured``.
     """
     pos = np.ascontiguousarray(tx.pos_m, float)
     B, V = pos.shape[:2]
