@@ -36,7 +36,7 @@ CASES = (
     ("gao_lawnmower", "gao_lawnmower", "ellipse", {}),
     ("gao_sea", "gao_sea", "ellipse", {}),
     ("gao_sea, 2 h, no surfacing", "gao_sea", "ellipse",
-     {"beacon_surface_above_std_m": 0.0, "beacon_surface_every_s": 0.0, "max_cycles": 360}),
+     {"beacon_surface_above_std_m": 0.0, "beacon_surface_every_s": 0.0, "path_repeats": 7, "max_cycles": 360}),
     ("sousa_asv", "sousa_asv", "fim_a", {}),
     ("matos_moving_lbl", "matos_moving_lbl", "abeam", {}),
     ("matos_moving_lbl, outliers and losses", "matos_moving_lbl", "abeam",
