@@ -77,8 +77,9 @@ class ScenarioConfig:
     """Every parameter of a coopnav scenario, in sections (``None``: does not apply).
 
     Construct it with flat keywords (``ScenarioConfig(name="x", ping_interval_s=10.0)``),
-    dotted ones (``**{"timing.ping_interval_s": 10.0}``) or section objects
-    (``timing=Timing(...)``); parameters not given keep their defaults. Units and ranges
+    dotted ones (``**{"timing.ping_interval_s": 10.0}``), section objects
+    (``timing=Timing(...)``) or mappings (``timing={"ping_interval_s": 10.0}``, as YAML
+    gives them); parameters not given keep their defaults. Units and ranges
     are in each field's metadata (``sections.py``; the reference page lists them).
     """
 
@@ -109,7 +110,7 @@ class ScenarioConfig:
         check_overrides(params)
         values, explicit = {}, {}
         for key, v in params.items():  # sections first: flat and dotted keywords override them
-            if key in SECTION_BY_ATTR:
+            if key in SECTION_BY_ATTR and not isinstance(v, dict):
                 if v is not None:
                     check(isinstance(v, SECTION_BY_ATTR[key].cls),
                           f"scenario section {key} must be a {SECTION_BY_ATTR[key].cls.__name__}, got {v!r}")
@@ -117,6 +118,8 @@ class ScenarioConfig:
         for key, v in params.items():
             if key not in SECTION_BY_ATTR:
                 explicit[flat_name(key)] = v
+            elif isinstance(v, dict):  # a section as a mapping (YAML): {"timing": {"ping_interval_s": 10}}
+                explicit.update((flat_name(f"{key}.{k}"), x) for k, x in v.items())
         values.update(explicit)
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "network", network)
@@ -224,7 +227,14 @@ def flat_name(key: str) -> str:
         return key
     sec, _, name = key.partition(".")
     if OWNER.get(name) != sec:
-        hint = f"; {name} is in section {OWNER[name]!r}" if name in OWNER else ""
+        if name in OWNER:
+            hint = f"; {name} is in section {OWNER[name]!r}"
+        elif sec in SECTION_BY_ATTR:
+            close = difflib.get_close_matches(name, [f.name for f in dataclasses.fields(SECTION_BY_ATTR[sec].cls)], n=1)
+            hint = f" (did you mean '{sec}.{close[0]}'?)" if close else f"; section {sec!r} has no parameter {name!r}"
+        else:
+            close = difflib.get_close_matches(sec, list(SECTION_BY_ATTR), n=1)
+            hint = f"; no section {sec!r}" + (f" (did you mean {close[0]!r}?)" if close else "")
         raise ValueError(f"unknown scenario parameter {key!r}{hint}")
     return name
 
