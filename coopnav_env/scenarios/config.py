@@ -131,6 +131,8 @@ class ScenarioConfig:
             if all(switch.get(k, DEFAULTS[k]) == v for k, v in spec.requires):
                 names = [f.name for f in dataclasses.fields(spec.cls)]
                 part = spec.cls(**{n: values[n] for n in names if n in values})
+                for n in names:  # flat reads as fast as before: the values are in the instance's dict too
+                    object.__setattr__(self, n, getattr(part, n))
             else:
                 for key in explicit:
                     check(OWNER[key] != spec.attr,
@@ -141,7 +143,8 @@ class ScenarioConfig:
             object.__setattr__(self, spec.attr, part)
         validate(self)
 
-    # flat reads: config.ping_interval_s is config.timing.ping_interval_s ----------------
+    # flat reads: config.ping_interval_s is config.timing.ping_interval_s (stored flat as well
+    # by __init__); only a parameter of an absent section gets here ------------------
     def __getattr__(self, key: str) -> Any:
         if key.startswith("_") or key not in OWNER:  # (pickle and copy look up dunders on a bare object)
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {key!r}")
