@@ -132,6 +132,18 @@ def parameters_page() -> str:
                  str(len(dataclasses.fields(s.cls)))] for s in SECTIONS]),
         "",
     ]
+    from coopnav_env.scenarios.sections import NETWORKS
+
+    out += ["## Top level {#top-level}", "",
+            "Two fields outside the sections: the scenario's name and the simulator that reads it.", "",
+            _table(["parameter", "type", "default", "unit", "range", "meaning", "source"],
+                   [['<a id="name"></a>`name`', "str", _code(defaults.name), "-", "—",
+                     "the scenario's name (make_config sets it)", "—"],
+                    ['<a id="network"></a>`network`', "str", _code(defaults.network), "-",
+                     ", ".join(f"`{n!r}`" for n in NETWORKS),
+                     "which simulator: survey vehicles in a fixed navigation frame with beacons that ping them "
+                     "(Gao & Chitre, Sousa et al.), or one AUV in the frame of two beacon boats (Matos & Cruz)",
+                     "—"]]), ""]
     for spec in SECTIONS:
         doc = " ".join(textwrap.dedent(spec.cls.__doc__ or "").split())
         out += [f"## `{spec.attr}`: {spec.cls.__name__} {{#{spec.attr}}}", "", doc, "",
