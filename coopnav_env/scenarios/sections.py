@@ -55,7 +55,8 @@ class Roster(Section):
 
     n_survey: int = param(1, low=1, high=16,
         doc="survey vehicles (each flies its own copy of the path, survey_spacing_m apart)")
-    beacon_kinds: tuple = param(("beacon_auv",), doc="one entry per learning agent: \"beacon_auv\" | \"asv\"")
+    beacon_kinds: tuple = param(("beacon_auv",), 
+        doc="one entry per learning agent: \"beacon_auv\" | \"asv\" (survey_beacons), \"boat\" (moving_lbl)")
     action_mode: str = param("velocity", choices=ACTION_MODES,
         doc=("\"velocity\": (v_east, v_north)/max; \"heading_speed\"; \"frame_velocity\" (moving_lbl only): (v_x, "
              "v_y)/max in the boats' frame, x along B1 -> B2 as their GPS gives it"))
@@ -121,9 +122,9 @@ class SurveyVehicle(Section):
         source="reference-values.md §1",
         doc="REMUS frontal area, ref-values section 1")
     water_density_kgpm3: float = param(1026.0, unit="kg/m³", low=900.0, high=1100.0, source="reference-values.md §1",
-        doc="ref-values section 1")
+        doc="sea water's density, ref-values section 1")
     max_thrust_n: float = param(14.0, unit="N", low=0, high=100000.0, open_low=True, source="assumption [U]",
-        doc="full thrust; 1.5 m/s at 100 % with the above [U, derived]")
+        doc="full thrust; 1.5 m/s at 100 % with this section's mass, drag and area [U, derived]")
     survey_thrust_percent: float = param(60.0, unit="%", low=0.0, high=100.0, doc="lake trial: 60 %, sea trial: 70 %")
     survey_speed_scale_error_std: float = param(0.05, low=0.0, high=0.5, source="assumption [U]",
         doc="true/modelled water speed - 1, per episode [U 5-10 %]")
