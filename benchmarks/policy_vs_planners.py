@@ -31,7 +31,6 @@ file when the planners or the core change.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import hashlib
 import json
 import os
@@ -48,9 +47,9 @@ RANDOMIZATION_OFF = {"randomize_survey_path": (), "randomize_depth_m": (), "rand
 
 
 def _parse_value(key, text):
-    from coopnav_env.scenarios import ScenarioConfig
+    from coopnav_env.scenarios.base import default_of
 
-    default = {f.name: f.default for f in dataclasses.fields(ScenarioConfig)}[key]
+    default = default_of(key)
     if isinstance(default, bool):
         return text.lower() in ("1", "true", "yes")
     if isinstance(default, int):
@@ -69,7 +68,8 @@ def build_cells(scenario: str, cell_args: list, set_args: list) -> list:
         key, value = item.split("=", 1)
         check_overrides({key: None})
         overrides[key] = _parse_value(key, value)
-    base = make_config(scenario, **overrides).replace(**RANDOMIZATION_OFF)
+    base = make_config(scenario, **overrides)
+    base = base.replace(**{k: v for k, v in RANDOMIZATION_OFF.items() if base.applies(k)})
     cells = [{}]
     for item in cell_args:
         key, values = item.split("=", 1)
@@ -96,7 +96,7 @@ def config_key(config) -> str:
     from coopnav_env.scenarios import ScenarioConfig
 
     default = ScenarioConfig()
-    fields = {k: v for k, v in dataclasses.asdict(config).items()
+    fields = {k: v for k, v in config.to_flat_dict(all_parameters=True).items()
               if k not in FIELDS_ADDED_AFTER_CACHE_V1 or v != getattr(default, k)}
     return hashlib.sha1(repr(fields).encode()).hexdigest()[:16]
 

@@ -153,11 +153,9 @@ def _to_tuple(v):
 
 
 def _default(key: str):
-    from coopnav_env.scenarios import ScenarioConfig
-    from coopnav_env.scenarios.base import check_overrides
+    from coopnav_env.scenarios.base import default_of
 
-    check_overrides({key: None})
-    return {f.name: f.default for f in dataclasses.fields(ScenarioConfig)}[key]
+    return default_of(key)
 
 
 def parse_value(key: str, text: str):

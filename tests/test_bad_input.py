@@ -319,12 +319,10 @@ def test_number_refusals_name_the_allowed_range():
 
 
 def test_every_number_parameter_has_limits():
-    import dataclasses
+    from coopnav_env.scenarios.base import bounds, default_of, parameter_names
 
-    from coopnav_env.scenarios.base import LIMITS, ScenarioConfig
-
-    numeric = {f.name for f in dataclasses.fields(ScenarioConfig) if type(f.default) in (int, float)}
-    assert numeric == set(LIMITS), (numeric ^ set(LIMITS))
+    numeric = {n for n in parameter_names() if type(default_of(n)) in (int, float)}
+    assert numeric == set(bounds()), (numeric ^ set(bounds()))
     for scenario in coopnav_env.list_scenarios():  # the defaults and every scenario lie inside them
         coopnav_env.make_config(scenario)
 

@@ -1,6 +1,6 @@
 """Property-based tests (hypothesis) of scenario parameters: any value of any type for
-any parameter of any scenario is either refused at once with a ValueError that names
-the parameter, or gives an environment that runs with finite observations inside its
+any parameter that applies to a scenario (its sections that are not None) is either
+refused at once with a ValueError that names the parameter, or gives an environment that runs with finite observations inside its
 space, finite rewards and finite infos, without exhausting memory. The same holds for
 evaluate.py's ``--set KEY=VALUE`` path (refused: exit status 2, nothing written)."""
 
@@ -20,6 +20,8 @@ from coopnav_env.scenarios.base import parameter_names
 
 SCENARIOS = coopnav_env.list_scenarios()
 PARAMETERS = [p for p in parameter_names() if p != "name"]
+APPLYING = {s: [p for p in PARAMETERS if coopnav_env.make_config(s).applies(p)] for s in SCENARIOS}
+ABSENT = {s: [p for p in PARAMETERS if p not in APPLYING[s]] for s in SCENARIOS}
 MEMORY_CAP_BYTES = 300 * 2**20
 
 numbers = st.one_of(
@@ -49,8 +51,9 @@ def _finite_infos(infos) -> bool:
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(name=st.sampled_from(PARAMETERS), value=values)
-def test_any_parameter_value_is_refused_by_name_or_runs_finite(scenario, name, value):
+@given(data=st.data(), value=values)
+def test_any_parameter_value_is_refused_by_name_or_runs_finite(scenario, data, value):
+    name = data.draw(st.sampled_from(APPLYING[scenario]), label="name")
     tracemalloc.start()
     try:
         t0 = time.perf_counter()
@@ -76,6 +79,17 @@ def test_any_parameter_value_is_refused_by_name_or_runs_finite(scenario, name, v
         assert peak < MEMORY_CAP_BYTES, f"{name}={value!r}: {peak / 2**20:.0f} MiB"
     finally:
         tracemalloc.stop()
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_a_parameter_that_does_not_apply_is_refused_by_name_and_section(scenario):
+    """Setting a parameter of a section the scenario does not have: one line naming the
+    parameter, its section and the setting that would enable it."""
+    for name in ABSENT[scenario]:
+        with pytest.raises(ValueError) as err:
+            coopnav_env.make_config(scenario, **{name: 1.0})
+        text = str(err.value)
+        assert name in text and "belongs to section" in text and "applies only with" in text and "\n" not in text
 
 
 def _text(value) -> str:

@@ -140,7 +140,7 @@ def write_run_record(out: Path, config, job: Job, *, command=None, hyperparamete
         "hyperparameter_file": None if hyperparameter_file is None else str(hyperparameter_file),
         "hyperparameters": config.hyperparameters(),
         **extra,
-        "scenario_config": dataclasses.asdict(job.scenario_config),
+        "scenario_config": job.scenario_config.to_flat_dict(),
         "eval_cells": [label for label, _ in job.cells],
         "versions": {**version_record(), **(versions or {})},
     }

@@ -31,7 +31,7 @@ def eval_cells(scenario_config, cells: dict | None = None) -> list:
     ({parameter: [values]}) as a fixed scenario, or without cells the training
     scenario (label "all"); the per-episode randomization is off in every cell (the
     scenario's own survey_path, depth_m and noise levels unless the cell sets them)."""
-    base = scenario_config.replace(**RANDOMIZATION_OFF)
+    base = scenario_config.replace(**{k: v for k, v in RANDOMIZATION_OFF.items() if scenario_config.applies(k)})
     if not cells:
         return [("all", base)]
     if not isinstance(cells, dict):

@@ -19,8 +19,6 @@ exceeds 5 m [U], as small AUVs that "surface often and use a GPS" do (sec. I).
 of different kinds, the DVL beacon AUV and an ASV, which have to share the work.
 """
 
-import dataclasses
-
 from .base import ScenarioConfig, register
 
 GAO_LAWNMOWER = ScenarioConfig(
@@ -65,8 +63,7 @@ GAO_SEA = ScenarioConfig(
 # the surface, so its ranges to the survey at depth are slant ranges, and faster).
 # Which beacon helps which survey, and from where, is the team's choice; the planners
 # run per beacon, each on its own observation.
-GAO_TEAM = dataclasses.replace(
-    GAO_SEA,
+GAO_TEAM = GAO_SEA.replace(
     name="gao_team",
     n_survey=2,
     survey_spacing_m=60.0,  # [U] the two lawnmowers overlap by 60 % of the 150 m width

@@ -4,12 +4,13 @@ Declared in ``mkdocs.yml`` (``hooks: [docs/hooks/generate.py]``). Nothing is wri
 into the source tree: the pages are added to the build's file list with
 ``File.generated`` in ``on_files``.
 
-* ``reference/parameters.md``: every field of
-  ``coopnav_env.scenarios.base.ScenarioConfig`` with its type, default, unit (parsed
-  from the name's suffix) and the comment written beside or above it in
-  ``base.py``, grouped by the file's ``# --- section ---`` headers; then which
-  registered scenario overrides which parameter (``make_config(name)`` against the
-  defaults), with the comments of the scenario files.
+* ``reference/parameters.md``: one table per section of
+  ``coopnav_env.scenarios.base.ScenarioConfig`` (``scenarios/sections.py``): every
+  parameter with its type, default, unit, range, meaning and source, all from its
+  ``param(...)`` metadata; then which registered scenario overrides which parameter
+  (``make_config(name)`` against the defaults), with the scenario files' source.
+* ``reference/scenarios.md``: every registered scenario (``list_scenarios()``), the
+  sections that apply to it and its values that differ from the defaults.
 * ``reference/observations.md``: the observation layouts. The survey network's
   from the layout table in ``coopnav_env.core.observation``'s docstring (or an
   ``OBS_FIELDS`` there, if one appears) and its constants; the moving network's
@@ -28,12 +29,10 @@ from __future__ import annotations
 import ast
 import dataclasses
 import inspect
-import io
 import logging
 import re
 import sys
 import textwrap
-import tokenize
 from pathlib import Path
 
 from mkdocs.structure.files import File
@@ -44,101 +43,11 @@ ROOT = Path(__file__).resolve().parents[2]  # the repository (docs/hooks/generat
 if str(ROOT) not in sys.path:  # the project's packages, installed or not
     sys.path.insert(0, str(ROOT))
 
-# unit by the last "_"-separated token of a parameter's name
-UNIT_SUFFIXES = {
-    "s": "s", "m": "m", "m2": "m²", "mps": "m/s", "deg": "deg", "dps": "deg/s", "rad": "rad",
-    "m2ps": "m²/s", "m2ps3": "m²/s³", "rad2ps": "rad²/s", "kg": "kg", "kgpm3": "kg/m³", "n": "N",
-    "c": "°C", "psu": "PSU", "db": "dB", "ppm": "ppm", "percent": "%", "hz": "Hz",
-}
-SECTION_RE = re.compile(r"^#\s*---\s*(.*?)\s*-*\s*$")
-
-
 def unit_of(name: str) -> str:
-    """The unit a parameter's name declares by its suffix; "-" when dimensionless."""
-    tokens = name.lower().split("_")
-    if len(tokens) > 2 and tokens[-2] == "per" and tokens[-1] in UNIT_SUFFIXES:  # gain_per_m
-        return "1/" + UNIT_SUFFIXES[tokens[-1]]
-    if len(tokens) > 1 and tokens[-1] in UNIT_SUFFIXES:
-        return UNIT_SUFFIXES[tokens[-1]]
-    if "db" in tokens[1:]:  # mls_snr_db_at_1m
-        return "dB"
-    return "-"
+    """A parameter's unit, from its ``param(unit=...)`` metadata ("-" when dimensionless)."""
+    from coopnav_env.scenarios.config import FIELD
 
-
-# ------------------------------------------------------------------------------------
-# parsing the comments of a dataclass's fields
-
-@dataclasses.dataclass
-class FieldDoc:
-    name: str
-    annotation: str
-    section: str
-    comment: str
-
-
-def _comments_by_line(source: str) -> dict:
-    out = {}
-    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
-        if tok.type == tokenize.COMMENT:
-            out[tok.start[0]] = (tok.start[1], tok.string.lstrip("#").strip())
-    return out
-
-
-def field_docs(cls) -> tuple[list, dict]:
-    """(fields in source order, {section: note}) of a dataclass, with their comments.
-
-    A field's comment is the ``# ...`` at the end of its line, followed by the
-    comment-only lines directly under it when that comment was wrapped (a long line
-    that does not end in punctuation), preceded by a comment block directly above it. A block directly under a ``# --- section ---`` header
-    is the section's note when the field after it has a comment of its own.
-    """
-    path = inspect.getsourcefile(cls)
-    source = Path(path).read_text()
-    lines = source.splitlines()
-    comments = _comments_by_line(source)
-    tree = ast.parse(source)
-    node = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef) and n.name == cls.__name__)
-    fields = [n for n in node.body if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)]
-    field_at = {f.lineno: f for f in fields}
-    docs, notes = [], {}
-    section, pending, pending_after_header = "general", [], False
-    cont = None  # the FieldDoc whose comment the next comment-only lines continue
-    start = (node.body[0].end_lineno or node.body[0].lineno) + 1 if node.body else node.lineno
-    for ln in range(start, fields[-1].end_lineno + 1):
-        text = lines[ln - 1].strip()
-        if ln in field_at:
-            f = field_at[ln]
-            trailing = [comments[k][1] for k in range(f.lineno, f.end_lineno + 1)
-                        if k in comments and comments[k][0] > 0 and lines[k - 1][:comments[k][0]].strip()]
-            own = " ".join(trailing)
-            if pending and pending_after_header and own:
-                notes[section] = " ".join(pending)
-                above = ""
-            else:
-                above = " ".join(pending)
-            d = FieldDoc(f.target.id, ast.unparse(f.annotation), section, " ".join(x for x in (above, own) if x))
-            docs.append(d)
-            pending, pending_after_header = [], False
-            # comment-only lines under this field continue its comment when that comment was
-            # wrapped mid-sentence (a long line not ending in punctuation); otherwise they
-            # introduce the next field
-            wrapped = own and len(lines[f.end_lineno - 1]) > 80 and not re.search(r"[.)\]:;!?]$", own)
-            cont = d if wrapped else None
-        elif ln in field_at.values() or any(f.lineno < ln <= f.end_lineno for f in fields):
-            continue  # inside a multi-line field statement
-        elif text.startswith("#"):
-            m = SECTION_RE.match(text)
-            if m:
-                section, pending, pending_after_header, cont = m.group(1).strip() or section, [], True, None
-            elif cont is not None:
-                cont.comment += " " + text.lstrip("#").strip()
-            else:
-                pending.append(text.lstrip("#").strip())
-        elif not text:
-            cont = None  # a blank line ends a continuation; a pending block still introduces the next field
-        else:
-            cont = None
-    return docs, notes
+    return FIELD[name].metadata["unit"] if name in FIELD else "-"
 
 
 # ------------------------------------------------------------------------------------
@@ -185,70 +94,92 @@ def _scenario_sources() -> dict:
     return out
 
 
+def _applies_text(spec) -> str:
+    return " and ".join(f"`{k}={v!r}`" for k, v in spec.requires) or "always"
+
+
 def parameters_page() -> str:
     import coopnav_env
-    from coopnav_env.scenarios.base import ScenarioConfig
+    from coopnav_env.scenarios.base import SECTIONS, ScenarioConfig, range_text
 
-    docs, notes = field_docs(ScenarioConfig)
     defaults = ScenarioConfig()
-    by_name = {f.name: f for f in dataclasses.fields(ScenarioConfig)}
-    missing = [d.name for d in docs if not d.comment]
+    n_params = sum(len(dataclasses.fields(s.cls)) for s in SECTIONS)
     out = [
         "# Scenario parameters",
         "",
         "!!! info \"Generated from the code\"",
-        "    This page is generated at build time (`docs/hooks/generate.py`) from",
-        "    `coopnav_env.scenarios.base.ScenarioConfig`: its fields, defaults and the comments",
-        "    written beside them in `coopnav_env/scenarios/base.py`. Edit the comments there, not here.",
+        "    This page is generated at build time (`docs/hooks/generate.py`) from the sections of",
+        "    `coopnav_env.scenarios.base.ScenarioConfig` (`coopnav_env/scenarios/sections.py`): each",
+        "    parameter's default, unit, range, meaning and source are declared there with",
+        "    `param(...)`, and the same metadata validates every value. Edit them there, not here.",
         "",
         "Every parameter is a keyword of `coopnav_env.parallel_env(...)`, `coopnav_env.make_config(...)`,",
-        "`evaluate.py --set KEY=VALUE` / `--sweep KEY=V1,V2` and the training YAML's `env.overrides`.",
-        "Units are in the names (the suffix: `_m` metres, `_s` seconds, `_mps` m/s, `_deg` degrees,",
-        "`_dps` deg/s, `_m2ps` m²/s, ...); the unit column is parsed from that suffix, \"-\" where the",
-        "name declares none (counts, probabilities, factors, names). `[U]` in a comment marks a value",
-        "the sources do not give (an assumption); \"ref-values section N\" cites",
-        "`shared/reference-values.md`.",
+        "`evaluate.py --set KEY=VALUE` / `--sweep KEY=V1,V2` and the training YAML's `env.overrides`,",
+        "flat (`ping_interval_s=10`) or with its section (`timing.ping_interval_s=10`). Names are unique",
+        "across sections, and `config.ping_interval_s` reads `config.timing.ping_interval_s`.",
+        "A section that does not apply to a scenario is `None` (the *applies* column below); setting",
+        "one of its parameters is an error that names the setting that enables it. `[U]` marks a",
+        "value the sources do not give (an assumption); \"ref-values section N\" and \"reference-values.md",
+        "§N\" cite `shared/reference-values.md`. A range `(0, x]` excludes 0.",
         "",
-        f"{len(docs)} parameters in {len(dict.fromkeys(d.section for d in docs))} sections;",
-        "[which scenarios override which](#overrides-by-scenario) follows the sections.",
+        f"{n_params} parameters in {len(SECTIONS)} sections, plus `name` (the scenario's name) and `network`",
+        "(the simulator: `\"survey_beacons\"` or `\"moving_lbl\"`). Which sections and values each",
+        "registered scenario has: [Scenarios](scenarios.md); [overrides by scenario](#overrides-by-scenario)",
+        "follows the sections.",
+        "",
+        _table(["section", "class", "applies", "parameters"],
+               [[f"[`{s.attr}`](#{s.attr})", f"`{s.cls.__name__}`", _applies_text(s),
+                 str(len(dataclasses.fields(s.cls)))] for s in SECTIONS]),
         "",
     ]
-    sections = list(dict.fromkeys(d.section for d in docs))
-    for sec in sections:
-        out += [f"## {sec[0].upper() + sec[1:]} {{#{_anchor(sec)}}}", ""]
-        if sec in notes:
-            out += [notes[sec], ""]
+    from coopnav_env.scenarios.sections import NETWORKS
+
+    out += ["## Top level {#top-level}", "",
+            "Two fields outside the sections: the scenario's name and the simulator that reads it.", "",
+            _table(["parameter", "type", "default", "unit", "range", "meaning", "source"],
+                   [['<a id="name"></a>`name`', "str", _code(defaults.name), "-", "—",
+                     "the scenario's name (make_config sets it)", "—"],
+                    ['<a id="network"></a>`network`', "str", _code(defaults.network), "-",
+                     ", ".join(f"`{n!r}`" for n in NETWORKS),
+                     "which simulator: survey vehicles in a fixed navigation frame with beacons that ping them "
+                     "(Gao & Chitre, Sousa et al.), or one AUV in the frame of two beacon boats (Matos & Cruz)",
+                     "—"]]), ""]
+    for spec in SECTIONS:
+        doc = " ".join(textwrap.dedent(spec.cls.__doc__ or "").split())
+        out += [f"## `{spec.attr}`: {spec.cls.__name__} {{#{spec.attr}}}", "", doc, "",
+                f"Applies: {_applies_text(spec)}.", ""]
         rows = []
-        for d in (x for x in docs if x.section == sec):
-            default = by_name[d.name].default
-            if default is dataclasses.MISSING:
-                default = getattr(defaults, d.name)
-            rows.append([f'<a id="{d.name}"></a>`{d.name}`', d.annotation, _code(default), unit_of(d.name), d.comment or "—"])
-        out += [_table(["parameter", "type", "default", "unit", "comment in base.py"], rows), ""]
-    if missing:
-        out += ["!!! warning \"Parameters without a comment in base.py\"",
-                "    " + ", ".join(f"`{m}`" for m in missing), ""]
+        for f in dataclasses.fields(spec.cls):
+            m = f.metadata
+            choices = ", ".join(f"`{c!r}`" for c in m["choices"]) if m.get("choices") else ""
+            rows.append([f'<a id="{f.name}"></a>`{f.name}`', type(f.default).__name__, _code(f.default), m["unit"],
+                         range_text(f) or choices or "—", m["doc"], m["source"] or "—"])
+        out += [_table(["parameter", "type", "default", "unit", "range", "meaning", "source"], rows), ""]
 
     # which scenario overrides what
     names = coopnav_env.list_scenarios()
     configs = {n: coopnav_env.make_config(n) for n in names}
-    changed = [d.name for d in docs if d.name != "name"
-               and any(getattr(configs[n], d.name) != getattr(defaults, d.name) for n in names)]
+    flat_default = defaults.to_flat_dict(all_parameters=True)
+    changed = [p for p in flat_default if p != "name"
+               and any(configs[n].applies(p) and getattr(configs[n], p) != flat_default[p] for n in names)]
     out += [
         "## Overrides by scenario {#overrides-by-scenario}",
         "",
         "Each registered scenario (`coopnav_env.list_scenarios()`) against the defaults above:",
         "a value where `coopnav_env.make_config(name)` differs from the default, blank where it",
-        "keeps it. Parameters no scenario changes are not listed.",
+        "keeps it, \"n/a\" where the parameter's section does not apply. Parameters no scenario",
+        "changes are not listed.",
         "",
     ]
     rows = []
     for p in changed:
-        row = [f"[`{p}`](#{p})", unit_of(p),
-               _code(getattr(defaults, p))]
+        row = [f"[`{p}`](#{p})", unit_of(p), _code(flat_default[p])]
         for n in names:
+            if not configs[n].applies(p):
+                row.append("n/a")
+                continue
             v = getattr(configs[n], p)
-            row.append(_code(v) if v != getattr(defaults, p) else "")
+            row.append(_code(v) if v != flat_default[p] else "")
         rows.append(row)
     out += [_table(["parameter", "unit", "default"] + [f"`{n}`" for n in names], rows), ""]
 
@@ -263,6 +194,54 @@ def parameters_page() -> str:
             out += [f'??? note "`{n}`: `{path}`"', "", "    ```python"]
             out += ["    " + line if line else "" for line in text.splitlines()]
             out += ["    ```", ""]
+    return "\n".join(out)
+
+
+# ------------------------------------------------------------------------------------
+# reference/scenarios.md
+
+def scenarios_page() -> str:
+    """Every registered scenario: its sections and the values that differ from the defaults."""
+    import coopnav_env
+    from coopnav_env.scenarios.base import SECTIONS, ScenarioConfig
+
+    flat_default = ScenarioConfig().to_flat_dict(all_parameters=True)
+    names = coopnav_env.list_scenarios()
+    configs = {n: coopnav_env.make_config(n) for n in names}
+    out = [
+        "# Scenarios",
+        "",
+        "!!! info \"Generated from the registry\"",
+        "    This page is generated at build time (`docs/hooks/generate.py`) from",
+        "    `coopnav_env.list_scenarios()` and `coopnav_env.make_config(name)`: a scenario registered",
+        "    in `coopnav_env/scenarios/` appears here without further work.",
+        "",
+        f"{len(names)} registered scenarios. For each: the network, the sections that apply (the others",
+        "are `None`: their parameters cannot be set) and every value that differs from its",
+        "[default](parameters.md).",
+        "",
+        _table(["scenario", "network", "beacons", "sections that do not apply"],
+               [[f"[`{n}`](#{_anchor(n)})", f"`{c.network}`", _code(c.beacon_kinds),
+                 ", ".join(f"`{s.attr}`" for s in SECTIONS if getattr(c, s.attr) is None) or "—"]
+                for n, c in configs.items()]),
+        "",
+    ]
+    for n, c in configs.items():
+        out += [f"## `{n}` {{#{_anchor(n)}}}", "",
+                f"`network={c.network!r}`. Sections: "
+                + ", ".join(f"[`{a}`](parameters.md#{a})" for a in c.sections()) + ".", ""]
+        rows = []
+        for a, part in c.sections().items():
+            for f in dataclasses.fields(part):
+                v = getattr(part, f.name)
+                if v != flat_default[f.name]:
+                    text = _code(v)
+                    if len(text) > 120 and isinstance(v, tuple):
+                        text = f"{len(v)} entries, from `{v[0]!r}` to `{v[-1]!r}`"
+                    rows.append([f"[`{f.name}`](parameters.md#{f.name})", f"`{a}`", text, _code(flat_default[f.name]),
+                                 f.metadata["unit"]])
+        out += [_table(["parameter", "section", "value", "default", "unit"], rows) if rows
+                else "All parameters at their defaults.", ""]
     return "\n".join(out)
 
 
@@ -458,7 +437,8 @@ def column_table(name: str) -> str:
 # MkDocs events
 
 def on_files(files, config):
-    for uri, make in (("reference/parameters.md", parameters_page), ("reference/observations.md", observations_page)):
+    for uri, make in (("reference/parameters.md", parameters_page), ("reference/scenarios.md", scenarios_page),
+                      ("reference/observations.md", observations_page)):
         files.append(File.generated(config, uri, content=make()))
     return files
 
