@@ -30,7 +30,10 @@ def _cycle(vehicle: Vehicle, f: Filter, boats: Boats, tracker: Tracker, draws: C
            out: np.ndarray, counts: np.ndarray) -> None:
     """Steps 3-5 for every environment, in place: ``state.Vehicle`` vehicle, ``state.Filter``
     f, ``state.Boats`` boats, ``state.Tracker`` tracker, ``state.CycleDraws`` draws,
-    ``state.CycleParams`` p; out (B,) ``state.CYCLE_OUT``, counts (B,) ``state.CYCLE_COUNTS``."""
+    ``state.CycleParams`` p, each as a plain tuple (``state.packed``) or the record; out (B,)
+    ``state.CYCLE_OUT``, counts (B,) ``state.CYCLE_COUNTS``."""
+    vehicle, f, boats, tracker = Vehicle(*vehicle), Filter(*f), Boats(*boats), Tracker(*tracker)
+    draws, p = CycleDraws(*draws), CycleParams(*p)
     n_det = draws.jitter.shape[1]
     for b in prange(vehicle.pos.shape[0]):
         work = np.empty((2, 3))

@@ -71,7 +71,9 @@ def _clip_obs(v: float) -> float:
 def _observe_boats(b_pos: np.ndarray, gps_err: np.ndarray, b_vel: np.ndarray, k: Tracker, cycle: np.ndarray,
                    p: ObserveParams, out: np.ndarray) -> None:
     """Every boat's observation (``MovingNetworkSimulator.observe``), out (B, 2, OBS_DIM)
-    float32; k: ``state.Tracker``, cycle (B,), p: ``state.ObserveParams``."""
+    float32; k: ``state.Tracker``, cycle (B,), p: ``state.ObserveParams`` (records or
+    ``state.packed``)."""
+    k, p = Tracker(*k), ObserveParams(*p)
     L = p.L
     for b in prange(b_pos.shape[0]):
         g1e, g1n, g2e, g2n, xa, length = gps_frame_of(b_pos[b], gps_err[b])
@@ -108,7 +110,8 @@ def observe_river(b_pos: np.ndarray, gps_err: np.ndarray, k: Tracker, pts: np.nd
     mission at the point ``lead_m`` ahead of the tracked vehicle (``state.Tracker`` k)
     along the centerline (pts, cum: ``river.centerline_of``); that point minus the boat's
     GPS position / L. direction: +1 a downstream mission, -1 upstream
-    (``river.mission_direction``)."""
+    (``river.mission_direction``). k may come ``state.packed``."""
+    k = Tracker(*k)
     for b in range(b_pos.shape[0]):
         g1e, g1n, g2e, g2n, xa, _ = gps_frame_of(b_pos[b], gps_err[b])
         ya = -1j * xa

@@ -55,6 +55,7 @@ from .state import (
     cycle_params,
     filter_of,
     obs_dim_of,
+    packed,
     tracker_of,
     vehicle_of,
 )
@@ -165,8 +166,9 @@ class MovingNetworkSimulator(BatchSimulator):
                                      np.radians(c.boat_steering_noise_deg), n_boat[..., 1])
         # 2. the vehicle: guidance, motion, dead reckoning, filter prediction
         noise = draws["substep"] * st.ep_noise_scale[:, None, None]
-        integrate_vehicle(vehicle_of(st), filter_of(st), np.radians(c.compass_noise_deg) * noise[:, :, 0],
-                          c.speed_encoder_noise_mps * noise[:, :, 1], vehicle_current, self._vehicle_params)
+        compass_noise = np.radians(c.compass_noise_deg) * noise[:, :, 0]
+        integrate_vehicle(packed(vehicle_of(st)), packed(filter_of(st)), compass_noise,
+                          c.speed_encoder_noise_mps * noise[:, :, 1], vehicle_current, packed(self._vehicle_params))
         n_cur = draws["current"]
         st.current_gm = gauss_markov_step(st.current_gm, T, c.current_gm_time_constant_s, c.current_gm_std_mps,
                                           n_cur[:, 0] + 1j * n_cur[:, 1])
@@ -193,8 +195,8 @@ class MovingNetworkSimulator(BatchSimulator):
                                  draws["acoustic_u"], np.log(draws["acoustic_u"][..., 2]))
         boats = Boats(st.b_pos, st.b_vel, phi[0], length[0], en[1], phi[1], length[1])
         out, counts = np.empty(B, CYCLE_OUT), np.empty(B, CYCLE_COUNTS)
-        self._k_cycle(vehicle_of(st), filter_of(st), boats, tracker_of(st), cycle_draws, self._cycle_params, out,
-                      counts)
+        self._k_cycle(packed(vehicle_of(st)), packed(filter_of(st)), packed(boats), packed(tracker_of(st)),
+                      packed(cycle_draws), packed(self._cycle_params), out, counts)
         return out, counts, turned
 
     def step(self, actions) -> StepResult:
@@ -306,11 +308,12 @@ class MovingNetworkSimulator(BatchSimulator):
         the boat's position, / L: where to go (the boats know the river's map)."""
         c, st = self.config, self.state
         out = np.empty((self.batch_size, 2, OBS_DIM), dtype=np.float32)
-        self._k_observe(st.b_pos, st.b_gps_err, st.b_vel, tracker_of(st), st.cycle, self._observe_params, out)
+        self._k_observe(st.b_pos, st.b_gps_err, st.b_vel, packed(tracker_of(st)), st.cycle,
+                        packed(self._observe_params), out)
         if self._world:
             extra = np.empty((self.batch_size, 2, RIVER_OBS_DIM), dtype=np.float32)
             L = c.baseline_target_m
-            observe_river(st.b_pos, st.b_gps_err, tracker_of(st), self._river_pts, self._river_cum,
+            observe_river(st.b_pos, st.b_gps_err, packed(tracker_of(st)), self._river_pts, self._river_cum,
                           self._mission_dir, RIVER_LEAD_BASELINES * L, L, 0.5 * c.river_width_m, extra)
             out = np.concatenate([out, extra], -1)
         return out

@@ -3,7 +3,8 @@
 ``FrameState`` holds every array of the batch (leading axis B). The kernels do not
 take its arrays one by one: each step of the cycle takes the few records it needs,
 numba ``NamedTuple`` s of views of the state (built per call by ``vehicle_of``,
-``filter_of``, ``tracker_of``: cheap, and never stale when the state is replaced),
+``filter_of``, ``tracker_of``: cheap, and never stale when the state is replaced;
+they cross from Python as plain tuples, ``packed``, and are named again inside),
 the scenario's numbers as ``CycleParams`` / ``VehicleParams`` / ``ObserveParams``
 (built once in ``MovingNetworkSimulator.__init__``), and write their per-cycle
 results into the structured arrays ``CYCLE_OUT`` (floats) and ``CYCLE_COUNTS``.
@@ -156,6 +157,14 @@ class CycleDraws(NamedTuple):
     jitter: np.ndarray
     acoustic_u: np.ndarray
     log_u: np.ndarray
+
+
+def packed(record: tuple) -> tuple:
+    """A record as the plain tuple a kernel's entry point takes from Python, which names it
+    again (``Vehicle(*v)``): numba types the arrays of a plain tuple in C, a NamedTuple's in
+    Python (about half a microsecond an array, every call), so passing the records as
+    NamedTuples cost a batch of one ~20% of its step. Inside the kernels they are named."""
+    return tuple(record)
 
 
 def vehicle_of(st: FrameState) -> Vehicle:

@@ -61,7 +61,8 @@ def integrate_vehicle(v: Vehicle, f: Filter, compass_noise: np.ndarray, speed_no
     (``_guide``), true motion, dead reckoning and the filter's prediction
     (``frame_predict``). v: ``state.Vehicle``; f: ``state.Filter``; compass_noise,
     speed_noise (B,K) the sensors' errors per sub-step; current (B,) complex, the water's
-    at the vehicle; p: ``state.VehicleParams``."""
+    at the vehicle; p: ``state.VehicleParams``. The records may come ``state.packed``."""
+    v, f, p = Vehicle(*v), Filter(*f), VehicleParams(*p)
     dt = p.dt
     for b in range(v.pos.shape[0]):
         for k in range(p.K):
