@@ -58,7 +58,7 @@ def _exchange(vehicle, vel=(0, 0, 0), c=C, cn=C, jitter=None, lost=None, tau=0.0
     b1, b2 = np.zeros((B, 3)), np.array([[100.0, 0.0, 0.0]])
     jit = np.zeros((B, 7)) if jitter is None else np.array([jitter])
     lo = np.zeros((B, 7), dtype=bool) if lost is None else np.array([lost])
-    return lbl.exchange(v3, np.array([vel], dtype=float), b1, z, b2, z, np.array([c]), np.array([cn]), jit,
+    return lbl.exchange(lbl.Movers(v3, np.array([vel], dtype=float), b1, z, b2, z), np.array([c]), np.array([cn]), jit,
                         np.zeros((B, 7)), lo, tau, react, 2.0)
 
 

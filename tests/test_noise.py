@@ -58,7 +58,7 @@ def test_lbl_exchange_covariance_is_the_one_the_filter_uses():
     z = np.zeros((N_DRAWS, 3))
     b2 = np.tile([100.0, 0.0, 0.0], (N_DRAWS, 1))
     jit = sigma / C * rng.standard_normal((N_DRAWS, lbl.N_DETECTIONS))
-    ex = lbl.exchange(v3, z, z, z, b2, z, np.full(N_DRAWS, C), np.full(N_DRAWS, C), jit,
+    ex = lbl.exchange(lbl.Movers(v3, z, z, z, b2, z), np.full(N_DRAWS, C), np.full(N_DRAWS, C), jit,
                       np.zeros((N_DRAWS, lbl.N_DETECTIONS)), np.zeros((N_DRAWS, lbl.N_DETECTIONS), dtype=bool),
                       0.01, 0.01, 2.0)
     cov = np.cov(np.stack([ex["d1"], ex["d2"], ex["l"]]))

@@ -23,6 +23,8 @@ jitter (and, rarely, by a multipath excess), and every signal can be lost.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, vectorize
 
@@ -178,15 +180,65 @@ def _at(p, v, t, out):
     return out
 
 
+class Movers(NamedTuple):
+    """The three vehicles of one exchange at its start (t = 0): positions and velocities
+    (3,) for one environment, or (B, 3) for a batch (``exchange``)."""
+
+    vehicle_m: np.ndarray
+    vehicle_vel_mps: np.ndarray
+    b1_m: np.ndarray
+    b1_vel_mps: np.ndarray
+    b2_m: np.ndarray
+    b2_vel_mps: np.ndarray
+
+
+class ExchangeResult(NamedTuple):
+    """What one positioning cycle gives (``exchange_of``): the vehicle's measurements and
+    their flags, the instants the filter needs for its leg delays, the boats' detection
+    instants for tracking, and the count of lost signals."""
+
+    d1: float
+    m: float
+    d2: float
+    l: float  # the paper's name
+    ok_d1: bool
+    ok_m: bool
+    ok_d2: bool
+    ok_l: bool
+    t3: float
+    t3s: float
+    t6: float
+    t_s1_b1: float
+    t_s1_b2: float
+    t_s4_b2: float
+    ok_track: bool
+    lost_count: int
+
+
+EXCHANGE_FIELDS = ExchangeResult._fields
+
+
+class FrameGeometry(NamedTuple):
+    """One environment's frame as the boats know it: B1's (east, north), the sine and
+    cosine of the bearing of the x axis, and the baseline length."""
+
+    b1_e: float
+    b1_n: float
+    sin_phi: float
+    cos_phi: float
+    length: float
+
+
 @njit(cache=True)
-def exchange_of(vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps, sound_speed_mps,
-                nominal_sound_speed_mps, err_s, lost, turnaround_s, reaction_s, timeout_s, work):
-    """One environment's positioning cycle (see ``exchange``): positions and velocities (3,),
-    err_s (7,) each detection's timing error (jitter plus multipath excess), lost (7,);
-    work (2, 3) scratch. Returns the tuple (d1, m, d2, l, ok_d1, ok_m, ok_d2, ok_l, t3,
-    t3s, t6, t_s1_b1, t_s1_b2, t_s4_b2, ok_track, lost_count) (``EXCHANGE_FIELDS``)."""
+def exchange_of(movers: Movers, sound_speed_mps: float, nominal_sound_speed_mps: float, err_s: np.ndarray,
+                lost: np.ndarray, turnaround_s: float, reaction_s: float, timeout_s: float,
+                work: np.ndarray) -> ExchangeResult:
+    """One environment's positioning cycle (see ``exchange``): ``movers`` (``Movers``, (3,)
+    each), err_s (7,) each detection's timing error (jitter plus multipath excess), lost
+    (7,); work (2, 3) scratch. Returns an ``ExchangeResult``."""
     c, cn, tau = sound_speed_mps, nominal_sound_speed_mps, turnaround_s
     tt = acoustics.travel_time
+    vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps = movers
     p, q = work[0], work[1]
     # S1: vehicle -> B1; B1 detects and replies S2 at t1
     t_s1_b1 = tt(vehicle_m, b1_m, b1_vel_mps, c) + err_s[0]
@@ -223,37 +275,41 @@ def exchange_of(vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps, 
     n_lost = 0
     for i in range(lost.shape[0]):
         n_lost += lost[i]
-    return d1, m, d2, l, ok_d1, ok_m, ok_d2, ok_l, t3, t3s, t6, t_s1_b1, t_s1_b2, t_s4_b2, ok_track, n_lost
+    return ExchangeResult(d1, m, d2, l, ok_d1, ok_m, ok_d2, ok_l, t3, t3s, t6, t_s1_b1, t_s1_b2, t_s4_b2, ok_track,
+                          n_lost)
 
 
-EXCHANGE_FIELDS = ("d1", "m", "d2", "l", "ok_d1", "ok_m", "ok_d2", "ok_l", "t3", "t3s", "t6", "t_s1_b1", "t_s1_b2",
-                   "t_s4_b2", "ok_track", "lost_count")
+# the float and the flag fields of ``ExchangeResult``, as ``exchange`` returns them
+_EXCHANGE_FLOATS = ("d1", "m", "d2", "l", "t3", "t3s", "t6", "t_s1_b1", "t_s1_b2", "t_s4_b2")
+_EXCHANGE_FLAGS = ("ok_d1", "ok_m", "ok_d2", "ok_l", "ok_track")
 
 
 @njit(cache=True)
-def _exchange_rows(vehicle, vehicle_vel, b1, b1_vel, b2, b2_vel, c, cn, err, lost, turnaround_s, reaction_s,
-                   timeout_s, fval, flag, n_lost):
+def _exchange_rows(movers, c, cn, err, lost, turnaround_s, reaction_s, timeout_s, fval, flag, n_lost):
+    """``exchange_of`` for every row of a batch: fval (B, 10) in ``_EXCHANGE_FLOATS`` order,
+    flag (B, 5) in ``_EXCHANGE_FLAGS`` order, n_lost (B,)."""
     work = np.empty((2, 3))
+    vehicle, vehicle_vel, b1, b1_vel, b2, b2_vel = movers
     for b in range(vehicle.shape[0]):
-        r = exchange_of(vehicle[b], vehicle_vel[b], b1[b], b1_vel[b], b2[b], b2_vel[b], c[b], cn[b], err[b], lost[b],
-                        turnaround_s, reaction_s, timeout_s[b], work)
-        fval[b, 0], fval[b, 1], fval[b, 2], fval[b, 3] = r[0], r[1], r[2], r[3]
-        flag[b, 0], flag[b, 1], flag[b, 2], flag[b, 3] = r[4], r[5], r[6], r[7]
-        fval[b, 4], fval[b, 5], fval[b, 6], fval[b, 7], fval[b, 8], fval[b, 9] = r[8], r[9], r[10], r[11], r[12], r[13]
-        flag[b, 4] = r[14]
-        n_lost[b] = r[15]
+        r = exchange_of(Movers(vehicle[b], vehicle_vel[b], b1[b], b1_vel[b], b2[b], b2_vel[b]), c[b], cn[b], err[b],
+                        lost[b], turnaround_s, reaction_s, timeout_s[b], work)
+        fval[b, 0], fval[b, 1], fval[b, 2], fval[b, 3] = r.d1, r.m, r.d2, r.l
+        fval[b, 4], fval[b, 5], fval[b, 6], fval[b, 7], fval[b, 8], fval[b, 9] = (r.t3, r.t3s, r.t6, r.t_s1_b1,
+                                                                                r.t_s1_b2, r.t_s4_b2)
+        flag[b, 0], flag[b, 1], flag[b, 2], flag[b, 3], flag[b, 4] = r.ok_d1, r.ok_m, r.ok_d2, r.ok_l, r.ok_track
+        n_lost[b] = r.lost_count
 
 
-def exchange(vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps, sound_speed_mps, nominal_sound_speed_mps,
-             jitter_s, late_s, lost, turnaround_s, reaction_s, timeout_s):
+def exchange(movers: Movers, sound_speed_mps, nominal_sound_speed_mps, jitter_s, late_s, lost, turnaround_s: float,
+             reaction_s: float, timeout_s) -> dict:
     """Simulate one positioning cycle for a batch; t = 0 is the vehicle's S1 transmission.
 
-    Positions (B, 3) at t = 0 and velocities (B, 3), held over the ~0.3 s of the
-    exchange; sound speed (B,) true and as the vehicle assumes it; jitter_s,
-    late_s (B, 7): each detection's timing error and multipath excess (seconds,
-    order of ``DETECTIONS``); lost (B, 7) bool. The transponders reply
-    ``turnaround_s`` after a detection, the vehicle interrogates B2
-    ``reaction_s`` after hearing S2, or at ``timeout_s`` if it did not.
+    ``movers`` (``Movers``): positions (B, 3) at t = 0 and velocities (B, 3), held over
+    the ~0.3 s of the exchange; sound speed (B,) true and as the vehicle assumes it;
+    jitter_s, late_s (B, 7): each detection's timing error and multipath excess
+    (seconds, order of ``DETECTIONS``); lost (B, 7) bool. The transponders reply
+    ``turnaround_s`` after a detection, the vehicle interrogates B2 ``reaction_s``
+    after hearing S2, or at ``timeout_s`` if it did not.
 
     Returns a dict of (B,) arrays: the vehicle's measurements ``d1``, ``m``, ``d2``,
     ``l`` (metres) with flags ``ok_d1``, ``ok_m``, ``ok_d2``, ``ok_l``; the instants
@@ -261,48 +317,51 @@ def exchange(vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps, sou
     delays; and for the boats' tracking, the detection instants ``t_s1_b1``,
     ``t_s1_b2``, ``t_s4_b2`` with flag ``ok_track``; ``lost_count`` counts lost signals.
     """
-    vec = [np.ascontiguousarray(a, dtype=float)
-           for a in (vehicle_m, vehicle_vel_mps, b1_m, b1_vel_mps, b2_m, b2_vel_mps)]
-    B = vec[0].shape[0]
-    per_env = [np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float)
-               for a in (sound_speed_mps, nominal_sound_speed_mps, timeout_s)]
+    vec = Movers(*(np.ascontiguousarray(a, dtype=float) for a in movers))
+    B = vec.vehicle_m.shape[0]
+    c, cn, timeout = (np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float)
+                      for a in (sound_speed_mps, nominal_sound_speed_mps, timeout_s))
     err = np.ascontiguousarray(np.asarray(jitter_s, dtype=float) + late_s)
     fval, flag, n_lost = np.empty((B, 10)), np.empty((B, 5), dtype=bool), np.empty(B, dtype=np.int64)
-    _exchange_rows(*vec, per_env[0], per_env[1], err, np.ascontiguousarray(lost, dtype=bool), float(turnaround_s),
-                   float(reaction_s), per_env[2], fval, flag, n_lost)
+    _exchange_rows(vec, c, cn, err, np.ascontiguousarray(lost, dtype=bool), float(turnaround_s), float(reaction_s),
+                   timeout, fval, flag, n_lost)
     out = {}
-    for name, col in zip(("d1", "m", "d2", "l", "t3", "t3s", "t6", "t_s1_b1", "t_s1_b2", "t_s4_b2"), fval.T):
+    for name, col in zip(_EXCHANGE_FLOATS, fval.T):
         out[name] = col.copy()
-    for name, col in zip(("ok_d1", "ok_m", "ok_d2", "ok_l", "ok_track"), flag.T):
+    for name, col in zip(_EXCHANGE_FLAGS, flag.T):
         out[name] = col.copy()
     out["lost_count"] = n_lost
     return {k: out[k] for k in EXCHANGE_FIELDS}
 
 
 @njit(cache=True)
-def track_fix_of(t_s1_b1, t_s1_b2, t_s4_b2, ok_track, b1_e, b1_n, sin_phi, cos_phi, length, depth_below_m,
-                 nominal_sound_speed_mps, turnaround_s, reaction_s):
-    """``track_fix`` for one environment: the detection instants, B1's GPS position and the
-    GPS frame (bearing's sine and cosine, length). Returns (east, north, ok)."""
+def track_fix_of(t_s1_b1: float, t_s1_b2: float, t_s4_b2: float, ok_track: bool, frame: FrameGeometry,
+                 depth_below_m: float, nominal_sound_speed_mps: float, turnaround_s: float,
+                 reaction_s: float) -> tuple:
+    """``track_fix`` for one environment: the detection instants and their flag, the GPS
+    frame (``FrameGeometry``), the depth below the boats. Returns (east, north, ok)."""
     cn = nominal_sound_speed_mps
     total = cn * (t_s4_b2 - t_s1_b1 - turnaround_s - reaction_s)
     diff = cn * (t_s1_b2 - t_s1_b1)
     r1 = horizontal_range((total - diff) / 2.0, depth_below_m)
     r2 = horizontal_range((total + diff) / 2.0, depth_below_m)
-    fx, fy, ok = spherical_fix_of(r1, r2, length)
-    e, n = to_world(b1_e, b1_n, sin_phi, cos_phi, fx, fy)
+    fx, fy, ok = spherical_fix_of(r1, r2, frame.length)
+    e, n = to_world(frame.b1_e, frame.b1_n, frame.sin_phi, frame.cos_phi, fx, fy)
     return e, n, ok and ok_track
 
 
 @njit(cache=True)
-def _track_rows(t_a, t_b, t_c, ok_track, b1, phi, length, depth, cn, turnaround_s, reaction_s, fix, ok):
+def _track_rows(t_a, t_b, t_c, ok_track, gps_frame, depth, cn, turnaround_s, reaction_s, fix, ok):
+    """``track_fix_of`` for every row; gps_frame: (b1 (B, 2), phi (B,), length (B,))."""
+    b1, phi, length = gps_frame
     for b in range(t_a.shape[0]):
-        fix[b, 0], fix[b, 1], ok[b] = track_fix_of(t_a[b], t_b[b], t_c[b], ok_track[b], b1[b, 0], b1[b, 1],
-                                                   np.sin(phi[b]), np.cos(phi[b]), length[b], depth[b], cn[b],
+        frame = FrameGeometry(b1[b, 0], b1[b, 1], np.sin(phi[b]), np.cos(phi[b]), length[b])
+        fix[b, 0], fix[b, 1], ok[b] = track_fix_of(t_a[b], t_b[b], t_c[b], ok_track[b], frame, depth[b], cn[b],
                                                    turnaround_s, reaction_s)
 
 
-def track_fix(ex, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, turnaround_s, reaction_s):
+def track_fix(ex: dict, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, turnaround_s: float,
+              reaction_s: float) -> tuple:
     """External tracking from the boats' own detection instants (section III, V).
 
     The boats never hear the vehicle's measurements; they share over their radio
@@ -320,7 +379,7 @@ def track_fix(ex, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, turnarou
     flat = [np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float) for a in
             (ex["t_s1_b2"], ex["t_s4_b2"], phi, length, depth_below_m, nominal_sound_speed_mps)]
     fix, ok = np.empty((B, 2)), np.empty(B, dtype=bool)
-    _track_rows(t_a, flat[0], flat[1], np.ascontiguousarray(ex["ok_track"], dtype=bool),
-                np.ascontiguousarray(np.broadcast_to(b1_en, (B, 2)), dtype=float), flat[2], flat[3], flat[4],
-                flat[5], float(turnaround_s), float(reaction_s), fix, ok)
+    gps_frame = (np.ascontiguousarray(np.broadcast_to(b1_en, (B, 2)), dtype=float), flat[2], flat[3])
+    _track_rows(t_a, flat[0], flat[1], np.ascontiguousarray(ex["ok_track"], dtype=bool), gps_frame, flat[4], flat[5],
+                float(turnaround_s), float(reaction_s), fix, ok)
     return fix, ok

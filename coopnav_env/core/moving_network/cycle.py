@@ -1,0 +1,61 @@
+"""Steps 3-5 of a cycle in one compiled kernel over the batch, from the named steps:
+
+1. ``exchange.run_exchange``: the sound speeds, the detections' errors and losses,
+   the exchange between the moving vehicles (``lbl.exchange_of``);
+2. ``filter.fuse_ranges``: d1, then (d2, l) jointly, each gated (section VII);
+3. ``recovery.recover``: the restart from the spherical fix after gate lockout;
+4. ``tracking.track``: the boats' external fix and alpha-beta tracker;
+5. ``terms.cycle_terms``: the reward's terms and the errors, in the true frame.
+
+Written once, compiled twice: ``cycle`` and, for large batches, the threaded
+``cycle_parallel``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..acoustics import ranging_variance_m2
+from ..information import det2_of
+from .exchange import run_exchange
+from .filter import filter_work, fuse_ranges
+from .recovery import recover
+from .state import Boats, CycleDraws, CycleParams, Filter, Tracker, Vehicle
+from .terms import cycle_terms
+from .tracking import track
+
+
+def _cycle(vehicle: Vehicle, f: Filter, boats: Boats, tracker: Tracker, draws: CycleDraws, p: CycleParams,
+           out: np.ndarray, counts: np.ndarray) -> None:
+    """Steps 3-5 for every environment, in place: ``state.Vehicle`` vehicle, ``state.Filter``
+    f, ``state.Boats`` boats, ``state.Tracker`` tracker, ``state.CycleDraws`` draws,
+    ``state.CycleParams`` p, each as a plain tuple (``state.packed``) or the record; out (B,)
+    ``state.CYCLE_OUT``, counts (B,) ``state.CYCLE_COUNTS``."""
+    vehicle, f, boats, tracker = Vehicle(*vehicle), Filter(*f), Boats(*boats), Tracker(*tracker)
+    draws, p = CycleDraws(*draws), CycleParams(*p)
+    n_det = draws.jitter.shape[1]
+    for b in prange(vehicle.pos.shape[0]):
+        work = np.empty((2, 3))
+        err = np.empty(n_det)
+        lost = np.empty(n_det, dtype=np.bool_)
+        w = filter_work()
+        E, P, o = f.E[b], f.P[b], out[b]
+        o.det[0] = det2_of(P[0, 0], P[0, 1], P[1, 0], P[1, 1])
+        ex, cn, sigma_det = run_exchange(b, vehicle, boats, draws, p, err, lost, work)
+        dz = vehicle.pos[b, 0, 2] + p.depth_noise_m * draws.depth[b, 0]  # depth cell; boats at the surface
+        sigma_r2 = ranging_variance_m2(sigma_det, True)  # var(d1) = var(d2) = (c sigma_t)^2 / 2
+        n_fused, rejected = fuse_ranges(E, P, ex, dz, vehicle.speed_meas_mps[b], vehicle.heading_meas_rad[b],
+                                        sigma_r2, p, w)
+        restarted = recover(E, P, f.rejected_cycles, b, rejected, ex, dz, sigma_r2)
+        o.det[1] = det2_of(P[0, 0], P[0, 1], P[1, 0], P[1, 1])
+        track(tracker, b, ex, boats, cn, p)
+        cycle_terms(o, b, vehicle, boats, f, p, n_fused)
+        c = counts[b]
+        c.ranges_fused, c.outliers_rejected, c.packets_lost, c.filter_restarts = (n_fused, rejected, ex.lost_count,
+                                                                                  restarted)
+        c.range_ok = n_fused > 0
+
+
+cycle = njit(cache=True)(_cycle)
+cycle_parallel = njit(cache=True, parallel=True)(_cycle)

@@ -1,0 +1,112 @@
+"""Steps 1-2 of a cycle: the boats' imperfect motion and the vehicle's sub-steps.
+
+The boats' commands are integrated by the rate-limited kernel every beacon uses
+(``substeps.integrate_beacons``); ``disturb_boats`` then adds what their motion
+strays from them: a Gauss-Markov surge and course fluctuation each
+(``boat_noise_step``), and the part of the river current their ground-speed control
+leaves.
+
+The vehicle (``integrate_vehicle``) runs K sub-steps: line-of-sight guidance (Fig. 5)
+on its filter's frame estimate, heading reference psi + phi_hat steered on the
+compass, true motion = water speed x heading + current; dead reckoning and the
+filter's prediction (``navigation.frame_predict``) with the measured water speed
+(propeller encoder) and compass heading (section VII).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..dynamics import gauss_markov_step, turn_toward
+from ..guidance import los_point
+from ..navigation import frame_predict
+from .state import Filter, Vehicle, VehicleParams
+
+
+@njit(cache=True)
+def _guide(v: Vehicle, b: int, E: np.ndarray, p: VehicleParams) -> float:
+    """Line-of-sight guidance of vehicle b (``state.Vehicle`` v) for one sub-step on the
+    filter's frame estimate E (B,6): advances the waypoint, turns the heading towards the
+    LOS point; returns the commanded water speed (0 once the mission is done)."""
+    if v.done[b, 0]:
+        return 0.0
+    i = v.wp_index[b, 0]
+    wp = v.waypoints
+    est = E[b, 0] + 1j * E[b, 1]
+    a = wp[b, 0, i - 1, 0] + 1j * wp[b, 0, i - 1, 1]
+    e = wp[b, 0, i, 0] + 1j * wp[b, 0, i, 1]
+    q, along, seg_len = los_point(est, a, e, p.los_alpha)
+    if along >= seg_len - p.acceptance_m or abs(est - e) < p.acceptance_m:
+        i += 1
+        if i >= v.n_waypoints[b, 0]:
+            v.done[b, 0] = True
+            return 0.0
+        v.wp_index[b, 0] = i
+        a, e = e, wp[b, 0, i, 0] + 1j * wp[b, 0, i, 1]
+        q, along, seg_len = los_point(est, a, e, p.los_alpha)
+    d = q - est
+    # psi: direction of V -> Q in the frame, measured from x towards y
+    # (clockwise); the heading controller's reference is psi + phi_hat
+    # (section VI), which it tracks on the compass, bias included
+    ref = np.arctan2(d.imag, d.real) + E[b, 2] - v.compass_bias_rad[b]
+    v.heading[b] = turn_toward(v.heading[b], np.sin(ref) + 1j * np.cos(ref), p.turn_cos, p.turn_sin)
+    return p.speed_mps
+
+
+@njit(cache=True)
+def integrate_vehicle(v: Vehicle, f: Filter, compass_noise: np.ndarray, speed_noise: np.ndarray, current: np.ndarray,
+                      p: VehicleParams) -> None:
+    """K sub-steps of every vehicle of the batch, in place: guidance on the frame estimate
+    (``_guide``), true motion, dead reckoning and the filter's prediction
+    (``frame_predict``). v: ``state.Vehicle``; f: ``state.Filter``; compass_noise,
+    speed_noise (B,K) the sensors' errors per sub-step; current (B,) complex, the water's
+    at the vehicle; p: ``state.VehicleParams``. The records may come ``state.packed``."""
+    v, f, p = Vehicle(*v), Filter(*f), VehicleParams(*p)
+    dt = p.dt
+    for b in range(v.pos.shape[0]):
+        for k in range(p.K):
+            speed = _guide(v, b, f.E, p)
+            ground = speed * v.speed_scale[b] * v.heading[b] + current[b]
+            v.pos[b, 0, 0] += ground.real * dt
+            v.pos[b, 0, 1] += ground.imag * dt
+            v.vel_true[b, 0, 0], v.vel_true[b, 0, 1], v.vel_true[b, 0, 2] = ground.real, ground.imag, 0.0
+            theta = np.arctan2(v.heading[b].real, v.heading[b].imag) + v.compass_bias_rad[b] + compass_noise[b, k]
+            s = speed + speed_noise[b, k] if speed > 0.0 else 0.0
+            v.dr[b, 0, 0] += s * np.sin(theta) * dt
+            v.dr[b, 0, 1] += s * np.cos(theta) * dt
+            frame_predict(f.E[b], f.P[b], s, theta, dt, p.Q)
+            v.heading_meas_rad[b], v.speed_meas_mps[b] = theta, s
+
+
+@njit(cache=True)
+def disturb_boats(pos: np.ndarray, heading: np.ndarray, vel: np.ndarray, surge: np.ndarray, steer: np.ndarray,
+                  current: np.ndarray, response: float, T: float) -> None:
+    """The boats' imperfect execution of their commands over one cycle, in place: after
+    ``integrate_beacons`` moved each boat at its commanded ground velocity v (vel (B,2,3),
+    its last sub-step), the boat actually made good (v + s h) exp(-1j delta) + r c: its
+    speed along its heading h off by the surge fluctuation s (surge (B,2), m/s), its course
+    off by delta (steer (B,2), rad, clockwise: bearing + delta is the factor exp(-1j delta)),
+    and the part r (``boat_current_response``) of the water current c where the boat is
+    (current (B,2) complex: the same for both in uniform water, each its own in a river)
+    that its ground-speed control does not cancel. s and delta are held over the cycle
+    (the Gauss-Markov states are stepped exactly at the cycle's period, see ``step``); the
+    difference from the commanded motion is added to pos over the cycle T and to vel."""
+    for b in range(pos.shape[0]):
+        for n in range(pos.shape[1]):
+            drift = response * current[b, n]
+            v = complex(vel[b, n, 0], vel[b, n, 1])
+            d = steer[b, n]
+            made_good = (v + surge[b, n] * heading[b, n]) * complex(np.cos(d), -np.sin(d)) + drift
+            w = made_good - v
+            pos[b, n, 0] += w.real * T
+            pos[b, n, 1] += w.imag * T
+            vel[b, n, 0], vel[b, n, 1] = made_good.real, made_good.imag
+
+
+def boat_noise_step(x: np.ndarray, T: float, time_constant_s: float, std: float, noise: np.ndarray) -> np.ndarray:
+    """One cycle of a boat's Gauss-Markov fluctuation (``gauss_markov_step``; white per cycle
+    when the time constant is 0)."""
+    if time_constant_s <= 0.0:
+        return std * noise
+    return gauss_markov_step(x, T, time_constant_s, std, noise)
