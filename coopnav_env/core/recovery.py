@@ -35,9 +35,9 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          a straight beacon track fits the ranges as well) and regularizes a poor geometry.
     (R4) Gauss-Newton on r^T Sigma^-1 r + (x - x0)^T Pp^-1 (x - x0):
          (J^T Sigma^-1 J + Pp^-1) dx = J^T Sigma^-1 r - Pp^-1 (x - x0).
-    (R5) covariance P = (J^T Sigma^-1 J + Pp^-1)^-1 (Bar-Shalom, Li & Kirubarajan 2001,
-         sec. 3.4, the Gauss-Newton / information form); the cross-covariance with the
-         beacon's error (for ``consider.py``): Pxb = P J^T Sigma^-1 J Pbb (the estimate's
+    (R5) covariance P = (J^T Sigma^-1 J + Pp^-1)^-1 (the Gauss-Newton / information form
+         of the weighted least-squares covariance, e.g. Bar-Shalom, Li & Kirubarajan
+         2001); the cross-covariance with the beacon's error (for ``consider.py``): Pxb = P J^T Sigma^-1 J Pbb (the estimate's
          error x - x_hat = -P J^T Sigma^-1 (noise), whose b-part is -U b, U = J).
 """
 
