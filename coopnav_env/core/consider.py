@@ -11,8 +11,8 @@ with their cross-covariance to the survey's (Bahr, Walter & Leonard 2009; Webste
 et al. 2013). The survey cannot estimate the beacon's error (the beacon's own
 navigation owns it), so it is a *consider* state (Schmidt 1966; Simon, Optimal State
 Estimation, 2006, its Schmidt-Kalman section; named, not re-read here): its
-covariance Pbb comes in each beacon message, the survey carries only Pxb, the cross-covariance of its own error with the beacon's,
-and the gain of the consider states is zero.
+covariance Pbb comes in each beacon message, the survey carries only Pxb, the
+cross-covariance of its own error with the beacon's, and the gain of the consider states is zero.
 
 Conventions. Survey state x = (east, north, depth), covariance P (3, 3). Consider
 state b (nb = 2: horizontal, or 3): the beacon's true position minus the position it
