@@ -38,7 +38,8 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
     (R5) covariance P = (J^T Sigma^-1 J + Pp^-1)^-1 (the Gauss-Newton / information form
          of the weighted least-squares covariance, e.g. Bar-Shalom, Li & Kirubarajan
          2001); the cross-covariance with the beacon's error (for ``consider.py``):
-         Pxb = P J^T Sigma^-1 J Pbb (the estimate's error x - x_hat = -P J^T Sigma^-1 (noise), whose b-part is -U b, U = J).
+         Pxb = P J^T Sigma^-1 J Pbb (the estimate's error is x - x_hat = -P J^T Sigma^-1
+         (noise), and the noise's part from b is -U b, U = J).
 """
 
 from __future__ import annotations
