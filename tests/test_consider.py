@@ -250,6 +250,7 @@ def test_window_refix_after_lockout_beats_the_nearest_point_restart():
     Pbb = 9.0 * np.eye(2)
     noise = WindowNoise(R, Pbb, q, 50.0)
     res = {"new": [], "old": []}
+    cross = np.zeros((2, 2, 2))  # sum of (x - x_hat) b^T, and of the fix's Pxb
     for _ in range(TRIALS):
         M = rng.integers(3, 7)
         age = dt * np.arange(M - 1, -1, -1.0)
@@ -273,6 +274,7 @@ def test_window_refix_after_lockout_beats_the_nearest_point_restart():
         ox, oP, oX = np.zeros(2), np.zeros((2, 2)), np.zeros((2, 2))
         window_fix(win, M, noise, x0, P0, ox, oP, oX)
         res["new"].append((np.linalg.norm(ox - xK), _nees(xK - ox, oP)))
+        cross += np.outer(xK - ox, bias), oX
         # old: the lock-out's range is the first; the estimate then was x0 moved back by the DR
         x, P = x0 - shift[0], P0.copy()
         y, Hxy, _ = _ekf_h(x, b_rep[0], dz, z[0], P, R)
@@ -294,5 +296,9 @@ def test_window_refix_after_lockout_beats_the_nearest_point_restart():
                      np.percentile(v[:, 0], 95))
         print(f"\n{name}: within 3 sigma {out[name][0]:.1%}; NEES mean {out[name][1]:.2f} (band {lo:.2f}-{hi:.2f}); "
               f"error median {out[name][2]:.1f} m, mean {out[name][3]:.1f} m, 95th pct {out[name][4]:.1f} m")
+    print(f"cross-covariance with the beacon's bias: sample {np.round(cross[0] / TRIALS, 1).tolist()}, "
+          f"the fix's Pxb on average {np.round(cross[1] / TRIALS, 1).tolist()}")
     assert out["new"][0] >= 0.95 and lo <= out["new"][1] <= hi
+    # the sample cross-covariance's standard error is about 10 m x 3 m / sqrt(500) = 1.3 m^2
+    assert np.abs(cross[0] - cross[1]).max() / TRIALS < 3.0
     assert out["old"][0] < out["new"][0] and out["old"][3] > out["new"][3]
