@@ -302,3 +302,23 @@ def test_window_refix_after_lockout_beats_the_nearest_point_restart():
     # the sample cross-covariance's standard error is about 10 m x 3 m / sqrt(500) = 1.3 m^2
     assert np.abs(cross[0] - cross[1]).max() / TRIALS < 3.0
     assert out["old"][0] < out["new"][0] and out["old"][3] > out["new"][3]
+
+
+def test_pbb_message_codes_dominate_the_sent_covariance():
+    """24 bits (three 8-bit codes) whose decoded Pbb is never smaller than the sent one
+    (every eigenvalue of decoded - sent >= 0), and not much larger."""
+    from coopnav_env.core.consider import decode_pbb, encode_pbb
+
+    rng = np.random.default_rng(4)
+    out = np.zeros((2, 2))
+    growth = []
+    for _ in range(2000):
+        s = 10 ** rng.uniform(-1, 3, 2)
+        rho = rng.uniform(-0.99, 0.99)
+        Pbb = np.array([[s[0] ** 2, rho * s[0] * s[1]], [rho * s[0] * s[1], s[1] ** 2]])
+        codes = encode_pbb(Pbb)
+        assert all(0 <= c <= 255 for c in codes)
+        decode_pbb(*codes, out)
+        assert np.linalg.eigvalsh(out - Pbb).min() >= -1e-9 * s.max() ** 2
+        growth.append(np.trace(out) / np.trace(Pbb))
+    assert max(growth) < 1.25

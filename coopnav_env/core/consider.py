@@ -45,8 +45,8 @@ With Pbb = 0 and Pxb = 0, (C2)-(C5) are Gao's eqs. (9)-(13) (``navigation.joseph
 
 What the beacon must send: its Pbb (2-D: var_e, var_n, cov_en, 3 numbers; 3-D: 6)
 and the count of its GPS fixes modulo 16, so that a survey vehicle that missed the
-message after a fix still zeroes its Pxb (C8). See docs/scenarios/consider-fusion.md
-for the encoding (+20 bits over today's ping in 2-D).
+message after a fix still zeroes its Pxb (C8): ``encode_pbb`` / ``decode_pbb``, 24 bits
+(+20 over today's ping in 2-D with the 4-bit counter; docs/scenarios/consider-fusion.md).
 
 Covariance intersection (Julier & Uhlmann 1997): fuse two estimates whose
 cross-correlation is unknown as C^-1 = w A^-1 + (1 - w) B^-1, c = C (w A^-1 a +
@@ -225,3 +225,42 @@ def covariance_intersection(a, A, b, B, use_det, out_x, out_P):
     out_x[:] = C @ (w * (Ai @ a) + (1.0 - w) * (Bi @ b))
     out_P[:, :] = 0.5 * (C + C.T)
     return w
+
+
+# --- the beacon's Pbb in its message (2-D: 24 bits) ---------------------------------------
+SIGMA_MIN_M = 0.05  # the smallest std the 8-bit log code carries; 0.05 m * 10^(255/51) = 5 km
+SIGMA_CODES_PER_DECADE = 51.0
+RHO_STEPS = 127.0
+
+
+@njit(cache=True)
+def encode_pbb(Pbb):
+    """The beacon's horizontal covariance Pbb (2, 2) as three 8-bit codes (M1): sigma_e
+    and sigma_n on a log scale, sigma = 0.05 m * 10^(c / 51) (0.05 m to 5 km in 4.6 %
+    steps), rounded up; rho = (c - 127) / 127, rounded toward 0. Returns (c_e, c_n, c_rho)."""
+    codes = np.zeros(3, dtype=np.int64)
+    for i in range(2):
+        s = np.sqrt(max(Pbb[i, i], 0.0))
+        c = np.ceil(SIGMA_CODES_PER_DECADE * np.log10(max(s, SIGMA_MIN_M) / SIGMA_MIN_M) - 1e-9)
+        codes[i] = min(max(int(c), 0), 255)
+    den = np.sqrt(max(Pbb[0, 0] * Pbb[1, 1], 1e-300))
+    rho = min(max(Pbb[0, 1] / den, -1.0), 1.0)
+    codes[2] = 127 + int(np.trunc(rho * RHO_STEPS))  # toward 0
+    return codes[0], codes[1], codes[2]
+
+
+@njit(cache=True)
+def decode_pbb(c_e, c_n, c_rho, out):
+    """Pbb (2, 2) from ``encode_pbb``'s codes into out, made to dominate the sent one (M2):
+    with f = 10^(1/51) the std step, sigma rounded up by at most f and rho toward 0 by
+    less than 1/127, the off-diagonal is off by at most
+    d = sigma_e sigma_n (|rho| (f^2 - 1) + 1/127); adding d to both variances makes the
+    difference diagonally dominant, hence positive semi-definite (Gershgorin)."""
+    se = SIGMA_MIN_M * 10.0 ** (c_e / SIGMA_CODES_PER_DECADE)
+    sn = SIGMA_MIN_M * 10.0 ** (c_n / SIGMA_CODES_PER_DECADE)
+    rho = (c_rho - 127) / RHO_STEPS
+    f2 = 10.0 ** (2.0 / SIGMA_CODES_PER_DECADE)
+    d = se * sn * (abs(rho) * (f2 - 1.0) + 1.0 / RHO_STEPS)
+    out[0, 0] = se * se + d
+    out[1, 1] = sn * sn + d
+    out[0, 1] = out[1, 0] = rho * se * sn
