@@ -322,3 +322,56 @@ def test_pbb_message_codes_dominate_the_sent_covariance():
         assert np.linalg.eigvalsh(out - Pbb).min() >= -1e-9 * s.max() ** 2
         growth.append(np.trace(out) / np.trace(Pbb))
     assert max(growth) < 1.25
+
+
+def test_monte_carlo_two_beacons_random_walk_and_fixes():
+    """Eqs. (C6)-(C8) in Monte Carlo: two beacons ping in turn. A's error is a random walk
+    (Pbb grows by Qb a ping, C7 with tau = inf) and restarts from a 1 m GPS fix every 20
+    pings (C8: Pxb_A <- 0); B's is a constant bias. Each range carries the other beacon's
+    cross-covariance (C6). Schmidt stays consistent; the white-R EKF does not. The prior
+    std is 5 m: with 20 m the first ranges' linearization error (about 400 / (2 x 250) =
+    0.8 m) is as large as A's 1 m fix and its noise, and the NEES starts near 3 for
+    every EKF, Schmidt or not (the EKF's own limit, not the consider states')."""
+    rng = np.random.default_rng(77)
+    runs, pings = 200, 60
+    Qb, Pfix, PbbB = 0.5 * np.eye(2), np.eye(2), np.diag([16.0, 9.0])
+    R, P0, truth = 1.0, np.diag([25.0, 25.0, 0.25]), np.array([0.0, 0.0, 50.0])
+    nees = {"ekf": np.empty((runs, pings)), "schmidt": np.empty((runs, pings))}
+    K = np.zeros(3)
+    for run in range(runs):
+        errA, PbbA = rng.normal(size=2), Pfix.copy()
+        errB = np.sqrt(np.diag(PbbB)) * rng.normal(size=2)
+        x0 = truth + np.sqrt(np.diag(P0)) * rng.normal(size=3)
+        f = {k: (x0.copy(), P0.copy()) for k in nees}
+        Pxb = np.zeros((2, 3, 2))
+        for k in range(pings):
+            if k > 0:
+                consider_predict(Pxb[0], 20.0, np.inf)
+                errA = errA + np.sqrt(0.5) * rng.normal(size=2)
+                PbbA = PbbA + Qb
+                if k % 20 == 0:
+                    errA, PbbA = rng.normal(size=2), Pfix.copy()
+                    beacon_reset(Pxb[0])
+            j = k % 2
+            ang = 2 * np.pi * k / 40 + np.pi * j
+            b_true = np.array([(250 + 100 * j) * np.cos(ang), (250 + 100 * j) * np.sin(ang), 10.0])
+            b_rep = b_true.copy()
+            b_rep[:2] -= errA if j == 0 else errB
+            Pbb = PbbA if j == 0 else PbbB
+            z = np.linalg.norm(truth - b_true) + np.sqrt(R) * rng.normal()
+            for name, (x, P) in f.items():
+                h, H = range_prediction(x, np.zeros(3), np.zeros(1), b_rep)
+                if name == "ekf":
+                    joseph_update(x, P, z, h, H, R + H[:2] @ Pbb @ H[:2])
+                else:
+                    schmidt_range_update(x, P, Pxb[j], Pbb, z - h, H, R, np.inf, K)
+                    carry_cross_covariance(Pxb[1 - j], K, H)
+                nees[name][run, k] = _nees(truth[:2] - x[:2], P[:2, :2])
+    lo, hi = chi2.ppf([0.025, 0.975], 2 * runs) / runs
+    c_lo, c_hi, c_999 = chi2.ppf([0.025, 0.975, 0.999], 2)
+    for name, v in nees.items():
+        print(f"\ntwo beacons, {name:8s} NEES mean {v.mean():6.2f} (band {lo:.2f}-{hi:.2f}); run-cycles in band "
+              f"{np.mean((v >= c_lo) & (v <= c_hi)):.1%}; > chi2.999: {np.mean(v > c_999):.2%}")
+    assert nees["ekf"].mean() > hi
+    v = nees["schmidt"]
+    assert lo <= v.mean() <= hi and np.mean((v >= c_lo) & (v <= c_hi)) >= 0.85 and np.mean(v > c_999) <= 0.003
