@@ -1,0 +1,266 @@
+"""The beacon's navigation error as consider states (Schmidt-Kalman), and covariance
+intersection where the correlation is unknown (issue 21: the survey filter is
+over-confident when the beacon navigates).
+
+A beacon AUV that dead-reckons carries an error that is a slowly varying bias: every
+range it sends between two of its GPS fixes shares it. The survey EKF (Gao & Chitre
+eqs. 7-13) folds the beacon's variance into R, as if it were fresh white noise each
+ping, and after a few dozen pings it believes it has averaged away an error it has
+not. The remedy used in the field is to carry the beacon's error as extra states
+with their cross-covariance to the survey's (Bahr, Walter & Leonard 2009; Webster
+et al. 2013). The survey cannot estimate the beacon's error (the beacon's own
+navigation owns it), so it is a *consider* state (Schmidt 1966; Simon, Optimal State
+Estimation, 2006, its Schmidt-Kalman section; named, not re-read here): its
+covariance Pbb comes in each beacon message, the survey carries only Pxb, the
+cross-covariance of its own error with the beacon's, and the gain of the consider states is zero.
+
+Conventions. Survey state x = (east, north, depth), covariance P (3, 3). Consider
+state b (nb = 2: horizontal, or 3): the beacon's true position minus the position it
+reports, so the beacon is at b_est + b and b = -``SimState.b_nav_err``. Its
+estimate is always 0 and its covariance Pbb (nb, nb) is what the beacon sends.
+Pxb = E[(x - x_hat) b^T] (3, nb), one per (survey vehicle, beacon).
+
+Equations (numbered here; the EKF's own numbers are Gao & Chitre's):
+
+    (C1) range model   h(x, b) = |x - (b_est + b)|;  H = dh/dx (Gao eq. 8),
+                       Hb = dh/db = -H[:nb]  (at b = 0)
+    (C2) innovation variance
+                       S = H P H^T + 2 H Pxb Hb^T + Hb Pbb Hb^T + R
+    (C3) Schmidt gain  K = (P H^T + Pxb Hb^T) / S,  Kb = 0
+    (C4) state         x <- x + K y,  y = z - h  (b stays 0)
+    (C5) covariance    Pa <- A Pa A^T + R Ka Ka^T,  Pa = [[P, Pxb], [Pxb^T, Pbb]],
+                       Ka = [K; 0], A = I - Ka [H, Hb]  (Joseph form, valid for any
+                       gain, hence for the Schmidt one): P and Pxb change, Pbb not
+    (C6) other beacons' cross-covariances on any update of x with gain K that does
+                       not involve them (another beacon's range, depth, GPS), the
+                       beacons' errors independent of each other:  Pxb_j <- (I - K H) Pxb_j
+    (C7) predict       x and P as Gao eqs. (4), (6) (F = I); b_{k+1} = phi b_k + w_k with
+                       phi = exp(-dt / tau) (a first-order Gauss-Markov error; tau = inf
+                       is a bias or a random walk): Pxb <- phi Pxb. Pbb is not
+                       predicted by the survey: each message brings the beacon's own.
+    (C8) beacon reset  at a GPS fix the beacon's error restarts from the GPS noise,
+                       independent of everything the survey has: Pxb <- 0.
+
+With Pbb = 0 and Pxb = 0, (C2)-(C5) are Gao's eqs. (9)-(13) (``navigation.joseph_update``).
+
+What the beacon must send: its Pbb (2-D: var_e, var_n, cov_en, 3 numbers; 3-D: 6)
+and the count of its GPS fixes modulo 16, so that a survey vehicle that missed the
+message after a fix still zeroes its Pxb (C8): ``encode_pbb`` / ``decode_pbb``, 24 bits
+(+20 over today's ping in 2-D with the 4-bit counter; docs/scenarios/consider-fusion.md).
+
+Covariance intersection (Julier & Uhlmann 1997): fuse two estimates whose
+cross-correlation is unknown as C^-1 = w A^-1 + (1 - w) B^-1, c = C (w A^-1 a +
+(1 - w) B^-1 b), omega minimizing trace(C) or det(C). ``ci_range_update`` is the
+scalar-range case; ``covariance_intersection`` the general two-estimate one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+GOLDEN = 0.6180339887498949
+
+
+@njit(cache=True)
+def schmidt_range_update(x, P, Pxb, Pbb, y, H, R, gate, K):
+    """Schmidt-Kalman update of one survey filter with one range, the beacon's position
+    error a consider state, in place (x (3,), P (3, 3), Pxb (3, nb); Pbb (nb, nb) is
+    read only). y = z - h (``navigation.range_prediction`` gives h and H, with the
+    legs' delays); R: the ranging noise only (sound speed's share included, the
+    beacon's variance not: it is Pbb). Writes the gain into K (3,), or zeros when gated.
+    Returns (nis, fused): nis = y^2 / S, fused when nis <= gate. Eqs. (C1)-(C5)."""
+    nb = Pbb.shape[0]
+    n = 3 + nb
+    Ha = np.zeros(n)
+    Pa = np.zeros((n, n))
+    for i in range(3):
+        Ha[i] = H[i]
+        for j in range(3):
+            Pa[i, j] = P[i, j]
+        for j in range(nb):
+            Pa[i, 3 + j] = Pxb[i, j]
+            Pa[3 + j, i] = Pxb[i, j]
+    for i in range(nb):
+        Ha[3 + i] = -H[i]  # (C1): Hb = -H[:nb]
+        for j in range(nb):
+            Pa[3 + i, 3 + j] = Pbb[i, j]
+    PH = Pa @ Ha
+    S = R  # (C2)
+    for i in range(n):
+        S += Ha[i] * PH[i]
+    nis = y * y / S
+    K[:] = 0.0
+    if not nis <= gate:
+        return nis, False
+    Ka = np.zeros(n)
+    for i in range(3):
+        Ka[i] = PH[i] / S  # (C3); Kb = 0
+        K[i] = Ka[i]
+        x[i] += Ka[i] * y  # (C4)
+    A = np.eye(n) - np.outer(Ka, Ha)
+    Pn = A @ Pa @ A.T + R * np.outer(Ka, Ka)  # (C5), Joseph form
+    for i in range(3):
+        for j in range(3):
+            P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+        for j in range(nb):
+            Pxb[i, j] = Pn[i, 3 + j]
+    return nis, True
+
+
+@njit(cache=True)
+def carry_cross_covariance(Pxb, K, H):
+    """Eq. (C6): Pxb <- (I - K H) Pxb in place, for every cross-covariance the update
+    with gain K (3,) and measurement row H (3,) did not involve: the other beacons'
+    after a range, all of them after a depth or GPS update (its K = P H^T / S before
+    the update). Pxb (3, nb)."""
+    nb = Pxb.shape[1]
+    for j in range(nb):
+        hp = H[0] * Pxb[0, j] + H[1] * Pxb[1, j] + H[2] * Pxb[2, j]
+        for i in range(3):
+            Pxb[i, j] -= K[i] * hp
+
+
+@njit(cache=True)
+def consider_predict(Pxb, dt_s, tau_s):
+    """Eq. (C7) for one (survey, beacon) cross-covariance, in place: Pxb <- phi Pxb,
+    phi = exp(-dt_s / tau_s); tau_s <= 0 or inf: the beacon's error is a bias or a
+    random walk (its increments independent of the survey's error), Pxb unchanged.
+    The survey's own predict (Gao eqs. 4, 6, F = I) leaves Pxb as it is."""
+    if tau_s > 0.0 and np.isfinite(tau_s):
+        phi = np.exp(-dt_s / tau_s)
+        for i in range(Pxb.shape[0]):
+            for j in range(Pxb.shape[1]):
+                Pxb[i, j] *= phi
+
+
+@njit(cache=True)
+def beacon_reset(Pxb):
+    """Eq. (C8): the beacon took a GPS fix; its new error is independent of the survey's:
+    Pxb <- 0 in place."""
+    Pxb[:, :] = 0.0
+
+
+@njit(cache=True)
+def ci_trace(P, H, R, w):
+    """trace(C(w)) of the scalar-range CI (see ``ci_range_update``): with s = H P H^T,
+    C = (P - K H P) / w, K = P H^T / (s + R w / (1 - w)) (Sherman-Morrison)."""
+    if w >= 1.0:
+        return np.trace(P)
+    PH = P @ H
+    s = H @ PH
+    return (np.trace(P) - (1.0 - w) * (PH @ PH) / (w * R + (1.0 - w) * s)) / w
+
+
+@njit(cache=True)
+def ci_range_update(x, P, y, H, R, use_det):
+    """Covariance intersection of the filter (x, P) with one range whose errors are
+    correlated with it in an unknown way (Julier & Uhlmann 1997), in place; returns w.
+
+    The range is the information Y2 = H^T H / R about H x (rank 1). CI: C^-1 = w P^-1
+    + (1 - w) Y2 (CI1), x <- x + C (1 - w) H^T y / R (CI2). That is the Kalman update
+    of P / w with the range at R / (1 - w) (CI3): K = P H^T / (s + R w / (1 - w)),
+    P <- (P - K H P) / w, s = H P H^T. omega: det(C) = 1 / det(C^-1) is minimal at
+    w = 2a / (3 (a - 1)), a = s / R, when a > 3, else w = 1 (no fusion: a range
+    cannot shrink the volume of an uncertainty it might share) (CI4); trace(C) by
+    golden-section search on (0, 1] (CI5)."""
+    PH = P @ H
+    s = H @ PH
+    if use_det:
+        a = s / R
+        w = 2.0 * a / (3.0 * (a - 1.0)) if a > 3.0 else 1.0  # (CI4)
+    else:
+        lo, hi = 1e-6, 1.0  # (CI5)
+        c = hi - GOLDEN * (hi - lo)
+        d = lo + GOLDEN * (hi - lo)
+        for _ in range(60):
+            if ci_trace(P, H, R, c) < ci_trace(P, H, R, d):
+                hi = d
+            else:
+                lo = c
+            c = hi - GOLDEN * (hi - lo)
+            d = lo + GOLDEN * (hi - lo)
+        w = 0.5 * (lo + hi)
+        if ci_trace(P, H, R, 1.0) <= ci_trace(P, H, R, w):
+            w = 1.0
+    if w >= 1.0:
+        return 1.0
+    K = PH / (s + R * w / (1.0 - w))  # (CI3)
+    for i in range(3):
+        x[i] += K[i] * y
+    Pn = (P - np.outer(K, PH)) / w
+    P[:, :] = 0.5 * (Pn + Pn.T)
+    return w
+
+
+@njit(cache=True)
+def _ci_criterion(Ai, Bi, w, use_det):
+    C = np.linalg.inv(w * Ai + (1.0 - w) * Bi)
+    return np.linalg.det(C) if use_det else np.trace(C)
+
+
+@njit(cache=True)
+def covariance_intersection(a, A, b, B, use_det, out_x, out_P):
+    """Two-estimate CI (Julier & Uhlmann 1997) of (a, A) and (b, B) (n,), (n, n), both
+    full rank: C^-1 = w A^-1 + (1 - w) B^-1 (CI1), c = C (w A^-1 a + (1 - w) B^-1 b)
+    (CI2); w in [0, 1] minimizing det(C) or trace(C), by golden-section search (both
+    are convex in w for the information form's det, unimodal in practice for the
+    trace; the end points are checked). Writes out_x, out_P; returns w."""
+    Ai, Bi = np.linalg.inv(A), np.linalg.inv(B)
+    lo, hi = 0.0, 1.0
+    c = hi - GOLDEN * (hi - lo)
+    d = lo + GOLDEN * (hi - lo)
+    for _ in range(60):
+        if _ci_criterion(Ai, Bi, c, use_det) < _ci_criterion(Ai, Bi, d, use_det):
+            hi = d
+        else:
+            lo = c
+        c = hi - GOLDEN * (hi - lo)
+        d = lo + GOLDEN * (hi - lo)
+    w = 0.5 * (lo + hi)
+    for end in (0.0, 1.0):
+        if _ci_criterion(Ai, Bi, end, use_det) < _ci_criterion(Ai, Bi, w, use_det):
+            w = end
+    C = np.linalg.inv(w * Ai + (1.0 - w) * Bi)
+    out_x[:] = C @ (w * (Ai @ a) + (1.0 - w) * (Bi @ b))
+    out_P[:, :] = 0.5 * (C + C.T)
+    return w
+
+
+# --- the beacon's Pbb in its message (2-D: 24 bits) ---------------------------------------
+SIGMA_MIN_M = 0.05  # the smallest std the 8-bit log code carries; 0.05 m * 10^(255/51) = 5 km
+SIGMA_CODES_PER_DECADE = 51.0
+RHO_STEPS = 127.0
+
+
+@njit(cache=True)
+def encode_pbb(Pbb):
+    """The beacon's horizontal covariance Pbb (2, 2) as three 8-bit codes (M1): sigma_e
+    and sigma_n on a log scale, sigma = 0.05 m * 10^(c / 51) (0.05 m to 5 km in 4.6 %
+    steps), rounded up; rho = (c - 127) / 127, rounded toward 0. Returns (c_e, c_n, c_rho)."""
+    codes = np.zeros(3, dtype=np.int64)
+    for i in range(2):
+        s = np.sqrt(max(Pbb[i, i], 0.0))
+        c = np.ceil(SIGMA_CODES_PER_DECADE * np.log10(max(s, SIGMA_MIN_M) / SIGMA_MIN_M) - 1e-9)
+        codes[i] = min(max(int(c), 0), 255)
+    den = np.sqrt(max(Pbb[0, 0] * Pbb[1, 1], 1e-300))
+    rho = min(max(Pbb[0, 1] / den, -1.0), 1.0)
+    codes[2] = 127 + int(np.trunc(rho * RHO_STEPS))  # toward 0
+    return codes[0], codes[1], codes[2]
+
+
+@njit(cache=True)
+def decode_pbb(c_e, c_n, c_rho, out):
+    """Pbb (2, 2) from ``encode_pbb``'s codes into out, made to dominate the sent one (M2):
+    with f = 10^(1/51) the std step, sigma rounded up by at most f and rho toward 0 by
+    less than 1/127, the off-diagonal is off by at most
+    d = sigma_e sigma_n (|rho| (f^2 - 1) + 1/127); adding d to both variances makes the
+    difference diagonally dominant, hence positive semi-definite (Gershgorin)."""
+    se = SIGMA_MIN_M * 10.0 ** (c_e / SIGMA_CODES_PER_DECADE)
+    sn = SIGMA_MIN_M * 10.0 ** (c_n / SIGMA_CODES_PER_DECADE)
+    rho = (c_rho - 127) / RHO_STEPS
+    f2 = 10.0 ** (2.0 / SIGMA_CODES_PER_DECADE)
+    d = se * sn * (abs(rho) * (f2 - 1.0) + 1.0 / RHO_STEPS)
+    out[0, 0] = se * se + d
+    out[1, 1] = sn * sn + d
+    out[0, 1] = out[1, 0] = rho * se * sn

@@ -1,0 +1,125 @@
+"""Lock-out recovery from a short window of ranges (issue 21: 'the lock-out recovery
+is a single Gaussian at the nearest point of the range circle').
+
+A survey filter whose gate has rejected N ranges in a row has drifted further than
+its covariance admits. ``navigation.reinit_on_range`` restarts it from one range,
+at the nearest point of the range circle: one range fixes the distance to the
+beacon, not the bearing, and the restart keeps the old (wrong) bearing with an
+across-range variance of the old one plus the miss squared. This module re-fixes
+the horizontal position from the last M (3-6) ranges of the window instead, the
+beacon moving between them and the survey's dead-reckoned displacements carrying
+each range to the fix time: a weighted (generalized) least-squares fix, with its
+covariance from the Jacobian.
+
+Why this and not a Gaussian sum over the range annulus: with ranges from more than
+one beacon position the bearing is observable, the fix is a deterministic function
+of the window (testable against a reference, no component count or pruning to tune),
+and the covariance says how good the geometry was; a Gaussian sum on one range
+stays a ring (or a two-lobed crescent) until later ranges cut it, i.e. needs the
+same window anyway, and its collapse by moment matching is a broad Gaussian centred
+inside the annulus, where the vehicle is not.
+
+Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
+    (R1) z_k = sqrt(|x - s_k - (c_k + b)|^2 + dz_k^2) + n_k,
+         x the horizontal position at the fix time, s_k the survey's dead-reckoned
+         displacement from ping k to the fix time (error e_k, random walk: E[e_i e_j^T]
+         = q min(age_i, age_j) I), c_k the beacon's reported horizontal position, b its
+         position error (a bias shared by the window, covariance Pbb), dz_k the depth
+         difference (pressure sensors), n_k ~ N(0, R).
+    (R2) J_k = u_k^T = (x - s_k - c_k)^T / z_hat_k, the horizontal Jacobian of (R1);
+         the errors of the residuals r_k = z_k - z_hat_k:
+         Sigma_ij = R delta_ij + u_i^T Pbb u_j + q min(age_i, age_j) u_i^T u_j.
+    (R3) prior: the locked-out estimate x0 with P0 inflated by s_lock^2 I, s_lock =
+         max(prior_std_m, max_k |r_k(x0)|) (the filter has shown it is off by at least
+         its largest miss); it only picks the branch (the mirror image of the fix across
+         a straight beacon track fits the ranges as well) and regularizes a poor geometry.
+    (R4) Gauss-Newton on r^T Sigma^-1 r + (x - x0)^T Pp^-1 (x - x0):
+         (J^T Sigma^-1 J + Pp^-1) dx = J^T Sigma^-1 r - Pp^-1 (x - x0).
+    (R5) covariance P = (J^T Sigma^-1 J + Pp^-1)^-1 (the Gauss-Newton / information form
+         of the weighted least-squares covariance, e.g. Bar-Shalom, Li & Kirubarajan
+         2001); the cross-covariance with the beacon's error (for ``consider.py``):
+         Pxb = P J^T Sigma^-1 J Pbb (the estimate's error is x - x_hat = -P J^T Sigma^-1
+         (noise), and the noise's part from b is -U b, U = J).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+
+class RangeWindow(NamedTuple):
+    """The last M ranges of one survey filter, oldest first (arrays of length >= M)."""
+    z: np.ndarray  # (M,) measured ranges, m
+    beacon: np.ndarray  # (M, 2) the beacon's reported horizontal position at each ping, m
+    shift: np.ndarray  # (M, 2) dead-reckoned survey displacement from ping k to the fix time, m
+    dz: np.ndarray  # (M,) survey depth minus beacon depth, m
+    age_s: np.ndarray  # (M,) time from ping k to the fix time, s
+
+
+class WindowNoise(NamedTuple):
+    """What the fix weighs the ranges with."""
+    range_var_m2: float  # R: ranging noise (sound speed's share included), m^2
+    Pbb: np.ndarray  # (2, 2) the beacon's horizontal position error covariance (a bias over the window), m^2
+    dr_rate_m2ps: float  # q: the survey's dead-reckoning variance growth per axis, m^2/s
+    prior_std_m: float  # floor of the lock-out prior's inflation s_lock, m
+
+
+@njit(cache=True)
+def window_terms(x, win, m, noise, J, r, Sigma):
+    """(R1)-(R2) at the horizontal position x (2,): J (m, 2), residuals r (m,) and their
+    covariance Sigma (m, m), written in place."""
+    q = noise.dr_rate_m2ps
+    for k in range(m):
+        ex = x[0] - win.shift[k, 0] - win.beacon[k, 0]
+        ey = x[1] - win.shift[k, 1] - win.beacon[k, 1]
+        zh = np.sqrt(ex * ex + ey * ey + win.dz[k] * win.dz[k])
+        inv = 1.0 / max(zh, 1e-9)
+        J[k, 0], J[k, 1] = ex * inv, ey * inv
+        r[k] = win.z[k] - zh
+    for i in range(m):
+        for j in range(m):
+            uu = J[i, 0] * J[j, 0] + J[i, 1] * J[j, 1]
+            ubu = (J[i, 0] * (noise.Pbb[0, 0] * J[j, 0] + noise.Pbb[0, 1] * J[j, 1])
+                   + J[i, 1] * (noise.Pbb[1, 0] * J[j, 0] + noise.Pbb[1, 1] * J[j, 1]))
+            Sigma[i, j] = ubu + q * min(win.age_s[i], win.age_s[j]) * uu
+        Sigma[i, i] += noise.range_var_m2
+
+
+@njit(cache=True)
+def window_fix(win, m, noise, x0, P0, out_x, out_P, out_Pxb):
+    """Re-fix the horizontal position from the last m ranges (eqs. R1-R5), starting from
+    the locked-out estimate x0 (2,) with covariance P0 (2, 2). Writes the fix out_x (2,),
+    its covariance out_P (2, 2) and its cross-covariance with the beacon's error out_Pxb
+    (2, 2) (for the consider states; zero it when the beacon's Pbb is folded into R).
+    Returns the number of Gauss-Newton iterations (< 0: did not converge in 30)."""
+    J, r, Sig = np.empty((m, 2)), np.empty(m), np.empty((m, m))
+    window_terms(x0, win, m, noise, J, r, Sig)
+    s_lock = noise.prior_std_m
+    for k in range(m):
+        s_lock = max(s_lock, abs(r[k]))
+    Pp = P0.copy()  # (R3)
+    Pp[0, 0] += s_lock * s_lock
+    Pp[1, 1] += s_lock * s_lock
+    Ppi = np.linalg.inv(Pp)
+    x = x0.copy()
+    it = -30
+    for i in range(30):  # (R4)
+        window_terms(x, win, m, noise, J, r, Sig)
+        SiJ = np.linalg.solve(Sig, J)
+        A = J.T @ SiJ + Ppi
+        g = SiJ.T @ r - Ppi @ (x - x0)
+        dx = np.linalg.solve(A, g)
+        x += dx
+        if dx[0] * dx[0] + dx[1] * dx[1] < 1e-12:
+            it = i + 1
+            break
+    window_terms(x, win, m, noise, J, r, Sig)
+    SiJ = np.linalg.solve(Sig, J)
+    P = np.linalg.inv(J.T @ SiJ + Ppi)  # (R5)
+    out_x[:] = x
+    out_P[:, :] = 0.5 * (P + P.T)
+    out_Pxb[:, :] = P @ (J.T @ SiJ) @ noise.Pbb
+    return it
