@@ -149,6 +149,21 @@ def convert(src, out, trust_pickle: bool = False) -> list:
     return written
 
 
+def _discard(out: Path, existed: bool):
+    """Empty ``out``, or remove it if it did not exist (it was absent or empty before
+    this conversion started)."""
+    import shutil
+
+    if out.is_dir() and not out.is_symlink():
+        for child in list(out.iterdir()):
+            if child.is_dir() and not child.is_symlink():
+                shutil.rmtree(child, ignore_errors=True)
+            else:
+                child.unlink(missing_ok=True)
+        if not existed:
+            out.rmdir()
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m agents.convert", description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -158,10 +173,21 @@ def main(argv=None) -> int:
     p.add_argument("--trust-pickle", action="store_true",
                    help="you trust SRC: unpickling it runs whatever code it holds (required)")
     args = p.parse_args(argv)
+    out = Path(args.out)
+    existed = out.exists() or out.is_symlink()
+    fresh = not existed or out.is_dir() and not any(out.iterdir())
     try:
         written = convert(args.src, args.out, trust_pickle=args.trust_pickle)
-    except (PolicyFormatError, OSError, ValueError, KeyError) as err:
-        print(f"agents.convert: error: {' '.join(str(err).splitlines())}", file=sys.stderr)
+    except (PolicyFormatError, OSError, ValueError, KeyError, MemoryError) as err:
+        if isinstance(err, (OSError, MemoryError)):
+            from coopnav_env.failures import one_line
+
+            text = one_line(err)
+        else:
+            text = ' '.join(str(err).splitlines())
+        if fresh:
+            _discard(out, existed)  # no half-converted folder: --out is as it was (absent or empty)
+        print(f"agents.convert: error: {text}", file=sys.stderr)
         return 2
     print(f"converted {args.src} -> {args.out} ({len(written)} model file(s)); load it with agents.load({args.out!r})")
     return 0

@@ -343,6 +343,7 @@ def read_module(path: Path):
     tensors, spec = _open_export(path, "pt", MODULE_FORMAT)
     if spec.get("module_class") != "DefaultPPOTorchRLModule" or spec.get("catalog_class") != "PPOCatalog":
         raise PolicyFormatError(f"{path}: unsupported module class {spec.get('module_class')!r}")
+    _check_module_sizes(spec, path)  # before anything is allocated
     from ray.rllib.algorithms.ppo.ppo_catalog import PPOCatalog
     from ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import DefaultPPOTorchRLModule
 
@@ -363,6 +364,24 @@ def read_module(path: Path):
     except RuntimeError as err:
         raise PolicyFormatError(f"{path} does not fit the module it describes: {str(err).splitlines()[0]}") from None
     return module
+
+
+def _check_module_sizes(spec: dict, path):
+    from agents.formats import PolicyFormatError
+    from agents.limits import check_net_arch, check_network, check_space_size
+
+    try:
+        obs = check_space_size(spec["observation_space"]["shape"], f"{path}: observation_space")
+        act = check_space_size(spec["action_space"]["shape"], f"{path}: action_space")
+    except (KeyError, TypeError):
+        raise PolicyFormatError(f"{path}: no valid observation_space/action_space") from None
+    config = spec.get("model_config") or {}
+    if not isinstance(config, dict):
+        raise PolicyFormatError(f"{path}: model_config must be a mapping")
+    layers = [w for key in ("fcnet_hiddens", "head_fcnet_hiddens", "pi_head_fcnet_hiddens",
+                            "vf_head_fcnet_hiddens") if key in config
+              for w in check_net_arch(config[key], f"{path}: model_config.{key}")]
+    check_network(obs, act, [sum(layers, [])], path)
 
 
 def read_filters(path: Path) -> dict:
