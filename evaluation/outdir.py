@@ -28,7 +28,7 @@ from .errors import UsageError
 from .limits import MAX_EPISODES
 
 FORMAT_VERSION = 3  # 3: + pings, collisions, energy_J; 2: CSV floats written with repr (exact); 1 (absent): rounded
-RESULT_FILES = ("run.json", "episodes.csv", "steps.csv", "summary.json", "summary.md")
+RESULT_FILES = ("run.json", "episodes.csv", "steps.csv", "checksums.json", "summary.json", "summary.md")
 SUMMARY_FILES = ("summary.json", "summary.md")
 FIGURE_FILES = ("paths.png", "error_vs_time.png", "ellipse_axes.png", "frame_errors.png", "sweep.png")
 LOCK_FILE = ".evaluate.lock"
