@@ -106,6 +106,13 @@ class EvalConfig:
         object.__setattr__(self, "overrides", dict(self.overrides))
         object.__setattr__(self, "sweep", {k: tuple(split_top_level(v) if isinstance(v, str) else v)
                                            for k, v in dict(self.sweep).items()})
+        from .limits import MAX_CELLS
+
+        n_cells = 1
+        for values in self.sweep.values():  # bounded work: checked before any value is parsed
+            n_cells *= max(len(values), 1)
+            if n_cells > MAX_CELLS:
+                raise UsageError(f"the --sweep grid has more than {MAX_CELLS} cells: refused")
         for name in ("episodes", "batch_size"):
             value = getattr(self, name)
             if value is None and name == "episodes":
@@ -377,6 +384,19 @@ def check_policies(plan: "Plan") -> None:
                 raise UsageError(f"policy {p!r} cannot drive {where}: {_first_line(err)}") from None
 
 
+def _out_of_range(scenario: str, overrides: dict, sweep: dict, err: Exception) -> str:
+    """One line naming the --set/--sweep parameter whose value the scenario cannot take."""
+    import coopnav_env
+
+    for key, values in [(k, [v]) for k, v in overrides.items()] + list(sweep.items()):
+        for v in values:
+            try:
+                coopnav_env.make_config(scenario, **{key: coerce_value(key, v)})
+            except (ArithmeticError, TypeError, ValueError):
+                return f"bad value for {key}: {str(v)[:40]!r} is out of range ({type(err).__name__})"
+    return f"a --set/--sweep value is out of range ({type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''})"
+
+
 def prepare(config: EvalConfig) -> Plan:
     """Check every input of ``config`` and build the run plan; raises UsageError.
     Writes nothing. Checks the output directory too (``outdir.check_existing``): an
@@ -462,8 +482,7 @@ def prepare(config: EvalConfig) -> Plan:
     except ValueError as err:  # unknown parameter or invalid value, from the scenario's checks
         raise UsageError(str(err).splitlines()[0]) from None
     except (OverflowError, ZeroDivisionError, TypeError) as err:  # a value the scenario's checks let through
-        raise UsageError(f"a --set/--sweep value is out of range ({type(err).__name__}: "
-                         f"{str(err).splitlines()[0] if str(err) else ''})") from None
+        raise UsageError(_out_of_range(config.scenario, overrides, config.sweep, err)) from None
     run_info = {"scenario": config.scenario, "overrides": plain(overrides), "sweep": plain(sweep),
                 "seed": config.seed, "episodes": episodes, "policies": policies}
     outdir.check_existing(config, run_info, previous, trained)

@@ -71,6 +71,8 @@ def prepare_job(config) -> Job:
         scenario_config = make_config(config.scenario, **config.env.overrides)
     except (TypeError, ValueError) as err:
         raise ConfigError(f"env.overrides: {err}") from None
+    except ArithmeticError as err:  # OverflowError, ZeroDivisionError: a value the scenario's checks let through
+        raise ConfigError(f"env.overrides: a value is out of range ({type(err).__name__}: {err})") from None
     try:
         reward_terms = check_reward_terms(config.reward)
     except ValueError as err:
