@@ -402,6 +402,28 @@ def test_resume_of_a_run_without_checkpoints_never_deletes_its_evaluations(run, 
     assert tree_hash(run) == before
 
 
+@pytest.mark.slow
+def test_a_resumed_run_gets_its_final_evaluation_back(tmp_path, capsys):
+    """A run stopped after its last checkpoint but before its final evaluation: --resume
+    evaluates it, and keeps the evaluations it had."""
+    config = {"n_envs": 4, "checkpoint_every_steps": 256,
+              "ppo": {"n_steps": 64, "batch_size": 128, "n_epochs": 1, "policy_kwargs": {"net_arch": [16, 16]}},
+              "env": {"overrides": {"max_cycles": 10, "mission_duration_s": 200.0}},
+              "eval": {"every_steps": 256, "episodes": 1, "seed": 1000000, "baselines": []}}
+    (tmp_path / "tiny.yml").write_text(yaml.safe_dump(config))
+    out = tmp_path / "run"
+    assert train_cli.main(["--scenario", "sousa_asv", "--timesteps", "512", "--seed", "3", "--out", str(out),
+                           "--config", str(tmp_path / "tiny.yml"), "--no-progress"]) == 0
+    lines = (out / "evaluations.jsonl").read_text().splitlines()
+    assert [json.loads(x)["num_timesteps"] for x in lines] == [256, 512]
+    (out / "evaluations.jsonl").write_text(lines[0] + "\n")  # stopped before the final evaluation
+    (out / "model.safetensors").unlink()
+    capsys.readouterr()
+    assert train_cli.main(["--resume", str(out), "--no-progress"]) == 0
+    after = (out / "evaluations.jsonl").read_text().splitlines()
+    assert after[0] == lines[0] and [json.loads(x)["num_timesteps"] for x in after] == [256, 512]
+
+
 def test_a_resumed_run_keeps_its_evaluation_schedule(tmp_path):
     from agents.training.sb3 import last_evaluation_step
 
@@ -453,6 +475,23 @@ def test_a_read_only_folder_during_evaluate_is_one_line(small_tmpfs, fast_ref, c
     assert tree_hash(out) == before
 
 
+def test_enospc_during_train_in_process_is_one_line(tmp_path, monkeypatch, capsys):
+    """A full disk at train.py's first write (os.replace of an atomic write fails)."""
+    from coopnav_env import records
+
+    def full(src, dst, *a, **k):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(dst))
+
+    monkeypatch.setattr(records.os, "replace", full)
+    out = tmp_path / "new"
+    code, err = train(["--scenario", "sousa_asv", "--timesteps", "64", "--out", str(out), "--set", "n_envs=1",
+                       "--set", "ppo.n_steps=64", "--set", "ppo.batch_size=64", "--set", "eval.every_steps=0",
+                       "--no-progress"], capsys)
+    one_line_exit_2(code, err, "the disk is full")
+    assert not [p for p in out.rglob("*") if p.name.endswith(".tmp")]
+
+
+@pytest.mark.slow
 def test_enospc_during_train_is_one_line_and_nothing_half_written(run, tmp_path):
     """train.py in a subprocess whose os.replace fails with ENOSPC (a full disk)."""
     shim = tmp_path / "shim"
