@@ -21,6 +21,7 @@ from .errors import UsageError
 
 FILE = "checksums.json"
 FORMAT = "coopnav-episode-sha256"
+MAX_BYTES = 2 << 30  # about 100 bytes per episode: evaluation.limits.MAX_TOTAL_EPISODES fit
 
 __all__ = ["FILE", "digest", "key", "read", "verify", "write"]
 
@@ -48,7 +49,7 @@ def read(out: str) -> dict | None:
     from coopnav_env.safe_load import read_json
 
     try:
-        rec = read_json(os.path.join(out, FILE))
+        rec = read_json(os.path.join(out, FILE), max_bytes=MAX_BYTES)
     except ValueError:
         return None
     if not isinstance(rec, dict) or rec.get("format") != FORMAT or not isinstance(rec.get("episodes"), dict):

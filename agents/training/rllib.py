@@ -102,6 +102,7 @@ RAY_MISSING = '--backend rllib needs Ray RLlib, which is not installed: pip inst
 __all__ = ["build_config", "metrics", "parse_tune", "require_ray", "resume", "save_checkpoint", "train"]
 
 
+@runlock.releasing
 def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None = None, hyperparameter_file=None,
           num_env_runners: int | None = None, ray_address: str | None = None, tune: dict | None = None,
           threads: int = 1, trust_pickle: bool = False) -> int:

@@ -25,7 +25,7 @@ from .config import ConfigError
 OWNER_FILE = ".train.owner.json"
 _HELD: dict = {}  # resolved folder -> (fd, owner file written)
 
-__all__ = ["OWNER_FILE", "check_not_in_use", "claim", "hold", "release_all"]
+__all__ = ["OWNER_FILE", "check_not_in_use", "claim", "hold", "release_all", "releasing"]
 
 
 def _owner_text(out: Path) -> str:
@@ -96,11 +96,33 @@ def claim(out, new: bool, command: str | None = None) -> None:
         entry[1] = True
 
 
+def releasing(train):
+    """Decorate a trainer: the folders it locked itself (``claim`` of a new ``--out``)
+    are released when it returns, those held before (``hold`` by the command line)
+    stay held until ``release_all``."""
+    import functools
+
+    @functools.wraps(train)
+    def wrapper(*args, **kwargs):
+        before = set(_HELD)
+        try:
+            return train(*args, **kwargs)
+        finally:
+            _release([k for k in _HELD if k not in before])
+
+    return wrapper
+
+
 def release_all() -> None:
     """Remove the owner files this process wrote and release its locks."""
+    _release(list(_HELD))
+
+
+def _release(keys) -> None:
     import fcntl
 
-    for key, (fd, wrote) in list(_HELD.items()):
+    for key in keys:
+        fd, wrote = _HELD[key]
         if wrote:
             try:
                 os.unlink(os.path.join(key, OWNER_FILE))

@@ -64,6 +64,7 @@ from .scoring import baselines_on_eval_seeds, evaluate
 __all__ = ["learning_rate", "policy_kwargs", "resume", "train", "warm_start_files"]
 
 
+@runlock.releasing
 def train(config: TrainConfig, out, resume: bool = False, *, command: str | None = None,
           hyperparameter_file=None, device: str = "cpu", threads: int = 1, progress: bool = False,
           verbose: int = 0, trust_pickle: bool = False) -> int:
