@@ -52,26 +52,8 @@ import numpy as np
 from .formats import (_TRUSTED, PickleRefused, PolicyFormatError, _check_trusted, _is_legacy, check_inside,  # noqa: F401
                       refuse_pickle, trust_pickle)
 from . import safe_paths
+from .formats import safe_json as _safe_json, safe_yaml as _safe_yaml  # bounded reads: one-line refusals
 from .policy import BatchPolicy, _trained_scenario
-
-
-def _safe_yaml(path):
-    """A run's YAML file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
-    from coopnav_env.safe_load import UnsafeDataError, read_yaml
-
-    try:
-        return read_yaml(path)
-    except UnsafeDataError as err:
-        raise PolicyFormatError(str(err)) from None
-
-
-def _safe_json(path):
-    from coopnav_env.safe_load import UnsafeDataError, read_json
-
-    try:
-        return read_json(path)
-    except UnsafeDataError as err:
-        raise PolicyFormatError(str(err)) from None
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
 # (model, normalization) of a run directory, in order of preference: the safe format,

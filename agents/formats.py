@@ -336,17 +336,39 @@ def build_policy(spec: dict, state: dict | None = None, where="model", device="c
 
 
 def _check_header_sizes(spec: dict, where):
-    from .limits import check_net_arch, check_network, check_space_size
+    from .limits import LimitError, check_net_arch, check_network, check_space_size
 
     try:
         obs = check_space_size(spec["observation_space"]["shape"], f"{where}: observation_space")
         act = check_space_size(spec["action_space"]["shape"], f"{where}: action_space")
+        kwargs = spec.get("policy_kwargs") or {}
+        if not isinstance(kwargs, dict):
+            raise PolicyFormatError(f"{where}: policy_kwargs must be a mapping")
+        check_network(obs, act, check_net_arch(kwargs.get("net_arch"), f"{where}: net_arch"), where)
     except (KeyError, TypeError):
         raise PolicyFormatError(f"{where}: no valid observation_space/action_space") from None
-    kwargs = spec.get("policy_kwargs") or {}
-    if not isinstance(kwargs, dict):
-        raise PolicyFormatError(f"{where}: policy_kwargs must be a mapping")
-    check_network(obs, act, check_net_arch(kwargs.get("net_arch"), f"{where}: net_arch"), where)
+    except LimitError as err:
+        raise PolicyFormatError(str(err)) from None
+
+
+def safe_yaml(path):
+    """A run's YAML file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
+    from coopnav_env.safe_load import UnsafeDataError, read_yaml
+
+    try:
+        return read_yaml(path)
+    except UnsafeDataError as err:
+        raise PolicyFormatError(str(err)) from None
+
+
+def safe_json(path):
+    """A run's JSON file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
+    from coopnav_env.safe_load import UnsafeDataError, read_json
+
+    try:
+        return read_json(path)
+    except UnsafeDataError as err:
+        raise PolicyFormatError(str(err)) from None
 
 
 def load_policy_state(policy, state: dict, where):

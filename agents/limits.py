@@ -3,7 +3,8 @@ anything is built: a safetensors header saying ``net_arch: [2000000000]`` would
 otherwise allocate a 150 GB layer, ``n_envs: 1e7`` ten million simulators.
 
 ``check_net_arch(value, where)`` and ``check_space_size(shape, where)`` raise
-``agents.PolicyFormatError`` (a ``ValueError``) with one line naming the field. The
+``LimitError`` (a ``ValueError``; ``agents.formats`` re-raises it as
+``PolicyFormatError``) with one line naming the field. The
 limits are far above what the project trains (64-256 units, 2-3 layers, observations
 of a few hundred numbers)."""
 
@@ -12,30 +13,33 @@ from __future__ import annotations
 import math
 import numbers
 
-from .formats import PolicyFormatError
+
+
+class LimitError(ValueError):
+    """A size refused (callers re-raise it as ``agents.PolicyFormatError``)."""
 
 MAX_LAYER_WIDTH = 8192
 MAX_LAYERS = 32
 MAX_OBS_SIZE = 100_000  # numbers in one observation or action
 MAX_PARAMETERS = 50_000_000  # weights of one network (200 MB of float32)
 
-__all__ = ["MAX_LAYERS", "MAX_LAYER_WIDTH", "MAX_OBS_SIZE", "MAX_PARAMETERS", "check_net_arch", "check_space_size",
+__all__ = ["LimitError", "MAX_LAYERS", "MAX_LAYER_WIDTH", "MAX_OBS_SIZE", "MAX_PARAMETERS", "check_net_arch", "check_space_size",
            "check_network"]
 
 
 def _width(v, where: str) -> int:
     if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or int(v) != v:
-        raise PolicyFormatError(f"{where}: layer width {v!r} is not an integer: refused")
+        raise LimitError(f"{where}: layer width {v!r} is not an integer: refused")
     if not 1 <= v <= MAX_LAYER_WIDTH:
-        raise PolicyFormatError(f"{where}: layer width {v!r} is outside [1, {MAX_LAYER_WIDTH}]: refused")
+        raise LimitError(f"{where}: layer width {v!r} is outside [1, {MAX_LAYER_WIDTH}]: refused")
     return int(v)
 
 
 def _layers(v, where: str) -> list:
     if not isinstance(v, (list, tuple)):
-        raise PolicyFormatError(f"{where}: expected a list of layer widths, got {type(v).__name__}: refused")
+        raise LimitError(f"{where}: expected a list of layer widths, got {type(v).__name__}: refused")
     if len(v) > MAX_LAYERS:
-        raise PolicyFormatError(f"{where}: {len(v)} layers, more than {MAX_LAYERS}: refused")
+        raise LimitError(f"{where}: {len(v)} layers, more than {MAX_LAYERS}: refused")
     return [_width(x, where) for x in v]
 
 
@@ -47,7 +51,7 @@ def check_net_arch(value, where: str = "net_arch") -> list:
     if isinstance(value, dict):
         extra = set(value) - {"pi", "vf"}
         if extra:
-            raise PolicyFormatError(f"{where}: unknown keys {sorted(extra)} (pi, vf): refused")
+            raise LimitError(f"{where}: unknown keys {sorted(extra)} (pi, vf): refused")
         return [_layers(value.get(k, []), f"{where}.{k}") for k in ("pi", "vf")]
     return [_layers(value, where)]
 
@@ -55,14 +59,14 @@ def check_net_arch(value, where: str = "net_arch") -> list:
 def check_space_size(shape, where: str = "space") -> int:
     """The number of elements of a Box ``shape``; refused above ``MAX_OBS_SIZE``."""
     if not isinstance(shape, (list, tuple)) or len(shape) > 8:
-        raise PolicyFormatError(f"{where}: bad shape {shape!r}: refused")
+        raise LimitError(f"{where}: bad shape {shape!r}: refused")
     n = 1
     for s in shape:
         if isinstance(s, bool) or not isinstance(s, numbers.Integral) or not 0 <= s <= MAX_OBS_SIZE:
-            raise PolicyFormatError(f"{where}: bad dimension {s!r} in shape {shape!r}: refused")
+            raise LimitError(f"{where}: bad dimension {s!r} in shape {shape!r}: refused")
         n *= int(s)
         if n > MAX_OBS_SIZE:
-            raise PolicyFormatError(f"{where}: shape {shape!r} holds more than {MAX_OBS_SIZE} numbers: refused")
+            raise LimitError(f"{where}: shape {shape!r} holds more than {MAX_OBS_SIZE} numbers: refused")
     return n
 
 
@@ -76,5 +80,5 @@ def check_network(obs_size: int, act_size: int, layer_lists: list, where: str) -
             prev = w
         total += prev * max(act_size, 1) + prev
     if total > MAX_PARAMETERS:
-        raise PolicyFormatError(f"{where}: the network would have about {total} weights, more than "
+        raise LimitError(f"{where}: the network would have about {total} weights, more than "
                                 f"{MAX_PARAMETERS}: refused")

@@ -146,9 +146,9 @@ def resolve(path, scenario=None, trust_pickle=False) -> tuple:
 def _normalizes(ckpt: Path, config_path) -> str | None:
     """Why the run of checkpoint ``ckpt`` normalizes observations (None: it does not say so)."""
     if config_path is not None:
-        from agents import _safe_yaml
+        from agents.formats import safe_yaml
 
-        record = _safe_yaml(config_path) or {}
+        record = safe_yaml(config_path) or {}
         hyper = record.get("hyperparameters") if isinstance(record, dict) else None
         if isinstance(hyper, dict) and hyper.get("normalize_obs"):
             return f"{config_path} says normalize_obs: true"
@@ -182,10 +182,10 @@ class _LoadedRun:
     """What every beacon's policy of one checkpoint shares: modules, filters, config."""
 
     def __init__(self, checkpoint: Path, config_path: Path | None):
-        from agents import _safe_yaml
+        from agents.formats import safe_yaml
 
         self.checkpoint = checkpoint
-        self.run_config = _safe_yaml(config_path) if config_path else {}
+        self.run_config = safe_yaml(config_path) if config_path else {}
         self.run_config = self.run_config if isinstance(self.run_config, dict) else {}
         self.trained_config = _trained_scenario(self.run_config)
         self.export = checkpoint / EXPORT_DIR if _export_files(checkpoint) else None
@@ -368,20 +368,22 @@ def read_module(path: Path):
 
 def _check_module_sizes(spec: dict, path):
     from agents.formats import PolicyFormatError
-    from agents.limits import check_net_arch, check_network, check_space_size
+    from agents.limits import LimitError, check_net_arch, check_network, check_space_size
 
-    try:
-        obs = check_space_size(spec["observation_space"]["shape"], f"{path}: observation_space")
-        act = check_space_size(spec["action_space"]["shape"], f"{path}: action_space")
-    except (KeyError, TypeError):
-        raise PolicyFormatError(f"{path}: no valid observation_space/action_space") from None
     config = spec.get("model_config") or {}
     if not isinstance(config, dict):
         raise PolicyFormatError(f"{path}: model_config must be a mapping")
-    layers = [w for key in ("fcnet_hiddens", "head_fcnet_hiddens", "pi_head_fcnet_hiddens",
-                            "vf_head_fcnet_hiddens") if key in config
-              for w in check_net_arch(config[key], f"{path}: model_config.{key}")]
-    check_network(obs, act, [sum(layers, [])], path)
+    try:
+        obs = check_space_size(spec["observation_space"]["shape"], f"{path}: observation_space")
+        act = check_space_size(spec["action_space"]["shape"], f"{path}: action_space")
+        layers = [w for key in ("fcnet_hiddens", "head_fcnet_hiddens", "pi_head_fcnet_hiddens",
+                                "vf_head_fcnet_hiddens") if key in config
+                  for w in check_net_arch(config[key], f"{path}: model_config.{key}")]
+        check_network(obs, act, [sum(layers, [])], path)
+    except (KeyError, TypeError):
+        raise PolicyFormatError(f"{path}: no valid observation_space/action_space") from None
+    except LimitError as err:
+        raise PolicyFormatError(str(err)) from None
 
 
 def read_filters(path: Path) -> dict:

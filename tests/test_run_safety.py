@@ -475,6 +475,22 @@ def test_a_read_only_folder_during_evaluate_is_one_line(small_tmpfs, fast_ref, c
     assert tree_hash(out) == before
 
 
+def test_a_memory_error_during_evaluate_is_one_line_and_releases_the_folder(tmp_path, monkeypatch, capsys):
+    from evaluation import run as eval_run
+
+    def no_memory(*args, **kwargs):
+        raise MemoryError
+
+    out = tmp_path / "o"
+    with monkeypatch.context() as m:
+        m.setattr(eval_run, "run_episodes", no_memory)
+        code, err = evaluate(FAST + ["--out", str(out)], capsys)
+    one_line_exit_2(code, err, "out of memory")
+    assert not (out / ".evaluate.owner.json").exists()
+    code, err = evaluate(FAST + ["--out", str(out), "--overwrite"], capsys)  # not "in use by another evaluation"
+    assert code == 0, err
+
+
 def test_enospc_during_train_in_process_is_one_line(tmp_path, monkeypatch, capsys):
     """A full disk at train.py's first write (os.replace of an atomic write fails)."""
     from coopnav_env import records

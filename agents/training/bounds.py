@@ -4,7 +4,8 @@
 must be finite and in a range that fits a machine (``n_envs: 1e7`` would build ten
 million simulators, ``net_arch: [2e9]`` a 150 GB layer, ``learning_rate: .inf`` a
 run that crashes after its config.yml is written). A ``ConfigError`` (one line)
-names the key, the value and the range.
+names the key, the value and the range (``BoundsError`` here, re-raised as
+``agents.training.config.ConfigError``).
 """
 
 from __future__ import annotations
@@ -12,7 +13,10 @@ from __future__ import annotations
 import math
 import numbers
 
-from .config import ConfigError
+
+
+class BoundsError(ValueError):
+    """A bound exceeded (``config`` re-raises it as its own ``ConfigError``)."""
 
 MAX_TIMESTEPS = 10**11
 MAX_N_ENVS = 4096
@@ -21,7 +25,7 @@ MAX_EVAL_EPISODES = 100_000
 MAX_EVAL_CELLS = 10_000
 MAX_ENV_RUNNERS = 1024
 
-__all__ = ["check_bounds"]
+__all__ = ["BoundsError", "check_bounds"]
 
 
 def _finite_numbers(value, where: str):
@@ -34,7 +38,7 @@ def _finite_numbers(value, where: str):
         except OverflowError:  # an int too large for a float
             ok = False
         if not ok:
-            raise ConfigError(f"{where} must be a finite number of a sensible size, got {value!r:.40}")
+            raise BoundsError(f"{where} must be a finite number of a sensible size, got {value!r:.40}")
         return
     if isinstance(value, dict):
         for k, v in value.items():
@@ -46,22 +50,21 @@ def _finite_numbers(value, where: str):
 
 def _int_in(value, low, high, where: str):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
-        raise ConfigError(f"{where} must be an integer in [{low}, {high}], got {value!r:.40}")
+        raise BoundsError(f"{where} must be an integer in [{low}, {high}], got {value!r:.40}")
 
 
 def _positive(value, where: str, high: float = math.inf):
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value <= high:
-        raise ConfigError(f"{where} must be a number in (0, {high:g}], got {value!r:.40}")
+        raise BoundsError(f"{where} must be a number in (0, {high:g}], got {value!r:.40}")
 
 
 def _net_arch(value, where: str):
-    from agents.formats import PolicyFormatError
-    from agents.limits import check_net_arch
+    from agents.limits import LimitError, check_net_arch
 
     try:
         check_net_arch(value, where)
-    except PolicyFormatError as err:
-        raise ConfigError(str(err)) from None
+    except LimitError as err:
+        raise BoundsError(str(err)) from None
 
 
 def _eval_cells(cells: dict, where: str):
@@ -69,7 +72,7 @@ def _eval_cells(cells: dict, where: str):
     for key, values in (cells or {}).items():
         n *= len(values) if isinstance(values, (list, tuple)) else 1
         if n > MAX_EVAL_CELLS:
-            raise ConfigError(f"{where}: the grid has more than {MAX_EVAL_CELLS} cells: refused")
+            raise BoundsError(f"{where}: the grid has more than {MAX_EVAL_CELLS} cells: refused")
 
 
 def check_bounds(config) -> None:
@@ -97,7 +100,7 @@ def check_bounds(config) -> None:
         n_steps = ppo.get("n_steps", 2048)
         _int_in(n_steps, 1, MAX_ROLLOUT, "ppo.n_steps")
         if n_steps * config.n_envs > MAX_ROLLOUT:
-            raise ConfigError(f"ppo.n_steps x n_envs = {n_steps * config.n_envs} rows per rollout, more than "
+            raise BoundsError(f"ppo.n_steps x n_envs = {n_steps * config.n_envs} rows per rollout, more than "
                               f"{MAX_ROLLOUT}: refused")
         for key, high in (("batch_size", MAX_ROLLOUT), ("n_epochs", 10_000)):
             if key in ppo:

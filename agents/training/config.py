@@ -142,9 +142,12 @@ class _Job:
 
     def check(self):
         """Refuse what the fields' types cannot (a ``ConfigError``); returns self."""
-        from .bounds import check_bounds
+        from .bounds import BoundsError, check_bounds
 
-        check_bounds(self)  # finite numbers, sizes that fit a machine
+        try:
+            check_bounds(self)  # finite numbers, sizes that fit a machine
+        except BoundsError as err:
+            raise ConfigError(str(err)) from None
         return self
 
 
