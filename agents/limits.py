@@ -14,7 +14,6 @@ import math
 import numbers
 
 
-
 class LimitError(ValueError):
     """A size refused (callers re-raise it as ``agents.PolicyFormatError``)."""
 
@@ -23,8 +22,16 @@ MAX_LAYERS = 32
 MAX_OBS_SIZE = 100_000  # numbers in one observation or action
 MAX_PARAMETERS = 50_000_000  # weights of one network (200 MB of float32)
 
-__all__ = ["LimitError", "MAX_LAYERS", "MAX_LAYER_WIDTH", "MAX_OBS_SIZE", "MAX_PARAMETERS", "check_net_arch", "check_space_size",
-           "check_network"]
+__all__ = [
+    "MAX_LAYERS",
+    "MAX_LAYER_WIDTH",
+    "MAX_OBS_SIZE",
+    "MAX_PARAMETERS",
+    "LimitError",
+    "check_net_arch",
+    "check_network",
+    "check_space_size",
+]
 
 
 def _width(v, where: str) -> int:

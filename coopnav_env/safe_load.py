@@ -117,7 +117,7 @@ def loads_yaml(text, where: str = "YAML text", max_bytes: int = MAX_BYTES, max_d
     _check_yaml_events(text, where, max_depth, max_nodes)
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
-        return yaml.load(text, Loader=loader)  # noqa: S506 - a safe loader, checked above
+        return yaml.load(text, Loader=loader)
     except yaml.YAMLError as err:
         raise UnsafeDataError(f"{where}: not YAML: {' '.join(str(err).split())[:300]}") from None
     except (RecursionError, MemoryError, OverflowError, ValueError, TypeError) as err:

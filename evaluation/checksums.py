@@ -64,8 +64,8 @@ def verify(out: str, kept: list, ep_columns) -> tuple:
     if not kept:
         return [], []
     if recorded is None:
-        return [], [f"{FILE} is missing or unreadable in {out!r}: the {len(kept)} episode(s) there cannot be "
-                     "verified and are run again"]
+        return [], [(f"{FILE} is missing or unreadable in {out!r}: the {len(kept)} episode(s) there cannot be "
+                     "verified and are run again")]
     good, unknown = [], 0
     for ep, steps in kept:
         want = recorded.get(key(ep))

@@ -23,11 +23,11 @@ import yaml
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("safetensors")
 
-import agents  # noqa: E402
-from agents import convert  # noqa: E402
-from agents.training import cli as train_cli  # noqa: E402
-from coopnav_env.safe_load import UnsafeDataError, loads_json, loads_yaml, read_yaml  # noqa: E402
-from evaluation import cli as eval_cli  # noqa: E402
+import agents
+from agents import convert
+from agents.training import cli as train_cli
+from coopnav_env.safe_load import UnsafeDataError, loads_json, loads_yaml, read_yaml
+from evaluation import cli as eval_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = ROOT / "agents" / "policies" / "ppo_gao_sea"
@@ -440,13 +440,13 @@ def test_a_resumed_run_keeps_its_evaluation_schedule(tmp_path):
 def small_tmpfs(tmp_path):
     mnt = tmp_path / "mnt"
     mnt.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True)
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True, check=False)
     if r.returncode != 0:
         pytest.skip("cannot mount a tmpfs here (needs root)")
     try:
         yield mnt
     finally:
-        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True, check=False)
 
 
 def test_a_full_disk_during_evaluate_is_one_line(small_tmpfs, capsys):
@@ -522,7 +522,7 @@ def test_enospc_during_train_is_one_line_and_nothing_half_written(run, tmp_path)
     r = subprocess.run([sys.executable, str(ROOT / "train.py"), "--scenario", "sousa_asv", "--timesteps", "64",
                         "--out", str(out), "--set", "n_envs=1", "--set", "ppo.n_steps=64",
                         "--set", "ppo.batch_size=64", "--set", "eval.every_steps=0", "--set", "eval.episodes=0",
-                        "--no-progress"], env=env, capture_output=True, text=True, timeout=300)
+                        "--no-progress"], env=env, capture_output=True, text=True, timeout=300, check=False)
     one_line_exit_2(r.returncode, r.stderr, "the disk is full")
     assert not [p for p in out.rglob("*") if p.name.endswith(".tmp")]
 

@@ -14,7 +14,6 @@ import math
 import numbers
 
 
-
 class BoundsError(ValueError):
     """A bound exceeded (``config`` re-raises it as its own ``ConfigError``)."""
 
@@ -69,7 +68,7 @@ def _net_arch(value, where: str):
 
 def _eval_cells(cells: dict, where: str):
     n = 1
-    for key, values in (cells or {}).items():
+    for values in (cells or {}).values():
         n *= len(values) if isinstance(values, (list, tuple)) else 1
         if n > MAX_EVAL_CELLS:
             raise BoundsError(f"{where}: the grid has more than {MAX_EVAL_CELLS} cells: refused")
