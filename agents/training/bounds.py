@@ -94,7 +94,7 @@ def check_bounds(config) -> None:
                 lr = float(lr[4:])
             except ValueError:
                 lr = None
-        if lr is not None:  # a bad text is TrainConfig.check's to report
+        if lr is not None and lr != 0:  # a bad text is TrainConfig.check's to report; 0: frozen weights
             _positive(lr, "ppo.learning_rate", 10.0)
         n_steps = ppo.get("n_steps", 2048)
         _int_in(n_steps, 1, MAX_ROLLOUT, "ppo.n_steps")
@@ -122,7 +122,7 @@ def check_bounds(config) -> None:
         if "num_env_runners" in runners:
             _int_in(runners["num_env_runners"], 0, MAX_ENV_RUNNERS, "env_runners.num_env_runners")
         _int_in(config.checkpoint_every_iterations, 0, 10**9, "checkpoint_every_iterations")
-        if "lr" in ppo and isinstance(ppo["lr"], numbers.Real):
+        if "lr" in ppo and isinstance(ppo["lr"], numbers.Real) and ppo["lr"] != 0:
             _positive(ppo["lr"], "ppo.lr", 10.0)
         for key in ("fcnet_hiddens", "head_fcnet_hiddens"):
             if key in (config.model or {}):
