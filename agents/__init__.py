@@ -51,6 +51,8 @@ import numpy as np
 
 from .formats import (_TRUSTED, PickleRefused, PolicyFormatError, _check_trusted, _is_legacy, check_inside,  # noqa: F401
                       refuse_pickle, trust_pickle)
+from . import safe_paths
+from .formats import safe_json as _safe_json, safe_yaml as _safe_yaml  # bounded reads: one-line refusals
 from .policy import BatchPolicy, _trained_scenario
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
@@ -90,7 +92,7 @@ def _model_files(directory: Path):
     last = directory / "checkpoints" / "last_checkpoint.json"
     if last.is_file():
         try:
-            info = json.loads(last.read_text())
+            info = _safe_json(last)
             names = str(info["model"]), str(info["vecnormalize"])
         except (ValueError, KeyError, TypeError):
             raise PolicyFormatError(f"{last} is not a checkpoint record (model, vecnormalize)") from None
@@ -105,12 +107,7 @@ def _config_norm_obs(config_path) -> bool | None:
     does not say: no config, or not an SB3 run)."""
     if config_path is None:
         return None
-    import yaml
-
-    try:
-        record = yaml.safe_load(Path(config_path).read_text()) or {}
-    except (OSError, yaml.YAMLError):
-        return None
+    record = _safe_yaml(config_path) or {}
     if not isinstance(record, dict) or not isinstance(record.get("args"), dict):
         return None
     if (record["args"].get("backend") or "sb3") != "sb3":
@@ -161,6 +158,7 @@ def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
         return rllib_policy.resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     path = Path(str(name_or_path))
     if path.suffix in (".zip", ".safetensors") and path.is_file():
+        safe_paths.inside(path.parent, path.name, "model file")  # a link out of its folder: refused
         stem = path.name[:-len(path.suffix)]
         ext = ".pkl" if path.suffix == ".zip" else ".safetensors"
         candidates = [path.with_name(stem + "_vecnormalize" + ext),
@@ -168,6 +166,9 @@ def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
         stats = next((c for c in candidates if c.is_file()), candidates[-1])
         config = next((d / "config.yml" for d in (path.parent, path.parent.parent) if (d / "config.yml").is_file()),
                       None)
+        for extra in (stats, config):
+            if extra is not None and extra.exists():
+                safe_paths.inside(extra.parent, extra.name, "file")
         stats = _check_normalization(path, stats, config)
         _check_trusted([path, stats], trust_pickle)
         return path, stats, config
@@ -185,6 +186,7 @@ def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
             shipped = list_policies()
             raise ValueError(f"no policy {name_or_path!r}: not a run directory, a model file or a shipped policy "
                              f"(shipped: {', '.join(shipped) if shipped else 'none yet'})")
+    safe_paths.check_tree(directory)  # nothing read from it may lead outside it
     if (directory / "gate.yml").is_file():  # two policies and a gate: DepthGatedPolicy
         return directory / "gate.yml", None, None
     files = _model_files(directory)
@@ -298,8 +300,6 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
 
     if rllib_policy.is_rllib_path(name_or_path):  # train.py --backend rllib
         return rllib_policy.load(name_or_path, scenario=scenario, device=device, trust_pickle=trust_pickle)
-    import yaml
-
     model_path, stats_path, config_path = resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     if model_path.name == "gate.yml":
         return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name,
@@ -313,7 +313,9 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
         clip_obs, epsilon = stats["clip_obs"], stats["epsilon"]
     run_config, trained_config = {}, None
     if config_path is not None:
-        run_config = yaml.safe_load(config_path.read_text()) or {}
+        run_config = _safe_yaml(config_path) or {}
+        if not isinstance(run_config, dict):
+            raise PolicyFormatError(f"{config_path}: expected a mapping (a train.py run record)")
         trained_config = _trained_scenario(run_config)
     policy = PPOPolicy(model, obs_rms, clip_obs, epsilon, config=trained_config, run_config=run_config,
                        name=Path(str(name_or_path)).name)
@@ -374,14 +376,21 @@ class DepthGatedPolicy(BatchPolicy):
 
 
 def _load_gated(gate_path: Path, scenario, device, name, trust_pickle=False):
-    import yaml
-
-    spec = yaml.safe_load(gate_path.read_text()) or {}
-    if spec.get("kind") != "depth_gate" or not {"threshold_m", "shallow", "deep"} <= set(spec):
+    spec = _safe_yaml(gate_path) or {}
+    if not isinstance(spec, dict) or spec.get("kind") != "depth_gate" or \
+            not {"threshold_m", "shallow", "deep"} <= set(spec):
         raise ValueError(f"{gate_path}: expected kind: depth_gate with threshold_m, shallow and deep")
     dirs = [check_inside(gate_path.parent, str(spec[k]), f"{gate_path}: {k}") for k in ("shallow", "deep")]
+    for key, d in zip(("shallow", "deep"), dirs):  # a gate of gates (or of itself) would recurse
+        if d == gate_path.parent.resolve() or (d / "gate.yml").exists():
+            raise PolicyFormatError(f"{gate_path}: {key} names {spec[key]!r}, a gate itself: a gate's networks "
+                                    "must be trained policies, not gates")
+    try:
+        threshold = float(spec["threshold_m"])
+    except (TypeError, ValueError, OverflowError):
+        raise PolicyFormatError(f"{gate_path}: threshold_m must be a number, got {spec['threshold_m']!r}") from None
     parts = [load(d, scenario=scenario, device=device, trust_pickle=trust_pickle) for d in dirs]
-    return DepthGatedPolicy(*parts, threshold_m=float(spec["threshold_m"]), name=name)
+    return DepthGatedPolicy(*parts, threshold_m=threshold, name=name)
 
 
 _CACHE: dict = {}

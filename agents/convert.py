@@ -31,8 +31,14 @@ from pathlib import Path
 
 from coopnav_env.records import atomic_write_bytes, atomic_write_text
 
-from . import formats
+from . import formats, safe_paths
 from .formats import PolicyFormatError
+
+
+def _read_json(path):
+    from coopnav_env.safe_load import read_json
+
+    return read_json(path)  # bounded; an UnsafeDataError (a ValueError) names the file
 
 PICKLE_SUFFIXES = formats.PICKLE_SUFFIXES
 PAIRS = (("best_model.zip", "best_vecnormalize.pkl"), ("model.zip", "vecnormalize.pkl"))
@@ -71,7 +77,7 @@ def _convert_dir(src: Path, out: Path, written: list):
             written.append(out / "checkpoints" / f"{stem}.safetensors")
         last = ckpt / "last_checkpoint.json"
         if last.is_file():
-            info = json.loads(last.read_text())
+            info = _read_json(last)
             for key in ("model", "vecnormalize"):
                 formats.check_inside(ckpt, str(info[key]), f"{last}: file")
                 name = str(info[key])
@@ -111,6 +117,11 @@ def convert(src, out, trust_pickle: bool = False) -> list:
         raise PolicyFormatError(f"--out {out} must lie outside {src}")
     if not trust_pickle:
         formats.refuse_pickle(src, "read by unpickling (an SB3 .zip/.pkl or an RLlib checkpoint)")
+    # nothing outside the folder named is read or copied: no link in it may lead out
+    if src.is_dir():
+        safe_paths.check_tree(src)
+    else:
+        safe_paths.inside(src.parent, src.name, "model file")
     written: list = []
     if rllib_policy.is_rllib_path(src):
         rllib_policy.convert(src, out)
@@ -122,10 +133,13 @@ def convert(src, out, trust_pickle: bool = False) -> list:
         pkl = next((c for c in (src.with_name(stem + "_vecnormalize.pkl"),
                                 src.with_name("best_vecnormalize.pkl" if stem == "best_model" else "vecnormalize.pkl"))
                     if c.is_file()), None)
-        out.mkdir(parents=True, exist_ok=True)
-        convert_model(src, pkl, out / "model.safetensors", out / "vecnormalize.safetensors")
         config = next((d / "config.yml" for d in (src.parent, src.parent.parent) if (d / "config.yml").is_file()),
                       None)
+        for extra in (pkl, config):
+            if extra is not None:
+                safe_paths.inside(extra.parent, extra.name, "file")
+        out.mkdir(parents=True, exist_ok=True)
+        convert_model(src, pkl, out / "model.safetensors", out / "vecnormalize.safetensors")
         if config is not None:
             atomic_write_bytes(out / "config.yml", config.read_bytes())
         return [out / "model.safetensors"]
@@ -133,6 +147,21 @@ def convert(src, out, trust_pickle: bool = False) -> list:
     if not written and not (out / "gate.yml").is_file():
         raise PolicyFormatError(f"{src} holds no SB3 model (model.zip, best_model.zip or checkpoints/ckpt_*.zip)")
     return written
+
+
+def _discard(out: Path, existed: bool):
+    """Empty ``out``, or remove it if it did not exist (it was absent or empty before
+    this conversion started)."""
+    import shutil
+
+    if out.is_dir() and not out.is_symlink():
+        for child in list(out.iterdir()):
+            if child.is_dir() and not child.is_symlink():
+                shutil.rmtree(child, ignore_errors=True)
+            else:
+                child.unlink(missing_ok=True)
+        if not existed:
+            out.rmdir()
 
 
 def main(argv=None) -> int:
@@ -144,10 +173,21 @@ def main(argv=None) -> int:
     p.add_argument("--trust-pickle", action="store_true",
                    help="you trust SRC: unpickling it runs whatever code it holds (required)")
     args = p.parse_args(argv)
+    out = Path(args.out)
+    existed = out.exists() or out.is_symlink()
+    fresh = not existed or out.is_dir() and not any(out.iterdir())
     try:
         written = convert(args.src, args.out, trust_pickle=args.trust_pickle)
-    except (PolicyFormatError, OSError, ValueError, KeyError) as err:
-        print(f"agents.convert: error: {' '.join(str(err).splitlines())}", file=sys.stderr)
+    except (PolicyFormatError, OSError, ValueError, KeyError, MemoryError) as err:
+        if isinstance(err, (OSError, MemoryError)):
+            from coopnav_env.failures import one_line
+
+            text = one_line(err)
+        else:
+            text = ' '.join(str(err).splitlines())
+        if fresh:
+            _discard(out, existed)  # no half-converted folder: --out is as it was (absent or empty)
+        print(f"agents.convert: error: {text}", file=sys.stderr)
         return 2
     print(f"converted {args.src} -> {args.out} ({len(written)} model file(s)); load it with agents.load({args.out!r})")
     return 0

@@ -279,13 +279,15 @@ def _open(path, framework: str, expected: str) -> tuple:
             tensors = {k: f.get_tensor(k) for k in f.keys()}
     except Exception as err:  # noqa: BLE001 - safetensors' errors vary by version
         raise PolicyFormatError(f"{path} is not a valid safetensors file ({_first_line(err)})") from None
+    from coopnav_env.safe_load import loads_json
+
     try:
-        spec = json.loads(meta) if meta is not None else None
+        spec = loads_json(meta, f"{path} header", max_bytes=16 << 20) if meta is not None else None
     except ValueError:
         spec = None
     if not isinstance(spec, dict) or spec.get("format") != expected:
         raise PolicyFormatError(f"{path} is not a {expected} file (no coopnav metadata)")
-    if int(spec.get("version", 0)) > VERSION:
+    if not isinstance(spec.get("version", 0), int) or spec.get("version", 0) > VERSION:
         raise PolicyFormatError(f"{path}: {expected} version {spec.get('version')} is newer than this code "
                                 f"reads ({VERSION})")
     return tensors, spec
@@ -318,6 +320,7 @@ def build_policy(spec: dict, state: dict | None = None, where="model", device="c
 
     if spec.get("policy") not in POLICY_CLASSES:
         raise PolicyFormatError(f"{where}: unsupported policy class {spec.get('policy')!r}")
+    _check_header_sizes(spec, where)  # before anything is allocated
     kwargs = policy_kwargs_python(spec.get("policy_kwargs"), where)
     try:
         policy = ActorCriticPolicy(_unbox(spec["observation_space"], where), _unbox(spec["action_space"], where),
@@ -330,6 +333,42 @@ def build_policy(spec: dict, state: dict | None = None, where="model", device="c
     policy.to(device)
     policy.set_training_mode(False)
     return policy
+
+
+def _check_header_sizes(spec: dict, where):
+    from .limits import LimitError, check_net_arch, check_network, check_space_size
+
+    try:
+        obs = check_space_size(spec["observation_space"]["shape"], f"{where}: observation_space")
+        act = check_space_size(spec["action_space"]["shape"], f"{where}: action_space")
+        kwargs = spec.get("policy_kwargs") or {}
+        if not isinstance(kwargs, dict):
+            raise PolicyFormatError(f"{where}: policy_kwargs must be a mapping")
+        check_network(obs, act, check_net_arch(kwargs.get("net_arch"), f"{where}: net_arch"), where)
+    except (KeyError, TypeError):
+        raise PolicyFormatError(f"{where}: no valid observation_space/action_space") from None
+    except LimitError as err:
+        raise PolicyFormatError(str(err)) from None
+
+
+def safe_yaml(path):
+    """A run's YAML file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
+    from coopnav_env.safe_load import UnsafeDataError, read_yaml
+
+    try:
+        return read_yaml(path)
+    except UnsafeDataError as err:
+        raise PolicyFormatError(str(err)) from None
+
+
+def safe_json(path):
+    """A run's JSON file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
+    from coopnav_env.safe_load import UnsafeDataError, read_json
+
+    try:
+        return read_json(path)
+    except UnsafeDataError as err:
+        raise PolicyFormatError(str(err)) from None
 
 
 def load_policy_state(policy, state: dict, where):

@@ -76,10 +76,10 @@ def _run_config_backend(directory: Path):
     if not path.is_file():
         return None
     try:
-        import yaml
+        from coopnav_env.safe_load import read_yaml
 
-        return ((yaml.safe_load(path.read_text()) or {}).get("args", {}) or {}).get("backend")
-    except Exception:  # noqa: BLE001 - an unreadable config is not an RLlib run
+        return ((read_yaml(path) or {}).get("args", {}) or {}).get("backend")
+    except Exception:  # noqa: BLE001 - an unreadable config is not an RLlib run (the SB3 path refuses it)
         return None
 
 
@@ -120,6 +120,9 @@ def resolve(path, scenario=None, trust_pickle=False) -> tuple:
     ckpt = find_checkpoint(path)
     if ckpt is None:
         raise ValueError(f"{path} is not an RLlib checkpoint or train.py --backend rllib run")
+    from agents.safe_paths import check_tree
+
+    check_tree(path)  # no file of the run (policy_export/, the modules) may lead outside it
     if not (ckpt / CHECKPOINT_MARKER).is_file():
         raise ValueError(f"{path} holds no RLlib checkpoint yet ({ckpt} is missing)")
     modules = ckpt / MODULE_DIR
@@ -130,6 +133,7 @@ def resolve(path, scenario=None, trust_pickle=False) -> tuple:
     export = _export_files(ckpt)
     if export:
         _check_trusted(export, False)  # safetensors: refused only if one holds a pickle instead
+        _check_filters(ckpt, find_run_config(ckpt))
     elif not trust_pickle and str(ckpt.resolve()) not in _TRUSTED:  # RLlib's own files are pickle-based
         from agents.formats import refuse_pickle
 
@@ -137,6 +141,34 @@ def resolve(path, scenario=None, trust_pickle=False) -> tuple:
     else:
         _check_trusted([ckpt], True)
     return ckpt, None, find_run_config(ckpt)
+
+
+def _normalizes(ckpt: Path, config_path) -> str | None:
+    """Why the run of checkpoint ``ckpt`` normalizes observations (None: it does not say so)."""
+    if config_path is not None:
+        from agents.formats import safe_yaml
+
+        record = safe_yaml(config_path) or {}
+        hyper = record.get("hyperparameters") if isinstance(record, dict) else None
+        if isinstance(hyper, dict) and hyper.get("normalize_obs"):
+            return f"{config_path} says normalize_obs: true"
+    if (ckpt / FILTER_STATE).exists():
+        return f"the checkpoint holds an observation filter ({FILTER_STATE})"
+    return None
+
+
+def _check_filters(ckpt: Path, config_path):
+    """Refuse an export without ``filters.safetensors`` of a run that normalized its
+    observations: its policy would act on unnormalized ones (a silently wrong result)."""
+    if (ckpt / EXPORT_DIR / FILTERS_FILE).is_file():
+        return
+    why = _normalizes(ckpt, config_path)
+    if why:
+        from agents.formats import PolicyFormatError
+
+        raise PolicyFormatError(f"{ckpt / EXPORT_DIR / FILTERS_FILE} is missing, but the policy was trained on "
+                                f"normalized observations ({why}): refused (it would act on unnormalized "
+                                "observations)")
 
 
 def _export_files(ckpt: Path) -> list:
@@ -150,11 +182,11 @@ class _LoadedRun:
     """What every beacon's policy of one checkpoint shares: modules, filters, config."""
 
     def __init__(self, checkpoint: Path, config_path: Path | None):
-        import yaml
+        from agents.formats import safe_yaml
 
         self.checkpoint = checkpoint
-        self.run_config = yaml.safe_load(config_path.read_text()) if config_path else {}
-        self.run_config = self.run_config or {}
+        self.run_config = safe_yaml(config_path) if config_path else {}
+        self.run_config = self.run_config if isinstance(self.run_config, dict) else {}
         self.trained_config = _trained_scenario(self.run_config)
         self.export = checkpoint / EXPORT_DIR if _export_files(checkpoint) else None
         self._modules = {}
@@ -311,6 +343,7 @@ def read_module(path: Path):
     tensors, spec = _open_export(path, "pt", MODULE_FORMAT)
     if spec.get("module_class") != "DefaultPPOTorchRLModule" or spec.get("catalog_class") != "PPOCatalog":
         raise PolicyFormatError(f"{path}: unsupported module class {spec.get('module_class')!r}")
+    _check_module_sizes(spec, path)  # before anything is allocated
     from ray.rllib.algorithms.ppo.ppo_catalog import PPOCatalog
     from ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import DefaultPPOTorchRLModule
 
@@ -331,6 +364,26 @@ def read_module(path: Path):
     except RuntimeError as err:
         raise PolicyFormatError(f"{path} does not fit the module it describes: {str(err).splitlines()[0]}") from None
     return module
+
+
+def _check_module_sizes(spec: dict, path):
+    from agents.formats import PolicyFormatError
+    from agents.limits import LimitError, check_net_arch, check_network, check_space_size
+
+    config = spec.get("model_config") or {}
+    if not isinstance(config, dict):
+        raise PolicyFormatError(f"{path}: model_config must be a mapping")
+    try:
+        obs = check_space_size(spec["observation_space"]["shape"], f"{path}: observation_space")
+        act = check_space_size(spec["action_space"]["shape"], f"{path}: action_space")
+        layers = [w for key in ("fcnet_hiddens", "head_fcnet_hiddens", "pi_head_fcnet_hiddens",
+                                "vf_head_fcnet_hiddens") if key in config
+                  for w in check_net_arch(config[key], f"{path}: model_config.{key}")]
+        check_network(obs, act, [sum(layers, [])], path)
+    except (KeyError, TypeError):
+        raise PolicyFormatError(f"{path}: no valid observation_space/action_space") from None
+    except LimitError as err:
+        raise PolicyFormatError(str(err)) from None
 
 
 def read_filters(path: Path) -> dict:

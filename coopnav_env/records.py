@@ -57,24 +57,34 @@ def atomic_write_text(path, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def read_json(path):
-    """The parsed content of a JSON file, or None if the file does not exist."""
+def atomic_append_line(path, line: str) -> None:
+    """Append ``line`` (and a newline) to a text file atomically: the old content plus
+    the line is written beside it and renamed into place (``atomic_write_bytes``), so
+    a full disk or a kill leaves the file as it was, never a line cut short."""
     try:
-        with open(path) as f:
-            return json.load(f)
+        with open(path, "rb") as f:
+            old = f.read()
     except FileNotFoundError:
-        return None
+        old = b""
+    if old and not old.endswith(b"\n"):
+        old += b"\n"
+    atomic_write_bytes(path, old + line.rstrip("\n").encode("utf-8") + b"\n")
+
+
+def read_json(path):
+    """The parsed content of a JSON file, or None if the file does not exist. Bounded
+    in size and depth (``coopnav_env.safe_load``: a ``ValueError`` of one line else)."""
+    from .safe_load import read_json as _read_json
+
+    return _read_json(path)
 
 
 def read_yaml(path):
-    """The parsed content of a YAML file (safe loader), or None if it does not exist."""
-    import yaml
+    """The parsed content of a YAML file (safe loader; no aliases, bounded size and
+    depth: ``coopnav_env.safe_load``), or None if it does not exist."""
+    from .safe_load import read_yaml as _read_yaml
 
-    try:
-        with open(path) as f:
-            return yaml.safe_load(f)
-    except FileNotFoundError:
-        return None
+    return _read_yaml(path)
 
 
 def plain(obj):

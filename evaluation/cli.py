@@ -150,6 +150,11 @@ def main(argv=None, prog: str | None = None) -> int:
         except KeyboardInterrupt:
             print(f"{prog}: interrupted before any episode ran; nothing was written", file=sys.stderr)
             return 130
+        except (OSError, MemoryError) as err:  # disk full, read-only, out of memory: one line, the lock released
+            from coopnav_env.failures import one_line
+
+            print(f"{prog}: error: {one_line(err)}", file=sys.stderr)
+            return 2
     finally:
         if previous_handler is not None:
             signal.signal(signal.SIGTERM, previous_handler)

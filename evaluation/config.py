@@ -106,6 +106,13 @@ class EvalConfig:
         object.__setattr__(self, "overrides", dict(self.overrides))
         object.__setattr__(self, "sweep", {k: tuple(split_top_level(v) if isinstance(v, str) else v)
                                            for k, v in dict(self.sweep).items()})
+        from .limits import MAX_CELLS
+
+        n_cells = 1
+        for values in self.sweep.values():  # bounded work: checked before any value is parsed
+            n_cells *= max(len(values), 1)
+            if n_cells > MAX_CELLS:
+                raise UsageError(f"the --sweep grid has more than {MAX_CELLS} cells: refused")
         for name in ("episodes", "batch_size"):
             value = getattr(self, name)
             if value is None and name == "episodes":
@@ -115,6 +122,11 @@ class EvalConfig:
             object.__setattr__(self, name, int(value))
             if value < 1:
                 raise UsageError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
+            from .limits import MAX_BATCH_SIZE, MAX_EPISODES
+
+            high = MAX_EPISODES if name == "episodes" else MAX_BATCH_SIZE
+            if value > high:  # bounded work, before anything runs
+                raise UsageError(f"--{name.replace('_', '-')} must be <= {high}, got {value}")
         try:  # the seed range every tool shares
             object.__setattr__(self, "seed", check_seed(self.seed, "--seed"))
         except ValueError as err:
@@ -179,7 +191,7 @@ def _parse(key: str, text: str, default):
             return low in ("true", "1", "yes")
         if isinstance(default, int):
             v = float(text)
-            if not v.is_integer():
+            if not v.is_integer():  # NaN and infinities (1e400, 10**400 written out) included
                 raise ValueError
             return int(v)
         if isinstance(default, float):
@@ -212,7 +224,10 @@ def coerce_value(key: str, value):
         return parse_value(key, value)
     default = _default(key)
     if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
-        return float(value)
+        try:
+            return float(value)
+        except OverflowError:
+            raise UsageError(f"bad value for {key}: {value!r:.40} is out of range") from None
     if isinstance(default, int) and not isinstance(default, bool) and isinstance(value, float) and value.is_integer():
         return int(value)
     return _to_tuple(value)
@@ -367,6 +382,19 @@ def check_policies(plan: "Plan") -> None:
                 raise UsageError(f"policy {p!r} cannot drive {where}: {_first_line(err)}") from None
 
 
+def _out_of_range(scenario: str, overrides: dict, sweep: dict, err: Exception) -> str:
+    """One line naming the --set/--sweep parameter whose value the scenario cannot take."""
+    import coopnav_env
+
+    for key, values in [(k, [v]) for k, v in overrides.items()] + list(sweep.items()):
+        for v in values:
+            try:
+                coopnav_env.make_config(scenario, **{key: coerce_value(key, v)})
+            except (ArithmeticError, TypeError, ValueError):
+                return f"bad value for {key}: {str(v)[:40]!r} is out of range ({type(err).__name__})"
+    return f"a --set/--sweep value is out of range ({type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''})"
+
+
 def prepare(config: EvalConfig) -> Plan:
     """Check every input of ``config`` and build the run plan; raises UsageError.
     Writes nothing. Checks the output directory too (``outdir.check_existing``): an
@@ -401,6 +429,18 @@ def prepare(config: EvalConfig) -> Plan:
         episodes = 10 if config.episodes is None else config.episodes
     if not policies:
         raise UsageError("no policy given")
+    from . import limits
+
+    if len(policies) > limits.MAX_POLICIES:
+        raise UsageError(f"{len(policies)} policies, more than {limits.MAX_POLICIES}: refused")
+    n_cells = 1
+    for key, raw in config.sweep.items():
+        n_cells *= max(len(raw), 1)
+        if n_cells > limits.MAX_CELLS:
+            raise UsageError(f"the --sweep grid has more than {limits.MAX_CELLS} cells: refused")
+    if n_cells * len(policies) * episodes > limits.MAX_TOTAL_EPISODES:
+        raise UsageError(f"{n_cells} cell(s) x {len(policies)} policies x {episodes} episodes is more than "
+                         f"{limits.MAX_TOTAL_EPISODES} episodes: refused")
     last_seed = config.seed + episodes - 1
     if last_seed > MAX_SEED:
         raise UsageError(f"--seed {config.seed} with {episodes} episodes reaches seed {last_seed}, above the largest "
@@ -439,6 +479,8 @@ def prepare(config: EvalConfig) -> Plan:
         raise
     except ValueError as err:  # unknown parameter or invalid value, from the scenario's checks
         raise UsageError(str(err).splitlines()[0]) from None
+    except (OverflowError, ZeroDivisionError, TypeError) as err:  # a value the scenario's checks let through
+        raise UsageError(_out_of_range(config.scenario, overrides, config.sweep, err)) from None
     run_info = {"scenario": config.scenario, "overrides": plain(overrides), "sweep": plain(sweep),
                 "seed": config.seed, "episodes": episodes, "policies": policies}
     outdir.check_existing(config, run_info, previous, trained)

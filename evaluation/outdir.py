@@ -25,9 +25,10 @@ import time
 from coopnav_env.records import atomic_write_text, read_json, strict_json
 
 from .errors import UsageError
+from .limits import MAX_EPISODES
 
 FORMAT_VERSION = 3  # 3: + pings, collisions, energy_J; 2: CSV floats written with repr (exact); 1 (absent): rounded
-RESULT_FILES = ("run.json", "episodes.csv", "steps.csv", "summary.json", "summary.md")
+RESULT_FILES = ("run.json", "episodes.csv", "steps.csv", "checksums.json", "summary.json", "summary.md")
 SUMMARY_FILES = ("summary.json", "summary.md")
 FIGURE_FILES = ("paths.png", "error_vs_time.png", "ellipse_axes.png", "frame_errors.png", "sweep.png")
 LOCK_FILE = ".evaluate.lock"
@@ -62,7 +63,7 @@ def _is_record(rec) -> str | None:
     checks = {"scenario": lambda v: isinstance(v, str), "overrides": lambda v: isinstance(v, dict),
               "sweep": lambda v: isinstance(v, dict),
               "seed": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
-              "episodes": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 1,
+              "episodes": lambda v: isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_EPISODES,
               "policies": lambda v: isinstance(v, list) and v and all(isinstance(p, str) for p in v)
               and len(set(v)) == len(v)}
     for key, ok in checks.items():

@@ -158,7 +158,7 @@ def kept_rows(out: str, plan) -> tuple:
                 continue
             groups.setdefault(key, []).append(r)
 
-    ep_rows, step_rows = [], []
+    kept = []
     short = unreadable_steps = 0
     for key, r in episodes.items():
         g = groups.get(key, [])
@@ -168,8 +168,12 @@ def kept_rows(out: str, plan) -> tuple:
         if [x["step"] for x in g] != [str(k) for k in range(1, int(r["steps"]) + 1)]:
             short += 1
             continue
-        ep_rows.append(r)
-        step_rows.extend(g)
+        kept.append((r, g))
+    from . import checksums
+
+    kept, checksum_notes = checksums.verify(out, kept, ep_columns)  # a changed row: UsageError
+    ep_rows = [r for r, _ in kept]
+    step_rows = [x for _, g in kept for x in g]
     notes += [f"{text}: its episodes are run again" for text in bad_files]
     if bad_eps:
         notes.append(f"{bad_eps} row(s) of episodes.csv are malformed: those episodes are run again")
@@ -177,4 +181,4 @@ def kept_rows(out: str, plan) -> tuple:
         notes.append(f"{unreadable_steps} episode(s) have malformed rows in steps.csv: they are run again")
     if short:
         notes.append(f"{short} episode(s) do not have all their steps in steps.csv (truncated?): they are run again")
-    return ep_rows, step_rows, notes
+    return ep_rows, step_rows, notes + checksum_notes

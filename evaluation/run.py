@@ -153,12 +153,23 @@ def _run_locked(plan, saved: list) -> EvalResult:
                   f"{plan.episodes} of {', '.join(plan.policies)}", file=sys.stderr)
         print(f"resuming: {skipped} episode(s) already done, {total} to run", file=sys.stderr)
     episode_key, step_key = _row_order(plan)
+    from . import checksums
+
+    digests = {}
 
     def write_rows():
         ep_rows.sort(key=episode_key)
         step_rows.sort(key=step_key)
-        # steps first: an episode's row is written only once its steps are on disk
+        by_episode = {}
+        for r in step_rows:
+            by_episode.setdefault(checksums.key(r), []).append(r)
+        for r in ep_rows:  # each episode's checksum, computed once
+            k = checksums.key(r)
+            if k not in digests:
+                digests[k] = checksums.digest(r, by_episode.get(k, []), ep_columns)
+        # steps first, then the checksums: an episode's row is written only once both are on disk
         atomic_write_text(st_path, csv_text(STEP_COLUMNS, step_rows))
+        checksums.write(out, {checksums.key(r): digests[checksums.key(r)] for r in ep_rows})
         atomic_write_text(ep_path, csv_text(ep_columns, ep_rows))
         saved[0] = len(ep_rows)
 

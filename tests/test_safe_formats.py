@@ -315,7 +315,6 @@ def test_a_run_killed_before_its_first_checkpoint_resumes_from_scratch(tiny_run,
     run = tmp_path / "killed"
     run.mkdir()
     shutil.copy(tiny_run / "config.yml", run / "config.yml")  # what a run killed early leaves
-    (run / "evaluations.jsonl").write_text('{"num_timesteps": 1}\n')
     assert train_cli.main(["--resume", str(run), "--no-progress"]) == 0
     err = capsys.readouterr().err
     assert "starting it from scratch" in err

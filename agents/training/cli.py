@@ -142,12 +142,22 @@ def main(argv=None) -> int:
     prog = Path(sys.argv[0]).name if argv is None and sys.argv and sys.argv[0] else "train.py"
     if prog in ("__main__.py", "-c", "cli.py"):
         prog = "train.py"
+    from coopnav_env.safe_load import UnsafeDataError
+
+    from . import runlock
+    from coopnav_env.failures import one_line
+
     try:
         args = build_parser(prog).parse_args(argv)
         return run(args, argv)
-    except (ConfigError, PolicyFormatError) as err:
+    except (ConfigError, PolicyFormatError, UnsafeDataError) as err:
         print(f"{prog}: error: {' '.join(str(err).splitlines())}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except (OSError, MemoryError, OverflowError) as err:  # disk full, read-only, out of memory: one line
+        print(f"{prog}: error: {one_line(err)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    finally:
+        runlock.release_all()
 
 
 def run(args, argv=None) -> int:
@@ -157,6 +167,13 @@ def run(args, argv=None) -> int:
         if given:
             raise ConfigError(f"--resume continues a run with its own config.yml; drop {', '.join(given)}")
         out = Path(args.resume)
+        from agents.safe_paths import check_tree
+
+        from . import runlock
+
+        read_run_record(out)  # a run folder (one line else), then: one trainer at a time, nothing read outside it
+        runlock.hold(out)
+        check_tree(out)
         backend = read_run_record(out)["args"].get("backend") or "sb3"
         if backend not in ("sb3", "rllib"):
             raise ConfigError(f"{out}/config.yml: unknown backend {backend!r}")
@@ -170,6 +187,10 @@ def run(args, argv=None) -> int:
                           verbose=args.verbose, trust_pickle=args.trust_pickle)
 
     backend = args.backend or "sb3"
+    if args.out is not None and Path(args.out).is_dir():  # one trainer per folder (a new one: when created)
+        from . import runlock
+
+        runlock.hold(args.out)
     if backend == "sb3":
         _sb3_only(args)
     missing = [f"--{n}" for n in ("scenario", "timesteps", "out") if getattr(args, n) is None]

@@ -71,6 +71,8 @@ def prepare_job(config) -> Job:
         scenario_config = make_config(config.scenario, **config.env.overrides)
     except (TypeError, ValueError) as err:
         raise ConfigError(f"env.overrides: {err}") from None
+    except ArithmeticError as err:  # OverflowError, ZeroDivisionError: a value the scenario's checks let through
+        raise ConfigError(f"env.overrides: a value is out of range ({type(err).__name__}: {err})") from None
     try:
         reward_terms = check_reward_terms(config.reward)
     except ValueError as err:
@@ -94,9 +96,12 @@ def resume_command(out) -> str:
 
 def new_run_dir(out) -> Path:
     """``out`` as the directory of a new run: absent or empty (a ``ConfigError`` else)."""
+    from .runlock import check_not_in_use
+
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} is a file")
+    check_not_in_use(out)
     if out.exists() and any(out.iterdir()):
         raise ConfigError(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
     return out
@@ -104,8 +109,13 @@ def new_run_dir(out) -> Path:
 
 def read_run_record(out) -> dict:
     """The ``config.yml`` of run directory ``out`` (a ``ConfigError`` if there is none)."""
+    from coopnav_env.safe_load import UnsafeDataError
+
     out = Path(out)
-    record = read_yaml(out / "config.yml") if out.is_dir() else None
+    try:
+        record = read_yaml(out / "config.yml") if out.is_dir() else None
+    except UnsafeDataError as err:  # an alias bomb, a !!python tag, binary bytes, ...: one line
+        raise ConfigError(f"{err} (not a usable train.py run record)") from None
     if not isinstance(record, dict) or not isinstance(record.get("args"), dict):
         raise ConfigError(f"{out} is not a train.py run directory (no config.yml)")
     return record

@@ -142,6 +142,12 @@ class _Job:
 
     def check(self):
         """Refuse what the fields' types cannot (a ``ConfigError``); returns self."""
+        from .bounds import BoundsError, check_bounds
+
+        try:
+            check_bounds(self)  # finite numbers, sizes that fit a machine
+        except BoundsError as err:
+            raise ConfigError(str(err)) from None
         return self
 
 
@@ -169,6 +175,7 @@ class TrainConfig(_Job):
         for key in self.ppo:
             if key not in valid:
                 raise ConfigError(unknown_key_message(key, valid, "ppo key"))
+        super().check()  # bounds (agents.training.bounds)
         lr = self.ppo.get("learning_rate", 3e-4)
         if isinstance(lr, str) and lr.startswith("lin_"):
             lr = lr[4:]
@@ -256,7 +263,10 @@ def _coerce(value, hint, where: str):
           dict: isinstance(value, dict), list: isinstance(value, (list, tuple))}[base]
     if not ok:
         raise ConfigError(f"{where} must be {_KIND[base]}, got {value!r}")
-    return {int: int, float: float, list: list, dict: dict}.get(base, lambda v: v)(value)
+    try:
+        return {int: int, float: float, list: list, dict: dict}.get(base, lambda v: v)(value)
+    except OverflowError:  # an integer too large for a float
+        raise ConfigError(f"{where} is out of range: {value!r:.40}") from None
 
 
 def from_dict(cls, data, where: str = ""):
@@ -283,18 +293,20 @@ def from_dict(cls, data, where: str = ""):
 def parse_value(text: str):
     """A command-line value: '3e-4' -> 0.0003, '2' -> 2, '[64, 64]' -> [64, 64],
     'true' -> True, 'null' -> None, 'tanh' -> 'tanh'."""
-    import yaml
-
     text = str(text).strip()
     for cast in (int, float):
         try:
             return cast(text)
         except ValueError:
             pass
+    from coopnav_env.safe_load import UnsafeDataError, loads_yaml
+
     try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError:
-        return text
+        return loads_yaml(text, f"value {text[:40]!r}", max_bytes=64 << 10)  # no aliases, bounded
+    except UnsafeDataError as err:
+        if ": not YAML:" in str(err):
+            return text
+        raise ConfigError(str(err)) from None
 
 
 def set_path(data: dict, dotted: str, value) -> dict:
@@ -332,14 +344,14 @@ def hyperparameter_file(backend: str, scenario, explicit=None) -> Path | None:
 
 def read_mapping(path) -> dict:
     """A YAML file's mapping ({} if empty); anything else is a ``ConfigError``."""
-    import yaml
+    from coopnav_env.safe_load import UnsafeDataError, read_yaml
 
     try:
-        data = yaml.safe_load(Path(path).read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"no such file: {path}") from None
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{path}: not YAML: {str(err).splitlines()[0]}") from None
+        data = read_yaml(path)  # bounded: no aliases, size and depth limits
+    except UnsafeDataError as err:
+        raise ConfigError(str(err)) from None
+    if data is None and not Path(path).is_file():
+        raise ConfigError(f"no such file: {path}")
     if data is None:
         return {}
     if not isinstance(data, dict):

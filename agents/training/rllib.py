@@ -85,8 +85,9 @@ from pathlib import Path
 
 import numpy as np
 
-from coopnav_env.records import atomic_write_text, read_json
+from coopnav_env.records import atomic_append_line, atomic_write_text, read_json
 
+from . import runlock
 from .common import (EXIT_INTERRUPTED, new_run_dir, prepare_job, read_run_record, resume_command, resume_seed,
                      run_config, stop_on_signals, write_run_record)
 from .config import ConfigError, RLlibConfig, parse_value, unknown_key_message
@@ -101,6 +102,7 @@ RAY_MISSING = '--backend rllib needs Ray RLlib, which is not installed: pip inst
 __all__ = ["build_config", "metrics", "parse_tune", "require_ray", "resume", "save_checkpoint", "train"]
 
 
+@runlock.releasing
 def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None = None, hyperparameter_file=None,
           num_env_runners: int | None = None, ray_address: str | None = None, tune: dict | None = None,
           threads: int = 1, trust_pickle: bool = False) -> int:
@@ -166,7 +168,7 @@ def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None
         args = {"backend": "rllib", "scenario": config.scenario, "timesteps": config.timesteps, "seed": config.seed,
                 "num_env_runners": int(algo_config.num_env_runners or 0), "ray_address": ray_address,
                 "tune": dict(grid) or None}
-        out.mkdir(parents=True, exist_ok=True)
+        runlock.claim(out, new=True, command=command)  # the lock on --out: one trainer per folder
         write_run_record(out, config, job, command=command, hyperparameter_file=hyperparameter_file, args=args,
                          versions={"ray": str(ray.__version__)}, module_map=mapping,
                          rllib_config=config_record(algo_config))
@@ -495,8 +497,7 @@ def run_training(algo_config, out: Path, config: RLlibConfig, job, restore: dict
                 m = metrics(algo.train())
                 session = time.perf_counter() - t_train
                 m["wall_s"] = round(wall_before + session, 2)
-                with open(out / "progress.jsonl", "a") as f:
-                    f.write(json.dumps(m) + "\n")
+                atomic_append_line(out / "progress.jsonl", json.dumps(m))
                 rate = (m["env_steps"] - start_steps) / max(session, 1e-9)
                 print(f"iter {m['iteration']}: {m['env_steps']} env steps ({rate:.0f}/s), return "
                       f"{_metres(m['episode_return_mean'])}, survey_error_m {_metres(m['survey_error_m'])}",
@@ -535,8 +536,7 @@ def finish(out: Path, m: dict, config: RLlibConfig, job):
               **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline.items()}}
     if len(job.cells) > 1:
         record["per_cell"] = {k: round(v, 4) for k, v in result["per_cell"].items()}
-    with open(out / "evaluations.jsonl", "a") as f:
-        f.write(json.dumps(record) + "\n")
+    atomic_append_line(out / "evaluations.jsonl", json.dumps(record))  # never a half-written line
     print(f"eval: survey_error_m {result['survey_error_m']:.3f}"
           + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline.items()))
 

@@ -50,11 +50,12 @@ import sys
 import time
 from pathlib import Path
 
-from coopnav_env.records import atomic_write_text, read_json
+from coopnav_env.records import atomic_append_line, atomic_write_text, read_json
 
 from agents import formats
 from agents.formats import PolicyFormatError
 
+from . import runlock
 from .common import (EXIT_INTERRUPTED, new_run_dir, prepare_job, resume_command, resume_seed, run_config,
                      stop_on_signals, write_run_record)
 from .config import ConfigError, TrainConfig
@@ -63,6 +64,7 @@ from .scoring import baselines_on_eval_seeds, evaluate
 __all__ = ["learning_rate", "policy_kwargs", "resume", "train", "warm_start_files"]
 
 
+@runlock.releasing
 def train(config: TrainConfig, out, resume: bool = False, *, command: str | None = None,
           hyperparameter_file=None, device: str = "cpu", threads: int = 1, progress: bool = False,
           verbose: int = 0, trust_pickle: bool = False) -> int:
@@ -151,7 +153,7 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
         imitation = imitate(model, vecnorm, raw_env, config.imitate, run_seed)
         print(f"imitated {imitation['planner']}: {imitation['steps']} steps, action rms error "
               f"{imitation['action_rms_error']}, {imitation['seconds']} s", flush=True)
-    out.mkdir(parents=True, exist_ok=True)  # the inputs are good: the first file of a new run
+    runlock.claim(out, new=not resume, command=command)  # the inputs are good: lock --out, the first file of a new run
     if not resume:
         write_run_record(out, config, job, command=command, hyperparameter_file=hyperparameter_file,
                          **({"imitation": imitation} if imitation else {}))
@@ -216,12 +218,17 @@ def checkpoint_files(out: Path, trust_pickle: bool = False) -> dict | None:
     if not last.is_file():
         return None
     try:
-        info = json.loads(last.read_text())
+        info = read_json(last)
         entry = {"num_timesteps": int(info["num_timesteps"]), "model": str(info["model"]),
                  "vecnormalize": str(info["vecnormalize"])}
-    except (OSError, ValueError, KeyError, TypeError):
+    except (OSError, ValueError, KeyError, TypeError, OverflowError):
         raise ConfigError(f"{last} is not a checkpoint record (num_timesteps, model, vecnormalize)") from None
+    if not 0 <= entry["num_timesteps"] <= 10**12:
+        raise ConfigError(f"{last}: num_timesteps {entry['num_timesteps']} is out of range [0, 10**12]")
     try:
+        from agents.safe_paths import check_tree
+
+        check_tree(out)  # checkpoints/ or a file in it linked from outside the run: refused
         for key in ("model", "vecnormalize"):
             entry[key] = formats.check_inside(ckpt_dir, entry[key], f"{last}: {key}")
         agents._check_trusted([entry["model"], entry["vecnormalize"]], trust_pickle)
@@ -235,15 +242,35 @@ def checkpoint_files(out: Path, trust_pickle: bool = False) -> dict | None:
 
 def restart_from_scratch(out: Path):
     """``--resume`` of a run stopped before its first checkpoint: it starts again from
-    step 0 with its config.yml (the outputs of the lost start are removed)."""
-    removed = [name for name in RESTART_OUTPUTS if (out / name).is_file()]
+    step 0 with its config.yml. Nothing is deleted: a run holding a model or
+    evaluations but no checkpoint (an old run, a damaged one) is refused instead."""
     if (out / "model.safetensors").is_file():
         raise ConfigError(f"{out} holds a final model but no checkpoint record (checkpoints/last_checkpoint.json): "
                           "not resumable")
-    for name in removed:
-        (out / name).unlink()
+    kept = [name for name in RESTART_OUTPUTS if name != "baseline_eval.json" and (out / name).exists()]
+    if kept:
+        raise ConfigError(f"{out} has no checkpoint (checkpoints/last_checkpoint.json) but holds {', '.join(kept)}: "
+                          "resuming would restart it and lose them; not resumable (start a new run with --out)")
     print(f"note: {out} has no checkpoint yet (stopped before its first one): starting it from scratch with its "
-          f"config.yml" + (f" (removed {', '.join(removed)})" if removed else ""), file=sys.stderr)
+          f"config.yml", file=sys.stderr)
+
+
+def last_evaluation_step(out: Path, steps: int) -> int:
+    """The step count of the last evaluation in ``out/evaluations.jsonl`` at or before
+    ``steps`` (0: none), where a resumed run's evaluation schedule goes on from."""
+    try:
+        lines = (out / "evaluations.jsonl").read_text().splitlines()
+    except (OSError, UnicodeDecodeError):
+        return 0
+    done = 0
+    for line in lines:
+        try:
+            n = json.loads(line)["num_timesteps"]
+        except (ValueError, KeyError, TypeError, RecursionError):
+            continue
+        if isinstance(n, int) and not isinstance(n, bool) and done < n <= steps:
+            done = n
+    return done
 
 
 def warm_start_files(spec, trust_pickle: bool = False) -> tuple:
@@ -354,6 +381,8 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
     class RunCallback(BaseCallback):
         def _on_training_start(self):
             self.trained_steps = self.last_ckpt = self.last_eval = self.model.num_timesteps
+            if self.model.num_timesteps > 0:  # resumed: the run's schedule (and its final evaluation) goes on
+                self.last_eval = last_evaluation_step(out, self.model.num_timesteps)
             if config.imitate.planner is not None and ev.every_steps > 0 and self.model.num_timesteps == 0:
                 self.evaluate()  # the cloned planner, before PPO changes it
 
@@ -401,8 +430,7 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
                 record["per_cell"] = {k: round(v, 4) for k, v in result["per_cell"].items()}
                 for k, v in baseline_scores.items():
                     record[f"cells_beating_{k}"] = sum(result["per_cell"][c] < v["per_cell"][c] for c in v["per_cell"])
-            with open(out / "evaluations.jsonl", "a") as f:
-                f.write(json.dumps(record) + "\n")
+            atomic_append_line(out / "evaluations.jsonl", json.dumps(record))  # never a half-written line
             self.logger.record("eval/survey_error_m", score)
             for k, v in baseline_scores.items():
                 self.logger.record(f"eval/{k}_survey_error_m", v["survey_error_m"])

@@ -1,0 +1,27 @@
+"""One line for the failures of the machine rather than of the input: a full disk, a
+read-only folder, no memory left. Every file is written atomically
+(``coopnav_env.records.atomic_write_bytes``), so such a failure leaves the earlier
+content in place and no half-written file; the command says what happened in one
+line and exits with status 2."""
+
+from __future__ import annotations
+
+import errno
+
+__all__ = ["one_line"]
+
+_WHAT = {errno.ENOSPC: "the disk is full", errno.EROFS: "the folder is on a read-only file system",
+         errno.EDQUOT: "the disk quota is exceeded", errno.EACCES: "permission denied",
+         errno.EPERM: "permission denied"}
+
+
+def one_line(err: BaseException) -> str:
+    """``err`` (an OSError, MemoryError, OverflowError, ...) as one line."""
+    if isinstance(err, MemoryError):
+        return "out of memory (MemoryError): nothing more was written; use smaller settings"
+    if isinstance(err, OSError):
+        what = _WHAT.get(err.errno, err.strerror or type(err).__name__)
+        where = f" writing {err.filename}" if err.filename else ""
+        return f"{what}{where} ({err.strerror or err}): the files written before are intact, none is half-written"
+    text = " ".join(str(err).split())
+    return f"{type(err).__name__}: {text}" if text else type(err).__name__
