@@ -38,7 +38,7 @@ class BeaconContext:
     depth_m: float
 
     @classmethod
-    def from_config(cls, config: ScenarioConfig, agent_index: int = 0) -> "BeaconContext":
+    def from_config(cls, config: ScenarioConfig, agent_index: int = 0) -> BeaconContext:
         if not 0 <= agent_index < config.n_beacons:
             raise ValueError(f"agent index {agent_index} out of range for {config.n_beacons} beacon(s)")
         kind = config.beacon_kinds[agent_index]

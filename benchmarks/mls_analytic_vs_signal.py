@@ -28,8 +28,15 @@ import sys
 
 import numpy as np
 
-from coopnav_env.core.mls import (MLSConfig, MLSSensor, PeakTracker, Reflection, error_statistics,
-                                  geometric_truth, wrap_angle_rad)
+from coopnav_env.core.mls import (
+    MLSConfig,
+    MLSSensor,
+    PeakTracker,
+    Reflection,
+    error_statistics,
+    geometric_truth,
+    wrap_angle_rad,
+)
 
 RANGES_M = (0.5, 1.0, 2.0, 3.5, 5.0)
 AZIMUTHS_DEG = (-80.0, -40.0, 0.0, 40.0, 80.0)

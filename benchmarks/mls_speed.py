@@ -58,7 +58,7 @@ def main(argv=None):
         sensor.process(ch, tracker)
     tracker.reset()
     t_syn, t_proc = [], []
-    for k in range(args.events):
+    for _ in range(args.events):
         r = rng.uniform(0.5, 5.0)
         az = rng.uniform(-math.pi, math.pi)
         sp = np.array([r * math.cos(az), r * math.sin(az)])

@@ -35,8 +35,15 @@ import sys
 
 import numpy as np
 
-from coopnav_env.core.mls import (MLSConfig, MLSSensor, PeakTracker, Reflection, error_statistics,
-                                  geometric_truth, wrap_angle_rad)
+from coopnav_env.core.mls import (
+    MLSConfig,
+    MLSSensor,
+    PeakTracker,
+    Reflection,
+    error_statistics,
+    geometric_truth,
+    wrap_angle_rad,
+)
 
 PAPER_TABLE_1 = {
     "azimuth_mean_deg": 0.00, "azimuth_std_deg": 2.39, "azimuth_avgdev_deg": 1.83,

@@ -89,10 +89,12 @@ def main(argv=None) -> int:
         print(f"{label}: error {e.mean():.3f} m, pings {pg.mean():.1f}, collisions {c.mean():.1f}", file=sys.stderr,
               flush=True)
     lines = [f"`{args.scenario}`, {args.episodes} episodes, seeds {seeds[0]}..{seeds[-1]} (common random numbers)", "",
-             "| policy | mean error (m) [95 %] | pings per mission | collisions | energy (kJ) |", "|---|---|---|---|---|"]
+             "| policy | mean error (m) [95 %] | pings per mission | collisions | energy (kJ) |",
+             "|---|---|---|---|---|"]
     for label, (e, pg, c, en) in results.items():
         m, lo, hi = t_interval(e)
-        lines.append(f"| {label} | {m:.3f} [{lo:.3f}, {hi:.3f}] | {pg.mean():.1f} | {c.mean():.1f} | {en.mean() / 1e3:.2f} |")
+        lines.append(f"| {label} | {m:.3f} [{lo:.3f}, {hi:.3f}] | {pg.mean():.1f} | {c.mean():.1f} "
+                     f"| {en.mean() / 1e3:.2f} |")
     for ref_name in ("fim_a+tdma", "ellipse+tdma"):  # the fixed clock of a shared channel, per motion planner
         ref = results[ref_name]
         for spec in [s for s in args.policies.split(",") if s]:

@@ -201,7 +201,7 @@ def main(argv=None) -> int:
             outs = list(pool.map(_job, work))
     else:
         outs = [_job(w) for w in work]
-    for (label, config, spec, _, name, key), (_, _, per_ep, secs) in zip(jobs, outs):
+    for (label, _config, spec, _, name, key), (_, _, per_ep, secs) in zip(jobs, outs):
         results[(label, name)] = np.array(per_ep)
         print(f"  {label:<40} {name:<12} {np.mean(per_ep):8.3f} m  [{secs:.0f} s]", file=sys.stderr, flush=True)
         if is_planner(spec):

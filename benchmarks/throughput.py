@@ -26,7 +26,8 @@ median is reported beside it. The aims stated by the project:
 * the PettingZoo env >= MPE simple_spread_v3 (3 agents).
 
 Numbers depend on the machine; run on an idle one (compare best and median: a
-large gap means other processes were competing for the CPU). This is a script, not a test: nothing here is timed under pytest.
+large gap means other processes were competing for the CPU). This is a script, not a test: nothing here is
+timed under pytest.
 """
 
 from __future__ import annotations
@@ -245,7 +246,8 @@ def format_table(r):
     m, med = r["machine"], r["median_steps_per_s"]
     rows = [(f"PettingZoo parallel_env({r['scenario']!r}), batch 1", r["pettingzoo_steps_per_s"], med["pettingzoo"])]
     rows += [(f"core Simulator, batch {b}", v, med["core"][b]) for b, v in r["core_steps_per_s"].items()]
-    rows.append(("MPE simple_spread_v3 (N=3, continuous)", r["mpe_simple_spread_steps_per_s"], med["mpe_simple_spread"]))
+    rows.append(("MPE simple_spread_v3 (N=3, continuous)", r["mpe_simple_spread_steps_per_s"],
+                 med["mpe_simple_spread"]))
     width = max(len(row[0]) for row in rows)
     lines = [
         f"coopnav throughput: {r['seconds_per_measurement']:g} s per measurement, "

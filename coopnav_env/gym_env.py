@@ -7,6 +7,8 @@ PettingZoo env (see ``CoopNavParallelEnv``), so single-agent libraries work.
 
 from __future__ import annotations
 
+from typing import Any
+
 import gymnasium as gym
 
 from .core import make_simulator
@@ -15,7 +17,8 @@ from .views import action_space, agent_infos, check_action, observation_space
 
 
 class CoopNavGymEnv(gym.Env):
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+    # gymnasium.Env declares metadata an instance attribute (dict[str, Any]): a ClassVar would not match it
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 4}  # noqa: RUF012
 
     def __init__(self, scenario="gao_lawnmower", render_mode=None, **overrides):
         self.config = make_config(scenario, **overrides)

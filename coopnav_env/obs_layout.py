@@ -33,11 +33,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core.information import ellipse_to_covariance
-
 from .core import observation as _layout
-from .core.observation import (AGE_SCALE_PINGS, DEPTH_SCALE_M, ELLIPSE_N_SIGMA, ELLIPSE_SCALE_M,  # noqa: F401
-                               OBS_BOUND, OWN_DIM, PER_SURVEY_FIXED, STD_SCALE_M)
+from .core.information import ellipse_to_covariance
+from .core.observation import (
+    AGE_SCALE_PINGS,
+    DEPTH_SCALE_M,
+    ELLIPSE_N_SIGMA,
+    ELLIPSE_SCALE_M,
+    OBS_BOUND,
+    OWN_DIM,
+    PER_SURVEY_FIXED,
+    STD_SCALE_M,
+)
 
 
 def obs_dim(config) -> int:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from pettingzoo import ParallelEnv
 
@@ -96,8 +98,9 @@ class CoopNavParallelEnv(ParallelEnv):
     any scenario parameter by keyword; unknown names raise ``ValueError``.
     """
 
-    metadata = {"name": "coopnav_v0", "render_modes": ["human", "rgb_array"], "is_parallelizable": True,
-                "render_fps": 4}
+    # pettingzoo.ParallelEnv declares metadata an instance attribute (dict[str, Any]), as gymnasium.Env does
+    metadata: dict[str, Any] = {"name": "coopnav_v0", "render_modes": ["human", "rgb_array"],  # noqa: RUF012
+                                "is_parallelizable": True, "render_fps": 4}
 
     def __init__(self, scenario="gao_lawnmower", render_mode=None, seed=None, max_cycles=None, **overrides):
         if max_cycles is not None:
@@ -167,8 +170,8 @@ class CoopNavParallelEnv(ParallelEnv):
         agents = self.agents
         obs = {a: res.obs[0, i] for i, a in enumerate(agents)}
         rewards = {a: float(res.reward[0, i]) for i, a in enumerate(agents)}
-        terms = {a: term for a in agents}
-        truncs = {a: trunc for a in agents}
+        terms = dict.fromkeys(agents, term)
+        truncs = dict.fromkeys(agents, trunc)
         infos = {a: agent_infos(res.info, 0, res.beacon_info, j) for j, a in enumerate(agents)}
         if term or trunc:
             self.agents = []

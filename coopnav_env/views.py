@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
-
 OBS_BOUND = 10.0
 
 

@@ -61,8 +61,8 @@ class SignalChain:
         max_path = cfg.max_range_m + 0.5 * (geometry.l + geometry.d)
         if cfg.reflection is not None and cfg.reflection.kind == "surface":
             max_path = math.hypot(max_path, 2.0 * cfg.depth_m)
-        self.toa_max_lag = int(math.ceil(max_path * self.fs / geometry.sound_speed_true_mps)) + 8
-        self.tdoa_max_lag = int(math.ceil(geometry.d * self.fs / sound_speed_assumed_mps)) + 2
+        self.toa_max_lag = math.ceil(max_path * self.fs / geometry.sound_speed_true_mps) + 8
+        self.tdoa_max_lag = math.ceil(geometry.d * self.fs / sound_speed_assumed_mps) + 2
         guard = 64 + 2 * self.tdoa_max_lag
         self.nfft = sfft.next_fast_len(self.n_chips + self.toa_max_lag + guard, real=True)
         M = self.nfft
@@ -104,7 +104,7 @@ class SignalChain:
         sp, sh, op, oh = pose_arrays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         if sp.shape != (2,) or op.shape != (2,) or sh.shape != () or oh.shape != ():
             raise ValueError("measure_signal takes one pose pair: positions of shape (2,), scalar headings")
-        r_ij, rel, alpha, P = self.geometry.path_lengths(sp, sh, op, oh)
+        r_ij, _rel, _alpha, P = self.geometry.path_lengths(sp, sh, op, oh)
         lengths = [r_ij]
         amps = [1.0 / r_ij]                                         # spherical spreading, 1 at 1 m
         refl = self.config.reflection
@@ -196,7 +196,7 @@ def track_peak(seq, lag_lo, lag_hi, prev, halfwidth):
     lags = np.arange(lag_lo, lag_hi + 1)
     vals = seq[lags % M]
     if np.isfinite(prev):
-        c = int(round(prev))
+        c = round(prev)
         lo = max(c - halfwidth, lag_lo)
         hi = min(c + halfwidth, lag_hi)
         if lo <= hi:
