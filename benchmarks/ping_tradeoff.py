@@ -17,13 +17,19 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from evaluation.paired import t_interval
 
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
-def run(config, spec, kwargs, seeds):
+
+def run(config: ScenarioConfig, spec: str, kwargs: dict,
+        seeds: Sequence[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per-episode (mean error, pings, collisions, energy) of one policy on ``seeds``."""
     from coopnav_env.core import make_simulator
 
@@ -61,7 +67,7 @@ def run(config, spec, kwargs, seeds):
     return err / steps, pings, coll, energy
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     import coopnav_env
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0],

@@ -41,6 +41,7 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -48,7 +49,8 @@ DEFAULT_CONFIG = ROOT / "configs" / "ppo" / "sousa_fast.yml"
 
 
 def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budget_s: float, threads: int,
-                       timesteps: int, baseline: str = "fim_a", margin: float = 0.0, eval_episodes=None) -> dict:
+                       timesteps: int, baseline: str = "fim_a", margin: float = 0.0,
+                       eval_episodes: int | None = None) -> dict:
     """Train one seed until its validation is below ``(1 - margin)`` times ``baseline``'s,
     or ``budget_s`` of training; returns its validations and times."""
     cmd = [sys.executable, str(ROOT / "train.py"), "--scenario", "sousa_asv", "--config", str(config),
@@ -94,7 +96,7 @@ def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budg
                             for r in records]}
 
 
-def figure(result: dict, path: Path):
+def figure(result: dict, path: Path) -> None:
     import io
 
     import matplotlib
@@ -133,7 +135,7 @@ def figure(result: dict, path: Path):
     atomic_write_bytes(path, buf.getvalue())
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="time_to_beat.py", description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--config", type=Path, default=DEFAULT_CONFIG, help="train.py config (default: %(default)s)")

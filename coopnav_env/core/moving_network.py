@@ -60,6 +60,7 @@ from numba import njit, prange
 
 from . import lbl, river, rng, substeps
 from .acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2
+from .contract import BatchSimulator, Snapshot, StepResult
 from .dynamics import bearing_to_unit, gauss_markov_step, turn_toward
 from .guidance import build_path, los_point
 from .information import (
@@ -80,7 +81,6 @@ from .navigation import (
 )
 from .numerics import complex_abs, complex_div_real
 from .observation import AGE_SCALE_PINGS, OBS_BOUND  # the survey network's age scale and bound
-from .contract import BatchSimulator, Snapshot, StepResult
 from .reward import MOVING_NETWORK_TERMS, RIVER_NETWORK_TERMS, term_weights, weighted_reward
 from .sim import BEACON_INFO_KEYS, INFO_KEYS
 from .state import BatchArrays
