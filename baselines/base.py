@@ -14,7 +14,7 @@ turns "be at this point at the next ping" into the action.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -281,7 +281,7 @@ class Policy:
     name = "policy"
     networks: tuple[str, ...] = ("survey_beacons",)  # the scenario networks (ScenarioConfig.network) it can drive
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | None = None) -> None:
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None) -> None:
         if config.network not in self.networks:
             raise ValueError(f"policy {self.name!r} drives {' / '.join(self.networks)} scenarios, not "
                              f"network={config.network!r} ({config.name}); policies for it: "
@@ -291,7 +291,7 @@ class Policy:
         self.seed = seed
         self.reset(seed)
 
-    def reset(self, seed: int | None = None) -> None:
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
         if seed is not None:
             self.seed = seed
         self.t_s = 0.0
@@ -317,11 +317,11 @@ class Policy:
 class TrackingPolicy(Policy):
     """A policy that follows the survey vehicle through its replies (``self.tracker``)."""
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | None = None) -> None:
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None) -> None:
         self.tracker = SurveyTracker()
         super().__init__(config, agent_index, seed)
 
-    def reset(self, seed: int | None = None) -> None:
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
         self.tracker.reset()
 
@@ -354,7 +354,8 @@ def register_scheduler(fn: Callable[..., Policy]) -> Callable[..., Policy]:
     return fn
 
 
-def make_policy(name: str, env_or_config: Any, seed: int | None = None, agent: int | str = 0, **kwargs: Any) -> Policy:
+def make_policy(name: str, env_or_config: Any, seed: int | Sequence[int] | None = None, agent: int | str = 0,
+                **kwargs: Any) -> Policy:
     """A baseline policy by name for one beacon (``agent``: index or "beacon_k").
 
     With ``channel_mode="decide"`` a name ``"<motion>+<schedule>"`` combines a planner

@@ -34,6 +34,7 @@ P_{k+1|k} = P_k + Q_k).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -78,7 +79,7 @@ class EllipsePolicy(TrackingPolicy):
 
     PREDICTORS = ("path", "chord")
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | None = None,
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
                  predictor: str = "path") -> None:
         if predictor not in self.PREDICTORS:
             raise ValueError(f"ellipse predictor must be one of {self.PREDICTORS}, got {predictor!r}")

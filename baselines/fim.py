@@ -26,6 +26,7 @@ summed over them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -114,7 +115,7 @@ class FimB(TrackingPolicy):
 
     PREDICTORS = SurveyTracker.PREDICTORS
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | None = None,
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
                  predictor: str = DEFAULT_B_PREDICTOR) -> None:
         if predictor not in self.PREDICTORS:
             raise ValueError(f"fim_b predictor must be one of {self.PREDICTORS}, got {predictor!r}")

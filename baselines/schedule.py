@@ -34,6 +34,7 @@ Slots are counted by the policy itself from its ``reset()`` (one ``act`` per slo
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -127,7 +128,7 @@ class ScheduledPolicy(Policy):
         self.name = f"{motion.name}+{type(schedule).__name__.removesuffix('Schedule').lower()}"
         super().__init__(motion.config, motion.ctx.agent_index, motion.seed)
 
-    def reset(self, seed: int | None = None) -> None:
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
         self.slot = 0
         self.last_transmit: bool | None = None
@@ -145,7 +146,7 @@ class ScheduledPolicy(Policy):
 
 @register_scheduler
 def make_scheduled(motion_cls: type[Policy], schedule_name: str, config: ScenarioConfig, agent_index: int,
-                   seed: int | None = None, **kwargs: Any) -> ScheduledPolicy:
+                   seed: int | Sequence[int] | None = None, **kwargs: Any) -> ScheduledPolicy:
     """``motion_cls`` with the schedule ``schedule_name`` ("" or None: ``DEFAULT_SCHEDULE``);
     ``kwargs`` go to the schedule when it takes them (every, offset, frame,
     threshold_nats), the rest to the planner."""

@@ -3,6 +3,7 @@ as many field crews do) and ``random`` (uniform random actions)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -33,7 +34,7 @@ class CirclePolicy(TrackingPolicy):
     """Orbit the survey vehicle's predicted position anticlockwise at ``radius_m``,
     advancing by up to 90 % of the reaching set per ping (at most 60 degrees)."""
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | None = None,
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
                  radius_m: float = 40.0) -> None:
         if not radius_m > 0:
             raise ValueError(f"radius_m must be > 0, got {radius_m!r}")
@@ -57,7 +58,7 @@ class RandomPolicy(Policy):
 
     networks = ("survey_beacons", "moving_lbl")
 
-    def reset(self, seed: int | None = None) -> None:
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
         self.rng = np.random.default_rng(self.seed)
 

@@ -16,6 +16,7 @@ from .views import action_space, agent_infos, check_action, observation_space, s
 
 if TYPE_CHECKING:
     from gymnasium import spaces
+    from matplotlib.figure import Figure
 
     from .core.contract import StepResult
     from .render import EpisodeRecorder
@@ -134,7 +135,7 @@ class CoopNavParallelEnv(ParallelEnv):
         self._seed = None if seed is None else check_seed(seed)
         self._seed_rng = np.random.default_rng(self._seed)
         self._recorder: EpisodeRecorder | None = None
-        self._viewer = None
+        self._viewer: Figure | None = None
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self._observation_space

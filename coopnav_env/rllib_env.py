@@ -54,14 +54,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from ray.rllib.env.multi_agent_env import MultiAgentEnv
-from ray.rllib.utils.typing import MultiAgentDict
 
 from .pettingzoo_env import CoopNavParallelEnv
 from .scenarios import ScenarioConfig, make_config
 from .vector import SEED_STRIDE, check_reward_terms, training_reward
 
-# what step returns: observations, rewards, terminations, truncations, infos, per agent (RLlib's types)
-_Step = tuple[MultiAgentDict, MultiAgentDict, MultiAgentDict, MultiAgentDict, MultiAgentDict]
+# what step returns: observations, rewards, terminations, truncations, infos, per agent
+_Step = tuple[dict, dict, dict, dict, dict]
 
 _COPIES = itertools.count()  # environment copies made in this process (a runner's sub-envs, in order)
 
@@ -166,7 +165,7 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         return seed
 
     def reset(self, *, seed: int | None = None,
-              options: dict[str, Any] | None = None) -> tuple[MultiAgentDict, MultiAgentDict]:
+              options: dict[str, Any] | None = None) -> tuple[dict, dict]:
         if seed is not None and self.base_seed is None:
             self.base_seed, self._episodes, self.copy_index = int(seed), 0, 0
         self.episode_seed = self.next_seed()
@@ -175,7 +174,8 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         self.agents = list(self.env.agents)
         return {a: np.asarray(o, dtype=np.float32) for a, o in obs.items()}, infos
 
-    def step(self, action_dict: MultiAgentDict) -> _Step:
+    # RLlib's MultiAgentEnv steps per-agent dicts, unlike the gymnasium.Env it derives from
+    def step(self, action_dict: dict) -> _Step:  # type: ignore[override]
         obs, rewards, terms, truncs, infos = self.env.step(action_dict)
         if self.reward_terms is not None:
             rewards = self.training_reward(rewards)

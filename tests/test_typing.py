@@ -35,6 +35,15 @@ PENDING_FILES = {
     "coopnav_env/core/moving_network.py",
     "coopnav_env/core/measurements/",
 }
+# added on other branches (absent here until the merge), annotated after it; not required to exist
+PENDING_NEW_FILES = {
+    "coopnav_env/core/moving_network/",  # moving_network.py split into a package
+    "coopnav_env/progress.py",
+    "coopnav_env/names.py",
+    "coopnav_env/safe_load.py",
+    "benchmarks/times.py",
+}
+PENDING_FILES |= PENDING_NEW_FILES
 
 
 def _files() -> list[str]:
@@ -106,7 +115,7 @@ def test_pending_files_exist() -> None:
     """Each PENDING_FILES entry names something that exists (a renamed file must not go unchecked).
     Once a pending file is annotated, drop it from the set so the test above guards it."""
     files = _files()
-    for entry in sorted(PENDING_FILES):
+    for entry in sorted(PENDING_FILES - PENDING_NEW_FILES):
         assert any(f == entry or (entry.endswith("/") and f.startswith(entry)) for f in files), (
             f"PENDING_FILES entry {entry!r} matches no file")
 

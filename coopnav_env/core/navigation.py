@@ -25,7 +25,7 @@ from scipy.stats import chi2
 from .numerics import lu_solve, matmul, vecmat
 
 
-def predict(x: np.ndarray, P: np.ndarray, dx: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def predict(x: np.ndarray, P: np.ndarray, dx: np.ndarray | float, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eq. (4) and (6): x <- x + R v tau (given as ``dx``); P <- P + Q (F = I)."""
     return x + dx, P + Q
 
