@@ -13,6 +13,7 @@ The outputs, the options and the Python API (``evaluation.EvalConfig``,
 from __future__ import annotations
 
 import sys
+from collections.abc import Sequence
 
 from evaluation.cli import main as _main
 
@@ -22,7 +23,7 @@ from evaluation.config import UsageError, split_top_level  # noqa: F401
 from evaluation.episodes import run_episodes  # noqa: F401
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """``python evaluate.py ARGS``; returns the exit status (2: bad input)."""
     return _main(argv, prog="evaluate.py")
 

@@ -13,7 +13,7 @@ A new planner is one module with a ``Policy`` subclass decorated with
 """
 
 from . import ellipse, fim, moving_lbl, simple  # noqa: F401  (each registers its planners)
-from .schedule import list_schedules  # transmit schedules for channel_mode="decide": "<motion>+<schedule>"
 from .base import BeaconContext, Policy, list_policies, make_policy, waypoint_to_action
+from .schedule import list_schedules  # transmit schedules for channel_mode="decide": "<motion>+<schedule>"
 
 __all__ = ["BeaconContext", "Policy", "list_policies", "list_schedules", "make_policy", "waypoint_to_action"]

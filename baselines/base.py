@@ -14,9 +14,12 @@ turns "be at this point at the next ping" into the action.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coopnav_env.core import acoustics
 from coopnav_env.obs_layout import ObsView, decode
@@ -38,7 +41,7 @@ class BeaconContext:
     depth_m: float
 
     @classmethod
-    def from_config(cls, config: ScenarioConfig, agent_index: int = 0) -> "BeaconContext":
+    def from_config(cls, config: ScenarioConfig, agent_index: int = 0) -> BeaconContext:
         if not 0 <= agent_index < config.n_beacons:
             raise ValueError(f"agent index {agent_index} out of range for {config.n_beacons} beacon(s)")
         kind = config.beacon_kinds[agent_index]
@@ -51,7 +54,7 @@ class BeaconContext:
         """Radius of the reaching set between two pings (Sousa et al. III-B)."""
         return self.max_speed_mps * self.ping_interval_s
 
-    def violation_m(self, cand, survey_en, depth_below):
+    def violation_m(self, cand: np.ndarray, survey_en: np.ndarray, depth_below: ArrayLike) -> np.ndarray:
         """Soft-constraint violation (metres, >= 0) of candidate positions cand (..., M, 2)
         against the geofence, the safety distance (3-D, to every survey position
         survey_en (S, 2) at depth_below (S,)) and the acoustic range."""
@@ -66,21 +69,21 @@ class BeaconContext:
         v = v + np.maximum(d3 - c.max_range_m, 0).sum(-1)
         return v
 
-    def delivery_probability(self, distance_m):
+    def delivery_probability(self, distance_m: ArrayLike) -> np.ndarray:
         """Probability that a ping over ``distance_m`` arrives (the scenario's loss model)."""
         c = self.config
         return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far,
                                                        c.max_range_m)
 
 
-def slant_distance(cand, survey_en, depth_below):
+def slant_distance(cand: np.ndarray, survey_en: np.ndarray, depth_below: ArrayLike) -> np.ndarray:
     """3-D distances (..., M, S) from beacon candidates (..., M, 2) at the beacon's depth
     to survey positions (S, 2) that lie depth_below (S,) deeper."""
     rel = cand[..., :, None, :] - survey_en
     return np.sqrt((rel ** 2).sum(-1) + np.asarray(depth_below) ** 2)
 
 
-def waypoint_to_action(ctx: BeaconContext, own_en, waypoint_en) -> np.ndarray:
+def waypoint_to_action(ctx: BeaconContext, own_en: ArrayLike, waypoint_en: ArrayLike) -> np.ndarray:
     """The action that heads for ``waypoint_en`` so as to reach it at the next ping:
     velocity = (waypoint - own) / ping interval, as a fraction of the maximum speed
     (norm clipped to 1); converted for ``action_mode="heading_speed"``."""
@@ -95,7 +98,8 @@ def waypoint_to_action(ctx: BeaconContext, own_en, waypoint_en) -> np.ndarray:
     return np.clip(v, -1.0, 1.0).astype(np.float32)
 
 
-def advance_along_waypoints(start_en, waypoints_en, distance_m, min_leg_m: float = 1e-3):
+def advance_along_waypoints(start_en: ArrayLike, waypoints_en: ArrayLike, distance_m: ArrayLike,
+                            min_leg_m: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
     """Where a vehicle that follows its planned waypoints is after ``distance_m``.
 
     start_en (S, 2): where it is; waypoints_en (S, K, 2): its next planned
@@ -174,18 +178,18 @@ class SurveyTracker:
 
     PREDICTORS = ("chord", "heading")
 
-    def __init__(self, window: int = 3, max_speed_mps: float = 5.0):
+    def __init__(self, window: int = 3, max_speed_mps: float = 5.0) -> None:
         if window < 2:
             raise ValueError("window must be >= 2")
         self.window = int(window)
         self.max_speed_mps = max_speed_mps
         self.reset()
 
-    def reset(self):
-        self._t = None  # (W, S) reply times, oldest first, NaN where empty
-        self._p = None  # (W, S, 3) replies (east, north, depth below beacon)
+    def reset(self) -> None:
+        self._t: np.ndarray | None = None  # (W, S) reply times, oldest first, NaN where empty
+        self._p: Any = None  # (W, S, 3) replies (east, north, depth below beacon); an array once _t is
 
-    def update(self, t_now: float, view: ObsView):
+    def update(self, t_now: float, view: ObsView) -> None:
         pos = np.concatenate([view.survey_en_m, view.depth_below_m[:, None]], -1)  # (S, 3)
         t_reply = np.asarray(t_now - view.reply_age_s, dtype=float)
         if self._t is None:
@@ -275,9 +279,9 @@ class Policy:
     """
 
     name = "policy"
-    networks = ("survey_beacons",)  # the scenario networks (ScenarioConfig.network) it can drive
+    networks: tuple[str, ...] = ("survey_beacons",)  # the scenario networks (ScenarioConfig.network) it can drive
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed=None):
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None) -> None:
         if config.network not in self.networks:
             raise ValueError(f"policy {self.name!r} drives {' / '.join(self.networks)} scenarios, not "
                              f"network={config.network!r} ({config.name}); policies for it: "
@@ -287,19 +291,19 @@ class Policy:
         self.seed = seed
         self.reset(seed)
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
         if seed is not None:
             self.seed = seed
         self.t_s = 0.0
-        self.last_waypoint = None
+        self.last_waypoint: np.ndarray | None = None
 
-    def decode(self, obs) -> ObsView:
+    def decode(self, obs: ArrayLike) -> ObsView:
         return decode(obs, self.config)
 
-    def plan(self, view: ObsView):
+    def plan(self, view: ObsView) -> np.ndarray:
         raise NotImplementedError
 
-    def act(self, obs) -> np.ndarray:
+    def act(self, obs: ArrayLike) -> np.ndarray:
         view = self.decode(obs)
         wp = self.plan(view)
         self.last_waypoint = np.asarray(wp, dtype=float)
@@ -313,11 +317,11 @@ class Policy:
 class TrackingPolicy(Policy):
     """A policy that follows the survey vehicle through its replies (``self.tracker``)."""
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed=None):
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None) -> None:
         self.tracker = SurveyTracker()
         super().__init__(config, agent_index, seed)
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
         self.tracker.reset()
 
@@ -326,7 +330,7 @@ class TrackingPolicy(Policy):
 _POLICIES: dict = {}
 
 
-def register_policy(name: str):
+def register_policy(name: str) -> Callable[[type[Policy]], type[Policy]]:
     def deco(cls):
         _POLICIES[name] = cls
         cls.name = name
@@ -334,7 +338,7 @@ def register_policy(name: str):
     return deco
 
 
-def list_policies(network=None) -> list:
+def list_policies(network: str | None = None) -> list:
     """Names of the baseline policies (those that can drive ``network``, if given).
     The planner modules register themselves when ``baselines`` is imported."""
     return sorted(n for n, cls in _POLICIES.items() if network is None or network in cls.networks)
@@ -343,14 +347,15 @@ def list_policies(network=None) -> list:
 _SCHEDULER = None  # baselines.schedule.make_scheduled, set when that module is imported
 
 
-def register_scheduler(fn):
+def register_scheduler(fn: Callable[..., Policy]) -> Callable[..., Policy]:
     """Called by ``baselines.schedule`` (which imports this module, not the other way round)."""
     global _SCHEDULER
     _SCHEDULER = fn
     return fn
 
 
-def make_policy(name: str, env_or_config, seed=None, agent=0, **kwargs) -> Policy:
+def make_policy(name: str, env_or_config: Any, seed: int | Sequence[int] | None = None, agent: int | str = 0,
+                **kwargs: Any) -> Policy:
     """A baseline policy by name for one beacon (``agent``: index or "beacon_k").
 
     With ``channel_mode="decide"`` a name ``"<motion>+<schedule>"`` combines a planner

@@ -34,14 +34,23 @@ P_{k+1|k} = P_k + Q_k).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coopnav_env.core.information import maximize_on_disc
 
 from .base import PENALTY_PER_M, BeaconContext, TrackingPolicy, register_policy, slant_distance
 
+if TYPE_CHECKING:
+    from coopnav_env.obs_layout import ObsView
+    from coopnav_env.scenarios import ScenarioConfig
 
-def ellipse_waypoint(ctx: BeaconContext, own_en, survey_en, depth_below, P, range_var_m2, **grid):
+
+def ellipse_waypoint(ctx: BeaconContext, own_en: ArrayLike, survey_en: np.ndarray, depth_below: ArrayLike,
+                     P: np.ndarray, range_var_m2: ArrayLike, **grid: int) -> tuple[np.ndarray, np.ndarray]:
     """The point of the reaching disc whose range to the predicted survey position(s)
     survey_en (S, 2), depth_below (S,), covariance P (S, 2, 2) informs most.
     Returns (waypoint (2,), expected information at it)."""
@@ -70,19 +79,20 @@ class EllipsePolicy(TrackingPolicy):
 
     PREDICTORS = ("path", "chord")
 
-    def __init__(self, config, agent_index: int = 0, seed=None, predictor: str = "path"):
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
+                 predictor: str = "path") -> None:
         if predictor not in self.PREDICTORS:
             raise ValueError(f"ellipse predictor must be one of {self.PREDICTORS}, got {predictor!r}")
         self.predictor = predictor
         super().__init__(config, agent_index, seed)
 
-    def predict(self, view, ahead_s):
+    def predict(self, view: ObsView, ahead_s: float) -> tuple[np.ndarray, np.ndarray]:
         """The survey vehicles' (east, north) (S, 2) and depth below (S,) ``ahead_s`` after now."""
         if self.predictor == "path":
             return self.tracker.predict_along_path(view, ahead_s)
         return self.tracker.predict(view, ahead_s, "chord")
 
-    def plan(self, view):
+    def plan(self, view: ObsView) -> np.ndarray:
         c, T = self.config, self.ctx.ping_interval_s
         self.tracker.update(self.t_s, view)
         en, dz = self.predict(view, T)

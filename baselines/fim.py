@@ -26,11 +26,19 @@ summed over them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coopnav_env.core.information import maximize_on_disc, range_information_det
 
 from .base import PENALTY_PER_M, BeaconContext, Policy, SurveyTracker, TrackingPolicy, register_policy
+
+if TYPE_CHECKING:
+    from coopnav_env.obs_layout import ObsView
+    from coopnav_env.scenarios import ScenarioConfig
 
 # The default of approach B's predictor. Measured with benchmarks/sousa_table3.py (paired,
 # common random numbers): "heading" predicts the survey position one ping ahead better on a
@@ -43,7 +51,7 @@ from .base import PENALTY_PER_M, BeaconContext, Policy, SurveyTracker, TrackingP
 DEFAULT_B_PREDICTOR = "chord"
 
 
-def two_range_det(own_en, cand, target_en, depth_below):
+def two_range_det(own_en: ArrayLike, cand: np.ndarray, target_en: np.ndarray, depth_below: ArrayLike) -> np.ndarray:
     """det of the horizontal FIM of two ranges, beacon at ``own_en`` (2,) now and at
     each candidate (..., M, 2) next, about targets target_en (S, 2) depth_below (S,)
     deeper. Returns (..., M, S); range std 1 (the argmax does not depend on it)."""
@@ -57,7 +65,9 @@ def two_range_det(own_en, cand, target_en, depth_below):
     return range_information_det(target, beacons)
 
 
-def fim_a_waypoint(ctx: BeaconContext, own_en, target_en, depth_below, safety_en=None, safety_dz=None, **grid):
+def fim_a_waypoint(ctx: BeaconContext, own_en: ArrayLike, target_en: ArrayLike, depth_below: ArrayLike,
+                   safety_en: np.ndarray | None = None, safety_dz: ArrayLike | None = None,
+                   **grid: int) -> tuple[np.ndarray, np.ndarray]:
     """Approach A: the point of the reaching disc maximizing eq. (4). Returns
     (waypoint (2,), metric value at it)."""
     target_en = np.atleast_2d(target_en)
@@ -72,7 +82,8 @@ def fim_a_waypoint(ctx: BeaconContext, own_en, target_en, depth_below, safety_en
     return maximize_on_disc(score, np.asarray(own_en, float), ctx.reach_m, **grid)
 
 
-def fim_b_waypoint(ctx: BeaconContext, own_en, p1_en, p1_dz, p2_en, p2_dz, **grid):
+def fim_b_waypoint(ctx: BeaconContext, own_en: ArrayLike, p1_en: ArrayLike, p1_dz: ArrayLike, p2_en: ArrayLike,
+                   p2_dz: ArrayLike, **grid: int) -> tuple[np.ndarray, np.ndarray]:
     """Approach B: the point of the reaching disc maximizing eq. (6),
     m = det I(p1) + det I(p2). Returns (waypoint (2,), m at it)."""
     p1_en, p2_en = np.atleast_2d(p1_en), np.atleast_2d(p2_en)
@@ -90,7 +101,7 @@ class FimA(Policy):
     """Sousa et al. approach A: maximize det I(p) of eq. (4) over the reaching set,
     the survey vehicle assumed stationary at its last reported estimate."""
 
-    def plan(self, view):
+    def plan(self, view: ObsView) -> np.ndarray:
         wp, self.last_metric = fim_a_waypoint(self.ctx, view.own_en_m, view.survey_en_m, view.depth_below_m)
         return wp
 
@@ -104,13 +115,14 @@ class FimB(TrackingPolicy):
 
     PREDICTORS = SurveyTracker.PREDICTORS
 
-    def __init__(self, config, agent_index: int = 0, seed=None, predictor: str = DEFAULT_B_PREDICTOR):
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
+                 predictor: str = DEFAULT_B_PREDICTOR) -> None:
         if predictor not in self.PREDICTORS:
             raise ValueError(f"fim_b predictor must be one of {self.PREDICTORS}, got {predictor!r}")
         self.predictor = predictor
         super().__init__(config, agent_index, seed)
 
-    def plan(self, view):
+    def plan(self, view: ObsView) -> np.ndarray:
         self.tracker.update(self.t_s, view)
         p1_en, p1_dz = self.tracker.predict(view, 0.0, self.predictor)
         p2_en, p2_dz = self.tracker.predict(view, self.ctx.ping_interval_s, self.predictor)

@@ -25,11 +25,19 @@ boats start) instead of the mean y of the waypoints, which are then east/north.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coopnav_env.obs_layout import decode_boat
 
 from .base import Policy, register_policy, waypoint_to_action
+
+if TYPE_CHECKING:
+    from coopnav_env.obs_layout import BoatView
+    from coopnav_env.scenarios import ScenarioConfig
 
 
 def _speed_limited(v, max_speed_mps):
@@ -44,11 +52,11 @@ class PerpendicularPolicy(Policy):
 
     networks = ("moving_lbl",)
 
-    def velocity_xy(self, view) -> np.ndarray:
+    def velocity_xy(self, view: BoatView) -> np.ndarray:
         """Ground velocity (m/s) in the boats' frame: (along B1 -> B2, across)."""
         return np.array([0.0, self.config.boat_transit_speed_mps])
 
-    def act(self, obs):
+    def act(self, obs: ArrayLike) -> np.ndarray:
         view = decode_boat(obs, self.config)
         self.t_s += self.ctx.ping_interval_s
         v = self.velocity_xy(view)
@@ -62,7 +70,8 @@ class PerpendicularPolicy(Policy):
 class AbeamPolicy(PerpendicularPolicy):
     """Transit paced on the tracked vehicle, baseline length held (see the module docstring)."""
 
-    def __init__(self, config, agent_index=0, seed=None, pace_gain_per_s=0.02, baseline_gain_per_s=0.05):
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
+                 pace_gain_per_s: float = 0.02, baseline_gain_per_s: float = 0.05) -> None:
         if not (pace_gain_per_s >= 0 and baseline_gain_per_s >= 0):
             raise ValueError("gains must be >= 0")
         self.pace_gain_per_s, self.baseline_gain_per_s = float(pace_gain_per_s), float(baseline_gain_per_s)
@@ -75,7 +84,7 @@ class AbeamPolicy(PerpendicularPolicy):
         else:
             self.planned_y_m = float(wp[:, 1].mean())
 
-    def velocity_xy(self, view):
+    def velocity_xy(self, view: BoatView) -> np.ndarray:
         c = self.config
         along_y = c.boat_transit_speed_mps
         if view.has_fix:  # a vehicle further from the baseline than planned: move towards it
@@ -93,13 +102,15 @@ class RiverEscortPolicy(AbeamPolicy):
     constant 1 / gain), ``bank_margin_m`` keeps its target that far inside the bank when
     the river is narrower than the baseline allows."""
 
-    def __init__(self, config, agent_index=0, seed=None, gain_per_s=0.1, bank_margin_m=10.0, **kwargs):
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
+                 gain_per_s: float = 0.1,
+                 bank_margin_m: float = 10.0, **kwargs: Any) -> None:
         if not (gain_per_s > 0 and bank_margin_m >= 0):
             raise ValueError("gain_per_s must be > 0 and bank_margin_m >= 0")
         self.gain_per_s, self.bank_margin_m = float(gain_per_s), float(bank_margin_m)
         super().__init__(config, agent_index, seed, **kwargs)
 
-    def velocity_xy(self, view):
+    def velocity_xy(self, view: BoatView) -> np.ndarray:
         c = self.config
         if c.mission_frame != "world":
             return super().velocity_xy(view)

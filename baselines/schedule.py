@@ -34,9 +34,17 @@ Slots are counted by the policy itself from its ``reset()`` (one ``act`` per slo
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .base import Policy, register_scheduler
+
+if TYPE_CHECKING:
+    from coopnav_env.obs_layout import ObsView
+    from coopnav_env.scenarios import ScenarioConfig
 
 DEFAULT_SCHEDULE = "tdma"
 
@@ -44,34 +52,34 @@ DEFAULT_SCHEDULE = "tdma"
 class Schedule:
     """Transmit or not, per slot: ``transmit(slot, view) -> bool``."""
 
-    def __init__(self, config, agent_index: int):
+    def __init__(self, config: ScenarioConfig, agent_index: int) -> None:
         self.config, self.agent_index = config, agent_index
 
-    def transmit(self, slot: int, view) -> bool:
+    def transmit(self, slot: int, view: ObsView) -> bool:
         raise NotImplementedError
 
 
 class ClockSchedule(Schedule):
-    def __init__(self, config, agent_index, every: int = 1, offset: int = 0):
+    def __init__(self, config: ScenarioConfig, agent_index: int, every: int = 1, offset: int = 0) -> None:
         super().__init__(config, agent_index)
         if int(every) < 1 or not 0 <= int(offset) < int(every):
             raise ValueError(f"clock schedule needs every >= 1 and 0 <= offset < every, got {every}, {offset}")
         self.every, self.offset = int(every), int(offset)
 
-    def transmit(self, slot, view):
+    def transmit(self, slot: int, view: ObsView) -> bool:
         return slot % self.every == self.offset
 
 
 class TdmaSchedule(Schedule):
-    def __init__(self, config, agent_index, frame: int = 0):
+    def __init__(self, config: ScenarioConfig, agent_index: int, frame: int = 0) -> None:
         super().__init__(config, agent_index)
         self.frame = int(frame) or config.tdma_frame_slots or config.n_beacons
 
-    def transmit(self, slot, view):
+    def transmit(self, slot: int, view: ObsView) -> bool:
         return slot % self.frame == self.agent_index % self.frame
 
 
-def predicted_gain_nats(view, config) -> float:
+def predicted_gain_nats(view: ObsView, config: ScenarioConfig) -> float:
     """The information a range from the beacon's position now would add to the survey
     filters (nats, summed over survey vehicles): see the module docstring."""
     c = config
@@ -85,22 +93,22 @@ def predicted_gain_nats(view, config) -> float:
 
 
 class EventSchedule(Schedule):
-    def __init__(self, config, agent_index, threshold_nats: float = 0.5):
+    def __init__(self, config: ScenarioConfig, agent_index: int, threshold_nats: float = 0.5) -> None:
         super().__init__(config, agent_index)
         if not threshold_nats >= 0:
             raise ValueError(f"threshold_nats must be >= 0, got {threshold_nats!r}")
         self.threshold_nats = float(threshold_nats)
 
-    def transmit(self, slot, view):
+    def transmit(self, slot: int, view: ObsView) -> bool:
         return predicted_gain_nats(view, self.config) > self.threshold_nats
 
 
 class EventTdmaSchedule(EventSchedule):
-    def __init__(self, config, agent_index, threshold_nats: float = 0.5, frame: int = 0):
+    def __init__(self, config: ScenarioConfig, agent_index: int, threshold_nats: float = 0.5, frame: int = 0) -> None:
         super().__init__(config, agent_index, threshold_nats)
         self.turns = TdmaSchedule(config, agent_index, frame)
 
-    def transmit(self, slot, view):
+    def transmit(self, slot: int, view: ObsView) -> bool:
         return self.turns.transmit(slot, view) and super().transmit(slot, view)
 
 
@@ -115,19 +123,19 @@ class ScheduledPolicy(Policy):
     """A motion planner plus a transmit schedule: the action (3,) is the planner's
     motion and +1 (transmit) or -1 (silent)."""
 
-    def __init__(self, motion: Policy, schedule: Schedule):
+    def __init__(self, motion: Policy, schedule: Schedule) -> None:
         self.motion, self.schedule = motion, schedule
         self.name = f"{motion.name}+{type(schedule).__name__.removesuffix('Schedule').lower()}"
         super().__init__(motion.config, motion.ctx.agent_index, motion.seed)
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
         self.slot = 0
-        self.last_transmit = None
+        self.last_transmit: bool | None = None
         if hasattr(self, "motion"):
             self.motion.reset(seed)
 
-    def act(self, obs) -> np.ndarray:
+    def act(self, obs: ArrayLike) -> np.ndarray:
         move = np.asarray(self.motion.act(obs), dtype=np.float32)
         self.last_waypoint = self.motion.last_waypoint
         self.last_transmit = bool(self.schedule.transmit(self.slot, self.decode(obs)))
@@ -137,7 +145,8 @@ class ScheduledPolicy(Policy):
 
 
 @register_scheduler
-def make_scheduled(motion_cls, schedule_name: str, config, agent_index: int, seed=None, **kwargs) -> ScheduledPolicy:
+def make_scheduled(motion_cls: type[Policy], schedule_name: str, config: ScenarioConfig, agent_index: int,
+                   seed: int | Sequence[int] | None = None, **kwargs: Any) -> ScheduledPolicy:
     """``motion_cls`` with the schedule ``schedule_name`` ("" or None: ``DEFAULT_SCHEDULE``);
     ``kwargs`` go to the schedule when it takes them (every, offset, frame,
     threshold_nats), the rest to the planner."""

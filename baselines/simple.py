@@ -3,9 +3,17 @@ as many field crews do) and ``random`` (uniform random actions)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .base import Policy, TrackingPolicy, register_policy
+
+if TYPE_CHECKING:
+    from coopnav_env.obs_layout import ObsView
+    from coopnav_env.scenarios import ScenarioConfig
 
 
 @register_policy("static")
@@ -14,7 +22,7 @@ class StaticPolicy(Policy):
 
     networks = ("survey_beacons", "moving_lbl")
 
-    def act(self, obs):
+    def act(self, obs: ArrayLike) -> np.ndarray:
         self.t_s += self.ctx.ping_interval_s
         if self.config.action_mode == "heading_speed":
             return np.array([0.0, -1.0], dtype=np.float32)
@@ -26,13 +34,14 @@ class CirclePolicy(TrackingPolicy):
     """Orbit the survey vehicle's predicted position anticlockwise at ``radius_m``,
     advancing by up to 90 % of the reaching set per ping (at most 60 degrees)."""
 
-    def __init__(self, config, agent_index=0, seed=None, radius_m=40.0):
+    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
+                 radius_m: float = 40.0) -> None:
         if not radius_m > 0:
             raise ValueError(f"radius_m must be > 0, got {radius_m!r}")
         self.radius_m = float(radius_m)
         super().__init__(config, agent_index, seed)
 
-    def plan(self, view):
+    def plan(self, view: ObsView) -> np.ndarray:
         self.tracker.update(self.t_s, view)
         en, _ = self.tracker.predict(view, self.ctx.ping_interval_s)
         centre = en[0] if len(en) == 1 else en.mean(0)
@@ -49,10 +58,10 @@ class RandomPolicy(Policy):
 
     networks = ("survey_beacons", "moving_lbl")
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
         self.rng = np.random.default_rng(self.seed)
 
-    def act(self, obs):
+    def act(self, obs: ArrayLike) -> np.ndarray:
         self.t_s += self.ctx.ping_interval_s
         return self.rng.uniform(-1.0, 1.0, 2).astype(np.float32)

@@ -25,11 +25,19 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Sequence
 
 import numpy as np
 
-from coopnav_env.core.mls import (MLSConfig, MLSSensor, PeakTracker, Reflection, error_statistics,
-                                  geometric_truth, wrap_angle_rad)
+from coopnav_env.core.mls import (
+    MLSConfig,
+    MLSSensor,
+    PeakTracker,
+    Reflection,
+    error_statistics,
+    geometric_truth,
+    wrap_angle_rad,
+)
 
 RANGES_M = (0.5, 1.0, 2.0, 3.5, 5.0)
 AZIMUTHS_DEG = (-80.0, -40.0, 0.0, 40.0, 80.0)
@@ -41,7 +49,8 @@ def _errors(m, truth):
     return np.stack([wrap_angle_rad(m.azimuth_rad - az), m.range_m - r, wrap_angle_rad(m.heading_rad - hd)], axis=-1)
 
 
-def compare_cell(signal_sensor, analytic_sensor, range_m, azimuth_rad, aspect_rad, n_signal, n_analytic, rng):
+def compare_cell(signal_sensor: MLSSensor, analytic_sensor: MLSSensor, range_m: float, azimuth_rad: float,
+                 aspect_rad: float, n_signal: int, n_analytic: int, rng: np.random.Generator) -> dict:
     """Errors' (mean, std) in both modes at one pose. Observer at the origin heading 0; the
     sender at (range, azimuth) with heading azimuth + aspect. Returns a dict with
     arrays [azimuth rad, range m, heading rad] for each statistic."""
@@ -63,8 +72,9 @@ def compare_cell(signal_sensor, analytic_sensor, range_m, azimuth_rad, aspect_ra
             "bound": np.array([float(b) for b in bound])}
 
 
-def run_grid(ranges_m=RANGES_M, azimuths_deg=AZIMUTHS_DEG, n_signal=200, n_analytic=20000, seed=0,
-             snr_db=20.0, reflection=False, tolerance=TOLERANCE):
+def run_grid(ranges_m: Sequence[float] = RANGES_M, azimuths_deg: Sequence[float] = AZIMUTHS_DEG, n_signal: int = 200,
+             n_analytic: int = 20000, seed: int = 0,
+             snr_db: float = 20.0, reflection: bool = False, tolerance: float = TOLERANCE) -> list:
     """All cells; returns a list of row dicts (units: deg, mm, deg) with a pass flag."""
     rng = np.random.default_rng(seed)
     base = dict(snr_db_at_1m=snr_db, max_range_m=max(ranges_m) + 1.0)
@@ -88,7 +98,7 @@ def run_grid(ranges_m=RANGES_M, azimuths_deg=AZIMUTHS_DEG, n_signal=200, n_analy
     return rows
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--signal-events", type=int, default=200)
     ap.add_argument("--analytic-events", type=int, default=20000)

@@ -19,6 +19,7 @@ This is a script, not a test: nothing is timed under pytest.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 
 for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
@@ -37,7 +38,7 @@ from coopnav_env.core.mls import MLSConfig, MLSSensor, PeakTracker, Reflection  
 TARGET_MS = 5.0
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--events", type=int, default=200)
     ap.add_argument("--seed", type=int, default=0)
@@ -58,7 +59,7 @@ def main(argv=None):
         sensor.process(ch, tracker)
     tracker.reset()
     t_syn, t_proc = [], []
-    for k in range(args.events):
+    for _ in range(args.events):
         r = rng.uniform(0.5, 5.0)
         az = rng.uniform(-math.pi, math.pi)
         sp = np.array([r * math.cos(az), r * math.sin(az)])

@@ -32,11 +32,20 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-from coopnav_env.core.mls import (MLSConfig, MLSSensor, PeakTracker, Reflection, error_statistics,
-                                  geometric_truth, wrap_angle_rad)
+from coopnav_env.core.mls import (
+    MLSConfig,
+    MLSSensor,
+    PeakTracker,
+    Reflection,
+    error_statistics,
+    geometric_truth,
+    wrap_angle_rad,
+)
 
 PAPER_TABLE_1 = {
     "azimuth_mean_deg": 0.00, "azimuth_std_deg": 2.39, "azimuth_avgdev_deg": 1.83,
@@ -52,7 +61,7 @@ HEADING_AT_ZERO_DEG = 150.0
 UPDATE_HZ = 5.0
 
 
-def tank_config(snr_db=20.0, reflection=True, estimator="exact", **overrides):
+def tank_config(snr_db: float = 20.0, reflection: bool = True, estimator: str = "exact", **overrides: Any) -> MLSConfig:
     """The sensor as set up in the tank (see the module docstring for the assumptions)."""
     kw = dict(hydrophone_base_m=0.3, projector_spacing_m=0.5, sample_rate_hz=96_000.0,
               snr_db_at_1m=snr_db, water_temperature_c=20.0, salinity_psu=0.0, depth_m=0.5,
@@ -62,7 +71,7 @@ def tank_config(snr_db=20.0, reflection=True, estimator="exact", **overrides):
     return MLSConfig(**kw)
 
 
-def sweep_poses(n_events):
+def sweep_poses(n_events: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sender and observer poses of the sweep: the sender fixed at (1, 0) m with world
     heading 150 deg, the observer at the origin rotated so the azimuth goes -90 -> +90 deg."""
     az = np.radians(np.linspace(-90.0, 90.0, n_events))
@@ -72,7 +81,8 @@ def sweep_poses(n_events):
     return sender_pos, sender_heading, observer_heading
 
 
-def run_sweep(n_events=301, seed=0, mode="signal", snr_db=20.0, reflection=True, estimator="exact"):
+def run_sweep(n_events: int = 301, seed: int = 0, mode: str = "signal", snr_db: float = 20.0, reflection: bool = True,
+              estimator: str = "exact") -> dict:
     """Run the sweep; returns a dict of the errors (rad, m) and the truth azimuths (rad)."""
     sensor = MLSSensor(tank_config(snr_db, reflection, estimator))
     sender_pos, sender_heading, obs_heading = sweep_poses(n_events)
@@ -100,7 +110,7 @@ def run_sweep(n_events=301, seed=0, mode="signal", snr_db=20.0, reflection=True,
             "sound_speed_mps": sensor.sound_speed_true_mps}
 
 
-def statistics(errs):
+def statistics(errs: dict) -> dict:
     """The paper's statistics (eqs. 15-19) in the units of Table 1, plus the largest
     errors near the ends of the sweep (|azimuth| >= 80 deg) and elsewhere."""
     out = {}
@@ -117,7 +127,7 @@ def statistics(errs):
     return out
 
 
-def headline_checks(stats):
+def headline_checks(stats: dict) -> dict:
     return {
         "azimuth_mean_under_0.3_deg": abs(stats["azimuth_mean_deg"]) < HEADLINE["azimuth_mean_deg"],
         "azimuth_avgdev_under_2.0_deg": stats["azimuth_avgdev_deg"] < HEADLINE["azimuth_avgdev_deg"],
@@ -142,7 +152,7 @@ def _parse(argv=None):
     return args
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     args = _parse(argv)
     errs = run_sweep(args.events, args.seed, args.mode, args.snr_db, not args.no_reflection, args.estimator)
     stats = statistics(errs)

@@ -17,13 +17,19 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from evaluation.paired import t_interval
 
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
-def run(config, spec, kwargs, seeds):
+
+def run(config: ScenarioConfig, spec: str, kwargs: dict,
+        seeds: Sequence[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per-episode (mean error, pings, collisions, energy) of one policy on ``seeds``."""
     from coopnav_env.core import make_simulator
 
@@ -61,7 +67,7 @@ def run(config, spec, kwargs, seeds):
     return err / steps, pings, coll, energy
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     import coopnav_env
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0],
@@ -89,10 +95,12 @@ def main(argv=None) -> int:
         print(f"{label}: error {e.mean():.3f} m, pings {pg.mean():.1f}, collisions {c.mean():.1f}", file=sys.stderr,
               flush=True)
     lines = [f"`{args.scenario}`, {args.episodes} episodes, seeds {seeds[0]}..{seeds[-1]} (common random numbers)", "",
-             "| policy | mean error (m) [95 %] | pings per mission | collisions | energy (kJ) |", "|---|---|---|---|---|"]
+             "| policy | mean error (m) [95 %] | pings per mission | collisions | energy (kJ) |",
+             "|---|---|---|---|---|"]
     for label, (e, pg, c, en) in results.items():
         m, lo, hi = t_interval(e)
-        lines.append(f"| {label} | {m:.3f} [{lo:.3f}, {hi:.3f}] | {pg.mean():.1f} | {c.mean():.1f} | {en.mean() / 1e3:.2f} |")
+        lines.append(f"| {label} | {m:.3f} [{lo:.3f}, {hi:.3f}] | {pg.mean():.1f} | {c.mean():.1f} "
+                     f"| {en.mean() / 1e3:.2f} |")
     for ref_name in ("fim_a+tdma", "ellipse+tdma"):  # the fixed clock of a shared channel, per motion planner
         ref = results[ref_name]
         for spec in [s for s in args.policies.split(",") if s]:

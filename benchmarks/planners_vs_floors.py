@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -23,7 +24,7 @@ from evaluation.paired import t_interval
 FLOORS = ("static", "random")
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     import coopnav_env
     from baselines import list_policies
 

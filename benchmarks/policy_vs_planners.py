@@ -36,12 +36,17 @@ import json
 import os
 import sys
 import time
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from evaluation.paired import t_interval
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 RANDOMIZATION_OFF = {"randomize_survey_path": (), "randomize_depth_m": (), "randomize_noise_scale": ()}
 
@@ -92,7 +97,7 @@ FIELDS_ADDED_AFTER_CACHE_V1 = (
 )
 
 
-def config_key(config) -> str:
+def config_key(config: ScenarioConfig) -> str:
     from coopnav_env.scenarios import ScenarioConfig
 
     default = ScenarioConfig()
@@ -107,7 +112,7 @@ def is_planner(spec: str) -> bool:
     return spec in list_policies()
 
 
-def run_cell(config, spec: str, seeds: list) -> np.ndarray:
+def run_cell(config: ScenarioConfig, spec: str, seeds: list) -> np.ndarray:
     """Per-episode mean survey_error_m of policy ``spec`` on ``seeds`` (one batch)."""
     from coopnav_env.core import make_simulator
     from coopnav_env.views import action_dim
@@ -153,13 +158,13 @@ def _job(args):
     return label, spec, run_cell(config, spec, seeds).tolist(), time.perf_counter() - t
 
 
-def with_warnings_quiet():
+def with_warnings_quiet() -> None:
     import warnings
 
     warnings.filterwarnings("ignore", message=".*was trained on.*")
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
     p.add_argument("--policies", default="ppo,fim_a,fim_b",
@@ -201,7 +206,7 @@ def main(argv=None) -> int:
             outs = list(pool.map(_job, work))
     else:
         outs = [_job(w) for w in work]
-    for (label, config, spec, _, name, key), (_, _, per_ep, secs) in zip(jobs, outs):
+    for (label, _config, spec, _, name, key), (_, _, per_ep, secs) in zip(jobs, outs):
         results[(label, name)] = np.array(per_ep)
         print(f"  {label:<40} {name:<12} {np.mean(per_ep):8.3f} m  [{secs:.0f} s]", file=sys.stderr, flush=True)
         if is_planner(spec):

@@ -34,11 +34,12 @@ import platform
 import sys
 import time
 import warnings
+from collections.abc import Sequence
 
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
 
 
-def parse_args(argv=None):
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
     p.add_argument("--batch", type=int, default=8192, help="env steps per PPO update (both)")
@@ -54,7 +55,7 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
-def sb3_rate(args, n_beacons: int) -> dict:
+def sb3_rate(args: argparse.Namespace, n_beacons: int) -> dict:
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
@@ -80,7 +81,7 @@ def sb3_rate(args, n_beacons: int) -> dict:
             "agent_steps_per_s": round(env_steps * n_beacons / wall, 1), "build_s": None}
 
 
-def rllib_rate(args, runners: int, n_beacons: int) -> dict:
+def rllib_rate(args: argparse.Namespace, runners: int, n_beacons: int) -> dict:
     import torch
 
     from agents.training import rllib as trainer
@@ -119,7 +120,7 @@ def rllib_rate(args, runners: int, n_beacons: int) -> dict:
             "agent_steps_per_s": round(env_steps * n_beacons / wall, 1), "build_s": round(build, 1)}
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     warnings.filterwarnings("ignore")
     from coopnav_env import make_config

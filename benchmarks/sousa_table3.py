@@ -35,11 +35,16 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from evaluation.paired import t_interval
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 PATHS = ("stationary", "lawnmower", "circle", "spiral")
 PATH_TITLES = {"stationary": "Stationary", "lawnmower": "Lawn Mower", "circle": "Circular", "spiral": "Spiral"}
@@ -49,7 +54,7 @@ PAPER_TABLE3 = {"A": ("=", "-", "+", "+"), "B": ("=", "+", "-", "-")}
 DEFAULT_SEED = 700_000  # reporting seeds: disjoint from evaluate.py's (0..) and the trainers' validation (500000..)
 
 
-def make_path_config(path: str, args):
+def make_path_config(path: str, args: argparse.Namespace) -> ScenarioConfig:
     from coopnav_env.scenarios import make_config
 
     return make_config("sousa_asv", survey_path=path, depth_m=args.depth, ping_interval_s=args.ping_interval,
@@ -58,7 +63,7 @@ def make_path_config(path: str, args):
                        randomize_survey_path=(), randomize_depth_m=(), randomize_noise_scale=())
 
 
-def run_episodes(config, policy: str, kwargs: dict, seeds: list) -> tuple:
+def run_episodes(config: ScenarioConfig, policy: str, kwargs: dict, seeds: list) -> tuple:
     """Per-episode (eps_bar, sigma^2_eps) of ``policy`` on ``seeds``, all episodes one batch."""
     from baselines import make_policy
     from coopnav_env.core import make_simulator
@@ -105,7 +110,7 @@ def table3_marks(means: dict) -> dict:
     return marks
 
 
-def build_report(results: dict, labels: list, args) -> str:
+def build_report(results: dict, labels: list, args: argparse.Namespace) -> str:
     seeds = f"{args.seed}..{args.seed + args.episodes - 1}"
     lines = [f"sousa_asv: depth {args.depth:g} m, ping interval "
              f"{args.ping_interval:g} s (ROV ~{args.ping_interval:g} m per ping at ~1 m/s; ASV reach 2 m/s x "
@@ -142,7 +147,7 @@ def build_report(results: dict, labels: list, args) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses seed SEED + i")

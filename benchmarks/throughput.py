@@ -26,7 +26,8 @@ median is reported beside it. The aims stated by the project:
 * the PettingZoo env >= MPE simple_spread_v3 (3 agents).
 
 Numbers depend on the machine; run on an idle one (compare best and median: a
-large gap means other processes were competing for the CPU). This is a script, not a test: nothing here is timed under pytest.
+large gap means other processes were competing for the CPU). This is a script, not a test: nothing here is
+timed under pytest.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import os
 import platform
 import sys
 import time
+from collections.abc import Callable, Sequence
 
 BATCH_SIZES = (1, 64, 1024)
 AIM_CORE_OVER_PZ = 100.0
@@ -110,21 +112,21 @@ def _pettingzoo_stepper(env, seed=0):
     return step
 
 
-def pettingzoo_bench(scenario):
+def pettingzoo_bench(scenario: str) -> _Bench:
     import coopnav_env
 
     env = coopnav_env.parallel_env(scenario)
     return _Bench("pettingzoo", _pettingzoo_stepper(env), env.close)
 
 
-def mpe_bench():
+def mpe_bench() -> _Bench:
     from mpe2 import simple_spread_v3
 
     env = simple_spread_v3.parallel_env(N=3, continuous_actions=True)
     return _Bench("mpe", _pettingzoo_stepper(env), env.close)
 
 
-def core_bench(scenario, batch_size, seed=0):
+def core_bench(scenario: str, batch_size: int, seed: int = 0) -> _Bench:
     import numpy as np
 
     from coopnav_env import make_config
@@ -148,7 +150,7 @@ def core_bench(scenario, batch_size, seed=0):
     return _Bench(f"core_{B}", step)
 
 
-def machine_info():
+def machine_info() -> dict:
     import numpy as np
 
     info = {
@@ -190,7 +192,7 @@ def _ratio(a, b):
     return a / b if b > 0 else float("inf")
 
 
-def run(scenario, seconds, rounds=5, progress=None):
+def run(scenario: str, seconds: float, rounds: int = 5, progress: Callable[[str], None] | None = None) -> dict:
     """Measure every environment; ``seconds`` per measurement, split into
     ``rounds`` chunks taken round-robin over the environments (so that a burst of
     load from elsewhere hits them alike). Each rate reported is the best chunk
@@ -241,11 +243,12 @@ def run(scenario, seconds, rounds=5, progress=None):
     }
 
 
-def format_table(r):
+def format_table(r: dict) -> str:
     m, med = r["machine"], r["median_steps_per_s"]
     rows = [(f"PettingZoo parallel_env({r['scenario']!r}), batch 1", r["pettingzoo_steps_per_s"], med["pettingzoo"])]
     rows += [(f"core Simulator, batch {b}", v, med["core"][b]) for b, v in r["core_steps_per_s"].items()]
-    rows.append(("MPE simple_spread_v3 (N=3, continuous)", r["mpe_simple_spread_steps_per_s"], med["mpe_simple_spread"]))
+    rows.append(("MPE simple_spread_v3 (N=3, continuous)", r["mpe_simple_spread_steps_per_s"],
+                 med["mpe_simple_spread"]))
     width = max(len(row[0]) for row in rows)
     lines = [
         f"coopnav throughput: {r['seconds_per_measurement']:g} s per measurement, "
@@ -273,7 +276,7 @@ def format_table(r):
     return "\n".join(lines)
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         description="Environment steps per second of the coopnav PettingZoo env, the batched core "
                     "(batch 1, 64, 1024) and PettingZoo's MPE simple_spread_v3.")

@@ -35,12 +35,13 @@ import argparse
 import json
 import os
 import platform
+import shutil
 import signal
 import statistics
 import subprocess
 import sys
-import shutil
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -48,7 +49,8 @@ DEFAULT_CONFIG = ROOT / "configs" / "ppo" / "sousa_fast.yml"
 
 
 def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budget_s: float, threads: int,
-                       timesteps: int, baseline: str = "fim_a", margin: float = 0.0, eval_episodes=None) -> dict:
+                       timesteps: int, baseline: str = "fim_a", margin: float = 0.0,
+                       eval_episodes: int | None = None) -> dict:
     """Train one seed until its validation is below ``(1 - margin)`` times ``baseline``'s,
     or ``budget_s`` of training; returns its validations and times."""
     cmd = [sys.executable, str(ROOT / "train.py"), "--scenario", "sousa_asv", "--config", str(config),
@@ -58,7 +60,7 @@ def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budg
     if eval_episodes is not None:
         cmd += ["--set", f"eval.episodes={eval_episodes}"]
     started = time.perf_counter()
-    log = open(out.parent / f"seed_{seed}.log", "w")  # the trainer's output, kept beside the run
+    log = open(out.parent / f"seed_{seed}.log", "w")  # noqa: SIM115 (closed in the finally below) the trainer's output
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT)
     records, beaten = [], None
     path = out / "evaluations.jsonl"
@@ -94,7 +96,7 @@ def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budg
                             for r in records]}
 
 
-def figure(result: dict, path: Path):
+def figure(result: dict, path: Path) -> None:
     import io
 
     import matplotlib
@@ -110,7 +112,7 @@ def figure(result: dict, path: Path):
         e = [v["survey_error_m"] for v in run["validations"]]
         (line,) = ax.plot(t, e, marker="o", ms=3, label=f"seed {run['seed']}")
         if run["beaten"]:
-            ax.plot([run["time_to_beat_s"]], [e[[v["train_s"] for v in run["validations"]].index(run["time_to_beat_s"])]],
+            ax.plot([run["time_to_beat_s"]], [e[t.index(run["time_to_beat_s"])]],
                     marker="*", ms=14, color=line.get_color())
     base = result["runs"][0]["baseline_survey_error_m"]
     ax.axhline(base, color="k", ls="--", lw=1, label=f"{result['baseline']} ({base:.3f} m)")
@@ -133,7 +135,7 @@ def figure(result: dict, path: Path):
     atomic_write_bytes(path, buf.getvalue())
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="time_to_beat.py", description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--config", type=Path, default=DEFAULT_CONFIG, help="train.py config (default: %(default)s)")
@@ -187,8 +189,8 @@ def main(argv=None) -> int:
     result = {"command": " ".join(["python", "benchmarks/time_to_beat.py", *(argv or sys.argv[1:])]),
               "config": str(args.config.relative_to(ROOT) if args.config.resolve().is_relative_to(ROOT)
                             else args.config),
-              "baseline": "fim_a", "margin": args.margin, "cores": os.cpu_count(), "threads": args.threads, "machine": platform.processor()
-              or platform.machine(), "median_time_to_beat_s": median,
+              "baseline": "fim_a", "margin": args.margin, "cores": os.cpu_count(), "threads": args.threads,
+              "machine": platform.processor() or platform.machine(), "median_time_to_beat_s": median,
               "median_is_upper_bound": not all(r["beaten"] for r in runs), "budget_s": args.budget_s,
               "runs": runs, "versions": version_record()}
     atomic_write_text(args.out / "time_to_beat.json", json.dumps(result, indent=1, allow_nan=False) + "\n")

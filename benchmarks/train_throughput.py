@@ -37,9 +37,14 @@ import platform
 import sys
 import time
 import warnings
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from agents.training import TrainConfig
 
 
-def timed(venv_class):
+def timed(venv_class: type) -> type:
     """A VecEnvWrapper that adds the wall time spent inside the wrapped VecEnv."""
 
     class Timed(venv_class):
@@ -73,8 +78,9 @@ def timed(venv_class):
     return Timed
 
 
-def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int, config, step_infos=False,
-          training_reward=False):
+def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int, config: TrainConfig,
+          step_infos: bool = False,
+          training_reward: bool = False) -> Any:
     """``config``: the scenario's ``agents.training.TrainConfig``."""
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
@@ -94,8 +100,9 @@ def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int,
     return timed(VecEnvWrapper)(raw)
 
 
-def measure(kind, scenario, config, n_envs, rollouts, seed, supersuit_cpus, step_infos=False,
-            training_reward=False) -> dict:
+def measure(kind: str, scenario: str, config: TrainConfig, n_envs: int, rollouts: int, seed: int, supersuit_cpus: int,
+            step_infos: bool = False,
+            training_reward: bool = False) -> dict:
     import dataclasses
 
     import torch
@@ -143,7 +150,7 @@ def measure(kind, scenario, config, n_envs, rollouts, seed, supersuit_cpus, step
             "update_share": (wall - phases.rollout_s) / wall}
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     from agents.training.config import ConfigError, TrainConfig, hyperparameter_file, load_config
 
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])

@@ -9,19 +9,28 @@ simulator is ``coopnav_env.core.sim.Simulator``. Heavy imports (matplotlib,
 PettingZoo's wrappers) happen only when used.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 from .scenarios import ScenarioConfig, list_scenarios, make_config, parameter_names
+
+if TYPE_CHECKING:
+    from pettingzoo import AECEnv
+
+    from .pettingzoo_env import CoopNavParallelEnv
 
 __all__ = ["ScenarioConfig", "env", "list_scenarios", "make_config", "parallel_env", "parameter_names", "raw_env"]
 
 
-def parallel_env(scenario="gao_lawnmower", **kwargs):
+def parallel_env(scenario: str | ScenarioConfig = "gao_lawnmower", **kwargs: Any) -> CoopNavParallelEnv:
     """The PettingZoo ParallelEnv of ``scenario``. See ``CoopNavParallelEnv``."""
     from .pettingzoo_env import CoopNavParallelEnv
 
     return CoopNavParallelEnv(scenario, **kwargs)
 
 
-def raw_env(scenario="gao_lawnmower", **kwargs):
+def raw_env(scenario: str | ScenarioConfig = "gao_lawnmower", **kwargs: Any) -> AECEnv:
     """The unwrapped AEC environment (PettingZoo's ``raw_env`` convention): the
     parallel env seen through ``parallel_to_aec_wrapper``, without the order check."""
     from pettingzoo.utils.conversions import parallel_to_aec_wrapper
@@ -29,7 +38,7 @@ def raw_env(scenario="gao_lawnmower", **kwargs):
     return parallel_to_aec_wrapper(parallel_env(scenario, **kwargs))
 
 
-def env(scenario="gao_lawnmower", **kwargs):
+def env(scenario: str | ScenarioConfig = "gao_lawnmower", **kwargs: Any) -> AECEnv:
     """The AEC environment as PettingZoo's own envs return it: ``raw_env`` inside
     ``OrderEnforcingWrapper`` (which refuses ``step`` before ``reset`` and the like)."""
     from pettingzoo.utils.wrappers import OrderEnforcingWrapper

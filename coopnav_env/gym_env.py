@@ -7,17 +7,31 @@ PettingZoo env (see ``CoopNavParallelEnv``), so single-agent libraries work.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import gymnasium as gym
+import numpy as np
+from numpy.typing import ArrayLike
 
 from .core import make_simulator
 from .scenarios import make_config
 from .views import action_space, agent_infos, check_action, observation_space
 
+if TYPE_CHECKING:
+    from gymnasium import spaces
+
+    from .render import EpisodeRecorder
+    from .scenarios import ScenarioConfig
+
 
 class CoopNavGymEnv(gym.Env):
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+    # gymnasium.Env declares metadata an instance attribute (dict[str, Any]): a ClassVar would not match it
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 4}  # noqa: RUF012
+    action_space: spaces.Box
+    observation_space: spaces.Box
 
-    def __init__(self, scenario="gao_lawnmower", render_mode=None, **overrides):
+    def __init__(self, scenario: str | ScenarioConfig = "gao_lawnmower", render_mode: str | None = None,
+                 **overrides: Any) -> None:
         self.config = make_config(scenario, **overrides)
         if self.config.n_beacons != 1:
             raise ValueError(f"the Gymnasium view needs a scenario with one beacon; {self.config.name} has "
@@ -28,9 +42,10 @@ class CoopNavGymEnv(gym.Env):
         self.sim = make_simulator(self.config, batch_size=1)
         self.action_space = action_space(self.sim)
         self.observation_space = observation_space(self.sim)
-        self._recorder = None
+        self._recorder: EpisodeRecorder | None = None
 
-    def reset(self, *, seed=None, options=None):
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         episode_seed = int(self.np_random.integers(2**31))
         obs = self.sim.reset([episode_seed])
@@ -41,7 +56,7 @@ class CoopNavGymEnv(gym.Env):
             self._recorder.record(self.sim.snapshot(), 0)
         return obs[0, 0], agent_infos(self.sim.reset_info(), 0, self.sim.reset_beacon_info())  # step()'s keys
 
-    def step(self, action):
+    def step(self, action: ArrayLike) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         a = check_action("beacon_0", action, self.action_space.shape[0])
         res = self.sim.step(a[None, None])
         if self._recorder is not None:
@@ -49,7 +64,7 @@ class CoopNavGymEnv(gym.Env):
         return (res.obs[0, 0], float(res.reward[0, 0]), bool(res.terminated[0]), bool(res.truncated[0]),
                 agent_infos(res.info, 0, res.beacon_info))
 
-    def render(self):
+    def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array" or self._recorder is None:
             return None
         from .render import draw_episode, figure_to_rgb

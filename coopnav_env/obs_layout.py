@@ -30,17 +30,29 @@ clipped to [-OBS_BOUND, OBS_BOUND] by the simulator cannot be recovered beyond t
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-
-from .core.information import ellipse_to_covariance
+from numpy.typing import ArrayLike
 
 from .core import observation as _layout
-from .core.observation import (AGE_SCALE_PINGS, DEPTH_SCALE_M, ELLIPSE_N_SIGMA, ELLIPSE_SCALE_M,  # noqa: F401
-                               OBS_BOUND, OWN_DIM, PER_SURVEY_FIXED, STD_SCALE_M)
+from .core.information import ellipse_to_covariance
+from .core.observation import (
+    AGE_SCALE_PINGS,
+    DEPTH_SCALE_M,
+    ELLIPSE_N_SIGMA,
+    ELLIPSE_SCALE_M,
+    OBS_BOUND,
+    OWN_DIM,
+    PER_SURVEY_FIXED,
+    STD_SCALE_M,
+)
+
+if TYPE_CHECKING:
+    from .scenarios import ScenarioConfig
 
 
-def obs_dim(config) -> int:
+def obs_dim(config: ScenarioConfig) -> int:
     """Length of one beacon's observation for ``config``."""
     if config.network == "moving_lbl":  # a mission in the world adds the river's fields
         from .core.moving_network import obs_dim_of
@@ -49,7 +61,7 @@ def obs_dim(config) -> int:
     return _layout.obs_dim(config.n_survey, config.n_beacons, config.observed_waypoints)
 
 
-def fence_center_m(config) -> np.ndarray:
+def fence_center_m(config: ScenarioConfig) -> np.ndarray:
     e0, n0, e1, n1 = config.geofence_m
     return np.array([(e0 + e1) / 2, (n0 + n1) / 2])
 
@@ -88,7 +100,7 @@ class ObsView:
     peers_en_m: np.ndarray
 
 
-def decode(obs, config) -> ObsView:
+def decode(obs: ArrayLike, config: ScenarioConfig) -> ObsView:
     """Decode observations (..., D) of ``config`` into an :class:`ObsView`."""
     obs = np.asarray(obs, dtype=float)
     D = obs_dim(config)
@@ -115,9 +127,11 @@ def decode(obs, config) -> ObsView:
     )
 
 
-def encode(config, own_en_m, survey_rel_m, major_m=4.0, minor_m=4.0, bearing_rad=0.0, heading_en=(0.0, 1.0),
-           speed_fraction=0.0, own_std_m=2.0, reply_age_s=0.0, range_age_s=0.0, waypoints_en_m=None,
-           peers_en_m=None) -> np.ndarray:
+def encode(config: ScenarioConfig, own_en_m: ArrayLike, survey_rel_m: ArrayLike, major_m: ArrayLike = 4.0,
+           minor_m: ArrayLike = 4.0, bearing_rad: ArrayLike = 0.0, heading_en: ArrayLike = (0.0, 1.0),
+           speed_fraction: float = 0.0, own_std_m: float = 2.0, reply_age_s: ArrayLike = 0.0,
+           range_age_s: ArrayLike = 0.0, waypoints_en_m: ArrayLike | None = None,
+           peers_en_m: ArrayLike | None = None) -> np.ndarray:
     """Build one beacon's observation (D,) float32 from quantities in metres (the
     inverse of :func:`decode`). survey_rel_m: (S, 3) survey estimate minus own
     (east, north, depth); waypoints default to the survey's own estimate."""
@@ -176,7 +190,7 @@ class BoatView:
         return np.stack([x[..., 1], -x[..., 0]], -1)
 
 
-def decode_boat(obs, config) -> BoatView:
+def decode_boat(obs: ArrayLike, config: ScenarioConfig) -> BoatView:
     """Decode boat observations (..., obs_dim(config)) of a moving-network scenario."""
     from .core.moving_network import obs_fields
 

@@ -2,13 +2,29 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 from pettingzoo import ParallelEnv
 
 from .core import make_simulator
 from .scenarios import make_config
 from .seeds import check_seed
 from .views import action_space, agent_infos, check_action, observation_space, state_space
+
+if TYPE_CHECKING:
+    from gymnasium import spaces
+    from matplotlib.figure import Figure
+
+    from .core.contract import StepResult
+    from .render import EpisodeRecorder
+    from .scenarios import ScenarioConfig
+
+
+# what step returns: observations, rewards, terminations, truncations, infos, per agent
+_Step = tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict[str, Any]]]
 
 
 class CoopNavParallelEnv(ParallelEnv):
@@ -96,10 +112,12 @@ class CoopNavParallelEnv(ParallelEnv):
     any scenario parameter by keyword; unknown names raise ``ValueError``.
     """
 
-    metadata = {"name": "coopnav_v0", "render_modes": ["human", "rgb_array"], "is_parallelizable": True,
-                "render_fps": 4}
+    # pettingzoo.ParallelEnv declares metadata an instance attribute (dict[str, Any]), as gymnasium.Env does
+    metadata: dict[str, Any] = {"name": "coopnav_v0", "render_modes": ["human", "rgb_array"],  # noqa: RUF012
+                                "is_parallelizable": True, "render_fps": 4}
 
-    def __init__(self, scenario="gao_lawnmower", render_mode=None, seed=None, max_cycles=None, **overrides):
+    def __init__(self, scenario: str | ScenarioConfig = "gao_lawnmower", render_mode: str | None = None,
+                 seed: int | None = None, max_cycles: int | None = None, **overrides: Any) -> None:
         if max_cycles is not None:
             overrides["max_cycles"] = max_cycles
         self.config = make_config(scenario, **overrides)
@@ -107,24 +125,26 @@ class CoopNavParallelEnv(ParallelEnv):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'human', 'rgb_array'")
         self.render_mode = render_mode
         self.sim = make_simulator(self.config, batch_size=1)
-        self.last_result = None  # the core's StepResult of the last step (training-reward wrappers read it)
+        # the core's StepResult of the last step (training-reward wrappers read it)
+        self.last_result: StepResult | None = None
         self.possible_agents = [f"beacon_{i}" for i in range(self.config.n_beacons)]
-        self.agents = []
+        self.agents: list[str] = []
         self._action_space = action_space(self.sim)
         self._observation_space = observation_space(self.sim)
         self.state_space = state_space(self.sim)
         self._seed = None if seed is None else check_seed(seed)
         self._seed_rng = np.random.default_rng(self._seed)
-        self._recorder = None
-        self._viewer = None
+        self._recorder: EpisodeRecorder | None = None
+        self._viewer: Figure | None = None
 
-    def observation_space(self, agent):
+    def observation_space(self, agent: str) -> spaces.Box:
         return self._observation_space
 
-    def action_space(self, agent):
+    def action_space(self, agent: str) -> spaces.Box:
         return self._action_space
 
-    def reset(self, seed=None, options=None):
+    def reset(self, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         if seed is None:
             seed = self._seed if self._seed is not None else int(self._seed_rng.integers(2**31))
             self._seed = None
@@ -145,7 +165,7 @@ class CoopNavParallelEnv(ParallelEnv):
         infos = {a: agent_infos(info, 0, beacon_info, j) for j, a in enumerate(self.agents)}
         return {a: obs[0, i] for i, a in enumerate(self.agents)}, infos
 
-    def step(self, actions):
+    def step(self, actions: Mapping[str, ArrayLike]) -> _Step:
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict agent -> action, got {type(actions).__name__}")
         if not self.agents:
@@ -167,8 +187,8 @@ class CoopNavParallelEnv(ParallelEnv):
         agents = self.agents
         obs = {a: res.obs[0, i] for i, a in enumerate(agents)}
         rewards = {a: float(res.reward[0, i]) for i, a in enumerate(agents)}
-        terms = {a: term for a in agents}
-        truncs = {a: trunc for a in agents}
+        terms = dict.fromkeys(agents, term)
+        truncs = dict.fromkeys(agents, trunc)
         infos = {a: agent_infos(res.info, 0, res.beacon_info, j) for j, a in enumerate(agents)}
         if term or trunc:
             self.agents = []
@@ -176,13 +196,13 @@ class CoopNavParallelEnv(ParallelEnv):
             self.render()
         return obs, rewards, terms, truncs, infos
 
-    def state(self):
+    def state(self) -> np.ndarray:
         """The true global state (``state_space``), for centralized critics."""
         if self.sim.state is None:
             raise RuntimeError("state() before reset(): call reset() first")
         return self.sim.global_state()[0]
 
-    def render(self):
+    def render(self) -> np.ndarray | None:
         if self.render_mode is None:
             import gymnasium
 
@@ -209,7 +229,7 @@ class CoopNavParallelEnv(ParallelEnv):
         state["_viewer"] = None  # a window does not travel between processes
         return state
 
-    def close(self):
+    def close(self) -> None:
         if self._viewer is not None:
             import matplotlib.pyplot as plt
 

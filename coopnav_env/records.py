@@ -17,7 +17,9 @@ import os
 import platform
 import subprocess
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 # the checkout this package was imported from (where `git rev-parse` is asked)
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
@@ -29,7 +31,7 @@ def _umask() -> int:
     return mask
 
 
-def atomic_write_bytes(path, data: bytes) -> None:
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
     """Write ``data`` to ``path`` atomically: a temporary file beside it (same
     filesystem), fsync, then ``os.replace``. The file gets the umask's permissions
     (mkstemp's 0600 would otherwise leak through). On any error, including Ctrl-C,
@@ -52,12 +54,12 @@ def atomic_write_bytes(path, data: bytes) -> None:
         raise
 
 
-def atomic_write_text(path, text: str) -> None:
+def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     """``atomic_write_bytes`` of ``text`` encoded as UTF-8."""
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def atomic_append_line(path, line: str) -> None:
+def atomic_append_line(path: str | os.PathLike[str], line: str) -> None:
     """Append ``line`` (and a newline) to a text file atomically: the old content plus
     the line is written beside it and renamed into place (``atomic_write_bytes``), so
     a full disk or a kill leaves the file as it was, never a line cut short."""
@@ -71,7 +73,7 @@ def atomic_append_line(path, line: str) -> None:
     atomic_write_bytes(path, old + line.rstrip("\n").encode("utf-8") + b"\n")
 
 
-def read_json(path):
+def read_json(path: str | os.PathLike[str]) -> Any:
     """The parsed content of a JSON file, or None if the file does not exist. Bounded
     in size and depth (``coopnav_env.safe_load``: a ``ValueError`` of one line else)."""
     from .safe_load import read_json as _read_json
@@ -79,7 +81,7 @@ def read_json(path):
     return _read_json(path)
 
 
-def read_yaml(path):
+def read_yaml(path: str | os.PathLike[str]) -> Any:
     """The parsed content of a YAML file (safe loader; no aliases, bounded size and
     depth: ``coopnav_env.safe_load``), or None if it does not exist."""
     from .safe_load import read_yaml as _read_yaml
@@ -87,7 +89,7 @@ def read_yaml(path):
     return _read_yaml(path)
 
 
-def plain(obj):
+def plain(obj: Any) -> Any:
     """Tuples -> lists and numpy scalars -> Python numbers, recursively (for
     ``yaml.safe_dump`` and ``json.dumps``)."""
     if isinstance(obj, dict):
@@ -115,7 +117,7 @@ def _first_non_finite(obj, where="") -> str | None:
     return None
 
 
-def strict_json(obj, indent: int | None = 2) -> str:
+def strict_json(obj: Any, indent: int | None = 2) -> str:
     """``obj`` as standard JSON text (with a final newline). NaN and infinities are not
     JSON: they raise ``ValueError`` naming where they are (e.g. ``policies.fim_a.mean_error_m``)."""
     obj = plain(obj)
@@ -133,14 +135,14 @@ def _git(*args) -> str:
         return ""
 
 
-def version_record(packages=("numpy", "scipy", "numba", "gymnasium", "pettingzoo", "torch",
+def version_record(packages: Iterable[str] = ("numpy", "scipy", "numba", "gymnasium", "pettingzoo", "torch",
                              "stable_baselines3", "filterpy")) -> dict:
     """What produced a result: Python, the given packages' versions (those that are
     installed; imported lazily, only their metadata is read), coopnav's version, and
     the git commit of the checkout (``git_dirty``: tracked files were modified)."""
     from importlib import metadata
 
-    out = {"python": platform.python_version()}
+    out: dict[str, Any] = {"python": platform.python_version()}
     names = {"stable_baselines3": "stable-baselines3"}
     for name in ("coopnav",) + tuple(packages):
         try:

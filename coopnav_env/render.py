@@ -6,20 +6,35 @@ Rendering keeps the simulator's snapshot after each step (``EpisodeRecorder``,
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .core.information import error_ellipse
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from .core.contract import Snapshot
+    from .scenarios import ScenarioConfig
 
 
 class EpisodeRecorder:
     """Snapshots of one environment of the batch: true, dead-reckoned and EKF tracks,
     horizontal covariances and beacon positions, one per step."""
 
-    def __init__(self, config):
+    t_s: list[float]
+    true: list[np.ndarray]
+    dr: list[np.ndarray]
+    est: list[np.ndarray]
+    P: list[np.ndarray]
+    beacons: list[np.ndarray]
+
+    def __init__(self, config: ScenarioConfig) -> None:
         self.config = config
         self.t_s, self.true, self.dr, self.est, self.P, self.beacons = [], [], [], [], [], []
 
-    def record(self, snapshot, row: int = 0):
+    def record(self, snapshot: Snapshot, row: int = 0) -> None:
         """Keep row ``row`` of a ``core.contract.Snapshot`` (``sim.snapshot()``)."""
         self.t_s.append(float(snapshot.t_s[row]))
         self.true.append(snapshot.survey_true_m[row].copy())
@@ -30,13 +45,13 @@ class EpisodeRecorder:
         self.waypoints = snapshot.waypoints_m[row]  # planned path in (east, north)
         self.n_waypoints = snapshot.n_waypoints[row]
 
-    def arrays(self):
+    def arrays(self) -> tuple[np.ndarray, ...]:
         """(t (T,), true (T,S,3), dr, est, P (T,S,2,2), beacons (T,N,3))."""
         return (np.array(self.t_s), np.array(self.true), np.array(self.dr), np.array(self.est),
                 np.array(self.P), np.array(self.beacons))
 
 
-def draw_episode(recorder: EpisodeRecorder, config, fig=None):
+def draw_episode(recorder: EpisodeRecorder, config: ScenarioConfig, fig: Figure | None = None) -> Figure:
     """Plan view: planned path, true / dead-reckoned / EKF tracks, beacon paths, and
     the current 2-sigma error ellipse of every survey vehicle."""
     from matplotlib.figure import Figure
@@ -71,7 +86,7 @@ def draw_episode(recorder: EpisodeRecorder, config, fig=None):
     return fig
 
 
-def figure_to_rgb(fig) -> np.ndarray:
+def figure_to_rgb(fig: Figure) -> np.ndarray:
     """An (H, W, 3) uint8 array of a figure, drawn with the Agg backend."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 

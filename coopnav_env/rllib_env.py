@@ -48,6 +48,8 @@ installed package (``coopnav_env``); the trainer that builds it is ``agents.trai
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -57,17 +59,20 @@ from .pettingzoo_env import CoopNavParallelEnv
 from .scenarios import ScenarioConfig, make_config
 from .vector import SEED_STRIDE, check_reward_terms, training_reward
 
+# what step returns: observations, rewards, terminations, truncations, infos, per agent
+_Step = tuple[dict, dict, dict, dict, dict]
+
 _COPIES = itertools.count()  # environment copies made in this process (a runner's sub-envs, in order)
 
 
-def scenario_config(scenario, overrides=None) -> ScenarioConfig:
+def scenario_config(scenario: str | ScenarioConfig, overrides: Mapping[str, Any] | None = None) -> ScenarioConfig:
     """A ScenarioConfig from a name (with ``overrides``) or a ScenarioConfig."""
     if isinstance(scenario, ScenarioConfig):
         return scenario.replace(**(overrides or {})) if overrides else scenario
     return make_config(scenario, **(overrides or {}))
 
 
-def module_map(scenario_or_env, overrides=None) -> dict:
+def module_map(scenario_or_env: Any, overrides: Mapping[str, Any] | None = None) -> dict:
     """``{agent_id: module_id}`` for a scenario (name or config) or an env: each
     beacon is mapped to the module of its kind (the module id is the kind)."""
     env = scenario_or_env
@@ -92,7 +97,7 @@ class KindMapping:
     """RLlib's ``policy_mapping_fn``: agent id -> the module of its kind. A picklable
     object (it travels to every env runner), not a closure."""
 
-    def __init__(self, mapping: dict):
+    def __init__(self, mapping: dict) -> None:
         self.mapping = dict(mapping)
 
     def __call__(self, agent_id, episode=None, **kwargs):
@@ -123,7 +128,7 @@ class CoopNavRLlibEnv(MultiAgentEnv):
     * ``copy_index``: set the copy number explicitly (tests, benchmarks).
     """
 
-    def __init__(self, env_config=None):
+    def __init__(self, env_config: Mapping[str, Any] | None = None) -> None:
         super().__init__()
         cfg = dict(env_config or {})
         self.env = CoopNavParallelEnv(scenario_config(cfg.get("scenario", "gao_lawnmower"), cfg.get("overrides")))
@@ -142,14 +147,15 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         self._rng = np.random.default_rng()
         self.possible_agents = list(self.env.possible_agents)
         self.agents = []
-        self.observation_spaces = {a: self.env.observation_space(a) for a in self.possible_agents}
-        self.action_spaces = {a: self.env.action_space(a) for a in self.possible_agents}
+        self.observation_spaces = {a: self.env.observation_space(a) for a in self.env.possible_agents}
+        self.action_spaces = {a: self.env.action_space(a) for a in self.env.possible_agents}
         # the old API stack's names, which some RLlib utilities still read
-        self.observation_space = gym.spaces.Dict(self.observation_spaces)
-        self.action_space = gym.spaces.Dict(self.action_spaces)
-        self.episode_seed = None
+        # (ray types agent ids as Hashable; ours are str, which gymnasium's Dict wants)
+        self.observation_space = gym.spaces.Dict(self.observation_spaces)  # type: ignore[arg-type]
+        self.action_space = gym.spaces.Dict(self.action_spaces)  # type: ignore[arg-type]
+        self.episode_seed: int | None = None
         self._err_sum, self._err_steps = 0.0, 0
-        self.last_episode_survey_error_m = None  # mean survey_error_m of the last finished episode
+        self.last_episode_survey_error_m: float | None = None  # mean survey_error_m of the last finished episode
 
     def next_seed(self) -> int:
         if self.base_seed is None:
@@ -158,7 +164,8 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         self._episodes += 1
         return seed
 
-    def reset(self, *, seed=None, options=None):
+    def reset(self, *, seed: int | None = None,
+              options: dict[str, Any] | None = None) -> tuple[dict, dict]:
         if seed is not None and self.base_seed is None:
             self.base_seed, self._episodes, self.copy_index = int(seed), 0, 0
         self.episode_seed = self.next_seed()
@@ -167,7 +174,8 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         self.agents = list(self.env.agents)
         return {a: np.asarray(o, dtype=np.float32) for a, o in obs.items()}, infos
 
-    def step(self, action_dict):
+    # RLlib's MultiAgentEnv steps per-agent dicts, unlike the gymnasium.Env it derives from
+    def step(self, action_dict: dict) -> _Step:  # type: ignore[override]
         obs, rewards, terms, truncs, infos = self.env.step(action_dict)
         if self.reward_terms is not None:
             rewards = self.training_reward(rewards)
@@ -189,17 +197,18 @@ class CoopNavRLlibEnv(MultiAgentEnv):
     def training_reward(self, env_rewards: dict) -> dict:
         """``vector.training_reward``'s weighted terms for the one environment, from the
         core's StepResult of this step (``CoopNavParallelEnv.last_result``)."""
+        assert self.reward_terms is not None  # step() calls this only with reward terms
         total = training_reward(self.reward_terms, self.env.last_result, self.env.sim.reward_weights)[0]
         return {a: float(total[i]) for i, a in enumerate(env_rewards)}
 
-    def render(self):
+    def render(self) -> np.ndarray | None:  # type: ignore[override]  # RLlib's base renders nothing
         return self.env.render()
 
-    def close(self):
+    def close(self) -> None:
         self.env.close()
 
 
-def mean_std_filter(env=None, spaces=None, device=None):
+def mean_std_filter(env: Any = None, spaces: Any = None, device: Any = None) -> Any:
     """``config.env_runners(env_to_module_connector=...)``: RLlib's running mean/std
     observation filter, one per agent (the YAML's ``normalize_obs: true``). Its
     statistics are saved in the checkpoint (``env_runner/env_to_module_connector``)
@@ -215,13 +224,14 @@ def _callback_base():
     return RLlibCallback
 
 
-class SurveyErrorMetrics(_callback_base()):
+class SurveyErrorMetrics(_callback_base()):  # type: ignore[misc]  # Ray's base, imported when defined
     """Logs each finished episode's mean true survey error (``survey_error_m``, the
     evaluation's score; the trained reward may be another signal) to RLlib's
     results as ``env_runners/survey_error_m`` (mean over the last 100 episodes)."""
 
-    def on_episode_end(self, *, episode=None, env_runner=None, metrics_logger=None, env=None, env_index=0,
-                       **kwargs):
+    def on_episode_end(self, *, episode: Any = None, env_runner: Any = None, metrics_logger: Any = None,
+                       env: Any = None, env_index: int = 0,
+                       **kwargs: Any) -> None:
         try:
             inner = env.envs[env_index].unwrapped
         except (AttributeError, IndexError, TypeError):

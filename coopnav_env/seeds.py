@@ -16,12 +16,14 @@ meets the same currents, sensor errors and range noise (common random numbers).
   below.
 """
 
+from typing import Any
+
 EVALUATE_SEED = 0
 VALIDATION_SEED = 500_000
 MAX_SEED = 2**62 - 1  # room for episode offsets (VecEnv: seed + env + k * stride) below int64's limit
 
 
-def check_seed(seed, what: str = "seed") -> int:
+def check_seed(seed: Any, what: str = "seed") -> int:
     """``seed`` as a Python int if it is an integer in [0, MAX_SEED], else a one-line
     ``ValueError`` naming ``what``. Every view, the trainers and the evaluation take
     their seeds through this, so they accept and refuse the same values."""
@@ -69,12 +71,12 @@ TRAINING_COPY_BOUND = 2**31  # environment copies (index c) within which it hold
 TRAINING_SEED_STRIDE = 1_000_003
 
 
-def is_test_seed(seed) -> bool:
+def is_test_seed(seed: Any) -> bool:
     """Whether ``seed`` is one of the benchmark's test seeds (``TEST_SEEDS``)."""
     return int(seed) in TEST_SEEDS
 
 
-def refuse_test_seeds(first, count: int = 1, what: str = "seed") -> None:
+def refuse_test_seeds(first: Any, count: int = 1, what: str = "seed") -> None:
     """Refuse the seeds ``first`` .. ``first + count - 1`` of a training job (its seed,
     or its validation range) with a one-line ``ValueError`` naming ``what`` if any of
     them is at or above ``TRAINING_SEED_LIMIT``: above it lie the test seeds and the

@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from gymnasium import spaces
+from numpy.typing import ArrayLike
 
+if TYPE_CHECKING:
+    from .core.contract import BatchedSimulator
+    from .scenarios import ScenarioConfig
 
 OBS_BOUND = 10.0
 
 
-def action_dim(sim_or_config=None) -> int:
+def action_dim(sim_or_config: BatchedSimulator | ScenarioConfig | None = None) -> int:
     """Components of a beacon's action: 2 (the motion), 3 with ``channel_mode="decide"``
     (the motion, then the transmit decision: transmit this slot when it is > 0)."""
     if sim_or_config is None:
@@ -18,21 +24,21 @@ def action_dim(sim_or_config=None) -> int:
     return 3 if getattr(config, "channel_mode", "clock") == "decide" else 2
 
 
-def action_space(sim=None) -> spaces.Box:
+def action_space(sim: BatchedSimulator | ScenarioConfig | None = None) -> spaces.Box:
     """Every beacon's action: numbers in [-1, 1], two for the motion (see the scenario's
     action_mode) and, with ``channel_mode="decide"``, a third: transmit when > 0."""
     return spaces.Box(-1.0, 1.0, shape=(action_dim(sim),), dtype=np.float32)
 
 
-def observation_space(sim) -> spaces.Box:
+def observation_space(sim: BatchedSimulator) -> spaces.Box:
     return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(sim.obs_dim,), dtype=np.float32)
 
 
-def state_space(sim) -> spaces.Box:
+def state_space(sim: BatchedSimulator) -> spaces.Box:
     return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(sim.state_dim,), dtype=np.float32)
 
 
-def check_action(agent: str, action, dim: int = 2) -> np.ndarray:
+def check_action(agent: str, action: ArrayLike, dim: int = 2) -> np.ndarray:
     """One agent's action as a float array of shape (dim,), clipped to [-1, 1].
 
     Raises ValueError naming the agent for a wrong shape or a NaN/infinite value;

@@ -93,7 +93,6 @@ def test_the_trainers_accept_seeds_below_the_limit():
 
 
 def test_train_py_refuses_a_test_seed_with_one_line_and_exit_2(tmp_path, capsys):
-    pytest.importorskip("stable_baselines3")
     from agents.training import cli
 
     rc = cli.main(["--scenario", "gao_lawnmower", "--timesteps", "100", "--seed", str(TEST_SEED),

@@ -143,7 +143,6 @@ def test_output_path_that_is_a_file(tmp_path):
 
 def test_a_trained_run_directory_evaluates_beside_the_planners(tmp_path):
     """--policies RUN_DIR,static: a policy written by train.py runs through agents/."""
-    pytest.importorskip("stable_baselines3")
     import yaml
 
     from agents.training import cli as train

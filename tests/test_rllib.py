@@ -4,7 +4,7 @@ agents.load and evaluate.py use, an interrupted run resumed, a Tune grid, and ba
 input.
 
 Skipped when Ray is not installed (pip install -e ".[rllib]"), except the test of the
-message train.py prints then. Time-boxed: 10-cycle missions, 16x16 networks, one
+message train.py prints then; under CI (which installs it) a missing Ray fails instead. Time-boxed: 10-cycle missions, 16x16 networks, one
 to four PPO iterations of a few dozen steps. Everything Ray starts stays on loopback (no
 cluster networking: RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 makes Ray use 127.0.0.1
 for this machine) and is stopped by the test that started it.
@@ -74,6 +74,8 @@ from agents.training import EXIT_INTERRUPTED, RLlibConfig, cli  # noqa: E402
 from agents.training import rllib as rllib_trainer  # noqa: E402
 from agents.training.config import from_dict, load_config  # noqa: E402
 
+from optional import require  # noqa: E402
+
 
 def _config(scenario, hp, num_env_runners=None) -> RLlibConfig:
     """The typed config of ``hp`` (a dict as the YAML holds it) on ``scenario``."""
@@ -85,8 +87,8 @@ def _config(scenario, hp, num_env_runners=None) -> RLlibConfig:
 
 @pytest.fixture(scope="module")
 def ray_mod():
-    """Ray (skips the test if it is not installed)."""
-    pytest.importorskip("ray.rllib")
+    """Ray (skips the test if it is not installed, fails it under CI: tests/optional.py)."""
+    require("ray.rllib")
     import ray
 
     return ray

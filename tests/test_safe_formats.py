@@ -18,8 +18,6 @@ import numpy as np
 import pytest
 import yaml
 
-pytest.importorskip("stable_baselines3")
-pytest.importorskip("safetensors")
 # Ray (the RLlib test) on loopback only, as tests/test_rllib.py: read when ray is first imported
 for _k, _v in {"RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0", "RAY_USAGE_STATS_ENABLED": "0",
                "RAY_AUTH_MODE": "token"}.items():
@@ -29,6 +27,8 @@ import agents  # noqa: E402
 from agents import convert, formats  # noqa: E402
 from agents.training import cli as train_cli  # noqa: E402
 from evaluation import cli as eval_cli  # noqa: E402
+
+from optional import require  # noqa: E402
 
 DATA = Path(__file__).resolve().parent / "data" / "shipped_policy_actions.npz"
 TINY = {
@@ -343,7 +343,7 @@ def test_safe_files_hold_json_readable_without_python_objects(tiny_run):
 # ------------------------------------------------------------------------------------
 # RLlib: the safe export train.py writes beside every checkpoint; RLlib's own pickles unread
 def test_rllib_checkpoints_load_from_their_safe_export(tmp_path, capsys):
-    pytest.importorskip("ray.rllib")
+    require("ray.rllib")
     import ray
 
     from agents import rllib_policy

@@ -16,13 +16,20 @@ import numpy as np
 import pytest
 import yaml
 
-pytest.importorskip("stable_baselines3")
-
-import agents  # noqa: E402
-import coopnav_env  # noqa: E402
-from agents.training import (EXIT_INTERRUPTED, ConfigError, EnvSpec, PeriodicEvalSpec, RLlibConfig,  # noqa: E402
-                             TrainConfig, cli, sb3, scoring)
-from agents.training.config import config_from_record, from_dict, load_config  # noqa: E402
+import agents
+import coopnav_env
+from agents.training import (
+    EXIT_INTERRUPTED,
+    ConfigError,
+    EnvSpec,
+    PeriodicEvalSpec,
+    RLlibConfig,
+    TrainConfig,
+    cli,
+    sb3,
+    scoring,
+)
+from agents.training.config import config_from_record, from_dict, load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -205,7 +212,6 @@ def test_every_scenario_names_a_shipped_policy_that_drives_it(scenario):
 
 
 def test_evaluation_scores_a_baseline_on_the_same_seeds():
-    pytest.importorskip("baselines.fim")
     config = coopnav_env.make_config("sousa_asv", max_cycles=4, mission_duration_s=80.0)
     cells = [("all", config)]
     a = scoring.evaluate(scoring.baseline_actor("fim_a"), cells, episodes=2, seed=5)

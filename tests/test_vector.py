@@ -7,11 +7,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-pytest.importorskip("stable_baselines3")
-
-import coopnav_env  # noqa: E402
-from coopnav_env.vector import REWARD_TERMS, SEED_STRIDE, CoopNavVecEnv  # noqa: E402
-from coopnav_env.views import agent_infos  # noqa: E402
+import coopnav_env
+from coopnav_env.vector import REWARD_TERMS, SEED_STRIDE, CoopNavVecEnv
+from coopnav_env.views import agent_infos
 
 TWO_BY_TWO = dict(beacon_kinds=("beacon_auv", "asv"), n_survey=2)
 EXTRA_KEYS = ("terminal_observation", "TimeLimit.truncated")

@@ -28,10 +28,11 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, vectorize
+from numpy.typing import ArrayLike
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def mackenzie_sound_speed(temperature_c, salinity_psu, depth_m):
+def mackenzie_sound_speed(temperature_c: float, salinity_psu: float, depth_m: float) -> float:
     """Sound speed in sea water, m/s (Mackenzie 1981). A ufunc: arrays broadcast.
 
     >>> round(float(mackenzie_sound_speed(10.0, 35.0, 0.0)), 1)
@@ -46,7 +47,7 @@ def mackenzie_sound_speed(temperature_c, salinity_psu, depth_m):
 
 
 @vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def packet_loss_probability(range_m, near, far, max_range_m):
+def packet_loss_probability(range_m: float, near: float, far: float, max_range_m: float) -> float:
     """Loss probability growing quadratically from ``near`` at 0 m to ``far`` at max range; 1 beyond."""
     if range_m > max_range_m:
         return 1.0
@@ -55,7 +56,7 @@ def packet_loss_probability(range_m, near, far, max_range_m):
 
 
 @njit(cache=True)
-def ranging_variance_m2(detection_std_m, two_way):
+def ranging_variance_m2(detection_std_m: float, two_way: bool) -> float:
     """Variance of a range (m^2) from the per-detection jitter as range c sigma_t
     (``detection_std_m``): one detection one-way, two halved ones two-way."""
     v = detection_std_m * detection_std_m
@@ -63,7 +64,8 @@ def ranging_variance_m2(detection_std_m, two_way):
 
 
 @njit(cache=True)
-def travel_time(sender, receiver, receiver_velocity, sound_speed_mps):
+def travel_time(sender: np.ndarray, receiver: np.ndarray, receiver_velocity: np.ndarray,
+                sound_speed_mps: float) -> float:
     """Time for sound sent from a fixed point to reach a receiver moving at constant velocity.
 
     Solves tau = |r + v tau - s| / c by fixed-point iteration, a contraction with
@@ -83,7 +85,8 @@ def travel_time(sender, receiver, receiver_velocity, sound_speed_mps):
     return tau
 
 
-def travel_time_s(sender_pos_m, receiver_pos_m, receiver_vel_mps, sound_speed_mps):
+def travel_time_s(sender_pos_m: ArrayLike, receiver_pos_m: ArrayLike, receiver_vel_mps: ArrayLike,
+                  sound_speed_mps: ArrayLike) -> np.ndarray:
     """``travel_time`` over arrays: positions and velocity (..., 3), sound speed (...)."""
     return np.vectorize(travel_time, signature="(3),(3),(3),()->()")(
         np.asarray(sender_pos_m, float), np.asarray(receiver_pos_m, float),

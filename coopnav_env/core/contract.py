@@ -27,9 +27,10 @@ Nothing outside ``core/`` reads a simulator's ``state`` arrays except through th
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..scenarios.base import ScenarioConfig
 
@@ -97,6 +98,7 @@ class BatchedSimulator(Protocol):
     batch_size: int
     S: int  # survey vehicles
     N: int  # beacons (agents)
+    state: Any  # the batch's state arrays (None before the first reset)
     obs_dim: int
     state_dim: int
     info_keys: tuple  # the keys of StepResult.info, in order
@@ -105,7 +107,7 @@ class BatchedSimulator(Protocol):
     reward_weights: dict  # term -> the scenario's weight (core.reward.term_weights)
     variants: list  # the (survey_path, depth_m) choices of the domain randomization
 
-    def reset(self, seeds, mask=None) -> np.ndarray: ...
+    def reset(self, seeds: ArrayLike, mask: ArrayLike | None = None) -> np.ndarray: ...
 
     def reset_info(self) -> dict: ...
 
@@ -128,7 +130,21 @@ class BatchSimulator:
     ``_initial_state(seeds)``, ``observe()`` and ``_state_info()`` (the infos that
     follow from the state alone: errors and the like)."""
 
-    def reset(self, seeds, mask=None) -> np.ndarray:
+    if TYPE_CHECKING:  # what the subclasses set and implement
+        batch_size: int
+        S: int
+        info_keys: tuple
+        state: Any
+
+        def _initial_state(self, seeds: np.ndarray) -> Any: ...
+
+        def observe(self) -> np.ndarray: ...
+
+        def _state_info(self) -> dict: ...
+
+        def _beacon_info(self) -> dict: ...
+
+    def reset(self, seeds: ArrayLike, mask: ArrayLike | None = None) -> np.ndarray:
         """(Re)start the environments in ``mask`` (all if None) with integer ``seeds``
         (one per environment reset). Returns the observations of the whole batch."""
         seeds = np.atleast_1d(np.asarray(seeds, dtype=np.int64))

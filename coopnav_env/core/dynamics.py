@@ -8,25 +8,28 @@ uses complex numbers, east + 1j * north, so that turning is one multiplication.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numba import njit, vectorize
+from numpy.typing import ArrayLike
 
 
 # --- Gao & Chitre eq. (1): m du/dt = T - 1/2 Cd rho A u^2 ----------------------------
 # Erratum: the paper writes the thrust term as g*T, which is a force only if T is
 # in kilogram-force. coopnav takes T in newtons (thrust setting % of max_thrust_n).
-def drag_constant(drag_coefficient, water_density_kgpm3, cross_section_m2):
+def drag_constant(drag_coefficient: float, water_density_kgpm3: float, cross_section_m2: float) -> float:
     """k in m du/dt = T - k u^2, i.e. k = 1/2 Cd rho A (kg/m)."""
     return 0.5 * drag_coefficient * water_density_kgpm3 * cross_section_m2
 
 
-def terminal_speed_mps(thrust_n, k):
+def terminal_speed_mps(thrust_n: ArrayLike, k: float) -> np.ndarray:
     """Steady forward speed of eq. (1): sqrt(T / k)."""
     return np.sqrt(np.maximum(thrust_n, 0.0) / k)
 
 
 @vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
-def thrust_speed(u0_mps, thrust_n, k, mass_kg, t_s):
+def thrust_speed(u0_mps: float, thrust_n: float, k: float, mass_kg: float, t_s: float) -> float:
     """Exact solution of eq. (1) with constant thrust: the speed t_s after u0. A ufunc.
 
     With u_inf = sqrt(T/k) and rate g = k u_inf / m: below u_inf,
@@ -45,7 +48,8 @@ def thrust_speed(u0_mps, thrust_n, k, mass_kg, t_s):
     return u_inf / np.tanh(np.arctanh(1.0 / max(ratio, 1.0 + 1e-15)) + g * t_s)
 
 
-def thrust_speed_profile(u0_mps, thrust_n, k, mass_kg, times_s):
+def thrust_speed_profile(u0_mps: ArrayLike, thrust_n: ArrayLike, k: float, mass_kg: float,
+                         times_s: ArrayLike) -> np.ndarray:
     """``thrust_speed`` at several times: u0 and thrust (shape X), times (K,) -> X + (K,)."""
     u0 = np.asarray(u0_mps, dtype=float)[..., None]
     thrust = np.asarray(thrust_n, dtype=float)[..., None]
@@ -53,7 +57,7 @@ def thrust_speed_profile(u0_mps, thrust_n, k, mass_kg, times_s):
 
 
 # --- Gao & Chitre eq. (5): body-frame velocity into the navigation frame ---------------
-def body_to_nav_matrix(bearing_rad, pitch_rad, roll_rad):
+def body_to_nav_matrix(bearing_rad: ArrayLike, pitch_rad: ArrayLike, roll_rad: ArrayLike) -> np.ndarray:
     """Rotation from body axes (forward, starboard, down) to (east, north, depth).
 
     Z-Y-X Euler angles (yaw = compass bearing, pitch nose-up, roll starboard-down),
@@ -73,7 +77,7 @@ def body_to_nav_matrix(bearing_rad, pitch_rad, roll_rad):
     return np.stack([east, north, down], -2)
 
 
-def forward_axis(bearing_rad, pitch_rad):
+def forward_axis(bearing_rad: ArrayLike, pitch_rad: ArrayLike) -> np.ndarray:
     """First column of body_to_nav_matrix: the nav-frame direction of body x, (..., 3).
 
     For v_body = (u, 0, 0) (eq. 3) this is all of eq. (4)'s R v: roll drops out.
@@ -83,17 +87,17 @@ def forward_axis(bearing_rad, pitch_rad):
 
 
 @vectorize(["complex128(float64)"], cache=True)
-def bearing_to_unit(bearing_rad):
+def bearing_to_unit(bearing_rad: float) -> complex:
     """Bearing (clockwise from north) as a complex unit east + 1j*north. A ufunc."""
     return complex(np.sin(bearing_rad), np.cos(bearing_rad))
 
 
-def unit_to_bearing(h):
+def unit_to_bearing(h: np.ndarray | complex) -> Any:
     return np.arctan2(h.real, h.imag)
 
 
 @njit(cache=True)
-def turn_toward(heading, desired, cos_max_turn, sin_max_turn):
+def turn_toward(heading: complex, desired: complex, cos_max_turn: float, sin_max_turn: float) -> complex:
     """Rotate a complex unit heading towards ``desired`` by at most the angle whose
     cosine and sine are given (precomputed: this runs every sub-step, and needs no
     trigonometry). A positive complex angle is anticlockwise, i.e. towards a smaller
@@ -110,14 +114,15 @@ def turn_toward(heading, desired, cos_max_turn, sin_max_turn):
     return heading * (cos_max_turn - 1j * sin_max_turn)
 
 
-def turn_towards(heading, desired, max_turn_rad):
+def turn_towards(heading: ArrayLike, desired: ArrayLike, max_turn_rad: ArrayLike) -> np.ndarray:
     """``turn_toward`` over arrays, with the limit as an angle."""
     cm, sm = float(np.cos(max_turn_rad)), float(np.sin(max_turn_rad))
     return np.vectorize(lambda h, d: turn_toward(complex(h), complex(d), cm, sm), otypes=[complex])(heading, desired)
 
 
 # --- ocean current: constant + first-order Gauss-Markov ---------------------------------
-def gauss_markov_step(v, dt_s, time_constant_s, std, noise):
+def gauss_markov_step(v: np.ndarray | float, dt_s: float, time_constant_s: np.ndarray | float,
+                      std: np.ndarray | float, noise: np.ndarray | float) -> np.ndarray:
     """Exact discretization of dv = -v/tau dt + q dW with stationary std ``std``.
 
     v <- a v + sqrt(1 - a^2) std n, a = exp(-dt/tau) (cf. UUV Simulator's

@@ -9,8 +9,14 @@ V on the segment W_{i-1} -> W_i to get P, take Q on the segment with
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from ..scenarios import ScenarioConfig
 
 
 def _lawnmower(origin, area, spacing, depth):
@@ -35,7 +41,7 @@ def _circle(center, radius, laps, depth_start, depth_end, n_per_lap=24):
     return np.stack([east, north, depth], -1)
 
 
-def build_path(config, vehicle_index: int = 0):
+def build_path(config: ScenarioConfig, vehicle_index: int = 0) -> tuple[np.ndarray, bool]:
     """Waypoints (W, 3) of one survey vehicle and whether it holds station.
 
     Several survey vehicles fly the same pattern shifted north by
@@ -72,12 +78,12 @@ def build_path(config, vehicle_index: int = 0):
     return wp, hover
 
 
-def path_length_m(waypoints) -> float:
+def path_length_m(waypoints: np.ndarray) -> float:
     return float(np.sum(np.linalg.norm(np.diff(waypoints[:, :2], axis=0), axis=1)))
 
 
 @njit(cache=True)
-def los_point(est, seg_start, seg_end, alpha):
+def los_point(est: complex, seg_start: complex, seg_end: complex, alpha: float) -> tuple[complex, float, float]:
     """Line-of-sight point Q for one vehicle (complex east + 1j*north positions).
 
     Returns (Q, along, seg_len): P = W_{i-1} + along * t is the projection of the
@@ -91,7 +97,8 @@ def los_point(est, seg_start, seg_end, alpha):
     return seg_start + (alpha * along + (1.0 - alpha) * seg_len) * t, along, seg_len
 
 
-def los_target(est_h, seg_start, seg_end, alpha):
+def los_target(est_h: ArrayLike, seg_start: ArrayLike, seg_end: ArrayLike,
+               alpha: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``los_point`` over arrays (for analysis and tests; the simulator calls los_point)."""
     return np.vectorize(lambda e, a, b: los_point(complex(e), complex(a), complex(b), float(alpha)),
                         otypes=[complex, float, float])(est_h, seg_start, seg_end)

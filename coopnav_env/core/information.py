@@ -6,12 +6,15 @@ ellipse. The reward, the observations, the planners and the plots all call these
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit, vectorize
+from numpy.typing import ArrayLike
 
 
-def fisher_information(target, beacons, range_std_m, horizontal=True):
+def fisher_information(target: np.ndarray, beacons: np.ndarray, range_std_m: ArrayLike,
+                       horizontal: bool = True) -> np.ndarray:
     """Fisher information matrix of range-only measurements of ``target``.
 
     J = sum_i u_i u_i^T / sigma_i^2 with u_i the unit vector from beacon i to the
@@ -29,28 +32,28 @@ def fisher_information(target, beacons, range_std_m, horizontal=True):
 
 
 @vectorize(["float32(float32, float32, float32, float32)", "float64(float64, float64, float64, float64)"], cache=True)
-def det2_of(m00, m01, m10, m11):
+def det2_of(m00: float, m01: float, m10: float, m11: float) -> float:
     """Determinant of a 2x2 matrix from its entries. A ufunc (kernels call it on scalars)."""
     return m00 * m11 - m01 * m10
 
 
-def det2(M):
+def det2(M: np.ndarray) -> np.ndarray:
     """Determinant of symmetric 2x2 matrices (..., 2, 2) (``det2_of``)."""
     return det2_of(M[..., 0, 0], M[..., 0, 1], M[..., 1, 0], M[..., 1, 1])
 
 
-def floored_log(det):
+def floored_log(det: ArrayLike) -> np.ndarray:
     """log of determinants, floored at 1e-300 (a collapsed covariance gives a large finite number)."""
     return np.log(np.maximum(det, 1e-300))
 
 
-def logdet_horizontal(P):
+def logdet_horizontal(P: np.ndarray) -> np.ndarray:
     """log det of the east/north block of covariances (..., n, n), n >= 2."""
     return floored_log(det2(P[..., :2, :2]))
 
 
 @njit(cache=True)
-def ellipse_of(var_east, cov_en, var_north, n_sigma):
+def ellipse_of(var_east: float, cov_en: float, var_north: float, n_sigma: float) -> tuple[float, float, float]:
     """Closed-form 2x2 eigendecomposition: (major, minor, bearing) of one covariance.
 
     n-sigma semi-axes, and the bearing of the major axis (clockwise from north, in [0, pi)).
@@ -72,7 +75,7 @@ def _ellipse_rows(a, b, c, n_sigma, major, minor, bearing):
 ELLIPSE_N_SIGMA = 2.0
 
 
-def error_ellipse(P, n_sigma=ELLIPSE_N_SIGMA):
+def error_ellipse(P: ArrayLike, n_sigma: float = ELLIPSE_N_SIGMA) -> tuple[np.ndarray, ...]:
     """Semi-axes and orientation of the horizontal error ellipse of covariances P (..., n, n).
 
     Returns (major_m, minor_m, bearing_rad) arrays of shape (...): ``ellipse_of``
@@ -91,7 +94,8 @@ def error_ellipse(P, n_sigma=ELLIPSE_N_SIGMA):
 # additive: the functions above keep their signatures.
 
 
-def ellipse_to_covariance(major_m, minor_m, bearing_rad, n_sigma=ELLIPSE_N_SIGMA):
+def ellipse_to_covariance(major_m: ArrayLike, minor_m: ArrayLike, bearing_rad: ArrayLike,
+                          n_sigma: float = ELLIPSE_N_SIGMA) -> np.ndarray:
     """The horizontal covariance (..., 2, 2) (east, north) of an error ellipse.
 
     The inverse of :func:`error_ellipse`: n-sigma semi-axes and the bearing of the
@@ -109,7 +113,7 @@ def ellipse_to_covariance(major_m, minor_m, bearing_rad, n_sigma=ELLIPSE_N_SIGMA
     return P
 
 
-def range_information_det(target, beacons, range_std_m=1.0):
+def range_information_det(target: np.ndarray, beacons: np.ndarray, range_std_m: ArrayLike = 1.0) -> np.ndarray:
     """det of the horizontal Fisher information of ranges from ``beacons`` to ``target``.
 
     Sousa, Ferreira & Cruz eq. (4) with 3-D slant geometry: target (..., 3),
@@ -120,7 +124,7 @@ def range_information_det(target, beacons, range_std_m=1.0):
     return det2(fisher_information(target, beacons, range_std_m))
 
 
-def disc_grid(center, radius, n_rings=10, n_angles=64):
+def disc_grid(center: np.ndarray, radius: np.ndarray, n_rings: int = 10, n_angles: int = 64) -> np.ndarray:
     """A polar grid over discs: center (..., 2), radius (...) -> points (..., M, 2).
 
     The centre, then ``n_rings`` rings of ``n_angles`` points, the outermost on the
@@ -136,7 +140,7 @@ def disc_grid(center, radius, n_rings=10, n_angles=64):
     return center[..., None, :] + radius[..., None] * offs
 
 
-def project_to_disc(points, center, radius):
+def project_to_disc(points: np.ndarray, center: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """Project points (..., M, 2) onto discs center (..., 2), radius (...)."""
     center = np.asarray(center, dtype=float)[..., None, :]
     radius = np.asarray(radius, dtype=float)[..., None, None]
@@ -146,7 +150,8 @@ def project_to_disc(points, center, radius):
     return center + rel * scale
 
 
-def maximize_on_disc(score, center, radius, n_rings=10, n_angles=64, refine_iters=12):
+def maximize_on_disc(score: Callable[[np.ndarray], np.ndarray], center: ArrayLike, radius: ArrayLike,
+                     n_rings: int = 10, n_angles: int = 64, refine_iters: int = 12) -> tuple[np.ndarray, np.ndarray]:
     """Maximize ``score`` over discs: a vectorized polar grid, then a local refinement.
 
     ``score`` maps candidate points (..., M, 2) to values (..., M) (use large
@@ -179,7 +184,8 @@ def maximize_on_disc(score, center, radius, n_rings=10, n_angles=64, refine_iter
     return best, best_val
 
 
-def best_second_range_det(horizontal_distance_m, depth_difference_m, reach_m, **grid):
+def best_second_range_det(horizontal_distance_m: ArrayLike, depth_difference_m: float, reach_m: float,
+                          **grid: int) -> np.ndarray:
     """The largest det of the two-range information matrix within the reaching set.
 
     The survey vehicle is at the origin, ``depth_difference_m`` below the beacon;
@@ -203,7 +209,7 @@ def best_second_range_det(horizontal_distance_m, depth_difference_m, reach_m, **
     return val.reshape(np.shape(horizontal_distance_m))
 
 
-def optimal_start_distance_m(depth_difference_m, reach_m):
+def optimal_start_distance_m(depth_difference_m: float, reach_m: float) -> float:
     """Horizontal start distance of a beacon that maximizes the best det of the
     two-range information matrix within its reaching set (Sousa et al. Fig. 11).
 

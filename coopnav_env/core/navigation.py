@@ -19,18 +19,20 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike
 from scipy.stats import chi2
 
 from .numerics import lu_solve, matmul, vecmat
 
 
-def predict(x, P, dx, Q):
+def predict(x: np.ndarray, P: np.ndarray, dx: np.ndarray | float, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eq. (4) and (6): x <- x + R v tau (given as ``dx``); P <- P + Q (F = I)."""
     return x + dx, P + Q
 
 
 @njit(cache=True)
-def range_prediction(x, velocity, delays_s, beacon):
+def range_prediction(x: np.ndarray, velocity: np.ndarray, delays_s: np.ndarray,
+                     beacon: np.ndarray) -> tuple[float, np.ndarray]:
     """Predicted range and its Jacobian (eqs. 7-8) for one filter, with the motion
     of the vehicle while sound travels.
 
@@ -56,7 +58,7 @@ def range_prediction(x, velocity, delays_s, beacon):
 
 
 @njit(cache=True)
-def innovation_variance(P, H, R):
+def innovation_variance(P: np.ndarray, H: np.ndarray, R: float) -> float:
     """Eq. (11): S = H P H^T + R for one scalar measurement."""
     S = R
     for i in range(3):
@@ -66,7 +68,7 @@ def innovation_variance(P, H, R):
 
 
 @njit(cache=True)
-def joseph_update_residual(x, P, y, H, R):
+def joseph_update_residual(x: np.ndarray, P: np.ndarray, y: float, H: np.ndarray, R: float) -> float:
     """Eqs. (9), (11)-(13) for one scalar measurement of one filter, in place, given its
     innovation ``y`` (filterpy's ``update(..., residual=...)``: each measurement model
     computes its own residual, a bearing's wrapped to (-pi, pi]). Returns S."""
@@ -90,7 +92,7 @@ def joseph_update_residual(x, P, y, H, R):
 
 
 @njit(cache=True)
-def joseph_update(x, P, z, h, H, R):
+def joseph_update(x: np.ndarray, P: np.ndarray, z: float, h: float, H: np.ndarray, R: float) -> tuple[float, float]:
     """Eqs. (9)-(13) for one scalar measurement z with prediction h, in place: the
     residual is y = z - h (eq. 10). Returns (y, S)."""
     y = z - h  # eq. (10)
@@ -98,7 +100,7 @@ def joseph_update(x, P, z, h, H, R):
 
 
 @njit(cache=True)
-def gated_update_residual(x, P, y, H, R, gate):
+def gated_update_residual(x: np.ndarray, P: np.ndarray, y: float, H: np.ndarray, R: float, gate: float) -> bool:
     """``joseph_update_residual`` if the innovation passes the chi-square gate on its
     normalized square, y^2 / S <= gate; returns whether it was fused."""
     if y * y / innovation_variance(P, H, R) > gate:
@@ -108,13 +110,13 @@ def gated_update_residual(x, P, y, H, R, gate):
 
 
 @njit(cache=True)
-def gated_update(x, P, z, h, H, R, gate):
+def gated_update(x: np.ndarray, P: np.ndarray, z: float, h: float, H: np.ndarray, R: float, gate: float) -> bool:
     """``gated_update_residual`` with the residual y = z - h."""
     return gated_update_residual(x, P, z - h, H, R, gate)
 
 
 @njit(cache=True)
-def reinit_on_range(x, P, z, h, H, R):
+def reinit_on_range(x: np.ndarray, P: np.ndarray, z: float, h: float, H: np.ndarray, R: float) -> bool:
     """Recovery from gate lock-out with one range (in place; x (3,), P (3, 3)).
 
     A filter whose gate has rejected several ranges in a row has drifted further than
@@ -161,7 +163,8 @@ def _update_rows(x, P, z, h, H, R, mask, y, S):
             joseph_update(x[m], P[m], z[m], h[m], H[m], R[m])
 
 
-def scalar_update(x, P, z, h, H, R, mask):
+def scalar_update(x: ArrayLike, P: ArrayLike, z: ArrayLike, h: ArrayLike, H: ArrayLike, R: ArrayLike,
+                  mask: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Eqs. (9)-(13) for one scalar measurement per filter, over leading batch axes.
 
     x (..., 3), P (..., 3, 3), H (..., 3); z, h, R, mask broadcast to (...).
@@ -188,7 +191,8 @@ def _predict_rows(x, v, d, b, h, H):
         H[m] = Hm
 
 
-def range_model(x, velocity, delays_s, beacon):
+def range_model(x: ArrayLike, velocity: ArrayLike, delays_s: ArrayLike,
+                beacon: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """``range_prediction`` over leading batch axes: x, velocity, beacon (..., 3);
     delays_s (..., L). Returns h (...) and H (..., 3)."""
     lead = np.broadcast_shapes(np.shape(x)[:-1], np.shape(velocity)[:-1], np.shape(delays_s)[:-1],
@@ -198,7 +202,7 @@ def range_model(x, velocity, delays_s, beacon):
             for a, n in ((x, 3), (velocity, 3), (delays_s, L), (beacon, 3))]
     M = args[0].shape[0]
     h, H = np.empty(M), np.empty((M, 3))
-    _predict_rows(*args, h, H)
+    _predict_rows(args[0], args[1], args[2], args[3], h, H)
     return h.reshape(lead), H.reshape(lead + (3,))
 
 
@@ -207,7 +211,7 @@ def gate_threshold(probability: float, dof: int = 1) -> float:
     return float(chi2.ppf(probability, dof))
 
 
-def axis_measurement(axis: int, shape):
+def axis_measurement(axis: int, shape: tuple[int, ...]) -> np.ndarray:
     """H for a direct measurement of one state axis (depth sensor: 2; GPS: 0 and 1)."""
     H = np.zeros(tuple(shape) + (3,))
     H[..., axis] = 1.0
@@ -216,7 +220,8 @@ def axis_measurement(axis: int, shape):
 
 # --- the general update, over a batch (any state and measurement size) -------------------
 @njit(cache=True)
-def joseph_update_vector(x, P, y, H, R, gate, work):
+def joseph_update_vector(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.ndarray, gate: float,
+                         work: tuple[np.ndarray, ...]) -> tuple[float, int]:
     """Eqs. (9)-(13) for an m-vector measurement of one filter, Joseph form, in place.
 
     x (n,), P (n, n), innovation y = z - h (m,), H (m, n), R (m, m); gate: the
@@ -269,7 +274,7 @@ def joseph_update_vector(x, P, y, H, R, gate, work):
 
 
 @njit(cache=True)
-def joseph_work(n, m):
+def joseph_work(n: int, m: int) -> tuple[np.ndarray, ...]:
     """Scratch arrays for ``joseph_update_vector`` with state size n and up to m measurements."""
     return (np.empty((m, n)), np.empty((m, m)), np.empty((m, m)), np.empty((m, 1)), np.empty((m, n)),
             np.empty((n, n)), np.empty((m, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
@@ -285,7 +290,8 @@ def _joseph_rows(x, P, y, H, R, mask, gate, nis, singular):
         singular[b] = status < 0
 
 
-def joseph_update_batch(x, P, y, H, R, mask, gate=np.inf):
+def joseph_update_batch(x: ArrayLike, P: ArrayLike, y: ArrayLike, H: ArrayLike, R: ArrayLike, mask: ArrayLike,
+                        gate: float = np.inf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Eqs. (9)-(13) for an m-vector measurement per filter, Joseph form, over a batch.
 
     x (B, n), P (B, n, n), innovation y = z - h (B, m), H (B, m, n), R (m, m) or
@@ -320,7 +326,8 @@ FRAME_STATE = ("x_m", "y_m", "phi_rad", "current_x_mps", "current_y_mps", "basel
 
 
 @njit(cache=True)
-def frame_predict(E, P, speed_mps, heading_rad, dt_s, Q):
+def frame_predict(E: np.ndarray, P: np.ndarray, speed_mps: float, heading_rad: float, dt_s: float,
+                  Q: np.ndarray) -> None:
     """Integrate the filter over dt_s with the measured water speed and compass heading
     held constant, in place (one filter; E (6,), P (6, 6), Q (6, 6) per second).
 
@@ -346,7 +353,7 @@ def frame_predict(E, P, speed_mps, heading_rad, dt_s, Q):
 
 
 @njit(cache=True)
-def frame_velocity_of(E, speed_mps, heading_rad):
+def frame_velocity_of(E: np.ndarray, speed_mps: float, heading_rad: float) -> tuple[float, float]:
     """The frame-relative velocity F[0:2] of section VII's model for one filter E (6,): (v_x, v_y)."""
     rel = heading_rad - E[2]
     return speed_mps * np.cos(rel) + E[3], speed_mps * np.sin(rel) + E[4]
@@ -358,7 +365,7 @@ def _frame_velocity_rows(E, speed, heading, out):
         out[b, 0], out[b, 1] = frame_velocity_of(E[b], speed[b], heading[b])
 
 
-def frame_velocity(E, speed_mps, heading_rad):
+def frame_velocity(E: np.ndarray, speed_mps: ArrayLike, heading_rad: ArrayLike) -> np.ndarray:
     """``frame_velocity_of`` over leading batch axes: E (..., 6), speed and heading (...) -> (..., 2)."""
     lead = np.broadcast_shapes(np.shape(E)[:-1], np.shape(speed_mps), np.shape(heading_rad))
     E2 = np.ascontiguousarray(np.broadcast_to(E, lead + (6,)), dtype=float).reshape(-1, 6)
@@ -369,7 +376,8 @@ def frame_velocity(E, speed_mps, heading_rad):
 
 
 @njit(cache=True)
-def frame_range_prediction(E, beacon, depth_below_m, vx, vy, delays_s, H):
+def frame_range_prediction(E: np.ndarray, beacon: int, depth_below_m: float, vx: float, vy: float,
+                           delays_s: np.ndarray, H: np.ndarray) -> float:
     """Predicted range z* to beacon B1 (beacon=1) or B2 (beacon=2) of one filter E (6,)
     and its Jacobian over the 6 states, written into H (6,); returns z*.
 
@@ -401,7 +409,8 @@ def _frame_range_rows(E, beacon, depth, vel, delays, h, H):
         h[b] = frame_range_prediction(E[b], beacon, depth[b], vel[b, 0], vel[b, 1], delays[b], H[b])
 
 
-def frame_range_model(E, beacon, depth_below_m, velocity_mps, delays_s):
+def frame_range_model(E: np.ndarray, beacon: int, depth_below_m: ArrayLike, velocity_mps: np.ndarray,
+                      delays_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``frame_range_prediction`` for filters E (B, 6): depth_below_m (B,) or scalar,
     velocity_mps (B, 2) frame-relative, delays_s (B, L). Returns h (B,), H (B, 6)."""
     E = np.ascontiguousarray(E, dtype=float)

@@ -17,13 +17,16 @@ in numpy in the callers.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
 
 @intrinsic
-def fma(typingctx, a, b, c):
+def fma(typingctx: Any, a: Any, b: Any, c: Any) -> tuple[Any, Callable[..., Any]]:
     """a * b + c rounded once (LLVM's fma; one instruction on x86-64 with FMA3)."""
     sig = types.float64(types.float64, types.float64, types.float64)
 
@@ -34,7 +37,7 @@ def fma(typingctx, a, b, c):
 
 
 @njit(cache=True)
-def complex_abs(z):
+def complex_abs(z: complex) -> float:
     """numpy's |z| of a complex128 (its AVX-512 loop): hi * sqrt(1 + (lo/hi)^2)."""
     x, y = abs(z.real), abs(z.imag)
     hi, lo = max(x, y), min(x, y)
@@ -45,7 +48,7 @@ def complex_abs(z):
 
 
 @njit(cache=True)
-def complex_div_real(z, d):
+def complex_div_real(z: complex, d: float) -> complex:
     """numpy's z / d for a complex z and a real d > 0 (Smith's division by d + 0j)."""
     rat = 0.0 / d
     scl = 1.0 / (d + 0.0 * rat)
@@ -54,7 +57,7 @@ def complex_div_real(z, d):
 
 # --- matrix products and solves of small dense matrices ----------------------------------
 @njit(cache=True)
-def matmul(A, B, out):
+def matmul(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
     """out = A @ B; every element a dot product accumulated in order with fused
     multiply-adds (as BLAS's small-matrix kernels do). A (p, q), B (q, r); transposes
     are passed as views (``matmul(A, B.T, out)``), which keeps the same order."""
@@ -67,7 +70,7 @@ def matmul(A, B, out):
 
 
 @njit(cache=True)
-def vecmat(h, P, out):
+def vecmat(h: np.ndarray, P: np.ndarray, out: np.ndarray) -> None:
     """out = h @ P for a row vector h (n,) and P (n, n), in the order of BLAS's
     matrix-vector kernel (numpy sends a row vector times a matrix to gemv): outputs
     in blocks of four sum the products in blocks of four columns (second product
@@ -97,7 +100,7 @@ def vecmat(h, P, out):
 
 
 @njit(cache=True)
-def lu_solve(S, Bm, X, lu, piv):
+def lu_solve(S: np.ndarray, Bm: np.ndarray, X: np.ndarray, lu: np.ndarray, piv: np.ndarray) -> bool:
     """X = S^-1 Bm by LU with partial pivoting (LAPACK's gesv as OpenBLAS computes
     it: the column below a pivot scaled by the pivot's reciprocal; back substitution
     divides for one right-hand side and multiplies by reciprocals for several).

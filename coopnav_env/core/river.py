@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike
 
 
-def centerline_of(points_m) -> tuple:
+def centerline_of(points_m: ArrayLike) -> tuple:
     """The centerline's vertices (M, 2) and their cumulative arc lengths (M,) (m) from a
     tuple of (east, north) points; consecutive duplicates are refused."""
     pts = np.ascontiguousarray(np.asarray(points_m, dtype=float).reshape(-1, 2))
@@ -30,7 +31,7 @@ def centerline_of(points_m) -> tuple:
 
 
 @njit(cache=True)
-def project(pe, pn, pts, cum):
+def project(pe: float, pn: float, pts: np.ndarray, cum: np.ndarray) -> tuple[float, float, float, float]:
     """The nearest point of the centerline to (pe, pn): its arc length s (m), the signed
     offset of the point from it (m, + right of downstream) and the downstream unit
     tangent (te, tn) of the segment it lies on (the first nearest segment on a tie)."""
@@ -56,7 +57,7 @@ def project(pe, pn, pts, cum):
 
 
 @njit(cache=True)
-def point_at(s, pts, cum):
+def point_at(s: float, pts: np.ndarray, cum: np.ndarray) -> tuple[float, float, float, float]:
     """The centerline's point (east, north) at arc length s (clamped to the polyline) and
     its downstream unit tangent (te, tn)."""
     m = pts.shape[0]
@@ -77,7 +78,7 @@ def _offsets_rows(p, pts, cum, off, tan):
         tan[r] = complex(te, tn)
 
 
-def offsets(points_en_m, pts, cum) -> tuple:
+def offsets(points_en_m: ArrayLike, pts: np.ndarray, cum: np.ndarray) -> tuple:
     """Signed offsets (..., ) from the centerline (m, + right of downstream) of points
     (..., 2) (east, north), and the downstream unit tangent there, complex (...)."""
     p = np.asarray(points_en_m, dtype=float)
@@ -88,20 +89,20 @@ def offsets(points_en_m, pts, cum) -> tuple:
     return off.reshape(shape), tan.reshape(shape)
 
 
-def arc_length_of(points_en_m, pts, cum) -> np.ndarray:
+def arc_length_of(points_en_m: ArrayLike, pts: np.ndarray, cum: np.ndarray) -> np.ndarray:
     """Arc lengths (...) of the nearest centerline points of points (..., 2)."""
     p = np.asarray(points_en_m, dtype=float).reshape(-1, 2)
     return np.array([project(e, n, pts, cum)[0] for e, n in p]).reshape(np.shape(points_en_m)[:-1])
 
 
-def mission_direction(waypoints_en_m, pts, cum) -> float:
+def mission_direction(waypoints_en_m: ArrayLike, pts: np.ndarray, cum: np.ndarray) -> float:
     """+1 if the mission's waypoints run downstream (their last one lies further along the
     centerline than their first), else -1 (upstream)."""
     s = arc_length_of(np.asarray(waypoints_en_m, dtype=float)[[0, -1], :2], pts, cum)
     return 1.0 if s[1] >= s[0] else -1.0
 
 
-def cross_section_at(s_m, pts, cum, direction, baseline_m) -> tuple:
+def cross_section_at(s_m: float, pts: np.ndarray, cum: np.ndarray, direction: float, baseline_m: float) -> tuple:
     """The boats' cross section at arc length s_m: B1 and B2 (east, north) half a baseline
     either side of the centerline, on the line perpendicular to the river, with B1 on the
     left and B2 on the right of the mission direction, so that the frame's y axis (90
@@ -115,8 +116,9 @@ def cross_section_at(s_m, pts, cum, direction, baseline_m) -> tuple:
     return np.array([b1.real, b1.imag]), np.array([b2.real, b2.imag]), float(np.arctan2(x_axis.real, x_axis.imag))
 
 
-def meander(length_m, wavelength_m, amplitude_m, bearing_deg=90.0, start_m=0.0, step_m=25.0,
-            origin_en_m=(0.0, 0.0)) -> tuple:
+def meander(length_m: float, wavelength_m: float, amplitude_m: float, bearing_deg: float = 90.0, start_m: float = 0.0,
+            step_m: float = 25.0,
+            origin_en_m: tuple[float, float] = (0.0, 0.0)) -> tuple:
     """A sine-generated centerline (e, n) points: along the main axis (bearing_deg, clockwise
     from north) from start_m to start_m + length_m every step_m, displaced across it by
     amplitude_m sin(2 pi a / wavelength_m) (a: the main-axis coordinate; positive to the left

@@ -16,7 +16,10 @@ the inverse normal CDF of 53-bit uniforms.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.special import ndtri
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -38,7 +41,7 @@ def _mix(z: np.ndarray) -> np.ndarray:
     return z
 
 
-def env_keys(seeds) -> np.ndarray:
+def env_keys(seeds: ArrayLike) -> np.ndarray:
     """One 64-bit key per environment from integer seeds."""
     s = np.asarray(seeds, dtype=np.int64).astype(np.uint64)
     return _mix(s * _GOLDEN + _GOLDEN)
@@ -82,7 +85,8 @@ class DrawLayout:
     returns name -> (B, *shape).
     """
 
-    def __init__(self, layout, batch_size: int, stream: int = STREAM_CYCLE):
+    def __init__(self, layout: Iterable[tuple[str, str, tuple[int, ...]]], batch_size: int,
+                 stream: int = STREAM_CYCLE) -> None:
         self.layout, self.stream = list(layout), int(stream)
         self.slices, start = [], 0
         for name, kind, shape in self.layout:

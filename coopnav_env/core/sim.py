@@ -26,14 +26,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..scenarios.base import ScenarioConfig
-from . import rng
-from . import channel, fusion, measurements, observation, substeps
+from . import channel, fusion, measurements, observation, rng, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
-from .reward import CHANNEL_TERMS, SURVEY_TERMS, term_weights, weighted_reward
 from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps, unit_to_bearing
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
 from .navigation import gate_threshold, predict
+from .reward import CHANNEL_TERMS, SURVEY_TERMS, term_weights, weighted_reward
 from .state import SimState
 
 INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",

@@ -9,23 +9,30 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
+
+_Rows = TypeVar("_Rows", bound="BatchArrays")
 
 
 class BatchArrays:
     """Row operations shared by the state dataclasses: every field has a leading batch axis."""
 
+    # declared for the type checker (the subclasses are dataclasses and have a t_s field)
+    __dataclass_fields__: ClassVar[dict[str, Any]]
+    t_s: np.ndarray
+
     @property
     def batch_size(self) -> int:
         return self.t_s.shape[0]
 
-    def assign(self, mask: np.ndarray, other):
+    def assign(self, mask: np.ndarray, other: BatchArrays) -> None:
         """Overwrite the rows where ``mask`` is True with ``other``'s rows (in order)."""
         for f in dataclasses.fields(self):
             getattr(self, f.name)[mask] = getattr(other, f.name)
 
-    def row(self, index: int):
+    def row(self: _Rows, index: int) -> _Rows:
         """A batch-of-one copy of row ``index``."""
         return type(self)(**{f.name: getattr(self, f.name)[index:index + 1].copy() for f in dataclasses.fields(self)})
 

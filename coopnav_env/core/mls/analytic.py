@@ -18,15 +18,19 @@ reflection) and has no outliers.
 
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Callable
 
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .estimator import MLSMeasurement
 from .geometry import mls_error_bounds
 from .signal import SignalChain, spline_peak_offsets
 
 N_NORMALS = 13  # standard normals per pair: 2 TDOA, 4 TOA, 1 sync jitter, 2 + 4 branch choices
 
 
-def check_noise_source(rng, normals):
+def check_noise_source(rng: np.random.Generator | None, normals: ArrayLike | None) -> None:
     if (rng is None) == (normals is None):
         raise ValueError("give exactly one of rng and normals")
 
@@ -38,7 +42,8 @@ class AnalyticModel:
     sensor's eqs. (1)-(10) with the receiver's sound speed; sound_speed_assumed_mps:
     that sound speed (for the bounds)."""
 
-    def __init__(self, chain: SignalChain, estimate, sound_speed_assumed_mps):
+    def __init__(self, chain: SignalChain, estimate: Callable[[np.ndarray, np.ndarray], MLSMeasurement],
+                 sound_speed_assumed_mps: float) -> None:
         cfg = chain.config
         self.config = cfg
         self.chain = chain
@@ -126,7 +131,7 @@ class AnalyticModel:
     def _table(self, table, u):
         return np.interp(u, self._u_table, table)
 
-    def interpolation_bias_samples(self, delays_samples):
+    def interpolation_bias_samples(self, delays_samples: ArrayLike) -> np.ndarray:
         """See ``MLSSensor.interpolation_bias_samples``."""
         return self._table(self._bias_table, self._frac(np.asarray(delays_samples, dtype=float)))
 
@@ -139,7 +144,8 @@ class AnalyticModel:
         alpha_tdoa = s2 * (1.0 / r2[..., 0] + 1.0 / r2[..., 1])
         return (alpha_tdoa, s2 * s2, a_toa[..., 0] * a_toa[..., 1]), (s2, 0.0, a_toa)
 
-    def timing_std_samples(self, toa_samples, tdoa_samples=None, interpolation="spline"):
+    def timing_std_samples(self, toa_samples: ArrayLike, tdoa_samples: ArrayLike | None = None,
+                           interpolation: str = "spline") -> tuple[np.ndarray, np.ndarray]:
         """See ``MLSSensor.timing_std_samples``."""
         toa = np.asarray(toa_samples, dtype=float)
         tdoa = toa[..., 0] - toa[..., 1] if tdoa_samples is None else np.asarray(tdoa_samples, dtype=float)
@@ -172,7 +178,8 @@ class AnalyticModel:
         b1 = self._table(self._bias_table, u1)
         return tau + np.where(flip, b1 + np.sqrt(var1) / scale * z_e, b0 + np.sqrt(var0) / scale * z_e)
 
-    def measure_from_delays(self, tdoa, toa, rng, normals, interpolation_bias):
+    def measure_from_delays(self, tdoa: np.ndarray, toa: np.ndarray, rng: np.random.Generator | None,
+                            normals: ArrayLike | None, interpolation_bias: bool) -> MLSMeasurement:
         """``MLSSensor.measure_analytic`` from the true delays (``true_delays``); they are not modified."""
         batch = tdoa.shape[:-1]
         if normals is None:
@@ -196,7 +203,8 @@ class AnalyticModel:
             toa_m = toa + s_toa * z_toa
         return self.estimate(tdoa_m, toa_m)
 
-    def bounds_from_delays(self, tdoa, toa, as_printed=False):
+    def bounds_from_delays(self, tdoa: np.ndarray, toa: np.ndarray,
+                           as_printed: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``MLSSensor.error_bounds`` from the true delays (``true_delays``)."""
         ideal = self.estimate(tdoa, toa)
         s_tdoa, s_toa = self.timing_std_samples(toa)

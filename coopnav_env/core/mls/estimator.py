@@ -29,6 +29,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .geometry import wrap_angle_rad
 
@@ -44,8 +45,9 @@ class MLSMeasurement(NamedTuple):
     toa_samples: np.ndarray        # (..., 2, 2): tau_0^ij, projector i to hydrophone j, from emission
 
 
-def estimate_from_delays(tdoa_samples, toa_samples, *, hydrophone_base_m, projector_spacing_m,
-                         sound_speed_mps, sample_rate_hz, estimator="exact"):
+def estimate_from_delays(tdoa_samples: ArrayLike, toa_samples: ArrayLike, *, hydrophone_base_m: float,
+                         projector_spacing_m: float,
+                         sound_speed_mps: float, sample_rate_hz: float, estimator: str = "exact") -> MLSMeasurement:
     """Eqs. (1)-(10): delays -> sub-azimuths, azimuth, sub-ranges, range, heading.
 
     tdoa_samples: (..., 2), tau_0^i (samples), the lag of hydrophone H1's channel

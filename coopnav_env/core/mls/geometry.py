@@ -24,21 +24,24 @@ Errata of the bounds (``mls_error_bounds``):
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 _TWO_PI = 2.0 * math.pi
 
 
 # --------------------------------------------------------------------------- angles, poses
-def wrap_angle_rad(x):
+def wrap_angle_rad(x: ArrayLike) -> Any:
     """Eq. (4), [x]_adj: an angle wrapped to (-pi, pi] (rad). The paper's form only
     handles values within one turn outside (-180, 180] deg; this wraps any angle."""
     x = np.asarray(x, dtype=float)
     return np.pi - np.mod(np.pi - x, _TWO_PI)
 
 
-def pose_arrays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
+def pose_arrays(sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The poses as float arrays (sender pos, sender heading, observer pos, observer
     heading), checked: positions with a last axis of 2, everything finite."""
     sp = np.asarray(sender_pos_m, dtype=float)
@@ -55,7 +58,8 @@ def pose_arrays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_headi
     return sp, sh, op, oh
 
 
-def relative_pose(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
+def relative_pose(sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                  observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Sender's reference point (..., 2) in the observer's body frame and the relative heading (...)."""
     sp, sh, op, oh = pose_arrays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
     dx = sp[..., 0] - op[..., 0]
@@ -65,7 +69,8 @@ def relative_pose(sender_pos_m, sender_heading_rad, observer_pos_m, observer_hea
     return rel, wrap_angle_rad(sh - oh)
 
 
-def geometric_truth(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
+def geometric_truth(sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                    observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The unfolded truth: (bearing rad of the sender's reference point in the observer's
     frame, distance m between reference points, relative heading rad), all broadcast
     over leading axes. Positions (..., 2) m, headings (...) rad."""
@@ -74,14 +79,14 @@ def geometric_truth(sender_pos_m, sender_heading_rad, observer_pos_m, observer_h
 
 
 # --------------------------------------------------------------------------- array layout
-def projector_positions(rel, alpha, projector_spacing_m):
+def projector_positions(rel: np.ndarray, alpha: ArrayLike, projector_spacing_m: float) -> np.ndarray:
     """P1 (bow), P2 (stern) in the observer frame, shape (..., 2 projectors, 2 xy), m."""
     h = 0.5 * projector_spacing_m
     u = np.stack([np.cos(alpha), np.sin(alpha)], axis=-1)
     return np.stack([rel + h * u, rel - h * u], axis=-2)
 
 
-def hydrophone_positions(hydrophone_base_m):
+def hydrophone_positions(hydrophone_base_m: float) -> np.ndarray:
     """H1 (port), H2 (starboard) in the observer frame, (2, 2), m."""
     h = 0.5 * hydrophone_base_m
     return np.array([[0.0, h], [0.0, -h]])
@@ -95,7 +100,8 @@ class ArrayGeometry:
     sound_speed_true_mps v; ranges must lie in (min_range_m, max_range_m], where
     min_range_m = (l + d)/2 keeps a projector outside the hydrophones' circle."""
 
-    def __init__(self, hydrophone_base_m, projector_spacing_m, sample_rate_hz, sound_speed_true_mps, max_range_m):
+    def __init__(self, hydrophone_base_m: float, projector_spacing_m: float, sample_rate_hz: float,
+                 sound_speed_true_mps: float, max_range_m: float) -> None:
         self.d = hydrophone_base_m
         self.l = projector_spacing_m
         self.fs = sample_rate_hz
@@ -104,7 +110,7 @@ class ArrayGeometry:
         # geometry limits: a projector must stay outside the hydrophones' circle
         self.min_range_m = 0.5 * (self.l + self.d)
 
-    def check_range(self, rel, max_check=True):
+    def check_range(self, rel: np.ndarray, max_check: bool = True) -> np.ndarray:
         rng_m = np.hypot(rel[..., 0], rel[..., 1])
         if np.any(rng_m <= self.min_range_m):
             bad = float(np.min(rng_m))
@@ -117,7 +123,8 @@ class ArrayGeometry:
                              f"{self.max_range_m} m")
         return rng_m
 
-    def path_lengths(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
+    def path_lengths(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                     observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Direct path lengths r_ij (..., 2, 2) m, and the relative pose."""
         rel, alpha = relative_pose(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         self.check_range(rel)
@@ -126,7 +133,8 @@ class ArrayGeometry:
         diff = P[..., :, None, :] - Hy[None, :, :]                           # (..., i, j, xy)
         return np.hypot(diff[..., 0], diff[..., 1]), rel, alpha, P
 
-    def true_delays(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
+    def true_delays(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                    observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Noise-free delays in samples at the true sound speed: (tdoa (..., 2), toa (..., 2, 2))."""
         r_ij = self.path_lengths(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)[0]
         toa = r_ij * self.fs / self.sound_speed_true_mps
@@ -134,9 +142,11 @@ class ArrayGeometry:
 
 
 # --------------------------------------------------------------------------- error bounds, statistics
-def mls_error_bounds(sub_azimuths_rad, sub_ranges_m, range_m, *, hydrophone_base_m, projector_spacing_m,
-                     sound_speed_mps, sample_rate_hz, tdoa_std_samples, toa_std_samples=None,
-                     as_printed=False):
+def mls_error_bounds(sub_azimuths_rad: ArrayLike, sub_ranges_m: ArrayLike, range_m: ArrayLike, *,
+                     hydrophone_base_m: float, projector_spacing_m: float,
+                     sound_speed_mps: float, sample_rate_hz: float, tdoa_std_samples: ArrayLike,
+                     toa_std_samples: ArrayLike | None = None,
+                     as_printed: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Theoretical error bounds (11)-(13): one-sigma errors of azimuth (rad), range (m)
     and heading (rad) for a timing error Delta-tau (samples), by first-order error
     propagation through eqs. (5), (9) and (10).
@@ -199,7 +209,7 @@ def mls_error_bounds(sub_azimuths_rad, sub_ranges_m, range_m, *, hydrophone_base
     return d_theta, d_r, np.sqrt(var_alpha)
 
 
-def error_statistics(errors):
+def error_statistics(errors: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The paper's statistics of estimation errors (eqs. 15-19), over the last axis.
 
     ``errors``: biased errors phi_i - phi_0i (eq. 15), any unit. Returns

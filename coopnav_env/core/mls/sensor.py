@@ -6,12 +6,13 @@ mode's timing model (``analytic.AnalyticModel``)."""
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coopnav_env.core.acoustics import mackenzie_sound_speed
 
 from .analytic import N_NORMALS, AnalyticModel, check_noise_source
 from .config import MLSConfig
-from .estimator import estimate_from_delays
+from .estimator import MLSMeasurement, estimate_from_delays
 from .geometry import ArrayGeometry
 from .signal import PeakTracker, SignalChain
 
@@ -43,7 +44,7 @@ class MLSSensor:
 
     N_NORMALS = N_NORMALS
 
-    def __init__(self, config: MLSConfig | None = None):
+    def __init__(self, config: MLSConfig | None = None) -> None:
         cfg = config if config is not None else MLSConfig()
         if not isinstance(cfg, MLSConfig):
             raise ValueError("config must be an MLSConfig")
@@ -70,11 +71,13 @@ class MLSSensor:
     noise_sigma = property(lambda self: self.signal.noise_sigma, doc="std of the white noise per sample")
 
     # ------------------------------------------------------------------ geometry
-    def true_delays(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
+    def true_delays(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                    observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Noise-free delays in samples at the true sound speed: (tdoa (..., 2), toa (..., 2, 2))."""
         return self.geometry.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
 
-    def ideal_measurement(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
+    def ideal_measurement(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                          observer_heading_rad: ArrayLike) -> MLSMeasurement:
         """What the noise-free sensor reports: the estimator on the exact delays (with the
         receiver's assumed sound speed). Folded to the front half-plane (see the
         package docstring); the measurement model for a filter."""
@@ -91,7 +94,8 @@ class MLSSensor:
         return self.signal.paths(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
 
     # ------------------------------------------------------------------ signal level
-    def synthesize(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad, rng):
+    def synthesize(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                   observer_heading_rad: ArrayLike, rng: np.random.Generator) -> np.ndarray:
         """The four received channels of one sending event, shape (2 chirps: bow, stern;
         2 hydrophones: H1 port, H2 starboard; nfft samples from each chirp's emission).
 
@@ -101,15 +105,16 @@ class MLSSensor:
         """
         return self.signal.synthesize(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad, rng)
 
-    def process(self, channels, tracker: PeakTracker | None = None):
+    def process(self, channels: np.ndarray, tracker: PeakTracker | None = None) -> MLSMeasurement:
         """Process one sending event's channels (2, 2, nfft) as the paper does; returns an
         ``MLSMeasurement`` of scalars. ``tracker`` carries the previous peaks of this
         link (updated in place); None: bootstrap from the absolute maxima each time."""
         tdoa, toa = self.signal.measure_delays(channels, tracker)
         return self._estimate(tdoa, toa)
 
-    def measure_signal(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad, rng,
-                       tracker: PeakTracker | None = None):
+    def measure_signal(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                       observer_heading_rad: ArrayLike, rng: np.random.Generator | int | None,
+                       tracker: PeakTracker | None = None) -> MLSMeasurement:
         """One sending event at signal level: synthesise, then process. rng: numpy Generator
         (or an int seed); tracker: this link's ``PeakTracker`` (None: no tracking)."""
         rng = np.random.default_rng(rng) if not isinstance(rng, np.random.Generator) else rng
@@ -117,13 +122,14 @@ class MLSSensor:
         return self.process(ch, tracker)
 
     # ------------------------------------------------------------------ analytic
-    def interpolation_bias_samples(self, delays_samples):
+    def interpolation_bias_samples(self, delays_samples: ArrayLike) -> np.ndarray:
         """Deterministic error (samples) of the cubic-spline peak for noise-free correlation
         peaks at these true delays (direct path only): the peak locking of the
         sub-sample interpolation, a function of the delay's fractional part."""
         return self.analytic.interpolation_bias_samples(delays_samples)
 
-    def timing_std_samples(self, toa_samples, tdoa_samples=None, interpolation="spline"):
+    def timing_std_samples(self, toa_samples: ArrayLike, tdoa_samples: ArrayLike | None = None,
+                           interpolation: str = "spline") -> tuple[np.ndarray, np.ndarray]:
         """Small-error std (samples) of the measured delays at the true TOAs (..., 2, 2)
         (samples; TDOAs derived from them unless given, (..., 2)).
 
@@ -135,8 +141,10 @@ class MLSSensor:
         (..., 2, 2)); the sync jitter is not included."""
         return self.analytic.timing_std_samples(toa_samples, tdoa_samples, interpolation)
 
-    def measure_analytic(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad,
-                         rng=None, normals=None, interpolation_bias=True):
+    def measure_analytic(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                         observer_heading_rad: ArrayLike,
+                         rng: np.random.Generator | None = None, normals: ArrayLike | None = None,
+                         interpolation_bias: bool = True) -> MLSMeasurement:
         """The analytic mode over a batch: the true delays with the errors the signal
         mode's estimator realises at this SNR, through the same eqs. (1)-(10).
 
@@ -154,16 +162,19 @@ class MLSSensor:
         tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         return self.analytic.measure_from_delays(tdoa, toa, rng, normals, interpolation_bias)
 
-    def error_bounds(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad,
-                     as_printed=False):
+    def error_bounds(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                     observer_heading_rad: ArrayLike,
+                     as_printed: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Bounds (11)-(13) at these poses with the SNR-dependent Delta-tau of
         ``timing_std_samples`` (see ``mls_error_bounds``): (azimuth rad, range m, heading rad).
         as_printed uses the paper's formulas with Delta-tau = the larger TDOA std."""
         tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         return self.analytic.bounds_from_delays(tdoa, toa, as_printed)
 
-    def measure_analytic_with_bounds(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad,
-                                     rng=None, normals=None, interpolation_bias=True):
+    def measure_analytic_with_bounds(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike,
+                                     observer_pos_m: ArrayLike, observer_heading_rad: ArrayLike,
+                                     rng: np.random.Generator | None = None, normals: ArrayLike | None = None,
+                                     interpolation_bias: bool = True) -> tuple[MLSMeasurement, tuple[np.ndarray, ...]]:
         """``measure_analytic`` and ``error_bounds`` of the same poses, the geometry and
         true delays computed once: (``MLSMeasurement``, (azimuth rad, range m, heading
         rad) bounds), each identical to what the two methods return separately. What a

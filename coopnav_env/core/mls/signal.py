@@ -19,9 +19,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.fft as sfft
+from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
 from scipy.signal import max_len_seq
 
+from .config import MLSConfig
 from .geometry import ArrayGeometry, hydrophone_positions, pose_arrays
 
 _TWO_PI = 2.0 * math.pi
@@ -36,7 +38,7 @@ class PeakTracker:
     tdoa: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))
     toa: np.ndarray = field(default_factory=lambda: np.full((2, 2), np.nan))
 
-    def reset(self):
+    def reset(self) -> None:
         self.tdoa[:] = np.nan
         self.toa[:] = np.nan
 
@@ -48,7 +50,7 @@ class SignalChain:
     config: an ``MLSConfig``; geometry: its ``ArrayGeometry`` (the true sound speed);
     sound_speed_assumed_mps: the receiver's (it sizes the TDOA search)."""
 
-    def __init__(self, config, geometry: ArrayGeometry, sound_speed_assumed_mps):
+    def __init__(self, config: MLSConfig, geometry: ArrayGeometry, sound_speed_assumed_mps: float) -> None:
         cfg = config
         self.config = cfg
         self.geometry = geometry
@@ -61,8 +63,8 @@ class SignalChain:
         max_path = cfg.max_range_m + 0.5 * (geometry.l + geometry.d)
         if cfg.reflection is not None and cfg.reflection.kind == "surface":
             max_path = math.hypot(max_path, 2.0 * cfg.depth_m)
-        self.toa_max_lag = int(math.ceil(max_path * self.fs / geometry.sound_speed_true_mps)) + 8
-        self.tdoa_max_lag = int(math.ceil(geometry.d * self.fs / sound_speed_assumed_mps)) + 2
+        self.toa_max_lag = math.ceil(max_path * self.fs / geometry.sound_speed_true_mps) + 8
+        self.tdoa_max_lag = math.ceil(geometry.d * self.fs / sound_speed_assumed_mps) + 2
         guard = 64 + 2 * self.tdoa_max_lag
         self.nfft = sfft.next_fast_len(self.n_chips + self.toa_max_lag + guard, real=True)
         M = self.nfft
@@ -99,12 +101,13 @@ class SignalChain:
         self.noise_sigma = 0.0 if math.isinf(snr) else math.sqrt(p_signal / (snr * h_energy))
 
     # ------------------------------------------------------------------ propagation
-    def paths(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
+    def paths(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+              observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Delays (samples) and amplitudes of every path, shape (2 chirps, 2 hydrophones, n_paths)."""
         sp, sh, op, oh = pose_arrays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         if sp.shape != (2,) or op.shape != (2,) or sh.shape != () or oh.shape != ():
             raise ValueError("measure_signal takes one pose pair: positions of shape (2,), scalar headings")
-        r_ij, rel, alpha, P = self.geometry.path_lengths(sp, sh, op, oh)
+        r_ij, _rel, _alpha, P = self.geometry.path_lengths(sp, sh, op, oh)
         lengths = [r_ij]
         amps = [1.0 / r_ij]                                         # spherical spreading, 1 at 1 m
         refl = self.config.reflection
@@ -125,11 +128,12 @@ class SignalChain:
                 r_img = np.hypot(diff[..., 0], diff[..., 1])
             lengths.append(r_img)
             amps.append(refl.coefficient / r_img)
-        lengths = np.stack(lengths, axis=-1)
-        return lengths * self.fs / self.geometry.sound_speed_true_mps, np.stack(amps, axis=-1)
+        lengths_m = np.stack(lengths, axis=-1)
+        return lengths_m * self.fs / self.geometry.sound_speed_true_mps, np.stack(amps, axis=-1)
 
     # ------------------------------------------------------------------ synthesis
-    def synthesize(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad, rng):
+    def synthesize(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
+                   observer_heading_rad: ArrayLike, rng: np.random.Generator) -> np.ndarray:
         """The four received channels of one sending event (see ``MLSSensor.synthesize``)."""
         delays, amps = self.paths(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         if self.config.sync_jitter_s > 0.0:
@@ -142,7 +146,7 @@ class SignalChain:
         return sfft.irfft(self.H * spec, n=self.nfft, axis=-1)
 
     # ------------------------------------------------------------------ processing
-    def measure_delays(self, channels, tracker: PeakTracker | None = None):
+    def measure_delays(self, channels: np.ndarray, tracker: PeakTracker | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The delays of one sending event's channels (2, 2, nfft): correlation, peak
         tracking, spline refinement. Returns (tdoa (2,), toa (2, 2)) in samples; the
         tracker (if given) is updated in place."""
@@ -183,7 +187,7 @@ class SignalChain:
 
 
 # --------------------------------------------------------------------------- peak picking
-def track_peak(seq, lag_lo, lag_hi, prev, halfwidth):
+def track_peak(seq: np.ndarray, lag_lo: int, lag_hi: int, prev: float, halfwidth: int) -> int:
     """Integer lag of the correlation peak within [lag_lo, lag_hi] (negative lags wrap).
 
     Peak tracking (paper section 2.1): the maximum within +-halfwidth of the previous
@@ -196,7 +200,7 @@ def track_peak(seq, lag_lo, lag_hi, prev, halfwidth):
     lags = np.arange(lag_lo, lag_hi + 1)
     vals = seq[lags % M]
     if np.isfinite(prev):
-        c = int(round(prev))
+        c = round(prev)
         lo = max(c - halfwidth, lag_lo)
         hi = min(c + halfwidth, lag_hi)
         if lo <= hi:
@@ -209,7 +213,7 @@ def track_peak(seq, lag_lo, lag_hi, prev, halfwidth):
     return lag_lo + int(np.argmax(vals))
 
 
-def spline_peak_offsets(offs, rows):
+def spline_peak_offsets(offs: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Sub-sample peak offsets in [-1, 1] from samples ``rows`` (2K+1, n) at offsets ``offs``
     around integer peaks: maximum of a cubic spline (scipy CubicSpline, not-a-knot)
     over the two intervals next to the peak, from the closed-form roots of its
