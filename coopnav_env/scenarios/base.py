@@ -22,7 +22,7 @@ BEACON_KINDS = ("beacon_auv", "asv", "boat")
 NETWORKS = ("survey_beacons", "moving_lbl")
 SURVEY_PATHS = ("stationary", "lawnmower", "circle", "spiral", "line", "waypoints")
 RANGING_MODES = ("owtt", "twtt")
-ACOUSTIC_SENSORS = ("modem", "mls")
+# ACOUSTIC_SENSORS: the registered sensors' names (core.measurements), read when asked (__getattr__ below)
 ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
 CHANNEL_MODES = ("clock", "decide")
 MISSION_FRAMES = ("frame", "world")  # where a moving-network mission's waypoints live (mission_frame)
@@ -438,10 +438,9 @@ def _validate(c: ScenarioConfig):
     for k in c.beacon_kinds:
         _check(isinstance(k, str) and k in BEACON_KINDS,
                f"beacon_kinds: unknown beacon kind {k!r}; valid kinds: {', '.join(BEACON_KINDS)}")
-    _check(c.acoustic_sensor in ACOUSTIC_SENSORS,
-           f"unknown acoustic_sensor {c.acoustic_sensor!r}; valid: {', '.join(ACOUSTIC_SENSORS)}")
-    _check(c.acoustic_sensor == "modem" or c.network == "survey_beacons",
-           "acoustic_sensor='mls' needs network='survey_beacons'")
+    from ..core.measurements import check_sensor
+
+    check_sensor(c)  # the registered sensor: its name, its networks, its own checks
     _check(c.network in NETWORKS, f"unknown network {c.network!r}; valid networks: {', '.join(NETWORKS)}")
     _check_coordinates("survey_origin_m", c.survey_origin_m, 2)
     _check_coordinates("survey_area_m", c.survey_area_m, 2)
@@ -514,6 +513,14 @@ def _validate(c: ScenarioConfig):
         n = waypoint_count(c, path) * (c.path_repeats if path != "stationary" else 1)
         _check(n <= MAX_WAYPOINTS, f"survey_path={path!r} with these parameters needs {n} waypoints (at most "
                                    f"{MAX_WAYPOINTS}): raise lawnmower_spacing_m or lower circle_laps/path_repeats")
+
+
+def __getattr__(name: str):
+    if name == "ACOUSTIC_SENSORS":  # the registry's, so a sensor registered later is valid
+        from ..core.measurements import sensor_names
+
+        return sensor_names()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # ------------------------------------------------------------------------------------
