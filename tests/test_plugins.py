@@ -151,3 +151,25 @@ def test_nothing_is_left_registered_after_a_test():
     assert reward.MOVING_NETWORK_TERMS == ("info_gain", "safety", "baseline", "approach", "rotation", "contact")
     assert reward.RIVER_NETWORK_TERMS == reward.MOVING_NETWORK_TERMS + ("bank",)
     assert reward.PENALTY_TERMS == ("safety", "geofence", "baseline", "approach", "rotation", "ping", "bank")
+
+
+def test_a_planner_is_one_class_and_its_decorator():
+    import baselines
+    from baselines import Policy, make_policy, register_policy, unregister_policy
+
+    @register_policy("toy_north")
+    class North(Policy):
+        """Always north at full speed."""
+
+        def act(self, obs):
+            return np.array([0.0, 1.0], dtype=np.float32)
+
+    try:
+        assert "toy_north" in baselines.list_policies("survey_beacons")
+        policy = make_policy("toy_north", "gao_lawnmower")
+        assert isinstance(policy, North) and policy.act(None).tolist() == [0.0, 1.0]
+        with pytest.raises(ValueError, match="registered twice"):
+            register_policy("toy_north")(type("Other", (Policy,), {}))
+    finally:
+        unregister_policy("toy_north")
+    assert "toy_north" not in baselines.list_policies()
