@@ -65,7 +65,7 @@ SEED_STRIDE = 1_000_003  # a prime larger than any batch: episode k of env e -> 
 check_reward_terms = check_training_terms  # {signal: weight} validated against the registry
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> tuple:
     if name == "REWARD_TERMS":  # the registered training signals (core.reward, kind "training")
         return training_signal_names()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

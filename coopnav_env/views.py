@@ -9,7 +9,7 @@ from gymnasium import spaces
 OBS_BOUND = 10.0
 
 
-def action_dim(sim_or_config=None) -> int:
+def action_dim(sim_or_config: object = None) -> int:
     """Components of a beacon's action, as the scenario's channel model declares them
     (``core.channel`` registry): 2 (the motion), 3 with ``channel_mode="decide"`` (the
     motion, then the transmit decision: transmit this slot when it is > 0)."""

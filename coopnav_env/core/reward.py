@@ -39,7 +39,7 @@ A new term (say ``depth_limit``, weighed by a scenario field ``depth_limit_penal
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import Any
@@ -87,13 +87,13 @@ class RewardTerm:
     compute: Callable[[TermContext], Any] | None = None
     kind: str = "env"
 
-    def applies_to(self, config) -> bool:
+    def applies_to(self, config: Any) -> bool:
         """Whether a simulator of ``config`` returns this term: its network is one of
         ``networks`` and every ``modes`` parameter has one of the listed values."""
         return (self.kind == "env" and getattr(config, "network", None) in self.networks
                 and all(getattr(config, k, None) in v for k, v in self.modes.items()))
 
-    def weight_of(self, config) -> float:
+    def weight_of(self, config: Any) -> float:
         """The scenario's weight: ``sign`` x the weight parameter's value (``sign`` alone
         when the term has no weight parameter)."""
         return self.sign * (1.0 if self.weight is None else float(getattr(config, self.weight)))
@@ -169,13 +169,13 @@ def registered_terms(kind: str | None = "env") -> tuple[RewardTerm, ...]:
     return tuple(t for t in _TERMS.values() if kind is None or t.kind == kind)
 
 
-def terms_for(config) -> tuple[str, ...]:
+def terms_for(config: Any) -> tuple[str, ...]:
     """The names of the environment terms a simulator of ``config`` returns, in the
     order the weighted sum adds them."""
     return tuple(t.name for t in registered_terms("env") if t.applies_to(config))
 
 
-def term_weights(config, terms) -> dict:
+def term_weights(config: Any, terms: Iterable[str]) -> dict[str, float]:
     """The scenario's weight of each term in ``terms``: name -> float."""
     return {t: _TERMS[t].weight_of(config) for t in terms}
 
@@ -199,7 +199,8 @@ def penalties(terms: dict, weights: dict) -> np.ndarray:
     return out
 
 
-def collect_terms(names, arrays: Mapping[str, np.ndarray], ctx: TermContext, shape: tuple) -> dict:
+def collect_terms(names: Iterable[str], arrays: Mapping[str, np.ndarray], ctx: TermContext,
+                  shape: tuple) -> dict[str, np.ndarray]:
     """The step's terms by name, in ``names``' order: a registered term with a ``compute``
     hook is computed from ``ctx`` (with the terms so far, as floats of ``shape``);
     the others are the simulator's own ``arrays`` by name."""
@@ -225,7 +226,7 @@ def training_signal_names() -> tuple[str, ...]:
     return tuple(t.name for t in registered_terms("training"))
 
 
-def check_training_terms(terms) -> dict | None:
+def check_training_terms(terms: Mapping[str, float] | None) -> dict[str, float] | None:
     """``{signal: weight}`` validated (None or {} -> None: the environment's reward)."""
     if not terms:
         return None
@@ -246,7 +247,7 @@ def check_training_terms(terms) -> dict | None:
     return out
 
 
-def training_reward(reward_terms: dict, res, weights: dict) -> np.ndarray:
+def training_reward(reward_terms: Mapping[str, float], res: Any, weights: Mapping[str, float]) -> np.ndarray:
     """The weighted sum of the training signals ``reward_terms`` ({name: weight}) for one
     batched step: ``res`` the core's StepResult, ``weights`` the scenario's weights of its
     reward terms (:func:`term_weights`). Returns (B, N)."""
@@ -286,7 +287,7 @@ _DERIVED = {
 }
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     if name in _DERIVED:
         return terms_for(SimpleNamespace(**{**_DEFAULT_MODES, **_DERIVED[name]}))
     if name == "TERM_WEIGHTS":  # term -> the scenario parameter that weighs it (None: weight +1)

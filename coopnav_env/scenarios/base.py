@@ -515,7 +515,7 @@ def _validate(c: ScenarioConfig):
                                    f"{MAX_WAYPOINTS}): raise lawnmower_spacing_m or lower circle_laps/path_repeats")
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> tuple:
     if name == "ACOUSTIC_SENSORS":  # the registry's, so a sensor registered later is valid
         from ..core.measurements import sensor_names
 

@@ -65,7 +65,7 @@ class Sensor:
     validate: Callable[[Any], None] | None = None
     doc: str = ""
 
-    def make(self, sim) -> Any:
+    def make(self, sim: Any) -> Any:
         """The sensor's model for simulator ``sim`` (a module path's ``build`` imported now)."""
         build = importlib.import_module(self.build).build if isinstance(self.build, str) else self.build
         return build(sim)
@@ -113,7 +113,7 @@ def get_sensor(name: str) -> Sensor:
     return _SENSORS[name]
 
 
-def check_sensor(config) -> None:
+def check_sensor(config: Any) -> None:
     """The scenario's sensor checks: registered, on one of its networks, its own hook."""
     sensor = get_sensor(config.acoustic_sensor)
     if config.network not in sensor.networks:
@@ -122,12 +122,12 @@ def check_sensor(config) -> None:
         sensor.validate(config)
 
 
-def draw_layout(name: str, S: int, N: int, K: int) -> list:
+def draw_layout(name: str, S: int, N: int, K: int) -> list[tuple[str, str, tuple]]:
     """The sensor's entries of the simulator's ``rng.DrawLayout``: (purpose, kind, shape)."""
     return [(purpose, kind, tuple(shape_fn(S, N, K))) for purpose, kind, shape_fn in get_sensor(name).draws]
 
 
-def build(name: str, sim) -> Any:
+def build(name: str, sim: Any) -> Any:
     """The measurement model ``name`` for simulator ``sim``."""
     return get_sensor(name).make(sim)
 
