@@ -131,6 +131,8 @@ def test_the_registry_validates_and_unregisters(toy_parts):
         measurements.register_sensor("toy", LostRanges)
     with pytest.raises(ValueError, match="registered twice"):
         register_term("toy_speed", compute=_speed, doc="again")
+    with pytest.raises(ValueError, match="'toy_weight' is not a scenario parameter"):
+        register_term("toy_weighed", weight="toy_weight", compute=_speed, doc="weighed by nothing")
     with pytest.raises(ValueError, match="needs a compute"):
         register_term("toy_nothing", kind="training", doc="no hook")
     with pytest.raises(ValueError, match="valid terms: env, error, std, logdet, penalties, rejected, toy_signal"):

@@ -143,6 +143,12 @@ def register_term(name: str, *, doc: str, weight: str | None = None, sign: float
         raise ValueError(f"reward term {name!r}: kind must be one of {', '.join(KINDS)}, got {kind!r}")
     if kind == "training" and compute is None:
         raise ValueError(f"training signal {name!r} needs a compute(ctx) hook")
+    from ..scenarios.base import parameter_names
+
+    params = set(parameter_names())
+    for p in ([weight] if weight is not None else []) + list(modes or {}):
+        if p not in params:
+            raise ValueError(f"reward term {name!r}: {p!r} is not a scenario parameter (ScenarioConfig field)")
     if sign is None:
         sign = 1.0 if weight is None else -1.0
     term = RewardTerm(name=name, doc=doc, weight=weight, sign=float(sign), penalty=bool(penalty),
