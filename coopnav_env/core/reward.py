@@ -87,10 +87,12 @@ class RewardTerm:
     compute: Callable[[TermContext], Any] | None = None
     kind: str = "env"
 
-    def applies_to(self, config: Any) -> bool:
-        """Whether a simulator of ``config`` returns this term: its network is one of
-        ``networks`` and every ``modes`` parameter has one of the listed values."""
-        return (self.kind == "env" and getattr(config, "network", None) in self.networks
+    def applies_to(self, config: Any, network: str | None = None) -> bool:
+        """Whether a simulator of ``network`` (default ``config.network``) running
+        ``config`` returns this term: the network is one of ``networks`` and every
+        ``modes`` parameter has one of the listed values."""
+        network = getattr(config, "network", None) if network is None else network
+        return (self.kind == "env" and network in self.networks
                 and all(getattr(config, k, None) in v for k, v in self.modes.items()))
 
     def weight_of(self, config: Any) -> float:
@@ -175,10 +177,13 @@ def registered_terms(kind: str | None = "env") -> tuple[RewardTerm, ...]:
     return tuple(t for t in _TERMS.values() if kind is None or t.kind == kind)
 
 
-def terms_for(config: Any) -> tuple[str, ...]:
-    """The names of the environment terms a simulator of ``config`` returns, in the
-    order the weighted sum adds them."""
-    return tuple(t.name for t in registered_terms("env") if t.applies_to(config))
+def terms_for(config: Any, network: str | None = None) -> tuple[str, ...]:
+    """The names of the environment terms a simulator returns for ``config``, in the
+    order the weighted sum adds them. ``network``: the simulator's own network
+    (``"survey_beacons"`` for ``core.sim``, ``"moving_lbl"`` for ``core.moving_network``),
+    which it passes since it may run a config of the other network (default
+    ``config.network``)."""
+    return tuple(t.name for t in registered_terms("env") if t.applies_to(config, network))
 
 
 def term_weights(config: Any, terms: Iterable[str]) -> dict[str, float]:

@@ -123,7 +123,7 @@ class Simulator(BatchSimulator):
         self.channel = model.build(self)
         self.action_dim = model.action_dim
         self.beacon_info_keys = BEACON_INFO_KEYS + model.beacon_info_keys
-        self.reward_terms = terms_for(c)  # the registered terms of this network and modes (core.reward)
+        self.reward_terms = terms_for(c, "survey_beacons")  # this network's registered terms (core.reward)
         self.reward_weights = term_weights(c, self.reward_terms)
         self.state: SimState | None = None
 
