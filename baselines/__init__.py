@@ -8,12 +8,29 @@ With ``channel_mode="decide"`` (scenario ``sousa_ping``) each combines with a
 transmit schedule, ``make_policy("fim_a+tdma", env)`` (``baselines.schedule``:
 ``clock``, ``tdma``, ``event``).
 
-A new planner is one module with a ``Policy`` subclass decorated with
-``@register_policy("name")`` plus one import line here.
+A new planner is one module in this package with a ``Policy`` subclass decorated with
+``@register_policy("name")``: every module here is imported with the package, so that
+is the whole registration (a planner elsewhere registers when its module is imported).
 """
 
-from . import ellipse, fim, moving_lbl, simple  # noqa: F401  (each registers its planners)
-from .base import BeaconContext, Policy, list_policies, make_policy, waypoint_to_action
-from .schedule import list_schedules  # transmit schedules for channel_mode="decide": "<motion>+<schedule>"
+import importlib as _importlib
+import pkgutil as _pkgutil
 
-__all__ = ["BeaconContext", "Policy", "list_policies", "list_schedules", "make_policy", "waypoint_to_action"]
+from .base import (
+    BeaconContext,
+    Policy,
+    list_policies,
+    make_policy,
+    register_policy,
+    unregister_policy,
+    waypoint_to_action,
+)
+
+# list_schedules: transmit schedules for channel_mode="decide", "<motion>+<schedule>"
+from .schedule import list_schedules
+
+for _module in _pkgutil.iter_modules(__path__):  # each planner module registers its planners
+    _importlib.import_module(f"{__name__}.{_module.name}")
+
+__all__ = ["BeaconContext", "Policy", "list_policies", "list_schedules", "make_policy", "register_policy",
+           "unregister_policy", "waypoint_to_action"]

@@ -330,12 +330,24 @@ class TrackingPolicy(Policy):
 _POLICIES: dict = {}
 
 
-def register_policy(name: str) -> Callable[[type[Policy]], type[Policy]]:
-    def deco(cls):
+def register_policy(name: str) -> Callable[[type], type]:
+    """Class decorator: register a ``Policy`` subclass as the planner ``name``
+    (``make_policy(name, ...)``, ``list_policies()``, evaluate.py's policy names). A name
+    is registered once; re-importing the same class (a module reload) is allowed."""
+    def deco(cls: type) -> type:
+        old = _POLICIES.get(name)
+        if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
+            raise ValueError(f"policy {name!r} is registered twice ({old.__module__}.{old.__qualname__} and "
+                             f"{cls.__module__}.{cls.__qualname__})")
         _POLICIES[name] = cls
         cls.name = name
         return cls
     return deco
+
+
+def unregister_policy(name: str) -> None:
+    """Remove a registered planner (tests, plug-ins that clean up after themselves)."""
+    _POLICIES.pop(name, None)
 
 
 def list_policies(network: str | None = None) -> list:

@@ -42,28 +42,12 @@ current episode drew.
 **Training reward** (``reward_terms``, train.py's YAML ``reward:``). By default a
 row's reward is the environment's (the survey EKF's information gain minus
 penalties). ``reward_terms={"error": 1.0, "penalties": 1.0}`` replaces it, for
-training only, by a weighted sum of these per-environment terms, each computed
-from the step's arrays (every beacon of an environment gets the same value):
-
-=============  ====================================================================
-``env``        the environment's reward (information gain - penalties)
-``error``      -survey_error_m: minus the true horizontal error after the cycle,
-               averaged over the survey vehicles (privileged: the simulator's
-               truth, used only as a training signal; the policy still acts on its
-               observation). Summed over an episode it is -(steps x mean error),
-               the evaluation score itself.
-``std``        -sqrt(trace of the horizontal EKF covariance) after the cycle: the
-               filter's own RMS error prediction (not privileged, less noisy)
-``logdet``     -0.5 log det of the horizontal EKF covariance after the cycle
-``penalties``  minus the beacon's weighted penalty terms of the step
-               (``core.reward.PENALTY_TERMS``: safety, geofence and the moving
-               network's baseline, approach, rotation): the environment's
-               penalties without its contact term
-``rejected``   -(ranges the survey filter's innovation gate rejected this cycle),
-               summed over the survey vehicles: besides the multipath outliers the
-               gate is there for, a rejected range is a filter that has drifted
-               further than it believes (a lock-out, once every range is rejected)
-=============  ====================================================================
+training only, by a weighted sum of training signals, each computed from the step's
+arrays: ``env``, ``error``, ``std``, ``logdet``, ``penalties``, ``rejected``. They are
+registered in ``core.reward`` (kind ``"training"``, beside the environment's terms),
+which documents each one (the table in the docs is generated from the registry);
+``REWARD_TERMS``, ``check_reward_terms`` and ``training_reward`` here are the
+registry's.
 """
 
 from __future__ import annotations
@@ -72,59 +56,19 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
 from .core import make_simulator
-from .core.reward import penalties
+from .core.reward import check_training_terms, training_reward, training_signal_names
 from .scenarios import make_config
 from .seeds import check_seed
 from .views import action_space, observation_space
 
 SEED_STRIDE = 1_000_003  # a prime larger than any batch: episode k of env e -> seed + e + k * SEED_STRIDE
-REWARD_TERMS = ("env", "error", "std", "logdet", "penalties", "rejected")
+check_reward_terms = check_training_terms  # {signal: weight} validated against the registry
 
 
-def check_reward_terms(terms) -> dict | None:
-    """``{term: weight}`` validated (None or {} -> None: the environment's reward)."""
-    if not terms:
-        return None
-    if not isinstance(terms, dict):
-        raise ValueError(f"reward terms must be a mapping term -> weight, got {terms!r}")
-    out = {}
-    for name, weight in terms.items():
-        if name not in REWARD_TERMS:
-            raise ValueError(f"unknown reward term {name!r}; valid terms: {', '.join(REWARD_TERMS)}")
-        try:
-            w = float(weight)
-        except (TypeError, ValueError):
-            raise ValueError(f"reward term {name!r}: weight must be a number, got {weight!r}") from None
-        if not np.isfinite(w):
-            raise ValueError(f"reward term {name!r}: weight must be finite, got {weight!r}")
-        out[name] = w
-    return out
-
-
-def training_reward(reward_terms: dict, res, weights: dict) -> np.ndarray:
-    """The weighted sum of ``reward_terms`` (see the module docstring) for one batched
-    step: ``res`` the core's StepResult, ``weights`` the scenario's weights of its
-    reward terms (``core.reward.term_weights``). Returns (B, N); every beacon of an
-    environment gets the same value except for the ``env`` and ``penalties`` terms,
-    which are per beacon."""
-    B, N = res.reward.shape
-    total = np.zeros((B, N))
-    for name, w in reward_terms.items():
-        if name == "env":
-            term = res.reward
-        elif name == "error":
-            term = -res.info["survey_error_m"].mean(-1)[:, None]
-        elif name == "std":
-            P = res.info["survey_cov_en_m2"]
-            term = -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
-        elif name == "logdet":
-            term = -0.5 * res.info["cov_logdet"].mean(-1)[:, None]
-        elif name == "rejected":
-            term = -res.info["outliers_rejected"].sum(-1)[:, None]
-        else:  # penalties: the core's weighted penalty terms of this step
-            term = -penalties(res.terms, weights)
-        total += w * term
-    return total
+def __getattr__(name: str) -> tuple:
+    if name == "REWARD_TERMS":  # the registered training signals (core.reward, kind "training")
+        return training_signal_names()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class CoopNavVecEnv(VecEnv):

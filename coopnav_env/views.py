@@ -16,12 +16,15 @@ OBS_BOUND = 10.0
 
 
 def action_dim(sim_or_config: BatchedSimulator | ScenarioConfig | None = None) -> int:
-    """Components of a beacon's action: 2 (the motion), 3 with ``channel_mode="decide"``
-    (the motion, then the transmit decision: transmit this slot when it is > 0)."""
+    """Components of a beacon's action, as the scenario's channel model declares them
+    (``core.channel`` registry): 2 (the motion), 3 with ``channel_mode="decide"`` (the
+    motion, then the transmit decision: transmit this slot when it is > 0)."""
     if sim_or_config is None:
         return 2
+    from .core.channel import channel_model
+
     config = getattr(sim_or_config, "config", sim_or_config)
-    return 3 if getattr(config, "channel_mode", "clock") == "decide" else 2
+    return channel_model(getattr(config, "channel_mode", "clock")).action_dim
 
 
 def action_space(sim: BatchedSimulator | ScenarioConfig | None = None) -> spaces.Box:

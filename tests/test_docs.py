@@ -62,3 +62,14 @@ def test_observation_reference_matches_the_layouts(hook):
 
     for name, _ in OBS_FIELDS:
         assert name in page
+
+
+def test_reward_tables_are_generated_from_the_registry(hook):
+    from coopnav_env.core.reward import registered_terms
+
+    root = HOOK.parent.parent
+    for name, kind, page in (("REWARD_TERMS", "env", "design.md"), ("TRAINING_SIGNALS", "training", "training/sb3.md")):
+        assert f"<!-- generated: {name} -->" in (root / page).read_text()
+        table = hook.column_table(name)
+        for term in registered_terms(kind):
+            assert f"| `{term.name}` |" in table, term.name

@@ -42,6 +42,10 @@ it against hand-computed timelines.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 from numba import njit, prange
 
@@ -206,3 +210,56 @@ class Channel:
                          st.b_pos + st.b_nav_err, st.t_s, draws["message_u"], reply_ok, peer_ok, st.k_est, st.k_P,
                          st.k_wp_index, st.k_age_s, st.k_range_age_s, st.k_peer, c.ping_interval_s, c.packet_loss_near,
                          c.packet_loss_far, c.max_range_m)
+
+
+# ------------------------------------------------------------------------------------
+# the registry of channel models: a scenario's ``channel_mode`` names one
+
+@dataclass(frozen=True)
+class ChannelModel:
+    """One registered channel model (see :func:`register_channel_model`)."""
+
+    name: str
+    build: Callable[[Any], Any]
+    action_dim: int = 2
+    beacon_info_keys: tuple = ()
+    doc: str = ""
+
+
+_CHANNEL_MODELS: dict[str, ChannelModel] = {}
+
+
+def register_channel_model(name: str, build: Callable[[Any], Any], *, action_dim: int = 2,
+                           beacon_info_keys: tuple = (), doc: str = "") -> ChannelModel:
+    """Register the channel model ``name`` (a scenario's ``channel_mode``) and return it.
+
+    ``build(sim)``: the simulator's channel object (None: the free channel of the fixed
+    clock, every ping and reply delivered but for the random loss; else an object with
+    ``transmit_mask``, ``pings``, ``replies``, ``exchange`` and ``ping_energy_j`` as
+    :class:`Channel`); ``action_dim``: components of a beacon's action (3: the third
+    decides whether to transmit); ``beacon_info_keys``: the per-beacon infos it adds.
+    Its reward terms register in ``core.reward`` with ``modes={"channel_mode": (name,)}``.
+    """
+    if name in _CHANNEL_MODELS:
+        raise ValueError(f"channel model {name!r} is registered twice")
+    model = ChannelModel(name, build, int(action_dim), tuple(beacon_info_keys), doc)
+    _CHANNEL_MODELS[name] = model
+    return model
+
+
+def channel_model(name: str) -> ChannelModel:
+    """The registered channel model ``name`` (``ValueError`` listing the valid ones)."""
+    if name not in _CHANNEL_MODELS:
+        raise ValueError(f"unknown channel_mode {name!r}; valid modes: {', '.join(_CHANNEL_MODELS)}")
+    return _CHANNEL_MODELS[name]
+
+
+def channel_model_names() -> tuple[str, ...]:
+    """The registered channel models' names: the valid values of ``channel_mode``."""
+    return tuple(_CHANNEL_MODELS)
+
+
+register_channel_model("clock", lambda sim: None,
+                       doc="the papers' fixed clock: every beacon pings every cycle on a free channel")
+register_channel_model("decide", Channel, action_dim=3, beacon_info_keys=("pings", "collisions", "energy_J"),
+                       doc="a decision slot per step on a shared channel in time (this module's docstring)")

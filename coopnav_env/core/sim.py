@@ -32,14 +32,13 @@ from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, termina
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
 from .navigation import gate_threshold, predict
-from .reward import CHANNEL_TERMS, SURVEY_TERMS, term_weights, weighted_reward
+from .reward import TermContext, collect_terms, term_weights, terms_for, weighted_reward
 from .state import SimState
 
 INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
              "outliers_rejected", "nan_rejected", "packets_lost", "filter_restarts", "survey_error_en_m",
              "survey_cov_en_m2")
-BEACON_INFO_KEYS = ("beacon_error_m",)
-CHANNEL_BEACON_INFO_KEYS = BEACON_INFO_KEYS + ("pings", "collisions", "energy_J")  # channel_mode="decide"
+BEACON_INFO_KEYS = ("beacon_error_m",)  # and the channel model's (core.channel registry)
 
 
 class Simulator(BatchSimulator):
@@ -110,19 +109,20 @@ class Simulator(BatchSimulator):
             ("beacon_nav_n", "normal", (N_, 4)), ("beacon_nav_u", "uniform", (N_,)),
             ("acoustic_n", "normal", (N_, S_, 2)), ("acoustic_u", "uniform", (N_, S_, 4)),
             ("message_u", "uniform", (N_, S_ + N_)),
-            ("mls_n", "normal", (S_, 14)),  # the MLS sensor's 13 normals and a compass reading
+            *measurements.draw_layout(c.acoustic_sensor, S_, N_, K_),  # the sensor's own draws (its registration)
         ], self.batch_size)
         # the survey vehicles' acoustic sensor: one measurement model (core/measurements/)
         self.sensor = measurements.build(c.acoustic_sensor, self)
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
         self.state_dim = self.S * 10 + self.N * 7 + 3
         self.info_keys = INFO_KEYS
-        # the shared channel (channel_mode="decide"): its own terms and beacon infos; the
-        # fixed clock keeps the original ones
-        self.channel = channel.Channel(self) if c.channel_mode == "decide" else None
-        self.action_dim = 3 if self.channel is not None else 2
-        self.beacon_info_keys = CHANNEL_BEACON_INFO_KEYS if self.channel is not None else BEACON_INFO_KEYS
-        self.reward_terms = CHANNEL_TERMS if self.channel is not None else SURVEY_TERMS
+        # the channel model (core.channel registry): None for the fixed clock's free channel,
+        # else the shared channel (channel_mode="decide"), with its beacon infos
+        model = channel.channel_model(c.channel_mode)
+        self.channel = model.build(self)
+        self.action_dim = model.action_dim
+        self.beacon_info_keys = BEACON_INFO_KEYS + model.beacon_info_keys
+        self.reward_terms = terms_for(c, "survey_beacons")  # this network's registered terms (core.reward)
         self.reward_weights = term_weights(c, self.reward_terms)
         self.state: SimState | None = None
 
@@ -301,11 +301,17 @@ class Simulator(BatchSimulator):
         heard = self.sensor.heard_mask(st.cycle - 1) if transmit is None else transmit  # who could be heard
         if heard is not None:  # only this cycle's senders can be heard
             no_contact &= heard
-        terms = {"info_gain": np.broadcast_to(info_gain[:, None], (B, N)),
-                 "safety": (dist < c.safety_distance_m).any(-1).astype(float),
-                 "geofence": outside.astype(float), "contact": no_contact.astype(float)}
+        # the reward terms (core.reward registry): the arrays computed here by name, then
+        # every registered term's compute(ctx) hook, in self.reward_terms' order
+        arrays = {"info_gain": np.broadcast_to(info_gain[:, None], (B, N)),
+                  "safety": (dist < c.safety_distance_m).any(-1).astype(float),
+                  "geofence": outside.astype(float), "contact": no_contact.astype(float)}
         if self.channel is not None:
-            terms["ping"] = transmit.astype(float)
+            arrays["ping"] = transmit.astype(float)
+        ctx = TermContext(sim=self, config=c, state=st, arrays={
+            "fused": fused, "rejected": out.rejected, "lost": out.lost, "transmit": transmit, "dist": dist,
+            "logdet_before": logdet_before, "logdet_after": logdet_after})
+        terms = collect_terms(self.reward_terms, arrays, ctx, (B, N))
 
         terminated = st.s_done.all(-1)
         if c.mission_duration_s > 0:

@@ -26,7 +26,6 @@ from .config import (
 from .params import COORDINATE_LIMIT_M, param, range_text
 from .registry import list_scenarios, make_config, register, resolve_config
 from .sections import (
-    ACOUSTIC_SENSORS,
     ACTION_MODES,
     AREA_LIMIT_M,
     BEACON_KINDS,
@@ -39,6 +38,14 @@ from .sections import (
     SURVEY_PATHS,
 )
 from .validate import SLOWEST_SOUND_SPEED_MPS, waypoint_count
+
+
+def __getattr__(name: str) -> tuple:
+    if name == "ACOUSTIC_SENSORS":  # the registry's, so a sensor registered later is valid
+        from . import sections
+
+        return sections.ACOUSTIC_SENSORS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "ACOUSTIC_SENSORS", "ACTION_MODES", "AREA_LIMIT_M", "BEACON_KINDS", "CHANNEL_MODES", "COORDINATE_LIMIT_M",

@@ -17,7 +17,7 @@ BEACON_KINDS = ("beacon_auv", "asv", "boat")
 NETWORKS = ("survey_beacons", "moving_lbl")
 SURVEY_PATHS = ("stationary", "lawnmower", "circle", "spiral", "line", "waypoints")
 RANGING_MODES = ("owtt", "twtt")
-ACOUSTIC_SENSORS = ("modem", "mls")
+# ACOUSTIC_SENSORS: the registered sensors' names (core.measurements), read when asked (__getattr__ below)
 ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
 CHANNEL_MODES = ("clock", "decide")
 MISSION_FRAMES = ("frame", "world")  # where a moving-network mission's waypoints live (mission_frame)
@@ -240,8 +240,9 @@ class Acoustics(Section):
     a decision slot, a beacon transmits when its action's third component is > 0, and the packets share one
     half-duplex channel in time (core/channel.py)."""
 
-    acoustic_sensor: str = param("modem", choices=ACOUSTIC_SENSORS, 
-        doc="\"modem\": range-only pings; \"mls\": range and azimuth from an MLS array (section mls)")
+    acoustic_sensor: str = param("modem",  # a registered sensor (core.measurements): checked by validate
+        doc="\"modem\": range-only pings; \"mls\": range and azimuth from an MLS array (section mls); or a "
+            "registered plug-in sensor")
     ranging_mode: str = param("owtt", choices=RANGING_MODES,
         doc="one-way (synchronized clocks) or two-way travel time")
     channel_mode: str = param("clock", choices=CHANNEL_MODES, 
@@ -463,3 +464,11 @@ class Observation(Section):
     """What the beacons observe."""
 
     observed_waypoints: int = param(2, low=1, high=64, doc="the survey's next planned waypoints in the observation")
+
+
+def __getattr__(name: str) -> tuple:
+    if name == "ACOUSTIC_SENSORS":  # the registry's, so a sensor registered later is valid
+        from ..core.measurements import sensor_names
+
+        return tuple(sensor_names())
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

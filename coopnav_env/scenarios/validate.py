@@ -26,8 +26,9 @@ def waypoint_count(c: Any, path: str) -> int:
 
 def validate(c: Any) -> None:
     """Raise a one-line ``ValueError`` naming the parameters of the first check ``c`` fails."""
-    check(c.acoustic_sensor == "modem" or c.network == "survey_beacons",
-          "acoustic_sensor='mls' needs network='survey_beacons'")
+    from ..core.measurements import check_sensor
+
+    check_sensor(c)  # the registered sensor: its name, its networks, its own checks
     if c.network == "moving_lbl":
         _check_moving_network(c)
     else:

@@ -17,9 +17,12 @@ into the source tree: the pages are added to the build's file list with
   from ``coopnav_env.core.moving_network.OBS_FIELDS``; the length of each
   scenario's observation from ``coopnav_env.obs_layout.obs_dim``.
 
-* In any page, a line ``<!-- generated: NAME -->`` becomes the table of
-  ``evaluation.report.NAME`` (``EPISODE_COLUMN_DOCS``, ``STEP_COLUMN_DOCS``,
-  ``SUMMARY_COLUMNS``, ``FRAME_COLUMNS``): every column of the evaluation's outputs with
+* In any page, a line ``<!-- generated: REWARD_TERMS -->`` or ``<!-- generated:
+  TRAINING_SIGNALS -->`` becomes the table of the registered reward terms or training
+  signals (``coopnav_env.core.reward.markdown_table``), and a line
+  ``<!-- generated: NAME -->`` the table of ``evaluation.report.NAME``
+  (``EPISODE_COLUMN_DOCS``, ``STEP_COLUMN_DOCS``, ``SUMMARY_COLUMNS``,
+  ``FRAME_COLUMNS``): every column of the evaluation's outputs with
   its unit, from the dicts the CSV headers and summary.md are written from. A failure is a
   warning, which ``mkdocs build --strict`` turns into an error.
 """
@@ -412,6 +415,10 @@ GENERATED_RE = re.compile(r"^<!-- generated: ([A-Z_]+) -->$", re.M)
 def column_table(name: str) -> str:
     """The Markdown table of ``evaluation.report.<name>``: a dict column -> (unit, meaning)
     (``*_COLUMN_DOCS``) or summary key -> (summary.md header, format, unit, meaning)."""
+    if name in ("REWARD_TERMS", "TRAINING_SIGNALS"):  # the reward registry's tables (coopnav_env.core.reward)
+        from coopnav_env.core.reward import markdown_table
+
+        return markdown_table("env" if name == "REWARD_TERMS" else "training")
     from evaluation import report
 
     docs = getattr(report, name)

@@ -1,6 +1,6 @@
-"""Measurement models of the survey vehicles' acoustic sensors, one module each.
+"""Measurement models of the survey vehicles' acoustic sensors: a registry, one module each.
 
-A scenario's ``acoustic_sensor`` names one of ``SENSORS``; the survey simulator
+A scenario's ``acoustic_sensor`` names one registered sensor; the survey simulator
 builds it once (``build(sim)``) and calls its ``fuse(draws, out)`` every cycle after
 the filters' prediction. Each model is a small compiled kernel over the batch built
 from the shared pieces in ``core.navigation`` (the chi-square gate and the Joseph
@@ -8,20 +8,37 @@ update with the model's own residual, as filterpy's ``update(..., residual=...)`
 
 * ``modem``: acoustic-modem ranges, one-way or two-way travel time (Gao & Chitre;
   Sousa et al.), with lock-out recovery;
-* ``mls_array``: Kottege & Zimmer's MLS array: range and bearing from one sender per
+* ``mls``: Kottege & Zimmer's MLS array: range and bearing from one sender per
   cycle (the sensor's analytic mode, ``core.mls``).
 
 A new sensor is one module with ``build(sim) -> object with fuse(draws, out) and
-heard_mask(cycle)`` plus one line in ``SENSORS``.
+heard_mask(cycle)`` plus one :func:`register_sensor` call (in the module itself, or
+here for a built-in sensor, whose module is then imported only when it is used)::
+
+    from coopnav_env.core.measurements import register_sensor
+
+    register_sensor("depth_only", build=lambda sim: DepthOnly(sim),
+                    draws=[("depth_only_n", "normal", lambda S, N, K: (S,))],
+                    networks=("survey_beacons",), doc="no ranges; a depth sensor alone")
+
+``draws`` are the sensor's own random numbers per cycle, ``(purpose, "normal" |
+"uniform", shape_fn(S, N, K))``, appended after the simulator's shared ones in its
+``rng.DrawLayout`` (so they never shift the others' numbers), and read in ``fuse``
+as ``draws[purpose]`` (B, *shape). The scenario's validation reads the registry
+(:func:`check_sensor`): the name must be registered, the network one of the sensor's
+``networks``, and the sensor's own ``validate(config)`` hook, if any, must pass.
 """
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-SENSORS = {"modem": "coopnav_env.core.measurements.modem", "mls": "coopnav_env.core.measurements.mls_array"}
+DrawSpec = tuple  # (purpose, "normal" | "uniform", shape_fn(S, N, K) -> tuple)
 
 
 @dataclass
@@ -37,10 +54,88 @@ class FusionOutputs:
     restarts: np.ndarray
 
 
-def build(name: str, sim):
-    """The measurement model ``name`` (``SENSORS``) for simulator ``sim``."""
-    import importlib
+@dataclass(frozen=True)
+class Sensor:
+    """One registered sensor (see :func:`register_sensor`)."""
 
-    if name not in SENSORS:
-        raise ValueError(f"unknown acoustic_sensor {name!r}; valid: {', '.join(SENSORS)}")
-    return importlib.import_module(SENSORS[name]).build(sim)
+    name: str
+    build: Callable[[Any], Any] | str
+    draws: tuple = ()
+    networks: tuple = ("survey_beacons",)
+    validate: Callable[[Any], None] | None = None
+    doc: str = ""
+
+    def make(self, sim: Any) -> Any:
+        """The sensor's model for simulator ``sim`` (a module path's ``build`` imported now)."""
+        build = importlib.import_module(self.build).build if isinstance(self.build, str) else self.build
+        return build(sim)
+
+
+_SENSORS: dict[str, Sensor] = {}
+
+
+def register_sensor(name: str, build: Callable[[Any], Any] | str, *, draws=(), networks: tuple = ("survey_beacons",),
+                    validate: Callable[[Any], None] | None = None, doc: str = "") -> Sensor:
+    """Register the sensor ``name`` (a scenario's ``acoustic_sensor``) and return it.
+
+    ``build``: ``build(sim)`` -> the model, or a module path whose ``build`` it is;
+    ``draws``: its random numbers per cycle, ``(purpose, kind, shape_fn(S, N, K))``;
+    ``networks``: the ``ScenarioConfig.network`` values it works with;
+    ``validate(config)``: raises ``ValueError`` on a scenario the sensor cannot simulate.
+    """
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"sensor name must be a non-empty string, got {name!r}")
+    if name in _SENSORS:
+        raise ValueError(f"acoustic sensor {name!r} is registered twice")
+    for spec in draws:
+        if len(spec) != 3 or spec[1] not in ("normal", "uniform") or not callable(spec[2]):
+            raise ValueError(f"sensor {name!r}: a draw is (purpose, 'normal' | 'uniform', shape_fn(S, N, K)), "
+                             f"got {spec!r}")
+    sensor = Sensor(name, build, tuple(draws), tuple(networks), validate, doc)
+    _SENSORS[name] = sensor
+    return sensor
+
+
+def unregister_sensor(name: str) -> None:
+    """Remove a registered sensor (tests, plug-ins that clean up after themselves)."""
+    _SENSORS.pop(name, None)
+
+
+def sensor_names() -> tuple[str, ...]:
+    """The registered sensors' names: the valid values of ``acoustic_sensor``."""
+    return tuple(_SENSORS)
+
+
+def get_sensor(name: str) -> Sensor:
+    """The registered sensor ``name`` (``ValueError`` listing the valid ones)."""
+    if name not in _SENSORS:
+        raise ValueError(f"unknown acoustic_sensor {name!r}; valid: {', '.join(_SENSORS)}")
+    return _SENSORS[name]
+
+
+def check_sensor(config: Any) -> None:
+    """The scenario's sensor checks: registered, on one of its networks, its own hook."""
+    sensor = get_sensor(config.acoustic_sensor)
+    if config.network not in sensor.networks:
+        raise ValueError(f"acoustic_sensor={sensor.name!r} needs network={' or '.join(map(repr, sensor.networks))}")
+    if sensor.validate is not None:
+        sensor.validate(config)
+
+
+def draw_layout(name: str, S: int, N: int, K: int) -> list[tuple[str, str, tuple]]:
+    """The sensor's entries of the simulator's ``rng.DrawLayout``: (purpose, kind, shape)."""
+    return [(purpose, kind, tuple(shape_fn(S, N, K))) for purpose, kind, shape_fn in get_sensor(name).draws]
+
+
+def build(name: str, sim: Any) -> Any:
+    """The measurement model ``name`` for simulator ``sim``."""
+    return get_sensor(name).make(sim)
+
+
+# the built-in sensors (their modules are imported when a simulator builds them). The
+# modem's random numbers are the simulator's shared acoustic_n / acoustic_u (the channel
+# reads them too); the MLS array's 13 normals and a compass reading come after them.
+register_sensor("modem", "coopnav_env.core.measurements.modem", networks=("survey_beacons", "moving_lbl"),
+                doc="acoustic-modem ranges, one-way or two-way travel time, with lock-out recovery")
+register_sensor("mls", "coopnav_env.core.measurements.mls_array", draws=[("mls_n", "normal", lambda S, N, K: (S, 14))],
+                doc="Kottege & Zimmer's MLS array: range and bearing from one sender per cycle")

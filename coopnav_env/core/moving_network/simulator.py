@@ -23,12 +23,7 @@ from ..observation import (  # the survey network's age scale and bound
     AGE_SCALE_PINGS,
     OBS_BOUND,
 )
-from ..reward import (
-    MOVING_NETWORK_TERMS,
-    RIVER_NETWORK_TERMS,
-    term_weights,
-    weighted_reward,
-)
+from ..reward import TermContext, collect_terms, term_weights, terms_for, weighted_reward
 from ..sim import BEACON_INFO_KEYS
 from .cycle import cycle, cycle_parallel
 from .initial import initial_state
@@ -78,7 +73,7 @@ class MovingNetworkSimulator(BatchSimulator):
         self.info_keys = FRAME_INFO_KEYS
         self.beacon_info_keys = BEACON_INFO_KEYS
         self._world = c.mission_frame == "world"
-        self.reward_terms = RIVER_NETWORK_TERMS if self._world else MOVING_NETWORK_TERMS
+        self.reward_terms = terms_for(c, "moving_lbl")  # this network's registered terms (core.reward)
         self.reward_weights = term_weights(c, self.reward_terms)
         wp, _ = build_path(c, 0)
         self._waypoints = wp  # frame (x, y, depth), or (east, north, depth) for a world mission
@@ -210,12 +205,13 @@ class MovingNetworkSimulator(BatchSimulator):
         # --- the reward's terms (unweighted; the weights are term_weights') -----------------
         info_gain = logdet[:, 0] - logdet[:, 1]
         team = lambda name: np.broadcast_to(out[name][:, None], (B, 2))  # one value for both boats
-        terms = {"info_gain": np.broadcast_to(info_gain[:, None], (B, 2)),
-                 "safety": out["safety"], "baseline": team("baseline_off"),
-                 "approach": team("approach"), "rotation": np.broadcast_to(turned.astype(float)[:, None], (B, 2)),
-                 "contact": team("contact")}
-        if self._world:
-            terms["bank"] = bank
+        arrays = {"info_gain": np.broadcast_to(info_gain[:, None], (B, 2)),
+                  "safety": out["safety"], "baseline": team("baseline_off"),
+                  "approach": team("approach"), "rotation": np.broadcast_to(turned.astype(float)[:, None], (B, 2)),
+                  "contact": team("contact"), "bank": bank}
+        ctx = TermContext(sim=self, config=c, state=st,
+                          arrays={"out": out, "counts": counts, "logdet": logdet, "turned": turned})
+        terms = collect_terms(self.reward_terms, arrays, ctx, (B, 2))  # registered terms, in their order
         reward = weighted_reward(terms, self.reward_weights)
         # --------------------------------------------------------------------------------------
 
