@@ -208,7 +208,10 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
         try:
             sets.append(get_task_set(n))
         except KeyError:
-            raise UsageError(f"unknown task set {n!r}; valid: {', '.join(TASK_SETS)}, all") from None
+            from coopnav_env.names import did_you_mean
+
+            raise UsageError(f"unknown task set {n!r}{did_you_mean(n, list(TASK_SETS) + ['all'])} valid: "
+                             f"{', '.join(TASK_SETS)}, all") from None
     challengers = _split(policies)
     if len(set(challengers)) != len(challengers):
         raise UsageError("a policy is listed twice")
