@@ -103,6 +103,7 @@ def evaluate(config: EvalConfig, command: str | None = None) -> EvalResult:
     shown to a second writer). Raises UsageError (bad input, nothing written),
     EvaluationError (a non-finite result) or EvaluationInterrupted (Ctrl-C: what was
     finished stays on disk)."""
+    import baselines  # noqa: F401 - imported before the timer: a mistyped name fails fast and stays one line
     from coopnav_env.progress import announce_after
 
     from . import outdir
