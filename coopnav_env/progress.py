@@ -18,7 +18,7 @@ import os
 import sys
 import time
 
-__all__ = ["Progress", "announce_after", "format_seconds", "is_interactive", "say"]
+__all__ = ["Progress", "announce_after", "format_seconds", "is_interactive", "say", "stage"]
 
 
 def is_interactive(stream=None) -> bool:
@@ -52,6 +52,18 @@ def say(text: str, stream=None):
     print(text, file=stream, flush=True)
 
 
+_PENDING = []  # the active announce_after (a stage line ends it)
+
+
+def stage(text: str, stream=None):
+    """A stage of a command (``say``), unless ``COOPNAV_PROGRESS=off``; it ends an
+    ``announce_after`` still waiting (or erases its transient status)."""
+    while _PENDING:
+        _PENDING.pop().finish()
+    if os.environ.get("COOPNAV_PROGRESS", "").strip().lower() != "off":
+        say(text, stream)
+
+
 class Progress:
     """A bar (terminal) or stage lines (elsewhere) over ``total`` units of work.
 
@@ -71,7 +83,7 @@ class Progress:
         self.mode, self.total, self.unit, self.desc = mode, float(total), unit, desc
         self.n, self.every_s = 0.0, every_s
         self.t0 = self._last_line = time.perf_counter()
-        self._bar = None
+        self._bar, self._closed = None, False
         if mode == "bar":
             from tqdm import tqdm
 
@@ -95,7 +107,7 @@ class Progress:
         self.n += n
         if self._bar is not None:
             self._bar.update(n)
-        elif self.mode == "lines" and time.perf_counter() - self._last_line >= self.every_s:
+        elif self.mode == "lines" and not self._closed and time.perf_counter() - self._last_line >= self.every_s:
             self._line(self.desc)
 
     def set(self, n: float):
@@ -103,19 +115,23 @@ class Progress:
         self.update(n - self.n)
 
     def stage(self, text: str):
-        """A new stage: the bar's description, or a line with the work done and the estimate."""
+        """A new stage: the bar's description, or a line with the work done and the estimate
+        (nothing once closed)."""
+        if self._closed:
+            return
         self.desc = text
         if self._bar is not None:
             self._bar.set_description(text[:48], refresh=True)
         elif self.mode == "lines":
             self._line(text)
 
-    def write(self, text: str):
-        """A message that does not break the bar."""
+    def write(self, text: str, stream=None):
+        """A message (on ``stream``, default the bar's) that does not break the bar; printed
+        even with ``mode="off"`` when ``stream`` is given (it is output, not progress)."""
         if self._bar is not None:
-            self._bar.write(text, file=self.stream)
-        elif self.mode != "off":
-            say(text, self.stream)
+            self._bar.write(text, file=stream or self.stream)
+        elif stream is not None or self.mode != "off":
+            say(text, stream or self.stream)
 
     def eta_s(self) -> float | None:
         """Seconds left, from the rate of the work done so far (None before 2 % of it: the
@@ -134,11 +150,13 @@ class Progress:
         self._last_line = time.perf_counter()
 
     def close(self):
+        if self._closed:
+            return
+        self._closed = True
         if self._bar is not None:
             self._bar.close()
             self._bar = None
-        elif self.mode == "lines" and self.desc is not None:
-            self.desc = None
+        elif self.mode == "lines":
             elapsed = time.perf_counter() - self.t0
             n = f"{self.n:.0f}"
             say(f"[{n}/{self.total:.0f} {self.unit}, {format_seconds(elapsed)}] done", self.stream)
@@ -173,12 +191,20 @@ class announce_after:
             self._timer = threading.Timer(self.seconds, self._show)
             self._timer.daemon = True
             self._timer.start()
+            _PENDING.append(self)
         return self
 
     def __exit__(self, *exc):
+        if self in _PENDING:
+            _PENDING.remove(self)
+        self.finish()
+
+    def finish(self):
+        """Stop waiting; erase the transient status if it was shown."""
         if self._timer is not None:
             self._timer.cancel()
             self._timer.join()
         if self._shown and self._transient:  # erase the status line
             self.stream.write("\r\033[K")
             self.stream.flush()
+        self._timer, self._shown = None, False

@@ -580,8 +580,12 @@ def _main(argv: list, prog: str) -> int:
         if args.tasks is None:
             raise UsageError(f"--tasks is required: {', '.join(TASK_SETS)} or all")
         sets = dict(parse_assignment(item, "--set") for item in args.sets)
-        plan = plan_benchmark(args.tasks, args.policies, args.episodes, sets, args.out, args.overwrite,
-                              args.trust_pickle, only_tasks=args.task)
+        from coopnav_env.progress import announce_after
+
+        with announce_after("checking the task sets and the policies (the first run also compiles the "
+                            "simulator, about a minute)", 2.0):
+            plan = plan_benchmark(args.tasks, args.policies, args.episodes, sets, args.out, args.overwrite,
+                                  args.trust_pickle, only_tasks=args.task)
         command = " ".join([prog, shlex.join(argv)]).strip()
         with outdir.OutputLock(args.out, command):
             raw = run_benchmark(plan, progress=False if args.no_progress else None)

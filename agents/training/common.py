@@ -104,7 +104,10 @@ def new_run_dir(out) -> Path:
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} is a file")
     if out.exists() and any(out.iterdir()):
-        raise ConfigError(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
+        if (out / "config.yml").is_file():
+            raise ConfigError(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
+        raise ConfigError(f"{out} exists and is not empty, and is not a train.py run (no config.yml); use another "
+                          "--out")
     return out
 
 
