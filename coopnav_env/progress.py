@@ -89,7 +89,7 @@ class Progress:
 
             whole = float(total).is_integer()
             fmt = "{l_bar}{bar}| {n:.0f}/{total_fmt} {unit} [{elapsed}<{remaining}]" if whole else None
-            self._bar = tqdm(total=total, unit=unit, desc=desc, file=self.stream, dynamic_ncols=True,
+            self._bar = tqdm(total=int(total) if whole else total, unit=unit, desc=desc, file=self.stream, dynamic_ncols=True,
                              bar_format=fmt, smoothing=0.1)
 
     # --------------------------------------------------------------------------------
