@@ -69,6 +69,17 @@ def draw_learning_curve(run, path=None) -> Path | None:
                     label=f"best model ({errors[i]:.3f} m)")
         ax.set_xlabel(label)
         ax.grid(True, lw=0.3)
+    # an early blow-up (hundreds of metres) would flatten the rest: clip the axis, mark what is above it
+    import statistics
+
+    lines = [v.get("survey_error_m") for v in baselines.values() if isinstance(v, dict) and v.get("survey_error_m")]
+    top = 2.5 * max([statistics.median(errors)] + lines)
+    if max(errors) > top:
+        for ax, xs in ((left, steps), (right, times)):
+            above = [x for x, e in zip(xs, errors) if e > top]
+            ax.set_ylim(0, top)
+            ax.plot(above, [top * 0.98] * len(above), "^", color="tab:red", ms=7, ls="none",
+                    label=f"off the scale (up to {max(errors):.0f} m)" if ax is right else None)
     left.set_ylabel("validation mean survey error (m)")
     right.legend(fontsize=7, loc="best")
     record = {}
