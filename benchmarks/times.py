@@ -45,6 +45,9 @@ def _items(out: Path) -> dict:
         "time_to_beat": ("`benchmarks/time_to_beat.py` (3 seeds, sousa_fast.yml)",
                          [PY, "benchmarks/time_to_beat.py", "--out", str(out / "time_to_beat"), "--overwrite"], ROOT),
     }
+    items["benchmark_task"] = ("`coopnav-benchmark --task lake --policies ppo` (one task of gao_lawnmower, 50 episodes)",
+                               [PY, "-m", "evaluation.benchmark", "--task", "lake", "--policies", "ppo", "--out",
+                                str(out / "benchmark_task"), "--overwrite", "--no-progress"], ROOT)
     for name, ts in TASK_SETS.items():
         items[f"benchmark:{name}"] = (
             f"`coopnav-benchmark --tasks {name} --policies ppo` ({len(ts.tasks)} tasks, {ts.episodes} episodes each)",

@@ -23,6 +23,7 @@ What a run directory holds (data only, no pickle: ``agents.formats``):
                                last_checkpoint.json (what resume reads)
     evaluations.jsonl          one line per evaluation
     baseline_eval.json         the baselines on the evaluation seeds
+    learning_curve.png         agents.training.curve: validation error against steps and time
     tb/                        TensorBoard logs (if tensorboard is installed)
 
 Every file is written to a temporary name and moved into place, so an interrupted
