@@ -528,7 +528,9 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     p.add_argument("--out", default="results/benchmark", help="output directory (default: results/benchmark)")
     p.add_argument("--overwrite", action="store_true", help="replace a benchmark result already in OUT")
     p.add_argument("--list", action="store_true", help="list the task sets and their tasks, and exit")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar (default: one on a terminal)")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress (default: a bar on a terminal, a line per task and policy elsewhere)")
+    p.add_argument("--no-figures", action="store_true", help="write no benchmark_<set>.png")
     p.add_argument("--trust-pickle", action="store_true",
                    help="accept trained policies in pickle-based formats (only files you trust)")
     return p
@@ -591,7 +593,7 @@ def _main(argv: list, prog: str) -> int:
             raw = run_benchmark(plan, progress=False if args.no_progress else None)
             results = build_results(plan, raw, command)
             try:
-                files = write_results(args.out, results)
+                files = write_results(args.out, results, figures=not args.no_figures)
             except ValueError as err:
                 print(f"{prog}: error: {_first_line(err)}; nothing written", file=sys.stderr)
                 return 1
