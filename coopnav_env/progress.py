@@ -89,8 +89,8 @@ class Progress:
 
             whole = float(total).is_integer()
             fmt = "{l_bar}{bar}| {n:.0f}/{total_fmt} {unit} [{elapsed}<{remaining}]" if whole else None
-            self._bar = tqdm(total=int(total) if whole else total, unit=unit, desc=desc, file=self.stream, dynamic_ncols=True,
-                             bar_format=fmt, smoothing=0.1)
+            self._bar = tqdm(total=int(total) if whole else total, unit=unit, desc=desc, file=self.stream,
+                             dynamic_ncols=True, bar_format=fmt, smoothing=0.1)
 
     # --------------------------------------------------------------------------------
     def __enter__(self):
@@ -104,6 +104,8 @@ class Progress:
         n = min(float(n), self.total - self.n)
         if n <= 0:
             return
+        if self.total - (self.n + n) < 1e-9 * max(self.total, 1.0):  # fractions that add up to the total: exactly it
+            n = self.total - self.n
         self.n += n
         if self._bar is not None:
             self._bar.update(n)
