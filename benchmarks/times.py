@@ -94,7 +94,6 @@ def main(argv=None) -> int:
                                                                                 "(default: %(default)s)")
     p.add_argument("--list", action="store_true", help="list the items and exit")
     args = p.parse_args(argv)
-    sys.path.insert(0, str(ROOT))
     from coopnav_env.progress import format_seconds, say
 
     args.out.mkdir(parents=True, exist_ok=True)
