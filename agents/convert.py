@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -165,7 +166,9 @@ def _discard(out: Path, existed: bool):
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m agents.convert", description=__doc__.split("\n\n")[0],
+    name = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else ""
+    prog = "coopnav-convert" if name.startswith("coopnav-convert") else "python -m agents.convert"  # as invoked
+    p = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("src", metavar="RUN_DIR_OR_ZIP", help="an old run or policy directory, a model .zip, or an "
                                                          "RLlib run/checkpoint")
@@ -187,7 +190,7 @@ def main(argv=None) -> int:
             text = ' '.join(str(err).splitlines())
         if fresh:
             _discard(out, existed)  # no half-converted folder: --out is as it was (absent or empty)
-        print(f"agents.convert: error: {text}", file=sys.stderr)
+        print(f"{prog}: error: {text}", file=sys.stderr)
         return 2
     print(f"converted {args.src} -> {args.out} ({len(written)} model file(s)); load it with agents.load({args.out!r})")
     return 0

@@ -375,7 +375,10 @@ def make_policy(name: str, env_or_config: Any, seed: int | Sequence[int] | None 
     planner name gets ``schedule.DEFAULT_SCHEDULE``."""
     motion, _, schedule = name.partition("+")
     if motion not in _POLICIES:
-        raise ValueError(f"unknown policy {motion!r}; valid policies: {', '.join(sorted(_POLICIES))}")
+        from coopnav_env.names import did_you_mean
+
+        raise ValueError(f"unknown policy {motion!r}{did_you_mean(motion, _POLICIES)} valid policies: "
+                         f"{', '.join(sorted(_POLICIES))}")
     if isinstance(agent, str):
         if not agent.startswith("beacon_") or not agent[7:].isdigit():
             raise ValueError(f"agent must be an index or 'beacon_<k>', got {agent!r}")

@@ -41,6 +41,7 @@ import statistics
 import subprocess
 import sys
 import time
+from typing import Any
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -50,9 +51,11 @@ DEFAULT_CONFIG = ROOT / "configs" / "ppo" / "sousa_fast.yml"
 
 def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budget_s: float, threads: int,
                        timesteps: int, baseline: str = "fim_a", margin: float = 0.0,
-                       eval_episodes: int | None = None) -> dict:
+                       eval_episodes: int | None = None, bar: Any = None) -> dict:
     """Train one seed until its validation is below ``(1 - margin)`` times ``baseline``'s,
-    or ``budget_s`` of training; returns its validations and times."""
+    or ``budget_s`` of training; returns its validations and times. ``bar``: a
+    ``coopnav_env.progress.Progress`` in seconds of training, moved to each validation's
+    ``train_s`` (and told each validation)."""
     cmd = [sys.executable, str(ROOT / "train.py"), "--scenario", "sousa_asv", "--config", str(config),
            "--seed", str(seed), "--timesteps", str(timesteps), "--out", str(out), "--threads", str(threads),
            "--no-progress", "--set", f"eval.every_steps={eval_every}", "--set", f"eval.baselines=[{baseline}]",
@@ -62,13 +65,24 @@ def train_until_beaten(config: Path, seed: int, out: Path, eval_every: int, budg
     started = time.perf_counter()
     log = open(out.parent / f"seed_{seed}.log", "w")  # noqa: SIM115 (closed in the finally below) the trainer's output
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT)
-    records, beaten = [], None
+    records, beaten, told = [], None, 0
+    base = bar.n if bar is not None else 0.0
+    if bar is not None:
+        bar.stage(f"seed {seed}: starting train.py (log: {log.name})")
     path = out / "evaluations.jsonl"
     try:
         while proc.poll() is None:
             time.sleep(0.5)
             if path.is_file():
                 records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+            if bar is not None and len(records) > told:
+                for r in records[told:]:
+                    bar.write(f"seed {seed}: validation at {r['num_timesteps']:,} steps, {r['train_s']:.0f} s of "
+                              f"training: {r['survey_error_m']:.3f} m ({baseline} "
+                              f"{r[f'{baseline}_survey_error_m']:.3f} m)")
+                told = len(records)
+                bar.set(base + min(records[-1].get("train_s", 0.0), budget_s))
+                bar.stage(f"seed {seed}: training")
             for r in records:
                 if r["survey_error_m"] < (1.0 - margin) * r[f"{baseline}_survey_error_m"]:
                     beaten = r
@@ -170,21 +184,29 @@ def main(argv: Sequence[str] | None = None) -> int:
     if (args.out / "time_to_beat.json").exists() and not args.overwrite:
         p.error(f"--out: {args.out} holds a result; --overwrite replaces it")
     args.out.mkdir(parents=True, exist_ok=True)
+    from coopnav_env.progress import Progress
+
     runs = []
-    for seed in seeds:
+    # in seconds of training: a seed that beats fim_a early counts its whole budget (the estimate is an upper bound)
+    bar = Progress(len(seeds) * args.budget_s, unit="s of training", desc="time to beat", every_s=60.0)
+    bar.write(f"time_to_beat.py: {len(seeds)} seed(s), up to {args.budget_s:.0f} s of training each; the trainers' "
+              f"output goes to {args.out}/runs/seed_N.log")
+    for k, seed in enumerate(seeds):
         run_dir = args.out / "runs" / f"seed_{seed}"
         if run_dir.exists():
             shutil.rmtree(run_dir)
         run_dir.parent.mkdir(parents=True, exist_ok=True)
         load_before = os.getloadavg()[0]
         run = train_until_beaten(args.config, seed, run_dir, args.eval_every, args.budget_s, args.threads,
-                                 timesteps=50_000_000, margin=args.margin, eval_episodes=args.eval_episodes)
+                                 timesteps=50_000_000, margin=args.margin, eval_episodes=args.eval_episodes, bar=bar)
+        bar.set((k + 1) * args.budget_s)
         run["load_average_1min_before"] = round(load_before, 2)
         run["run_dir"] = str(run_dir)
         runs.append(run)
         said = (f"after {run['time_to_beat_s']:.0f} s of training ({run['steps_to_beat']} steps)" if run["beaten"]
                 else f"not within {args.budget_s:.0f} s")
-        print(f"seed {seed}: beats fim_a {said}", flush=True)
+        bar.write(f"seed {seed}: beats fim_a {said}", stream=sys.stdout)
+    bar.close()
     median = statistics.median(r["time_to_beat_s"] if r["beaten"] else args.budget_s for r in runs)
     result = {"command": " ".join(["python", "benchmarks/time_to_beat.py", *(argv or sys.argv[1:])]),
               "config": str(args.config.relative_to(ROOT) if args.config.resolve().is_relative_to(ROOT)

@@ -155,6 +155,7 @@ class BenchmarkPlan:
     episodes: int
     overrides: dict
     out: str
+    partial: bool = False  # --task: some tasks of the sets only
 
     @property
     def seeds(self) -> list:
@@ -164,7 +165,8 @@ class BenchmarkPlan:
     @property
     def official(self) -> bool:
         """Whether this run is a benchmark result: every set's own episode count, no --set."""
-        return not self.overrides and all(self.episodes == s.task_set.episodes for s in self.sets)
+        return (not self.overrides and not self.partial
+                and all(self.episodes == s.task_set.episodes for s in self.sets))
 
     def total_episodes(self) -> int:
         """Episodes the run plays (tasks x policies that can drive them x episodes)."""
@@ -185,11 +187,13 @@ def _split(text) -> list:
 
 def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides: dict | None = None,
                    out: str = "results/benchmark", overwrite: bool = False, trust_pickle: bool = False,
-                   check_out: bool = True) -> BenchmarkPlan:
+                   check_out: bool = True, only_tasks=None) -> BenchmarkPlan:
     """Check everything and build the plan; raises UsageError (one line). ``tasks``: task
     set names (a list or "a,b"; "all": every set); ``policies``: the challengers;
     ``episodes``: None: each set's own count (the same for every set); ``overrides``:
-    scenario parameters set on every task (a quick look, not the benchmark)."""
+    scenario parameters set on every task (a quick look, not the benchmark); ``only_tasks``:
+    task names (a list or "a,b") to run instead of every task of the sets (a part of the
+    benchmark: its result says so)."""
     from baselines import list_policies
 
     from . import outdir
@@ -208,7 +212,21 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
         try:
             sets.append(get_task_set(n))
         except KeyError:
-            raise UsageError(f"unknown task set {n!r}; valid: {', '.join(TASK_SETS)}, all") from None
+            from coopnav_env.names import did_you_mean
+
+            raise UsageError(f"unknown task set {n!r}{did_you_mean(n, list(TASK_SETS) + ['all'])} valid: "
+                             f"{', '.join(TASK_SETS)}, all") from None
+    only = _split(only_tasks)
+    if only:
+        from coopnav_env.names import did_you_mean
+
+        known = [t.name for s in sets for t in s.tasks]
+        for t in only:
+            if t not in known:
+                raise UsageError(f"unknown task {t!r} in {', '.join(names)}{did_you_mean(t, known)} valid: "
+                                 f"{', '.join(dict.fromkeys(known))}")
+        sets = [dataclasses.replace(s, tasks=tuple(t for t in s.tasks if t.name in only)) for s in sets]
+        sets = [s for s in sets if s.tasks]
     challengers = _split(policies)
     if len(set(challengers)) != len(challengers):
         raise UsageError("a policy is listed twice")
@@ -286,19 +304,20 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
         if n == 0:
             reasons = [r for s in plans for c in s.cannot.values() for q, r in c.items() if q == p]
             raise UsageError(f"policy {p!r} can drive no task of {', '.join(names)}: {reasons[0]}")
-    return BenchmarkPlan(plans, challengers, int(episodes), overrides, out)
+    return BenchmarkPlan(plans, challengers, int(episodes), overrides, out, partial=bool(only))
 
 
 # ------------------------------------------------------------------------------------
 # running
 
 def _progress_bar(total: int, show: bool | None):
-    show = sys.stderr.isatty() if show is None else show
-    if not (total and show):
-        return None
-    from tqdm import tqdm
+    """A bar on a terminal (advancing with every step of every episode), one line per task
+    and policy elsewhere (``coopnav_env.progress``); None with ``show`` False."""
+    from coopnav_env.progress import Progress
 
-    return tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True)
+    if not total or show is False:
+        return None
+    return Progress(total, unit="episode", desc="benchmark", mode="bar" if show else None)
 
 
 def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
@@ -318,7 +337,7 @@ def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
                         per_task[p] = None
                         continue
                     if bar is not None:
-                        bar.set_description(f"{sp.task_set.name}/{task} {p}", refresh=False)
+                        bar.stage(f"{sp.task_set.name}/{task} {p}")
                     rows, _ = run_episodes(config, p, plan.seeds, progress=None if bar is None else bar.update)
                     per_task[p] = {"mean_error_m": [r["mean_error_m"] for r in rows],
                                    "ranges_fused": [r["ranges_fused"] for r in rows]}
@@ -366,6 +385,8 @@ def _not_official(plan: BenchmarkPlan) -> list:
     for sp in plan.sets:
         if plan.episodes != sp.task_set.episodes:
             why.append(f"{plan.episodes} episodes per task, not {sp.task_set.name}'s {sp.task_set.episodes}")
+    if plan.partial:
+        why.append("--task: " + ", ".join(t.name for sp in plan.sets for t in sp.task_set.tasks) + " only")
     if plan.overrides:
         why.append("--set " + " ".join(f"{k}={v}" for k, v in plan.overrides.items()))
     return why
@@ -458,15 +479,22 @@ def render_markdown(results: dict) -> str:
     return "\n".join(lines)
 
 
-def write_results(out: str, results: dict) -> list:
-    """Write results.json (strict JSON) and results.md atomically; returns their names.
-    A non-finite value raises ValueError naming it, before anything is written."""
+def write_results(out: str, results: dict, figures: bool = True) -> list:
+    """Write results.json (strict JSON) and results.md atomically, and with ``figures``
+    one ``benchmark_<set>.png`` per task set (``evaluation.figures.draw_benchmark``);
+    returns their names. A non-finite value raises ValueError naming it, before
+    anything is written."""
     text = strict_json(results)
     md = render_markdown(results)
     os.makedirs(out, exist_ok=True)
     atomic_write_text(os.path.join(out, "results.json"), text)
     atomic_write_text(os.path.join(out, "results.md"), md)
-    return list(RESULT_FILES)
+    names = list(RESULT_FILES)
+    if figures:
+        from .figures import draw_benchmark
+
+        names += draw_benchmark(out, results)
+    return names
 
 
 # ------------------------------------------------------------------------------------
@@ -484,7 +512,11 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
                 epilog="task sets: " + ", ".join(f"{n} ({s.scenario}, {len(s.tasks)} tasks)"
                                                  for n, s in TASK_SETS.items())
                        + "\nexample:\n  %(prog)s --tasks sousa_grid --policies ppo --out results/bench")
-    p.add_argument("--tasks", default=None, help="comma-separated task sets, or all")
+    p.add_argument("--tasks", default=None, help="comma-separated task sets, or all (default with --task: the "
+                                                 "sets that hold it)")
+    p.add_argument("--task", default=None, metavar="NAME",
+                   help="run only this task (comma-separated names; --list shows them): a quick look, not a "
+                        "benchmark result")
     p.add_argument("--policies", default=None,
                    help="challengers, comma-separated: ppo, a shipped policy, a train.py run directory, or planners "
                         "(the task sets' planners and floors always run)")
@@ -496,7 +528,9 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     p.add_argument("--out", default="results/benchmark", help="output directory (default: results/benchmark)")
     p.add_argument("--overwrite", action="store_true", help="replace a benchmark result already in OUT")
     p.add_argument("--list", action="store_true", help="list the task sets and their tasks, and exit")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar (default: one on a terminal)")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress (default: a bar on a terminal, a line per task and policy elsewhere)")
+    p.add_argument("--no-figures", action="store_true", help="write no benchmark_<set>.png")
     p.add_argument("--trust-pickle", action="store_true",
                    help="accept trained policies in pickle-based formats (only files you trust)")
     return p
@@ -542,17 +576,24 @@ def _main(argv: list, prog: str) -> int:
         if args.list:
             print(list_text())
             return 0
+        if args.tasks is None and args.task is not None:
+            wanted = set(_split(args.task))
+            args.tasks = ",".join(n for n, s in TASK_SETS.items() if wanted & {t.name for t in s.tasks}) or "all"
         if args.tasks is None:
             raise UsageError(f"--tasks is required: {', '.join(TASK_SETS)} or all")
         sets = dict(parse_assignment(item, "--set") for item in args.sets)
-        plan = plan_benchmark(args.tasks, args.policies, args.episodes, sets, args.out, args.overwrite,
-                              args.trust_pickle)
+        from coopnav_env.progress import announce_after
+
+        with announce_after("checking the task sets and the policies (the first run also compiles the "
+                            "simulator, about a minute)", 2.0):
+            plan = plan_benchmark(args.tasks, args.policies, args.episodes, sets, args.out, args.overwrite,
+                                  args.trust_pickle, only_tasks=args.task)
         command = " ".join([prog, shlex.join(argv)]).strip()
         with outdir.OutputLock(args.out, command):
             raw = run_benchmark(plan, progress=False if args.no_progress else None)
             results = build_results(plan, raw, command)
             try:
-                files = write_results(args.out, results)
+                files = write_results(args.out, results, figures=not args.no_figures)
             except ValueError as err:
                 print(f"{prog}: error: {_first_line(err)}; nothing written", file=sys.stderr)
                 return 1

@@ -79,7 +79,8 @@ class EvalConfig:
     * ``overwrite``: replace an earlier result in ``out``;
     * ``batch_size``: episodes simulated together;
     * ``figures``: write the PNG figures;
-    * ``progress``: a progress bar on stderr (None: when stderr is a terminal).
+    * ``progress``: a progress bar on stderr (None: a bar when stderr is a terminal, one line per batch
+      elsewhere; False: nothing).
     """
 
     scenario: str = "gao_lawnmower"
@@ -346,8 +347,11 @@ def _unknown_policy(p: str, scenario: str, err: Exception, valid: list) -> Usage
     if p == "ppo":
         return UsageError(f"scenario {scenario!r} has no shipped policy, so 'ppo' names nothing; scenarios with "
                           f"one: {', '.join(_ppo_scenarios()) or 'none'} (or give a train.py run directory)")
+    from coopnav_env.names import did_you_mean
+
     first = (str(err).strip().splitlines() or [type(err).__name__])[0]
-    return UsageError(f"unknown policy {p!r} ({first}); valid: {', '.join(valid)}, ppo, a shipped policy "
+    hint = did_you_mean(p, list(valid) + ["ppo"] + list(agents.list_policies()))
+    return UsageError(f"unknown policy {p!r} ({first}){hint} valid: {', '.join(valid)}, ppo, a shipped policy "
                       f"({', '.join(agents.list_policies()) or 'none shipped'}) or a train.py run directory")
 
 
@@ -408,7 +412,10 @@ def prepare(config: EvalConfig) -> Plan:
 
     scenarios = coopnav_env.list_scenarios()
     if config.scenario not in scenarios:
-        raise UsageError(f"unknown scenario {config.scenario!r}; valid scenarios: {', '.join(scenarios)}")
+        from coopnav_env.names import did_you_mean
+
+        raise UsageError(f"unknown scenario {config.scenario!r}{did_you_mean(config.scenario, scenarios)} "
+                         f"valid scenarios: {', '.join(scenarios)}")
     _check_output(config.out)
     outdir.check_not_in_use(config.out)
     out_state = outdir.snapshot(config.out)

@@ -113,7 +113,9 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
     """Run ``policy_name`` (one instance per beacon and episode) on episodes ``seeds``
     as one batch. Returns (episode rows, step rows) without the cell/policy/episode
     columns (see ``evaluation.report.EPISODE_COLUMN_DOCS``). ``progress(n)`` is called
-    as n episodes end."""
+    after every step with the episodes' worth of work done in it (fractions: the steps
+    taken over ``max_cycles``, so a bar moves while a batch runs; the calls add up to
+    ``len(seeds)`` exactly when the last episode ends)."""
     from coopnav_env.core import make_simulator
 
     seeds = [int(s) for s in seeds]
@@ -129,6 +131,7 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
     from coopnav_env.views import action_dim
 
     actions = np.zeros((B, N, action_dim(sim)))
+    credited, k_step, horizon = 0.0, 0, max(int(getattr(config, "max_cycles", 1)), 1)
     while not done.all():
         for b in np.flatnonzero(~done):
             for j in range(N):
@@ -142,8 +145,12 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
             hist[k].append(m[k])
         ended = (res.terminated | res.truncated) & ~done
         done |= ended
-        if progress is not None and ended.any():
-            progress(int(ended.sum()))
+        k_step += 1
+        if progress is not None:  # ended episodes count whole, running ones by their share of max_cycles
+            target = float(B) if done.all() else min(done.sum() + (~done).sum() * min(k_step / horizon, 0.99), B)
+            if target > credited:
+                progress(target - credited)
+                credited = target
     H = {k: np.array(v) for k, v in hist.items()}  # (steps, B)
     episodes, steps = [], []
     for b, seed in enumerate(seeds):

@@ -1,8 +1,9 @@
 """The evaluation's figures, PNG at print resolution (200 dpi), drawn on matplotlib's
 Agg canvas without pyplot (matplotlib is imported inside the functions only):
 
-* ``paths.png``: both vehicles' paths (planned, true, EKF, dead reckoning) and the
-  beacons' in the first episode of each policy;
+* ``paths.png``: both vehicles' paths (planned: wide orange under the true path; true,
+  EKF, dead reckoning) and the beacons' in the first episode of each policy (a free
+  panel slot holds the legend);
 * ``error_vs_time.png``: survey error against time per policy (mean over episodes,
   quartile band), with dead reckoning on its own panel below (it grows to hundreds
   of metres; Gao & Chitre Figs. 7 and 11);
@@ -10,7 +11,9 @@ Agg canvas without pyplot (matplotlib is imported inside the functions only):
   Cruz Fig. 8);
 * ``frame_errors.png`` (moving network only): x and y errors in the moving frame and
   the ellipse axes of the first episode (Matos & Cruz Figs. 6-8);
-* ``sweep.png`` (a sweep, instead of the above): mean error per cell and policy.
+* ``sweep.png`` (a sweep, instead of the above): mean error per cell and policy;
+* ``benchmark_<set>.png`` (``coopnav-benchmark``, one per task set): each policy's mean
+  error per task with its 95 % interval, the task's best planner ringed.
 
 Every file is written atomically (``coopnav_env.records.atomic_write_bytes``).
 """
@@ -82,9 +85,9 @@ def draw_paths(out, plan):
 
     policies, config, seed = plan.policies, plan.first_config(), plan.config.seed
     n = len(policies)
-    cols = min(n, 3)
-    rows = (n + cols - 1) // cols
+    rows, cols = panel_grid(n)
     fig = Figure(figsize=(4.6 * cols, 4.2 * rows))
+    spare = rows * cols > n  # a free slot holds the legend instead of staying empty
     for i, p in enumerate(policies):
         rec = record_episode(config, p, seed)
         true, dr, est, beacons = rec["survey_true_m"], rec["survey_dr_m"], rec["survey_est_m"], rec["beacon_true_m"]
@@ -92,7 +95,9 @@ def draw_paths(out, plan):
         for s in range(true.shape[1]):
             wp = rec["waypoints_m"][s, :rec["n_waypoints"][s]]
             first = s == 0
-            ax.plot(wp[:, 0], wp[:, 1], color="0.75", lw=1, ls=":", label="planned" if first else None)
+            # under the true path, wide and orange: visible where the vehicle follows it
+            ax.plot(wp[:, 0], wp[:, 1], color="tab:orange", lw=3.0, alpha=0.55, solid_capstyle="round",
+                    label="planned" if first else None, zorder=1)
             ax.plot(true[:, s, 0], true[:, s, 1], color="k", lw=1.3, label="survey (true)" if first else None)
             ax.plot(est[:, s, 0], est[:, s, 1], color="tab:blue", lw=0.9, label="survey (EKF)" if first else None)
             ax.plot(dr[:, s, 0], dr[:, s, 1], color="tab:red", lw=0.9, ls="--",
@@ -103,11 +108,88 @@ def draw_paths(out, plan):
         ax.set_title(f"{p} (seed {seed})", fontsize=9)
         ax.set_aspect("equal", adjustable="datalim")
         ax.tick_params(labelsize=7)
-        _finish(ax, "east (m)", "north (m)", fontsize=6, loc="best")
+        if spare:
+            ax.set_xlabel("east (m)")
+            ax.set_ylabel("north (m)")
+            ax.grid(True, lw=0.3)
+        else:
+            _finish(ax, "east (m)", "north (m)", fontsize=6, loc="best")
+    if spare:
+        handles, labels = fig.axes[0].get_legend_handles_labels()
+        slot = fig.add_subplot(rows, cols, n + 1)
+        slot.axis("off")
+        slot.legend(handles, labels, loc="center", fontsize=9, title="every panel", frameon=False)
     fig.suptitle(f"{config.name}: paths of both vehicles (start of a beacon: dot)", fontsize=10)
     fig.tight_layout()
     save_figure(fig, os.path.join(out, "paths.png"))
     return "paths.png"
+
+
+def panel_grid(n: int) -> tuple:
+    """(rows, columns) for ``n`` panels: at most 3 columns, the fewest empty slots (then
+    the fewest rows); 4 panels are 2 x 2, not 3 + 1 with two empty."""
+    if n <= 3:
+        return 1, max(n, 1)
+    best = min(((-(-n // c)) * c - n, -(-n // c), c) for c in (2, 3))
+    return best[1], best[2]
+
+
+def draw_benchmark(out, results: dict) -> list:
+    """benchmark_<set>.png per task set of a benchmark result (``evaluation.benchmark``):
+    per task, each policy's mean survey error with its 95 % t interval, the task's best
+    planner ringed; a log scale when the floors are far above the rest. Returns the names."""
+    from matplotlib.figure import Figure
+
+    written = []
+    for name, s in results["task_sets"].items():
+        cols, tasks = s["columns"], list(s["tasks"])
+        fig = Figure(figsize=(max(6.5, 0.55 * len(tasks) * max(len(cols), 3) / 3 + 2.5), 4.6))
+        ax = fig.add_subplot(1, 1, 1)
+        width = 0.8 / max(len(cols), 1)
+        means = []
+        for k, p in enumerate(cols):
+            xs, ys, lo, hi, best = [], [], [], [], []
+            for i, t in enumerate(tasks):
+                st = s["tasks"][t]["policies"].get(p, {})
+                if "mean_error_m" not in st:
+                    continue
+                xs.append(i - 0.4 + width * (k + 0.5))
+                ys.append(st["mean_error_m"])
+                lo.append(st["mean_error_m"] - st["ci95_error_m"][0])
+                hi.append(st["ci95_error_m"][1] - st["mean_error_m"])
+                best.append(p == s["tasks"][t]["best_planner"])
+            if not xs:
+                continue
+            challenger = p in s["challengers"] and p not in s["planners"] + s["floors"]
+            marker = "D" if challenger else ("v" if p in s["floors"] else "o")
+            ax.errorbar(xs, ys, yerr=[lo, hi], fmt=marker, ms=5 if challenger else 4, lw=1, capsize=2,
+                        color=f"C{k}", label=p + (" (challenger)" if challenger else " (floor)" if p in s["floors"]
+                                                  else ""))
+            bx = [x for x, b in zip(xs, best) if b]
+            by = [y for y, b in zip(ys, best) if b]
+            if bx:
+                ax.plot(bx, by, "o", ms=11, mfc="none", mec="k", mew=1.2,
+                        label="best planner of the task" if not any(
+                            h.get_label() == "best planner of the task" for h in ax.lines) else None)
+            means += ys
+        if means and min(means) > 0 and max(means) / min(means) > 10:  # floors far above the planners
+            ax.set_yscale("log")
+        ax.set_xticks(range(len(tasks)))
+        ax.set_xticklabels(tasks, rotation=35 if len(tasks) > 4 else 0, ha="right" if len(tasks) > 4 else "center",
+                           fontsize=7)
+        ax.set_xlim(-0.6, len(tasks) - 0.4)
+        ax.set_xlabel("task")
+        ax.set_ylabel("mean survey error (m), 95 % t interval")
+        tag = "" if results.get("official") else " (not a benchmark result)"
+        ax.set_title(f"benchmark {name} ({s['scenario']})\n{results['episodes']} test episodes per task and "
+                     f"policy{tag}", fontsize=9)
+        ax.grid(True, axis="y", lw=0.3)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+        fig.tight_layout()
+        filename = f"benchmark_{name}.png"
+        save_figure(fig, os.path.join(out, filename))
+        written.append(filename)
+    return written
 
 
 def draw_error_vs_time(out, plan, step_rows):

@@ -42,7 +42,8 @@ EPISODE_COLUMN_DOCS = {
     "max_error_m": ("m", "largest survey_error_m of the episode"),
     "mean_dr_error_m": ("m", "dr_error_m (dead reckoning alone) averaged over the episode's steps"),
     "final_dr_error_m": ("m", "dr_error_m at the last step"),
-    "return": ("unitless", "sum over steps of the reward (mean over beacons)"),
+    "return": ("unitless", "sum over steps of the reward (mean over beacons); higher is better for the reward, which "
+                           "is not the error (see summary.md's return)"),
     "ranges_fused": ("count", "acoustic ranges the survey filters fused (all survey vehicles)"),
     "outliers_rejected": ("count", "ranges the filters' outlier gate rejected (all survey vehicles)"),
     "packets_lost": ("count", "acoustic packets lost (all survey vehicles)"),
@@ -83,7 +84,12 @@ SUMMARY_COLUMNS = {
                      "95 % interval of the mean: cluster bootstrap over episodes (2000 draws)"),
     "final_error_m": ("final", "{:.3f}", "m", "final_error_m (survey error at the last step), mean over episodes"),
     "mean_dr_error_m": ("DR mean", "{:.3f}", "m", "mean_dr_error_m (dead reckoning alone), mean over episodes"),
-    "mean_return": ("return", "{:.2f}", "unitless", "return (sum of the rewards), mean over episodes"),
+    "mean_return": ("return", "{:.2f}", "unitless",
+                    "return (sum over the episode of the reward, mean over beacons), mean over episodes: what PPO "
+                    "maximizes, higher is better *for the reward*, which is not the error. The reward pays the "
+                    "information each fix adds to the filter (log det P before minus after; coopnav_env.core.reward), "
+                    "so a beacon that lets the uncertainty grow between fixes can earn more per fix: `static` can "
+                    "have the highest return and the worst error. Rank policies by the error columns"),
     "ranges_fused": ("ranges fused", "{:.1f}", "count per episode", "ranges the filters fused, mean over episodes"),
     "outliers_rejected": ("outliers rej.", "{:.1f}", "count per episode",
                           "ranges rejected as outliers, mean over episodes"),

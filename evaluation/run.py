@@ -54,12 +54,13 @@ class EvaluationInterrupted(KeyboardInterrupt):
 
 
 def _progress_bar(config: EvalConfig, total: int):
-    show = sys.stderr.isatty() if config.progress is None else config.progress
-    if not (total and show):
-        return None
-    from tqdm import tqdm
+    """A bar on a terminal, one line per batch elsewhere (``coopnav_env.progress``); None
+    with nothing to run or ``progress=False``."""
+    from coopnav_env.progress import Progress
 
-    return tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True)
+    if not total or config.progress is False:
+        return None
+    return Progress(total, unit="episode", desc="evaluating", mode="bar" if config.progress else None)
 
 
 def _row_order(plan):
@@ -102,9 +103,14 @@ def evaluate(config: EvalConfig, command: str | None = None) -> EvalResult:
     shown to a second writer). Raises UsageError (bad input, nothing written),
     EvaluationError (a non-finite result) or EvaluationInterrupted (Ctrl-C: what was
     finished stays on disk)."""
+    import baselines  # noqa: F401 - imported before the timer: a mistyped name fails fast and stays one line
+    from coopnav_env.progress import announce_after
+
     from . import outdir
 
-    plan = prepare(config)
+    with announce_after("checking the scenario and the policies (the first run also compiles the simulator, "
+                        "about a minute)"):
+        plan = prepare(config)
     out = config.out
     with outdir.OutputLock(out, command):
         if outdir.snapshot(out) != plan.out_state:  # changed since the checks: check again, under the lock
@@ -181,7 +187,7 @@ def _run_locked(plan, saved: list) -> EvalResult:
         for cell, p, chunk in todo:
             cid = cell_id(cell)
             if bar is not None:
-                bar.set_description(f"{p} {cid}".strip()[:40])
+                bar.stage(f"{p} {cid}".strip() + f" ({len(chunk)} episodes)")
             eps, sts = run_episodes(plan.configs[cid], p, [s for _, s in chunk],
                                     progress=bar.update if bar is not None else None)
             index = {s: i for i, s in chunk}
@@ -209,6 +215,9 @@ def _run_locked(plan, saved: list) -> EvalResult:
     files = ["run.json", "summary.json", "summary.md", "episodes.csv", "steps.csv"]
     if config.figures:
         from .figures import draw_all
+
+        if bar is not None:
+            bar.write("drawing the figures")
 
         files += draw_all(out, plan, step_rows, summary)
     return EvalResult(summary, md, out, files)

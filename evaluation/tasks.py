@@ -158,4 +158,7 @@ def get_task_set(name: str) -> TaskSet:
     try:
         return TASK_SETS[name]
     except KeyError:
-        raise KeyError(f"unknown task set {name!r}; valid: {', '.join(TASK_SETS)}") from None
+        from coopnav_env.names import did_you_mean
+
+        raise KeyError(f"unknown task set {name!r}{did_you_mean(name, TASK_SETS)} valid: "
+                       f"{', '.join(TASK_SETS)}") from None

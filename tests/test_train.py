@@ -151,7 +151,11 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path):
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "f").write_text("x")
     r = _cli("--scenario", "sousa_asv", "--timesteps", "10", "--out", str(tmp_path / "full"))
-    assert r.returncode == 2 and "--resume" in r.stderr
+    # not a run (no config.yml): --resume would not work there, so it is not suggested (issue 24)
+    assert r.returncode == 2 and "--resume" not in r.stderr and "another --out" in r.stderr
+    (tmp_path / "full" / "config.yml").write_text("args: {scenario: sousa_asv}\n")
+    r = _cli("--scenario", "sousa_asv", "--timesteps", "10", "--out", str(tmp_path / "full"))
+    assert r.returncode == 2 and f"--resume {tmp_path / 'full'}" in r.stderr
     r = _cli("--scenario", "sousa_asv", "--timesteps", "0", "--out", str(tmp_path / "y"))
     assert r.returncode == 2
     r = _cli("--resume", str(tmp_path), "--timesteps", "5")

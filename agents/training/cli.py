@@ -25,18 +25,21 @@ RUN_SETTINGS = ("scenario", "timesteps", "seed", "out", "n_envs", "config", "set
 RLLIB_ONLY = ("num_env_runners", "ray_address", "tune")
 
 
-def _epilog() -> str:
+def _epilog(prog: str = "train.py") -> str:
     from coopnav_env import list_scenarios
 
     return f"""\
 scenarios: {', '.join(list_scenarios())}
 
 examples:
-  train.py --scenario sousa_asv --timesteps 2000000 --out runs/sousa_ppo
-  train.py --scenario gao_sea --timesteps 500000 --out runs/g --set eval.episodes=8 --set ppo.learning_rate=lin_1e-3
-  train.py --resume runs/sousa_ppo                 continue an interrupted run (either backend)
-  train.py --backend rllib --scenario sousa_asv --timesteps 2000000 --num-env-runners 8 --out runs/sousa_rllib
-  train.py --backend rllib --scenario gao_sea --timesteps 200000 --out runs/sweep --tune lr=1e-4,3e-4 --tune seed=0,1
+  {prog} --scenario sousa_asv --timesteps 2000000 --out runs/sousa_ppo
+  {prog} --scenario gao_sea --timesteps 500000 --out runs/g --set eval.episodes=8 --set ppo.learning_rate=lin_1e-3
+  {prog} --resume runs/sousa_ppo                 continue an interrupted run (either backend)
+  {prog} --plot runs/sousa_ppo                   redraw its learning_curve.png
+  {prog} --backend rllib --scenario sousa_asv --timesteps 2000000 --num-env-runners 8 --out runs/sousa_rllib
+  {prog} --backend rllib --scenario gao_sea --timesteps 200000 --out runs/sweep --tune lr=1e-4,3e-4 --tune seed=0,1
+
+progress: a bar on a terminal, one line per stage (and every minute) elsewhere; --no-progress: none.
 
 the config: --config FILE, else {_rel(CONFIG_DIRS['sb3'])}/<scenario>.yml ({_rel(CONFIG_DIRS['rllib'])}/ with
 --backend rllib), else default.yml there; then --set, --n-envs and --seed on top. Its
@@ -87,7 +90,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
-    p = _Parser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_epilog(),
+    p = _Parser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_epilog(prog),
                 description="Train a PPO beacon policy on a coopnav scenario: stable-baselines3 on this\n"
                             "machine (default), or Ray RLlib (--backend rllib) for scale-out.")
     job = p.add_argument_group("the run")
@@ -99,6 +102,9 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     job.add_argument("--resume", metavar="DIR",
                      help="continue the run in DIR from its last checkpoint, with its own config.yml and backend "
                           "(then none of --scenario, --timesteps, --seed, --out, --config, --set, --n-envs, --tune)")
+    job.add_argument("--plot", metavar="RUN",
+                     help="(re)draw RUN/learning_curve.png from the run's evaluations.jsonl and baseline_eval.json, "
+                          "and exit (train.py draws it when a run ends or stops)")
     job.add_argument("--seed", metavar="N", type=int,
                      help="seed of the run (default: the config's seed, 0)")
     job.add_argument("--backend", choices=("sb3", "rllib"),
@@ -119,13 +125,15 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     run.add_argument("--threads", metavar="N", type=_int_at_least(1), default=1,
                      help="torch threads (default: 1; PPO's small batches gain little from more, and a busy "
                           "machine makes extra threads spin)")
-    run.add_argument("--no-progress", action="store_true", help="no progress bar (default: a bar, SB3 only)")
+    run.add_argument("--no-progress", action="store_true",
+                     help="no progress bar or progress lines (default: a bar on a terminal, a line per stage "
+                          "elsewhere; SB3 only)")
     run.add_argument("--verbose", metavar="N", type=int, default=0, help="SB3's verbosity, 0-2 (default: 0)")
     run.add_argument("--trust-pickle", action="store_true",
                      help="accept pickle-based files, which can run code when loaded: an old run's .zip/.pkl "
                           "checkpoints (--resume), an old init_from policy, an RLlib checkpoint (--resume of an "
                           "rllib run); only for files you trust (default: refused; convert them once with "
-                          "python -m agents.convert SRC --out NEW_DIR --trust-pickle)")
+                          "coopnav-convert SRC --out NEW_DIR --trust-pickle)")
     ray = p.add_argument_group("--backend rllib only")
     ray.add_argument("--num-env-runners", metavar="N", type=_int_at_least(0),
                      help="env runner processes (0: sample in this process) (default: the config's "
@@ -142,14 +150,19 @@ def main(argv=None) -> int:
     prog = Path(sys.argv[0]).name if argv is None and sys.argv and sys.argv[0] else "train.py"
     if prog in ("__main__.py", "-c", "cli.py"):
         prog = "train.py"
+    from coopnav_env.failures import one_line
+    from coopnav_env.progress import announce_after
     from coopnav_env.safe_load import UnsafeDataError
 
     from . import runlock
-    from coopnav_env.failures import one_line
 
     try:
         args = build_parser(prog).parse_args(argv)
-        return run(args, argv)
+        if args.plot is not None:
+            return run(args, argv)
+        # silent if the checks are quick (a bad input stays one line); else says what is going on
+        with announce_after(f"{prog}: reading the config and checking the scenario (loading numba)", 2.0):
+            return run(args, argv)
     except (ConfigError, PolicyFormatError, UnsafeDataError) as err:
         print(f"{prog}: error: {' '.join(str(err).splitlines())}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -162,6 +175,15 @@ def main(argv=None) -> int:
 
 def run(args, argv=None) -> int:
     """The parsed command line -> ``sb3`` or ``rllib`` ``train``/``resume``."""
+    if args.plot is not None:
+        from .curve import draw_learning_curve
+
+        read_run_record(Path(args.plot))
+        path = draw_learning_curve(args.plot)
+        if path is None:
+            raise ConfigError(f"{args.plot} has no validation yet (evaluations.jsonl): nothing to plot")
+        print(f"wrote {path}")
+        return 0
     if args.resume is not None:
         given = [f"--{n.replace('_', '-')}" for n in RUN_SETTINGS if getattr(args, n) is not None]
         if given:
@@ -206,6 +228,9 @@ def run(args, argv=None) -> int:
                          seed=args.seed)
     common = {"command": command_line(argv), "hyperparameter_file": path, "threads": args.threads}
     if backend == "rllib":
+        from coopnav_env.progress import stage
+
+        stage(f"train.py: Ray RLlib PPO on {args.scenario}, {args.timesteps:,} steps into {args.out}; starting Ray")
         return rllib.train(config, args.out, num_env_runners=args.num_env_runners, ray_address=args.ray_address,
                            tune=rllib.parse_tune(args.tune or []), **common)
     return sb3.train(config, args.out, device=args.device, progress=not args.no_progress, verbose=args.verbose,

@@ -58,8 +58,11 @@ def prepare_job(config) -> Job:
     from coopnav_env.vector import check_reward_terms
 
     if config.scenario not in list_scenarios():
-        what = "no scenario given" if config.scenario is None else f"unknown scenario {config.scenario!r}"
-        raise ConfigError(f"{what}; valid scenarios: {', '.join(list_scenarios())}")
+        from coopnav_env.names import did_you_mean
+
+        what = ("no scenario given;" if config.scenario is None else
+                f"unknown scenario {config.scenario!r}{did_you_mean(config.scenario, list_scenarios())}")
+        raise ConfigError(f"{what} valid scenarios: {', '.join(list_scenarios())}")
     if config.timesteps is None or config.timesteps < 1:
         raise ConfigError(f"timesteps must be a positive number of environment steps, got {config.timesteps!r}")
     try:  # the benchmark's test seeds are never trained or validated on (coopnav_env.seeds.TEST_SEEDS)
@@ -83,7 +86,10 @@ def prepare_job(config) -> Job:
         raise ConfigError(str(err)) from None
     for name in config.eval.baselines:
         if name not in list_policies():
-            raise ConfigError(f"eval.baselines: unknown policy {name!r}; valid: {', '.join(list_policies())}")
+            from coopnav_env.names import did_you_mean
+
+            raise ConfigError(f"eval.baselines: unknown policy {name!r}{did_you_mean(name, list_policies())} "
+                              f"valid: {', '.join(list_policies())}")
     return Job(scenario_config, reward_terms, cells)
 
 
@@ -103,7 +109,10 @@ def new_run_dir(out) -> Path:
         raise ConfigError(f"--out {out} is a file")
     check_not_in_use(out)
     if out.exists() and any(out.iterdir()):
-        raise ConfigError(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
+        if (out / "config.yml").is_file():
+            raise ConfigError(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
+        raise ConfigError(f"{out} exists and is not empty, and is not a train.py run (no config.yml); use another "
+                          "--out")
     return out
 
 

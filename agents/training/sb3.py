@@ -23,6 +23,7 @@ What a run directory holds (data only, no pickle: ``agents.formats``):
                                last_checkpoint.json (what resume reads)
     evaluations.jsonl          one line per evaluation
     baseline_eval.json         the baselines on the evaluation seeds
+    learning_curve.png         agents.training.curve: validation error against steps and time
     tb/                        TensorBoard logs (if tensorboard is installed)
 
 Every file is written to a temporary name and moved into place, so an interrupted
@@ -97,6 +98,10 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
             raise ConfigError(f"imitate.planner {config.imitate.planner!r} cannot drive {config.scenario!r}; "
                               f"valid: {', '.join(valid)}")
 
+    from coopnav_env.progress import stage
+
+    stage(f"train.py: PPO on {config.scenario}, {config.timesteps:,} steps into {out}; loading torch and "
+          "stable-baselines3")
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.utils import set_random_seed
@@ -111,6 +116,8 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     torch.set_num_threads(threads)
 
     # --- the environment: one batched simulator, VecMonitor, VecNormalize -----------
+    stage(f"building {config.n_envs} environments of {config.scenario} (the first run compiles the simulator: "
+          "about a minute)")
     raw_env = CoopNavVecEnv(job.scenario_config, n_envs=config.n_envs, seed=run_seed, step_infos=False,
                             reward_terms=job.reward_terms)
     venv = VecMonitor(raw_env)
@@ -164,20 +171,35 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     ev = config.eval
     baseline_scores = read_json(out / "baseline_eval.json") or {}
     if ev.every_steps > 0:
+        todo = [b for b in ev.baselines or [] if b not in baseline_scores]
+        if todo and ev.episodes > 0:
+            stage(f"scoring the planners {', '.join(todo)} on the validation seeds ({ev.episodes} episodes x "
+                  f"{len(job.cells)} cells): the lines PPO's validations are compared with")
         baseline_scores = baselines_on_eval_seeds(out, job.cells, ev.baselines, ev.episodes, ev.seed)
 
     # --- learn, stopping cleanly on SIGINT/SIGTERM -----------------------------------
+    # the steps that will really run: SB3 trains whole rollouts (n_steps x rows), so it
+    # rounds the remaining steps up; the bar's total is that, and never passed
+    rollout = int(model.n_steps) * int(vecnorm.num_envs)
+    remaining = max(config.timesteps - start_steps, 0)
+    will_run = -(-remaining // rollout) * rollout
+    every = f", a validation every {ev.every_steps:,}" if ev.every_steps > 0 else ""
+    stage(f"training: {will_run:,} steps in {will_run // rollout} rollouts of {rollout:,} (n_steps "
+          f"{model.n_steps} x {vecnorm.num_envs} rows){every}")
     t0 = time.perf_counter()
-    with stop_on_signals() as stop:
+    from coopnav_env.progress import Progress
+
+    bar = Progress(will_run, unit="step", desc="training", mode=None if progress else "off", every_s=60.0)
+    with stop_on_signals() as stop, bar:
         callback = make_callback(out, config, job.cells, vecnorm, baseline_scores, stop,
-                                 clock={"t0": t0, "started": started})
-        model.learn(total_timesteps=max(config.timesteps - start_steps, 0), callback=callback,
-                    progress_bar=progress and _installed("tqdm", "rich"), reset_num_timesteps=not ckpt,
+                                 clock={"t0": t0, "started": started, "bar": bar})
+        model.learn(total_timesteps=remaining, callback=callback, progress_bar=False, reset_num_timesteps=not ckpt,
                     tb_log_name="ppo")
     if stop:
         # the steps of the rollout cut short were not trained on: the checkpoint does not count them
         model.num_timesteps = getattr(callback, "trained_steps", start_steps)
         callback.checkpoint()
+        _draw_curve(out)
         print(f"stopped at {model.num_timesteps} steps; continue with: {resume_command(out)}", file=sys.stderr)
         return EXIT_INTERRUPTED
 
@@ -187,11 +209,25 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
         callback.evaluate()
     save_model(model, out / "model.safetensors", vecnorm)
     save_vecnormalize(vecnorm, out / "vecnormalize.safetensors")
+    curve = _draw_curve(out)
     elapsed = time.perf_counter() - t0
     trained = model.num_timesteps - start_steps
     print(f"done: {model.num_timesteps} steps ({trained} in this run, {elapsed:.0f} s, "
-          f"{trained / max(elapsed, 1e-9):.0f} steps/s); model in {out}")
+          f"{trained / max(elapsed, 1e-9):.0f} steps/s); model in {out}"
+          + (f"; learning curve in {curve}" if curve else ""))
     return 0
+
+
+def _draw_curve(out: Path):
+    """``learning_curve.png`` (``agents.training.curve``); None without a validation, or
+    if matplotlib fails (a figure never fails a run: the line on stderr says why)."""
+    from .curve import draw_learning_curve
+
+    try:
+        return draw_learning_curve(out)
+    except Exception as err:  # noqa: BLE001 - the model is saved; the figure is a convenience
+        print(f"note: learning_curve.png not drawn: {_first_line(err)}", file=sys.stderr)
+        return None
 
 
 def resume(out, **options) -> int:
@@ -394,6 +430,7 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
                 self.evaluate()
 
         def _on_step(self):
+            clock["bar"].update(self.training_env.num_envs)
             return not stop
 
         def checkpoint(self):
@@ -416,6 +453,7 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
             self.last_ckpt = steps
 
         def evaluate(self):
+            clock["bar"].stage(f"validating at {self.model.num_timesteps:,} steps")
             t0 = time.perf_counter()
             result = evaluate(model_actor(self.model, vecnorm), cells, ev.episodes, ev.seed)
             score = result["survey_error_m"]
@@ -442,12 +480,13 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
                 save_vecnormalize(vecnorm, out / "best_vecnormalize.safetensors")
                 atomic_write_text(out / "best.json", json.dumps(record))
             beaten = [k for k, v in baseline_scores.items() if score < v["survey_error_m"]]
-            print(f"eval @ {self.model.num_timesteps}: survey_error_m {score:.3f}"
+            clock["bar"].write(f"eval @ {self.model.num_timesteps}: survey_error_m {score:.3f}"
                   + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline_scores.items())
                   + "".join(f", beats {k} in {record[f'cells_beating_{k}']}/{len(cells)} cells"
                             for k in baseline_scores if f"cells_beating_{k}" in record)
                   + (f" (beats {', '.join(beaten)})" if beaten else "")
-                  + f" [{time.perf_counter() - t0:.1f} s]", flush=True)
+                  + f" [{time.perf_counter() - t0:.1f} s]", stream=sys.stdout)
+            clock["bar"].stage("training")
             self.last_eval = self.model.num_timesteps
 
     return RunCallback()
