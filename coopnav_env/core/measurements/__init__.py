@@ -17,18 +17,21 @@ heard_mask(cycle)`` plus one line in ``SENSORS``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..sim import Simulator
 
 SENSORS = {"modem": "coopnav_env.core.measurements.modem", "mls": "coopnav_env.core.measurements.mls_array"}
 
 
-@dataclass
-class FusionOutputs:
+class FusionOutputs(NamedTuple):
     """What a cycle's acoustic fusion reports, for the infos and the reward: flags per
     (B, N, S) fused / rejected by the gate / lost, and per (B, S) NaN readings and
-    filter restarts."""
+    filter restarts. A named record, so the fusion kernels take it as one argument and
+    write its arrays in place."""
 
     fused: np.ndarray
     rejected: np.ndarray
@@ -37,7 +40,7 @@ class FusionOutputs:
     restarts: np.ndarray
 
 
-def build(name: str, sim):
+def build(name: str, sim: Simulator):
     """The measurement model ``name`` (``SENSORS``) for simulator ``sim``."""
     import importlib
 
