@@ -17,12 +17,11 @@ heard_mask(cycle)`` plus one line in ``SENSORS``.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from ..sim import Simulator
+from ..contract import BatchSimulator
 
 SENSORS = {"modem": "coopnav_env.core.measurements.modem", "mls": "coopnav_env.core.measurements.mls_array"}
 
@@ -40,7 +39,7 @@ class FusionOutputs(NamedTuple):
     restarts: np.ndarray
 
 
-def build(name: str, sim: Simulator):
+def build(name: str, sim: BatchSimulator):
     """The measurement model ``name`` (``SENSORS``) for simulator ``sim``."""
     import importlib
 

@@ -14,17 +14,15 @@ sender's position variance) and the bearing, whose residual is wrapped to
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
-from ..navigation import gated_update, gated_update_residual, range_prediction
+from ..contract import BatchSimulator
 from ..kernel_records import beacon_view, survey_view
+from ..navigation import gated_update, gated_update_residual, range_prediction
 from . import FusionOutputs
-
-if TYPE_CHECKING:
-    from ..sim import Simulator
 
 NOT_SENT, NOT_HEARD, HEARD = 0, 1, 2
 
@@ -103,7 +101,7 @@ fuse_kernel_parallel = njit(cache=True, parallel=True)(_fuse)
 class MLSArray:
     """The MLS model of one simulator: the sensor (built once, ~0.2 s) and the kernel."""
 
-    def __init__(self, sim: Simulator):
+    def __init__(self, sim: BatchSimulator):
         from ..mls import MLSConfig, MLSSensor
 
         c = sim.config
@@ -163,6 +161,6 @@ class MLSArray:
         self.kernel(survey_view(st), beacon_view(st), self.measure(draws), st.t_s, self.sim.gate, out)
 
 
-def build(sim: Simulator) -> MLSArray:
+def build(sim: BatchSimulator) -> MLSArray:
     """The MLS model of simulator ``sim`` (``measurements.build``)."""
     return MLSArray(sim)

@@ -13,18 +13,16 @@ with innovations of one sign the filter restarts from the range
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
 from ..acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
-from ..navigation import gated_update, range_prediction, reinit_on_range
+from ..contract import BatchSimulator
 from ..kernel_records import beacon_view, survey_view
+from ..navigation import gated_update, range_prediction, reinit_on_range
 from . import FusionOutputs
-
-if TYPE_CHECKING:
-    from ..sim import Simulator
 
 
 @njit(cache=True)
@@ -199,7 +197,7 @@ CONFIG_FIELDS = ("reinit_after_rejected_ranges", "ranging_mode", "turnaround_s",
 class ModemRanging:
     """The modem model of one simulator (its scalars gathered once)."""
 
-    def __init__(self, sim: Simulator):
+    def __init__(self, sim: BatchSimulator):
         c = sim.config
         scalars = [getattr(c, k) for k in CONFIG_FIELDS]
         self.params = ModemParams(int(scalars[0]), c.ranging_mode == "twtt", *(float(v) for v in scalars[2:]),
@@ -229,6 +227,6 @@ class ModemRanging:
         self.kernel(survey_view(st), beacon_view(st), cyc, self.params, out)
 
 
-def build(sim: Simulator) -> ModemRanging:
+def build(sim: BatchSimulator) -> ModemRanging:
     """The modem model of simulator ``sim`` (``measurements.build``)."""
     return ModemRanging(sim)
