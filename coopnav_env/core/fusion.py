@@ -55,13 +55,13 @@ fuse_depth_gps = njit(cache=True)(_fuse_depth_gps)
 fuse_depth_gps_parallel = njit(cache=True, parallel=True)(_fuse_depth_gps)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _distance(x, y):
     """Euclidean distance of two 3-vectors, summed east, north, depth (in that order)."""
     return np.sqrt((x[0] - y[0]) ** 2 + (x[1] - y[1]) ** 2 + (x[2] - y[2]) ** 2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _arrives(d, u, prm):
     """A packet over distance d arrives if its uniform draw u beats the range-dependent loss."""
     return u >= packet_loss_probability(d, prm.loss_near, prm.loss_far, prm.max_range_m)

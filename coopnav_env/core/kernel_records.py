@@ -15,6 +15,10 @@ unboxed once per call, as positional arguments are). Three kinds:
 * a sensor's own parameters and inputs live beside it (``measurements/``).
 
 A record's field order is part of its numba type only: kernels read fields by name.
+
+A compiled helper that takes a record is ``inline="always"``: a real call copies the
+record and increfs/decrefs every array in it, per sub-step or per ping; that doubled
+a batch-of-one step (~0.5 -> ~0.9 ms CPU) before the helpers were inlined.
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ def obs_dim(n_survey: int, n_beacons: int, observed_waypoints: int) -> int:
     return OWN_DIM + n_survey * (PER_SURVEY_FIXED + 2 * observed_waypoints) + 2 * (n_beacons - 1)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _survey_entry(o, i, kv, sv, b, n, s, oe, on, oz, prm):
     """Write survey vehicle s as beacon n of environment b last heard of it into o from
     index i (estimate, ellipse, ages, next waypoints); returns the next index."""

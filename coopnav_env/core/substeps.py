@@ -19,7 +19,7 @@ from .dynamics import thrust_speed, turn_toward
 from .guidance import los_point
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _leg(waypoints, i, e, alpha):
     """Leg i (waypoint i-1 -> i) of one path (W, 3) seen from the estimate e (complex):
     its ends, the line-of-sight point, the distance along it and its length."""
@@ -29,7 +29,7 @@ def _leg(waypoints, i, e, alpha):
     return w0, w1, q, along, seg_len
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _guide(sv, b, s, i, steer, e, h, prm):
     """One sub-step of line-of-sight guidance on the estimate e of vehicle (b, s): the
     next leg once the waypoint is reached (``done`` at the path's end), the heading h
@@ -50,7 +50,7 @@ def _guide(sv, b, s, i, steer, e, h, prm):
     return i, steer, h, w0[2] + frac * (w1[2] - w0[2])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _advance_vehicle(sv, b, s, compass_noise_rad, pitch_noise_rad, current, prm):
     """Survey vehicle s of environment b through K sub-steps, in place (fields of
     ``sv``). compass_noise_rad, pitch_noise_rad (K, S): this environment's sub-step

@@ -45,7 +45,7 @@ class MLSMeasurement(NamedTuple):
     bearing_var: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _bearing_update(sv, bv, m, b, s, j, gate, H):
     """The bearing of sender j at survey vehicle s, gated and fused with its residual
     wrapped (h = atan2(east, north) of sender - survey, and its Jacobian H); returns

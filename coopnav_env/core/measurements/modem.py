@@ -99,7 +99,7 @@ class ModemCycle(NamedTuple):
     heard: np.ndarray  # (B,N,S) bool: the pings the channel delivers
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
     """Beacon j's ping at survey vehicle s of environment b: the measured range (m, by
     ``modem_range``; ``delays`` filled), its loss probability (both legs for two-way)
@@ -122,7 +122,7 @@ def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
     return r, p_lost, prm.temperature_uncertainty_c * dc_dT / c_assumed
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _count_rejection(sv, out, b, s, r, h, H, R, prm):
     """A range the gate rejected: the streak counts rejected ranges in a row whose
     innovations share a sign (a filter that has drifted sees them all too long or all
@@ -137,7 +137,7 @@ def _count_rejection(sv, out, b, s, r, h, H, R, prm):
         out.restarts[b, s] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _fuse_ping(sv, bv, cyc, prm, out, b, s, j, delays):
     """Beacon j's ping at survey vehicle s of environment b: lost, an outlier or NaN at
     random, then gated and fused (eqs. 7-13), in place; returns whether it was fused."""
