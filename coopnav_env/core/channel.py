@@ -52,6 +52,7 @@ from numba import njit, prange
 from ..scenarios.base import SLOWEST_SOUND_SPEED_MPS
 from . import fusion
 from .acoustics import mackenzie_sound_speed, travel_time
+from .kernel_records import beacon_view, knowledge_view, survey_view
 
 
 def packet_duration_s(bits, bit_rate_bps):
@@ -204,12 +205,10 @@ class Channel:
     def exchange(self, draws, reply_ok, peer_ok):
         """The replies and the peers' positions as ``Simulator._exchange_messages`` does
         them, through the channel's masks."""
-        sim = self.sim
-        c, st = sim.config, sim.state
-        self._k_exchange(st.s_pos, st.s_est, st.s_P, st.s_wp_index, st.s_last_range_t_s, st.b_pos,
-                         st.b_pos + st.b_nav_err, st.t_s, draws["message_u"], reply_ok, peer_ok, st.k_est, st.k_P,
-                         st.k_wp_index, st.k_age_s, st.k_range_age_s, st.k_peer, c.ping_interval_s, c.packet_loss_near,
-                         c.packet_loss_far, c.max_range_m)
+        st = self.sim.state
+        self._k_exchange(survey_view(st), beacon_view(st), knowledge_view(st), st.t_s, draws["message_u"], reply_ok,
+                         peer_ok, self.sim.params)
+
 
 
 # ------------------------------------------------------------------------------------

@@ -17,9 +17,12 @@ from .acoustics import packet_loss_probability
 from .navigation import joseph_update
 
 
-def _fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m, gps_noise_m,
-                   gps_max_depth_m, nan_probability):
-    """Depth sensor every cycle, GPS (east and north) when at the surface; NaNs rejected and counted."""
+def _fuse_depth_gps(sv, sensor_n, sensor_u, nan_count, prm):
+    """Depth sensor every cycle, GPS (east and north) when at the surface; NaNs rejected
+    and counted. Updates sv.est, sv.P (``kernel_records.SurveyView``) and nan_count (B,S) in
+    place; sensor_n, sensor_u (B,S,3) this cycle's draws; prm: ``kernel_records.SurveyParams``."""
+    est, P, s_pos = sv.est, sv.P, sv.pos
+    depth_noise_m, gps_noise_m, nan_probability = prm.depth_noise_m, prm.gps_noise_m, prm.nan_probability
     B, S = est.shape[0], est.shape[1]
     R_depth = max(depth_noise_m, 1e-3) ** 2
     for b in prange(B):
@@ -34,7 +37,7 @@ def _fuse_depth_gps(est, P, s_pos, sensor_n, sensor_u, nan_count, depth_noise_m,
                 joseph_update(est[b, s], P[b, s], z, est[b, s, 2], H, R_depth)
             else:
                 nan_count[b, s] += 1
-            if s_pos[b, s, 2] < gps_max_depth_m:
+            if s_pos[b, s, 2] < prm.gps_max_depth_m:
                 for axis in range(2):
                     z = s_pos[b, s, axis] + gps_noise_m * sensor_n[b, s, 1 + axis]
                     if sensor_u[b, s, 1 + axis] < nan_probability:
@@ -52,40 +55,47 @@ fuse_depth_gps = njit(cache=True)(_fuse_depth_gps)
 fuse_depth_gps_parallel = njit(cache=True, parallel=True)(_fuse_depth_gps)
 
 
-def _exchange_messages(s_pos, s_est, s_P, s_wp_index, s_last_range_t_s, b_pos, b_est, t_s, message_u, reply_ok,
-                       peer_ok, k_est, k_P, k_wp_index, k_age_s, k_range_age_s, k_peer, ping_interval_s, loss_near,
-                       loss_far, max_range_m):
+@njit(cache=True, inline="always")
+def _distance(x, y):
+    """Euclidean distance of two 3-vectors, summed east, north, depth (in that order)."""
+    return np.sqrt((x[0] - y[0]) ** 2 + (x[1] - y[1]) ** 2 + (x[2] - y[2]) ** 2)
+
+
+@njit(cache=True, inline="always")
+def _arrives(d, u, prm):
+    """A packet over distance d arrives if its uniform draw u beats the range-dependent loss."""
+    return u >= packet_loss_probability(d, prm.loss_near, prm.loss_far, prm.max_range_m)
+
+
+def _exchange_messages(sv, bv, kv, t_s, message_u, reply_ok, peer_ok, prm):
     """After the ranges: each survey vehicle's reply (estimate, covariance, waypoint
     index, time since its last fused range) reaches each beacon, or is lost with the
     range-dependent probability; beacons tell each other their positions the same
-    way. Updates what each beacon knows (k_*), in place. ``reply_ok`` (B, N, S) and
-    ``peer_ok`` (B, N, N) [receiver, sender] say what the acoustic channel delivered
-    (``core/channel.py``; all True on the fixed clock, where only the random loss acts)."""
-    B, N, S = b_pos.shape[0], b_pos.shape[1], s_pos.shape[1]
+    way. Updates what each beacon knows (kv, ``kernel_records.KnowledgeView``), in place.
+    sv, bv: ``kernel_records.SurveyView``, ``kernel_records.BeaconView``; t_s (B,); message_u
+    (B, N, S + N) this cycle's uniforms; ``reply_ok`` (B, N, S) and ``peer_ok`` (B, N, N)
+    [receiver, sender] say what the acoustic channel delivered (``core/channel.py``;
+    all True on the fixed clock, where only the random loss acts); prm:
+    ``kernel_records.SurveyParams``."""
+    B, N, S = bv.pos.shape[0], bv.pos.shape[1], sv.pos.shape[1]
+    T = prm.ping_interval_s
     for b in prange(B):
         for n in range(N):
             for s in range(S):
-                d = np.sqrt((s_pos[b, s, 0] - b_pos[b, n, 0]) ** 2 + (s_pos[b, s, 1] - b_pos[b, n, 1]) ** 2
-                            + (s_pos[b, s, 2] - b_pos[b, n, 2]) ** 2)
-                if reply_ok[b, n, s] and message_u[b, n, s] >= packet_loss_probability(d, loss_near, loss_far,
-                                                                                       max_range_m):
-                    k_est[b, n, s, :] = s_est[b, s]
-                    k_P[b, n, s, :, :] = s_P[b, s, :2, :2]
-                    k_wp_index[b, n, s] = s_wp_index[b, s]
-                    k_age_s[b, n, s] = 0.0
-                    k_range_age_s[b, n, s] = t_s[b] - s_last_range_t_s[b, s]
+                d = _distance(sv.pos[b, s], bv.pos[b, n])
+                if reply_ok[b, n, s] and _arrives(d, message_u[b, n, s], prm):
+                    kv.est[b, n, s, :] = sv.est[b, s]
+                    kv.P[b, n, s, :, :] = sv.P[b, s, :2, :2]
+                    kv.wp_index[b, n, s] = sv.wp_index[b, s]
+                    kv.age_s[b, n, s] = 0.0
+                    kv.range_age_s[b, n, s] = t_s[b] - sv.last_range_t_s[b, s]
                 else:
-                    k_age_s[b, n, s] += ping_interval_s
-                    k_range_age_s[b, n, s] += ping_interval_s
-            for m in range(N):
-                if m == n:
-                    k_peer[b, n, m, :] = b_est[b, m]
-                    continue
-                d = np.sqrt((b_pos[b, m, 0] - b_pos[b, n, 0]) ** 2 + (b_pos[b, m, 1] - b_pos[b, n, 1]) ** 2
-                            + (b_pos[b, m, 2] - b_pos[b, n, 2]) ** 2)
-                if peer_ok[b, n, m] and message_u[b, n, S + m] >= packet_loss_probability(d, loss_near, loss_far,
-                                                                                          max_range_m):
-                    k_peer[b, n, m, :] = b_est[b, m]
+                    kv.age_s[b, n, s] += T
+                    kv.range_age_s[b, n, s] += T
+            for m in range(N):  # its own position, or a peer's if it arrives
+                if m == n or (peer_ok[b, n, m]
+                              and _arrives(_distance(bv.pos[b, m], bv.pos[b, n]), message_u[b, n, S + m], prm)):
+                    kv.peer[b, n, m, :] = bv.est[b, m]
 
 
 exchange_messages = njit(cache=True)(_exchange_messages)

@@ -40,48 +40,61 @@ OBS_BOUND = 10.0
 
 
 def obs_dim(n_survey: int, n_beacons: int, observed_waypoints: int) -> int:
+    """Length of one beacon's observation vector (the layout above)."""
     return OWN_DIM + n_survey * (PER_SURVEY_FIXED + 2 * observed_waypoints) + 2 * (n_beacons - 1)
 
 
-def _observe(b_pos, b_nav_err, b_vel, b_heading, b_nav_var, k_est, k_P, k_wp_index, k_age, k_range_age, k_peer,
-             s_waypoints, s_n_wp, max_speed, fence_center, L, T, n_waypoints_observed, out):
-    B, N, S = b_pos.shape[0], b_pos.shape[1], k_est.shape[2]
-    age_scale = AGE_SCALE_PINGS * T
+@njit(cache=True, inline="always")
+def _survey_entry(o, i, kv, sv, b, n, s, oe, on, oz, prm):
+    """Write survey vehicle s as beacon n of environment b last heard of it into o from
+    index i (estimate, ellipse, ages, next waypoints); returns the next index."""
+    L = prm.position_scale_m
+    age_scale = AGE_SCALE_PINGS * prm.ping_interval_s
+    o[i] = (kv.est[b, n, s, 0] - oe) / L
+    o[i + 1] = (kv.est[b, n, s, 1] - on) / L
+    o[i + 2] = (kv.est[b, n, s, 2] - oz) / DEPTH_SCALE_M
+    major, minor, bearing = ellipse_of(kv.P[b, n, s, 0, 0], kv.P[b, n, s, 0, 1], kv.P[b, n, s, 1, 1], ELLIPSE_N_SIGMA)
+    o[i + 3] = major / ELLIPSE_SCALE_M
+    o[i + 4] = minor / ELLIPSE_SCALE_M
+    o[i + 5] = np.cos(2.0 * bearing)
+    o[i + 6] = np.sin(2.0 * bearing)
+    o[i + 7] = kv.age_s[b, n, s] / age_scale
+    o[i + 8] = kv.range_age_s[b, n, s] / age_scale
+    i += PER_SURVEY_FIXED
+    for w in range(prm.observed_waypoints):
+        j = min(kv.wp_index[b, n, s] + w, sv.n_waypoints[b, s] - 1)
+        o[i] = (sv.waypoints[b, s, j, 0] - kv.est[b, n, s, 0]) / L
+        o[i + 1] = (sv.waypoints[b, s, j, 1] - kv.est[b, n, s, 1]) / L
+        i += 2
+    return i
+
+
+def _observe(bv, kv, sv, prm, out):
+    """Every beacon's observation (the layout above) into out (B, N, obs_dim), from its
+    own state (bv, ``kernel_records.BeaconView``), what it last received (kv,
+    ``kernel_records.KnowledgeView``) and the survey paths (sv.waypoints, sv.n_waypoints of
+    ``kernel_records.SurveyView``); prm: ``kernel_records.SurveyParams``."""
+    B, N, S = bv.pos.shape[0], bv.pos.shape[1], kv.est.shape[2]
+    L = prm.position_scale_m
     for b in prange(B):
         for n in range(N):
             o = out[b, n]
-            oe = b_pos[b, n, 0] + b_nav_err[b, n, 0]
-            on = b_pos[b, n, 1] + b_nav_err[b, n, 1]
-            oz = b_pos[b, n, 2] + b_nav_err[b, n, 2]
-            o[0] = (oe - fence_center[0]) / L
-            o[1] = (on - fence_center[1]) / L
-            o[2] = b_heading[b, n].real
-            o[3] = b_heading[b, n].imag
-            o[4] = np.sqrt(b_vel[b, n, 0] ** 2 + b_vel[b, n, 1] ** 2) / max_speed[n]
-            o[5] = np.sqrt(b_nav_var[b, n]) / STD_SCALE_M
+            oe = bv.pos[b, n, 0] + bv.nav_err[b, n, 0]
+            on = bv.pos[b, n, 1] + bv.nav_err[b, n, 1]
+            oz = bv.pos[b, n, 2] + bv.nav_err[b, n, 2]
+            o[0] = (oe - prm.fence_center[0]) / L
+            o[1] = (on - prm.fence_center[1]) / L
+            o[2] = bv.heading[b, n].real
+            o[3] = bv.heading[b, n].imag
+            o[4] = np.sqrt(bv.vel[b, n, 0] ** 2 + bv.vel[b, n, 1] ** 2) / prm.beacon_max_speed[n]
+            o[5] = np.sqrt(bv.nav_var[b, n]) / STD_SCALE_M
             i = OWN_DIM
             for s in range(S):
-                o[i] = (k_est[b, n, s, 0] - oe) / L
-                o[i + 1] = (k_est[b, n, s, 1] - on) / L
-                o[i + 2] = (k_est[b, n, s, 2] - oz) / DEPTH_SCALE_M
-                major, minor, bearing = ellipse_of(k_P[b, n, s, 0, 0], k_P[b, n, s, 0, 1], k_P[b, n, s, 1, 1],
-                                                   ELLIPSE_N_SIGMA)
-                o[i + 3] = major / ELLIPSE_SCALE_M
-                o[i + 4] = minor / ELLIPSE_SCALE_M
-                o[i + 5] = np.cos(2.0 * bearing)
-                o[i + 6] = np.sin(2.0 * bearing)
-                o[i + 7] = k_age[b, n, s] / age_scale
-                o[i + 8] = k_range_age[b, n, s] / age_scale
-                i += PER_SURVEY_FIXED
-                for w in range(n_waypoints_observed):
-                    j = min(k_wp_index[b, n, s] + w, s_n_wp[b, s] - 1)
-                    o[i] = (s_waypoints[b, s, j, 0] - k_est[b, n, s, 0]) / L
-                    o[i + 1] = (s_waypoints[b, s, j, 1] - k_est[b, n, s, 1]) / L
-                    i += 2
+                i = _survey_entry(o, i, kv, sv, b, n, s, oe, on, oz, prm)
             for m in range(N):
                 if m != n:
-                    o[i] = (k_peer[b, n, m, 0] - oe) / L
-                    o[i + 1] = (k_peer[b, n, m, 1] - on) / L
+                    o[i] = (kv.peer[b, n, m, 0] - oe) / L
+                    o[i + 1] = (kv.peer[b, n, m, 1] - on) / L
                     i += 2
             for j in range(i):
                 o[j] = min(max(o[j], -OBS_BOUND), OBS_BOUND)

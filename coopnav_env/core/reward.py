@@ -59,7 +59,8 @@ class TermContext:
     ``SimState`` after the step, ``terms`` the terms computed so far (name -> (B, N)),
     ``arrays`` the step's other named arrays (the survey simulator: ``fused``,
     ``rejected``, ``lost`` (B, N, S) flags, ``transmit`` (B, N) or None, ``dist``
-    (B, N, S) beacon-to-survey distances, ``logdet_before``/``logdet_after`` (B, S)).
+    (B, N, S) beacon-to-survey distances, ``info_gain`` (B,): the drop of the survey
+    filters' log det over the cycle's acoustic updates).
     For a training signal (kind "training"): ``result`` the step's ``StepResult`` and
     ``weights`` the scenario's weights of its environment terms.
     """

@@ -23,6 +23,8 @@ Nothing here knows PettingZoo or Gymnasium; views live in coopnav_env/*.py.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..scenarios.base import ScenarioConfig
@@ -32,6 +34,7 @@ from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, termina
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
 from .navigation import gate_threshold, predict
+from .kernel_records import SurveyParams, beacon_view, knowledge_view, survey_view
 from .reward import TermContext, collect_terms, term_weights, terms_for, weighted_reward
 from .state import SimState
 
@@ -39,6 +42,24 @@ INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_f
              "outliers_rejected", "nan_rejected", "packets_lost", "filter_restarts", "survey_error_en_m",
              "survey_cov_en_m2")
 BEACON_INFO_KEYS = ("beacon_error_m",)  # and the channel model's (core.channel registry)
+
+
+class EpisodeDraws(NamedTuple):
+    """An episode's random numbers at reset, by purpose, (B, ...): the episode stream
+    ``rng.STREAM_EPISODE`` and the streams added after it (each its own, so scenarios
+    without them keep their numbers)."""
+
+    ns: np.ndarray  # (B,S,4) normals: survey estimate east/north, speed scale, compass bias
+    nb: np.ndarray  # (B,N,4) normals: beacon nav error east/north, current error east/north
+    n_clock: np.ndarray  # (B,S,N) normals: OWTT clock offsets
+    nw: np.ndarray  # (B,3) normals: temperature, Gauss-Markov current east/north
+    n_dvl: np.ndarray  # (B,N,2) normals: the beacons' DVL scale error and heading bias
+    u_bearing: np.ndarray  # (B,N) uniforms: the beacons' start bearings
+    u_current: np.ndarray  # (B,2) uniforms: the current's speed and direction
+    u_clock: np.ndarray  # (B,S,N) uniforms: clock drifts
+    u_dvl_phase: np.ndarray  # (B,N) uniforms: phase of the DVL heading error's one-cycle part
+    variant: np.ndarray  # (B,) int: index into Simulator.variants (domain randomization)
+    noise_scale: np.ndarray  # (B,) factor on the sensor and range noise levels
 
 
 class Simulator(BatchSimulator):
@@ -50,43 +71,18 @@ class Simulator(BatchSimulator):
         self.config = c = config
         self.batch_size = int(batch_size)
         self.S, self.N, self.K = c.n_survey, c.n_beacons, c.substeps_per_cycle
-        self._drag_k = drag_constant(c.survey_drag_coefficient, c.water_density_kgpm3, c.survey_cross_section_m2)
         is_asv = np.array([k == "asv" for k in c.beacon_kinds])
         self._beacon_is_asv = is_asv
         self._beacon_max_speed = np.array(c.beacon_max_speeds_mps)
         beacon_turn = np.radians(np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
         self._beacon_turn_cos, self._beacon_turn_sin = np.cos(beacon_turn), np.sin(beacon_turn)
-        survey_turn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s
-        self._survey_turn_cos, self._survey_turn_sin = float(np.cos(survey_turn)), float(np.sin(survey_turn))
         self._beacon_depth = np.where(is_asv, 0.0, c.beacon_auv_depth_m)
-        # the path library: one (survey_path, depth_m) variant per combination of the
-        # randomization choices (just the scenario's own path without randomization)
-        self.variants = [(kind, depth) for kind in (c.randomize_survey_path or (c.survey_path,))
-                         for depth in (c.randomize_depth_m or (c.depth_m,))]
-        built = [[build_path(c.replace(survey_path=kind, depth_m=depth), s) for s in range(self.S)]
-                 for kind, depth in self.variants]
-        W = max(len(wp) for paths in built for wp, _ in paths)
-        V = len(self.variants)
-        self._paths = np.zeros((V, self.S, W, 3))
-        self._n_wp = np.zeros((V, self.S), dtype=np.int64)
-        self._hover = np.zeros((V, self.S), dtype=bool)
-        for v, paths in enumerate(built):
-            for s, (wp, hover) in enumerate(paths):
-                self._paths[v, s, :len(wp)] = wp
-                self._paths[v, s, len(wp):] = wp[-1]
-                self._n_wp[v, s], self._hover[v, s] = len(wp), hover
-        if c.beacon_start_distance_m > 0:
-            self._beacon_start_distance_m = np.full((V, self.N), c.beacon_start_distance_m)
-        else:  # 0: start where the first two ranges inform most (Sousa et al., Fig. 11)
-            from .information import optimal_start_distance_m
-
-            self._beacon_start_distance_m = np.array([[
-                optimal_start_distance_m(depth - d, v * c.ping_interval_s)
-                for d, v in zip(self._beacon_depth, self._beacon_max_speed)] for _, depth in self.variants])
+        self._build_paths()
         self.gate = gate_threshold(c.range_gate_probability)  # the chi-square gate of every acoustic update
         self.sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
         self._Q_cycle = np.diag([c.process_noise_horizontal_m2ps, c.process_noise_horizontal_m2ps,
                                  c.process_noise_vertical_m2ps]) * c.ping_interval_s
+        self.params = self._survey_params()  # the kernels' constants, one record
         self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
         par = "_parallel" if self._parallel else ""
         self._k_survey = getattr(substeps, "integrate_survey" + par)
@@ -97,8 +93,6 @@ class Simulator(BatchSimulator):
         self._all_replies = np.ones((self.batch_size, self.N, self.S), dtype=bool)
         self._all_peers = np.ones((self.batch_size, self.N, self.N), dtype=bool)
         self._k_observe = getattr(observation, "observe" + par)
-        fence = c.geofence_m
-        self._fence_center = np.array([(fence[0] + fence[2]) / 2, (fence[1] + fence[3]) / 2])
         # every random number of one cycle comes from one hash call, laid out by purpose;
         # a new purpose goes at the end so the others keep their numbers
         S_, N_, K_ = self.S, self.N, self.K
@@ -126,95 +120,170 @@ class Simulator(BatchSimulator):
         self.reward_weights = term_weights(c, self.reward_terms)
         self.state: SimState | None = None
 
+    def _build_paths(self) -> None:
+        """The path library: one (survey_path, depth_m) variant per combination of the
+        randomization choices (just the scenario's own path without randomization), padded
+        to W waypoints (V, S, W, 3); and the beacons' start distance per variant (V, N)."""
+        c = self.config
+        self.variants = [(kind, depth) for kind in (c.randomize_survey_path or (c.survey_path,))
+                         for depth in (c.randomize_depth_m or (c.depth_m,))]
+        built = [[build_path(c.replace(survey_path=kind, depth_m=depth), s) for s in range(self.S)]
+                 for kind, depth in self.variants]
+        W = max(len(wp) for paths in built for wp, _ in paths)
+        V = len(self.variants)
+        self._paths = np.zeros((V, self.S, W, 3))
+        self._n_wp = np.zeros((V, self.S), dtype=np.int64)
+        self._hover = np.zeros((V, self.S), dtype=bool)
+        for v, paths in enumerate(built):
+            for s, (wp, hover) in enumerate(paths):
+                self._paths[v, s, :len(wp)] = wp
+                self._paths[v, s, len(wp):] = wp[-1]
+                self._n_wp[v, s], self._hover[v, s] = len(wp), hover
+        if c.beacon_start_distance_m > 0:
+            self._beacon_start_distance_m = np.full((V, self.N), c.beacon_start_distance_m)
+        else:  # 0: start where the first two ranges inform most (Sousa et al., Fig. 11)
+            from .information import optimal_start_distance_m
+
+            self._beacon_start_distance_m = np.array([[
+                optimal_start_distance_m(depth - d, v * c.ping_interval_s)
+                for d, v in zip(self._beacon_depth, self._beacon_max_speed)] for _, depth in self.variants])
+
+    def _survey_params(self) -> SurveyParams:
+        """The scenario's constants the kernels read, gathered once (``kernel_records.SurveyParams``)."""
+        c = self.config
+        survey_turn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s
+        fence = c.geofence_m
+        return SurveyParams(
+            substep_s=float(c.substep_s), ping_interval_s=float(c.ping_interval_s),
+            drag_k=float(drag_constant(c.survey_drag_coefficient, c.water_density_kgpm3, c.survey_cross_section_m2)),
+            mass_kg=float(c.survey_mass_kg), los_alpha=float(c.los_alpha), acceptance_m=float(c.waypoint_acceptance_m),
+            turn_cos=float(np.cos(survey_turn)), turn_sin=float(np.sin(survey_turn)),
+            max_pitch_rad=float(np.radians(c.survey_max_pitch_deg)), depth_gain_per_m=float(c.survey_depth_gain_per_m),
+            depth_noise_m=float(c.depth_noise_m), gps_noise_m=float(c.gps_noise_m),
+            gps_max_depth_m=float(c.gps_max_depth_m), nan_probability=float(c.sensor_nan_probability),
+            loss_near=float(c.packet_loss_near), loss_far=float(c.packet_loss_far), max_range_m=float(c.max_range_m),
+            position_scale_m=float(c.position_scale_m), observed_waypoints=int(c.observed_waypoints),
+            beacon_max_speed=np.asarray(self._beacon_max_speed, dtype=float),
+            fence_center=np.array([(fence[0] + fence[2]) / 2, (fence[1] + fence[3]) / 2]))
+
+    # ------------------------------------------------------------------------------
     def _initial_state(self, seeds) -> SimState:
-        c, S, N = self.config, self.S, self.N
+        """Every environment's state at the start of an episode seeded with ``seeds`` (B,)."""
         B = len(seeds)
         keys = rng.env_keys(seeds)
+        ep = self._episode_draws(keys)
+        survey = self._survey_start(ep)
+        beacons = self._beacon_start(ep, survey["s_pos"])
+        return SimState(t_s=np.zeros(B), cycle=np.zeros(B, dtype=np.int64), keys=keys, ep_variant=ep.variant,
+                        ep_noise_scale=ep.noise_scale, **survey, **beacons, **self._water_and_clocks(ep),
+                        **self._knowledge_start(survey, beacons))
+
+    def _episode_draws(self, keys: np.ndarray) -> EpisodeDraws:
+        """The episode's random numbers for environments with ``keys`` (B,)."""
+        c, S, N = self.config, self.S, self.N
+        B = len(keys)
         zero = np.zeros(B, dtype=np.int64)
         n_ep = rng.normal(keys, rng.STREAM_EPISODE, zero, (S * 4 + N * 4 + S * N + 3,))
         u_ep = rng.uniform(keys, rng.STREAM_EPISODE + 100, zero, (N + 2 + S * N,))
-        ns = n_ep[:, :S * 4].reshape(B, S, 4)  # estimate east/north, speed scale, compass bias
-        nb = n_ep[:, S * 4:S * 4 + N * 4].reshape(B, N, 4)  # nav error east/north, current error
-        n_clock = n_ep[:, S * 4 + N * 4:S * 4 + N * 4 + S * N].reshape(B, S, N)
-        nw = n_ep[:, -3:]  # temperature, Gauss-Markov current east/north
         # the beacons' DVL heading bias and scale error: their own stream (added later)
         n_dvl = rng.normal(keys, rng.STREAM_EPISODE + 300, zero, (2 * N,)).reshape(B, N, 2)
         # domain randomization: its own stream, so scenarios without it keep their numbers
         u_dr = rng.uniform(keys, rng.STREAM_EPISODE + 200, zero, (2,))
         variant = np.minimum((u_dr[:, 0] * len(self.variants)).astype(np.int64), len(self.variants) - 1)
         lo, hi = c.randomize_noise_scale or (1.0, 1.0)
-        noise_scale = lo + (hi - lo) * u_dr[:, 1]
+        return EpisodeDraws(
+            ns=n_ep[:, :S * 4].reshape(B, S, 4), nb=n_ep[:, S * 4:S * 4 + N * 4].reshape(B, N, 4),
+            n_clock=n_ep[:, S * 4 + N * 4:S * 4 + N * 4 + S * N].reshape(B, S, N), nw=n_ep[:, -3:], n_dvl=n_dvl,
+            u_bearing=u_ep[:, :N], u_current=u_ep[:, N:N + 2], u_clock=u_ep[:, N + 2:].reshape(B, S, N),
+            u_dvl_phase=rng.uniform(keys, rng.STREAM_EPISODE + 301, zero, (N,)),
+            variant=variant, noise_scale=lo + (hi - lo) * u_dr[:, 1])
 
-        wp = self._paths[variant].copy()
-        hover = self._hover[variant]
+    def _survey_start(self, ep: EpisodeDraws) -> dict:
+        """The survey vehicles' fields of the initial state (``SimState.s_*``): at their
+        path's first waypoint, heading along the first leg at the terminal speed of eq. (1),
+        the EKF started from an estimate off by ``initial_position_std_m``."""
+        c = self.config
+        B, S = len(ep.variant), self.S
+        wp = self._paths[ep.variant].copy()
+        hover = self._hover[ep.variant]
         start = wp[:, :, 0]
         first_leg = wp[:, :, 1, :2] - wp[:, :, 0, :2]
         heading = np.where(np.abs(first_leg[..., 0] + 1j * first_leg[..., 1]) > 0,
                            first_leg[..., 0] + 1j * first_leg[..., 1], 1j)
         heading = heading / np.abs(heading)
         thrust = np.where(hover, 0.0, c.survey_thrust_percent / 100.0 * c.max_thrust_n)
-        speed0 = terminal_speed_mps(thrust, self._drag_k)
         sigma0 = c.initial_position_std_m
         est = start.copy()
-        est[..., :2] += sigma0 * ns[..., :2]
+        est[..., :2] += sigma0 * ep.ns[..., :2]
         P0 = np.zeros((B, S, 3, 3))
         P0[..., 0, 0] = P0[..., 1, 1] = sigma0 ** 2
         P0[..., 2, 2] = max(c.depth_noise_m, 0.01) ** 2
+        scale = ep.noise_scale[:, None]
+        return {
+            "s_pos": start.copy(), "s_heading": heading,
+            "s_speed_model_mps": terminal_speed_mps(thrust, self.params.drag_k),
+            "s_speed_scale": 1.0 + c.survey_speed_scale_error_std * scale * ep.ns[..., 2],
+            "s_thrust_n": thrust, "s_compass_bias_rad": np.radians(c.compass_bias_std_deg) * scale * ep.ns[..., 3],
+            "s_vel_true": np.zeros((B, S, 3)), "s_vel_est": np.zeros((B, S, 3)),
+            "s_waypoints": wp, "s_n_waypoints": self._n_wp[ep.variant], "s_wp_index": np.ones((B, S), dtype=np.int64),
+            "s_hover": hover, "s_done": np.zeros((B, S), dtype=bool),
+            "s_est": est, "s_P": P0, "s_dr": est.copy(), "s_last_range_t_s": np.zeros((B, S)),
+            "s_rejected_streak": np.zeros((B, S), dtype=np.int64), "s_current_est": np.zeros((B, S), dtype=complex)}
 
-        # beacons start around the survey's start point
+    def _beacon_start(self, ep: EpisodeDraws, start: np.ndarray) -> dict:
+        """The beacons' fields of the initial state (``SimState.b_*``): around the survey's
+        start point ``start`` (B, S, 3), facing it, with their own navigation error and its
+        DVL error model drawn."""
+        c = self.config
+        B, N = len(ep.variant), self.N
         bearing = (np.radians(c.beacon_start_bearing_deg)
-                   + np.radians(c.beacon_start_bearing_spread_deg) * (2 * u_ep[:, :N] - 1)
+                   + np.radians(c.beacon_start_bearing_spread_deg) * (2 * ep.u_bearing - 1)
                    + 2 * np.pi * np.arange(N) / N)
         b_pos = np.zeros((B, N, 3))
-        b_h = start[:, :1, 0] + 1j * start[:, :1, 1] + self._beacon_start_distance_m[variant] * bearing_to_unit(bearing)
+        b_h = (start[:, :1, 0] + 1j * start[:, :1, 1]
+               + self._beacon_start_distance_m[ep.variant] * bearing_to_unit(bearing))
         b_pos[..., 0], b_pos[..., 1], b_pos[..., 2] = b_h.real, b_h.imag, self._beacon_depth
         to_survey = (start[:, :1, 0] + 1j * start[:, :1, 1]) - b_h
-        b_heading = to_survey / np.maximum(np.abs(to_survey), 1e-9)
         b_std0 = np.where(self._beacon_is_asv, c.gps_noise_m, 1.0)
         b_err = np.zeros((B, N, 3))
-        b_err[..., :2] = b_std0[:, None] * nb[..., :2]
+        b_err[..., :2] = b_std0[:, None] * ep.nb[..., :2]
+        return {
+            "b_pos": b_pos, "b_heading": to_survey / np.maximum(np.abs(to_survey), 1e-9), "b_vel": np.zeros((B, N, 3)),
+            "b_nav_err": b_err, "b_nav_var_m2": np.broadcast_to(b_std0 ** 2, (B, N)).copy(),
+            "b_walk_var_m2": np.broadcast_to(b_std0 ** 2, (B, N)).copy(), "b_unlocked_s": np.zeros((B, N)),
+            "b_dvl_lock": np.ones((B, N), dtype=bool),
+            "b_current_err": c.beacon_current_estimate_error_mps * (ep.nb[..., 2] + 1j * ep.nb[..., 3]),
+            "b_dvl_scale_error": c.beacon_dvl_scale_error_std * ep.n_dvl[..., 0],
+            "b_dvl_heading_bias_rad": np.radians(c.beacon_dvl_heading_bias_std_deg) * ep.n_dvl[..., 1],
+            "b_dvl_heading_phase_rad": 2.0 * np.pi * ep.u_dvl_phase, "b_travelled_m": np.zeros((B, N)),
+            "b_fix_est": (b_pos[..., 0] + b_err[..., 0]) + 1j * (b_pos[..., 1] + b_err[..., 1]),
+            "b_since_fix_s": np.zeros((B, N)), "b_surfacings": np.zeros((B, N), dtype=np.int64),
+            "b_pings": np.zeros((B, N), dtype=np.int64), "b_collisions": np.zeros((B, N), dtype=np.int64),
+            "b_energy_j": np.zeros((B, N))}
 
-        cur_speed = np.maximum(c.current_speed_mps + c.current_speed_spread_mps * (2 * u_ep[:, N] - 1), 0.0)
-        cur_dir = np.radians(c.current_direction_deg + c.current_direction_spread_deg * (2 * u_ep[:, N + 1] - 1))
-        clock_u = u_ep[:, N + 2:].reshape(B, S, N)
+    def _water_and_clocks(self, ep: EpisodeDraws) -> dict:
+        """The episode's water (temperature, current) and the OWTT clocks of the initial state."""
+        c = self.config
+        cur_speed = np.maximum(c.current_speed_mps + c.current_speed_spread_mps * (2 * ep.u_current[:, 0] - 1), 0.0)
+        cur_dir = np.radians(c.current_direction_deg + c.current_direction_spread_deg * (2 * ep.u_current[:, 1] - 1))
+        return {
+            "clock_offset_s": c.clock_offset_std_s * ep.n_clock,
+            "clock_drift": c.clock_drift_ppm * 1e-6 * (2 * ep.u_clock - 1),
+            "temperature_c": c.water_temperature_c + c.temperature_uncertainty_c * ep.nw[:, 0],
+            "current_mean": cur_speed * bearing_to_unit(cur_dir),
+            "current_gm": c.current_gm_std_mps * (ep.nw[:, 1] + 1j * ep.nw[:, 2])}
 
-        k_P = np.broadcast_to(P0[:, None, :, :2, :2], (B, N, S, 2, 2)).copy()
-        return SimState(
-            t_s=np.zeros(B), cycle=np.zeros(B, dtype=np.int64), keys=keys,
-            ep_variant=variant, ep_noise_scale=noise_scale,
-            s_pos=start.copy(), s_heading=heading, s_speed_model_mps=speed0,
-            s_speed_scale=1.0 + c.survey_speed_scale_error_std * noise_scale[:, None] * ns[..., 2],
-            s_thrust_n=thrust, s_compass_bias_rad=np.radians(c.compass_bias_std_deg) * noise_scale[:, None] * ns[..., 3],
-            s_vel_true=np.zeros((B, S, 3)), s_vel_est=np.zeros((B, S, 3)),
-            s_waypoints=wp, s_n_waypoints=self._n_wp[variant],
-            s_wp_index=np.ones((B, S), dtype=np.int64),
-            s_hover=hover, s_done=np.zeros((B, S), dtype=bool),
-            s_est=est, s_P=P0, s_dr=est.copy(), s_last_range_t_s=np.zeros((B, S)),
-            s_rejected_streak=np.zeros((B, S), dtype=np.int64),
-            s_current_est=np.zeros((B, S), dtype=complex),
-            b_pos=b_pos, b_heading=b_heading, b_vel=np.zeros((B, N, 3)), b_nav_err=b_err,
-            b_nav_var_m2=np.broadcast_to(b_std0 ** 2, (B, N)).copy(),
-            b_walk_var_m2=np.broadcast_to(b_std0 ** 2, (B, N)).copy(), b_unlocked_s=np.zeros((B, N)),
-            b_dvl_lock=np.ones((B, N), dtype=bool),
-            b_current_err=c.beacon_current_estimate_error_mps * (nb[..., 2] + 1j * nb[..., 3]),
-            b_dvl_scale_error=c.beacon_dvl_scale_error_std * n_dvl[..., 0],
-            b_dvl_heading_bias_rad=np.radians(c.beacon_dvl_heading_bias_std_deg) * n_dvl[..., 1],
-            b_dvl_heading_phase_rad=2.0 * np.pi * rng.uniform(keys, rng.STREAM_EPISODE + 301, zero, (N,)),
-            b_travelled_m=np.zeros((B, N)),
-            b_fix_est=(b_pos[..., 0] + b_err[..., 0]) + 1j * (b_pos[..., 1] + b_err[..., 1]),
-            b_since_fix_s=np.zeros((B, N)), b_surfacings=np.zeros((B, N), dtype=np.int64),
-            b_pings=np.zeros((B, N), dtype=np.int64), b_collisions=np.zeros((B, N), dtype=np.int64),
-            b_energy_j=np.zeros((B, N)),
-            clock_offset_s=c.clock_offset_std_s * n_clock,
-            clock_drift=c.clock_drift_ppm * 1e-6 * (2 * clock_u - 1),
-            temperature_c=c.water_temperature_c + c.temperature_uncertainty_c * nw[:, 0],
-            current_mean=cur_speed * bearing_to_unit(cur_dir),
-            current_gm=c.current_gm_std_mps * (nw[:, 1] + 1j * nw[:, 2]),
-            k_est=np.broadcast_to(est[:, None], (B, N, S, 3)).copy(), k_P=k_P,
-            k_wp_index=np.ones((B, N, S), dtype=np.int64), k_age_s=np.zeros((B, N, S)),
-            k_range_age_s=np.zeros((B, N, S)),
-            k_peer=np.broadcast_to((b_pos + b_err)[:, None], (B, N, N, 3)).copy(),
-        )
+    def _knowledge_start(self, survey: dict, beacons: dict) -> dict:
+        """What each beacon knows at the start (``SimState.k_*``): every survey vehicle's
+        initial estimate and covariance, every peer's initial position estimate."""
+        est, P0 = survey["s_est"], survey["s_P"]
+        B, N, S = est.shape[0], self.N, self.S
+        return {
+            "k_est": np.broadcast_to(est[:, None], (B, N, S, 3)).copy(),
+            "k_P": np.broadcast_to(P0[:, None, :, :2, :2], (B, N, S, 2, 2)).copy(),
+            "k_wp_index": np.ones((B, N, S), dtype=np.int64), "k_age_s": np.zeros((B, N, S)),
+            "k_range_age_s": np.zeros((B, N, S)),
+            "k_peer": np.broadcast_to((beacons["b_pos"] + beacons["b_nav_err"])[:, None], (B, N, N, 3)).copy()}
 
     def _cycle_draws(self, cycle) -> dict:
         """This cycle's random numbers for every environment, by purpose: name -> (B, *shape)."""
@@ -237,67 +306,102 @@ class Simulator(BatchSimulator):
     def step(self, actions: np.ndarray) -> StepResult:
         """Advance every environment one acoustic cycle. actions: (B, N, 2) finite; with
         ``channel_mode="decide"`` (B, N, 3), the third component > 0 to transmit this
-        slot (a (B, N, 2) action transmits every slot, the fixed clock)."""
-        c, st = self.config, self.state
-        B, S, N, K = self.batch_size, self.S, self.N, self.K
-        dt, T = c.substep_s, c.ping_interval_s
-        cyc = st.cycle
-        draws = self._cycle_draws(cyc)
-        transmit = self.channel.transmit_mask(actions, cyc) if self.channel is not None else None
+        slot (a (B, N, 2) action transmits every slot, the fixed clock). The numbered
+        steps are the module docstring's."""
+        st = self.state
+        draws = self._cycle_draws(st.cycle)
+        transmit = self.channel.transmit_mask(actions, st.cycle) if self.channel is not None else None
+        # 1. beacon motion over the cycle
+        moved = self._move_beacons(actions)
+        # 2. survey sub-steps; the beacons' own navigation; the current; the clock
+        self._integrate_survey(draws)
+        self._beacon_navigation(draws, moved)
+        self._advance_water_and_clock(draws)
+        # 3. EKF prediction (eq. 6), depth and GPS
+        out = self._predict_depth_gps(draws)
+        logdet_before = logdet_horizontal(st.s_P)
+        # 4. acoustic ranging (eqs. 7-13)
+        ping = self._acoustic_ranging(draws, out, transmit)
+        logdet_after = logdet_horizontal(st.s_P)
+        # 5. replies: survey -> beacons, beacon -> beacons
+        self._replies(draws, out, transmit, ping)
+        # 6. reward terms, ends, infos
+        reward, terms = self._reward(out, transmit, (logdet_before - logdet_after).sum(-1))
+        terminated, truncated = self._ends()
+        return StepResult(self.observe(), reward, terminated, truncated, self._step_info(out, logdet_after), terms,
+                          self._beacon_info())
 
-        # 1. beacon motion over the cycle -------------------------------------------------
+    def _move_beacons(self, actions: np.ndarray) -> np.ndarray:
+        """Step 1: the beacons follow their commanded velocity through the sub-steps;
+        returns their true horizontal displacement over the cycle, complex (B, N)."""
+        st = self.state
         b_start = st.b_pos[..., 0] + 1j * st.b_pos[..., 1]
         self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions), self._beacon_turn_cos,
-                        self._beacon_turn_sin, K, dt)
+                        self._beacon_turn_sin, self.K, self.config.substep_s)
+        return st.b_pos[..., 0] + 1j * st.b_pos[..., 1] - b_start
 
-        # 2. survey sub-steps ---------------------------------------------------------
-        self._integrate_survey(draws)
-
-        # beacon navigation: DVL (or its fallback) for AUVs, GPS for ASVs
-        self._beacon_navigation(draws, st.b_pos[..., 0] + 1j * st.b_pos[..., 1] - b_start)
-
-        # the current's slowly varying part, exact over the cycle
+    def _advance_water_and_clock(self, draws: dict) -> None:
+        """Step 2's end: the current's slowly varying part, exact over the cycle; the clock."""
+        c, st = self.config, self.state
+        T = c.ping_interval_s
         n_cur = draws["current"]
         st.current_gm = gauss_markov_step(st.current_gm, T, c.current_gm_time_constant_s, c.current_gm_std_mps,
                                           n_cur[:, 0] + 1j * n_cur[:, 1])
         st.t_s = st.t_s + T
-        st.cycle = cyc + 1
+        st.cycle = st.cycle + 1
 
-        # 3. EKF prediction over the cycle (eq. 6, F = I, Q accumulated), depth and GPS
+    def _predict_depth_gps(self, draws: dict) -> measurements.FusionOutputs:
+        """Step 3: every survey EKF predicted over the cycle (eq. 6, F = I, Q accumulated),
+        then depth and (at the surface) GPS fused. Returns the cycle's fusion outputs,
+        NaN readings counted so far."""
+        st = self.state
+        B, N, S = self.batch_size, self.N, self.S
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
-        nan_count = np.zeros((B, S), dtype=np.int64)
-        self._k_depth_gps(st.s_est, st.s_P, st.s_pos, draws["sensor_n"], draws["sensor_u"], nan_count,
-                          c.depth_noise_m, c.gps_noise_m, c.gps_max_depth_m, c.sensor_nan_probability)
-        logdet_before = logdet_horizontal(st.s_P)
-
-        # 4. acoustic ranging --------------------------------------------------------
         fused = np.zeros((B, N, S), dtype=bool)
         out = measurements.FusionOutputs(fused=fused, rejected=np.zeros_like(fused), lost=np.zeros_like(fused),
-                                         nan_count=nan_count, restarts=np.zeros((B, S), dtype=np.int64))
+                                         nan_count=np.zeros((B, S), dtype=np.int64),
+                                         restarts=np.zeros((B, S), dtype=np.int64))
+        self._k_depth_gps(survey_view(st), draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params)
+        return out
+
+    def _acoustic_ranging(self, draws: dict, out: measurements.FusionOutputs, transmit):
+        """Step 4: the survey vehicles' acoustic sensor fuses what arrived (``out`` filled).
+        With the shared channel only the pings it delivers are measured; returns the
+        channel's ping resolution (delivered (B, N, S), the whole slot) or None."""
         if self.channel is None:
             self.sensor.fuse(draws, out)
-        else:  # the shared channel: only the pings it delivers are measured
-            ping_ok, ping_slot = self.channel.pings(transmit)
-            self.sensor.fuse(draws, out, heard=ping_ok)
-        logdet_after = logdet_horizontal(st.s_P)
+            return None
+        ping_ok, ping_slot = self.channel.pings(transmit)
+        self.sensor.fuse(draws, out, heard=ping_ok)
+        return ping_ok, ping_slot
 
-        # 5. replies: survey -> beacons, beacon -> beacons ---------------------------------
+    def _replies(self, draws: dict, out: measurements.FusionOutputs, transmit, ping) -> None:
+        """Step 5: the survey vehicles' replies and the beacons' positions reach the beacons
+        (or are lost); on the shared channel a survey vehicle replies once per slot if it
+        decoded a ping (core/channel.py), and the beacons' pings, collisions and energy
+        are counted."""
+        st = self.state
         if self.channel is None:
             self._exchange_messages(draws)
-        else:  # a survey vehicle replies once per slot if it decoded a ping (core/channel.py)
-            replied = (ping_ok & ~out.lost).any(1)
-            reply_ok, peer_ok, _ = self.channel.replies(transmit, replied)
-            self.channel.exchange(draws, reply_ok, peer_ok)
-            st.b_pings = transmit.astype(np.int64)
-            st.b_collisions = ping_slot[2][:, :N, N:].sum(-1).astype(np.int64)
-            st.b_energy_j = transmit * self.channel.ping_energy_j
+            return
+        ping_ok, ping_slot = ping
+        replied = (ping_ok & ~out.lost).any(1)
+        reply_ok, peer_ok, _ = self.channel.replies(transmit, replied)
+        self.channel.exchange(draws, reply_ok, peer_ok)
+        st.b_pings = transmit.astype(np.int64)
+        st.b_collisions = ping_slot[2][:, :self.N, self.N:].sum(-1).astype(np.int64)
+        st.b_energy_j = transmit * self.channel.ping_energy_j
 
-        # 6. reward terms, ends, infos ------------------------------------------------
-        info_gain = (logdet_before - logdet_after).sum(-1)  # (B,)
+    # ---- reward terms: assembled here only; core/reward.py weighs them -------------
+    def _reward(self, out: measurements.FusionOutputs, transmit, info_gain: np.ndarray):
+        """Step 6: the named reward terms (B, N) and their weighted sum. ``info_gain`` (B,):
+        the drop of the survey filters' log det over the acoustic updates."""
+        c, st = self.config, self.state
+        B, N = self.batch_size, self.N
         dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
         fe0, fn0, fe1, fn1 = c.geofence_m
         outside = (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
-        no_contact = ~fused.any(-1)  # (B,N): none of this beacon's ranges fused
+        no_contact = ~out.fused.any(-1)  # (B,N): none of this beacon's ranges fused
         heard = self.sensor.heard_mask(st.cycle - 1) if transmit is None else transmit  # who could be heard
         if heard is not None:  # only this cycle's senders can be heard
             no_contact &= heard
@@ -309,26 +413,33 @@ class Simulator(BatchSimulator):
         if self.channel is not None:
             arrays["ping"] = transmit.astype(float)
         ctx = TermContext(sim=self, config=c, state=st, arrays={
-            "fused": fused, "rejected": out.rejected, "lost": out.lost, "transmit": transmit, "dist": dist,
-            "logdet_before": logdet_before, "logdet_after": logdet_after})
+            "fused": out.fused, "rejected": out.rejected, "lost": out.lost, "transmit": transmit, "dist": dist,
+            "info_gain": info_gain})
         terms = collect_terms(self.reward_terms, arrays, ctx, (B, N))
+        return weighted_reward(terms, self.reward_weights), terms
 
+    def _ends(self):
+        """Step 6: terminated (every survey path finished, or the mission time is up) and
+        truncated (the cycle limit), (B,) each."""
+        c, st = self.config, self.state
         terminated = st.s_done.all(-1)
         if c.mission_duration_s > 0:
             terminated |= st.t_s >= c.mission_duration_s - 1e-9
         truncated = (st.cycle >= c.max_cycles) & ~terminated
+        return terminated, truncated
 
+    def _step_info(self, out: measurements.FusionOutputs, logdet_after: np.ndarray) -> dict:
+        """Step 6: the infos of ``INFO_KEYS``, (B, S, ...) each."""
         info = {
             **self._state_info(logdet_after),
-            "range_ok": fused.any(1),
-            "ranges_fused": fused.sum(1),
+            "range_ok": out.fused.any(1),
+            "ranges_fused": out.fused.sum(1),
             "outliers_rejected": out.rejected.sum(1),
-            "nan_rejected": nan_count,
+            "nan_rejected": out.nan_count,
             "packets_lost": out.lost.sum(1),
             "filter_restarts": out.restarts,
         }
-        return StepResult(self.observe(), weighted_reward(terms, self.reward_weights), terminated, truncated,
-                          {k: info[k] for k in INFO_KEYS}, terms, self._beacon_info())
+        return {k: info[k] for k in INFO_KEYS}
 
     def _state_info(self, logdet=None) -> dict:
         """The infos that follow from the state: true horizontal errors of the filter and
@@ -362,17 +473,13 @@ class Simulator(BatchSimulator):
                         waypoints_m=st.s_waypoints.copy(), n_waypoints=st.s_n_waypoints.copy())
 
     # ------------------------------------------------------------------------------
-    def _integrate_survey(self, draws):
+    def _integrate_survey(self, draws: dict) -> None:
+        """Step 2: the survey vehicles through the sub-steps (``substeps.integrate_survey``):
+        guidance, eq. (1), the true motion and the dead reckoning of eq. (4)."""
         c, st = self.config, self.state
-        dt = c.substep_s
         noise = draws["substep"] * st.ep_noise_scale[:, None, None, None]  # (B,K,2,S): compass, pitch
-        self._k_survey(st.s_pos, st.s_est, st.s_dr, st.s_heading, st.s_wp_index, st.s_done, st.s_vel_true,
-                       st.s_vel_est, st.s_speed_model_mps, st.s_waypoints, st.s_n_waypoints, st.s_hover, st.s_thrust_n,
-                       st.s_speed_scale, self._drag_k, c.survey_mass_kg, st.s_compass_bias_rad,
-                       np.radians(c.compass_noise_deg) * noise[:, :, 0], np.radians(c.attitude_noise_deg) * noise[:, :, 1],
-                       st.current_mean + st.current_gm, st.s_current_est, dt, c.los_alpha, c.waypoint_acceptance_m,
-                       self._survey_turn_cos, self._survey_turn_sin, np.radians(c.survey_max_pitch_deg),
-                       c.survey_depth_gain_per_m)
+        self._k_survey(survey_view(st), np.radians(c.compass_noise_deg) * noise[:, :, 0],
+                       np.radians(c.attitude_noise_deg) * noise[:, :, 1], st.current_mean + st.current_gm, self.params)
 
     def _beacon_navigation(self, draws, moved):
         """The beacons' own navigation over the cycle; ``moved`` (B,N) complex: their true
@@ -430,23 +537,18 @@ class Simulator(BatchSimulator):
         st.b_surfacings = surface.astype(np.int64)
         st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag
 
-    def _exchange_messages(self, draws):
-        c, st = self.config, self.state
-        self._k_messages(st.s_pos, st.s_est, st.s_P, st.s_wp_index, st.s_last_range_t_s, st.b_pos,
-                         st.b_pos + st.b_nav_err, st.t_s, draws["message_u"], self._all_replies, self._all_peers,
-                         st.k_est, st.k_P, st.k_wp_index,
-                         st.k_age_s, st.k_range_age_s, st.k_peer, c.ping_interval_s, c.packet_loss_near,
-                         c.packet_loss_far, c.max_range_m)
+    def _exchange_messages(self, draws: dict) -> None:
+        """Step 5 on the fixed clock: replies and positions, lost only at random."""
+        st = self.state
+        self._k_messages(survey_view(st), beacon_view(st), knowledge_view(st), st.t_s, draws["message_u"],
+                         self._all_replies, self._all_peers, self.params)
 
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
         """What each beacon could know, normalized: (B, N, obs_dim). Layout: core/observation.py."""
-        c, st = self.config, self.state
+        st = self.state
         out = np.empty((self.batch_size, self.N, self.obs_dim))
-        self._k_observe(st.b_pos, st.b_nav_err, st.b_vel, st.b_heading, st.b_nav_var_m2, st.k_est, st.k_P,
-                        st.k_wp_index, st.k_age_s, st.k_range_age_s, st.k_peer, st.s_waypoints, st.s_n_waypoints,
-                        self._beacon_max_speed, self._fence_center, c.position_scale_m, c.ping_interval_s,
-                        c.observed_waypoints, out)
+        self._k_observe(beacon_view(st), knowledge_view(st), survey_view(st), self.params, out)
         return out.astype(np.float32)
 
     def global_state(self) -> np.ndarray:
@@ -455,7 +557,7 @@ class Simulator(BatchSimulator):
         B = self.batch_size
         L = c.position_scale_m
         major, minor, bearing = error_ellipse(st.s_P)
-        fc = np.append(self._fence_center, 0.0)
+        fc = np.append(self.params.fence_center, 0.0)
         survey = np.concatenate([
             (st.s_pos - fc) / L, (st.s_est - fc) / L,
             major[..., None] / 50.0, minor[..., None] / 50.0,

@@ -34,18 +34,18 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 DrawSpec = tuple  # (purpose, "normal" | "uniform", shape_fn(S, N, K) -> tuple)
 
 
-@dataclass
-class FusionOutputs:
+class FusionOutputs(NamedTuple):
     """What a cycle's acoustic fusion reports, for the infos and the reward: flags per
     (B, N, S) fused / rejected by the gate / lost, and per (B, S) NaN readings and
-    filter restarts."""
+    filter restarts. A named record, so the fusion kernels take it as one argument and
+    write its arrays in place."""
 
     fused: np.ndarray
     rejected: np.ndarray

@@ -14,59 +14,84 @@ sender's position variance) and the bearing, whose residual is wrapped to
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, prange
 
+from ..contract import BatchSimulator
+from ..kernel_records import beacon_view, survey_view
 from ..navigation import gated_update, gated_update_residual, range_prediction
+from . import FusionOutputs
 
 NOT_SENT, NOT_HEARD, HEARD = 0, 1, 2
 
 
 @njit(cache=True)
-def bearing_residual(z, h):
+def bearing_residual(z: float, h: float) -> float:
     """A bearing's innovation z - h wrapped to [-pi, pi)."""
     return (z - h + np.pi) % (2.0 * np.pi) - np.pi
 
 
-def _fuse(est, P, s_vel_est, b_est, b_var, state, range_m, bearing_rad, range_var, bearing_var, t_s, gate,
-          last_range_t_s, fused, rejected, lost):
-    """Fuse this cycle's MLS measurements, in place. state (B,N,S): NOT_SENT, NOT_HEARD
-    or HEARD; range_m, bearing_rad (world, clockwise from north) and their variances."""
-    B, N, S = b_est.shape[0], b_est.shape[1], est.shape[1]
+class MLSMeasurement(NamedTuple):
+    """One cycle's MLS measurements, (B, N, S) each: whether sent and heard
+    (NOT_SENT, NOT_HEARD or HEARD), the range (m), the world bearing (rad, clockwise
+    from north) and their variances."""
+
+    state: np.ndarray
+    range_m: np.ndarray
+    bearing_rad: np.ndarray
+    range_var: np.ndarray
+    bearing_var: np.ndarray
+
+
+@njit(cache=True, inline="always")
+def _bearing_update(sv, bv, m, b, s, j, gate, H):
+    """The bearing of sender j at survey vehicle s, gated and fused with its residual
+    wrapped (h = atan2(east, north) of sender - survey, and its Jacobian H); returns
+    whether it was fused."""
+    de = bv.est[b, j, 0] - sv.est[b, s, 0]
+    dn = bv.est[b, j, 1] - sv.est[b, s, 1]
+    rho2 = max(de * de + dn * dn, 1e-6)
+    hb = np.arctan2(de, dn)
+    H[0] = -dn / rho2  # d bearing / d survey east
+    H[1] = de / rho2
+    H[2] = 0.0
+    R = m.bearing_var[b, j, s] + bv.nav_var[b, j] / rho2
+    y = bearing_residual(m.bearing_rad[b, j, s], hb)
+    return gated_update_residual(sv.est[b, s], sv.P[b, s], y, H, R, gate)
+
+
+def _fuse(sv, bv, m, t_s, gate, out):
+    """Fuse this cycle's MLS measurements m (``MLSMeasurement``), in place: sv.est, P,
+    last_range_t_s (``kernel_records.SurveyView``) and the flags of out (``FusionOutputs``);
+    bv: ``kernel_records.BeaconView`` (the senders' own estimates and variances); t_s (B,)."""
+    B, N, S = bv.est.shape[0], bv.est.shape[1], sv.est.shape[1]
     for b in prange(B):
         delays = np.zeros(1)
         H = np.zeros(3)
         for s in range(S):
             any_fused = False
             for j in range(N):
-                if state[b, j, s] == NOT_SENT:
+                if m.state[b, j, s] == NOT_SENT:
                     continue
-                if state[b, j, s] == NOT_HEARD:
-                    lost[b, j, s] = True
+                if m.state[b, j, s] == NOT_HEARD:
+                    out.lost[b, j, s] = True
                     continue
-                h, Hr = range_prediction(est[b, s], s_vel_est[b, s], delays, b_est[b, j])
-                if gated_update(est[b, s], P[b, s], range_m[b, j, s], h, Hr, range_var[b, j, s] + b_var[b, j], gate):
-                    fused[b, j, s] = True
+                h, Hr = range_prediction(sv.est[b, s], sv.vel_est[b, s], delays, bv.est[b, j])
+                if gated_update(sv.est[b, s], sv.P[b, s], m.range_m[b, j, s], h, Hr,
+                                m.range_var[b, j, s] + bv.nav_var[b, j], gate):
+                    out.fused[b, j, s] = True
                     any_fused = True
                 else:
-                    rejected[b, j, s] = True
-                # the bearing h = atan2(east, north) of sender - survey, and its Jacobian
-                de = b_est[b, j, 0] - est[b, s, 0]
-                dn = b_est[b, j, 1] - est[b, s, 1]
-                rho2 = max(de * de + dn * dn, 1e-6)
-                hb = np.arctan2(de, dn)
-                H[0] = -dn / rho2  # d bearing / d survey east
-                H[1] = de / rho2
-                H[2] = 0.0
-                R = bearing_var[b, j, s] + b_var[b, j] / rho2
-                y = bearing_residual(bearing_rad[b, j, s], hb)
-                if gated_update_residual(est[b, s], P[b, s], y, H, R, gate):
-                    fused[b, j, s] = True
+                    out.rejected[b, j, s] = True
+                if _bearing_update(sv, bv, m, b, s, j, gate, H):
+                    out.fused[b, j, s] = True
                     any_fused = True
                 else:
-                    rejected[b, j, s] = True
+                    out.rejected[b, j, s] = True
             if any_fused:
-                last_range_t_s[b, s] = t_s[b]
+                sv.last_range_t_s[b, s] = t_s[b]
 
 
 fuse_kernel = njit(cache=True)(_fuse)
@@ -76,7 +101,7 @@ fuse_kernel_parallel = njit(cache=True, parallel=True)(_fuse)
 class MLSArray:
     """The MLS model of one simulator: the sensor (built once, ~0.2 s) and the kernel."""
 
-    def __init__(self, sim):
+    def __init__(self, sim: BatchSimulator):
         from ..mls import MLSConfig, MLSSensor
 
         c = sim.config
@@ -86,12 +111,12 @@ class MLSArray:
                                           depth_m=c.depth_m))
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
 
-    def heard_mask(self, cycle) -> np.ndarray:
+    def heard_mask(self, cycle: np.ndarray) -> np.ndarray:
         """(B, N): the beacon whose turn it is to send in ``cycle`` (round robin)."""
         N = self.sim.N
         return (cycle % N)[:, None] == np.arange(N)[None, :]
 
-    def measure(self, draws):
+    def measure(self, draws: dict) -> MLSMeasurement:
         """This cycle's sending event: state (B,N,S), range, world bearing and their variances."""
         from ..mls import wrap_angle_rad
 
@@ -128,14 +153,14 @@ class MLSArray:
         bearing = compass - az  # a sender to port (positive azimuth) has a smaller bearing
         state = np.where(sends[..., None], np.where(heard, HEARD, NOT_HEARD)[:, None, :], NOT_SENT).astype(np.int8)
         bcast = lambda a: np.broadcast_to(a[:, None, :], shape).copy()  # noqa: E731
-        return state, bcast(rng_m), bcast(bearing), bcast(var_r), bcast(var_az + compass_std ** 2)
+        return MLSMeasurement(state, bcast(rng_m), bcast(bearing), bcast(var_r), bcast(var_az + compass_std ** 2))
 
-    def fuse(self, draws, out):
+    def fuse(self, draws: dict, out: FusionOutputs) -> None:
+        """Measure this cycle's sender and fuse its range and bearing (``_fuse``)."""
         st = self.sim.state
-        state, rng_m, bearing, var_r, var_b = self.measure(draws)
-        self.kernel(st.s_est, st.s_P, st.s_vel_est, st.b_pos + st.b_nav_err, st.b_nav_var_m2, state, rng_m, bearing,
-                    var_r, var_b, st.t_s, self.sim.gate, st.s_last_range_t_s, out.fused, out.rejected, out.lost)
+        self.kernel(survey_view(st), beacon_view(st), self.measure(draws), st.t_s, self.sim.gate, out)
 
 
-def build(sim):
+def build(sim: BatchSimulator) -> MLSArray:
+    """The MLS model of simulator ``sim`` (``measurements.build``)."""
     return MLSArray(sim)

@@ -13,16 +13,22 @@ with innovations of one sign the filter restarts from the range
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, prange
 
 from ..acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
+from ..contract import BatchSimulator
+from ..kernel_records import beacon_view, survey_view
 from ..navigation import gated_update, range_prediction, reinit_on_range
+from . import FusionOutputs
 
 
 @njit(cache=True)
-def modem_range(s_pos, s_vel_true, b_pos, b_vel, c_true, c_assumed, jitter_s, n, two_way, turnaround_s, clock_s,
-                delays):
+def modem_range(s_pos: np.ndarray, s_vel_true: np.ndarray, b_pos: np.ndarray, b_vel: np.ndarray, c_true: float,
+                c_assumed: float, jitter_s: float, n: float, two_way: bool, turnaround_s: float, clock_s: float,
+                delays: np.ndarray) -> float:
     """The range a modem measures between a beacon and a survey vehicle (m), from the
     time of flight between the moving vehicles at the true sound speed, turned back
     into a range with the assumed one; ``delays`` gets the legs' times for the
@@ -51,7 +57,8 @@ def modem_range(s_pos, s_vel_true, b_pos, b_vel, c_true, c_assumed, jitter_s, n,
 
 
 @njit(cache=True)
-def modem_range_variance(detection_std_m, two_way, beacon_var_m2, predicted_range_m, sound_speed_rel_std):
+def modem_range_variance(detection_std_m: float, two_way: bool, beacon_var_m2: float, predicted_range_m: float,
+                         sound_speed_rel_std: float) -> float:
     """R of a modem range (m^2): the ranging noise (``acoustics.ranging_variance_m2``),
     the beacon's own horizontal position variance (below Gao & Chitre eq. 7), and the
     sound speed's relative uncertainty as a scale error of the predicted range."""
@@ -59,103 +66,152 @@ def modem_range_variance(detection_std_m, two_way, beacon_var_m2, predicted_rang
     return ranging_variance_m2(detection_std_m, two_way) + beacon_var_m2 + scale * scale
 
 
-def _fuse(est, P, s_pos, s_vel_true, s_vel_est, b_pos, b_vel, b_est, b_var, temperature_c, t_s, clock_offset_s,
-          clock_drift, acoustic_n, acoustic_u, current_sent, sends_current, current_est, last_range_t_s,
-          rejected_streak, range_noise_std_m, params, heard, fused, rejected, lost, nan_count, restarts):
+class ModemParams(NamedTuple):
+    """The modem model's scenario constants (built once per simulator)."""
+
+    reinit_after: int  # reinit_after_rejected_ranges (0: never restart)
+    two_way: bool  # ranging_mode == "twtt"
+    turnaround_s: float
+    max_range_m: float
+    loss_near: float  # packet_loss_near
+    loss_far: float  # packet_loss_far
+    outlier_probability: float
+    outlier_mean_excess_m: float
+    nan_probability: float  # sensor_nan_probability
+    nominal_temperature_c: float  # water_temperature_c: the sound speed the vehicles assume
+    salinity_psu: float
+    temperature_uncertainty_c: float
+    gate: float  # the chi-square gate (Simulator.gate)
+    sends_current: np.ndarray  # (N,) bool: the beacon's ping carries its current estimate
+
+
+class ModemCycle(NamedTuple):
+    """One cycle's inputs of the modem model besides the vehicles' state."""
+
+    t_s: np.ndarray  # time (B,)
+    temperature_c: np.ndarray  # true water temperature (B,)
+    clock_offset_s: np.ndarray  # OWTT clock offset survey - beacon at t=0 (B,S,N)
+    clock_drift: np.ndarray  # (B,S,N)
+    range_noise_std_m: np.ndarray  # (B,): domain randomization scales it
+    current_sent: np.ndarray  # the current estimate each beacon sends, complex (B,N)
+    acoustic_n: np.ndarray  # (B,N,S,2) normals
+    acoustic_u: np.ndarray  # (B,N,S,4) uniforms: loss, outlier, its excess, NaN
+    heard: np.ndarray  # (B,N,S) bool: the pings the channel delivers
+
+
+@njit(cache=True, inline="always")
+def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
+    """Beacon j's ping at survey vehicle s of environment b: the measured range (m, by
+    ``modem_range``; ``delays`` filled), its loss probability (both legs for two-way)
+    and the sound speed's relative uncertainty."""
+    depth = 0.5 * (sv.pos[b, s, 2] + bv.pos[b, j, 2])
+    c_true = mackenzie_sound_speed(cyc.temperature_c[b], prm.salinity_psu, depth)
+    c_assumed = mackenzie_sound_speed(prm.nominal_temperature_c, prm.salinity_psu, depth)
+    dc_dT = mackenzie_sound_speed(prm.nominal_temperature_c + 1.0, prm.salinity_psu, depth) - c_assumed
+    jitter_s = cyc.range_noise_std_m[b] / c_assumed
+    dx = sv.pos[b, s, 0] - bv.pos[b, j, 0]
+    dy = sv.pos[b, s, 1] - bv.pos[b, j, 1]
+    dz = sv.pos[b, s, 2] - bv.pos[b, j, 2]
+    p_lost = packet_loss_probability(np.sqrt(dx * dx + dy * dy + dz * dz), prm.loss_near, prm.loss_far,
+                                     prm.max_range_m)
+    clock = cyc.clock_offset_s[b, s, j] + cyc.clock_drift[b, s, j] * cyc.t_s[b]
+    r = modem_range(sv.pos[b, s], sv.vel_true[b, s], bv.pos[b, j], bv.vel[b, j], c_true, c_assumed, jitter_s,
+                    cyc.acoustic_n[b, j, s, 0], prm.two_way, prm.turnaround_s, clock, delays)
+    if prm.two_way:
+        p_lost = 1.0 - (1.0 - p_lost) ** 2  # both legs must arrive
+    return r, p_lost, prm.temperature_uncertainty_c * dc_dT / c_assumed
+
+
+@njit(cache=True, inline="always")
+def _count_rejection(sv, out, b, s, r, h, H, R, prm):
+    """A range the gate rejected: the streak counts rejected ranges in a row whose
+    innovations share a sign (a filter that has drifted sees them all too long or all
+    too short; multipath outliers are too long only, between fused ranges): +k or -k.
+    After ``reinit_after`` of them the filter restarts from the range (lock-out)."""
+    sign = 1 if r > h else -1
+    streak = sv.rejected_streak[b, s]
+    sv.rejected_streak[b, s] = streak + sign if streak * sign >= 0 else sign
+    if (0 < prm.reinit_after <= abs(sv.rejected_streak[b, s])
+            and reinit_on_range(sv.est[b, s], sv.P[b, s], r, h, H, R)):
+        sv.rejected_streak[b, s] = 0  # locked out: restarted from this range
+        out.restarts[b, s] += 1
+
+
+@njit(cache=True, inline="always")
+def _fuse_ping(sv, bv, cyc, prm, out, b, s, j, delays):
+    """Beacon j's ping at survey vehicle s of environment b: lost, an outlier or NaN at
+    random, then gated and fused (eqs. 7-13), in place; returns whether it was fused."""
+    r, p_lost, sound_speed_rel_std = _ping_range(sv, bv, cyc, prm, b, s, j, delays)
+    u = cyc.acoustic_u[b, j, s]
+    if u[0] < p_lost:
+        out.lost[b, j, s] = True
+        return False
+    if u[1] < prm.outlier_probability:  # multipath: a longer path arrives
+        r += -prm.outlier_mean_excess_m * np.log(u[2])
+    if u[3] < prm.nan_probability:
+        r = np.nan
+    if prm.sends_current[j]:  # the ping carries the beacon's current estimate (Gao II-A)
+        sv.current_est[b, s] = cyc.current_sent[b, j]
+    if not np.isfinite(r):
+        out.nan_count[b, s] += 1
+        return False
+    h, H = range_prediction(sv.est[b, s], sv.vel_est[b, s], delays, bv.est[b, j])
+    R = modem_range_variance(cyc.range_noise_std_m[b], prm.two_way, bv.nav_var[b, j], h, sound_speed_rel_std)
+    if not gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R, prm.gate):
+        out.rejected[b, j, s] = True
+        _count_rejection(sv, out, b, s, r, h, H, R, prm)
+        return False
+    sv.rejected_streak[b, s] = 0
+    out.fused[b, j, s] = True
+    return True
+
+
+def _fuse(sv, bv, cyc, prm, out):
     """Every beacon j pings every survey vehicle s; what arrives is gated and fused, in
-    place (est, P, current_est, last_range_t_s, rejected_streak; the flags). ``params``:
-    the scenario's scalars in ``PARAMS`` order; range_noise_std_m (B,) per environment
-    (domain randomization scales it); ``heard`` (B, N, S) bool: the pings the channel
-    delivers (``core.channel``; all True on the fixed clock's free channel), the others
-    are neither measured nor counted lost."""
-    (reinit_after, two_way, turnaround_s, max_range_m, loss_near, loss_far, outlier_probability,
-     outlier_mean_excess_m, nan_probability, nominal_temperature_c, salinity_psu, temperature_uncertainty_c,
-     gate) = params
-    B, N, S = b_pos.shape[0], b_pos.shape[1], est.shape[1]
+    place (sv.est, P, current_est, last_range_t_s, rejected_streak; the flags and counts
+    of out, ``FusionOutputs``). sv, bv: ``kernel_records.SurveyView``, ``kernel_records.BeaconView``;
+    cyc: ``ModemCycle``, whose ``heard`` (B, N, S) are the pings the channel delivers
+    (``core.channel``; all True on the fixed clock's free channel), the others are
+    neither measured nor counted lost; prm: ``ModemParams``."""
+    B, N, S = bv.pos.shape[0], bv.pos.shape[1], sv.est.shape[1]
     for b in prange(B):
-        delays = np.zeros(2 if two_way else 1)
+        delays = np.zeros(2 if prm.two_way else 1)
         for s in range(S):
             any_fused = False
             for j in range(N):
-                if not heard[b, j, s]:
-                    continue
-                depth = 0.5 * (s_pos[b, s, 2] + b_pos[b, j, 2])
-                c_true = mackenzie_sound_speed(temperature_c[b], salinity_psu, depth)
-                c_assumed = mackenzie_sound_speed(nominal_temperature_c, salinity_psu, depth)
-                dc_dT = mackenzie_sound_speed(nominal_temperature_c + 1.0, salinity_psu, depth) - c_assumed
-                jitter_s = range_noise_std_m[b] / c_assumed
-                dx = s_pos[b, s, 0] - b_pos[b, j, 0]
-                dy = s_pos[b, s, 1] - b_pos[b, j, 1]
-                dz = s_pos[b, s, 2] - b_pos[b, j, 2]
-                p_lost = packet_loss_probability(np.sqrt(dx * dx + dy * dy + dz * dz), loss_near, loss_far,
-                                                 max_range_m)
-                clock = clock_offset_s[b, s, j] + clock_drift[b, s, j] * t_s[b]
-                r = modem_range(s_pos[b, s], s_vel_true[b, s], b_pos[b, j], b_vel[b, j], c_true, c_assumed, jitter_s,
-                                acoustic_n[b, j, s, 0], two_way, turnaround_s, clock, delays)
-                if two_way:
-                    p_lost = 1.0 - (1.0 - p_lost) ** 2  # both legs must arrive
-                u = acoustic_u[b, j, s]
-                if u[0] < p_lost:
-                    lost[b, j, s] = True
-                    continue
-                if u[1] < outlier_probability:  # multipath: a longer path arrives
-                    r += -outlier_mean_excess_m * np.log(u[2])
-                if u[3] < nan_probability:
-                    r = np.nan
-                if sends_current[j]:  # the ping carries the beacon's current estimate (Gao II-A)
-                    current_est[b, s] = current_sent[b, j]
-                if not np.isfinite(r):
-                    nan_count[b, s] += 1
-                    continue
-                h, H = range_prediction(est[b, s], s_vel_est[b, s], delays, b_est[b, j])
-                R = modem_range_variance(range_noise_std_m[b], two_way, b_var[b, j], h,
-                                         temperature_uncertainty_c * dc_dT / c_assumed)
-                if not gated_update(est[b, s], P[b, s], r, h, H, R, gate):
-                    rejected[b, j, s] = True
-                    # the streak counts rejected ranges in a row whose innovations share a sign (a
-                    # filter that has drifted sees them all too long or all too short; multipath
-                    # outliers are too long only, between fused ranges): +k or -k
-                    sign = 1 if r > h else -1
-                    streak = rejected_streak[b, s]
-                    rejected_streak[b, s] = streak + sign if streak * sign >= 0 else sign
-                    if (0 < reinit_after <= abs(rejected_streak[b, s])
-                            and reinit_on_range(est[b, s], P[b, s], r, h, H, R)):
-                        rejected_streak[b, s] = 0  # locked out: restarted from this range
-                        restarts[b, s] += 1
-                    continue
-                rejected_streak[b, s] = 0
-                fused[b, j, s] = True
-                any_fused = True
+                if cyc.heard[b, j, s] and _fuse_ping(sv, bv, cyc, prm, out, b, s, j, delays):
+                    any_fused = True
             if any_fused:
-                last_range_t_s[b, s] = t_s[b]
+                sv.last_range_t_s[b, s] = cyc.t_s[b]
 
 
 fuse_kernel = njit(cache=True)(_fuse)
 fuse_kernel_parallel = njit(cache=True, parallel=True)(_fuse)
 
-PARAMS = ("reinit_after_rejected_ranges", "two_way", "turnaround_s", "max_range_m", "packet_loss_near",
-          "packet_loss_far", "outlier_probability", "outlier_mean_excess_m", "sensor_nan_probability",
-          "water_temperature_c", "salinity_psu", "temperature_uncertainty_c", "gate")
+# ModemParams' scenario fields in order, by their config names
+CONFIG_FIELDS = ("reinit_after_rejected_ranges", "ranging_mode", "turnaround_s", "max_range_m", "packet_loss_near",
+                 "packet_loss_far", "outlier_probability", "outlier_mean_excess_m", "sensor_nan_probability",
+                 "water_temperature_c", "salinity_psu", "temperature_uncertainty_c")
 
 
 class ModemRanging:
     """The modem model of one simulator (its scalars gathered once)."""
 
-    def __init__(self, sim):
+    def __init__(self, sim: BatchSimulator):
         c = sim.config
-        named = {"two_way": c.ranging_mode == "twtt", "gate": float(sim.gate)}
-        self.params = tuple(named[k] if k in named else getattr(c, k) for k in PARAMS)
-        self.params = (int(self.params[0]), bool(self.params[1])) + tuple(float(v) for v in self.params[2:])
+        scalars = [getattr(c, k) for k in CONFIG_FIELDS]
+        self.params = ModemParams(int(scalars[0]), c.ranging_mode == "twtt", *(float(v) for v in scalars[2:]),
+                                  float(sim.gate), np.asarray(sim.sends_current, dtype=bool))
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
         self.sim = sim
         self._all_heard = None
 
-    def heard_mask(self, cycle):
+    def heard_mask(self, cycle: np.ndarray) -> np.ndarray | None:
         """(B, N): beacons that ping this cycle: all of them (None). With
         ``channel_mode="decide"`` the simulator masks by the beacons' transmit decisions."""
         return None
 
-    def fuse(self, draws, out, heard=None):
+    def fuse(self, draws: dict, out: FusionOutputs, heard: np.ndarray | None = None):
         """Fuse this cycle's ranges; ``heard`` (B, N, S): the pings the channel delivered
         (None: every ping, the fixed clock)."""
         sim = self.sim
@@ -164,13 +220,13 @@ class ModemRanging:
                 self._all_heard = np.ones((sim.batch_size, sim.N, sim.S), dtype=bool)
             heard = self._all_heard
         c, st = sim.config, sim.state
-        self.kernel(st.s_est, st.s_P, st.s_pos, st.s_vel_true, st.s_vel_est, st.b_pos, st.b_vel, st.b_pos + st.b_nav_err,
-                    st.b_nav_var_m2, st.temperature_c, st.t_s, st.clock_offset_s, st.clock_drift, draws["acoustic_n"],
-                    draws["acoustic_u"], st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err,
-                    sim.sends_current, st.s_current_est, st.s_last_range_t_s, st.s_rejected_streak,
-                    c.range_noise_std_m * st.ep_noise_scale, self.params, heard, out.fused, out.rejected, out.lost,
-                    out.nan_count, out.restarts)
+        cyc = ModemCycle(st.t_s, st.temperature_c, st.clock_offset_s, st.clock_drift,
+                         c.range_noise_std_m * st.ep_noise_scale,
+                         st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err,
+                         draws["acoustic_n"], draws["acoustic_u"], heard)
+        self.kernel(survey_view(st), beacon_view(st), cyc, self.params, out)
 
 
-def build(sim):
+def build(sim: BatchSimulator) -> ModemRanging:
+    """The modem model of simulator ``sim`` (``measurements.build``)."""
     return ModemRanging(sim)
