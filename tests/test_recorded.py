@@ -76,11 +76,13 @@ def test_recorded_episodes_replay(replay):
 
 SIMD_SCENARIOS = ("gao_lawnmower", "gao_sea", "matos_moving_lbl", "swarm_mls")
 SIMD_CHECK = """
-import importlib.util, json, sys
+import importlib.util, json
 import numpy as np
-sys.path.insert(0, {tests!r})
-from test_recorded import _recorder, close_enough
-rec = _recorder()
+spec = importlib.util.spec_from_file_location("test_recorded", {here!r})
+here = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(here)
+close_enough = here.close_enough
+rec = here._recorder()
 ref = np.load(rec.PATH)
 n = differ = beyond = 0
 for s in {scenarios!r}:
@@ -108,7 +110,7 @@ def test_another_simd_path_stays_within_the_tolerance():
     targets = [t for t in __cpu_dispatch__ if __cpu_features__.get(t)]
     if not targets:
         pytest.skip("this CPU runs numpy's baseline SIMD path only: no other path to compare")
-    code = SIMD_CHECK.format(tests=str(Path(__file__).resolve().parent), scenarios=SIMD_SCENARIOS)
+    code = SIMD_CHECK.format(here=str(Path(__file__).resolve()), scenarios=SIMD_SCENARIOS)
     env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=" ".join(targets))
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600,
                          cwd=Path(__file__).resolve().parent.parent)
