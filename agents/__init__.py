@@ -49,21 +49,42 @@ from pathlib import Path
 
 import numpy as np
 
-from .formats import (_TRUSTED, PickleRefused, PolicyFormatError, _check_trusted, _is_legacy, check_inside,  # noqa: F401
-                      refuse_pickle, trust_pickle)
 from . import safe_paths
-from .formats import safe_json as _safe_json, safe_yaml as _safe_yaml  # bounded reads: one-line refusals
+from .formats import (  # noqa: F401 - re-exported: agents._TRUSTED (tests), agents.refuse_pickle
+    _TRUSTED,
+    PickleRefused,
+    PolicyFormatError,
+    _check_trusted,
+    _is_legacy,
+    check_inside,
+    refuse_pickle,
+    trust_pickle,
+)
+from .formats import safe_json as _safe_json  # bounded reads: one-line refusals
+from .formats import safe_yaml as _safe_yaml
 from .policy import BatchPolicy, _trained_scenario
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
 # (model, normalization) of a run directory, in order of preference: the safe format,
 # then the old pickle-based one (refused unless trusted)
-RUN_FILES = (("best_model.safetensors", "best_vecnormalize.safetensors"),
-             ("model.safetensors", "vecnormalize.safetensors"))
+RUN_FILES = (
+    ("best_model.safetensors", "best_vecnormalize.safetensors"),
+    ("model.safetensors", "vecnormalize.safetensors"),
+)
 LEGACY_RUN_FILES = (("best_model.zip", "best_vecnormalize.pkl"), ("model.zip", "vecnormalize.pkl"))
 
-__all__ = ["DepthGatedPolicy", "PPOPolicy", "PickleRefused", "PolicyFormatError", "list_policies", "load",
-           "make_policy", "resolve", "trust_pickle"]
+__all__ = [
+    "DepthGatedPolicy",
+    "PPOPolicy",
+    "PickleRefused",
+    "PolicyFormatError",
+    "list_policies",
+    "load",
+    "make_policy",
+    "resolve",
+    "trust_pickle",
+]
+
 
 def list_policies() -> list:
     """Names of the policies shipped in agents/policies/."""
@@ -112,7 +133,7 @@ def _config_norm_obs(config_path) -> bool | None:
         return None
     if (record["args"].get("backend") or "sb3") != "sb3":
         return None
-    norm = ((record.get("hyperparameters") or {}).get("normalize") or {})
+    norm = (record.get("hyperparameters") or {}).get("normalize") or {}
     return bool(norm.get("norm_obs", True)) if isinstance(norm, dict) else None
 
 
@@ -125,7 +146,7 @@ def _model_norm_obs(model_path) -> bool | None:
 
         with safe_open(str(model_path), framework="np") as f:
             value = json.loads((f.metadata() or {}).get("coopnav", "{}")).get("norm_obs")
-    except Exception:  # noqa: BLE001 - a damaged file is reported when it is loaded
+    except Exception:  # a damaged file is reported when it is loaded
         return None
     return None if value is None else bool(value)
 
@@ -141,8 +162,10 @@ def _check_normalization(model, stats, config):
         said, why = _model_norm_obs(model), f"{model} records norm_obs: true"
     if said:
         missing = stats if stats is not None else Path(model).parent / "vecnormalize.safetensors"
-        raise PolicyFormatError(f"{missing} is missing, but the policy was trained on normalized observations "
-                                f"({why}): refused (it would act on unnormalized observations)")
+        raise PolicyFormatError(
+            f"{missing} is missing, but the policy was trained on normalized observations "
+            f"({why}): refused (it would act on unnormalized observations)"
+        )
     return None
 
 
@@ -159,13 +182,16 @@ def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
     path = Path(str(name_or_path))
     if path.suffix in (".zip", ".safetensors") and path.is_file():
         safe_paths.inside(path.parent, path.name, "model file")  # a link out of its folder: refused
-        stem = path.name[:-len(path.suffix)]
+        stem = path.name[: -len(path.suffix)]
         ext = ".pkl" if path.suffix == ".zip" else ".safetensors"
-        candidates = [path.with_name(stem + "_vecnormalize" + ext),
-                      path.with_name(("best_vecnormalize" if stem == "best_model" else "vecnormalize") + ext)]
+        candidates = [
+            path.with_name(stem + "_vecnormalize" + ext),
+            path.with_name(("best_vecnormalize" if stem == "best_model" else "vecnormalize") + ext),
+        ]
         stats = next((c for c in candidates if c.is_file()), candidates[-1])
-        config = next((d / "config.yml" for d in (path.parent, path.parent.parent) if (d / "config.yml").is_file()),
-                      None)
+        config = next(
+            (d / "config.yml" for d in (path.parent, path.parent.parent) if (d / "config.yml").is_file()), None
+        )
         for extra in (stats, config):
             if extra is not None and extra.exists():
                 safe_paths.inside(extra.parent, extra.name, "file")
@@ -184,8 +210,10 @@ def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
         directory = POLICY_DIR / name
         if not directory.is_dir():
             shipped = list_policies()
-            raise ValueError(f"no policy {name_or_path!r}: not a run directory, a model file or a shipped policy "
-                             f"(shipped: {', '.join(shipped) if shipped else 'none yet'})")
+            raise ValueError(
+                f"no policy {name_or_path!r}: not a run directory, a model file or a shipped policy "
+                f"(shipped: {', '.join(shipped) if shipped else 'none yet'})"
+            )
     safe_paths.check_tree(directory)  # nothing read from it may lead outside it
     if (directory / "gate.yml").is_file():  # two policies and a gate: DepthGatedPolicy
         return directory / "gate.yml", None, None
@@ -275,8 +303,7 @@ def load_model(model_path, device="cpu") -> LoadedModel:
         ppo = formats.legacy_model(model_path, device=device)
         return LoadedModel(ppo.policy, ppo.num_timesteps)
     spec, state, _ = formats.read_model(model_path)
-    return LoadedModel(formats.build_policy(spec, state, where=model_path, device=device),
-                       spec.get("num_timesteps", 0))
+    return LoadedModel(formats.build_policy(spec, state, where=model_path, device=device), spec.get("num_timesteps", 0))
 
 
 def load_stats(stats_path) -> dict | None:
@@ -302,8 +329,7 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
         return rllib_policy.load(name_or_path, scenario=scenario, device=device, trust_pickle=trust_pickle)
     model_path, stats_path, config_path = resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     if model_path.name == "gate.yml":
-        return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name,
-                           trust_pickle=trust_pickle)
+        return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name, trust_pickle=trust_pickle)
     model = load_model(model_path, device=device)
     obs_rms, clip_obs, epsilon = None, 10.0, 1e-8
     stats = load_stats(stats_path)
@@ -317,11 +343,20 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
         if not isinstance(run_config, dict):
             raise PolicyFormatError(f"{config_path}: expected a mapping (a train.py run record)")
         trained_config = _trained_scenario(run_config)
-    policy = PPOPolicy(model, obs_rms, clip_obs, epsilon, config=trained_config, run_config=run_config,
-                       name=Path(str(name_or_path)).name)
+    policy = PPOPolicy(
+        model,
+        obs_rms,
+        clip_obs,
+        epsilon,
+        config=trained_config,
+        run_config=run_config,
+        name=Path(str(name_or_path)).name,
+    )
     if obs_rms is not None and obs_rms.mean.shape != (policy.obs_dim,):
-        raise PolicyFormatError(f"{stats_path}: normalization of shape {obs_rms.mean.shape} does not fit the "
-                                f"network's observations ({policy.obs_dim},)")
+        raise PolicyFormatError(
+            f"{stats_path}: normalization of shape {obs_rms.mean.shape} does not fit the "
+            f"network's observations ({policy.obs_dim},)"
+        )
     if scenario is not None:
         from coopnav_env.obs_layout import obs_dim
         from coopnav_env.scenarios import make_config
@@ -329,11 +364,14 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
         target = make_config(scenario) if isinstance(scenario, str) else scenario
         dim = obs_dim(target)
         if dim != policy.obs_dim:
-            raise ValueError(f"policy {name_or_path!r} takes observations of size {policy.obs_dim}; "
-                             f"scenario {target.name!r} gives {dim}")
+            raise ValueError(
+                f"policy {name_or_path!r} takes observations of size {policy.obs_dim}; "
+                f"scenario {target.name!r} gives {dim}"
+            )
         if trained_config is not None and trained_config.name != target.name:
-            warnings.warn(f"policy {name_or_path!r} was trained on {trained_config.name!r}, used on {target.name!r}",
-                          stacklevel=2)
+            warnings.warn(
+                f"policy {name_or_path!r} was trained on {trained_config.name!r}, used on {target.name!r}", stacklevel=2
+            )
         if trained_config is None:
             policy.config = target
     return policy
@@ -377,14 +415,19 @@ class DepthGatedPolicy(BatchPolicy):
 
 def _load_gated(gate_path: Path, scenario, device, name, trust_pickle=False):
     spec = _safe_yaml(gate_path) or {}
-    if not isinstance(spec, dict) or spec.get("kind") != "depth_gate" or \
-            not {"threshold_m", "shallow", "deep"} <= set(spec):
+    if (
+        not isinstance(spec, dict)
+        or spec.get("kind") != "depth_gate"
+        or not {"threshold_m", "shallow", "deep"} <= set(spec)
+    ):
         raise ValueError(f"{gate_path}: expected kind: depth_gate with threshold_m, shallow and deep")
     dirs = [check_inside(gate_path.parent, str(spec[k]), f"{gate_path}: {k}") for k in ("shallow", "deep")]
     for key, d in zip(("shallow", "deep"), dirs):  # a gate of gates (or of itself) would recurse
         if d == gate_path.parent.resolve() or (d / "gate.yml").exists():
-            raise PolicyFormatError(f"{gate_path}: {key} names {spec[key]!r}, a gate itself: a gate's networks "
-                                    "must be trained policies, not gates")
+            raise PolicyFormatError(
+                f"{gate_path}: {key} names {spec[key]!r}, a gate itself: a gate's networks "
+                "must be trained policies, not gates"
+            )
     try:
         threshold = float(spec["threshold_m"])
     except (TypeError, ValueError, OverflowError):
@@ -404,20 +447,25 @@ def make_policy(name_or_path, env_or_config=None, seed=None, agent=0, trust_pick
     from . import rllib_policy
 
     if rllib_policy.is_rllib_path(name_or_path):  # one module per beacon kind: the agent matters
-        return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent,
-                                        trust_pickle=trust_pickle)
+        return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent, trust_pickle=trust_pickle)
     scenario = None
     if env_or_config is not None:
         from coopnav_env.scenarios import resolve_config
 
         scenario = resolve_config(env_or_config)
     model_path, _, _ = resolve(name_or_path, scenario, trust_pickle=trust_pickle)
-    key = (str(Path(model_path).resolve()), Path(model_path).stat().st_mtime_ns,
-           None if scenario is None else scenario)
+    key = (str(Path(model_path).resolve()), Path(model_path).stat().st_mtime_ns, None if scenario is None else scenario)
     if key not in _CACHE:
         _CACHE[key] = load(name_or_path, scenario=scenario, trust_pickle=trust_pickle)
     base = _CACHE[key]
     if isinstance(base, DepthGatedPolicy):  # stateless: one instance serves every beacon and episode
         return base
-    return PPOPolicy(base.model, base.obs_rms, base.clip_obs, base.epsilon, config=base.config,
-                     run_config=base.run_config, name=base.name)
+    return PPOPolicy(
+        base.model,
+        base.obs_rms,
+        base.clip_obs,
+        base.epsilon,
+        config=base.config,
+        run_config=base.run_config,
+        name=base.name,
+    )

@@ -17,6 +17,7 @@ import numbers
 class LimitError(ValueError):
     """A size refused (callers re-raise it as ``agents.PolicyFormatError``)."""
 
+
 MAX_LAYER_WIDTH = 8192
 MAX_LAYERS = 32
 MAX_OBS_SIZE = 100_000  # numbers in one observation or action
@@ -87,5 +88,4 @@ def check_network(obs_size: int, act_size: int, layer_lists: list, where: str) -
             prev = w
         total += prev * max(act_size, 1) + prev
     if total > MAX_PARAMETERS:
-        raise LimitError(f"{where}: the network would have about {total} weights, more than "
-                                f"{MAX_PARAMETERS}: refused")
+        raise LimitError(f"{where}: the network would have about {total} weights, more than {MAX_PARAMETERS}: refused")

@@ -23,7 +23,6 @@ class BatchPolicy:
         return self.act(obs)
 
 
-
 def _trained_scenario(run_config: dict):
     """The ScenarioConfig a run trained on (its base scenario with the training overrides)."""
     from coopnav_env.scenarios import make_config

@@ -38,8 +38,9 @@ def inside(root, path, what: str = "file") -> Path:
     target = (Path(root) / p if not p.is_absolute() else p).resolve()
     if not _within(base, target):
         link = " (a symbolic link)" if _any_link(Path(root), p) else ""
-        raise PolicyFormatError(f"{what} {str(path)!r}{link} leads outside the run folder {root} (to {target}): "
-                                "refused")
+        raise PolicyFormatError(
+            f"{what} {str(path)!r}{link} leads outside the run folder {root} (to {target}): refused"
+        )
     return target
 
 
@@ -67,8 +68,7 @@ def check_tree(root, what: str = "run folder") -> Path:
     for dirpath, dirnames, filenames in os.walk(base, followlinks=False):
         seen += len(dirnames) + len(filenames)
         if seen > MAX_ENTRIES:
-            raise PolicyFormatError(f"{root} holds more than {MAX_ENTRIES} files and folders: refused as a "
-                                    f"{what}")
+            raise PolicyFormatError(f"{root} holds more than {MAX_ENTRIES} files and folders: refused as a {what}")
         for name in dirnames + filenames:
             entry = Path(dirpath) / name
             if entry.is_symlink():
@@ -78,6 +78,8 @@ def check_tree(root, what: str = "run folder") -> Path:
                     raise PolicyFormatError(f"{entry} is a symbolic link that cannot be resolved: refused") from None
                 if not _within(base, target):
                     shown = root / entry.relative_to(base)
-                    raise PolicyFormatError(f"{shown} is a symbolic link to {target}, outside the {what} {root}: "
-                                            "refused (copy the file in instead)")
+                    raise PolicyFormatError(
+                        f"{shown} is a symbolic link to {target}, outside the {what} {root}: "
+                        "refused (copy the file in instead)"
+                    )
     return base

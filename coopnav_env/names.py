@@ -1,7 +1,7 @@
 """'Did you mean' for mistyped names (scenarios, policies, task sets, tasks).
 
-    raise ValueError(f"unknown policy {name!r}{did_you_mean(name, valid)} valid: ...")
-    # unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...
+raise ValueError(f"unknown policy {name!r}{did_you_mean(name, valid)} valid: ...")
+# unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...
 """
 
 from __future__ import annotations

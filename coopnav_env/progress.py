@@ -71,15 +71,21 @@ class Progress:
     lines; ``COOPNAV_PROGRESS`` overrides). ``every_s``: in line mode, the longest
     silence between lines. Updates past ``total`` are clipped: the bar ends at its total."""
 
-    def __init__(self, total: float, unit: str = "it", desc: str = "", stream=None, mode: str | None = None,
-                 every_s: float = 30.0):
+    def __init__(
+        self,
+        total: float,
+        unit: str = "it",
+        desc: str = "",
+        stream=None,
+        mode: str | None = None,
+        every_s: float = 30.0,
+    ):
         self.stream = sys.stderr if stream is None else stream
         forced = os.environ.get("COOPNAV_PROGRESS", "").strip().lower()
         if forced == "off":
             mode = "off"
         if mode is None:
-            mode = forced if forced in ("bar", "lines", "off") else ("bar" if is_interactive(self.stream)
-                                                                    else "lines")
+            mode = forced if forced in ("bar", "lines", "off") else ("bar" if is_interactive(self.stream) else "lines")
         self.mode, self.total, self.unit, self.desc = mode, float(total), unit, desc
         self.n, self.every_s = 0.0, every_s
         self.t0 = self._last_line = time.perf_counter()
@@ -89,8 +95,15 @@ class Progress:
 
             whole = float(total).is_integer()
             fmt = "{l_bar}{bar}| {n:.0f}/{total_fmt} {unit} [{elapsed}<{remaining}]" if whole else None
-            self._bar = tqdm(total=int(total) if whole else total, unit=unit, desc=desc, file=self.stream,
-                             dynamic_ncols=True, bar_format=fmt, smoothing=0.1)
+            self._bar = tqdm(
+                total=int(total) if whole else total,
+                unit=unit,
+                desc=desc,
+                file=self.stream,
+                dynamic_ncols=True,
+                bar_format=fmt,
+                smoothing=0.1,
+            )
 
     # --------------------------------------------------------------------------------
     def __enter__(self):

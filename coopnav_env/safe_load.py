@@ -30,8 +30,17 @@ MAX_BYTES = 1 << 20  # 1 MiB: the largest config.yml / run.json the project writ
 MAX_DEPTH = 64
 MAX_NODES = 200_000
 
-__all__ = ["MAX_BYTES", "MAX_DEPTH", "MAX_NODES", "UnsafeDataError", "loads_json", "loads_yaml", "read_json",
-           "read_text", "read_yaml"]
+__all__ = [
+    "MAX_BYTES",
+    "MAX_DEPTH",
+    "MAX_NODES",
+    "UnsafeDataError",
+    "loads_json",
+    "loads_yaml",
+    "read_json",
+    "read_text",
+    "read_yaml",
+]
 
 
 class UnsafeDataError(ValueError):
@@ -75,8 +84,24 @@ def read_text(path, max_bytes: int = MAX_BYTES, what: str | None = None) -> str 
 # YAML
 
 _STANDARD_TAG = "tag:yaml.org,2002:"
-_SAFE_TAGS = {_STANDARD_TAG + t for t in ("null", "bool", "int", "float", "str", "seq", "map", "binary",
-                                          "timestamp", "set", "omap", "pairs", "merge")}
+_SAFE_TAGS = {
+    _STANDARD_TAG + t
+    for t in (
+        "null",
+        "bool",
+        "int",
+        "float",
+        "str",
+        "seq",
+        "map",
+        "binary",
+        "timestamp",
+        "set",
+        "omap",
+        "pairs",
+        "merge",
+    )
+}
 
 
 def _check_yaml_events(text: str, where: str, max_depth: int, max_nodes: int):
@@ -107,8 +132,9 @@ def _check_yaml_events(text: str, where: str, max_depth: int, max_nodes: int):
         raise UnsafeDataError(f"{where}: not YAML: {' '.join(str(err).split())[:300]}") from None
 
 
-def loads_yaml(text, where: str = "YAML text", max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH,
-               max_nodes: int = MAX_NODES):
+def loads_yaml(
+    text, where: str = "YAML text", max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES
+):
     """``yaml.safe_load(text)`` after the checks of the module docstring (``text``:
     str or bytes)."""
     import yaml
@@ -132,6 +158,7 @@ def read_yaml(path, max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH):
 
 # --------------------------------------------------------------------------------------
 # JSON
+
 
 def _json_depth_ok(text: str, max_depth: int) -> bool:
     depth = 0

@@ -52,6 +52,8 @@ registry's.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
@@ -83,10 +85,18 @@ class CoopNavVecEnv(VecEnv):
     and the other randomization bounds included).
     """
 
-    metadata = {"render_modes": []}
+    # VecEnv declares metadata an instance attribute (dict[str, Any]; its __init__ sets it): a ClassVar would not match
+    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
 
-    def __init__(self, scenario="gao_lawnmower", n_envs: int = 1, seed=None, step_infos: bool = True,
-                 reward_terms=None, **overrides):
+    def __init__(
+        self,
+        scenario="gao_lawnmower",
+        n_envs: int = 1,
+        seed=None,
+        step_infos: bool = True,
+        reward_terms=None,
+        **overrides,
+    ):
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"n_envs must be an int >= 1, got {n_envs!r}")
         n_envs = int(n_envs)
@@ -134,8 +144,9 @@ class CoopNavVecEnv(VecEnv):
         obs = self.sim.reset(self._next_seeds(np.arange(self.n_envs)))
         self._started = True
         self._actions = None
-        self.reset_infos = self._row_infos(self.sim.reset_info(), self.sim.reset_beacon_info(),
-                                           np.zeros(self.n_envs, dtype=bool))
+        self.reset_infos = self._row_infos(
+            self.sim.reset_info(), self.sim.reset_beacon_info(), np.zeros(self.n_envs, dtype=bool)
+        )
         self._reset_seeds()
         self._reset_options()
         return obs.reshape(self.num_envs, self.obs_dim)
@@ -151,8 +162,10 @@ class CoopNavVecEnv(VecEnv):
             raise ValueError(f"actions are not numeric: {type(actions).__name__}") from err
         dim = self.action_space.shape[0]
         if a.shape != (self.num_envs, dim) and not (dim == 3 and a.shape == (self.num_envs, 2)):
-            raise ValueError(f"actions must have shape ({self.num_envs}, {dim}) (one row per beacon of every "
-                             f"environment), got shape {a.shape}")
+            raise ValueError(
+                f"actions must have shape ({self.num_envs}, {dim}) (one row per beacon of every "
+                f"environment), got shape {a.shape}"
+            )
         finite = np.isfinite(a).all(axis=1)
         if not finite.all():
             row = int(np.flatnonzero(~finite)[0])
@@ -182,17 +195,26 @@ class CoopNavVecEnv(VecEnv):
         if done.any():
             ended = np.flatnonzero(done)
             if not self.step_infos:  # the final step's infos, on the rows that end
-                full = self._row_infos({k: v[ended] for k, v in info.items()},
-                                       {k: v[ended] for k, v in res.beacon_info.items()}, (trunc & ~term)[ended])
+                full = self._row_infos(
+                    {k: v[ended] for k, v in info.items()},
+                    {k: v[ended] for k, v in res.beacon_info.items()},
+                    (trunc & ~term)[ended],
+                )
                 for i, e in enumerate(ended.tolist()):
-                    infos[e * self.n_beacons:(e + 1) * self.n_beacons] = full[i * self.n_beacons:(i + 1) * self.n_beacons]
+                    infos[e * self.n_beacons : (e + 1) * self.n_beacons] = full[
+                        i * self.n_beacons : (i + 1) * self.n_beacons
+                    ]
             final = obs[ended]  # a copy: the rows are overwritten by the reset below
             for i, e in enumerate(ended.tolist()):
                 for j in range(self.n_beacons):
                     infos[e * self.n_beacons + j]["terminal_observation"] = final[i, j]
             obs = self.sim.reset(self._next_seeds(ended), done)
-        return (obs.reshape(self.num_envs, self.obs_dim), reward.reshape(-1).astype(np.float32),
-                np.repeat(done, self.n_beacons), infos)
+        return (
+            obs.reshape(self.num_envs, self.obs_dim),
+            reward.reshape(-1).astype(np.float32),
+            np.repeat(done, self.n_beacons),
+            infos,
+        )
 
     def training_reward(self, res) -> np.ndarray:
         """The weighted sum of ``reward_terms`` for this step, (n_envs, n_beacons)."""

@@ -64,8 +64,12 @@ def verify(out: str, kept: list, ep_columns) -> tuple:
     if not kept:
         return [], []
     if recorded is None:
-        return [], [(f"{FILE} is missing or unreadable in {out!r}: the {len(kept)} episode(s) there cannot be "
-                     "verified and are run again")]
+        return [], [
+            (
+                f"{FILE} is missing or unreadable in {out!r}: the {len(kept)} episode(s) there cannot be "
+                "verified and are run again"
+            )
+        ]
     good, unknown = [], 0
     for ep, steps in kept:
         want = recorded.get(key(ep))
@@ -74,9 +78,11 @@ def verify(out: str, kept: list, ep_columns) -> tuple:
             continue
         if digest(ep, steps, ep_columns) != want:
             cell = f" in cell {ep['cell']}" if ep["cell"] else ""
-            raise UsageError(f"cannot resume: episode {ep['episode']} (seed {ep['seed']}) of policy {ep['policy']!r}"
-                             f"{cell} in {out!r} does not match its checksum in {FILE} (episodes.csv or steps.csv "
-                             "changed after it was written); use --overwrite to run it again, or another --out")
+            raise UsageError(
+                f"cannot resume: episode {ep['episode']} (seed {ep['seed']}) of policy {ep['policy']!r}"
+                f"{cell} in {out!r} does not match its checksum in {FILE} (episodes.csv or steps.csv "
+                "changed after it was written); use --overwrite to run it again, or another --out"
+            )
         good.append((ep, steps))
     notes = [f"{unknown} episode(s) have no checksum in {FILE}: they are run again"] if unknown else []
     return good, notes

@@ -56,8 +56,12 @@ def _time_series(step_rows, policy, key):
     most = max(len(v) for v in by_t.values())
     t = np.array([x for x in sorted(by_t) if len(by_t[x]) >= 0.5 * most])  # drop thin tails of long episodes
     vals = [np.array(by_t[x]) for x in t]
-    return t, np.array([v.mean() for v in vals]), np.array([np.percentile(v, 25) for v in vals]), \
-        np.array([np.percentile(v, 75) for v in vals])
+    return (
+        t,
+        np.array([v.mean() for v in vals]),
+        np.array([np.percentile(v, 25) for v in vals]),
+        np.array([np.percentile(v, 75) for v in vals]),
+    )
 
 
 def _finish(ax, xlabel, ylabel, fontsize=7, **legend):
@@ -93,15 +97,24 @@ def draw_paths(out, plan):
         true, dr, est, beacons = rec["survey_true_m"], rec["survey_dr_m"], rec["survey_est_m"], rec["beacon_true_m"]
         ax = fig.add_subplot(rows, cols, i + 1)
         for s in range(true.shape[1]):
-            wp = rec["waypoints_m"][s, :rec["n_waypoints"][s]]
+            wp = rec["waypoints_m"][s, : rec["n_waypoints"][s]]
             first = s == 0
             # under the true path, wide and orange: visible where the vehicle follows it
-            ax.plot(wp[:, 0], wp[:, 1], color="tab:orange", lw=3.0, alpha=0.55, solid_capstyle="round",
-                    label="planned" if first else None, zorder=1)
+            ax.plot(
+                wp[:, 0],
+                wp[:, 1],
+                color="tab:orange",
+                lw=3.0,
+                alpha=0.55,
+                solid_capstyle="round",
+                label="planned" if first else None,
+                zorder=1,
+            )
             ax.plot(true[:, s, 0], true[:, s, 1], color="k", lw=1.3, label="survey (true)" if first else None)
             ax.plot(est[:, s, 0], est[:, s, 1], color="tab:blue", lw=0.9, label="survey (EKF)" if first else None)
-            ax.plot(dr[:, s, 0], dr[:, s, 1], color="tab:red", lw=0.9, ls="--",
-                    label="dead reckoning" if first else None)
+            ax.plot(
+                dr[:, s, 0], dr[:, s, 1], color="tab:red", lw=0.9, ls="--", label="dead reckoning" if first else None
+            )
         for j in range(beacons.shape[1]):
             ax.plot(beacons[:, j, 0], beacons[:, j, 1], color="tab:green", lw=1, label="beacon" if j == 0 else None)
             ax.plot(beacons[0, j, 0], beacons[0, j, 1], "o", color="tab:green", ms=4)
@@ -162,27 +175,47 @@ def draw_benchmark(out, results: dict) -> list:
                 continue
             challenger = p in s["challengers"] and p not in s["planners"] + s["floors"]
             marker = "D" if challenger else ("v" if p in s["floors"] else "o")
-            ax.errorbar(xs, ys, yerr=[lo, hi], fmt=marker, ms=5 if challenger else 4, lw=1, capsize=2,
-                        color=f"C{k}", label=p + (" (challenger)" if challenger else " (floor)" if p in s["floors"]
-                                                  else ""))
+            ax.errorbar(
+                xs,
+                ys,
+                yerr=[lo, hi],
+                fmt=marker,
+                ms=5 if challenger else 4,
+                lw=1,
+                capsize=2,
+                color=f"C{k}",
+                label=p + (" (challenger)" if challenger else " (floor)" if p in s["floors"] else ""),
+            )
             bx = [x for x, b in zip(xs, best) if b]
             by = [y for y, b in zip(ys, best) if b]
             if bx:
-                ax.plot(bx, by, "o", ms=11, mfc="none", mec="k", mew=1.2,
-                        label="best planner of the task" if not any(
-                            h.get_label() == "best planner of the task" for h in ax.lines) else None)
+                ax.plot(
+                    bx,
+                    by,
+                    "o",
+                    ms=11,
+                    mfc="none",
+                    mec="k",
+                    mew=1.2,
+                    label="best planner of the task"
+                    if not any(h.get_label() == "best planner of the task" for h in ax.lines)
+                    else None,
+                )
             means += ys
         if means and min(means) > 0 and max(means) / min(means) > 10:  # floors far above the planners
             ax.set_yscale("log")
         ax.set_xticks(range(len(tasks)))
-        ax.set_xticklabels(tasks, rotation=35 if len(tasks) > 4 else 0, ha="right" if len(tasks) > 4 else "center",
-                           fontsize=7)
+        ax.set_xticklabels(
+            tasks, rotation=35 if len(tasks) > 4 else 0, ha="right" if len(tasks) > 4 else "center", fontsize=7
+        )
         ax.set_xlim(-0.6, len(tasks) - 0.4)
         ax.set_xlabel("task")
         ax.set_ylabel("mean survey error (m), 95 % t interval")
         tag = "" if results.get("official") else " (not a benchmark result)"
-        ax.set_title(f"benchmark {name} ({s['scenario']})\n{results['episodes']} test episodes per task and "
-                     f"policy{tag}", fontsize=9)
+        ax.set_title(
+            f"benchmark {name} ({s['scenario']})\n{results['episodes']} test episodes per task and policy{tag}",
+            fontsize=9,
+        )
         ax.grid(True, axis="y", lw=0.3)
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
         fig.tight_layout()

@@ -20,10 +20,25 @@ from .outdir import FORMAT_VERSION, has_results
 from .report import EPISODE_COLUMNS, STEP_COLUMNS, _fmt
 
 _INT = re.compile(r"-?[0-9]+\Z")
-EPISODE_INTS = ("steps", "ranges_fused", "outliers_rejected", "packets_lost", "safety_violations",
-                "geofence_violations", "pings", "collisions")
-STEP_FLOATS = ("t_s", "survey_error_m", "dr_error_m", "ellipse_major_m", "ellipse_minor_m", "reward",
-               "beacon_distance_m")
+EPISODE_INTS = (
+    "steps",
+    "ranges_fused",
+    "outliers_rejected",
+    "packets_lost",
+    "safety_violations",
+    "geofence_violations",
+    "pings",
+    "collisions",
+)
+STEP_FLOATS = (
+    "t_s",
+    "survey_error_m",
+    "dr_error_m",
+    "ellipse_major_m",
+    "ellipse_minor_m",
+    "reward",
+    "beacon_distance_m",
+)
 
 
 class _Unreadable(Exception):
@@ -77,8 +92,9 @@ def kept_rows(out: str, plan) -> tuple:
         return [], [], notes
     if plan.previous.get("format_version") != FORMAT_VERSION:
         if has_results(out):
-            notes.append(f"the episodes in {out!r} were written with rounded numbers (an older evaluation); "
-                         "they are run again")
+            notes.append(
+                f"the episodes in {out!r} were written with rounded numbers (an older evaluation); they are run again"
+            )
         return [], [], notes
     ep_columns = EPISODE_COLUMNS[:1] + list(plan.sweep) + EPISODE_COLUMNS[1:]
     cells = {cell_id(c): c for c in plan.cells}

@@ -93,8 +93,10 @@ def _check_finite(ep_rows, step_rows):
             if not math.isfinite(float(v)):
                 step = f" step {r['step']}" if "step" in r else ""
                 cell = f" in cell {r['cell']}" if r["cell"] else ""
-                raise EvaluationError(f"episode {r['episode']} (seed {r['seed']}) of policy {r['policy']!r}{cell}"
-                                      f"{step}: {k} is {float(v)} in {where}; summary.json not written")
+                raise EvaluationError(
+                    f"episode {r['episode']} (seed {r['seed']}) of policy {r['policy']!r}{cell}"
+                    f"{step}: {k} is {float(v)} in {where}; summary.json not written"
+                )
 
 
 def evaluate(config: EvalConfig, command: str | None = None) -> EvalResult:
@@ -108,8 +110,9 @@ def evaluate(config: EvalConfig, command: str | None = None) -> EvalResult:
 
     from . import outdir
 
-    with announce_after("checking the scenario and the policies (the first run also compiles the simulator, "
-                        "about a minute)"):
+    with announce_after(
+        "checking the scenario and the policies (the first run also compiles the simulator, about a minute)"
+    ):
         plan = prepare(config)
     out = config.out
     with outdir.OutputLock(out, command):
@@ -135,10 +138,14 @@ def _run_locked(plan, saved: list) -> EvalResult:
         print(f"resuming: {note}", file=sys.stderr)
     saved[0] = len(ep_rows)
     previous = plan.previous or {}
-    run_record = dict(plan.run_info, trained_policies=plan.trained, format_version=outdir.FORMAT_VERSION,
-                      versions=version_record())
-    earlier = [v for v in previous.get("earlier_versions", []) + [previous.get("versions")]
-               if isinstance(v, dict) and v != run_record["versions"]]
+    run_record = dict(
+        plan.run_info, trained_policies=plan.trained, format_version=outdir.FORMAT_VERSION, versions=version_record()
+    )
+    earlier = [
+        v
+        for v in previous.get("earlier_versions", []) + [previous.get("versions")]
+        if isinstance(v, dict) and v != run_record["versions"]
+    ]
     if earlier:
         run_record["earlier_versions"] = earlier  # what produced the episodes kept by resume
     done = {(r["cell"], r["policy"], str(r["seed"])) for r in ep_rows}
@@ -149,14 +156,17 @@ def _run_locked(plan, saved: list) -> EvalResult:
         for p in plan.policies:
             missing = [(i, s) for i, s in enumerate(plan.seeds) if (cid, p, str(s)) not in done]
             for k in range(0, len(missing), config.batch_size):
-                todo.append((cell, p, missing[k:k + config.batch_size]))
+                todo.append((cell, p, missing[k : k + config.batch_size]))
     total = sum(len(m) for _, _, m in todo)
     skipped = len(plan.cells) * len(plan.policies) * plan.episodes - total
     if config.resume and plan.previous is not None:
         old_p, old_e = previous["policies"], previous["episodes"]
         if old_p != plan.policies or old_e != plan.episodes:
-            print(f"resuming: {out!r} held {old_e} episode(s) of {', '.join(old_p)}; the run now covers "
-                  f"{plan.episodes} of {', '.join(plan.policies)}", file=sys.stderr)
+            print(
+                f"resuming: {out!r} held {old_e} episode(s) of {', '.join(old_p)}; the run now covers "
+                f"{plan.episodes} of {', '.join(plan.policies)}",
+                file=sys.stderr,
+            )
         print(f"resuming: {skipped} episode(s) already done, {total} to run", file=sys.stderr)
     episode_key, step_key = _row_order(plan)
     from . import checksums
@@ -188,8 +198,9 @@ def _run_locked(plan, saved: list) -> EvalResult:
             cid = cell_id(cell)
             if bar is not None:
                 bar.stage(f"{p} {cid}".strip() + f" ({len(chunk)} episodes)")
-            eps, sts = run_episodes(plan.configs[cid], p, [s for _, s in chunk],
-                                    progress=bar.update if bar is not None else None)
+            eps, sts = run_episodes(
+                plan.configs[cid], p, [s for _, s in chunk], progress=bar.update if bar is not None else None
+            )
             index = {s: i for i, s in chunk}
             for r in eps:
                 r.update({"cell": cid, "policy": p, "episode": index[r["seed"]], **cell})

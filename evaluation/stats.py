@@ -39,13 +39,22 @@ def error_stats(step_rows, episode_rows, n_boot: int = 2000) -> dict:
         return float(np.mean([float(r[key]) for r in episode_rows]))
 
     return {
-        "episodes": len(episode_rows), "steps": int(err.size),
-        "mean_error_m": mean, "median_error_m": float(np.median(err)), "p95_error_m": float(np.percentile(err, 95)),
-        "std_error_m": float(err.std()), "var_error_m2": float(err.var()), "ci95_error_m": ci,
-        "final_error_m": ep_mean("final_error_m"), "mean_dr_error_m": ep_mean("mean_dr_error_m"),
-        "mean_return": ep_mean("return"), "ranges_fused": ep_mean("ranges_fused"),
-        "outliers_rejected": ep_mean("outliers_rejected"), "beacon_distance_m": ep_mean("beacon_distance_m"),
-        "pings": ep_mean("pings"), "energy_J": ep_mean("energy_J"),
+        "episodes": len(episode_rows),
+        "steps": int(err.size),
+        "mean_error_m": mean,
+        "median_error_m": float(np.median(err)),
+        "p95_error_m": float(np.percentile(err, 95)),
+        "std_error_m": float(err.std()),
+        "var_error_m2": float(err.var()),
+        "ci95_error_m": ci,
+        "final_error_m": ep_mean("final_error_m"),
+        "mean_dr_error_m": ep_mean("mean_dr_error_m"),
+        "mean_return": ep_mean("return"),
+        "ranges_fused": ep_mean("ranges_fused"),
+        "outliers_rejected": ep_mean("outliers_rejected"),
+        "beacon_distance_m": ep_mean("beacon_distance_m"),
+        "pings": ep_mean("pings"),
+        "energy_J": ep_mean("energy_J"),
         **frame_error_stats(step_rows),
     }
 
@@ -57,8 +66,12 @@ def frame_error_stats(step_rows) -> dict:
     ey = [float(r["error_y_m"]) for r in step_rows if r.get("error_y_m", "") != ""]
     if not ex:
         return {}
-    return {"error_x_std_m": float(np.std(ex)), "error_y_std_m": float(np.std(ey)),
-            "error_x_mean_m": float(np.mean(ex)), "error_y_mean_m": float(np.mean(ey))}
+    return {
+        "error_x_std_m": float(np.std(ex)),
+        "error_y_std_m": float(np.std(ey)),
+        "error_x_mean_m": float(np.mean(ex)),
+        "error_y_mean_m": float(np.mean(ey)),
+    }
 
 
 def _per_policy(policies, ep_rows, step_rows, cells: set) -> dict:
@@ -76,11 +89,17 @@ def summarize(plan, ep_rows, step_rows) -> dict:
     policy ``error_stats``; a sweep adds ``sweep`` and ``cells`` (per cell: ``params``
     and ``policies``), and ``policies`` is then pooled over every cell of the grid."""
     policies, cells = plan.policies, plan.cells
-    cell_stats = [{"params": plain(cell),
-                   "policies": _per_policy(policies, ep_rows, step_rows, {cell_id(cell)})} for cell in cells]
+    cell_stats = [
+        {"params": plain(cell), "policies": _per_policy(policies, ep_rows, step_rows, {cell_id(cell)})}
+        for cell in cells
+    ]
     config = plan.config
-    summary = {"scenario": config.scenario, "episodes": plan.episodes, "seed": config.seed,
-               "overrides": plan.run_info["overrides"]}
+    summary = {
+        "scenario": config.scenario,
+        "episodes": plan.episodes,
+        "seed": config.seed,
+        "overrides": plan.run_info["overrides"],
+    }
     if plan.sweep:
         summary["sweep"] = plan.run_info["sweep"]
         summary["cells"] = cell_stats

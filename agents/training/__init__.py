@@ -22,12 +22,35 @@ from __future__ import annotations
 from pathlib import Path
 
 from .common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, read_run_record
-from .config import (ConfigError, EnvSpec, EvalSpec, NormalizeSpec, PeriodicEvalSpec, RaySpec, RLlibConfig,
-                     TrainConfig, config_from_record, load_config)
+from .config import (
+    ConfigError,
+    EnvSpec,
+    EvalSpec,
+    NormalizeSpec,
+    PeriodicEvalSpec,
+    RaySpec,
+    RLlibConfig,
+    TrainConfig,
+    config_from_record,
+    load_config,
+)
 
-__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "ConfigError", "EnvSpec", "EvalSpec", "NormalizeSpec",
-           "PeriodicEvalSpec", "RLlibConfig", "RaySpec", "TrainConfig", "config_from_record", "load_config", "resume",
-           "train"]
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_INTERRUPTED",
+    "ConfigError",
+    "EnvSpec",
+    "EvalSpec",
+    "NormalizeSpec",
+    "PeriodicEvalSpec",
+    "RLlibConfig",
+    "RaySpec",
+    "TrainConfig",
+    "config_from_record",
+    "load_config",
+    "resume",
+    "train",
+]
 
 
 def train(config, out, **options) -> int:

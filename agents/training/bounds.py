@@ -17,6 +17,7 @@ import numbers
 class BoundsError(ValueError):
     """A bound exceeded (``config`` re-raises it as its own ``ConfigError``)."""
 
+
 MAX_TIMESTEPS = 10**11
 MAX_N_ENVS = 4096
 MAX_ROLLOUT = 10**7  # n_steps x n_envs (SB3's rollout buffer rows per beacon)
@@ -99,8 +100,9 @@ def check_bounds(config) -> None:
         n_steps = ppo.get("n_steps", 2048)
         _int_in(n_steps, 1, MAX_ROLLOUT, "ppo.n_steps")
         if n_steps * config.n_envs > MAX_ROLLOUT:
-            raise BoundsError(f"ppo.n_steps x n_envs = {n_steps * config.n_envs} rows per rollout, more than "
-                              f"{MAX_ROLLOUT}: refused")
+            raise BoundsError(
+                f"ppo.n_steps x n_envs = {n_steps * config.n_envs} rows per rollout, more than {MAX_ROLLOUT}: refused"
+            )
         for key, high in (("batch_size", MAX_ROLLOUT), ("n_epochs", 10_000)):
             if key in ppo:
                 _int_in(ppo[key], 1, high, f"ppo.{key}")

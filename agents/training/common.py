@@ -37,14 +37,28 @@ from .scoring import eval_cells
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
-__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "Job", "StopFlag", "command_line", "new_run_dir", "prepare_job",
-           "read_run_record", "resume_command", "run_config", "resume_seed", "stop_on_signals", "write_run_record"]
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_INTERRUPTED",
+    "Job",
+    "StopFlag",
+    "command_line",
+    "new_run_dir",
+    "prepare_job",
+    "read_run_record",
+    "resume_command",
+    "run_config",
+    "resume_seed",
+    "stop_on_signals",
+    "write_run_record",
+]
 
 
 @dataclasses.dataclass
 class Job:
     """A config made concrete: the training scenario, its reward terms and the
     evaluation cells ([(label, ScenarioConfig)])."""
+
     scenario_config: object
     reward_terms: dict
     cells: list
@@ -60,8 +74,11 @@ def prepare_job(config) -> Job:
     if config.scenario not in list_scenarios():
         from coopnav_env.names import did_you_mean
 
-        what = ("no scenario given;" if config.scenario is None else
-                f"unknown scenario {config.scenario!r}{did_you_mean(config.scenario, list_scenarios())}")
+        what = (
+            "no scenario given;"
+            if config.scenario is None
+            else f"unknown scenario {config.scenario!r}{did_you_mean(config.scenario, list_scenarios())}"
+        )
         raise ConfigError(f"{what} valid scenarios: {', '.join(list_scenarios())}")
     if config.timesteps is None or config.timesteps < 1:
         raise ConfigError(f"timesteps must be a positive number of environment steps, got {config.timesteps!r}")
@@ -88,8 +105,10 @@ def prepare_job(config) -> Job:
         if name not in list_policies():
             from coopnav_env.names import did_you_mean
 
-            raise ConfigError(f"eval.baselines: unknown policy {name!r}{did_you_mean(name, list_policies())} "
-                              f"valid: {', '.join(list_policies())}")
+            raise ConfigError(
+                f"eval.baselines: unknown policy {name!r}{did_you_mean(name, list_policies())} "
+                f"valid: {', '.join(list_policies())}"
+            )
     return Job(scenario_config, reward_terms, cells)
 
 
@@ -111,8 +130,9 @@ def new_run_dir(out) -> Path:
     if out.exists() and any(out.iterdir()):
         if (out / "config.yml").is_file():
             raise ConfigError(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
-        raise ConfigError(f"{out} exists and is not empty, and is not a train.py run (no config.yml); use another "
-                          "--out")
+        raise ConfigError(
+            f"{out} exists and is not empty, and is not a train.py run (no config.yml); use another --out"
+        )
     return out
 
 
@@ -147,15 +167,17 @@ def command_line(argv=None) -> str:
     return "python train.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
 
 
-def write_run_record(out: Path, config, job: Job, *, command=None, hyperparameter_file=None, args=None,
-                     versions=None, **extra) -> dict:
+def write_run_record(
+    out: Path, config, job: Job, *, command=None, hyperparameter_file=None, args=None, versions=None, **extra
+) -> dict:
     """Write ``out/config.yml`` (see the module docstring) atomically; returns it.
     ``args``: the record's args (default: scenario, timesteps, seed); ``versions``:
     more version entries (e.g. Ray's); ``extra``: more top-level entries."""
     record = {
         "command": command,
-        "args": args if args is not None else {"scenario": config.scenario, "timesteps": config.timesteps,
-                                               "seed": config.seed},
+        "args": args
+        if args is not None
+        else {"scenario": config.scenario, "timesteps": config.timesteps, "seed": config.seed},
         "hyperparameter_file": None if hyperparameter_file is None else str(hyperparameter_file),
         "hyperparameters": config.hyperparameters(),
         **extra,

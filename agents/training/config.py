@@ -39,12 +39,29 @@ ACTIVATIONS = ("tanh", "relu", "elu", "leaky_relu")  # policy_kwargs.activation_
 JOB_KEYS = ("scenario", "timesteps", "seed")  # a run record's ``args``; the rest is ``hyperparameters``
 # keyword arguments of PPO.__init__ that the trainer sets itself
 SB3_RESERVED = {"self", "policy", "env", "seed", "device", "tensorboard_log", "verbose", "_init_setup_model"}
-LEGACY = {"env.variants": "env.variants is gone: set the core's per-episode randomization in env.overrides "
-                          "(randomize_survey_path, randomize_depth_m, randomize_noise_scale)"}
+LEGACY = {
+    "env.variants": "env.variants is gone: set the core's per-episode randomization in env.overrides "
+    "(randomize_survey_path, randomize_depth_m, randomize_noise_scale)"
+}
 
-__all__ = ["ConfigError", "EnvSpec", "EvalSpec", "ImitateSpec", "PeriodicEvalSpec", "NormalizeSpec", "RaySpec", "TrainConfig",
-           "RLlibConfig", "config_class", "config_from_record", "from_dict", "hyperparameter_file", "load_config",
-           "parse_value", "set_path"]
+__all__ = [
+    "ConfigError",
+    "EnvSpec",
+    "EvalSpec",
+    "ImitateSpec",
+    "PeriodicEvalSpec",
+    "NormalizeSpec",
+    "RaySpec",
+    "TrainConfig",
+    "RLlibConfig",
+    "config_class",
+    "config_from_record",
+    "from_dict",
+    "hyperparameter_file",
+    "load_config",
+    "parse_value",
+    "set_path",
+]
 
 
 class ConfigError(ValueError):
@@ -58,6 +75,7 @@ class ConfigError(ValueError):
 class EnvSpec:
     """The training scenario: its parameters (``make_config(scenario, **overrides)``),
     the core's per-episode randomization included (``randomize_depth_m: [..]``, ...)."""
+
     overrides: dict = field(default_factory=dict)
 
 
@@ -67,6 +85,7 @@ class EvalSpec:
     (episode ``i`` of every cell seeded ``seed + i``; 0: none), every combination of
     ``cells`` (``{parameter: [values]}``, randomization off) or the training scenario,
     and the ``baselines`` scored once on the same seeds."""
+
     episodes: int = 16
     seed: int = VALIDATION_SEED
     cells: dict = field(default_factory=dict)
@@ -77,6 +96,7 @@ class EvalSpec:
 class PeriodicEvalSpec(EvalSpec):
     """``EvalSpec`` every ``every_steps`` environment steps (0: never; the best model is
     kept) and at the end (the SB3 trainer)."""
+
     episodes: int = 32
     every_steps: int = 100_000
 
@@ -84,6 +104,7 @@ class PeriodicEvalSpec(EvalSpec):
 @dataclass
 class NormalizeSpec:
     """``stable_baselines3`` VecNormalize: saved beside the model (vecnormalize.pkl)."""
+
     norm_obs: bool = True
     norm_reward: bool = True
     clip_obs: float = 10.0
@@ -98,7 +119,8 @@ class ImitateSpec:
     training environments for ``steps`` row-steps, then the actor's mean is fitted to
     its actions and the critic to the returns, ``epochs`` passes in minibatches of
     ``batch_size`` at ``learning_rate``."""
-    planner: typing.Optional[str] = None
+
+    planner: str | None = None
     steps: int = 200_000
     epochs: int = 20
     batch_size: int = 4096
@@ -108,9 +130,10 @@ class ImitateSpec:
 @dataclass
 class RaySpec:
     """The local Ray instance an RLlib run starts (ignored with ``--ray-address``)."""
-    num_cpus: typing.Optional[int] = None  # None: the machine's cores (more if the env runners need more)
+
+    num_cpus: int | None = None  # None: the machine's cores (more if the env runners need more)
     object_store_memory_mb: float = 200.0
-    max_concurrent_trials: typing.Optional[int] = None  # a Tune grid's
+    max_concurrent_trials: int | None = None  # a Tune grid's
 
 
 @dataclass
@@ -118,8 +141,9 @@ class _Job:
     """What every training job has: the scenario, the total environment steps, the
     seed, the scenario's training parameters and the training reward
     (``{term: weight}``, see ``coopnav_env.vector``; {}: the environment's reward)."""
-    scenario: typing.Optional[str] = None
-    timesteps: typing.Optional[int] = None
+
+    scenario: str | None = None
+    timesteps: int | None = None
     seed: int = 0
     env: EnvSpec = field(default_factory=EnvSpec)
     reward: dict = field(default_factory=dict)
@@ -158,18 +182,20 @@ class TrainConfig(_Job):
     0; ``policy_kwargs.activation_fn`` a name: tanh, relu, elu, leaky_relu); {} leaves
     SB3's defaults. ``init_from``: start from another policy's weights and
     normalization (a run directory, a shipped policy name, a model .zip)."""
+
     policy: str = "MlpPolicy"
     n_envs: int = 16
     ppo: dict = field(default_factory=dict)
     normalize: NormalizeSpec = field(default_factory=NormalizeSpec)
     eval: PeriodicEvalSpec = field(default_factory=PeriodicEvalSpec)
     checkpoint_every_steps: int = 100_000
-    init_from: typing.Optional[str] = None
+    init_from: str | None = None
     imitate: ImitateSpec = field(default_factory=ImitateSpec)
 
     def check(self):
-        from stable_baselines3 import PPO
         import inspect
+
+        from stable_baselines3 import PPO
 
         valid = sorted(set(inspect.signature(PPO.__init__).parameters) - SB3_RESERVED)
         for key in self.ppo:
@@ -206,6 +232,7 @@ class RLlibConfig(_Job):
     ``PPOConfig.training`` keywords, ``model`` DefaultModelConfig keys, ``env_runners``
     and ``learners`` the keywords of ``PPOConfig.env_runners`` and ``.learners``;
     ``normalize_obs``: RLlib's MeanStdFilter per agent (saved in the checkpoint)."""
+
     ppo: dict = field(default_factory=dict)
     model: dict = field(default_factory=dict)
     normalize_obs: bool = False
@@ -239,8 +266,14 @@ def unknown_key_message(key, valid, what: str) -> str:
     return f"unknown {what} {key!r}{hint} valid: {', '.join(valid)}"
 
 
-_KIND = {int: "an integer", float: "a number", bool: "true or false", str: "a string", dict: "a mapping",
-         list: "a list"}
+_KIND = {
+    int: "an integer",
+    float: "a number",
+    bool: "true or false",
+    str: "a string",
+    dict: "a mapping",
+    list: "a list",
+}
 
 
 def _coerce(value, hint, where: str):
@@ -256,11 +289,15 @@ def _coerce(value, hint, where: str):
     base = origin or hint
     if base in (dict, list) and value is None:
         return base()
-    ok = {int: isinstance(value, int) and not isinstance(value, bool)
-               or isinstance(value, float) and value.is_integer(),
-          float: isinstance(value, (int, float)) and not isinstance(value, bool),
-          bool: isinstance(value, bool), str: isinstance(value, str),
-          dict: isinstance(value, dict), list: isinstance(value, (list, tuple))}[base]
+    ok = {
+        int: (isinstance(value, int) and not isinstance(value, bool))
+        or (isinstance(value, float) and value.is_integer()),
+        float: isinstance(value, (int, float)) and not isinstance(value, bool),
+        bool: isinstance(value, bool),
+        str: isinstance(value, str),
+        dict: isinstance(value, dict),
+        list: isinstance(value, (list, tuple)),
+    }[base]
     if not ok:
         raise ConfigError(f"{where} must be {_KIND[base]}, got {value!r}")
     try:
@@ -321,7 +358,7 @@ def set_path(data: dict, dotted: str, value) -> dict:
         if child is None:
             child = node[key] = {}
         if not isinstance(child, dict):
-            raise ConfigError(f"{'.'.join(keys[:i + 1])} is not a section (it is {child!r})")
+            raise ConfigError(f"{'.'.join(keys[: i + 1])} is not a section (it is {child!r})")
         node = child
     node[keys[-1]] = value
     return data

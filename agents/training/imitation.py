@@ -93,7 +93,7 @@ def imitate(model, vecnorm, raw_env, spec, seed: int) -> dict:
     for _ in range(spec.epochs):
         order = torch.as_tensor(rng.permutation(n), device=device)
         for start in range(0, n, spec.batch_size):
-            idx = order[start:start + spec.batch_size]
+            idx = order[start : start + spec.batch_size]
             mean = policy.get_distribution(x[idx]).distribution.mean
             value = policy.predict_values(x[idx]).squeeze(-1)
             la = ((mean - a[idx]) ** 2).mean()
@@ -107,6 +107,12 @@ def imitate(model, vecnorm, raw_env, spec, seed: int) -> dict:
     with torch.no_grad():
         mean = policy.get_distribution(x).distribution.mean.clamp(-1.0, 1.0)
         rms = float(torch.sqrt(((mean - a) ** 2).mean()))
-    return {"planner": spec.planner, "steps": int(n), "epochs": spec.epochs, "action_rms_error": round(rms, 4),
-            "actor_loss": round(actor_loss, 5), "critic_loss": round(critic_loss, 5),
-            "seconds": round(time.perf_counter() - t0, 1)}
+    return {
+        "planner": spec.planner,
+        "steps": int(n),
+        "epochs": spec.epochs,
+        "action_rms_error": round(rms, 4),
+        "actor_loss": round(actor_loss, 5),
+        "critic_loss": round(critic_loss, 5),
+        "seconds": round(time.perf_counter() - t0, 1),
+    }

@@ -50,8 +50,9 @@ def _flock(out: Path):
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         os.close(fd)
-        raise ConfigError(f"{out} is in use by another train.py run{_owner_text(out)}; wait for it to end or use "
-                          "another --out") from None
+        raise ConfigError(
+            f"{out} is in use by another train.py run{_owner_text(out)}; wait for it to end or use another --out"
+        ) from None
     except OSError as err:
         os.close(fd)
         raise ConfigError(f"cannot lock run folder {out}: {err.strerror or err}") from None
@@ -90,9 +91,17 @@ def claim(out, new: bool, command: str | None = None) -> None:
     if not entry[1]:
         from coopnav_env.records import atomic_write_text
 
-        atomic_write_text(out / OWNER_FILE, json.dumps({
-            "pid": os.getpid(), "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-            "command": command or f"agents.training (Python API, pid {os.getpid()})"}))
+        atomic_write_text(
+            out / OWNER_FILE,
+            json.dumps(
+                {
+                    "pid": os.getpid(),
+                    "host": socket.gethostname(),
+                    "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                    "command": command or f"agents.training (Python API, pid {os.getpid()})",
+                }
+            ),
+        )
         entry[1] = True
 
 

@@ -70,8 +70,12 @@ def evaluate(act, cells: list, episodes: int, seed: int) -> dict:
         per_episode.extend((err_sum / steps).round(4).tolist())
         total += err_sum.sum()
         count += steps.sum()
-    return {"survey_error_m": float(total / count), "episodes": episodes * len(cells),
-            "survey_error_m_per_episode": per_episode, "per_cell": per_cell}
+    return {
+        "survey_error_m": float(total / count),
+        "episodes": episodes * len(cells),
+        "survey_error_m_per_episode": per_episode,
+        "per_cell": per_cell,
+    }
 
 
 def baseline_actor(name: str):
