@@ -46,23 +46,20 @@ from __future__ import annotations
 import json
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from . import safe_paths
-from .formats import (  # noqa: F401 - re-exported: agents._TRUSTED (tests), agents.refuse_pickle
-    _TRUSTED,
-    PickleRefused,
-    PolicyFormatError,
-    _check_trusted,
-    _is_legacy,
-    check_inside,
-    refuse_pickle,
-    trust_pickle,
-)
+from .formats import _TRUSTED as _TRUSTED  # re-exported: agents._TRUSTED (the tests clear it)
+from .formats import PickleRefused, PolicyFormatError, _check_trusted, _is_legacy, check_inside, trust_pickle
+from .formats import refuse_pickle as refuse_pickle  # re-exported: agents.refuse_pickle
 from .formats import safe_json as _safe_json  # bounded reads: one-line refusals
 from .formats import safe_yaml as _safe_yaml
 from .policy import BatchPolicy, _trained_scenario
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
 # (model, normalization) of a run directory, in order of preference: the safe format,
@@ -118,8 +115,8 @@ def _model_files(directory: Path):
         except (ValueError, KeyError, TypeError):
             raise PolicyFormatError(f"{last} is not a checkpoint record (model, vecnormalize)") from None
         ckpt_dir = directory / "checkpoints"
-        model, stats = (check_inside(ckpt_dir, n, f"{last}: file") for n in names)
-        return model, stats
+        model_file, stats_file = (check_inside(ckpt_dir, n, f"{last}: file") for n in names)
+        return model_file, stats_file
     return None
 
 
@@ -169,7 +166,9 @@ def _check_normalization(model, stats, config):
     return None
 
 
-def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
+def resolve(
+    name_or_path: str | Path, scenario: str | ScenarioConfig | None = None, trust_pickle: bool = False
+) -> tuple:
     """(model file, normalization file or None, config.yml or None) for a name or path
     (for an RLlib run: (checkpoint directory, None, config.yml or None); for a gated
     policy: (gate.yml, None, None)). Refuses (``PolicyFormatError``) pickle-based files
@@ -237,20 +236,20 @@ class LoadedModel:
     ``ActorCriticPolicy``), its spaces and the steps it was trained for; ``predict``
     as SB3's ``model.predict``."""
 
-    def __init__(self, policy, num_timesteps: int = 0):
+    def __init__(self, policy: Any, num_timesteps: int = 0) -> None:
         self.policy = policy
         self.observation_space = policy.observation_space
         self.action_space = policy.action_space
         self.num_timesteps = int(num_timesteps)
 
-    def predict(self, observation, deterministic: bool = True):
+    def predict(self, observation: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, Any]:
         return self.policy.predict(observation, deterministic=deterministic)
 
 
 class RunningStats:
     """Frozen observation statistics (``mean``, ``var``) of a run's normalization."""
 
-    def __init__(self, mean, var, count=0.0):
+    def __init__(self, mean: Any, var: Any, count: float = 0.0) -> None:
         self.mean, self.var, self.count = np.asarray(mean, np.float64), np.asarray(var, np.float64), float(count)
 
 
@@ -262,7 +261,16 @@ class PPOPolicy(BatchPolicy):
     the run's frozen VecNormalize statistics before the network sees them.
     """
 
-    def __init__(self, model, obs_rms=None, clip_obs=10.0, epsilon=1e-8, config=None, run_config=None, name="ppo"):
+    def __init__(
+        self,
+        model: Any,
+        obs_rms: RunningStats | None = None,
+        clip_obs: float = 10.0,
+        epsilon: float = 1e-8,
+        config: ScenarioConfig | None = None,
+        run_config: dict | None = None,
+        name: str = "ppo",
+    ) -> None:
         self.model = model
         self.obs_rms = obs_rms
         self.clip_obs = float(clip_obs)
@@ -272,7 +280,7 @@ class PPOPolicy(BatchPolicy):
         self.name = name
         self.obs_dim = int(model.observation_space.shape[0])
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | None = None) -> None:
         """Stateless: nothing to clear (the interface of baselines.Policy)."""
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
@@ -281,7 +289,7 @@ class PPOPolicy(BatchPolicy):
         z = (obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon)
         return np.clip(z, -self.clip_obs, self.clip_obs).astype(np.float32)
 
-    def act_batch(self, obs) -> np.ndarray:
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float64)
         if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
@@ -293,7 +301,7 @@ class PPOPolicy(BatchPolicy):
         return f"PPOPolicy({self.name!r}, scenario={scen!r})"
 
 
-def load_model(model_path, device="cpu") -> LoadedModel:
+def load_model(model_path: str | Path, device: str = "cpu") -> LoadedModel:
     """The policy network of a model file (safe format; a trusted .zip only after
     ``resolve`` accepted it)."""
     from . import formats
@@ -306,7 +314,7 @@ def load_model(model_path, device="cpu") -> LoadedModel:
     return LoadedModel(formats.build_policy(spec, state, where=model_path, device=device), spec.get("num_timesteps", 0))
 
 
-def load_stats(stats_path) -> dict | None:
+def load_stats(stats_path: str | Path | None) -> dict | None:
     """A normalization file's statistics (``formats.vecnormalize_stats``' dict), or None."""
     from . import formats
 
@@ -318,7 +326,12 @@ def load_stats(stats_path) -> dict | None:
     return formats.read_vecnormalize(stats_path)
 
 
-def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPolicy:
+def load(
+    name_or_path: str | Path,
+    scenario: str | ScenarioConfig | None = None,
+    device: str = "cpu",
+    trust_pickle: bool = False,
+) -> BatchPolicy:
     """A trained policy by shipped name ("ppo_sousa_asv"; "ppo" with ``scenario``), run
     directory, or model file. With ``scenario`` (name or ScenarioConfig) its
     observation size is checked against the policy's. Nothing is unpickled unless
@@ -337,7 +350,8 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
         if stats["norm_obs"]:
             obs_rms = RunningStats(stats["obs_mean"], stats["obs_var"], stats["obs_count"])
         clip_obs, epsilon = stats["clip_obs"], stats["epsilon"]
-    run_config, trained_config = {}, None
+    run_config: Any = {}
+    trained_config = None
     if config_path is not None:
         run_config = _safe_yaml(config_path) or {}
         if not isinstance(run_config, dict):
@@ -383,7 +397,7 @@ class DepthGatedPolicy(BatchPolicy):
     survey vehicles) is below ``threshold_m``, ``deep`` elsewhere. Both see the same
     observation; the gate is part of the policy, written in its gate.yml."""
 
-    def __init__(self, shallow, deep, threshold_m: float, name="gated"):
+    def __init__(self, shallow: BatchPolicy, deep: BatchPolicy, threshold_m: float, name: str = "gated") -> None:
         if shallow.obs_dim != deep.obs_dim:
             raise ValueError(f"gated policies must take the same observation: {shallow.obs_dim} != {deep.obs_dim}")
         if not np.isfinite(threshold_m):
@@ -392,11 +406,11 @@ class DepthGatedPolicy(BatchPolicy):
         self.obs_dim = deep.obs_dim
         self.config = deep.config if deep.config is not None else shallow.config
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | None = None) -> None:
         self.shallow.reset(seed)
         self.deep.reset(seed)
 
-    def act_batch(self, obs) -> np.ndarray:
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
         from coopnav_env.obs_layout import decode
 
         obs = np.asarray(obs, dtype=np.float64)
@@ -433,13 +447,19 @@ def _load_gated(gate_path: Path, scenario, device, name, trust_pickle=False):
     except (TypeError, ValueError, OverflowError):
         raise PolicyFormatError(f"{gate_path}: threshold_m must be a number, got {spec['threshold_m']!r}") from None
     parts = [load(d, scenario=scenario, device=device, trust_pickle=trust_pickle) for d in dirs]
-    return DepthGatedPolicy(*parts, threshold_m=threshold, name=name)
+    return DepthGatedPolicy(parts[0], parts[1], threshold_m=threshold, name=name)
 
 
 _CACHE: dict = {}
 
 
-def make_policy(name_or_path, env_or_config=None, seed=None, agent=0, trust_pickle=False) -> PPOPolicy:
+def make_policy(
+    name_or_path: str | Path,
+    env_or_config: Any = None,
+    seed: int | None = None,
+    agent: int = 0,
+    trust_pickle: bool = False,
+) -> BatchPolicy:
     """``baselines.make_policy``'s signature for trained policies: one policy per beacon
     and episode is cheap, since the loaded model is shared (cached by resolved path).
     ``seed`` and ``agent`` are accepted for the interface; the policy ignores them

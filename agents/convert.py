@@ -48,7 +48,13 @@ PAIRS = (("best_model.zip", "best_vecnormalize.pkl"), ("model.zip", "vecnormaliz
 __all__ = ["convert", "convert_model", "main"]
 
 
-def convert_model(zip_path, pkl_path, out_model, out_stats, norm_obs_hint=None) -> dict:
+def convert_model(
+    zip_path: str | Path,
+    pkl_path: str | Path | None,
+    out_model: str | Path,
+    out_stats: str | Path,
+    norm_obs_hint: bool | None = None,
+) -> dict:
     """Convert one trusted (model .zip, VecNormalize .pkl or None) pair; returns the spec."""
     stats = formats.legacy_vecnormalize(pkl_path) if pkl_path is not None and Path(pkl_path).is_file() else None
     norm_obs = stats["norm_obs"] if stats is not None else norm_obs_hint
@@ -109,7 +115,7 @@ def _convert_dir(src: Path, out: Path, written: list):
             atomic_write_bytes(out / f.name, f.read_bytes())
 
 
-def convert(src, out, trust_pickle: bool = False) -> list:
+def convert(src: str | Path, out: str | Path, trust_pickle: bool = False) -> list:
     """Convert ``src`` (an old SB3 run or policy directory, a model .zip, or an RLlib
     run/checkpoint) into the new directory ``out``; returns the model files written.
     Refused (``PickleRefused``) without ``trust_pickle``."""
@@ -178,7 +184,7 @@ def _discard(out: Path, existed: bool):
             out.rmdir()
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     name = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else ""
     prog = "coopnav-convert" if name.startswith("coopnav-convert") else "python -m agents.convert"  # as invoked
     p = argparse.ArgumentParser(

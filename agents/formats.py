@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -75,7 +76,7 @@ class PickleRefused(PolicyFormatError):
     """A file that only unpickling could read, and the caller did not trust it."""
 
 
-def convert_command(path) -> str:
+def convert_command(path: str | Path) -> str:
     """The command that converts ``path`` (its run directory, for a file of one)."""
     path = Path(path)
     for d in (path.parent, path.parent.parent):
@@ -85,7 +86,7 @@ def convert_command(path) -> str:
     return f"python -m agents.convert {path} --out NEW_DIR --trust-pickle"
 
 
-def refuse_pickle(path, what: str = "a pickle-based file"):
+def refuse_pickle(path: str | Path, what: str = "a pickle-based file") -> NoReturn:
     """Raise ``PickleRefused`` for ``path`` (one line naming it and --trust-pickle)."""
     verb = "" if what.startswith("are ") else "is "
     raise PickleRefused(
@@ -95,7 +96,7 @@ def refuse_pickle(path, what: str = "a pickle-based file"):
     )
 
 
-def check_inside(base, path, what: str = "a path") -> Path:
+def check_inside(base: str | Path, path: str | Path, what: str = "a path") -> Path:
     """``path`` (relative to ``base`` unless absolute), resolved; a ``PolicyFormatError``
     if it leaves ``base`` (``..``, an absolute path, a symbolic link pointing out)."""
     base_r = Path(base).resolve()
@@ -171,7 +172,7 @@ def policy_kwargs_json(kwargs: dict) -> dict:
     return out
 
 
-def policy_kwargs_python(kwargs: dict, where) -> dict:
+def policy_kwargs_python(kwargs: dict | None, where: str | Path) -> dict:
     import torch.nn as nn
 
     out = dict(kwargs or {})
@@ -185,7 +186,7 @@ def policy_kwargs_python(kwargs: dict, where) -> dict:
 # ----------------------------------------------------------------------------------
 # saving
 # ----------------------------------------------------------------------------------
-def model_spec(model, norm_obs=None) -> dict:
+def model_spec(model: Any, norm_obs: bool | None = None) -> dict:
     """The JSON that rebuilds ``model``'s policy network (an SB3 PPO)."""
     from stable_baselines3.common.policies import ActorCriticPolicy
 
@@ -226,7 +227,7 @@ def _optimizer_parts(optimizer) -> tuple:
     return tensors, {"class": type(optimizer).__name__, "param_groups": groups, "state": state}
 
 
-def model_bytes(model, norm_obs=None, optimizer: bool = True) -> bytes:
+def model_bytes(model: Any, norm_obs: bool | None = None, optimizer: bool = True) -> bytes:
     """The model file of an SB3 PPO ``model`` (see the module docstring)."""
     from safetensors.torch import save
 
@@ -238,12 +239,12 @@ def model_bytes(model, norm_obs=None, optimizer: bool = True) -> bytes:
     return save(tensors, metadata={"coopnav": json.dumps(spec)})
 
 
-def save_model(model, path, norm_obs=None, optimizer: bool = True):
+def save_model(model: Any, path: str | Path, norm_obs: bool | None = None, optimizer: bool = True) -> None:
     """Write ``model``'s model file to ``path`` atomically."""
     atomic_write_bytes(Path(path), model_bytes(model, norm_obs, optimizer))
 
 
-def vecnormalize_stats(vecnorm) -> dict:
+def vecnormalize_stats(vecnorm: Any) -> dict:
     """The running statistics and settings of a VecNormalize, as plain numbers/arrays."""
     obs_rms = vecnorm.obs_rms
     if isinstance(obs_rms, dict):
@@ -295,7 +296,7 @@ def vecnormalize_bytes(stats: dict) -> bytes:
     return save(tensors, metadata={"coopnav": json.dumps(meta)})
 
 
-def save_vecnormalize(vecnorm, path):
+def save_vecnormalize(vecnorm: Any, path: str | Path) -> None:
     """Write a VecNormalize's statistics (or a ``vecnormalize_stats`` dict) to ``path`` atomically."""
     stats = vecnorm if isinstance(vecnorm, dict) else vecnormalize_stats(vecnorm)
     atomic_write_bytes(Path(path), vecnormalize_bytes(stats))
@@ -304,7 +305,7 @@ def save_vecnormalize(vecnorm, path):
 # ----------------------------------------------------------------------------------
 # loading (no pickle)
 # ----------------------------------------------------------------------------------
-def sniff(path):
+def sniff(path: str | Path) -> None:
     """Refuse ``path`` if its name or its first bytes say pickle or zip (SB3's format);
     reads two bytes, never unpickles."""
     path = Path(path)
@@ -350,7 +351,7 @@ def _open(path, framework: str, expected: str) -> tuple:
     return tensors, spec
 
 
-def read_model(path) -> tuple:
+def read_model(path: str | Path) -> tuple:
     """(spec JSON, policy state_dict, optimizer state_dict or None) of a model file."""
     tensors, spec = _open(path, "pt", MODEL_FORMAT)
     policy = {k: v for k, v in tensors.items() if not k.startswith(OPTIM_PREFIX)}
@@ -373,7 +374,9 @@ def read_model(path) -> tuple:
     return spec, policy, optim
 
 
-def build_policy(spec: dict, state: dict | None = None, where="model", device="cpu", learning_rate=0.0):
+def build_policy(
+    spec: dict, state: dict | None = None, where: str | Path = "model", device: str = "cpu", learning_rate: Any = 0.0
+) -> Any:
     """The SB3 ActorCriticPolicy ``spec`` describes, with ``state`` loaded (strict)."""
     from stable_baselines3.common.policies import ActorCriticPolicy
 
@@ -414,7 +417,7 @@ def _check_header_sizes(spec: dict, where):
         raise PolicyFormatError(str(err)) from None
 
 
-def safe_yaml(path):
+def safe_yaml(path: str | Path) -> Any:
     """A run's YAML file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
     from coopnav_env.safe_load import UnsafeDataError, read_yaml
 
@@ -424,7 +427,7 @@ def safe_yaml(path):
         raise PolicyFormatError(str(err)) from None
 
 
-def safe_json(path):
+def safe_json(path: str | Path) -> Any:
     """A run's JSON file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
     from coopnav_env.safe_load import UnsafeDataError, read_json
 
@@ -434,14 +437,14 @@ def safe_json(path):
         raise PolicyFormatError(str(err)) from None
 
 
-def load_policy_state(policy, state: dict, where):
+def load_policy_state(policy: Any, state: dict, where: str | Path) -> None:
     try:
         policy.load_state_dict(state, strict=True)
     except RuntimeError as err:
         raise PolicyFormatError(f"{where} does not fit the network: {_first_line(err)}") from None
 
 
-def read_vecnormalize(path) -> dict:
+def read_vecnormalize(path: str | Path) -> dict:
     """A normalization file -> ``vecnormalize_stats``'s dict."""
     tensors, meta = _open(path, "np", VECNORM_FORMAT)
     try:
@@ -460,7 +463,7 @@ def read_vecnormalize(path) -> dict:
     return stats
 
 
-def restore_vecnormalize(vecnorm, stats: dict):
+def restore_vecnormalize(vecnorm: Any, stats: dict) -> Any:
     """Put ``stats`` into a VecNormalize (its running statistics; training mode kept)."""
     if tuple(np.shape(stats["obs_mean"])) != tuple(np.shape(vecnorm.obs_rms.mean)):
         raise PolicyFormatError(
@@ -479,14 +482,14 @@ def restore_vecnormalize(vecnorm, stats: dict):
 # ----------------------------------------------------------------------------------
 # the old pickle formats: only for a caller who trusts the file
 # ----------------------------------------------------------------------------------
-def legacy_model(path, device="cpu"):
+def legacy_model(path: str | Path, device: str = "cpu") -> Any:
     """An SB3 model .zip (``PPO.load``: UNPICKLES; call only for a trusted file)."""
     from stable_baselines3 import PPO
 
     return PPO.load(str(path), device=device)
 
 
-def legacy_vecnormalize(path) -> dict:
+def legacy_vecnormalize(path: str | Path) -> dict:
     """A VecNormalize .pkl (UNPICKLES; call only for a trusted file) -> stats dict."""
     import pickle
 
@@ -495,7 +498,7 @@ def legacy_vecnormalize(path) -> dict:
     return vecnormalize_stats(vecnorm)
 
 
-def legacy_model_parts(path, norm_obs=None, device="cpu") -> tuple:
+def legacy_model_parts(path: str | Path, norm_obs: bool | None = None, device: str = "cpu") -> tuple:
     """(spec, policy state_dict, optimizer state_dict) of a trusted SB3 .zip."""
     model = legacy_model(path, device)
     spec = model_spec(model, norm_obs)
@@ -510,7 +513,7 @@ def _first_line(err) -> str:
 _TRUSTED: set = set()  # pickle-based files the caller trusted (trust_pickle=True) in this process
 
 
-def trust_pickle(*paths):
+def trust_pickle(*paths: str | Path | None) -> None:
     """Trust these pickle-based files (resolved paths) for the rest of the process, as
     ``trust_pickle=True`` does for the files it resolves."""
     for path in paths:

@@ -52,7 +52,9 @@ from __future__ import annotations
 import logging
 import pickle
 import warnings
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -83,7 +85,7 @@ def _run_config_backend(directory: Path):
         return None
 
 
-def find_checkpoint(path) -> Path | None:
+def find_checkpoint(path: object) -> Path | None:
     """The RLlib Algorithm checkpoint directory ``path`` names, or None: ``path`` itself
     (it holds ``rllib_checkpoint.json``), or a train.py ``--backend rllib`` run
     directory (its ``checkpoint/``)."""
@@ -99,7 +101,7 @@ def find_checkpoint(path) -> Path | None:
     return None
 
 
-def is_rllib_path(path) -> bool:
+def is_rllib_path(path: object) -> bool:
     """Whether ``path`` is an RLlib checkpoint or a train.py ``--backend rllib`` run."""
     return find_checkpoint(path) is not None
 
@@ -113,7 +115,7 @@ def find_run_config(checkpoint: Path) -> Path | None:
     return None
 
 
-def resolve(path, scenario=None, trust_pickle=False) -> tuple:
+def resolve(path: str | Path, scenario: Any = None, trust_pickle: bool = False) -> tuple:
     """(checkpoint directory, None, config.yml or None), as ``agents.resolve``; raises
     ValueError if the run has no checkpoint (yet) or the checkpoint no module, and
     ``PickleRefused`` unless ``trust_pickle`` (or the checkpoint was trusted before)."""
@@ -260,7 +262,7 @@ def _load_filters(path: Path) -> dict:
 class FrozenMeanStd:
     """RLlib's MeanStdFilter with frozen statistics (``update=False``): the same arithmetic."""
 
-    def __init__(self, mean, std, demean=True, destd=True, clip=10.0):
+    def __init__(self, mean: Any, std: Any, demean: bool = True, destd: bool = True, clip: float | None = 10.0) -> None:
         self.mean, self.std = np.asarray(mean), np.asarray(std)  # their dtype, as RLlib's filter has them
         self.demean, self.destd, self.clip = bool(demean), bool(destd), clip
 
@@ -301,7 +303,7 @@ def _module_spec(module) -> dict:
     }
 
 
-def export(checkpoint, out_dir=None) -> Path:
+def export(checkpoint: str | Path, out_dir: str | Path | None = None) -> Path:
     """Write the safe export of a TRUSTED RLlib checkpoint (this reads its pickles) into
     ``out_dir`` (default ``<checkpoint>/policy_export``), every file atomically."""
     import json
@@ -358,7 +360,7 @@ def _open_export(path: Path, framework: str, expected: str) -> tuple:
     return tensors, meta
 
 
-def read_module(path: Path):
+def read_module(path: Path) -> Any:
     """The RLModule of an export file: DefaultPPOTorchRLModule rebuilt from its JSON, the
     tensors loaded into it (no pickle)."""
     from agents.formats import PolicyFormatError, _unbox
@@ -442,7 +444,7 @@ class RLlibPolicy(BatchPolicy):
 
     obs_dtype = np.float32
 
-    def __init__(self, run: _LoadedRun, agent_index: int = 0, config=None, name="rllib"):
+    def __init__(self, run: _LoadedRun, agent_index: int = 0, config: Any = None, name: str = "rllib") -> None:
         self.run = run
         self.config = config if config is not None else run.trained_config
         self.agent_index = int(agent_index)
@@ -461,10 +463,10 @@ class RLlibPolicy(BatchPolicy):
         self.name = name
         self.run_config = run.run_config
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | None = None) -> None:
         """Stateless: nothing to clear (the interface of baselines.Policy)."""
 
-    def act_batch(self, obs) -> np.ndarray:
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
         import torch
         from ray.rllib.core.columns import Columns
 
@@ -515,7 +517,9 @@ def _obs_dim(config) -> int:
     return int(obs_dim(config))
 
 
-def load(path, scenario=None, agent=0, device="cpu", trust_pickle=False) -> RLlibPolicy:
+def load(
+    path: str | Path, scenario: Any = None, agent: int = 0, device: str = "cpu", trust_pickle: bool = False
+) -> RLlibPolicy:
     """The policy of beacon ``agent`` (index or "beacon_k") from an RLlib checkpoint or
     run directory. With ``scenario`` (name, ScenarioConfig or env) the observation
     size is checked and the beacon's kind picks the module; without it, the scenario
@@ -546,20 +550,22 @@ def load(path, scenario=None, agent=0, device="cpu", trust_pickle=False) -> RLli
     return policy
 
 
-def make_policy(path, env_or_config=None, seed=None, agent=0, trust_pickle=False) -> RLlibPolicy:
+def make_policy(
+    path: str | Path, env_or_config: Any = None, seed: int | None = None, agent: int = 0, trust_pickle: bool = False
+) -> RLlibPolicy:
     """``baselines.make_policy``'s signature: one policy per beacon and episode is cheap
     (the loaded modules are shared). ``seed`` is accepted for the interface."""
     return load(path, scenario=env_or_config, agent=agent, trust_pickle=trust_pickle)
 
 
-def batch_actor(path, config):
+def batch_actor(path: str | Path, config: Any) -> Callable[[np.ndarray, Any], np.ndarray]:
     """``act(obs (n_envs * N, D), venv) -> (n_envs * N, 2)`` for train.py's ``evaluate``:
     every beacon's rows through its kind's module, all environments at once (the
     trainer's own checkpoint, just written: trusted)."""
     policies = [load(path, scenario=config, agent=j, trust_pickle=True) for j in range(config.n_beacons)]
     N = config.n_beacons
 
-    def act(obs, venv):
+    def act(obs: np.ndarray, venv: Any) -> np.ndarray:
         out = np.empty((len(obs), 2), dtype=np.float32)
         for j, policy in enumerate(policies):
             out[j::N] = policy.act_batch(obs[j::N])
@@ -568,7 +574,7 @@ def batch_actor(path, config):
     return act
 
 
-def convert(src, out):
+def convert(src: str | Path, out: str | Path) -> Path:
     """``agents.convert`` of a TRUSTED RLlib run or checkpoint: a copy of it (an RLlib run
     directory stays resumable with --trust-pickle) with the safe export written into its
     checkpoint, which ``agents.load`` then reads without unpickling."""

@@ -31,7 +31,7 @@ def _within(base: Path, target: Path) -> bool:
     return target == base or base in target.parents
 
 
-def inside(root, path, what: str = "file") -> Path:
+def inside(root: str | os.PathLike[str], path: str | os.PathLike[str], what: str = "file") -> Path:
     """``path`` resolved; a ``PolicyFormatError`` if it (or a link on its way) leaves ``root``."""
     base = Path(root).resolve()
     p = Path(path)
@@ -57,7 +57,7 @@ def _any_link(root: Path, p: Path) -> bool:
     return False
 
 
-def check_tree(root, what: str = "run folder") -> Path:
+def check_tree(root: str | os.PathLike[str], what: str = "run folder") -> Path:
     """``root`` resolved, after refusing every symbolic link under it that leads outside
     it (a ``PolicyFormatError`` naming the first); ``root`` itself may be a link."""
     root = Path(root)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import io
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -85,7 +86,7 @@ def loss_vs_range(path: Path) -> None:
     _save(fig, path)
 
 
-def two_beacon_slot(offsets_s):
+def two_beacon_slot(offsets_s: Sequence[float]) -> tuple:
     """The slot of the timeline figure: beacons A, B pinging at ``offsets_s``; survey
     vehicles S, T silent. Returns (names, tx, outcome)."""
     names = ["beacon A", "beacon B", "survey S", "survey T"]
@@ -178,7 +179,7 @@ def timeline(path: Path) -> None:
     _save(fig, path)
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("docs/figures"), help="directory of the PNGs")
     args = p.parse_args(argv)

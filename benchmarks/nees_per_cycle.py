@@ -96,7 +96,7 @@ def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: 
     }
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )

@@ -123,7 +123,7 @@ def _clean_output(path: Path):
         shutil.rmtree(path)
 
 
-def measure(name: str, what: str, cmd: list, cwd, out: Path) -> dict:
+def measure(name: str, what: str, cmd: list, cwd: str | Path | None, out: Path) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
     tmp = None
@@ -153,7 +153,7 @@ def measure(name: str, what: str, cmd: list, cwd, out: Path) -> dict:
     }
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         prog="times.py", description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )

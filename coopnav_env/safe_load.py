@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+from typing import Any
 
 MAX_BYTES = 1 << 20  # 1 MiB: the largest config.yml / run.json the project writes is a few kB
 MAX_DEPTH = 64
@@ -64,7 +65,7 @@ def _decode(data, where: str, max_bytes: int) -> str:
     return text
 
 
-def read_text(path, max_bytes: int = MAX_BYTES, what: str | None = None) -> str | None:
+def read_text(path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, what: str | None = None) -> str | None:
     """The UTF-8 text of ``path`` (None if it does not exist), at most ``max_bytes``
     (checked before reading all of it); an ``UnsafeDataError`` else."""
     where = what or str(path)
@@ -133,8 +134,12 @@ def _check_yaml_events(text: str, where: str, max_depth: int, max_nodes: int):
 
 
 def loads_yaml(
-    text, where: str = "YAML text", max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES
-):
+    text: str | bytes,
+    where: str = "YAML text",
+    max_bytes: int = MAX_BYTES,
+    max_depth: int = MAX_DEPTH,
+    max_nodes: int = MAX_NODES,
+) -> Any:
     """``yaml.safe_load(text)`` after the checks of the module docstring (``text``:
     str or bytes)."""
     import yaml
@@ -150,7 +155,7 @@ def loads_yaml(
         raise UnsafeDataError(f"{where}: cannot be read ({type(err).__name__}): refused") from None
 
 
-def read_yaml(path, max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH):
+def read_yaml(path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH) -> Any:
     """``loads_yaml`` of a file (None if it does not exist)."""
     text = read_text(path, max_bytes)
     return None if text is None else loads_yaml(text, str(path), max_bytes, max_depth)
@@ -182,7 +187,9 @@ def _json_depth_ok(text: str, max_depth: int) -> bool:
     return True
 
 
-def loads_json(text, where: str = "JSON text", max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH):
+def loads_json(
+    text: str | bytes, where: str = "JSON text", max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH
+) -> Any:
     """``json.loads(text)`` after the size and depth checks (``text``: str or bytes)."""
     text = _decode(text, where, max_bytes)
     if text.count("[") + text.count("{") > max_depth and not _json_depth_ok(text, max_depth):
@@ -195,7 +202,7 @@ def loads_json(text, where: str = "JSON text", max_bytes: int = MAX_BYTES, max_d
         raise UnsafeDataError(f"{where}: cannot be read ({type(err).__name__}): refused") from None
 
 
-def read_json(path, max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH):
+def read_json(path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH) -> Any:
     """``loads_json`` of a file (None if it does not exist)."""
     text = read_text(path, max_bytes)
     return None if text is None else loads_json(text, os.fspath(path), max_bytes, max_depth)

@@ -50,6 +50,7 @@ import os
 import shlex
 import signal
 import sys
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -82,7 +83,7 @@ __all__ = [
 
 def compare_task(
     episode_errors: dict,
-    planners,
+    planners: Iterable[str],
     ranges_fused: dict | None = None,
     skipped: dict | None = None,
     confidence: float = 0.95,
@@ -133,7 +134,7 @@ def compare_task(
     return {"best_planner": best, "policies": out, "wins": wins}
 
 
-def summarize_task_set(tasks: dict, policies) -> dict:
+def summarize_task_set(tasks: dict, policies: Iterable[str]) -> dict:
     """Per policy the count of each verdict over ``tasks`` (task -> ``compare_task``'s
     result): ``{policy: {"win", "tie", "loss", "best", "n/a", "tasks_won"}}``."""
     out = {}
@@ -208,15 +209,15 @@ def _split(text) -> list:
 
 
 def plan_benchmark(
-    tasks,
-    policies=None,
+    tasks: str | Sequence[str],
+    policies: str | Sequence[str] | None = None,
     episodes: int | None = None,
     overrides: dict | None = None,
     out: str = "results/benchmark",
     overwrite: bool = False,
     trust_pickle: bool = False,
     check_out: bool = True,
-    only_tasks=None,
+    only_tasks: str | Sequence[str] | None = None,
 ) -> BenchmarkPlan:
     """Check everything and build the plan; raises UsageError (one line). ``tasks``: task
     set names (a list or "a,b"; "all": every set); ``policies``: the challengers;
@@ -654,7 +655,7 @@ def list_text() -> str:
     return "\n".join(lines)
 
 
-def main(argv=None, prog: str | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """The command line; returns the exit status (0; 2 bad input; 1 a result that cannot be
     written; 130 interrupted)."""
     prog = prog or "coopnav-benchmark"

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import hashlib
 import os
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from coopnav_env.records import atomic_write_text, strict_json
 
@@ -26,11 +28,11 @@ MAX_BYTES = 2 << 30  # about 100 bytes per episode: evaluation.limits.MAX_TOTAL_
 __all__ = ["FILE", "digest", "key", "read", "verify", "write"]
 
 
-def key(r) -> str:
+def key(r: Mapping[str, Any]) -> str:
     return f"{r['cell']}|{r['policy']}|{r['seed']}"
 
 
-def digest(ep_row: dict, step_rows: list, ep_columns) -> str:
+def digest(ep_row: dict, step_rows: list, ep_columns: Sequence[str]) -> str:
     """SHA-256 of one episode's rows as the CSV files hold them."""
     from .report import STEP_COLUMNS, csv_text
 
@@ -57,7 +59,7 @@ def read(out: str) -> dict | None:
     return {str(k): v for k, v in rec["episodes"].items() if isinstance(v, str)}
 
 
-def verify(out: str, kept: list, ep_columns) -> tuple:
+def verify(out: str, kept: list, ep_columns: Sequence[str]) -> tuple:
     """``kept``: [(episode row, its step rows)] that passed the format checks. Returns
     (the verified ones, notes); a ``UsageError`` if one does not match its checksum."""
     recorded = read(out)

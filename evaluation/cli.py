@@ -15,6 +15,7 @@ import argparse
 import shlex
 import signal
 import sys
+from collections.abc import Sequence
 
 from .config import EvalConfig, UsageError, parse_assignment, split_top_level
 
@@ -125,7 +126,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     return p
 
 
-def config_from_args(args) -> EvalConfig:
+def config_from_args(args: argparse.Namespace) -> EvalConfig:
     """The ``EvalConfig`` of parsed arguments; raises UsageError."""
     sets = dict(parse_assignment(item, "--set") for item in args.sets)
     sweep = {}
@@ -150,7 +151,7 @@ def config_from_args(args) -> EvalConfig:
     )
 
 
-def resume_command(argv, prog: str) -> str:
+def resume_command(argv: Sequence[str], prog: str) -> str:
     """The command that resumes the run of ``argv``: the same arguments, without
     --overwrite, with --resume."""
     args = [a for a in argv if not (len(a) > 4 and a.startswith("--ov") and "--overwrite".startswith(a))]
@@ -164,7 +165,7 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt(f"signal {signum}")
 
 
-def main(argv=None, prog: str | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """Run the command line; returns the exit status (0; 2 bad input; 1 a result that
     cannot be summarized; 130 interrupted)."""
     from .run import EvaluationError, EvaluationInterrupted, evaluate

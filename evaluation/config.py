@@ -22,12 +22,15 @@ import numbers
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from coopnav_env.records import plain
 from coopnav_env.seeds import EVALUATE_SEED, MAX_SEED, check_seed
 
 from .errors import UsageError  # defined there (every module raises it), used and re-exported here
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 
 def _check_field_names(cls):
@@ -141,7 +144,7 @@ class EvalConfig:
                 "--resume keeps the episodes in the output directory, --overwrite replaces them: give one of them"
             )
 
-    def replace(self, **changes) -> EvalConfig:
+    def replace(self, **changes: Any) -> EvalConfig:
         """A copy with ``changes`` (unknown names are an error)."""
         return dataclasses.replace(self, **changes)
 
@@ -177,7 +180,7 @@ def _default(key: str):
     return default_of(key)
 
 
-def parse_value(key: str, text: str):
+def parse_value(key: str, text: str) -> Any:
     """Parse ``text`` as the type of scenario parameter ``key``."""
     default = _default(key)
     text = text.strip()
@@ -223,7 +226,7 @@ def _parse(key: str, text: str, default):
         raise UsageError(f"bad value {text!r} for {key} (a {type(default).__name__})") from None
 
 
-def coerce_value(key: str, value):
+def coerce_value(key: str, value: Any) -> Any:
     """A parameter value as the command line would give it: text is parsed
     (``parse_value``), numbers take the parameter's type (1 -> 1.0 for a float
     parameter, so cells and tables read the same), lists become tuples."""
@@ -240,7 +243,7 @@ def coerce_value(key: str, value):
     return _to_tuple(value)
 
 
-def parse_assignment(item: str, option: str):
+def parse_assignment(item: str, option: str) -> tuple[str, Any]:
     """``"KEY=VALUE"`` -> (key, value text)."""
     if "=" not in item:
         raise UsageError(f"{option} expects KEY=VALUE, got {item!r}")
@@ -253,7 +256,7 @@ def cell_id(cell: dict) -> str:
     return ";".join(f"{k}={v}" for k, v in cell.items())
 
 
-def sweep_layout(sweep: dict):
+def sweep_layout(sweep: dict) -> tuple[str, list, list]:
     """The table layout of a sweep: (row key, its values, the column cells: dicts of the
     other keys' values, in grid order)."""
     keys = list(sweep)
@@ -289,7 +292,7 @@ class Plan:
         """The episodes' seeds: seed + i."""
         return [self.config.seed + i for i in range(self.episodes)]
 
-    def first_config(self):
+    def first_config(self) -> ScenarioConfig:
         """The scenario config of the first cell (the figures' episode)."""
         return self.configs[cell_id(self.cells[0])]
 

@@ -14,10 +14,16 @@ observation only. Everything the evaluation reads of a step comes through
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
-def make_policy(name: str, config, seed, agent: int):
+
+def make_policy(name: str, config: ScenarioConfig, seed: int | None, agent: int) -> Any:
     """A planner from baselines/ by name, else a trained policy through agents/ (same interface)."""
     import baselines
 
@@ -28,7 +34,7 @@ def make_policy(name: str, config, seed, agent: int):
     return agents.make_policy(name, config, seed=seed, agent=agent)
 
 
-def check_policy(name: str, config, seed: int) -> None:
+def check_policy(name: str, config: ScenarioConfig, seed: int) -> None:
     """Check that ``name`` loads and drives ``config``'s scenario: a simulator of one
     episode (``seed``) is reset, one policy per beacon answers its first observation with
     a finite action of the scenario's shape (``views.action_dim``: 2, or 3 with a
@@ -137,7 +143,12 @@ _PER_STEP = (
 )
 
 
-def run_episodes(config, policy_name: str, seeds, progress=None):
+def run_episodes(
+    config: ScenarioConfig,
+    policy_name: str,
+    seeds: Sequence[int],
+    progress: Callable[[float], object] | None = None,
+) -> tuple[list[dict], list[dict]]:
     """Run ``policy_name`` (one instance per beacon and episode) on episodes ``seeds``
     as one batch. Returns (episode rows, step rows) without the cell/policy/episode
     columns (see ``evaluation.report.EPISODE_COLUMN_DOCS``). ``progress(n)`` is called
@@ -229,7 +240,7 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
     return episodes, steps
 
 
-def record_episode(config, policy_name: str, seed: int) -> dict:
+def record_episode(config: ScenarioConfig, policy_name: str, seed: int) -> dict:
     """Re-run one episode and keep every position (for the path figure): ``t_s`` (T,),
     ``survey_true_m``, ``survey_est_m``, ``survey_dr_m`` (T, S, 3), ``beacon_true_m``
     (T, N, 3), from the start (row 0) to the end; ``waypoints_m`` (S, W, 3) and

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import io
 import os
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,11 +31,14 @@ from coopnav_env.records import atomic_write_bytes, plain
 from .config import cell_id, sweep_layout
 from .stats import find_cell
 
+if TYPE_CHECKING:
+    from .config import Plan
+
 DPI = 200
 TIME_LABEL = "time (s)"
 
 
-def save_figure(fig, path):
+def save_figure(fig: Any, path: str) -> None:
     """Render ``fig`` on an Agg canvas and write it to ``path`` as PNG (atomically)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
@@ -81,7 +85,7 @@ def _band(ax, step_rows, policy, key, color, label, **line):
     return True
 
 
-def draw_paths(out, plan):
+def draw_paths(out: str, plan: Plan) -> str:
     """paths.png: both vehicles' paths in the first episode of each policy."""
     from matplotlib.figure import Figure
 
@@ -147,7 +151,7 @@ def panel_grid(n: int) -> tuple:
     return best[1], best[2]
 
 
-def draw_benchmark(out, results: dict) -> list:
+def draw_benchmark(out: str, results: dict) -> list:
     """benchmark_<set>.png per task set of a benchmark result (``evaluation.benchmark``):
     per task, each policy's mean survey error with its 95 % t interval, the task's best
     planner ringed; a log scale when the floors are far above the rest. Returns the names."""
@@ -225,7 +229,7 @@ def draw_benchmark(out, results: dict) -> list:
     return written
 
 
-def draw_error_vs_time(out, plan, step_rows):
+def draw_error_vs_time(out: str, plan: Plan, step_rows: list) -> str:
     """error_vs_time.png: the policies' survey error on its own scale (top) and dead
     reckoning's (bottom), against a shared time axis."""
     from matplotlib.figure import Figure
@@ -247,7 +251,7 @@ def draw_error_vs_time(out, plan, step_rows):
     return "error_vs_time.png"
 
 
-def draw_ellipse_axes(out, plan, step_rows):
+def draw_ellipse_axes(out: str, plan: Plan, step_rows: list) -> str:
     """ellipse_axes.png: the filter's 2-sigma semi-axes against time, per policy."""
     from matplotlib.figure import Figure
 
@@ -268,7 +272,7 @@ def draw_ellipse_axes(out, plan, step_rows):
     return "ellipse_axes.png"
 
 
-def draw_frame_errors(out, plan, step_rows):
+def draw_frame_errors(out: str, plan: Plan, step_rows: list) -> str:
     """frame_errors.png, Matos & Cruz Figs. 6-8 for the first episode of each policy: the
     x and y errors in the moving frame and the filter's ellipse axes against time."""
     from matplotlib.figure import Figure
@@ -296,7 +300,7 @@ def draw_frame_errors(out, plan, step_rows):
     return "frame_errors.png"
 
 
-def draw_sweep_figure(out, plan, summary):
+def draw_sweep_figure(out: str, plan: Plan, summary: dict) -> str:
     """sweep.png: mean survey error against the first swept parameter, one panel per
     policy (one error scale), one line per combination of the other parameters."""
     from matplotlib.figure import Figure
@@ -326,7 +330,7 @@ def draw_sweep_figure(out, plan, summary):
     return "sweep.png"
 
 
-def draw_all(out, plan, step_rows, summary) -> list:
+def draw_all(out: str, plan: Plan, step_rows: list, summary: dict) -> list:
     """Every figure of the run (a sweep: sweep.png only); returns the file names."""
     if plan.sweep:
         return [draw_sweep_figure(out, plan, summary)]

@@ -21,11 +21,15 @@ from __future__ import annotations
 import os
 import socket
 import time
+from typing import TYPE_CHECKING
 
 from coopnav_env.records import atomic_write_text, read_json, strict_json
 
 from .errors import UsageError
 from .limits import MAX_EPISODES
+
+if TYPE_CHECKING:
+    from .config import EvalConfig
 
 FORMAT_VERSION = 3  # 3: + pings, collisions, energy_J; 2: CSV floats written with repr (exact); 1 (absent): rounded
 RESULT_FILES = ("run.json", "episodes.csv", "steps.csv", "checksums.json", "summary.json", "summary.md")
@@ -121,7 +125,7 @@ def _text(key, value) -> str:
     return str(value)
 
 
-def check_existing(config, run_info: dict, previous: dict | None, trained: dict) -> None:
+def check_existing(config: EvalConfig, run_info: dict, previous: dict | None, trained: dict) -> None:
     """Refuse (UsageError) to write into ``config.out`` over an earlier result without
     ``resume`` or ``overwrite``, or to resume a run of other arguments."""
     out = config.out
@@ -201,7 +205,7 @@ class OutputLock:
     """Hold ``out`` for one run: ``with OutputLock(out, command): ...``. Creates ``out``;
     a second holder gets a UsageError naming the first (from its owner file)."""
 
-    def __init__(self, out: str, command: str | None = None):
+    def __init__(self, out: str, command: str | None = None) -> None:
         self.out, self.command = out, command
         self.lock = None
 

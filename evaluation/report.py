@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import csv
 import io
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,6 +27,9 @@ from coopnav_env.records import plain
 
 from .config import sweep_layout
 from .stats import find_cell
+
+if TYPE_CHECKING:
+    from .config import Plan
 
 # name -> (unit, meaning); "" unit: a label
 _IDENTITY_DOCS = {
@@ -132,7 +137,7 @@ SUMMARY_COLUMN_DOCS.update(
 # CSV
 
 
-def csv_text(columns, rows) -> str:
+def csv_text(columns: Sequence[str], rows: Iterable[Mapping[str, Any]]) -> str:
     """``rows`` (dicts) as CSV text with header ``columns``; floats written exactly (the
     shortest text that reads back to the same float), so that statistics computed again
     from the file (``--resume``) are those computed from the numbers themselves."""
@@ -150,7 +155,7 @@ def _fmt(v):
     return v
 
 
-def read_csv(path) -> list:
+def read_csv(path: str) -> list:
     """The rows of a CSV file (dicts of text), [] if it does not exist."""
     try:
         with open(path, newline="") as f:
@@ -218,7 +223,7 @@ def trained_lines(trained: dict) -> list:
     return out
 
 
-def markdown(summary: dict, plan) -> str:
+def markdown(summary: dict, plan: Plan) -> str:
     """summary.md: the run, the per-policy table (pooled over a sweep's grid), a sweep's
     Table I/II layout per policy, and the Columns section."""
     lines = [f"# Evaluation: {summary['scenario']}", ""]

@@ -14,10 +14,14 @@ import io
 import math
 import os
 import re
+from typing import TYPE_CHECKING
 
 from .config import cell_id
 from .outdir import FORMAT_VERSION, has_results
 from .report import EPISODE_COLUMNS, STEP_COLUMNS, _fmt
+
+if TYPE_CHECKING:
+    from .config import Plan
 
 _INT = re.compile(r"-?[0-9]+\Z")
 EPISODE_INTS = (
@@ -82,7 +86,7 @@ def _cell_text(value) -> str:
     return str(_fmt(value))
 
 
-def kept_rows(out: str, plan) -> tuple:
+def kept_rows(out: str, plan: Plan) -> tuple:
     """(episode rows, step rows, notes) that ``resume`` keeps from ``out``: the episodes
     of ``plan`` whose episodes.csv row is well formed and whose steps.csv rows (steps 1..n,
     n its ``steps``) are all there and well formed; rows are dicts of the files' text.

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import os
 import sys
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from coopnav_env.records import atomic_write_text, strict_json, version_record
 
@@ -48,7 +48,7 @@ class EvaluationInterrupted(KeyboardInterrupt):
     """Ctrl-C (or SIGTERM on the command line) during an evaluation: ``saved`` of
     ``total`` episodes are on disk in ``out``; ``--resume`` runs the rest."""
 
-    def __init__(self, out: str, saved: int, total: int):
+    def __init__(self, out: str, saved: int, total: int) -> None:
         super().__init__(f"interrupted: {saved} of {total} episodes saved in {out!r}")
         self.out, self.saved, self.total = out, saved, total
 
@@ -234,7 +234,7 @@ def _run_locked(plan, saved: list) -> EvalResult:
     return EvalResult(summary, md, out, files)
 
 
-def run_evaluation(config: EvalConfig | None = None, **fields) -> dict:
+def run_evaluation(config: EvalConfig | None = None, **fields: Any) -> dict:
     """Run an evaluation and return its summary (summary.json's content).
     ``run_evaluation(EvalConfig(...))``, or the fields directly:
     ``run_evaluation(scenario="sousa_asv", policies="fim_a,static", episodes=5)``."""

@@ -10,14 +10,19 @@ steps of one episode are never treated as independent.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from coopnav_env.records import plain
 
 from .config import cell_id
 
+if TYPE_CHECKING:
+    from .config import Plan
 
-def error_stats(step_rows, episode_rows, n_boot: int = 2000) -> dict:
+
+def error_stats(step_rows: list, episode_rows: list, n_boot: int = 2000) -> dict:
     """One policy's statistics (summary.json's ``policies.<name>``) from its step and
     episode rows (dicts; values may be the CSV's text)."""
     err = np.array([float(r["survey_error_m"]) for r in step_rows])
@@ -59,7 +64,7 @@ def error_stats(step_rows, episode_rows, n_boot: int = 2000) -> dict:
     }
 
 
-def frame_error_stats(step_rows) -> dict:
+def frame_error_stats(step_rows: list) -> dict:
     """Moving-frame error statistics (Matos & Cruz sec. VIII): the standard deviation
     of the x and y errors over all steps; empty for scenarios without them."""
     ex = [float(r["error_x_m"]) for r in step_rows if r.get("error_x_m", "") != ""]
@@ -84,7 +89,7 @@ def _per_policy(policies, ep_rows, step_rows, cells: set) -> dict:
     return out
 
 
-def summarize(plan, ep_rows, step_rows) -> dict:
+def summarize(plan: Plan, ep_rows: list, step_rows: list) -> dict:
     """summary.json's content: the run's scenario, episodes, seed and overrides, and per
     policy ``error_stats``; a sweep adds ``sweep`` and ``cells`` (per cell: ``params``
     and ``policies``), and ``policies`` is then pooled over every cell of the grid."""
@@ -109,7 +114,7 @@ def summarize(plan, ep_rows, step_rows) -> dict:
     return summary
 
 
-def find_cell(summary: dict, params: dict, policy: str):
+def find_cell(summary: dict, params: dict, policy: str) -> dict | None:
     """The statistics of ``policy`` in the sweep cell whose parameters include ``params``
     (JSON values), or None."""
     for c in summary.get("cells", []):

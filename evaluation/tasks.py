@@ -19,6 +19,10 @@ from __future__ import annotations
 
 import dataclasses
 from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 BENCHMARK_VERSION = 2  # 2: the gao_team and matos_river task sets
 EPISODES = 50  # per task and policy: the benchmark's count
@@ -35,7 +39,7 @@ class Task:
     overrides: MappingProxyType
     about: str = ""
 
-    def config(self, scenario: str, **extra):
+    def config(self, scenario: str, **extra: Any) -> ScenarioConfig:
         """The task's ``ScenarioConfig`` (``extra``: more overrides on top, e.g. ``--set``)."""
         from coopnav_env import make_config
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import Any
 
 
 class BoundsError(ValueError):
@@ -75,7 +76,7 @@ def _eval_cells(cells: dict, where: str):
             raise BoundsError(f"{where}: the grid has more than {MAX_EVAL_CELLS} cells: refused")
 
 
-def check_bounds(config) -> None:
+def check_bounds(config: Any) -> None:
     """Refuse (``ConfigError``) a config whose numbers are not finite or out of range."""
     _finite_numbers(config.to_dict(), "config")
     if config.timesteps is not None:

@@ -194,7 +194,7 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     return p
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``), build the config and train; the exit status."""
     prog = Path(sys.argv[0]).name if argv is None and sys.argv and sys.argv[0] else "train.py"
     if prog in ("__main__.py", "-c", "cli.py"):
@@ -222,7 +222,7 @@ def main(argv=None) -> int:
         runlock.release_all()
 
 
-def run(args, argv=None) -> int:
+def run(args: argparse.Namespace, argv: list[str] | None = None) -> int:
     """The parsed command line -> ``sb3`` or ``rllib`` ``train``/``resume``."""
     if args.plot is not None:
         from .curve import draw_learning_curve

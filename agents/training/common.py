@@ -24,7 +24,9 @@ import shlex
 import signal
 import sys
 import threading
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -33,6 +35,8 @@ from coopnav_env.seeds import refuse_test_seeds
 
 from .config import ConfigError
 from .scoring import eval_cells
+
+_C = TypeVar("_C")
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -64,7 +68,7 @@ class Job:
     cells: list
 
 
-def prepare_job(config) -> Job:
+def prepare_job(config: Any) -> Job:
     """Check what a config names (scenario, timesteps, scenario parameters, reward
     terms, evaluation cells and baselines) before any work; a ``ConfigError`` else."""
     from baselines import list_policies
@@ -115,11 +119,11 @@ def prepare_job(config) -> Job:
 # ----------------------------------------------------------------------------------
 # the run directory
 # ----------------------------------------------------------------------------------
-def resume_command(out) -> str:
+def resume_command(out: str | Path) -> str:
     return f"python train.py --resume {out}"
 
 
-def new_run_dir(out) -> Path:
+def new_run_dir(out: str | Path) -> Path:
     """``out`` as the directory of a new run: absent or empty (a ``ConfigError`` else)."""
     from .runlock import check_not_in_use
 
@@ -136,7 +140,7 @@ def new_run_dir(out) -> Path:
     return out
 
 
-def read_run_record(out) -> dict:
+def read_run_record(out: str | Path) -> dict:
     """The ``config.yml`` of run directory ``out`` (a ``ConfigError`` if there is none)."""
     from coopnav_env.safe_load import UnsafeDataError
 
@@ -150,7 +154,7 @@ def read_run_record(out) -> dict:
     return record
 
 
-def run_config(out, cls):
+def run_config(out: str | Path, cls: type[_C]) -> _C:
     """The config (``cls``) of run directory ``out``, from its config.yml."""
     from .config import config_from_record
 
@@ -162,13 +166,21 @@ def run_config(out, cls):
         raise ConfigError(f"{Path(out) / 'config.yml'}: {err}") from None
 
 
-def command_line(argv=None) -> str:
+def command_line(argv: list[str] | None = None) -> str:
     """``python train.py <argv>`` (``sys.argv[1:]`` by default), shell-quoted."""
     return "python train.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
 
 
 def write_run_record(
-    out: Path, config, job: Job, *, command=None, hyperparameter_file=None, args=None, versions=None, **extra
+    out: Path,
+    config: Any,
+    job: Job,
+    *,
+    command: str | None = None,
+    hyperparameter_file: str | Path | None = None,
+    args: dict | None = None,
+    versions: dict | None = None,
+    **extra: Any,
 ) -> dict:
     """Write ``out/config.yml`` (see the module docstring) atomically; returns it.
     ``args``: the record's args (default: scenario, timesteps, seed); ``versions``:
@@ -203,7 +215,7 @@ def resume_seed(seed: int, steps: int) -> int:
 class StopFlag:
     """Set by SIGINT or SIGTERM while ``stop_on_signals`` is active."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.requested = False
 
     def __bool__(self):
@@ -211,7 +223,7 @@ class StopFlag:
 
 
 @contextlib.contextmanager
-def stop_on_signals():
+def stop_on_signals() -> Iterator[StopFlag]:
     """While active, SIGINT and SIGTERM set the yielded ``StopFlag`` (the trainer
     checkpoints and returns ``EXIT_INTERRUPTED`` at its next boundary); a second
     signal acts as usual (KeyboardInterrupt, termination). Outside the main thread

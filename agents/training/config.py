@@ -28,10 +28,17 @@ import dataclasses
 import difflib
 import types
 import typing
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from coopnav_env.seeds import VALIDATION_SEED
+
+if TYPE_CHECKING:
+    from typing_extensions import Self
+
+_T = TypeVar("_T")
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 CONFIG_DIRS = {"sb3": PROJECT_ROOT / "configs" / "ppo", "rllib": PROJECT_ROOT / "configs" / "rllib"}
@@ -164,7 +171,7 @@ class _Job:
         at = keys.index("eval") if "eval" in keys else len(keys)
         return {k: d[k] for k in keys[:at] + ["env", "reward"] + keys[at:]}  # the YAML files' order
 
-    def check(self):
+    def check(self) -> Self:
         """Refuse what the fields' types cannot (a ``ConfigError``); returns self."""
         from .bounds import BoundsError, check_bounds
 
@@ -192,7 +199,7 @@ class TrainConfig(_Job):
     init_from: str | None = None
     imitate: ImitateSpec = field(default_factory=ImitateSpec)
 
-    def check(self):
+    def check(self) -> Self:
         import inspect
 
         from stable_baselines3 import PPO
@@ -257,7 +264,7 @@ def config_class(backend: str) -> type:
 # ----------------------------------------------------------------------------------
 # dict -> dataclass, strictly
 # ----------------------------------------------------------------------------------
-def unknown_key_message(key, valid, what: str) -> str:
+def unknown_key_message(key: str, valid: Iterable[str], what: str) -> str:
     """``unknown <what> 'foo'; did you mean 'bar'? valid: a, bar, c`` (the house style
     of ``coopnav_env.scenarios.base.check_overrides``)."""
     valid = sorted(valid)
@@ -306,7 +313,7 @@ def _coerce(value, hint, where: str):
         raise ConfigError(f"{where} is out of range: {value!r:.40}") from None
 
 
-def from_dict(cls, data, where: str = ""):
+def from_dict(cls: type[_T], data: Any, where: str = "") -> _T:
     """``cls`` (a config dataclass) from a mapping, recursively; unknown keys, legacy
     keys and values of the wrong type are a ``ConfigError`` naming where they are."""
     if not isinstance(data, dict):
@@ -327,7 +334,7 @@ def from_dict(cls, data, where: str = ""):
 # ----------------------------------------------------------------------------------
 # files and overrides
 # ----------------------------------------------------------------------------------
-def parse_value(text: str):
+def parse_value(text: str) -> Any:
     """A command-line value: '3e-4' -> 0.0003, '2' -> 2, '[64, 64]' -> [64, 64],
     'true' -> True, 'null' -> None, 'tanh' -> 'tanh'."""
     text = str(text).strip()
@@ -346,7 +353,7 @@ def parse_value(text: str):
         raise ConfigError(str(err)) from None
 
 
-def set_path(data: dict, dotted: str, value) -> dict:
+def set_path(data: dict, dotted: str, value: Any) -> dict:
     """``data`` with ``data[a][b] = value`` for ``dotted`` "a.b" (sections created as
     needed; a non-mapping on the way is a ``ConfigError``)."""
     keys = dotted.split(".")
@@ -364,7 +371,7 @@ def set_path(data: dict, dotted: str, value) -> dict:
     return data
 
 
-def hyperparameter_file(backend: str, scenario, explicit=None) -> Path | None:
+def hyperparameter_file(backend: str, scenario: str | None, explicit: str | Path | None = None) -> Path | None:
     """The ``explicit`` file (it must exist), else ``configs/<ppo|rllib>/<scenario>.yml``,
     else that directory's ``default.yml``, else None (the dataclass defaults)."""
     if explicit:
@@ -379,7 +386,7 @@ def hyperparameter_file(backend: str, scenario, explicit=None) -> Path | None:
     return None
 
 
-def read_mapping(path) -> dict:
+def read_mapping(path: str | Path) -> dict:
     """A YAML file's mapping ({} if empty); anything else is a ``ConfigError``."""
     from coopnav_env.safe_load import UnsafeDataError, read_yaml
 
@@ -396,7 +403,9 @@ def read_mapping(path) -> dict:
     return data
 
 
-def load_config(path=None, cls=TrainConfig, settings: dict | None = None, **fields):
+def load_config(
+    path: str | Path | None = None, cls: type[_Job] = TrainConfig, settings: dict | None = None, **fields: Any
+) -> Any:
     """``cls`` from the YAML file ``path`` (None: the defaults), then ``settings``
     (``{"eval.episodes": 4, ...}``, dotted paths) and ``fields`` (top-level values
     that are not None: ``scenario=``, ``timesteps=``, ``seed=``, ...) on top; checked.
@@ -413,7 +422,7 @@ def load_config(path=None, cls=TrainConfig, settings: dict | None = None, **fiel
     return from_dict(cls, data).check()
 
 
-def config_from_record(record: dict, cls=None):
+def config_from_record(record: dict, cls: type[_Job] | None = None) -> Any:
     """The config of a run from its ``config.yml`` (``args`` + ``hyperparameters``);
     ``cls`` None: the one of the record's backend (``args.backend``, sb3 if absent)."""
     if not isinstance(record, dict) or not isinstance(record.get("args"), dict):

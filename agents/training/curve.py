@@ -35,7 +35,7 @@ def _records(run: Path) -> list:
     return [r for r in out if isinstance(r, dict) and "survey_error_m" in r and "num_timesteps" in r]
 
 
-def draw_learning_curve(run, path=None) -> Path | None:
+def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path | None:
     """Draw ``run``'s learning curve into ``path`` (default ``RUN/learning_curve.png``),
     200 dpi, atomically. Returns the path, or None when the run has no validation yet."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg

@@ -28,13 +28,14 @@ on stdout), not counted in ``timesteps``.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 
 __all__ = ["imitate"]
 
 
-def collect(vecnorm, raw_env, planner: str, steps: int, seed: int) -> dict:
+def collect(vecnorm: Any, raw_env: Any, planner: str, steps: int, seed: int) -> dict:
     """Drive ``vecnorm`` (a VecNormalize over ``raw_env``'s rows, possibly through other
     wrappers) with ``planner`` for at least ``steps`` row-steps."""
     from baselines import make_policy
@@ -70,7 +71,7 @@ def discounted_returns(rewards: np.ndarray, dones: np.ndarray, gamma: float) -> 
     return out
 
 
-def imitate(model, vecnorm, raw_env, spec, seed: int) -> dict:
+def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int) -> dict:
     """Clone ``spec.planner`` into ``model`` (an SB3 PPO whose env is ``vecnorm``); returns
     what was done (steps, final losses, seconds)."""
     import torch

@@ -82,6 +82,7 @@ import shutil
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -90,6 +91,7 @@ from coopnav_env.records import atomic_append_line, atomic_write_text, read_json
 from . import runlock
 from .common import (
     EXIT_INTERRUPTED,
+    Job,
     new_run_dir,
     prepare_job,
     read_run_record,
@@ -121,11 +123,11 @@ __all__ = ["build_config", "metrics", "parse_tune", "require_ray", "resume", "sa
 @runlock.releasing
 def train(
     config: RLlibConfig,
-    out,
+    out: str | Path,
     resume: bool = False,
     *,
     command: str | None = None,
-    hyperparameter_file=None,
+    hyperparameter_file: str | Path | None = None,
     num_env_runners: int | None = None,
     ray_address: str | None = None,
     tune: dict | None = None,
@@ -234,13 +236,13 @@ def train(
             ray.shutdown()
 
 
-def resume(out, **options) -> int:
+def resume(out: str | Path, **options: Any) -> int:
     """Continue the RLlib run in ``out`` with its own config.yml (``train``'s keyword
     options: num_env_runners, ray_address, threads, trust_pickle)."""
     return train(run_config(out, RLlibConfig), out, resume=True, **options)
 
 
-def require_ray():
+def require_ray() -> None:
     """A ``ConfigError`` (one line: how to install it) if Ray RLlib cannot be imported."""
     try:
         import ray  # only checks it imports
@@ -331,7 +333,7 @@ def env_config(config: RLlibConfig, seed: int) -> dict:
     }
 
 
-def build_config(config: RLlibConfig, seed: int | None = None):
+def build_config(config: RLlibConfig, seed: int | None = None) -> Any:
     """(PPOConfig, beacon -> module map) of a job: the adapter env, one module per
     beacon kind, the config's ``ppo``/``model``/``env_runners``/``learners`` sections.
     ``seed``: the run's (default ``config.seed``). Bad sections are a ``ConfigError``."""
@@ -387,7 +389,7 @@ def build_config(config: RLlibConfig, seed: int | None = None):
     return algo_config, mapping
 
 
-def config_record(algo_config) -> dict:
+def config_record(algo_config: Any) -> dict:
     """The AlgorithmConfig as plain YAML-able values (callables and classes by name)."""
 
     def clean(v):
@@ -446,7 +448,7 @@ def init_ray(address: str | None, config: RLlibConfig, cpus_needed: int) -> bool
     return True
 
 
-def cpus_per_trial(algo_config) -> int:
+def cpus_per_trial(algo_config: Any) -> int:
     runners = int(algo_config.num_env_runners or 0)
     return int(np.ceil(runners * float(algo_config.num_cpus_per_env_runner or 1))) + 1
 
@@ -454,7 +456,7 @@ def cpus_per_trial(algo_config) -> int:
 # ----------------------------------------------------------------------------------
 # 4. files
 # ----------------------------------------------------------------------------------
-def save_checkpoint(algo, out: Path, meta: dict) -> Path:
+def save_checkpoint(algo: Any, out: Path, meta: dict) -> Path:
     """The Algorithm checkpoint in ``out/checkpoint``, replaced whole: written to a
     temporary directory beside it, then renamed into place."""
     final = out / "checkpoint"
@@ -498,7 +500,7 @@ def resumable_checkpoint(out: Path) -> dict | None:
     return meta
 
 
-def drop_lost_iterations(out: Path, iteration: int):
+def drop_lost_iterations(out: Path, iteration: int) -> None:
     """Keep the lines of ``progress.jsonl`` up to ``iteration`` (the checkpoint a resumed
     run continues from): a run killed without a last checkpoint logged iterations whose
     training the checkpoint does not hold, and the resumed run trains them again."""
@@ -540,7 +542,7 @@ def metrics(result: dict) -> dict:
     }
 
 
-def evaluate_checkpoint(path, config: RLlibConfig, job) -> dict | None:
+def evaluate_checkpoint(path: str | Path, config: RLlibConfig, job: Job) -> dict | None:
     """The deterministic policy of checkpoint ``path`` on the fixed evaluation seeds
     (``scoring.evaluate``); None with ``eval.episodes`` 0."""
     if config.eval.episodes <= 0:
@@ -553,7 +555,7 @@ def evaluate_checkpoint(path, config: RLlibConfig, job) -> dict | None:
 # ----------------------------------------------------------------------------------
 # 5. one training run
 # ----------------------------------------------------------------------------------
-def run_training(algo_config, out: Path, config: RLlibConfig, job, restore: dict | None = None) -> int:
+def run_training(algo_config: Any, out: Path, config: RLlibConfig, job: Job, restore: dict | None = None) -> int:
     """Train until ``config.timesteps`` env steps (RLlib's lifetime count), checkpointing
     every ``checkpoint_every_iterations`` and at the end, then evaluate. ``restore``: the
     ``coopnav.json`` of ``out/checkpoint``, which the Algorithm is restored from first.
@@ -611,7 +613,7 @@ def run_training(algo_config, out: Path, config: RLlibConfig, job, restore: dict
     return 0
 
 
-def finish(out: Path, m: dict, config: RLlibConfig, job):
+def finish(out: Path, m: dict, config: RLlibConfig, job: Job) -> None:
     """The final evaluation of ``out/checkpoint`` (``m``: its coopnav.json) on the fixed
     seeds, appended to evaluations.jsonl, unless that file already ends with it."""
     done = _last_json_line(out / "evaluations.jsonl")
@@ -657,7 +659,7 @@ def _metres(v) -> str:
 # ----------------------------------------------------------------------------------
 # 6. a Tune grid
 # ----------------------------------------------------------------------------------
-def run_tune(algo_config, grid: dict, out: Path, config: RLlibConfig, job) -> int:
+def run_tune(algo_config: Any, grid: dict, out: Path, config: RLlibConfig, job: Job) -> int:
     from ray import tune
 
     param_space = algo_config.to_dict()
@@ -741,7 +743,7 @@ def _trial_name(trial) -> str:
     return f"trial_{tag}"[:120]
 
 
-def write_summary(out: Path, columns: list, rows: list):
+def write_summary(out: Path, columns: list, rows: list) -> None:
     """summary.csv and summary.md (the same table), each written atomically."""
     import csv
     import io

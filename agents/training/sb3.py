@@ -49,7 +49,11 @@ from __future__ import annotations
 import json
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from agents import formats
 from agents.formats import PolicyFormatError
@@ -75,11 +79,11 @@ __all__ = ["learning_rate", "policy_kwargs", "resume", "train", "warm_start_file
 @runlock.releasing
 def train(
     config: TrainConfig,
-    out,
+    out: str | Path,
     resume: bool = False,
     *,
     command: str | None = None,
-    hyperparameter_file=None,
+    hyperparameter_file: str | Path | None = None,
     device: str = "cpu",
     threads: int = 1,
     progress: bool = False,
@@ -297,7 +301,7 @@ def _draw_curve(out: Path):
         return None
 
 
-def resume(out, **options) -> int:
+def resume(out: str | Path, **options: Any) -> int:
     """Continue the SB3 run in ``out`` with its own config.yml (``train``'s keyword
     options: device, threads, progress, verbose, trust_pickle)."""
     return train(run_config(out, TrainConfig), out, resume=True, **options)
@@ -351,7 +355,7 @@ def checkpoint_files(out: Path, trust_pickle: bool = False) -> dict | None:
     return entry
 
 
-def restart_from_scratch(out: Path):
+def restart_from_scratch(out: Path) -> None:
     """``--resume`` of a run stopped before its first checkpoint: it starts again from
     step 0 with its config.yml. Nothing is deleted: a run holding a model or
     evaluations but no checkpoint (an old run, a damaged one) is refused instead."""
@@ -390,7 +394,7 @@ def last_evaluation_step(out: Path, steps: int) -> int:
     return done
 
 
-def warm_start_files(spec, trust_pickle: bool = False) -> tuple:
+def warm_start_files(spec: Any, trust_pickle: bool = False) -> tuple:
     """(model file, normalization file or None) of ``init_from`` (``agents.resolve``)."""
     import agents
     from agents import rllib_policy
@@ -413,7 +417,7 @@ def warm_start_files(spec, trust_pickle: bool = False) -> tuple:
     return model, stats
 
 
-def load_state(model, path: Path, device, what: str, restore_steps: bool = False):
+def load_state(model: Any, path: Path, device: str, what: str, restore_steps: bool = False) -> None:
     """Load a model file's network weights (and optimizer state, if it holds one) into
     ``model`` (a PPO built from the config); with ``restore_steps`` its step count too.
     A trusted pickle-based .zip goes through SB3's ``set_parameters``."""
@@ -454,7 +458,7 @@ def _restore(vecnorm, stats: dict, path):
         raise ConfigError(f"{path}: {err}") from None
 
 
-def learning_rate(value):
+def learning_rate(value: float | str) -> float | Callable[[float], float]:
     """A float, or "lin_<x>": linear decay from x to 0 (rl-baselines3-zoo)."""
     if isinstance(value, str) and value.startswith("lin_"):
         start = float(value[4:])
@@ -473,24 +477,26 @@ def policy_kwargs(spec: dict | None) -> dict:
     return spec
 
 
-def save_model(model, path: Path, vecnorm=None):
+def save_model(model: Any, path: Path, vecnorm: Any = None) -> None:
     """The model file (network weights, optimizer state, step count; ``agents.formats``), atomically."""
     formats.save_model(model, path, norm_obs=None if vecnorm is None else vecnorm.norm_obs)
 
 
-def save_vecnormalize(vecnorm, path: Path):
+def save_vecnormalize(vecnorm: Any, path: Path) -> None:
     """The VecNormalize running statistics and settings (``agents.formats``), atomically."""
     formats.save_vecnormalize(vecnorm, path)
 
 
-def model_actor(model, vecnorm):
-    def act(obs, venv):
+def model_actor(model: Any, vecnorm: Any) -> Callable[[np.ndarray, Any], np.ndarray]:
+    def act(obs: np.ndarray, venv: Any) -> np.ndarray:
         return model.predict(vecnorm.normalize_obs(obs), deterministic=True)[0]
 
     return act
 
 
-def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline_scores: dict, stop, clock: dict):
+def make_callback(
+    out: Path, config: TrainConfig, cells: list, vecnorm: Any, baseline_scores: dict, stop: Any, clock: dict
+) -> Any:
     """The SB3 callback of a run: at every rollout start (the model has been trained on
     every step counted so far) checkpoint and evaluate when due; stop after a signal."""
     from stable_baselines3.common.callbacks import BaseCallback

@@ -15,7 +15,9 @@ ones results are reported on.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -26,7 +28,7 @@ RANDOMIZATION_OFF = {"randomize_survey_path": (), "randomize_depth_m": (), "rand
 __all__ = ["RANDOMIZATION_OFF", "baseline_actor", "baselines_on_eval_seeds", "eval_cells", "evaluate"]
 
 
-def eval_cells(scenario_config, cells: dict | None = None) -> list:
+def eval_cells(scenario_config: Any, cells: dict | None = None) -> list:
     """[(label, ScenarioConfig)] the evaluation runs: every combination of ``cells``
     ({parameter: [values]}) as a fixed scenario, or without cells the training
     scenario (label "all"); the per-episode randomization is off in every cell (the
@@ -44,7 +46,7 @@ def eval_cells(scenario_config, cells: dict | None = None) -> list:
     return [(";".join(f"{k}={v}" for k, v in combo.items()), base.replace(**combo)) for combo in combos]
 
 
-def evaluate(act, cells: list, episodes: int, seed: int) -> dict:
+def evaluate(act: Callable[[np.ndarray, Any], np.ndarray], cells: list, episodes: int, seed: int) -> dict:
     """Run ``act(obs (rows, D), venv) -> actions (rows, 2)`` for one episode in each of
     ``episodes`` environments seeded ``seed + e`` in every cell of ``cells``
     ([(label, ScenarioConfig)], see ``eval_cells``). Score: survey_error_m (the
@@ -78,7 +80,7 @@ def evaluate(act, cells: list, episodes: int, seed: int) -> dict:
     }
 
 
-def baseline_actor(name: str):
+def baseline_actor(name: str) -> Callable[[np.ndarray, Any], np.ndarray]:
     """A batch actor from one baselines policy per row (reset at the first step of a
     new evaluation environment)."""
     from baselines import make_policy
@@ -97,7 +99,7 @@ def baseline_actor(name: str):
     return act
 
 
-def baselines_on_eval_seeds(out: Path, cells: list, names, episodes: int, seed: int) -> dict:
+def baselines_on_eval_seeds(out: Path, cells: list, names: Iterable[str], episodes: int, seed: int) -> dict:
     """The planners ``names`` scored on the evaluation seeds, once per run: read from
     and written (atomically) to ``out/baseline_eval.json``; name -> {survey_error_m, per_cell}.
     Nothing is scored with ``episodes`` 0 (what the file holds is returned)."""
