@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import json
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -456,7 +457,7 @@ _CACHE: dict = {}
 def make_policy(
     name_or_path: str | Path,
     env_or_config: Any = None,
-    seed: int | None = None,
+    seed: int | Sequence[int] | None = None,
     agent: int = 0,
     trust_pickle: bool = False,
 ) -> BatchPolicy:

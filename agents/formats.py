@@ -214,7 +214,8 @@ def _optimizer_parts(optimizer) -> tuple:
     import torch
 
     sd = optimizer.state_dict()
-    tensors, state = {}, {}
+    tensors: dict = {}
+    state: dict = {}
     for idx, entries in sd["state"].items():
         state[str(idx)] = {}
         for name, value in entries.items():

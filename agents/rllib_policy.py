@@ -52,7 +52,7 @@ from __future__ import annotations
 import logging
 import pickle
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -193,7 +193,7 @@ class _LoadedRun:
         self.run_config = self.run_config if isinstance(self.run_config, dict) else {}
         self.trained_config = _trained_scenario(self.run_config)
         self.export = checkpoint / EXPORT_DIR if _export_files(checkpoint) else None
-        self._modules = {}
+        self._modules: dict[str, Any] = {}
         if self.export is not None:  # data only
             self.module_ids = sorted(
                 f.name[: -len(".safetensors")] for f in self.export.glob("*.safetensors") if f.name != FILTERS_FILE
@@ -227,7 +227,8 @@ class _LoadedRun:
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    module = RLModule.from_checkpoint(str(path.resolve()))
+                    loaded: Any = RLModule.from_checkpoint(str(path.resolve()))  # a TorchRLModule: a torch module
+                module = loaded
             finally:
                 logging.disable(previous)
             module.eval()
@@ -328,7 +329,8 @@ def export(checkpoint: str | Path, out_dir: str | Path | None = None) -> Path:
         )
     filters = _load_filters(checkpoint / FILTER_STATE)
     if filters:
-        tensors, meta = {}, {"format": FILTER_FORMAT, "version": 1, "agents": {}}
+        tensors = {}
+        meta: dict[str, Any] = {"format": FILTER_FORMAT, "version": 1, "agents": {}}
         for agent_id, flt in filters.items():
             tensors[f"{agent_id}.mean"] = np.ascontiguousarray(np.asarray(flt.running_stats.mean))  # dtype kept
             tensors[f"{agent_id}.std"] = np.ascontiguousarray(np.asarray(flt.running_stats.std))
@@ -551,7 +553,11 @@ def load(
 
 
 def make_policy(
-    path: str | Path, env_or_config: Any = None, seed: int | None = None, agent: int = 0, trust_pickle: bool = False
+    path: str | Path,
+    env_or_config: Any = None,
+    seed: int | Sequence[int] | None = None,
+    agent: int = 0,
+    trust_pickle: bool = False,
 ) -> RLlibPolicy:
     """``baselines.make_policy``'s signature: one policy per beacon and episode is cheap
     (the loaded modules are shared). ``seed`` is accepted for the interface."""

@@ -10,7 +10,7 @@ import errno
 
 __all__ = ["one_line"]
 
-_WHAT = {
+_WHAT: dict[int | None, str] = {
     errno.ENOSPC: "the disk is full",
     errno.EROFS: "the folder is on a read-only file system",
     errno.EDQUOT: "the disk quota is exceeded",

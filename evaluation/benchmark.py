@@ -51,6 +51,7 @@ import shlex
 import signal
 import sys
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -139,7 +140,7 @@ def summarize_task_set(tasks: dict, policies: Iterable[str]) -> dict:
     result): ``{policy: {"win", "tie", "loss", "best", "n/a", "tasks_won"}}``."""
     out = {}
     for p in policies:
-        counts = {"win": 0, "tie": 0, "loss": 0, "best": 0, "n/a": 0, "tasks_won": []}
+        counts: dict[str, Any] = {"win": 0, "tie": 0, "loss": 0, "best": 0, "n/a": 0, "tasks_won": []}
         for name, task in tasks.items():
             stats = task["policies"].get(p)
             if stats is None or "skipped" in stats:
@@ -311,7 +312,8 @@ def plan_benchmark(
                 unresolved[p] = _first_line(_unknown_policy(p, ts.scenario, err, list_policies()))
             except Exception as err:  # any failure to find it
                 unresolved[p] = _first_line(_unknown_policy(p, ts.scenario, err, list_policies()))
-        configs, cannot = {}, {}
+        configs: dict = {}
+        cannot: dict = {}
         for task in ts.tasks:
             try:
                 configs[task.name] = config = task.config(ts.scenario, **overrides)
@@ -363,12 +365,14 @@ def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
     from .episodes import run_episodes
 
     bar = _progress_bar(plan.total_episodes(), progress)
-    raw = {}
+    raw: dict = {}
     try:
         for sp in plan.sets:
-            raw[sp.task_set.name] = per_set = {}
+            per_set: dict = {}
+            raw[sp.task_set.name] = per_set
             for task, config in sp.configs.items():
-                per_set[task] = per_task = {}
+                per_task: dict[str, Any] = {}
+                per_set[task] = per_task
                 for p in sp.columns:
                     if p in sp.cannot[task]:
                         per_task[p] = None

@@ -16,6 +16,7 @@ import shlex
 import signal
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 from .config import EvalConfig, UsageError, parse_assignment, split_top_level
 
@@ -129,7 +130,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
 def config_from_args(args: argparse.Namespace) -> EvalConfig:
     """The ``EvalConfig`` of parsed arguments; raises UsageError."""
     sets = dict(parse_assignment(item, "--set") for item in args.sets)
-    sweep = {}
+    sweep: dict[str, Any] = {}
     for item in args.sweeps:
         key, value = parse_assignment(item, "--sweep")
         if key in sweep:
@@ -165,7 +166,7 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt(f"signal {signum}")
 
 
-def main(argv: list[str] | None = None, prog: str | None = None) -> int:
+def main(argv: Sequence[str] | None = None, prog: str | None = None) -> int:
     """Run the command line; returns the exit status (0; 2 bad input; 1 a result that
     cannot be summarized; 130 interrupted)."""
     from .run import EvaluationError, EvaluationInterrupted, evaluate

@@ -49,7 +49,7 @@ def _check_field_names(cls):
         init(self, *args, **kwargs)
 
     __init__.__doc__ = init.__doc__
-    __init__.__signature__ = inspect.signature(init)
+    __init__.__signature__ = inspect.signature(init)  # type: ignore[attr-defined]  # read by inspect.signature
     cls.__init__ = __init__
     return cls
 
@@ -128,12 +128,12 @@ class EvalConfig:
             if isinstance(value, bool) or not isinstance(value, numbers.Integral):
                 raise UsageError(f"{name} (--{name.replace('_', '-')}) must be an integer, got {value!r}")
             object.__setattr__(self, name, int(value))
-            if value < 1:
+            if int(value) < 1:
                 raise UsageError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
             from .limits import MAX_BATCH_SIZE, MAX_EPISODES
 
             high = MAX_EPISODES if name == "episodes" else MAX_BATCH_SIZE
-            if value > high:  # bounded work, before anything runs
+            if int(value) > high:  # bounded work, before anything runs
                 raise UsageError(f"--{name.replace('_', '-')} must be <= {high}, got {value}")
         try:  # the seed range every tool shares
             object.__setattr__(self, "seed", check_seed(self.seed, "--seed"))
@@ -155,7 +155,9 @@ class EvalConfig:
 
 def split_top_level(text: str) -> list:
     """Split on commas that are not inside brackets: '1,(2,3)' -> ['1', '(2,3)']."""
-    out, depth, cur = [], 0, []
+    out: list[str] = []
+    cur: list[str] = []
+    depth = 0
     for ch in text:
         if ch in "([{":
             depth += 1
@@ -213,14 +215,14 @@ def _parse(key: str, text: str, default):
                     raise ValueError
                 return names
             try:
-                v = ast.literal_eval(text)
+                literal = ast.literal_eval(text)
             except (ValueError, SyntaxError):
                 if default or not all(names):  # numbers expected
                     raise
                 return names  # randomize_survey_path=lawnmower,spiral
-            if not isinstance(v, (list, tuple)):
-                v = (v,)
-            return _to_tuple(v)
+            if not isinstance(literal, (list, tuple)):
+                literal = (literal,)
+            return _to_tuple(literal)
         return text
     except (ValueError, SyntaxError):
         raise UsageError(f"bad value {text!r} for {key} (a {type(default).__name__})") from None
@@ -260,7 +262,7 @@ def sweep_layout(sweep: dict) -> tuple[str, list, list]:
     """The table layout of a sweep: (row key, its values, the column cells: dicts of the
     other keys' values, in grid order)."""
     keys = list(sweep)
-    col_cells = [{}]
+    col_cells: list[dict] = [{}]
     for k in keys[1:]:
         col_cells = [dict(c, **{k: v}) for c in col_cells for v in sweep[k]]
     return keys[0], list(sweep[keys[0]]), col_cells
@@ -404,7 +406,7 @@ def check_policies(plan: Plan) -> None:
                 raise UsageError(f"policy {p!r} cannot drive {where}: {_first_line(err)}") from None
 
 
-def _out_of_range(scenario: str, overrides: dict, sweep: dict, err: Exception) -> str:
+def _out_of_range(scenario: str, overrides: Mapping, sweep: Mapping, err: Exception) -> str:
     """One line naming the --set/--sweep parameter whose value the scenario cannot take."""
     import coopnav_env
 
@@ -504,7 +506,7 @@ def prepare(config: EvalConfig) -> Plan:
             if len(set(map(repr, values))) != len(values):
                 raise UsageError(f"--sweep {key} repeats a value")
             sweep[key] = values
-        cells = [{}]
+        cells: list[dict] = [{}]
         for key, values in sweep.items():
             cells = [dict(c, **{key: v}) for c in cells for v in values]
         configs = {cell_id(cell): coopnav_env.make_config(config.scenario, **overrides, **cell) for cell in cells}

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
 
-def make_policy(name: str, config: ScenarioConfig, seed: int | None, agent: int) -> Any:
+def make_policy(name: str, config: ScenarioConfig, seed: int | tuple[int, int] | None, agent: int) -> Any:
     """A planner from baselines/ by name, else a trained policy through agents/ (same interface)."""
     import baselines
 
@@ -166,13 +166,13 @@ def run_episodes(
     frame = config.network == "moving_lbl"
     keys = _PER_STEP + (("error_x_m", "error_y_m") if frame else ())
     done = np.zeros(B, dtype=bool)
-    hist = {k: [] for k in ("alive",) + keys}
+    hist: dict[str, list] = {k: [] for k in ("alive",) + keys}
     from coopnav_env.views import action_dim
 
     actions = np.zeros((B, N, action_dim(sim)))
     credited, k_step, horizon = 0.0, 0, max(int(getattr(config, "max_cycles", 1)), 1)
     while not done.all():
-        for b in np.flatnonzero(~done):
+        for b in np.flatnonzero(~done).tolist():
             for j in range(N):
                 actions[b, j] = policies[b][j].act(obs[b, j])
         actions[done] = 0.0
@@ -221,22 +221,22 @@ def run_episodes(
                 "energy_J": float(H["energy_J"][:n, b].sum()),
             }
         )
-        for k in range(n):
+        for i in range(n):
             steps.append(
                 {
                     "seed": seed,
-                    "step": k + 1,
-                    "t_s": (k + 1) * T,
-                    "survey_error_m": float(err[k]),
-                    "dr_error_m": float(dr[k]),
-                    "ellipse_major_m": float(H["ellipse_major_m"][k, b]),
-                    "ellipse_minor_m": float(H["ellipse_minor_m"][k, b]),
-                    "reward": float(H["reward"][k, b]),
-                    "beacon_distance_m": float(H["beacon_distance_m"][k, b]),
+                    "step": i + 1,
+                    "t_s": (i + 1) * T,
+                    "survey_error_m": float(err[i]),
+                    "dr_error_m": float(dr[i]),
+                    "ellipse_major_m": float(H["ellipse_major_m"][i, b]),
+                    "ellipse_minor_m": float(H["ellipse_minor_m"][i, b]),
+                    "reward": float(H["reward"][i, b]),
+                    "beacon_distance_m": float(H["beacon_distance_m"][i, b]),
                 }
             )
             if frame:
-                steps[-1].update(error_x_m=float(H["error_x_m"][k, b]), error_y_m=float(H["error_y_m"][k, b]))
+                steps[-1].update(error_x_m=float(H["error_x_m"][i, b]), error_y_m=float(H["error_y_m"][i, b]))
     return episodes, steps
 
 

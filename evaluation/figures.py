@@ -51,7 +51,7 @@ def save_figure(fig: Any, path: str) -> None:
 def _time_series(step_rows, policy, key):
     """(t, mean, 25th, 75th percentile) of column ``key`` against time over the episodes
     of ``policy`` (None: every policy); the thin tails of long episodes are dropped."""
-    by_t = {}
+    by_t: dict = {}
     for r in step_rows:
         if policy is None or r["policy"] == policy:
             by_t.setdefault(float(r["t_s"]), []).append(float(r[key]))

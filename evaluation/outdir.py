@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 import socket
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from coopnav_env.records import atomic_write_text, read_json, strict_json
 
@@ -136,8 +136,9 @@ def check_existing(config: EvalConfig, run_info: dict, previous: dict | None, tr
             f"{out!r} already holds {describe(out)}; use --resume to keep its episodes and run the "
             "missing ones, --overwrite to replace it, or another --out"
         )
+    assert previous is not None  # read_previous: None only when out holds no result
     for key, option in (("scenario", "--scenario"), ("seed", "--seed"), ("overrides", "--set"), ("sweep", "--sweep")):
-        old, new = previous.get(key), run_info[key]
+        old, new = previous[key], run_info[key]  # _is_record: run.json has every key
         same = list(old.items()) == list(new.items()) if key == "sweep" else old == new
         if not same:
             raise UsageError(
@@ -207,7 +208,7 @@ class OutputLock:
 
     def __init__(self, out: str, command: str | None = None) -> None:
         self.out, self.command = out, command
-        self.lock = None
+        self.lock: Any = None
 
     def owner_text(self) -> str:
         try:

@@ -91,7 +91,7 @@ def kept_rows(out: str, plan: Plan) -> tuple:
     of ``plan`` whose episodes.csv row is well formed and whose steps.csv rows (steps 1..n,
     n its ``steps``) are all there and well formed; rows are dicts of the files' text.
     ``notes``: one line per reason episodes are run again."""
-    notes = []
+    notes: list[str] = []
     if plan.previous is None:
         return [], [], notes
     if plan.previous.get("format_version") != FORMAT_VERSION:
@@ -126,7 +126,8 @@ def kept_rows(out: str, plan: Plan) -> tuple:
         st_read = None
         bad_files.append(f"steps.csv is unreadable ({err})")
 
-    episodes, bad_eps, seen = {}, 0, set()
+    episodes: dict = {}
+    bad_eps, seen = 0, set()
     if ep_read is not None:
         rows, complete = ep_read
         for i, fields in enumerate(rows):
@@ -152,7 +153,8 @@ def kept_rows(out: str, plan: Plan) -> tuple:
             seen.add(key)
             episodes[key] = r
 
-    groups, bad_groups = {}, set()
+    groups: dict = {}
+    bad_groups = set()
     if st_read is not None:
         rows, complete = st_read
         for i, fields in enumerate(rows):

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 from coopnav_env.records import atomic_write_text, strict_json, version_record
@@ -83,7 +84,7 @@ def _check_finite(ep_rows, step_rows):
     """EvaluationError naming the first episode with a NaN or infinite value."""
     from .resume import STEP_FLOATS
 
-    checks = [(r, EPISODE_COLUMNS[4:], "episodes.csv") for r in ep_rows]
+    checks: list[tuple[dict, Sequence[str], str]] = [(r, EPISODE_COLUMNS[4:], "episodes.csv") for r in ep_rows]
     checks += [(r, STEP_FLOATS + ("error_x_m", "error_y_m"), "steps.csv") for r in step_rows]
     for r, columns, where in checks:
         for k in columns:
@@ -176,7 +177,7 @@ def _run_locked(plan, saved: list) -> EvalResult:
     def write_rows():
         ep_rows.sort(key=episode_key)
         step_rows.sort(key=step_key)
-        by_episode = {}
+        by_episode: dict = {}
         for r in step_rows:
             by_episode.setdefault(checksums.key(r), []).append(r)
         for r in ep_rows:  # each episode's checksum, computed once

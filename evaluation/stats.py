@@ -26,7 +26,7 @@ def error_stats(step_rows: list, episode_rows: list, n_boot: int = 2000) -> dict
     """One policy's statistics (summary.json's ``policies.<name>``) from its step and
     episode rows (dicts; values may be the CSV's text)."""
     err = np.array([float(r["survey_error_m"]) for r in step_rows])
-    by_ep = {}
+    by_ep: dict = {}
     for r in step_rows:
         by_ep.setdefault(int(r["seed"]), []).append(float(r["survey_error_m"]))
     sums = np.array([np.sum(v) for v in by_ep.values()])

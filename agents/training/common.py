@@ -26,7 +26,7 @@ import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -37,6 +37,9 @@ from .config import ConfigError
 from .scoring import eval_cells
 
 _C = TypeVar("_C")
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -63,8 +66,8 @@ class Job:
     """A config made concrete: the training scenario, its reward terms and the
     evaluation cells ([(label, ScenarioConfig)])."""
 
-    scenario_config: object
-    reward_terms: dict
+    scenario_config: ScenarioConfig
+    reward_terms: dict | None  # None: the environment's reward
     cells: list
 
 

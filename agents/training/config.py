@@ -292,7 +292,7 @@ def _coerce(value, hint, where: str):
         hint = options[0]
         origin = typing.get_origin(hint)
     if dataclasses.is_dataclass(hint):
-        return from_dict(hint, {} if value is None else value, where)
+        return from_dict(typing.cast(type, hint), {} if value is None else value, where)
     base = origin or hint
     if base in (dict, list) and value is None:
         return base()
@@ -319,7 +319,7 @@ def from_dict(cls: type[_T], data: Any, where: str = "") -> _T:
     if not isinstance(data, dict):
         raise ConfigError(f"{where or 'the config'} must be a mapping, got {data!r}")
     hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls) if f.init]
+    names = [f.name for f in dataclasses.fields(typing.cast(Any, cls)) if f.init]
     kwargs = {}
     for key, value in data.items():
         path = f"{where}.{key}" if where else str(key)
@@ -422,7 +422,7 @@ def load_config(
     return from_dict(cls, data).check()
 
 
-def config_from_record(record: dict, cls: type[_Job] | None = None) -> Any:
+def config_from_record(record: dict, cls: type | None = None) -> Any:
     """The config of a run from its ``config.yml`` (``args`` + ``hyperparameters``);
     ``cls`` None: the one of the record's backend (``args.backend``, sb3 if absent)."""
     if not isinstance(record, dict) or not isinstance(record.get("args"), dict):

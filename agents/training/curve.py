@@ -99,7 +99,7 @@ def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path
             )
     left.set_ylabel("validation mean survey error (m)")
     right.legend(fontsize=7, loc="best")
-    record = {}
+    record: dict = {}
     try:
         import yaml
 

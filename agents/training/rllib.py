@@ -175,6 +175,7 @@ def train(
 
     torch.set_num_threads(threads)  # the learner runs in this process (num_learners: 0)
     if meta is not None:
+        assert config.timesteps is not None  # set by RLlibConfig.check()
         if int(meta["env_steps"]) >= config.timesteps:  # trained: at most the final evaluation is missing
             finish(out, meta, config, job)
             print(
@@ -579,6 +580,7 @@ def run_training(algo_config: Any, out: Path, config: RLlibConfig, job: Job, res
                 flush=True,
             )
             t_train = time.perf_counter()
+            assert config.timesteps is not None  # set by RLlibConfig.check()
             while m["env_steps"] < config.timesteps and not stop:
                 m = metrics(algo.train())
                 session = time.perf_counter() - t_train
@@ -668,7 +670,10 @@ def run_tune(algo_config: Any, grid: dict, out: Path, config: RLlibConfig, job: 
         param_space[name] = tune.grid_search(values)
     if "seed" in grid:  # every trial's environments from its own seed
         base_env_config = env_config(config, config.seed)
-        param_space["env_config"] = tune.sample_from(lambda spec: {**base_env_config, "seed": int(spec.config["seed"])})
+        # Tune calls it with the trial's spec (an object with .config), though sample_from's stub says dict
+        param_space["env_config"] = tune.sample_from(
+            lambda spec: {**base_env_config, "seed": int(spec.config["seed"])}  # type: ignore[attr-defined]
+        )
     tuner = tune.Tuner(
         algo_config.algo_class,
         param_space=param_space,  # the class: the name "PPO" makes Tune import every algorithm
@@ -690,9 +695,9 @@ def run_tune(algo_config: Any, grid: dict, out: Path, config: RLlibConfig, job: 
     results = tuner.fit()
     print(f"tune: {len(results)} trial(s) in {time.perf_counter() - t0:.0f} s", flush=True)
     rows = []
-    for r in sorted(results, key=lambda r: r.path):
+    for r in sorted((results[i] for i in range(len(results))), key=lambda r: r.path):  # a ResultGrid indexes
         trial_cfg = r.config or {}
-        row = {"trial": Path(r.path).name}
+        row: dict[str, Any] = {"trial": Path(r.path).name}
         for key in grid:
             row[key] = trial_cfg.get("lambda" if key == "lambda_" else key)
         if r.error is not None:

@@ -150,7 +150,7 @@ def train(
     )
     venv = VecMonitor(raw_env)
     ckpt_stats = _read_stats(ckpt["vecnormalize"]) if ckpt else None
-    if ckpt_stats is not None:  # the checkpoint's statistics and settings, training on
+    if ckpt and ckpt_stats is not None:  # the checkpoint's statistics and settings, training on
         s = ckpt_stats
         vecnorm = VecNormalize(
             venv,
@@ -202,7 +202,9 @@ def train(
         elif warm:  # weights, optimizer state and normalization from another policy
             load_state(model, warm[0], device, what=f"init_from {warm[0]}")
             if warm[1] is not None:
-                _restore(vecnorm, _read_stats(warm[1]), warm[1])
+                warm_stats = _read_stats(warm[1])
+                assert warm_stats is not None  # load_stats of a path: its statistics, or it raises
+                _restore(vecnorm, warm_stats, warm[1])
     imitation = None
     if config.imitate.planner is not None and not ckpt:  # behaviour cloning before PPO (a resumed run has it)
         from .imitation import imitate
@@ -242,6 +244,7 @@ def train(
     # the steps that will really run: SB3 trains whole rollouts (n_steps x rows), so it
     # rounds the remaining steps up; the bar's total is that, and never passed
     rollout = int(model.n_steps) * int(vecnorm.num_envs)
+    assert config.timesteps is not None  # set by TrainConfig.check()
     remaining = max(config.timesteps - start_steps, 0)
     will_run = -(-remaining // rollout) * rollout
     every = f", a validation every {ev.every_steps:,}" if ev.every_steps > 0 else ""
@@ -331,7 +334,7 @@ def checkpoint_files(out: Path, trust_pickle: bool = False) -> dict | None:
         return None
     try:
         info = read_json(last)
-        entry = {
+        entry: dict[str, Any] = {
             "num_timesteps": int(info["num_timesteps"]),
             "model": str(info["model"]),
             "vecnormalize": str(info["vecnormalize"]),
@@ -442,7 +445,7 @@ def load_state(model: Any, path: Path, device: str, what: str, restore_steps: bo
         model._n_updates = int(spec.get("n_updates", 0))
 
 
-def _read_stats(path) -> dict:
+def _read_stats(path) -> dict | None:
     import agents
 
     try:
@@ -525,7 +528,7 @@ def make_callback(
 
         def checkpoint(self):
             steps = self.model.num_timesteps
-            entry = {
+            entry: dict[str, Any] = {
                 "num_timesteps": steps,
                 "model": f"ckpt_{steps:010d}.safetensors",
                 "vecnormalize": f"ckpt_{steps:010d}_vecnormalize.safetensors",

@@ -38,7 +38,7 @@ def eval_cells(scenario_config: Any, cells: dict | None = None) -> list:
         return [("all", base)]
     if not isinstance(cells, dict):
         raise ValueError(f"eval.cells must map parameters to lists of values, got {cells!r}")
-    combos = [{}]
+    combos: list[dict] = [{}]
     for name, values in cells.items():
         if not isinstance(values, (list, tuple)) or not values:
             raise ValueError(f"eval.cells entry {name!r} must be a non-empty list of values")
@@ -46,7 +46,7 @@ def eval_cells(scenario_config: Any, cells: dict | None = None) -> list:
     return [(";".join(f"{k}={v}" for k, v in combo.items()), base.replace(**combo)) for combo in combos]
 
 
-def evaluate(act: Callable[[np.ndarray, Any], np.ndarray], cells: list, episodes: int, seed: int) -> dict:
+def evaluate(act: Callable[[Any, Any], np.ndarray], cells: list, episodes: int, seed: int) -> dict:
     """Run ``act(obs (rows, D), venv) -> actions (rows, 2)`` for one episode in each of
     ``episodes`` environments seeded ``seed + e`` in every cell of ``cells``
     ([(label, ScenarioConfig)], see ``eval_cells``). Score: survey_error_m (the
@@ -85,7 +85,7 @@ def baseline_actor(name: str) -> Callable[[np.ndarray, Any], np.ndarray]:
     new evaluation environment)."""
     from baselines import make_policy
 
-    policies = {}
+    policies: dict[Any, Any] = {}  # "venv": the environment they were made for; row -> policy
 
     def act(obs, venv):
         if policies.get("venv") is not venv:
