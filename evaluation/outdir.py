@@ -21,15 +21,12 @@ from __future__ import annotations
 import os
 import socket
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from coopnav_env.records import atomic_write_text, read_json, strict_json
 
 from .errors import UsageError
 from .limits import MAX_EPISODES
-
-if TYPE_CHECKING:
-    from .config import EvalConfig
 
 FORMAT_VERSION = 3  # 3: + pings, collisions, energy_J; 2: CSV floats written with repr (exact); 1 (absent): rounded
 RESULT_FILES = ("run.json", "episodes.csv", "steps.csv", "checksums.json", "summary.json", "summary.md")
@@ -125,9 +122,11 @@ def _text(key, value) -> str:
     return str(value)
 
 
-def check_existing(config: EvalConfig, run_info: dict, previous: dict | None, trained: dict) -> None:
+def check_existing(config: Any, run_info: dict, previous: dict | None, trained: dict) -> None:
     """Refuse (UsageError) to write into ``config.out`` over an earlier result without
-    ``resume`` or ``overwrite``, or to resume a run of other arguments."""
+    ``resume`` or ``overwrite``, or to resume a run of other arguments. ``config``: the
+    ``EvalConfig`` (typed Any: importing evaluation.config here, even for the type
+    checker, would be an import cycle, which tests/test_contract refuses)."""
     out = config.out
     if config.overwrite or not has_results(out):
         return
