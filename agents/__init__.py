@@ -45,25 +45,44 @@ from __future__ import annotations
 
 import json
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .formats import (_TRUSTED, PickleRefused, PolicyFormatError, _check_trusted, _is_legacy, check_inside,  # noqa: F401
-                      refuse_pickle, trust_pickle)
 from . import safe_paths
-from .formats import safe_json as _safe_json, safe_yaml as _safe_yaml  # bounded reads: one-line refusals
+from .formats import _TRUSTED as _TRUSTED  # re-exported: agents._TRUSTED (the tests clear it)
+from .formats import PickleRefused, PolicyFormatError, _check_trusted, _is_legacy, check_inside, trust_pickle
+from .formats import refuse_pickle as refuse_pickle  # re-exported: agents.refuse_pickle
+from .formats import safe_json as _safe_json  # bounded reads: one-line refusals
+from .formats import safe_yaml as _safe_yaml
 from .policy import BatchPolicy, _trained_scenario
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
 # (model, normalization) of a run directory, in order of preference: the safe format,
 # then the old pickle-based one (refused unless trusted)
-RUN_FILES = (("best_model.safetensors", "best_vecnormalize.safetensors"),
-             ("model.safetensors", "vecnormalize.safetensors"))
+RUN_FILES = (
+    ("best_model.safetensors", "best_vecnormalize.safetensors"),
+    ("model.safetensors", "vecnormalize.safetensors"),
+)
 LEGACY_RUN_FILES = (("best_model.zip", "best_vecnormalize.pkl"), ("model.zip", "vecnormalize.pkl"))
 
-__all__ = ["DepthGatedPolicy", "PPOPolicy", "PickleRefused", "PolicyFormatError", "list_policies", "load",
-           "make_policy", "resolve", "trust_pickle"]
+__all__ = [
+    "DepthGatedPolicy",
+    "PPOPolicy",
+    "PickleRefused",
+    "PolicyFormatError",
+    "list_policies",
+    "load",
+    "make_policy",
+    "resolve",
+    "trust_pickle",
+]
+
 
 def list_policies() -> list:
     """Names of the policies shipped in agents/policies/."""
@@ -97,8 +116,8 @@ def _model_files(directory: Path):
         except (ValueError, KeyError, TypeError):
             raise PolicyFormatError(f"{last} is not a checkpoint record (model, vecnormalize)") from None
         ckpt_dir = directory / "checkpoints"
-        model, stats = (check_inside(ckpt_dir, n, f"{last}: file") for n in names)
-        return model, stats
+        model_file, stats_file = (check_inside(ckpt_dir, n, f"{last}: file") for n in names)
+        return model_file, stats_file
     return None
 
 
@@ -112,7 +131,7 @@ def _config_norm_obs(config_path) -> bool | None:
         return None
     if (record["args"].get("backend") or "sb3") != "sb3":
         return None
-    norm = ((record.get("hyperparameters") or {}).get("normalize") or {})
+    norm = (record.get("hyperparameters") or {}).get("normalize") or {}
     return bool(norm.get("norm_obs", True)) if isinstance(norm, dict) else None
 
 
@@ -125,7 +144,7 @@ def _model_norm_obs(model_path) -> bool | None:
 
         with safe_open(str(model_path), framework="np") as f:
             value = json.loads((f.metadata() or {}).get("coopnav", "{}")).get("norm_obs")
-    except Exception:  # noqa: BLE001 - a damaged file is reported when it is loaded
+    except Exception:  # a damaged file is reported when it is loaded
         return None
     return None if value is None else bool(value)
 
@@ -141,12 +160,16 @@ def _check_normalization(model, stats, config):
         said, why = _model_norm_obs(model), f"{model} records norm_obs: true"
     if said:
         missing = stats if stats is not None else Path(model).parent / "vecnormalize.safetensors"
-        raise PolicyFormatError(f"{missing} is missing, but the policy was trained on normalized observations "
-                                f"({why}): refused (it would act on unnormalized observations)")
+        raise PolicyFormatError(
+            f"{missing} is missing, but the policy was trained on normalized observations "
+            f"({why}): refused (it would act on unnormalized observations)"
+        )
     return None
 
 
-def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
+def resolve(
+    name_or_path: str | Path, scenario: str | ScenarioConfig | None = None, trust_pickle: bool = False
+) -> tuple:
     """(model file, normalization file or None, config.yml or None) for a name or path
     (for an RLlib run: (checkpoint directory, None, config.yml or None); for a gated
     policy: (gate.yml, None, None)). Refuses (``PolicyFormatError``) pickle-based files
@@ -159,13 +182,16 @@ def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
     path = Path(str(name_or_path))
     if path.suffix in (".zip", ".safetensors") and path.is_file():
         safe_paths.inside(path.parent, path.name, "model file")  # a link out of its folder: refused
-        stem = path.name[:-len(path.suffix)]
+        stem = path.name[: -len(path.suffix)]
         ext = ".pkl" if path.suffix == ".zip" else ".safetensors"
-        candidates = [path.with_name(stem + "_vecnormalize" + ext),
-                      path.with_name(("best_vecnormalize" if stem == "best_model" else "vecnormalize") + ext)]
+        candidates = [
+            path.with_name(stem + "_vecnormalize" + ext),
+            path.with_name(("best_vecnormalize" if stem == "best_model" else "vecnormalize") + ext),
+        ]
         stats = next((c for c in candidates if c.is_file()), candidates[-1])
-        config = next((d / "config.yml" for d in (path.parent, path.parent.parent) if (d / "config.yml").is_file()),
-                      None)
+        config = next(
+            (d / "config.yml" for d in (path.parent, path.parent.parent) if (d / "config.yml").is_file()), None
+        )
         for extra in (stats, config):
             if extra is not None and extra.exists():
                 safe_paths.inside(extra.parent, extra.name, "file")
@@ -184,8 +210,10 @@ def resolve(name_or_path, scenario=None, trust_pickle=False) -> tuple:
         directory = POLICY_DIR / name
         if not directory.is_dir():
             shipped = list_policies()
-            raise ValueError(f"no policy {name_or_path!r}: not a run directory, a model file or a shipped policy "
-                             f"(shipped: {', '.join(shipped) if shipped else 'none yet'})")
+            raise ValueError(
+                f"no policy {name_or_path!r}: not a run directory, a model file or a shipped policy "
+                f"(shipped: {', '.join(shipped) if shipped else 'none yet'})"
+            )
     safe_paths.check_tree(directory)  # nothing read from it may lead outside it
     if (directory / "gate.yml").is_file():  # two policies and a gate: DepthGatedPolicy
         return directory / "gate.yml", None, None
@@ -209,20 +237,20 @@ class LoadedModel:
     ``ActorCriticPolicy``), its spaces and the steps it was trained for; ``predict``
     as SB3's ``model.predict``."""
 
-    def __init__(self, policy, num_timesteps: int = 0):
+    def __init__(self, policy: Any, num_timesteps: int = 0) -> None:
         self.policy = policy
         self.observation_space = policy.observation_space
         self.action_space = policy.action_space
         self.num_timesteps = int(num_timesteps)
 
-    def predict(self, observation, deterministic: bool = True):
+    def predict(self, observation: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, Any]:
         return self.policy.predict(observation, deterministic=deterministic)
 
 
 class RunningStats:
     """Frozen observation statistics (``mean``, ``var``) of a run's normalization."""
 
-    def __init__(self, mean, var, count=0.0):
+    def __init__(self, mean: Any, var: Any, count: float = 0.0) -> None:
         self.mean, self.var, self.count = np.asarray(mean, np.float64), np.asarray(var, np.float64), float(count)
 
 
@@ -234,7 +262,16 @@ class PPOPolicy(BatchPolicy):
     the run's frozen VecNormalize statistics before the network sees them.
     """
 
-    def __init__(self, model, obs_rms=None, clip_obs=10.0, epsilon=1e-8, config=None, run_config=None, name="ppo"):
+    def __init__(
+        self,
+        model: Any,
+        obs_rms: RunningStats | None = None,
+        clip_obs: float = 10.0,
+        epsilon: float = 1e-8,
+        config: ScenarioConfig | None = None,
+        run_config: dict | None = None,
+        name: str = "ppo",
+    ) -> None:
         self.model = model
         self.obs_rms = obs_rms
         self.clip_obs = float(clip_obs)
@@ -244,7 +281,7 @@ class PPOPolicy(BatchPolicy):
         self.name = name
         self.obs_dim = int(model.observation_space.shape[0])
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | None = None) -> None:
         """Stateless: nothing to clear (the interface of baselines.Policy)."""
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
@@ -253,7 +290,7 @@ class PPOPolicy(BatchPolicy):
         z = (obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon)
         return np.clip(z, -self.clip_obs, self.clip_obs).astype(np.float32)
 
-    def act_batch(self, obs) -> np.ndarray:
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float64)
         if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
@@ -265,7 +302,7 @@ class PPOPolicy(BatchPolicy):
         return f"PPOPolicy({self.name!r}, scenario={scen!r})"
 
 
-def load_model(model_path, device="cpu") -> LoadedModel:
+def load_model(model_path: str | Path, device: str = "cpu") -> LoadedModel:
     """The policy network of a model file (safe format; a trusted .zip only after
     ``resolve`` accepted it)."""
     from . import formats
@@ -275,11 +312,10 @@ def load_model(model_path, device="cpu") -> LoadedModel:
         ppo = formats.legacy_model(model_path, device=device)
         return LoadedModel(ppo.policy, ppo.num_timesteps)
     spec, state, _ = formats.read_model(model_path)
-    return LoadedModel(formats.build_policy(spec, state, where=model_path, device=device),
-                       spec.get("num_timesteps", 0))
+    return LoadedModel(formats.build_policy(spec, state, where=model_path, device=device), spec.get("num_timesteps", 0))
 
 
-def load_stats(stats_path) -> dict | None:
+def load_stats(stats_path: str | Path | None) -> dict | None:
     """A normalization file's statistics (``formats.vecnormalize_stats``' dict), or None."""
     from . import formats
 
@@ -291,7 +327,12 @@ def load_stats(stats_path) -> dict | None:
     return formats.read_vecnormalize(stats_path)
 
 
-def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPolicy:
+def load(
+    name_or_path: str | Path,
+    scenario: str | ScenarioConfig | None = None,
+    device: str = "cpu",
+    trust_pickle: bool = False,
+) -> BatchPolicy:
     """A trained policy by shipped name ("ppo_sousa_asv"; "ppo" with ``scenario``), run
     directory, or model file. With ``scenario`` (name or ScenarioConfig) its
     observation size is checked against the policy's. Nothing is unpickled unless
@@ -302,8 +343,7 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
         return rllib_policy.load(name_or_path, scenario=scenario, device=device, trust_pickle=trust_pickle)
     model_path, stats_path, config_path = resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     if model_path.name == "gate.yml":
-        return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name,
-                           trust_pickle=trust_pickle)
+        return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name, trust_pickle=trust_pickle)
     model = load_model(model_path, device=device)
     obs_rms, clip_obs, epsilon = None, 10.0, 1e-8
     stats = load_stats(stats_path)
@@ -311,17 +351,27 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
         if stats["norm_obs"]:
             obs_rms = RunningStats(stats["obs_mean"], stats["obs_var"], stats["obs_count"])
         clip_obs, epsilon = stats["clip_obs"], stats["epsilon"]
-    run_config, trained_config = {}, None
+    run_config: Any = {}
+    trained_config = None
     if config_path is not None:
         run_config = _safe_yaml(config_path) or {}
         if not isinstance(run_config, dict):
             raise PolicyFormatError(f"{config_path}: expected a mapping (a train.py run record)")
         trained_config = _trained_scenario(run_config)
-    policy = PPOPolicy(model, obs_rms, clip_obs, epsilon, config=trained_config, run_config=run_config,
-                       name=Path(str(name_or_path)).name)
+    policy = PPOPolicy(
+        model,
+        obs_rms,
+        clip_obs,
+        epsilon,
+        config=trained_config,
+        run_config=run_config,
+        name=Path(str(name_or_path)).name,
+    )
     if obs_rms is not None and obs_rms.mean.shape != (policy.obs_dim,):
-        raise PolicyFormatError(f"{stats_path}: normalization of shape {obs_rms.mean.shape} does not fit the "
-                                f"network's observations ({policy.obs_dim},)")
+        raise PolicyFormatError(
+            f"{stats_path}: normalization of shape {obs_rms.mean.shape} does not fit the "
+            f"network's observations ({policy.obs_dim},)"
+        )
     if scenario is not None:
         from coopnav_env.obs_layout import obs_dim
         from coopnav_env.scenarios import make_config
@@ -329,11 +379,14 @@ def load(name_or_path, scenario=None, device="cpu", trust_pickle=False) -> PPOPo
         target = make_config(scenario) if isinstance(scenario, str) else scenario
         dim = obs_dim(target)
         if dim != policy.obs_dim:
-            raise ValueError(f"policy {name_or_path!r} takes observations of size {policy.obs_dim}; "
-                             f"scenario {target.name!r} gives {dim}")
+            raise ValueError(
+                f"policy {name_or_path!r} takes observations of size {policy.obs_dim}; "
+                f"scenario {target.name!r} gives {dim}"
+            )
         if trained_config is not None and trained_config.name != target.name:
-            warnings.warn(f"policy {name_or_path!r} was trained on {trained_config.name!r}, used on {target.name!r}",
-                          stacklevel=2)
+            warnings.warn(
+                f"policy {name_or_path!r} was trained on {trained_config.name!r}, used on {target.name!r}", stacklevel=2
+            )
         if trained_config is None:
             policy.config = target
     return policy
@@ -345,7 +398,7 @@ class DepthGatedPolicy(BatchPolicy):
     survey vehicles) is below ``threshold_m``, ``deep`` elsewhere. Both see the same
     observation; the gate is part of the policy, written in its gate.yml."""
 
-    def __init__(self, shallow, deep, threshold_m: float, name="gated"):
+    def __init__(self, shallow: BatchPolicy, deep: BatchPolicy, threshold_m: float, name: str = "gated") -> None:
         if shallow.obs_dim != deep.obs_dim:
             raise ValueError(f"gated policies must take the same observation: {shallow.obs_dim} != {deep.obs_dim}")
         if not np.isfinite(threshold_m):
@@ -354,11 +407,11 @@ class DepthGatedPolicy(BatchPolicy):
         self.obs_dim = deep.obs_dim
         self.config = deep.config if deep.config is not None else shallow.config
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | None = None) -> None:
         self.shallow.reset(seed)
         self.deep.reset(seed)
 
-    def act_batch(self, obs) -> np.ndarray:
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
         from coopnav_env.obs_layout import decode
 
         obs = np.asarray(obs, dtype=np.float64)
@@ -377,26 +430,37 @@ class DepthGatedPolicy(BatchPolicy):
 
 def _load_gated(gate_path: Path, scenario, device, name, trust_pickle=False):
     spec = _safe_yaml(gate_path) or {}
-    if not isinstance(spec, dict) or spec.get("kind") != "depth_gate" or \
-            not {"threshold_m", "shallow", "deep"} <= set(spec):
+    if (
+        not isinstance(spec, dict)
+        or spec.get("kind") != "depth_gate"
+        or not {"threshold_m", "shallow", "deep"} <= set(spec)
+    ):
         raise ValueError(f"{gate_path}: expected kind: depth_gate with threshold_m, shallow and deep")
     dirs = [check_inside(gate_path.parent, str(spec[k]), f"{gate_path}: {k}") for k in ("shallow", "deep")]
     for key, d in zip(("shallow", "deep"), dirs):  # a gate of gates (or of itself) would recurse
         if d == gate_path.parent.resolve() or (d / "gate.yml").exists():
-            raise PolicyFormatError(f"{gate_path}: {key} names {spec[key]!r}, a gate itself: a gate's networks "
-                                    "must be trained policies, not gates")
+            raise PolicyFormatError(
+                f"{gate_path}: {key} names {spec[key]!r}, a gate itself: a gate's networks "
+                "must be trained policies, not gates"
+            )
     try:
         threshold = float(spec["threshold_m"])
     except (TypeError, ValueError, OverflowError):
         raise PolicyFormatError(f"{gate_path}: threshold_m must be a number, got {spec['threshold_m']!r}") from None
     parts = [load(d, scenario=scenario, device=device, trust_pickle=trust_pickle) for d in dirs]
-    return DepthGatedPolicy(*parts, threshold_m=threshold, name=name)
+    return DepthGatedPolicy(parts[0], parts[1], threshold_m=threshold, name=name)
 
 
 _CACHE: dict = {}
 
 
-def make_policy(name_or_path, env_or_config=None, seed=None, agent=0, trust_pickle=False) -> PPOPolicy:
+def make_policy(
+    name_or_path: str | Path,
+    env_or_config: Any = None,
+    seed: int | Sequence[int] | None = None,
+    agent: int = 0,
+    trust_pickle: bool = False,
+) -> BatchPolicy:
     """``baselines.make_policy``'s signature for trained policies: one policy per beacon
     and episode is cheap, since the loaded model is shared (cached by resolved path).
     ``seed`` and ``agent`` are accepted for the interface; the policy ignores them
@@ -404,20 +468,25 @@ def make_policy(name_or_path, env_or_config=None, seed=None, agent=0, trust_pick
     from . import rllib_policy
 
     if rllib_policy.is_rllib_path(name_or_path):  # one module per beacon kind: the agent matters
-        return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent,
-                                        trust_pickle=trust_pickle)
+        return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent, trust_pickle=trust_pickle)
     scenario = None
     if env_or_config is not None:
         from coopnav_env.scenarios import resolve_config
 
         scenario = resolve_config(env_or_config)
     model_path, _, _ = resolve(name_or_path, scenario, trust_pickle=trust_pickle)
-    key = (str(Path(model_path).resolve()), Path(model_path).stat().st_mtime_ns,
-           None if scenario is None else scenario)
+    key = (str(Path(model_path).resolve()), Path(model_path).stat().st_mtime_ns, None if scenario is None else scenario)
     if key not in _CACHE:
         _CACHE[key] = load(name_or_path, scenario=scenario, trust_pickle=trust_pickle)
     base = _CACHE[key]
     if isinstance(base, DepthGatedPolicy):  # stateless: one instance serves every beacon and episode
         return base
-    return PPOPolicy(base.model, base.obs_rms, base.clip_obs, base.epsilon, config=base.config,
-                     run_config=base.run_config, name=base.name)
+    return PPOPolicy(
+        base.model,
+        base.obs_rms,
+        base.clip_obs,
+        base.epsilon,
+        config=base.config,
+        run_config=base.run_config,
+        name=base.name,
+    )

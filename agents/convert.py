@@ -41,13 +41,20 @@ def _read_json(path):
 
     return read_json(path)  # bounded; an UnsafeDataError (a ValueError) names the file
 
+
 PICKLE_SUFFIXES = formats.PICKLE_SUFFIXES
 PAIRS = (("best_model.zip", "best_vecnormalize.pkl"), ("model.zip", "vecnormalize.pkl"))
 
 __all__ = ["convert", "convert_model", "main"]
 
 
-def convert_model(zip_path, pkl_path, out_model, out_stats, norm_obs_hint=None) -> dict:
+def convert_model(
+    zip_path: str | Path,
+    pkl_path: str | Path | None,
+    out_model: str | Path,
+    out_stats: str | Path,
+    norm_obs_hint: bool | None = None,
+) -> dict:
     """Convert one trusted (model .zip, VecNormalize .pkl or None) pair; returns the spec."""
     stats = formats.legacy_vecnormalize(pkl_path) if pkl_path is not None and Path(pkl_path).is_file() else None
     norm_obs = stats["norm_obs"] if stats is not None else norm_obs_hint
@@ -64,8 +71,9 @@ def _convert_dir(src: Path, out: Path, written: list):
     for zip_name, pkl_name in PAIRS:
         if (src / zip_name).is_file():
             stem = zip_name[:-4]
-            convert_model(src / zip_name, src / pkl_name, out / f"{stem}.safetensors",
-                          out / f"{pkl_name[:-4]}.safetensors")
+            convert_model(
+                src / zip_name, src / pkl_name, out / f"{stem}.safetensors", out / f"{pkl_name[:-4]}.safetensors"
+            )
             converted |= {zip_name, pkl_name}
             written.append(out / f"{stem}.safetensors")
     ckpt = src / "checkpoints"
@@ -73,8 +81,12 @@ def _convert_dir(src: Path, out: Path, written: list):
         (out / "checkpoints").mkdir(exist_ok=True)
         for z in sorted(ckpt.glob("ckpt_*.zip")):
             stem = z.name[:-4]
-            convert_model(z, ckpt / f"{stem}_vecnormalize.pkl", out / "checkpoints" / f"{stem}.safetensors",
-                          out / "checkpoints" / f"{stem}_vecnormalize.safetensors")
+            convert_model(
+                z,
+                ckpt / f"{stem}_vecnormalize.pkl",
+                out / "checkpoints" / f"{stem}.safetensors",
+                out / "checkpoints" / f"{stem}_vecnormalize.safetensors",
+            )
             written.append(out / "checkpoints" / f"{stem}.safetensors")
         last = ckpt / "last_checkpoint.json"
         if last.is_file():
@@ -84,7 +96,7 @@ def _convert_dir(src: Path, out: Path, written: list):
                 name = str(info[key])
                 for old, new in ((".zip", ".safetensors"), (".pkl", ".safetensors")):
                     if name.endswith(old):
-                        name = name[:-len(old)] + new
+                        name = name[: -len(old)] + new
                 info[key] = name
             if not (out / "checkpoints" / info["model"]).is_file():
                 raise PolicyFormatError(f"{last} names {info['model']}, which was not converted")
@@ -103,7 +115,7 @@ def _convert_dir(src: Path, out: Path, written: list):
             atomic_write_bytes(out / f.name, f.read_bytes())
 
 
-def convert(src, out, trust_pickle: bool = False) -> list:
+def convert(src: str | Path, out: str | Path, trust_pickle: bool = False) -> list:
     """Convert ``src`` (an old SB3 run or policy directory, a model .zip, or an RLlib
     run/checkpoint) into the new directory ``out``; returns the model files written.
     Refused (``PickleRefused``) without ``trust_pickle``."""
@@ -131,11 +143,18 @@ def convert(src, out, trust_pickle: bool = False) -> list:
         if src.suffix != ".zip":
             raise PolicyFormatError(f"{src}: expected an SB3 model .zip, a run directory or an RLlib checkpoint")
         stem = src.name[:-4]
-        pkl = next((c for c in (src.with_name(stem + "_vecnormalize.pkl"),
-                                src.with_name("best_vecnormalize.pkl" if stem == "best_model" else "vecnormalize.pkl"))
-                    if c.is_file()), None)
-        config = next((d / "config.yml" for d in (src.parent, src.parent.parent) if (d / "config.yml").is_file()),
-                      None)
+        pkl = next(
+            (
+                c
+                for c in (
+                    src.with_name(stem + "_vecnormalize.pkl"),
+                    src.with_name("best_vecnormalize.pkl" if stem == "best_model" else "vecnormalize.pkl"),
+                )
+                if c.is_file()
+            ),
+            None,
+        )
+        config = next((d / "config.yml" for d in (src.parent, src.parent.parent) if (d / "config.yml").is_file()), None)
         for extra in (pkl, config):
             if extra is not None:
                 safe_paths.inside(extra.parent, extra.name, "file")
@@ -165,20 +184,25 @@ def _discard(out: Path, existed: bool):
             out.rmdir()
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     name = os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else ""
     prog = "coopnav-convert" if name.startswith("coopnav-convert") else "python -m agents.convert"  # as invoked
-    p = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("src", metavar="RUN_DIR_OR_ZIP", help="an old run or policy directory, a model .zip, or an "
-                                                         "RLlib run/checkpoint")
+    p = argparse.ArgumentParser(
+        prog=prog, description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    p.add_argument(
+        "src", metavar="RUN_DIR_OR_ZIP", help="an old run or policy directory, a model .zip, or an RLlib run/checkpoint"
+    )
     p.add_argument("--out", metavar="NEW_DIR", required=True, help="the converted directory (absent or empty)")
-    p.add_argument("--trust-pickle", action="store_true",
-                   help="you trust SRC: unpickling it runs whatever code it holds (required)")
+    p.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="you trust SRC: unpickling it runs whatever code it holds (required)",
+    )
     args = p.parse_args(argv)
     out = Path(args.out)
     existed = out.exists() or out.is_symlink()
-    fresh = not existed or out.is_dir() and not any(out.iterdir())
+    fresh = not existed or (out.is_dir() and not any(out.iterdir()))
     try:
         written = convert(args.src, args.out, trust_pickle=args.trust_pickle)
     except (PolicyFormatError, OSError, ValueError, KeyError, MemoryError) as err:
@@ -187,7 +211,7 @@ def main(argv=None) -> int:
 
             text = one_line(err)
         else:
-            text = ' '.join(str(err).splitlines())
+            text = " ".join(str(err).splitlines())
         if fresh:
             _discard(out, existed)  # no half-converted folder: --out is as it was (absent or empty)
         print(f"{prog}: error: {text}", file=sys.stderr)

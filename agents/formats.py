@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -47,9 +48,23 @@ ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "Leak
 POLICY_CLASSES = ("MlpPolicy", "ActorCriticPolicy")
 PICKLE_SUFFIXES = (".zip", ".pkl", ".pickle", ".pt", ".pth")
 
-__all__ = ["PickleRefused", "PolicyFormatError", "build_policy", "check_inside", "convert_command", "sniff",
-           "legacy_model_parts", "legacy_vecnormalize", "read_model", "read_vecnormalize", "refuse_pickle",
-           "restore_vecnormalize", "save_model", "save_vecnormalize", "vecnormalize_stats"]
+__all__ = [
+    "PickleRefused",
+    "PolicyFormatError",
+    "build_policy",
+    "check_inside",
+    "convert_command",
+    "sniff",
+    "legacy_model_parts",
+    "legacy_vecnormalize",
+    "read_model",
+    "read_vecnormalize",
+    "refuse_pickle",
+    "restore_vecnormalize",
+    "save_model",
+    "save_vecnormalize",
+    "vecnormalize_stats",
+]
 
 
 class PolicyFormatError(ValueError):
@@ -61,7 +76,7 @@ class PickleRefused(PolicyFormatError):
     """A file that only unpickling could read, and the caller did not trust it."""
 
 
-def convert_command(path) -> str:
+def convert_command(path: str | Path) -> str:
     """The command that converts ``path`` (its run directory, for a file of one)."""
     path = Path(path)
     for d in (path.parent, path.parent.parent):
@@ -71,15 +86,17 @@ def convert_command(path) -> str:
     return f"python -m agents.convert {path} --out NEW_DIR --trust-pickle"
 
 
-def refuse_pickle(path, what: str = "a pickle-based file"):
+def refuse_pickle(path: str | Path, what: str = "a pickle-based file") -> NoReturn:
     """Raise ``PickleRefused`` for ``path`` (one line naming it and --trust-pickle)."""
     verb = "" if what.startswith("are ") else "is "
-    raise PickleRefused(f"{path} {verb}{what}, which can run code when loaded: refused; if you trust it, pass "
-                        f"--trust-pickle (agents.load(..., trust_pickle=True)) or convert it once with: "
-                        f"{convert_command(str(path).split(' and ')[0])}")
+    raise PickleRefused(
+        f"{path} {verb}{what}, which can run code when loaded: refused; if you trust it, pass "
+        f"--trust-pickle (agents.load(..., trust_pickle=True)) or convert it once with: "
+        f"{convert_command(str(path).split(' and ')[0])}"
+    )
 
 
-def check_inside(base, path, what: str = "a path") -> Path:
+def check_inside(base: str | Path, path: str | Path, what: str = "a path") -> Path:
     """``path`` (relative to ``base`` unless absolute), resolved; a ``PolicyFormatError``
     if it leaves ``base`` (``..``, an absolute path, a symbolic link pointing out)."""
     base_r = Path(base).resolve()
@@ -102,8 +119,13 @@ def _box(space) -> dict:
 
     if not isinstance(space, spaces.Box):
         raise PolicyFormatError(f"only Box spaces can be saved, got {space}")
-    return {"type": "Box", "shape": [int(s) for s in space.shape], "dtype": str(np.dtype(space.dtype)),
-            "low": [_num(v) for v in np.ravel(space.low)], "high": [_num(v) for v in np.ravel(space.high)]}
+    return {
+        "type": "Box",
+        "shape": [int(s) for s in space.shape],
+        "dtype": str(np.dtype(space.dtype)),
+        "low": [_num(v) for v in np.ravel(space.low)],
+        "high": [_num(v) for v in np.ravel(space.high)],
+    }
 
 
 def _unbox(d: dict, where):
@@ -143,15 +165,14 @@ def policy_kwargs_json(kwargs: dict) -> dict:
         if key == "activation_fn":
             names = {getattr(nn, cls): name for name, cls in ACTIVATIONS.items()}
             if value not in names:
-                raise PolicyFormatError(f"policy_kwargs.activation_fn {value!r} is not one of "
-                                        f"{', '.join(ACTIVATIONS)}")
+                raise PolicyFormatError(f"policy_kwargs.activation_fn {value!r} is not one of {', '.join(ACTIVATIONS)}")
             out[key] = names[value]
         else:
             out[key] = _plain(value, f"policy_kwargs.{key}")
     return out
 
 
-def policy_kwargs_python(kwargs: dict, where) -> dict:
+def policy_kwargs_python(kwargs: dict | None, where: str | Path) -> dict:
     import torch.nn as nn
 
     out = dict(kwargs or {})
@@ -165,18 +186,27 @@ def policy_kwargs_python(kwargs: dict, where) -> dict:
 # ----------------------------------------------------------------------------------
 # saving
 # ----------------------------------------------------------------------------------
-def model_spec(model, norm_obs=None) -> dict:
+def model_spec(model: Any, norm_obs: bool | None = None) -> dict:
     """The JSON that rebuilds ``model``'s policy network (an SB3 PPO)."""
     from stable_baselines3.common.policies import ActorCriticPolicy
 
     if type(model.policy) is not ActorCriticPolicy:
-        raise PolicyFormatError(f"only MlpPolicy (ActorCriticPolicy) networks can be saved, got "
-                                f"{type(model.policy).__name__}")
-    return {"format": MODEL_FORMAT, "version": VERSION, "algo": "PPO", "policy": "MlpPolicy",
-            "observation_space": _box(model.observation_space), "action_space": _box(model.action_space),
-            "use_sde": bool(model.use_sde), "policy_kwargs": policy_kwargs_json(model.policy_kwargs),
-            "num_timesteps": int(model.num_timesteps), "n_updates": int(getattr(model, "_n_updates", 0)),
-            "norm_obs": None if norm_obs is None else bool(norm_obs)}
+        raise PolicyFormatError(
+            f"only MlpPolicy (ActorCriticPolicy) networks can be saved, got {type(model.policy).__name__}"
+        )
+    return {
+        "format": MODEL_FORMAT,
+        "version": VERSION,
+        "algo": "PPO",
+        "policy": "MlpPolicy",
+        "observation_space": _box(model.observation_space),
+        "action_space": _box(model.action_space),
+        "use_sde": bool(model.use_sde),
+        "policy_kwargs": policy_kwargs_json(model.policy_kwargs),
+        "num_timesteps": int(model.num_timesteps),
+        "n_updates": int(getattr(model, "_n_updates", 0)),
+        "norm_obs": None if norm_obs is None else bool(norm_obs),
+    }
 
 
 def _optimizer_parts(optimizer) -> tuple:
@@ -184,7 +214,8 @@ def _optimizer_parts(optimizer) -> tuple:
     import torch
 
     sd = optimizer.state_dict()
-    tensors, state = {}, {}
+    tensors: dict = {}
+    state: dict = {}
     for idx, entries in sd["state"].items():
         state[str(idx)] = {}
         for name, value in entries.items():
@@ -197,7 +228,7 @@ def _optimizer_parts(optimizer) -> tuple:
     return tensors, {"class": type(optimizer).__name__, "param_groups": groups, "state": state}
 
 
-def model_bytes(model, norm_obs=None, optimizer: bool = True) -> bytes:
+def model_bytes(model: Any, norm_obs: bool | None = None, optimizer: bool = True) -> bytes:
     """The model file of an SB3 PPO ``model`` (see the module docstring)."""
     from safetensors.torch import save
 
@@ -209,39 +240,64 @@ def model_bytes(model, norm_obs=None, optimizer: bool = True) -> bytes:
     return save(tensors, metadata={"coopnav": json.dumps(spec)})
 
 
-def save_model(model, path, norm_obs=None, optimizer: bool = True):
+def save_model(model: Any, path: str | Path, norm_obs: bool | None = None, optimizer: bool = True) -> None:
     """Write ``model``'s model file to ``path`` atomically."""
     atomic_write_bytes(Path(path), model_bytes(model, norm_obs, optimizer))
 
 
-def vecnormalize_stats(vecnorm) -> dict:
+def vecnormalize_stats(vecnorm: Any) -> dict:
     """The running statistics and settings of a VecNormalize, as plain numbers/arrays."""
     obs_rms = vecnorm.obs_rms
     if isinstance(obs_rms, dict):
         raise PolicyFormatError("VecNormalize of a Dict observation space cannot be saved")
-    return {"obs_mean": np.asarray(obs_rms.mean, np.float64), "obs_var": np.asarray(obs_rms.var, np.float64),
-            "obs_count": float(obs_rms.count), "ret_mean": np.asarray(vecnorm.ret_rms.mean, np.float64),
-            "ret_var": np.asarray(vecnorm.ret_rms.var, np.float64), "ret_count": float(vecnorm.ret_rms.count),
-            "clip_obs": float(vecnorm.clip_obs), "clip_reward": float(vecnorm.clip_reward),
-            "epsilon": float(vecnorm.epsilon), "gamma": float(vecnorm.gamma),
-            "norm_obs": bool(vecnorm.norm_obs), "norm_reward": bool(vecnorm.norm_reward)}
+    return {
+        "obs_mean": np.asarray(obs_rms.mean, np.float64),
+        "obs_var": np.asarray(obs_rms.var, np.float64),
+        "obs_count": float(obs_rms.count),
+        "ret_mean": np.asarray(vecnorm.ret_rms.mean, np.float64),
+        "ret_var": np.asarray(vecnorm.ret_rms.var, np.float64),
+        "ret_count": float(vecnorm.ret_rms.count),
+        "clip_obs": float(vecnorm.clip_obs),
+        "clip_reward": float(vecnorm.clip_reward),
+        "epsilon": float(vecnorm.epsilon),
+        "gamma": float(vecnorm.gamma),
+        "norm_obs": bool(vecnorm.norm_obs),
+        "norm_reward": bool(vecnorm.norm_reward),
+    }
 
 
 def vecnormalize_bytes(stats: dict) -> bytes:
     from safetensors.numpy import save
 
-    tensors = {"obs_rms.mean": np.ascontiguousarray(stats["obs_mean"].reshape(-1)),
-               "obs_rms.var": np.ascontiguousarray(stats["obs_var"].reshape(-1)),
-               "ret_rms.mean": np.ascontiguousarray(np.reshape(stats["ret_mean"], -1)),
-               "ret_rms.var": np.ascontiguousarray(np.reshape(stats["ret_var"], -1))}
-    meta = {"format": VECNORM_FORMAT, "version": VERSION,
-            "obs_shape": list(np.shape(stats["obs_mean"])), "ret_shape": list(np.shape(stats["ret_mean"])),
-            **{k: stats[k] for k in ("obs_count", "ret_count", "clip_obs", "clip_reward", "epsilon", "gamma",
-                                     "norm_obs", "norm_reward")}}
+    tensors = {
+        "obs_rms.mean": np.ascontiguousarray(stats["obs_mean"].reshape(-1)),
+        "obs_rms.var": np.ascontiguousarray(stats["obs_var"].reshape(-1)),
+        "ret_rms.mean": np.ascontiguousarray(np.reshape(stats["ret_mean"], -1)),
+        "ret_rms.var": np.ascontiguousarray(np.reshape(stats["ret_var"], -1)),
+    }
+    meta = {
+        "format": VECNORM_FORMAT,
+        "version": VERSION,
+        "obs_shape": list(np.shape(stats["obs_mean"])),
+        "ret_shape": list(np.shape(stats["ret_mean"])),
+        **{
+            k: stats[k]
+            for k in (
+                "obs_count",
+                "ret_count",
+                "clip_obs",
+                "clip_reward",
+                "epsilon",
+                "gamma",
+                "norm_obs",
+                "norm_reward",
+            )
+        },
+    }
     return save(tensors, metadata={"coopnav": json.dumps(meta)})
 
 
-def save_vecnormalize(vecnorm, path):
+def save_vecnormalize(vecnorm: Any, path: str | Path) -> None:
     """Write a VecNormalize's statistics (or a ``vecnormalize_stats`` dict) to ``path`` atomically."""
     stats = vecnorm if isinstance(vecnorm, dict) else vecnormalize_stats(vecnorm)
     atomic_write_bytes(Path(path), vecnormalize_bytes(stats))
@@ -250,7 +306,7 @@ def save_vecnormalize(vecnorm, path):
 # ----------------------------------------------------------------------------------
 # loading (no pickle)
 # ----------------------------------------------------------------------------------
-def sniff(path):
+def sniff(path: str | Path) -> None:
     """Refuse ``path`` if its name or its first bytes say pickle or zip (SB3's format);
     reads two bytes, never unpickles."""
     path = Path(path)
@@ -262,9 +318,11 @@ def sniff(path):
     except OSError as err:
         raise PolicyFormatError(f"cannot read {path}: {err.strerror or err}") from None
     if head[:1] == b"\x80" or head[:2] == b"PK":  # a pickle (protocol 2+) or a zip archive
-        raise PickleRefused(f"{path} should be a safetensors file but holds a pickle or a zip archive, which can "
-                            "run code when loaded: refused, even with --trust-pickle (convert a trusted original "
-                            "with: python -m agents.convert SRC --out NEW_DIR --trust-pickle)")
+        raise PickleRefused(
+            f"{path} should be a safetensors file but holds a pickle or a zip archive, which can "
+            "run code when loaded: refused, even with --trust-pickle (convert a trusted original "
+            "with: python -m agents.convert SRC --out NEW_DIR --trust-pickle)"
+        )
 
 
 def _open(path, framework: str, expected: str) -> tuple:
@@ -276,8 +334,8 @@ def _open(path, framework: str, expected: str) -> tuple:
     try:
         with safe_open(str(path), framework=framework) as f:
             meta = (f.metadata() or {}).get("coopnav")
-            tensors = {k: f.get_tensor(k) for k in f.keys()}
-    except Exception as err:  # noqa: BLE001 - safetensors' errors vary by version
+            tensors = {k: f.get_tensor(k) for k in f.keys()}  # noqa: SIM118 - a safetensors handle has keys(), no __iter__
+    except Exception as err:  # safetensors' errors vary by version
         raise PolicyFormatError(f"{path} is not a valid safetensors file ({_first_line(err)})") from None
     from coopnav_env.safe_load import loads_json
 
@@ -288,12 +346,13 @@ def _open(path, framework: str, expected: str) -> tuple:
     if not isinstance(spec, dict) or spec.get("format") != expected:
         raise PolicyFormatError(f"{path} is not a {expected} file (no coopnav metadata)")
     if not isinstance(spec.get("version", 0), int) or spec.get("version", 0) > VERSION:
-        raise PolicyFormatError(f"{path}: {expected} version {spec.get('version')} is newer than this code "
-                                f"reads ({VERSION})")
+        raise PolicyFormatError(
+            f"{path}: {expected} version {spec.get('version')} is newer than this code reads ({VERSION})"
+        )
     return tensors, spec
 
 
-def read_model(path) -> tuple:
+def read_model(path: str | Path) -> tuple:
     """(spec JSON, policy state_dict, optimizer state_dict or None) of a model file."""
     tensors, spec = _open(path, "pt", MODEL_FORMAT)
     policy = {k: v for k, v in tensors.items() if not k.startswith(OPTIM_PREFIX)}
@@ -302,8 +361,10 @@ def read_model(path) -> tuple:
         o = spec["optimizer"]
         state = {}
         for idx, entries in o.get("state", {}).items():
-            state[int(idx)] = {name: (tensors[f"{OPTIM_PREFIX}{idx}.{name}"] if value == "tensor" else value)
-                               for name, value in entries.items()}
+            state[int(idx)] = {
+                name: (tensors[f"{OPTIM_PREFIX}{idx}.{name}"] if value == "tensor" else value)
+                for name, value in entries.items()
+            }
         groups = []
         for g in o.get("param_groups", []):
             g = dict(g)
@@ -314,7 +375,9 @@ def read_model(path) -> tuple:
     return spec, policy, optim
 
 
-def build_policy(spec: dict, state: dict | None = None, where="model", device="cpu", learning_rate=0.0):
+def build_policy(
+    spec: dict, state: dict | None = None, where: str | Path = "model", device: str = "cpu", learning_rate: Any = 0.0
+) -> Any:
     """The SB3 ActorCriticPolicy ``spec`` describes, with ``state`` loaded (strict)."""
     from stable_baselines3.common.policies import ActorCriticPolicy
 
@@ -323,9 +386,13 @@ def build_policy(spec: dict, state: dict | None = None, where="model", device="c
     _check_header_sizes(spec, where)  # before anything is allocated
     kwargs = policy_kwargs_python(spec.get("policy_kwargs"), where)
     try:
-        policy = ActorCriticPolicy(_unbox(spec["observation_space"], where), _unbox(spec["action_space"], where),
-                                   lambda _: float(learning_rate), use_sde=bool(spec.get("use_sde", False)),
-                                   **kwargs)
+        policy = ActorCriticPolicy(
+            _unbox(spec["observation_space"], where),
+            _unbox(spec["action_space"], where),
+            lambda _: float(learning_rate),
+            use_sde=bool(spec.get("use_sde", False)),
+            **kwargs,
+        )
     except (TypeError, ValueError, KeyError) as err:
         raise PolicyFormatError(f"{where}: cannot rebuild the network ({_first_line(err)})") from None
     if state is not None:
@@ -351,7 +418,7 @@ def _check_header_sizes(spec: dict, where):
         raise PolicyFormatError(str(err)) from None
 
 
-def safe_yaml(path):
+def safe_yaml(path: str | Path) -> Any:
     """A run's YAML file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
     from coopnav_env.safe_load import UnsafeDataError, read_yaml
 
@@ -361,7 +428,7 @@ def safe_yaml(path):
         raise PolicyFormatError(str(err)) from None
 
 
-def safe_json(path):
+def safe_json(path: str | Path) -> Any:
     """A run's JSON file, bounded (``coopnav_env.safe_load``); a ``PolicyFormatError`` else."""
     from coopnav_env.safe_load import UnsafeDataError, read_json
 
@@ -371,21 +438,23 @@ def safe_json(path):
         raise PolicyFormatError(str(err)) from None
 
 
-def load_policy_state(policy, state: dict, where):
+def load_policy_state(policy: Any, state: dict, where: str | Path) -> None:
     try:
         policy.load_state_dict(state, strict=True)
     except RuntimeError as err:
         raise PolicyFormatError(f"{where} does not fit the network: {_first_line(err)}") from None
 
 
-def read_vecnormalize(path) -> dict:
+def read_vecnormalize(path: str | Path) -> dict:
     """A normalization file -> ``vecnormalize_stats``'s dict."""
     tensors, meta = _open(path, "np", VECNORM_FORMAT)
     try:
-        stats = {"obs_mean": tensors["obs_rms.mean"].reshape(meta["obs_shape"]),
-                 "obs_var": tensors["obs_rms.var"].reshape(meta["obs_shape"]),
-                 "ret_mean": tensors["ret_rms.mean"].reshape(meta["ret_shape"]),
-                 "ret_var": tensors["ret_rms.var"].reshape(meta["ret_shape"])}
+        stats = {
+            "obs_mean": tensors["obs_rms.mean"].reshape(meta["obs_shape"]),
+            "obs_var": tensors["obs_rms.var"].reshape(meta["obs_shape"]),
+            "ret_mean": tensors["ret_rms.mean"].reshape(meta["ret_shape"]),
+            "ret_var": tensors["ret_rms.var"].reshape(meta["ret_shape"]),
+        }
         for key in ("obs_count", "ret_count", "clip_obs", "clip_reward", "epsilon", "gamma"):
             stats[key] = float(meta[key])
         for key in ("norm_obs", "norm_reward"):
@@ -395,11 +464,13 @@ def read_vecnormalize(path) -> dict:
     return stats
 
 
-def restore_vecnormalize(vecnorm, stats: dict):
+def restore_vecnormalize(vecnorm: Any, stats: dict) -> Any:
     """Put ``stats`` into a VecNormalize (its running statistics; training mode kept)."""
     if tuple(np.shape(stats["obs_mean"])) != tuple(np.shape(vecnorm.obs_rms.mean)):
-        raise PolicyFormatError(f"normalization statistics of shape {np.shape(stats['obs_mean'])} do not fit "
-                                f"observations of shape {np.shape(vecnorm.obs_rms.mean)}")
+        raise PolicyFormatError(
+            f"normalization statistics of shape {np.shape(stats['obs_mean'])} do not fit "
+            f"observations of shape {np.shape(vecnorm.obs_rms.mean)}"
+        )
     vecnorm.obs_rms.mean, vecnorm.obs_rms.var = stats["obs_mean"].copy(), stats["obs_var"].copy()
     vecnorm.obs_rms.count = stats["obs_count"]
     for key, name in (("ret_mean", "mean"), ("ret_var", "var")):
@@ -412,23 +483,23 @@ def restore_vecnormalize(vecnorm, stats: dict):
 # ----------------------------------------------------------------------------------
 # the old pickle formats: only for a caller who trusts the file
 # ----------------------------------------------------------------------------------
-def legacy_model(path, device="cpu"):
+def legacy_model(path: str | Path, device: str = "cpu") -> Any:
     """An SB3 model .zip (``PPO.load``: UNPICKLES; call only for a trusted file)."""
     from stable_baselines3 import PPO
 
     return PPO.load(str(path), device=device)
 
 
-def legacy_vecnormalize(path) -> dict:
+def legacy_vecnormalize(path: str | Path) -> dict:
     """A VecNormalize .pkl (UNPICKLES; call only for a trusted file) -> stats dict."""
     import pickle
 
     with open(path, "rb") as f:
-        vecnorm = pickle.load(f)  # noqa: S301 - the caller trusts this file (--trust-pickle)
+        vecnorm = pickle.load(f)  # the caller trusts this file (--trust-pickle)
     return vecnormalize_stats(vecnorm)
 
 
-def legacy_model_parts(path, norm_obs=None, device="cpu") -> tuple:
+def legacy_model_parts(path: str | Path, norm_obs: bool | None = None, device: str = "cpu") -> tuple:
     """(spec, policy state_dict, optimizer state_dict) of a trusted SB3 .zip."""
     model = legacy_model(path, device)
     spec = model_spec(model, norm_obs)
@@ -443,7 +514,7 @@ def _first_line(err) -> str:
 _TRUSTED: set = set()  # pickle-based files the caller trusted (trust_pickle=True) in this process
 
 
-def trust_pickle(*paths):
+def trust_pickle(*paths: str | Path | None) -> None:
     """Trust these pickle-based files (resolved paths) for the rest of the process, as
     ``trust_pickle=True`` does for the files it resolves."""
     for path in paths:
@@ -467,5 +538,6 @@ def _check_trusted(paths, trusted: bool):
         return
     untrusted = [str(p) for p in legacy if str(Path(p).resolve()) not in _TRUSTED]
     if untrusted:
-        refuse_pickle(" and ".join(untrusted), "a pickle-based file" if len(untrusted) == 1 else
-                      "are pickle-based files")
+        refuse_pickle(
+            " and ".join(untrusted), "a pickle-based file" if len(untrusted) == 1 else "are pickle-based files"
+        )

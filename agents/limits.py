@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import Any
 
 
 class LimitError(ValueError):
     """A size refused (callers re-raise it as ``agents.PolicyFormatError``)."""
+
 
 MAX_LAYER_WIDTH = 8192
 MAX_LAYERS = 32
@@ -34,8 +36,9 @@ __all__ = [
 ]
 
 
-def _width(v, where: str) -> int:
-    if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v) or int(v) != v:
+def _width(value: Any, where: str) -> int:
+    v: Any = value  # numbers.Real narrows to an ABC that typeshed gives no int()/<= support
+    if isinstance(v, bool) or not isinstance(value, numbers.Real) or not math.isfinite(v) or int(v) != v:
         raise LimitError(f"{where}: layer width {v!r} is not an integer: refused")
     if not 1 <= v <= MAX_LAYER_WIDTH:
         raise LimitError(f"{where}: layer width {v!r} is outside [1, {MAX_LAYER_WIDTH}]: refused")
@@ -50,7 +53,7 @@ def _layers(v, where: str) -> list:
     return [_width(x, where) for x in v]
 
 
-def check_net_arch(value, where: str = "net_arch") -> list:
+def check_net_arch(value: Any, where: str = "net_arch") -> list:
     """The hidden-layer widths of an SB3 ``net_arch`` (a list, or {pi: [..], vf: [..]}),
     each checked; returns the list of all the widths' lists."""
     if value is None:
@@ -63,13 +66,13 @@ def check_net_arch(value, where: str = "net_arch") -> list:
     return [_layers(value, where)]
 
 
-def check_space_size(shape, where: str = "space") -> int:
+def check_space_size(shape: Any, where: str = "space") -> int:
     """The number of elements of a Box ``shape``; refused above ``MAX_OBS_SIZE``."""
     if not isinstance(shape, (list, tuple)) or len(shape) > 8:
         raise LimitError(f"{where}: bad shape {shape!r}: refused")
     n = 1
     for s in shape:
-        if isinstance(s, bool) or not isinstance(s, numbers.Integral) or not 0 <= s <= MAX_OBS_SIZE:
+        if isinstance(s, bool) or not isinstance(s, numbers.Integral) or not 0 <= int(s) <= MAX_OBS_SIZE:
             raise LimitError(f"{where}: bad dimension {s!r} in shape {shape!r}: refused")
         n *= int(s)
         if n > MAX_OBS_SIZE:
@@ -87,5 +90,4 @@ def check_network(obs_size: int, act_size: int, layer_lists: list, where: str) -
             prev = w
         total += prev * max(act_size, 1) + prev
     if total > MAX_PARAMETERS:
-        raise LimitError(f"{where}: the network would have about {total} weights, more than "
-                                f"{MAX_PARAMETERS}: refused")
+        raise LimitError(f"{where}: the network would have about {total} weights, more than {MAX_PARAMETERS}: refused")

@@ -3,6 +3,8 @@ action out, through ``act_batch``; and the scenario a run was trained on."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 
@@ -12,8 +14,16 @@ class BatchPolicy:
 
     obs_dim: int
     obs_dtype = np.float64
+    config: Any  # the ScenarioConfig it was trained on (None if unknown)
+    name: str
 
-    def act(self, obs) -> np.ndarray:
+    def reset(self, seed: int | None = None) -> None:
+        raise NotImplementedError
+
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=self.obs_dtype)
         if obs.shape != (self.obs_dim,):
             raise ValueError(f"observation must have shape ({self.obs_dim},), got {obs.shape}")
@@ -21,7 +31,6 @@ class BatchPolicy:
 
     def __call__(self, obs):
         return self.act(obs)
-
 
 
 def _trained_scenario(run_config: dict):

@@ -52,7 +52,9 @@ from __future__ import annotations
 import logging
 import pickle
 import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -79,11 +81,11 @@ def _run_config_backend(directory: Path):
         from coopnav_env.safe_load import read_yaml
 
         return ((read_yaml(path) or {}).get("args", {}) or {}).get("backend")
-    except Exception:  # noqa: BLE001 - an unreadable config is not an RLlib run (the SB3 path refuses it)
+    except Exception:  # an unreadable config is not an RLlib run (the SB3 path refuses it)
         return None
 
 
-def find_checkpoint(path) -> Path | None:
+def find_checkpoint(path: object) -> Path | None:
     """The RLlib Algorithm checkpoint directory ``path`` names, or None: ``path`` itself
     (it holds ``rllib_checkpoint.json``), or a train.py ``--backend rllib`` run
     directory (its ``checkpoint/``)."""
@@ -99,7 +101,7 @@ def find_checkpoint(path) -> Path | None:
     return None
 
 
-def is_rllib_path(path) -> bool:
+def is_rllib_path(path: object) -> bool:
     """Whether ``path`` is an RLlib checkpoint or a train.py ``--backend rllib`` run."""
     return find_checkpoint(path) is not None
 
@@ -113,7 +115,7 @@ def find_run_config(checkpoint: Path) -> Path | None:
     return None
 
 
-def resolve(path, scenario=None, trust_pickle=False) -> tuple:
+def resolve(path: str | Path, scenario: Any = None, trust_pickle: bool = False) -> tuple:
     """(checkpoint directory, None, config.yml or None), as ``agents.resolve``; raises
     ValueError if the run has no checkpoint (yet) or the checkpoint no module, and
     ``PickleRefused`` unless ``trust_pickle`` (or the checkpoint was trusted before)."""
@@ -166,9 +168,11 @@ def _check_filters(ckpt: Path, config_path):
     if why:
         from agents.formats import PolicyFormatError
 
-        raise PolicyFormatError(f"{ckpt / EXPORT_DIR / FILTERS_FILE} is missing, but the policy was trained on "
-                                f"normalized observations ({why}): refused (it would act on unnormalized "
-                                "observations)")
+        raise PolicyFormatError(
+            f"{ckpt / EXPORT_DIR / FILTERS_FILE} is missing, but the policy was trained on "
+            f"normalized observations ({why}): refused (it would act on unnormalized "
+            "observations)"
+        )
 
 
 def _export_files(ckpt: Path) -> list:
@@ -189,10 +193,11 @@ class _LoadedRun:
         self.run_config = self.run_config if isinstance(self.run_config, dict) else {}
         self.trained_config = _trained_scenario(self.run_config)
         self.export = checkpoint / EXPORT_DIR if _export_files(checkpoint) else None
-        self._modules = {}
+        self._modules: dict[str, Any] = {}
         if self.export is not None:  # data only
-            self.module_ids = sorted(f.name[:-len(".safetensors")] for f in self.export.glob("*.safetensors")
-                                     if f.name != FILTERS_FILE)
+            self.module_ids = sorted(
+                f.name[: -len(".safetensors")] for f in self.export.glob("*.safetensors") if f.name != FILTERS_FILE
+            )
             self.filters = read_filters(self.export / FILTERS_FILE)
         else:  # RLlib's pickle-based files: only for a trusted checkpoint (resolve checked)
             self.module_ids = sorted(d.name for d in (checkpoint / MODULE_DIR).iterdir() if d.is_dir())
@@ -201,8 +206,10 @@ class _LoadedRun:
     def module(self, module_id: str):
         if module_id not in self._modules and self.export is not None:
             if module_id not in self.module_ids:
-                raise ValueError(f"{self.checkpoint} has no module {module_id!r} (a beacon kind); "
-                                 f"modules: {', '.join(self.module_ids)}")
+                raise ValueError(
+                    f"{self.checkpoint} has no module {module_id!r} (a beacon kind); "
+                    f"modules: {', '.join(self.module_ids)}"
+                )
             module = read_module(self.export / f"{module_id}.safetensors")
             module.eval()
             self._modules[module_id] = module
@@ -211,14 +218,17 @@ class _LoadedRun:
 
             path = self.checkpoint / MODULE_DIR / module_id
             if not path.is_dir():
-                raise ValueError(f"{self.checkpoint} has no module {module_id!r} (a beacon kind); "
-                                 f"modules: {', '.join(self.module_ids)}")
+                raise ValueError(
+                    f"{self.checkpoint} has no module {module_id!r} (a beacon kind); "
+                    f"modules: {', '.join(self.module_ids)}"
+                )
             previous = logging.root.manager.disable
             logging.disable(logging.WARNING)  # RLlib warns about a deprecation in its own checkpoint format
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    module = RLModule.from_checkpoint(str(path.resolve()))
+                    loaded: Any = RLModule.from_checkpoint(str(path.resolve()))  # a TorchRLModule: a torch module
+                module = loaded
             finally:
                 logging.disable(previous)
             module.eval()
@@ -239,8 +249,12 @@ def _load_filters(path: Path) -> dict:
     for agent_id, s in (state or {}).items():
         if s.get("shape") is None or not s.get("running_stats"):
             continue
-        flt = MeanStdFilter(tuple(int(v) for v in np.atleast_1d(s["shape"])), demean=s["de_mean_to_zero"],
-                            destd=s["de_std_to_one"], clip=s["clip_by_value"])
+        flt = MeanStdFilter(
+            tuple(int(v) for v in np.atleast_1d(s["shape"])),
+            demean=s["de_mean_to_zero"],
+            destd=s["de_std_to_one"],
+            clip=s["clip_by_value"],
+        )
         flt.running_stats = RunningStat.from_state(s["running_stats"][0])
         filters[agent_id] = flt
     return filters
@@ -249,7 +263,7 @@ def _load_filters(path: Path) -> dict:
 class FrozenMeanStd:
     """RLlib's MeanStdFilter with frozen statistics (``update=False``): the same arithmetic."""
 
-    def __init__(self, mean, std, demean=True, destd=True, clip=10.0):
+    def __init__(self, mean: Any, std: Any, demean: bool = True, destd: bool = True, clip: float | None = 10.0) -> None:
         self.mean, self.std = np.asarray(mean), np.asarray(std)  # their dtype, as RLlib's filter has them
         self.demean, self.destd, self.clip = bool(demean), bool(destd), clip
 
@@ -278,12 +292,19 @@ def _module_spec(module) -> dict:
         import dataclasses
 
         config = dataclasses.asdict(config)
-    return {"format": MODULE_FORMAT, "version": 1, "module_class": cls.__name__, "catalog_class": "PPOCatalog",
-            "observation_space": _box(module.observation_space), "action_space": _box(module.action_space),
-            "inference_only": bool(module.inference_only), "model_config": _plain(config, "model_config")}
+    return {
+        "format": MODULE_FORMAT,
+        "version": 1,
+        "module_class": cls.__name__,
+        "catalog_class": "PPOCatalog",
+        "observation_space": _box(module.observation_space),
+        "action_space": _box(module.action_space),
+        "inference_only": bool(module.inference_only),
+        "model_config": _plain(config, "model_config"),
+    }
 
 
-def export(checkpoint, out_dir=None) -> Path:
+def export(checkpoint: str | Path, out_dir: str | Path | None = None) -> Path:
     """Write the safe export of a TRUSTED RLlib checkpoint (this reads its pickles) into
     ``out_dir`` (default ``<checkpoint>/policy_export``), every file atomically."""
     import json
@@ -302,16 +323,22 @@ def export(checkpoint, out_dir=None) -> Path:
     for module_id in run.module_ids:
         module = run.module(module_id)
         tensors = {k: v.detach().cpu().contiguous().clone() for k, v in module.state_dict().items()}
-        atomic_write_bytes(out_dir / f"{module_id}.safetensors",
-                           save_pt(tensors, metadata={"coopnav": json.dumps(_module_spec(module))}))
+        atomic_write_bytes(
+            out_dir / f"{module_id}.safetensors",
+            save_pt(tensors, metadata={"coopnav": json.dumps(_module_spec(module))}),
+        )
     filters = _load_filters(checkpoint / FILTER_STATE)
     if filters:
-        tensors, meta = {}, {"format": FILTER_FORMAT, "version": 1, "agents": {}}
+        tensors = {}
+        meta: dict[str, Any] = {"format": FILTER_FORMAT, "version": 1, "agents": {}}
         for agent_id, flt in filters.items():
             tensors[f"{agent_id}.mean"] = np.ascontiguousarray(np.asarray(flt.running_stats.mean))  # dtype kept
             tensors[f"{agent_id}.std"] = np.ascontiguousarray(np.asarray(flt.running_stats.std))
-            meta["agents"][agent_id] = {"demean": bool(flt.demean), "destd": bool(flt.destd),
-                                        "clip": None if flt.clip is None else float(flt.clip)}
+            meta["agents"][agent_id] = {
+                "demean": bool(flt.demean),
+                "destd": bool(flt.destd),
+                "clip": None if flt.clip is None else float(flt.clip),
+            }
         atomic_write_bytes(out_dir / FILTERS_FILE, save_np(tensors, metadata={"coopnav": json.dumps(meta)}))
     return out_dir
 
@@ -327,15 +354,15 @@ def _open_export(path: Path, framework: str, expected: str) -> tuple:
     try:
         with safe_open(str(path), framework=framework) as f:
             meta = json.loads((f.metadata() or {}).get("coopnav", "null"))
-            tensors = {k: f.get_tensor(k) for k in f.keys()}
-    except Exception as err:  # noqa: BLE001 - safetensors' errors vary by version
+            tensors = {k: f.get_tensor(k) for k in f.keys()}  # noqa: SIM118 - a safetensors handle has keys(), no __iter__
+    except Exception as err:  # safetensors' errors vary by version
         raise PolicyFormatError(f"{path} is not a valid safetensors file ({str(err).splitlines()[0]})") from None
     if not isinstance(meta, dict) or meta.get("format") != expected:
         raise PolicyFormatError(f"{path} is not a {expected} file (no coopnav metadata)")
     return tensors, meta
 
 
-def read_module(path: Path):
+def read_module(path: Path) -> Any:
     """The RLModule of an export file: DefaultPPOTorchRLModule rebuilt from its JSON, the
     tensors loaded into it (no pickle)."""
     from agents.formats import PolicyFormatError, _unbox
@@ -352,11 +379,13 @@ def read_module(path: Path):
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            module = DefaultPPOTorchRLModule(observation_space=_unbox(spec["observation_space"], path),
-                                             action_space=_unbox(spec["action_space"], path),
-                                             inference_only=bool(spec.get("inference_only", False)),
-                                             model_config=dict(spec.get("model_config") or {}),
-                                             catalog_class=PPOCatalog)
+            module = DefaultPPOTorchRLModule(
+                observation_space=_unbox(spec["observation_space"], path),
+                action_space=_unbox(spec["action_space"], path),
+                inference_only=bool(spec.get("inference_only", False)),
+                model_config=dict(spec.get("model_config") or {}),
+                catalog_class=PPOCatalog,
+            )
     finally:
         logging.disable(previous)
     try:
@@ -376,10 +405,13 @@ def _check_module_sizes(spec: dict, path):
     try:
         obs = check_space_size(spec["observation_space"]["shape"], f"{path}: observation_space")
         act = check_space_size(spec["action_space"]["shape"], f"{path}: action_space")
-        layers = [w for key in ("fcnet_hiddens", "head_fcnet_hiddens", "pi_head_fcnet_hiddens",
-                                "vf_head_fcnet_hiddens") if key in config
-                  for w in check_net_arch(config[key], f"{path}: model_config.{key}")]
-        check_network(obs, act, [sum(layers, [])], path)
+        layers = [
+            w
+            for key in ("fcnet_hiddens", "head_fcnet_hiddens", "pi_head_fcnet_hiddens", "vf_head_fcnet_hiddens")
+            if key in config
+            for w in check_net_arch(config[key], f"{path}: model_config.{key}")
+        ]
+        check_network(obs, act, [[w for layer in layers for w in layer]], path)
     except (KeyError, TypeError):
         raise PolicyFormatError(f"{path}: no valid observation_space/action_space") from None
     except LimitError as err:
@@ -394,8 +426,12 @@ def read_filters(path: Path) -> dict:
 
     tensors, meta = _open_export(path, "np", FILTER_FORMAT)
     try:
-        return {agent_id: FrozenMeanStd(tensors[f"{agent_id}.mean"], tensors[f"{agent_id}.std"], s["demean"],
-                                        s["destd"], s["clip"]) for agent_id, s in meta["agents"].items()}
+        return {
+            agent_id: FrozenMeanStd(
+                tensors[f"{agent_id}.mean"], tensors[f"{agent_id}.std"], s["demean"], s["destd"], s["clip"]
+            )
+            for agent_id, s in meta["agents"].items()
+        }
     except (KeyError, TypeError) as err:
         raise PolicyFormatError(f"{path}: incomplete filter statistics ({err})") from None
 
@@ -410,7 +446,7 @@ class RLlibPolicy(BatchPolicy):
 
     obs_dtype = np.float32
 
-    def __init__(self, run: _LoadedRun, agent_index: int = 0, config=None, name="rllib"):
+    def __init__(self, run: _LoadedRun, agent_index: int = 0, config: Any = None, name: str = "rllib") -> None:
         self.run = run
         self.config = config if config is not None else run.trained_config
         self.agent_index = int(agent_index)
@@ -429,10 +465,10 @@ class RLlibPolicy(BatchPolicy):
         self.name = name
         self.run_config = run.run_config
 
-    def reset(self, seed=None):
+    def reset(self, seed: int | None = None) -> None:
         """Stateless: nothing to clear (the interface of baselines.Policy)."""
 
-    def act_batch(self, obs) -> np.ndarray:
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
         import torch
         from ray.rllib.core.columns import Columns
 
@@ -483,7 +519,9 @@ def _obs_dim(config) -> int:
     return int(obs_dim(config))
 
 
-def load(path, scenario=None, agent=0, device="cpu", trust_pickle=False) -> RLlibPolicy:
+def load(
+    path: str | Path, scenario: Any = None, agent: int = 0, device: str = "cpu", trust_pickle: bool = False
+) -> RLlibPolicy:
     """The policy of beacon ``agent`` (index or "beacon_k") from an RLlib checkpoint or
     run directory. With ``scenario`` (name, ScenarioConfig or env) the observation
     size is checked and the beacon's kind picks the module; without it, the scenario
@@ -496,34 +534,44 @@ def load(path, scenario=None, agent=0, device="cpu", trust_pickle=False) -> RLli
         agent = int(agent[7:])
     run = _run(path, scenario, trust_pickle=trust_pickle)
     target = _target(scenario)
-    policy = RLlibPolicy(run, agent, config=target if target is not None else run.trained_config,
-                         name=Path(str(path)).name)
+    policy = RLlibPolicy(
+        run, agent, config=target if target is not None else run.trained_config, name=Path(str(path)).name
+    )
     if target is not None:
         dim = _obs_dim(target)
         if dim != policy.obs_dim:
-            raise ValueError(f"policy {str(path)!r} takes observations of size {policy.obs_dim}; "
-                             f"scenario {target.name!r} gives {dim}")
+            raise ValueError(
+                f"policy {str(path)!r} takes observations of size {policy.obs_dim}; "
+                f"scenario {target.name!r} gives {dim}"
+            )
         trained = run.trained_config
         if trained is not None and trained.name != target.name:
-            warnings.warn(f"policy {str(path)!r} was trained on {trained.name!r}, used on {target.name!r}",
-                          stacklevel=2)
+            warnings.warn(
+                f"policy {str(path)!r} was trained on {trained.name!r}, used on {target.name!r}", stacklevel=2
+            )
     return policy
 
 
-def make_policy(path, env_or_config=None, seed=None, agent=0, trust_pickle=False) -> RLlibPolicy:
+def make_policy(
+    path: str | Path,
+    env_or_config: Any = None,
+    seed: int | Sequence[int] | None = None,
+    agent: int = 0,
+    trust_pickle: bool = False,
+) -> RLlibPolicy:
     """``baselines.make_policy``'s signature: one policy per beacon and episode is cheap
     (the loaded modules are shared). ``seed`` is accepted for the interface."""
     return load(path, scenario=env_or_config, agent=agent, trust_pickle=trust_pickle)
 
 
-def batch_actor(path, config):
+def batch_actor(path: str | Path, config: Any) -> Callable[[np.ndarray, Any], np.ndarray]:
     """``act(obs (n_envs * N, D), venv) -> (n_envs * N, 2)`` for train.py's ``evaluate``:
     every beacon's rows through its kind's module, all environments at once (the
     trainer's own checkpoint, just written: trusted)."""
     policies = [load(path, scenario=config, agent=j, trust_pickle=True) for j in range(config.n_beacons)]
     N = config.n_beacons
 
-    def act(obs, venv):
+    def act(obs: np.ndarray, venv: Any) -> np.ndarray:
         out = np.empty((len(obs), 2), dtype=np.float32)
         for j, policy in enumerate(policies):
             out[j::N] = policy.act_batch(obs[j::N])
@@ -532,7 +580,7 @@ def batch_actor(path, config):
     return act
 
 
-def convert(src, out):
+def convert(src: str | Path, out: str | Path) -> Path:
     """``agents.convert`` of a TRUSTED RLlib run or checkpoint: a copy of it (an RLlib run
     directory stays resumable with --trust-pickle) with the safe export written into its
     checkpoint, which ``agents.load`` then reads without unpickling."""

@@ -31,15 +31,16 @@ def _within(base: Path, target: Path) -> bool:
     return target == base or base in target.parents
 
 
-def inside(root, path, what: str = "file") -> Path:
+def inside(root: str | os.PathLike[str], path: str | os.PathLike[str], what: str = "file") -> Path:
     """``path`` resolved; a ``PolicyFormatError`` if it (or a link on its way) leaves ``root``."""
     base = Path(root).resolve()
     p = Path(path)
     target = (Path(root) / p if not p.is_absolute() else p).resolve()
     if not _within(base, target):
         link = " (a symbolic link)" if _any_link(Path(root), p) else ""
-        raise PolicyFormatError(f"{what} {str(path)!r}{link} leads outside the run folder {root} (to {target}): "
-                                "refused")
+        raise PolicyFormatError(
+            f"{what} {str(path)!r}{link} leads outside the run folder {root} (to {target}): refused"
+        )
     return target
 
 
@@ -56,7 +57,7 @@ def _any_link(root: Path, p: Path) -> bool:
     return False
 
 
-def check_tree(root, what: str = "run folder") -> Path:
+def check_tree(root: str | os.PathLike[str], what: str = "run folder") -> Path:
     """``root`` resolved, after refusing every symbolic link under it that leads outside
     it (a ``PolicyFormatError`` naming the first); ``root`` itself may be a link."""
     root = Path(root)
@@ -67,8 +68,7 @@ def check_tree(root, what: str = "run folder") -> Path:
     for dirpath, dirnames, filenames in os.walk(base, followlinks=False):
         seen += len(dirnames) + len(filenames)
         if seen > MAX_ENTRIES:
-            raise PolicyFormatError(f"{root} holds more than {MAX_ENTRIES} files and folders: refused as a "
-                                    f"{what}")
+            raise PolicyFormatError(f"{root} holds more than {MAX_ENTRIES} files and folders: refused as a {what}")
         for name in dirnames + filenames:
             entry = Path(dirpath) / name
             if entry.is_symlink():
@@ -78,6 +78,8 @@ def check_tree(root, what: str = "run folder") -> Path:
                     raise PolicyFormatError(f"{entry} is a symbolic link that cannot be resolved: refused") from None
                 if not _within(base, target):
                     shown = root / entry.relative_to(base)
-                    raise PolicyFormatError(f"{shown} is a symbolic link to {target}, outside the {what} {root}: "
-                                            "refused (copy the file in instead)")
+                    raise PolicyFormatError(
+                        f"{shown} is a symbolic link to {target}, outside the {what} {root}: "
+                        "refused (copy the file in instead)"
+                    )
     return base

@@ -58,20 +58,39 @@ def rows(results: dict) -> list:
             per_seed = np.mean(np.stack(diffs), axis=0)
             pooled, lo, hi = t_interval(per_seed)
             wins = ts["summary"][challenger]  # the benchmark's own count of the tasks' verdicts
-            out.append((set_name, challenger, len(mine), wins["n/a"], mean, best_mean, mean / best_mean - 1.0,
-                        pooled, (lo, hi), wins["win"], wins["tie"], wins["loss"], bool(results.get("official"))))
+            out.append(
+                (
+                    set_name,
+                    challenger,
+                    len(mine),
+                    wins["n/a"],
+                    mean,
+                    best_mean,
+                    mean / best_mean - 1.0,
+                    pooled,
+                    (lo, hi),
+                    wins["win"],
+                    wins["tie"],
+                    wins["loss"],
+                    bool(results.get("official")),
+                )
+            )
     return out
 
 
 def markdown(all_rows: list) -> str:
-    lines = ["| task set | policy | tasks (n/a) | mean error (m) | best planners (m) | relative | "
-             "paired, pooled (m) [95 %] | wins / ties / losses | 20 % aim |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for (s, c, n, na, mean, best, rel, pm, (lo, hi), w, t, l, official) in all_rows:
+    lines = [
+        "| task set | policy | tasks (n/a) | mean error (m) | best planners (m) | relative | "
+        "paired, pooled (m) [95 %] | wins / ties / losses | 20 % aim |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for s, c, n, na, mean, best, rel, pm, (lo, hi), w, t, l, official in all_rows:
         aim = "met" if rel <= AIM and hi < 0 else f"not met ({rel * 100:+.0f} %)"
         mark = "" if official else " (not official)"
-        lines.append(f"| `{s}`{mark} | `{c}` | {n} ({na}) | {mean:.3f} | {best:.3f} | {rel * 100:+.1f} % | "
-                     f"{pm:+.3f} [{lo:+.3f}, {hi:+.3f}] | {w} / {t} / {l} | {aim} |")
+        lines.append(
+            f"| `{s}`{mark} | `{c}` | {n} ({na}) | {mean:.3f} | {best:.3f} | {rel * 100:+.1f} % | "
+            f"{pm:+.3f} [{lo:+.3f}, {hi:+.3f}] | {w} / {t} / {l} | {aim} |"
+        )
     return "\n".join(lines)
 
 
@@ -80,8 +99,11 @@ def per_task_markdown(results: dict) -> str:
     challenger's mean error and paired difference with its verdict (``--per-task``)."""
     out = []
     for set_name, ts in results["task_sets"].items():
-        head = ["task", "best planner (m)"] + [f"`{c}` (m)" for c in ts["challengers"]] + \
-               [f"`{c}` - best [95 %]" for c in ts["challengers"]]
+        head = (
+            ["task", "best planner (m)"]
+            + [f"`{c}` (m)" for c in ts["challengers"]]
+            + [f"`{c}` - best [95 %]" for c in ts["challengers"]]
+        )
         lines = [f"**`{set_name}`**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for task_name, task in ts["tasks"].items():
             best = task["best_planner"]
@@ -105,8 +127,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="benchmark_summary.py", description=__doc__.split("\n\n")[0])
     p.add_argument("results", nargs="+", type=Path, help="results.json files of evaluation.benchmark")
     p.add_argument("--markdown", type=Path, help="also write the table here")
-    p.add_argument("--per-task", action="store_true", help="also one table per task set: every task's best "
-                                                           "planner and each challenger's paired difference")
+    p.add_argument(
+        "--per-task",
+        action="store_true",
+        help="also one table per task set: every task's best planner and each challenger's paired difference",
+    )
     args = p.parse_args(argv)
     all_rows, tables = [], []
     for path in args.results:

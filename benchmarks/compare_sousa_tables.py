@@ -5,6 +5,7 @@ Sousa, Ferreira & Cruz's, and the B - A differences against Table III's expectat
         --sweep depth_m=1,5,20,50 --sweep survey_path=stationary,lawnmower,circle,spiral --out results/sousa_sweep
     python benchmarks/compare_sousa_tables.py results/sousa_sweep
 """
+
 import csv
 import json
 import sys
@@ -20,18 +21,27 @@ with open(f"{out}/episodes.csv", newline="") as f:
 depths = [1.0, 5.0, 20.0, 50.0]
 paths = ["stationary", "lawnmower", "circle", "spiral"]
 paper = {
- "fim_a": {1: [(0.810,0.021),(0.689,0.016),(0.575,0.063),(1.970,1.102)],
-           5: [(1.720,0.034),(1.362,0.043),(1.255,0.193),(2.016,1.080)],
-           20: [(1.820,0.124),(1.482,0.361),(1.488,0.407),(2.530,1.499)],
-           50: [(1.78,1.213),(2.309,0.647),(2.135,0.945),(3.542,2.228)]},
- "fim_b": {1: [(0.690,0.102),(0.659,0.014),(0.537,0.050),(4.309,6.842)],
-           5: [(1.730,0.039),(1.415,0.043),(1.170,0.073),(4.933,6.907)],
-           20: [(1.817,0.134),(1.479,0.207),(5.637,4.168),(5.041,4.883)],
-           50: [(1.568,1.236),(2.150,0.478),(5.074,4.703),(5.375,3.726)]}}
+    "fim_a": {
+        1: [(0.810, 0.021), (0.689, 0.016), (0.575, 0.063), (1.970, 1.102)],
+        5: [(1.720, 0.034), (1.362, 0.043), (1.255, 0.193), (2.016, 1.080)],
+        20: [(1.820, 0.124), (1.482, 0.361), (1.488, 0.407), (2.530, 1.499)],
+        50: [(1.78, 1.213), (2.309, 0.647), (2.135, 0.945), (3.542, 2.228)],
+    },
+    "fim_b": {
+        1: [(0.690, 0.102), (0.659, 0.014), (0.537, 0.050), (4.309, 6.842)],
+        5: [(1.730, 0.039), (1.415, 0.043), (1.170, 0.073), (4.933, 6.907)],
+        20: [(1.817, 0.134), (1.479, 0.207), (5.637, 4.168), (5.041, 4.883)],
+        50: [(1.568, 1.236), (2.150, 0.478), (5.074, 4.703), (5.375, 3.726)],
+    },
+}
+
+
 def cell(d: float, p: str, pol: str) -> dict | None:
     for c in S["cells"]:
         if c["params"] == {"depth_m": d, "survey_path": p}:
             return c["policies"][pol]
+
+
 for pol, name in (("fim_a", "Table I (approach A)"), ("fim_b", "Table II (approach B)")):
     print(f"\n### {name}: ours mean / var  (paper mean / var)\n")
     print("| depth | " + " | ".join(paths) + " |")
@@ -58,12 +68,21 @@ for d in depths:
         h = stats.t.ppf(0.975, len(diff) - 1) * diff.std(ddof=1) / np.sqrt(len(diff))
         sig = "B<A" if m + h < 0 else ("B>A" if m - h > 0 else "=")
         pdiff = paper["fim_b"][int(d)][j][0] - paper["fim_a"][int(d)][j][0]
-        row.append(f"{m:+.3f} [{m-h:+.3f}, {m+h:+.3f}] {sig}; exp {expect[p]}; paper {pdiff:+.3f}")
+        row.append(f"{m:+.3f} [{m - h:+.3f}, {m + h:+.3f}] {sig}; exp {expect[p]}; paper {pdiff:+.3f}")
     print(f"| {int(d)} m | " + " | ".join(row) + " |")
 print("\n### 50 m vs 1 m (ours)\n")
 for pol in ("fim_a", "fim_b"):
     shallow, deep = ([cell(d, p, pol) for p in paths] for d in (1.0, 50.0))
-    verdicts = ["ok" if b["ci95_error_m"][0] > a["ci95_error_m"][1] else
-                ("higher" if b["mean_error_m"] > a["mean_error_m"] else "NOT") for a, b in zip(shallow, deep)]
-    print(pol, [f"{p}: {a['mean_error_m']:.3f} -> {b['mean_error_m']:.3f} ({v})"
-                for p, a, b, v in zip(paths, shallow, deep, verdicts)])
+    verdicts = [
+        "ok"
+        if b["ci95_error_m"][0] > a["ci95_error_m"][1]
+        else ("higher" if b["mean_error_m"] > a["mean_error_m"] else "NOT")
+        for a, b in zip(shallow, deep)
+    ]
+    print(
+        pol,
+        [
+            f"{p}: {a['mean_error_m']:.3f} -> {b['mean_error_m']:.3f} ({v})"
+            for p, a, b, v in zip(paths, shallow, deep, verdicts)
+        ],
+    )

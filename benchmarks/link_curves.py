@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import io
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -61,20 +62,22 @@ def loss_vs_range(path: Path) -> None:
             nl = L.band_noise_db(p.band, p.noise)
             label = f"{f_khz:g} kHz, {name}"
             ax_snr.plot(r_m / 1000.0, L.snr_db(r_m, p, noise_db=nl), ls, color=color, lw=1.4, label=label)
-            ax_p.plot(r_m / 1000.0, L.success_probability(r_m, 256, p, noise_db=nl), ls, color=color, lw=1.4,
-                      label=label)
+            ax_p.plot(
+                r_m / 1000.0, L.success_probability(r_m, 256, p, noise_db=nl), ls, color=color, lw=1.4, label=label
+            )
     thr = L.LinkParams().detection_threshold_db
     ax_snr.axhline(thr, color="k", lw=0.8, alpha=0.6)
     ax_snr.text(0.3, thr - 2.0, f"detection threshold {thr:g} dB [U]", ha="left", va="top", fontsize=7)
     ax_snr.set_ylabel("in-band SNR (dB)")
     ax_snr.set_ylim(-40.0, 80.0)
-    ax_snr.set_title("Sonar equation: SL 185 dB re 1 uPa at 1 m [U], k = 2, Thorp absorption, "
-                     "Wenz/Coates noise over 4 kHz", fontsize=9)
+    ax_snr.set_title(
+        "Sonar equation: SL 185 dB re 1 uPa at 1 m [U], k = 2, Thorp absorption, Wenz/Coates noise over 4 kHz",
+        fontsize=9,
+    )
     ax_p.set_ylabel("packet success probability")
     ax_p.set_xlabel("range (km)")
     ax_p.set_ylim(-0.02, 1.02)
-    ax_p.set_title("P(detect, Rayleigh fading) x (1 - PER), one 32-byte frame at 80 bps (non-coherent FSK)",
-                   fontsize=9)
+    ax_p.set_title("P(detect, Rayleigh fading) x (1 - PER), one 32-byte frame at 80 bps (non-coherent FSK)", fontsize=9)
     for ax in (ax_snr, ax_p):
         ax.set_xlim(0.0, 20.0)
         ax.grid(True, lw=0.3)
@@ -83,7 +86,7 @@ def loss_vs_range(path: Path) -> None:
     _save(fig, path)
 
 
-def two_beacon_slot(offsets_s):
+def two_beacon_slot(offsets_s: Sequence[float]) -> tuple:
     """The slot of the timeline figure: beacons A, B pinging at ``offsets_s``; survey
     vehicles S, T silent. Returns (names, tx, outcome)."""
     names = ["beacon A", "beacon B", "survey S", "survey T"]
@@ -116,8 +119,17 @@ def _draw_slot(ax, names, tx, o, title):
                 continue
             y = top - (i + 1) * lane
             lost = o.deaf[0, v, w] or not o.captured[0, v, w]
-            ax.barh(y, o.end_s[0, v, w] - a, left=a, height=h, color=colors[v], alpha=0.35 if lost else 0.9,
-                    hatch="xxx" if lost else None, edgecolor="red" if lost else "k", lw=1.0 if lost else 0.6)
+            ax.barh(
+                y,
+                o.end_s[0, v, w] - a,
+                left=a,
+                height=h,
+                color=colors[v],
+                alpha=0.35 if lost else 0.9,
+                hatch="xxx" if lost else None,
+                edgecolor="red" if lost else "k",
+                lw=1.0 if lost else 0.6,
+            )
             if o.deaf[0, v, w]:
                 why = "lost: deaf (transmitting)"
             elif not o.captured[0, v, w]:
@@ -127,8 +139,14 @@ def _draw_slot(ax, names, tx, o, title):
             else:
                 why = f"clear, p {o.p_success[0, v, w]:.2f}"
             sender = names[v].split()[1]
-            ax.text(o.end_s[0, v, w] + 0.15, y, f"from {sender} ({o.range_m[0, v, w] / 1000:.1f} km): {why}",
-                    va="center", fontsize=6.5, color="red" if lost else "k")
+            ax.text(
+                o.end_s[0, v, w] + 0.15,
+                y,
+                f"from {sender} ({o.range_m[0, v, w] / 1000:.1f} km): {why}",
+                va="center",
+                fontsize=6.5,
+                color="red" if lost else "k",
+            )
     ax.set_yticks([t for t, _ in ticks])
     ax.set_yticklabels([n for _, n in ticks], fontsize=8)
     ax.set_ylim(-0.3, V * block - 0.2)
@@ -150,13 +168,18 @@ def timeline(path: Path) -> None:
     for ax in (ax1, ax2):
         ax.set_xlim(0.0, 21.0)
         ax.set_xlabel("time within the slot (s)")
-    fig.text(0.01, 0.005, "per vehicle: its transmission (top lane), then its receptions, one lane per sender, "
-             "coloured by sender; hatched red: lost", fontsize=7)
+    fig.text(
+        0.01,
+        0.005,
+        "per vehicle: its transmission (top lane), then its receptions, one lane per sender, "
+        "coloured by sender; hatched red: lost",
+        fontsize=7,
+    )
     fig.tight_layout(rect=(0, 0.02, 1, 1))
     _save(fig, path)
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("docs/figures"), help="directory of the PNGs")
     args = p.parse_args(argv)

@@ -49,8 +49,16 @@ def _errors(m, truth):
     return np.stack([wrap_angle_rad(m.azimuth_rad - az), m.range_m - r, wrap_angle_rad(m.heading_rad - hd)], axis=-1)
 
 
-def compare_cell(signal_sensor: MLSSensor, analytic_sensor: MLSSensor, range_m: float, azimuth_rad: float,
-                 aspect_rad: float, n_signal: int, n_analytic: int, rng: np.random.Generator) -> dict:
+def compare_cell(
+    signal_sensor: MLSSensor,
+    analytic_sensor: MLSSensor,
+    range_m: float,
+    azimuth_rad: float,
+    aspect_rad: float,
+    n_signal: int,
+    n_analytic: int,
+    rng: np.random.Generator,
+) -> dict:
     """Errors' (mean, std) in both modes at one pose. Observer at the origin heading 0; the
     sender at (range, azimuth) with heading azimuth + aspect. Returns a dict with
     arrays [azimuth rad, range m, heading rad] for each statistic."""
@@ -62,19 +70,36 @@ def compare_cell(signal_sensor: MLSSensor, analytic_sensor: MLSSensor, range_m: 
     for k in range(n_signal):
         m = signal_sensor.measure_signal(sp, sh, np.zeros(2), 0.0, rng, tracker)
         sig[k] = _errors(m, truth)
-    ma = analytic_sensor.measure_analytic(np.broadcast_to(sp, (n_analytic, 2)), np.full(n_analytic, sh),
-                                          np.zeros((n_analytic, 2)), np.zeros(n_analytic), rng=rng)
+    ma = analytic_sensor.measure_analytic(
+        np.broadcast_to(sp, (n_analytic, 2)),
+        np.full(n_analytic, sh),
+        np.zeros((n_analytic, 2)),
+        np.zeros(n_analytic),
+        rng=rng,
+    )
     ana = _errors(ma, [np.asarray(t)[None] for t in truth])
     s_mu, s_sd, _ = error_statistics(sig.T)
     a_mu, a_sd, _ = error_statistics(ana.T)
     bound = analytic_sensor.error_bounds(sp, sh, np.zeros(2), 0.0)
-    return {"signal_mean": s_mu, "signal_std": s_sd, "analytic_mean": a_mu, "analytic_std": a_sd,
-            "bound": np.array([float(b) for b in bound])}
+    return {
+        "signal_mean": s_mu,
+        "signal_std": s_sd,
+        "analytic_mean": a_mu,
+        "analytic_std": a_sd,
+        "bound": np.array([float(b) for b in bound]),
+    }
 
 
-def run_grid(ranges_m: Sequence[float] = RANGES_M, azimuths_deg: Sequence[float] = AZIMUTHS_DEG, n_signal: int = 200,
-             n_analytic: int = 20000, seed: int = 0,
-             snr_db: float = 20.0, reflection: bool = False, tolerance: float = TOLERANCE) -> list:
+def run_grid(
+    ranges_m: Sequence[float] = RANGES_M,
+    azimuths_deg: Sequence[float] = AZIMUTHS_DEG,
+    n_signal: int = 200,
+    n_analytic: int = 20000,
+    seed: int = 0,
+    snr_db: float = 20.0,
+    reflection: bool = False,
+    tolerance: float = TOLERANCE,
+) -> list:
     """All cells; returns a list of row dicts (units: deg, mm, deg) with a pass flag."""
     rng = np.random.default_rng(seed)
     base = dict(snr_db_at_1m=snr_db, max_range_m=max(ranges_m) + 1.0)
@@ -87,14 +112,20 @@ def run_grid(ranges_m: Sequence[float] = RANGES_M, azimuths_deg: Sequence[float]
         for j, az in enumerate(azimuths_deg):
             c = compare_cell(sig_sensor, ana_sensor, r, math.radians(az), aspects[i, j], n_signal, n_analytic, rng)
             ratio = c["analytic_std"] / c["signal_std"]
-            rows.append({
-                "range_m": r, "azimuth_deg": az, "aspect_deg": math.degrees(aspects[i, j]),
-                "signal_std": (c["signal_std"] * scale).tolist(), "analytic_std": (c["analytic_std"] * scale).tolist(),
-                "bound_eq11_13": (c["bound"] * scale).tolist(),
-                "signal_mean": (c["signal_mean"] * scale).tolist(),
-                "analytic_mean": (c["analytic_mean"] * scale).tolist(),
-                "ratio": ratio.tolist(), "pass": bool(np.all(np.abs(ratio - 1.0) <= tolerance)),
-            })
+            rows.append(
+                {
+                    "range_m": r,
+                    "azimuth_deg": az,
+                    "aspect_deg": math.degrees(aspects[i, j]),
+                    "signal_std": (c["signal_std"] * scale).tolist(),
+                    "analytic_std": (c["analytic_std"] * scale).tolist(),
+                    "bound_eq11_13": (c["bound"] * scale).tolist(),
+                    "signal_mean": (c["signal_mean"] * scale).tolist(),
+                    "analytic_mean": (c["analytic_mean"] * scale).tolist(),
+                    "ratio": ratio.tolist(),
+                    "pass": bool(np.all(np.abs(ratio - 1.0) <= tolerance)),
+                }
+            )
     return rows
 
 
@@ -109,32 +140,59 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.signal_events < 10 or args.analytic_events < 10:
         ap.error("--signal-events and --analytic-events must be at least 10")
-    rows = run_grid(n_signal=args.signal_events, n_analytic=args.analytic_events, seed=args.seed,
-                    snr_db=args.snr_db, reflection=args.reflection)
+    rows = run_grid(
+        n_signal=args.signal_events,
+        n_analytic=args.analytic_events,
+        seed=args.seed,
+        snr_db=args.snr_db,
+        reflection=args.reflection,
+    )
     ratios = np.array([r["ratio"] for r in rows])
-    summary = {"cells": len(rows), "passed": int(sum(r["pass"] for r in rows)),
-               "max_abs_ratio_minus_1": float(np.max(np.abs(ratios - 1.0))),
-               "median_ratio": np.median(ratios, axis=0).tolist(), "tolerance": TOLERANCE}
+    summary = {
+        "cells": len(rows),
+        "passed": int(sum(r["pass"] for r in rows)),
+        "max_abs_ratio_minus_1": float(np.max(np.abs(ratios - 1.0))),
+        "median_ratio": np.median(ratios, axis=0).tolist(),
+        "tolerance": TOLERANCE,
+    }
     if args.json:
-        print(json.dumps({"summary": summary, "cells": rows, "snr_db_at_1m": args.snr_db,
-                          "reflection": args.reflection, "seed": args.seed}))
+        print(
+            json.dumps(
+                {
+                    "summary": summary,
+                    "cells": rows,
+                    "snr_db_at_1m": args.snr_db,
+                    "reflection": args.reflection,
+                    "seed": args.seed,
+                }
+            )
+        )
         return 0 if summary["passed"] == summary["cells"] else 1
-    print(f"analytic vs signal level: std of errors, {args.signal_events} signal events and "
-          f"{args.analytic_events} analytic draws per cell, SNR {args.snr_db:g} dB at 1 m, "
-          f"{'surface reflection (signal only)' if args.reflection else 'no reflection'}")
+    print(
+        f"analytic vs signal level: std of errors, {args.signal_events} signal events and "
+        f"{args.analytic_events} analytic draws per cell, SNR {args.snr_db:g} dB at 1 m, "
+        f"{'surface reflection (signal only)' if args.reflection else 'no reflection'}"
+    )
     print("std: signal / analytic (ratio); bound = eqs. (11)-(13) corrected, at the realised delta-tau")
-    print(f"{'r m':>4s} {'az':>4s} {'asp':>5s} | {'azimuth std deg':^27s} | {'range std mm':^27s} | "
-          f"{'heading std deg':^27s} | {'bound az/r/hd':^20s} | ok")
+    print(
+        f"{'r m':>4s} {'az':>4s} {'asp':>5s} | {'azimuth std deg':^27s} | {'range std mm':^27s} | "
+        f"{'heading std deg':^27s} | {'bound az/r/hd':^20s} | ok"
+    )
     for r in rows:
         cells = []
         for q in range(3):
             cells.append(f"{r['signal_std'][q]:8.4f} {r['analytic_std'][q]:8.4f} ({r['ratio'][q]:5.2f})")
         b = r["bound_eq11_13"]
-        print(f"{r['range_m']:4.1f} {r['azimuth_deg']:4.0f} {r['aspect_deg']:5.0f} | " + " | ".join(cells)
-              + f" | {b[0]:6.4f} {b[1]:5.3f} {b[2]:6.4f} | {'pass' if r['pass'] else 'FAIL'}")
-    print(f"\n{summary['passed']}/{summary['cells']} cells within {TOLERANCE:.0%}; largest |ratio - 1| "
-          f"{summary['max_abs_ratio_minus_1']:.3f}; median ratios (az, r, hd) "
-          + ", ".join(f"{x:.3f}" for x in summary["median_ratio"]))
+        print(
+            f"{r['range_m']:4.1f} {r['azimuth_deg']:4.0f} {r['aspect_deg']:5.0f} | "
+            + " | ".join(cells)
+            + f" | {b[0]:6.4f} {b[1]:5.3f} {b[2]:6.4f} | {'pass' if r['pass'] else 'FAIL'}"
+        )
+    print(
+        f"\n{summary['passed']}/{summary['cells']} cells within {TOLERANCE:.0%}; largest |ratio - 1| "
+        f"{summary['max_abs_ratio_minus_1']:.3f}; median ratios (az, r, hd) "
+        + ", ".join(f"{x:.3f}" for x in summary["median_ratio"])
+    )
     return 0 if summary["passed"] == summary["cells"] else 1
 
 

@@ -47,7 +47,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.events < 10:
         ap.error("--events must be at least 10")
     try:
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})   # one core
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})  # one core
     except (AttributeError, OSError):
         pass
     sensor = MLSSensor(MLSConfig(reflection=Reflection("surface", -0.9)))
@@ -75,24 +75,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     t_proc = np.array(t_proc) * 1e3
     tot = t_syn + t_proc
     res = {
-        "events": args.events, "nfft": sensor.nfft, "mls_chips": sensor.n_chips,
-        "process_median_ms": float(np.median(t_proc)), "process_p90_ms": float(np.percentile(t_proc, 90)),
-        "synthesize_median_ms": float(np.median(t_syn)), "synthesize_p90_ms": float(np.percentile(t_syn, 90)),
-        "total_median_ms": float(np.median(tot)), "total_p90_ms": float(np.percentile(tot, 90)),
-        "target_ms": TARGET_MS, "met": bool(np.median(t_proc) < TARGET_MS),
-        "machine": platform.machine(), "python": platform.python_version(),
+        "events": args.events,
+        "nfft": sensor.nfft,
+        "mls_chips": sensor.n_chips,
+        "process_median_ms": float(np.median(t_proc)),
+        "process_p90_ms": float(np.percentile(t_proc, 90)),
+        "synthesize_median_ms": float(np.median(t_syn)),
+        "synthesize_p90_ms": float(np.percentile(t_syn, 90)),
+        "total_median_ms": float(np.median(tot)),
+        "total_p90_ms": float(np.percentile(tot, 90)),
+        "target_ms": TARGET_MS,
+        "met": bool(np.median(t_proc) < TARGET_MS),
+        "machine": platform.machine(),
+        "python": platform.python_version(),
         "loadavg": os.getloadavg() if hasattr(os, "getloadavg") else None,
     }
     if args.json:
         print(json.dumps(res))
         return 0
-    print(f"MLS event ({sensor.n_chips} chips, 2 chirps x 2 hydrophones, nfft {sensor.nfft}), "
-          f"{args.events} events, one core")
+    print(
+        f"MLS event ({sensor.n_chips} chips, 2 chirps x 2 hydrophones, nfft {sensor.nfft}), "
+        f"{args.events} events, one core"
+    )
     print(f"{'':12s} {'median ms':>10s} {'p90 ms':>10s}")
     for name, t in (("process", t_proc), ("synthesize", t_syn), ("total", tot)):
         print(f"{name:12s} {np.median(t):10.3f} {np.percentile(t, 90):10.3f}")
-    print(f"processing under {TARGET_MS:g} ms per event: {'met' if res['met'] else 'NOT met'} "
-          f"(load average {res['loadavg'][0]:.2f})" if res["loadavg"] else "")
+    print(
+        f"processing under {TARGET_MS:g} ms per event: {'met' if res['met'] else 'NOT met'} "
+        f"(load average {res['loadavg'][0]:.2f})"
+        if res["loadavg"]
+        else ""
+    )
     return 0
 
 

@@ -48,12 +48,21 @@ from coopnav_env.core.mls import (
 )
 
 PAPER_TABLE_1 = {
-    "azimuth_mean_deg": 0.00, "azimuth_std_deg": 2.39, "azimuth_avgdev_deg": 1.83,
-    "range_mean_mm": 0.64, "range_std_mm": 6.77, "range_avgdev_mm": 3.65,
-    "heading_mean_deg": 0.62, "heading_std_deg": 7.59, "heading_avgdev_deg": 5.40,
+    "azimuth_mean_deg": 0.00,
+    "azimuth_std_deg": 2.39,
+    "azimuth_avgdev_deg": 1.83,
+    "range_mean_mm": 0.64,
+    "range_std_mm": 6.77,
+    "range_avgdev_mm": 3.65,
+    "heading_mean_deg": 0.62,
+    "heading_std_deg": 7.59,
+    "heading_avgdev_deg": 5.40,
 }
 HEADLINE = {  # the paper's headline bounds (absolute values of the means; average deviation)
-    "azimuth_mean_deg": 0.3, "azimuth_avgdev_deg": 2.0, "range_mean_mm": 10.0, "heading_mean_deg": 5.0,
+    "azimuth_mean_deg": 0.3,
+    "azimuth_avgdev_deg": 2.0,
+    "range_mean_mm": 10.0,
+    "heading_mean_deg": 5.0,
 }
 
 RANGE_M = 1.00
@@ -63,10 +72,18 @@ UPDATE_HZ = 5.0
 
 def tank_config(snr_db: float = 20.0, reflection: bool = True, estimator: str = "exact", **overrides: Any) -> MLSConfig:
     """The sensor as set up in the tank (see the module docstring for the assumptions)."""
-    kw = dict(hydrophone_base_m=0.3, projector_spacing_m=0.5, sample_rate_hz=96_000.0,
-              snr_db_at_1m=snr_db, water_temperature_c=20.0, salinity_psu=0.0, depth_m=0.5,
-              max_range_m=3.0, estimator=estimator,
-              reflection=Reflection(kind="surface", coefficient=-0.9) if reflection else None)
+    kw = dict(
+        hydrophone_base_m=0.3,
+        projector_spacing_m=0.5,
+        sample_rate_hz=96_000.0,
+        snr_db_at_1m=snr_db,
+        water_temperature_c=20.0,
+        salinity_psu=0.0,
+        depth_m=0.5,
+        max_range_m=3.0,
+        estimator=estimator,
+        reflection=Reflection(kind="surface", coefficient=-0.9) if reflection else None,
+    )
     kw.update(overrides)
     return MLSConfig(**kw)
 
@@ -75,14 +92,20 @@ def sweep_poses(n_events: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sender and observer poses of the sweep: the sender fixed at (1, 0) m with world
     heading 150 deg, the observer at the origin rotated so the azimuth goes -90 -> +90 deg."""
     az = np.radians(np.linspace(-90.0, 90.0, n_events))
-    observer_heading = -az                                     # rotating the observer by -az puts the sender at az
+    observer_heading = -az  # rotating the observer by -az puts the sender at az
     sender_pos = np.array([RANGE_M, 0.0])
     sender_heading = math.radians(HEADING_AT_ZERO_DEG)
     return sender_pos, sender_heading, observer_heading
 
 
-def run_sweep(n_events: int = 301, seed: int = 0, mode: str = "signal", snr_db: float = 20.0, reflection: bool = True,
-              estimator: str = "exact") -> dict:
+def run_sweep(
+    n_events: int = 301,
+    seed: int = 0,
+    mode: str = "signal",
+    snr_db: float = 20.0,
+    reflection: bool = True,
+    estimator: str = "exact",
+) -> dict:
     """Run the sweep; returns a dict of the errors (rad, m) and the truth azimuths (rad)."""
     sensor = MLSSensor(tank_config(snr_db, reflection, estimator))
     sender_pos, sender_heading, obs_heading = sweep_poses(n_events)
@@ -90,7 +113,7 @@ def run_sweep(n_events: int = 301, seed: int = 0, mode: str = "signal", snr_db: 
     obs_pos = np.zeros(2)
     true_az, true_r, true_hd = geometric_truth(sender_pos, sender_heading, obs_pos, obs_heading)
     if mode == "signal":
-        tracker = PeakTracker()                                 # one link, tracked over the sweep
+        tracker = PeakTracker()  # one link, tracked over the sweep
         az = np.empty(n_events)
         rr = np.empty(n_events)
         hd = np.empty(n_events)
@@ -98,24 +121,34 @@ def run_sweep(n_events: int = 301, seed: int = 0, mode: str = "signal", snr_db: 
             m = sensor.measure_signal(sender_pos, sender_heading, obs_pos, obs_heading[k], rng, tracker)
             az[k], rr[k], hd[k] = m.azimuth_rad, m.range_m, m.heading_rad
     elif mode == "analytic":
-        m = sensor.measure_analytic(np.broadcast_to(sender_pos, (n_events, 2)), np.full(n_events, sender_heading),
-                                    np.zeros((n_events, 2)), obs_heading, rng=rng)
+        m = sensor.measure_analytic(
+            np.broadcast_to(sender_pos, (n_events, 2)),
+            np.full(n_events, sender_heading),
+            np.zeros((n_events, 2)),
+            obs_heading,
+            rng=rng,
+        )
         az, rr, hd = m.azimuth_rad, m.range_m, m.heading_rad
     else:
         raise ValueError(f"mode must be 'signal' or 'analytic', got {mode!r}")
-    return {"true_azimuth_rad": true_az,
-            "azimuth_err_rad": wrap_angle_rad(az - true_az),
-            "range_err_m": rr - true_r,
-            "heading_err_rad": wrap_angle_rad(hd - true_hd),
-            "sound_speed_mps": sensor.sound_speed_true_mps}
+    return {
+        "true_azimuth_rad": true_az,
+        "azimuth_err_rad": wrap_angle_rad(az - true_az),
+        "range_err_m": rr - true_r,
+        "heading_err_rad": wrap_angle_rad(hd - true_hd),
+        "sound_speed_mps": sensor.sound_speed_true_mps,
+    }
 
 
 def statistics(errs: dict) -> dict:
     """The paper's statistics (eqs. 15-19) in the units of Table 1, plus the largest
     errors near the ends of the sweep (|azimuth| >= 80 deg) and elsewhere."""
     out = {}
-    for key, scale, unit in (("azimuth", 180.0 / math.pi, "deg"), ("range", 1e3, "mm"),
-                             ("heading", 180.0 / math.pi, "deg")):
+    for key, scale, unit in (
+        ("azimuth", 180.0 / math.pi, "deg"),
+        ("range", 1e3, "mm"),
+        ("heading", 180.0 / math.pi, "deg"),
+    ):
         e = errs[f"{key}_err_rad" if key != "range" else "range_err_m"] * scale
         mu, sigma, avgdev = error_statistics(e)
         out[f"{key}_mean_{unit}"] = float(mu)
@@ -144,8 +177,12 @@ def _parse(argv=None):
     ap.add_argument("--events", type=int, default=301, help="events in the sweep (5 Hz; default 301 = 60 s)")
     ap.add_argument("--snr-db", type=float, default=20.0, help="in-band SNR per sample at 1 m (dB)")
     ap.add_argument("--no-reflection", action="store_true", help="leave out the surface reflection")
-    ap.add_argument("--estimator", choices=("exact", "paper"), default="exact",
-                    help="exact: near-field sub-azimuths and midpoint azimuth; paper: eqs. (2)-(5) as printed")
+    ap.add_argument(
+        "--estimator",
+        choices=("exact", "paper"),
+        default="exact",
+        help="exact: near-field sub-azimuths and midpoint azimuth; paper: eqs. (2)-(5) as printed",
+    )
     args = ap.parse_args(argv)
     if args.events < 3:
         ap.error("--events must be at least 3")
@@ -159,30 +196,50 @@ def main(argv: Sequence[str] | None = None) -> int:
     checks = headline_checks(stats)
     if args.json:
         out = dict(stats)
-        out.update({"mode": args.mode, "seed": args.seed, "events": args.events, "snr_db_at_1m": args.snr_db,
-                    "reflection": "none" if args.no_reflection else "surface, 0.5 m depth, coefficient -0.9",
-                    "estimator": args.estimator, "sound_speed_mps": errs["sound_speed_mps"],
-                    "paper_table_1": PAPER_TABLE_1, "headline_checks": checks,
-                    "headline_met": all(checks.values())})
+        out.update(
+            {
+                "mode": args.mode,
+                "seed": args.seed,
+                "events": args.events,
+                "snr_db_at_1m": args.snr_db,
+                "reflection": "none" if args.no_reflection else "surface, 0.5 m depth, coefficient -0.9",
+                "estimator": args.estimator,
+                "sound_speed_mps": errs["sound_speed_mps"],
+                "paper_table_1": PAPER_TABLE_1,
+                "headline_checks": checks,
+                "headline_met": all(checks.values()),
+            }
+        )
         print(json.dumps(out, sort_keys=False))
         return 0 if all(checks.values()) else 1
-    print(f"MLS tank sweep: {args.events} events, mode {args.mode}, seed {args.seed}, SNR {args.snr_db:g} dB at 1 m, "
-          f"{'no reflection' if args.no_reflection else 'surface reflection'}, estimator {args.estimator}, "
-          f"c = {errs['sound_speed_mps']:.1f} m/s")
+    print(
+        f"MLS tank sweep: {args.events} events, mode {args.mode}, seed {args.seed}, SNR {args.snr_db:g} dB at 1 m, "
+        f"{'no reflection' if args.no_reflection else 'surface reflection'}, estimator {args.estimator}, "
+        f"c = {errs['sound_speed_mps']:.1f} m/s"
+    )
     print()
     print(f"{'statistic (eqs. 15-19)':34s} {'ours':>9s} {'paper':>9s}")
-    for key, label in (("azimuth_mean_deg", "azimuth mean error (deg)"), ("azimuth_std_deg", "azimuth std (deg)"),
-                       ("azimuth_avgdev_deg", "azimuth average deviation (deg)"),
-                       ("range_mean_mm", "range mean error (mm)"), ("range_std_mm", "range std (mm)"),
-                       ("range_avgdev_mm", "range average deviation (mm)"),
-                       ("heading_mean_deg", "heading mean error (deg)"), ("heading_std_deg", "heading std (deg)"),
-                       ("heading_avgdev_deg", "heading average deviation (deg)")):
+    for key, label in (
+        ("azimuth_mean_deg", "azimuth mean error (deg)"),
+        ("azimuth_std_deg", "azimuth std (deg)"),
+        ("azimuth_avgdev_deg", "azimuth average deviation (deg)"),
+        ("range_mean_mm", "range mean error (mm)"),
+        ("range_std_mm", "range std (mm)"),
+        ("range_avgdev_mm", "range average deviation (mm)"),
+        ("heading_mean_deg", "heading mean error (deg)"),
+        ("heading_std_deg", "heading std (deg)"),
+        ("heading_avgdev_deg", "heading average deviation (deg)"),
+    ):
         print(f"{label:34s} {stats[key]:9.2f} {PAPER_TABLE_1[key]:9.2f}")
     print()
-    print(f"largest |error| at |azimuth| >= 80 deg: azimuth {stats['azimuth_maxabs_near_90_deg']:.2f} deg, "
-          f"range {stats['range_maxabs_near_90_mm']:.2f} mm, heading {stats['heading_maxabs_near_90_deg']:.2f} deg")
-    print(f"largest |error| at |azimuth| <  80 deg: azimuth {stats['azimuth_maxabs_within_80_deg']:.2f} deg, "
-          f"range {stats['range_maxabs_within_80_mm']:.2f} mm, heading {stats['heading_maxabs_within_80_deg']:.2f} deg")
+    print(
+        f"largest |error| at |azimuth| >= 80 deg: azimuth {stats['azimuth_maxabs_near_90_deg']:.2f} deg, "
+        f"range {stats['range_maxabs_near_90_mm']:.2f} mm, heading {stats['heading_maxabs_near_90_deg']:.2f} deg"
+    )
+    print(
+        f"largest |error| at |azimuth| <  80 deg: azimuth {stats['azimuth_maxabs_within_80_deg']:.2f} deg, "
+        f"range {stats['range_maxabs_within_80_mm']:.2f} mm, heading {stats['heading_maxabs_within_80_deg']:.2f} deg"
+    )
     print()
     for name, ok in checks.items():
         print(f"{name:32s} {'met' if ok else 'NOT met'}")

@@ -35,12 +35,20 @@ from scipy.stats import chi2
 CASES = (
     ("gao_lawnmower", "gao_lawnmower", "ellipse", {}),
     ("gao_sea", "gao_sea", "ellipse", {}),
-    ("gao_sea, 2 h, no surfacing", "gao_sea", "ellipse",
-     {"beacon_surface_above_std_m": 0.0, "beacon_surface_every_s": 0.0, "path_repeats": 7, "max_cycles": 360}),
+    (
+        "gao_sea, 2 h, no surfacing",
+        "gao_sea",
+        "ellipse",
+        {"beacon_surface_above_std_m": 0.0, "beacon_surface_every_s": 0.0, "path_repeats": 7, "max_cycles": 360},
+    ),
     ("sousa_asv", "sousa_asv", "fim_a", {}),
     ("matos_moving_lbl", "matos_moving_lbl", "abeam", {}),
-    ("matos_moving_lbl, outliers and losses", "matos_moving_lbl", "abeam",
-     {"outlier_probability": 0.03, "packet_loss_near": 0.05, "packet_loss_far": 0.5}),
+    (
+        "matos_moving_lbl, outliers and losses",
+        "matos_moving_lbl",
+        "abeam",
+        {"outlier_probability": 0.03, "packet_loss_near": 0.05, "packet_loss_far": 0.5},
+    ),
     ("matos_river", "matos_river", "river_escort", {}),
 )
 BAND = chi2.ppf([0.025, 0.975], 2)
@@ -56,8 +64,7 @@ def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: 
     cfg = coopnav_env.make_config(scenario, **overrides)
     sim = make_simulator(cfg, runs)
     obs = sim.reset(list(range(seed, seed + runs)))
-    policies = [[make_policy(planner, cfg, seed=seed + b, agent=n) for n in range(cfg.n_beacons)]
-                for b in range(runs)]
+    policies = [[make_policy(planner, cfg, seed=seed + b, agent=n) for n in range(cfg.n_beacons)] for b in range(runs)]
     for row in policies:
         for p in row:
             p.reset()
@@ -80,13 +87,19 @@ def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: 
     v = np.concatenate(values)
     per_run_cycles = len(v)
     lo, hi = chi2.ppf([0.025, 0.975], 2 * runs) / runs  # the mean of `runs` chi2(2), per cycle
-    return {"run_cycles": per_run_cycles, "mean": float(v.mean()), "mean_band": (float(lo), float(hi)),
-            "in_band": float(np.mean((v >= BAND[0]) & (v <= BAND[1]))), "above_999": float(np.mean(v > P999))}
+    return {
+        "run_cycles": per_run_cycles,
+        "mean": float(v.mean()),
+        "mean_band": (float(lo), float(hi)),
+        "in_band": float(np.mean((v >= BAND[0]) & (v <= BAND[1]))),
+        "above_999": float(np.mean(v > P999)),
+    }
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
     p.add_argument("--runs", type=int, default=100, help="episodes per case (one batch)")
     p.add_argument("--seed", type=int, default=700_000, help="run i uses seed SEED + i")
     p.add_argument("--cases", default="all", help="comma-separated case numbers (0-based) or 'all'")
@@ -96,18 +109,23 @@ def main(argv=None) -> int:
         print(f"--runs must be in [1, 10000], got {args.runs}", file=sys.stderr)
         return 2
     chosen = range(len(CASES)) if args.cases == "all" else [int(i) for i in args.cases.split(",")]
-    lines = [f"Horizontal NEES over {args.runs} runs (seeds {args.seed}..{args.seed + args.runs - 1}); "
-             f"per-cycle 95 % band [{BAND[0]:.3f}, {BAND[1]:.2f}], 99.9 % point {P999:.1f}.", "",
-             "| case | planner | run-cycles | mean NEES | band of the mean | in band | > 99.9 % (x nominal) |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [
+        f"Horizontal NEES over {args.runs} runs (seeds {args.seed}..{args.seed + args.runs - 1}); "
+        f"per-cycle 95 % band [{BAND[0]:.3f}, {BAND[1]:.2f}], 99.9 % point {P999:.1f}.",
+        "",
+        "| case | planner | run-cycles | mean NEES | band of the mean | in band | > 99.9 % (x nominal) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     print("\n".join(lines), flush=True)
     for i in chosen:
         label, scenario, planner, overrides = CASES[i]
         t0 = time.perf_counter()
         r = nees_of_case(scenario, planner, overrides, args.runs, args.seed)
         lo, hi = r["mean_band"]
-        line = (f"| {label} | {planner} | {r['run_cycles']} | {r['mean']:.2f} | [{lo:.2f}, {hi:.2f}] | "
-                f"{r['in_band']:.1%} | {r['above_999']:.2%} ({r['above_999'] / 0.001:.1f}x) |")
+        line = (
+            f"| {label} | {planner} | {r['run_cycles']} | {r['mean']:.2f} | [{lo:.2f}, {hi:.2f}] | "
+            f"{r['in_band']:.1%} | {r['above_999']:.2%} ({r['above_999'] / 0.001:.1f}x) |"
+        )
         lines.append(line)
         print(line, f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
     if args.markdown:

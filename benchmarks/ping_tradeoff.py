@@ -28,8 +28,9 @@ if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
 
-def run(config: ScenarioConfig, spec: str, kwargs: dict,
-        seeds: Sequence[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def run(
+    config: ScenarioConfig, spec: str, kwargs: dict, seeds: Sequence[int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per-episode (mean error, pings, collisions, energy) of one policy on ``seeds``."""
     from coopnav_env.core import make_simulator
 
@@ -70,8 +71,9 @@ def run(config: ScenarioConfig, spec: str, kwargs: dict,
 def main(argv: Sequence[str] | None = None) -> int:
     import coopnav_env
 
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
     p.add_argument("--scenario", default="sousa_ping")
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--seed", type=int, default=400_000, help="episode i uses seed SEED + i")
@@ -85,30 +87,41 @@ def main(argv: Sequence[str] | None = None) -> int:
     for motion in ("fim_a", "ellipse"):
         rows += [(f"{motion}+tdma", f"{motion}+tdma", {})]
         rows += [(f"{motion}+tdma F={f}", f"{motion}+tdma", {"frame": f}) for f in (4, 8, 16)]
-        rows += [(f"{motion}+event_tdma {t:g}", f"{motion}+event_tdma", {"threshold_nats": t})
-                 for t in (0.3, 0.5, 0.8, 1.2)]
+        rows += [
+            (f"{motion}+event_tdma {t:g}", f"{motion}+event_tdma", {"threshold_nats": t}) for t in (0.3, 0.5, 0.8, 1.2)
+        ]
     rows += [(spec, spec, {}) for spec in args.policies.split(",") if spec]
     results = {}
     for label, spec, kw in rows:
         results[label] = run(config, spec, kw, seeds)
         e, pg, c, en = results[label]
-        print(f"{label}: error {e.mean():.3f} m, pings {pg.mean():.1f}, collisions {c.mean():.1f}", file=sys.stderr,
-              flush=True)
-    lines = [f"`{args.scenario}`, {args.episodes} episodes, seeds {seeds[0]}..{seeds[-1]} (common random numbers)", "",
-             "| policy | mean error (m) [95 %] | pings per mission | collisions | energy (kJ) |",
-             "|---|---|---|---|---|"]
+        print(
+            f"{label}: error {e.mean():.3f} m, pings {pg.mean():.1f}, collisions {c.mean():.1f}",
+            file=sys.stderr,
+            flush=True,
+        )
+    lines = [
+        f"`{args.scenario}`, {args.episodes} episodes, seeds {seeds[0]}..{seeds[-1]} (common random numbers)",
+        "",
+        "| policy | mean error (m) [95 %] | pings per mission | collisions | energy (kJ) |",
+        "|---|---|---|---|---|",
+    ]
     for label, (e, pg, c, en) in results.items():
         m, lo, hi = t_interval(e)
-        lines.append(f"| {label} | {m:.3f} [{lo:.3f}, {hi:.3f}] | {pg.mean():.1f} | {c.mean():.1f} "
-                     f"| {en.mean() / 1e3:.2f} |")
+        lines.append(
+            f"| {label} | {m:.3f} [{lo:.3f}, {hi:.3f}] | {pg.mean():.1f} | {c.mean():.1f} | {en.mean() / 1e3:.2f} |"
+        )
     for ref_name in ("fim_a+tdma", "ellipse+tdma"):  # the fixed clock of a shared channel, per motion planner
         ref = results[ref_name]
         for spec in [s for s in args.policies.split(",") if s]:
             e, pg, _, _ = results[spec]
             m, lo, hi = t_interval(e - ref[0])
             pm, plo, phi = t_interval(pg / np.maximum(ref[1], 1) - 1)
-            lines += ["", f"{spec} minus {ref_name} (paired): error {m:+.3f} m [{lo:+.3f}, {hi:+.3f}], "
-                      f"pings {100 * pm:+.1f} % [{100 * plo:+.1f}, {100 * phi:+.1f}]"]
+            lines += [
+                "",
+                f"{spec} minus {ref_name} (paired): error {m:+.3f} m [{lo:+.3f}, {hi:+.3f}], "
+                f"pings {100 * pm:+.1f} % [{100 * plo:+.1f}, {100 * phi:+.1f}]",
+            ]
     text = "\n".join(lines)
     print(text)
     if args.markdown:
@@ -129,8 +142,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         groups = {f"{m}+{k}": (m, k) for m in ("fim_a", "ellipse") for k in ("tdma", "event")}
         groups["fim_a+clock (collides)"] = ("fim_a", "clock")
         for title, (motion, key) in groups.items():
-            pts = [(r[1].mean(), r[0].mean()) for lab, r in results.items()
-                   if lab.startswith(motion + "+") and lab.split("+")[1].startswith(key)]
+            pts = [
+                (r[1].mean(), r[0].mean())
+                for lab, r in results.items()
+                if lab.startswith(motion + "+") and lab.split("+")[1].startswith(key)
+            ]
             if pts:
                 x, y = zip(*sorted(pts))
                 ax.plot(x, y, "o-" if len(pts) > 1 else "s", label=title)

@@ -28,23 +28,29 @@ def main(argv: Sequence[str] | None = None) -> int:
     import coopnav_env
     from baselines import list_policies
 
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
     p.add_argument("--scenarios", default=",".join(coopnav_env.list_scenarios()), help="comma-separated")
     p.add_argument("--episodes", type=int, default=50, help="episodes per policy and scenario")
     p.add_argument("--seed", type=int, default=300_000, help="episode i uses seed SEED + i")
     p.add_argument("--markdown", help="also write the table here")
     args = p.parse_args(argv)
     seeds = list(range(args.seed, args.seed + args.episodes))
-    lines = [f"{args.episodes} episodes per policy, seeds {seeds[0]}..{seeds[-1]}; planner minus floor, "
-             "mean survey_error_m (m), paired 95 % t interval; ✓ when the interval is below zero.", "",
-             "| scenario | planner | mean (m) | minus static | minus random |", "|---|---|---|---|---|"]
+    lines = [
+        f"{args.episodes} episodes per policy, seeds {seeds[0]}..{seeds[-1]}; planner minus floor, "
+        "mean survey_error_m (m), paired 95 % t interval; ✓ when the interval is below zero.",
+        "",
+        "| scenario | planner | mean (m) | minus static | minus random |",
+        "|---|---|---|---|---|",
+    ]
     all_beat = True
     for scenario in args.scenarios.split(","):
         config = coopnav_env.make_config(scenario)
         planners = [q for q in list_policies(config.network) if q not in FLOORS]
-        scores = {q: np.array([r["mean_error_m"] for r in run_episodes(config, q, seeds)[0]])
-                  for q in planners + list(FLOORS)}
+        scores = {
+            q: np.array([r["mean_error_m"] for r in run_episodes(config, q, seeds)[0]]) for q in planners + list(FLOORS)
+        }
         for q in planners:
             cells = []
             for floor in FLOORS:
@@ -53,9 +59,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 all_beat &= beat
                 cells.append(f"{m:+.2f} [{lo:+.2f}, {hi:+.2f}]{' ✓' if beat else ''}")
             lines.append(f"| {scenario} | {q} | {np.mean(scores[q]):.2f} | " + " | ".join(cells) + " |")
-        lines.append(f"| {scenario} | (floors) | static {np.mean(scores['static']):.2f}, random "
-                     f"{np.mean(scores['random']):.2f} | | |")
-        print("\n".join(lines[-len(planners) - 1:]), file=sys.stderr, flush=True)
+        lines.append(
+            f"| {scenario} | (floors) | static {np.mean(scores['static']):.2f}, random "
+            f"{np.mean(scores['random']):.2f} | | |"
+        )
+        print("\n".join(lines[-len(planners) - 1 :]), file=sys.stderr, flush=True)
     text = "\n".join(lines)
     print(text)
     if args.markdown:

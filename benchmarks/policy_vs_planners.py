@@ -87,13 +87,32 @@ def build_cells(scenario: str, cell_args: list, set_args: list) -> list:
 # differ from their default, so that a cache stays valid for the configs that do not use
 # them (their numbers did not change; benchmarks' caches are checked against a rerun).
 FIELDS_ADDED_AFTER_CACHE_V1 = (
-    "network", "boat_max_speed_mps", "boat_max_turn_rate_dps", "acoustic_sensor", "mls_snr_db_at_1m",
-    "mls_max_range_m", "frame_orientation_deg", "frame_orientation_spread_deg", "baseline_target_m",
-    "boat_transit_speed_mps", "survey_speed_mps", "speed_encoder_noise_mps", "initial_frame_orientation_std_deg",
-    "initial_frame_orientation_error_deg", "initial_current_std_mps", "initial_baseline_std_m",
-    "frame_q_position_m2ps", "frame_q_orientation_rad2ps", "frame_q_current_m2ps3", "frame_q_baseline_m2ps",
-    "baseline_tolerance_m", "baseline_penalty", "frame_rotation_tolerance_deg", "rotation_penalty",
-    "min_baseline_distance_m", "approach_penalty",
+    "network",
+    "boat_max_speed_mps",
+    "boat_max_turn_rate_dps",
+    "acoustic_sensor",
+    "mls_snr_db_at_1m",
+    "mls_max_range_m",
+    "frame_orientation_deg",
+    "frame_orientation_spread_deg",
+    "baseline_target_m",
+    "boat_transit_speed_mps",
+    "survey_speed_mps",
+    "speed_encoder_noise_mps",
+    "initial_frame_orientation_std_deg",
+    "initial_frame_orientation_error_deg",
+    "initial_current_std_mps",
+    "initial_baseline_std_m",
+    "frame_q_position_m2ps",
+    "frame_q_orientation_rad2ps",
+    "frame_q_current_m2ps3",
+    "frame_q_baseline_m2ps",
+    "baseline_tolerance_m",
+    "baseline_penalty",
+    "frame_rotation_tolerance_deg",
+    "rotation_penalty",
+    "min_baseline_distance_m",
+    "approach_penalty",
 )
 
 
@@ -101,8 +120,11 @@ def config_key(config: ScenarioConfig) -> str:
     from coopnav_env.scenarios import ScenarioConfig
 
     default = ScenarioConfig()
-    fields = {k: v for k, v in config.to_flat_dict(all_parameters=True).items()
-              if k not in FIELDS_ADDED_AFTER_CACHE_V1 or v != getattr(default, k)}
+    fields = {
+        k: v
+        for k, v in config.to_flat_dict(all_parameters=True).items()
+        if k not in FIELDS_ADDED_AFTER_CACHE_V1 or v != getattr(default, k)
+    }
     return hashlib.sha1(repr(fields).encode()).hexdigest()[:16]
 
 
@@ -167,12 +189,20 @@ def with_warnings_quiet() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
-    p.add_argument("--policies", default="ppo,fim_a,fim_b",
-                   help="comma-separated: planner names, 'ppo', run dirs or policy names; label=spec to rename")
+    p.add_argument(
+        "--policies",
+        default="ppo,fim_a,fim_b",
+        help="comma-separated: planner names, 'ppo', run dirs or policy names; label=spec to rename",
+    )
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--seed", type=int, default=600000, help="episode i of every cell uses seed SEED + i")
-    p.add_argument("--cell", action="append", default=[], metavar="KEY=V1,V2,...",
-                   help="grid parameter (repeatable); none: the scenario itself")
+    p.add_argument(
+        "--cell",
+        action="append",
+        default=[],
+        metavar="KEY=V1,V2,...",
+        help="grid parameter (repeatable); none: the scenario itself",
+    )
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario override")
     p.add_argument("--cache", help="JSON file caching the planners' per-episode means")
     p.add_argument("--jobs", type=int, default=1, help="worker processes")
@@ -234,21 +264,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     wins = {n: sum(r[f"{first}-{n}"]["lower"] for r in table) for n in names[1:]}
     sig = {n: sum(r[f"{first}-{n}"]["ci95"][1] < 0 for r in table) for n in names[1:]}
 
-    lines = [f"{args.scenario}: mean survey_error_m (m) and 95 % interval, {args.episodes} episodes per cell, "
-             f"seeds {args.seed}..{args.seed + args.episodes - 1} (common random numbers)", ""]
+    lines = [
+        f"{args.scenario}: mean survey_error_m (m) and 95 % interval, {args.episodes} episodes per cell, "
+        f"seeds {args.seed}..{args.seed + args.episodes - 1} (common random numbers)",
+        "",
+    ]
     head = "| cell | " + " | ".join(names) + " | " + " | ".join(f"{first} - {n}" for n in names[1:]) + " |"
     lines += [head, "|" + "---|" * (1 + len(names) + len(names) - 1)]
     for r in table:
         cols = [f"{r[n]['mean']:.3f} [{r[n]['ci95'][0]:.3f}, {r[n]['ci95'][1]:.3f}]" for n in names]
-        cols += [f"{r[f'{first}-{n}']['mean']:+.3f} [{r[f'{first}-{n}']['ci95'][0]:+.3f}, "
-                 f"{r[f'{first}-{n}']['ci95'][1]:+.3f}]" for n in names[1:]]
+        cols += [
+            f"{r[f'{first}-{n}']['mean']:+.3f} [{r[f'{first}-{n}']['ci95'][0]:+.3f}, "
+            f"{r[f'{first}-{n}']['ci95'][1]:+.3f}]"
+            for n in names[1:]
+        ]
         lines.append(f"| {r['cell']} | " + " | ".join(cols) + " |")
-    lines.append("| mean of cells | " + " | ".join(f"{pooled[n]:.3f}" for n in names) + " | "
-                 + " | ".join("" for _ in names[1:]) + " |")
+    lines.append(
+        "| mean of cells | "
+        + " | ".join(f"{pooled[n]:.3f}" for n in names)
+        + " | "
+        + " | ".join("" for _ in names[1:])
+        + " |"
+    )
     lines.append("")
     for n in names[1:]:
-        lines.append(f"{first} has a lower mean than {n} in {wins[n]}/{len(cells)} cells "
-                     f"({sig[n]}/{len(cells)} with the paired 95 % interval below zero)")
+        lines.append(
+            f"{first} has a lower mean than {n} in {wins[n]}/{len(cells)} cells "
+            f"({sig[n]}/{len(cells)} with the paired 95 % interval below zero)"
+        )
     text = "\n".join(lines)
     print(text)
     print(f"[{time.perf_counter() - t0:.0f} s]", file=sys.stderr)
@@ -257,11 +300,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         Path(args.markdown).write_text(text + "\n")
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(json.dumps({
-            "scenario": args.scenario, "episodes": args.episodes, "seed": args.seed, "policies": dict(specs),
-            "cells": table, "mean_of_cells": pooled, "cells_lower": wins, "cells_significantly_lower": sig,
-            "per_episode": {f"{c}|{n}": results[(c, n)].round(5).tolist() for c, _ in cells for n in names},
-        }, indent=1))
+        Path(args.out).write_text(
+            json.dumps(
+                {
+                    "scenario": args.scenario,
+                    "episodes": args.episodes,
+                    "seed": args.seed,
+                    "policies": dict(specs),
+                    "cells": table,
+                    "mean_of_cells": pooled,
+                    "cells_lower": wins,
+                    "cells_significantly_lower": sig,
+                    "per_episode": {f"{c}|{n}": results[(c, n)].round(5).tolist() for c, _ in cells for n in names},
+                },
+                indent=1,
+            )
+        )
     return 0
 
 

@@ -64,21 +64,35 @@ def sb3_rate(args: argparse.Namespace, n_beacons: int) -> dict:
 
     torch.set_num_threads(1)
     n_steps = max(args.batch // args.sb3_envs, 1)
-    venv = VecNormalize(VecMonitor(CoopNavVecEnv(args.scenario, n_envs=args.sb3_envs, seed=0, step_infos=False)),
-                        gamma=0.99)
+    venv = VecNormalize(
+        VecMonitor(CoopNavVecEnv(args.scenario, n_envs=args.sb3_envs, seed=0, step_infos=False)), gamma=0.99
+    )
     rows = n_steps * args.sb3_envs * n_beacons  # SB3 counts rows (beacon steps)
-    model = PPO("MlpPolicy", venv, n_steps=n_steps, batch_size=min(args.minibatch * n_beacons, rows),
-                n_epochs=args.epochs, policy_kwargs={"net_arch": [int(h) for h in args.net.split(",")],
-                                                     "activation_fn": torch.nn.Tanh},
-                seed=0, device="cpu", verbose=0)
+    model = PPO(
+        "MlpPolicy",
+        venv,
+        n_steps=n_steps,
+        batch_size=min(args.minibatch * n_beacons, rows),
+        n_epochs=args.epochs,
+        policy_kwargs={"net_arch": [int(h) for h in args.net.split(",")], "activation_fn": torch.nn.Tanh},
+        seed=0,
+        device="cpu",
+        verbose=0,
+    )
     model.learn(rows)  # warm-up update
     t = time.perf_counter()
     model.learn(rows * args.iterations, reset_num_timesteps=False)
     wall = time.perf_counter() - t
     env_steps = n_steps * args.sb3_envs * args.iterations
-    return {"backend": "sb3", "config": f"CoopNavVecEnv x{args.sb3_envs}", "env_steps": env_steps,
-            "wall_s": round(wall, 2), "env_steps_per_s": round(env_steps / wall, 1),
-            "agent_steps_per_s": round(env_steps * n_beacons / wall, 1), "build_s": None}
+    return {
+        "backend": "sb3",
+        "config": f"CoopNavVecEnv x{args.sb3_envs}",
+        "env_steps": env_steps,
+        "wall_s": round(wall, 2),
+        "env_steps_per_s": round(env_steps / wall, 1),
+        "agent_steps_per_s": round(env_steps * n_beacons / wall, 1),
+        "build_s": None,
+    }
 
 
 def rllib_rate(args: argparse.Namespace, runners: int, n_beacons: int) -> dict:
@@ -89,17 +103,32 @@ def rllib_rate(args: argparse.Namespace, runners: int, n_beacons: int) -> dict:
 
     torch.set_num_threads(1)
     hp = {
-        "ppo": {"lr": 3e-4, "gamma": 0.99, "lambda_": 0.95, "clip_param": 0.2, "vf_loss_coeff": 0.5,
-                "grad_clip": 0.5, "train_batch_size_per_learner": args.batch, "minibatch_size": args.minibatch,
-                "num_epochs": args.epochs},
-        "model": {"fcnet_hiddens": [int(h) for h in args.net.split(",")], "fcnet_activation": "tanh",
-                  "vf_share_layers": False},
+        "ppo": {
+            "lr": 3e-4,
+            "gamma": 0.99,
+            "lambda_": 0.95,
+            "clip_param": 0.2,
+            "vf_loss_coeff": 0.5,
+            "grad_clip": 0.5,
+            "train_batch_size_per_learner": args.batch,
+            "minibatch_size": args.minibatch,
+            "num_epochs": args.epochs,
+        },
+        "model": {
+            "fcnet_hiddens": [int(h) for h in args.net.split(",")],
+            "fcnet_activation": "tanh",
+            "vf_share_layers": False,
+        },
         "normalize_obs": True,
-        "env_runners": {"num_env_runners": runners,
-                        "num_envs_per_env_runner": args.envs_per_runner, "num_cpus_per_env_runner": 1,
-                        "rollout_fragment_length": "auto"},
+        "env_runners": {
+            "num_env_runners": runners,
+            "num_envs_per_env_runner": args.envs_per_runner,
+            "num_cpus_per_env_runner": 1,
+            "rollout_fragment_length": "auto",
+        },
         "learners": {"num_learners": 0},
-        "env": {"overrides": {}}, "reward": {},
+        "env": {"overrides": {}},
+        "reward": {},
     }
     config, _ = trainer.build_config(from_dict(RLlibConfig, {**hp, "scenario": args.scenario, "seed": 0}))
     t = time.perf_counter()
@@ -115,9 +144,15 @@ def rllib_rate(args: argparse.Namespace, runners: int, n_beacons: int) -> dict:
         algo.stop()
     env_steps = last["env_steps"] - first["env_steps"]
     label = "driver samples" if runners == 0 else f"{runners} env runner(s)"
-    return {"backend": "rllib", "config": f"{label} x{args.envs_per_runner} env(s)", "env_steps": env_steps,
-            "wall_s": round(wall, 2), "env_steps_per_s": round(env_steps / wall, 1),
-            "agent_steps_per_s": round(env_steps * n_beacons / wall, 1), "build_s": round(build, 1)}
+    return {
+        "backend": "rllib",
+        "config": f"{label} x{args.envs_per_runner} env(s)",
+        "env_steps": env_steps,
+        "wall_s": round(wall, 2),
+        "env_steps_per_s": round(env_steps / wall, 1),
+        "agent_steps_per_s": round(env_steps * n_beacons / wall, 1),
+        "build_s": round(build, 1),
+    }
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -136,9 +171,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         needed = max(runner_counts) + 1
         cores = os.cpu_count() or 1
-        ray.init(num_cpus=max(cores, needed), include_dashboard=False, log_to_driver=False,
-                 object_store_memory=200 * 2**20,
-                 runtime_env={"env_vars": {"RAY_USAGE_STATS_ENABLED": "0"}})
+        ray.init(
+            num_cpus=max(cores, needed),
+            include_dashboard=False,
+            log_to_driver=False,
+            object_store_memory=200 * 2**20,
+            runtime_env={"env_vars": {"RAY_USAGE_STATS_ENABLED": "0"}},
+        )
         try:
             for r in runner_counts:
                 rows.append(rllib_rate(args, r, n_beacons))
@@ -148,22 +187,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     import stable_baselines3
     import torch
 
-    result = {"scenario": args.scenario, "beacons": n_beacons, "batch": args.batch, "minibatch": args.minibatch,
-              "epochs": args.epochs, "net": args.net, "iterations": args.iterations, "cores": os.cpu_count(),
-              "load_average": [round(v, 2) for v in os.getloadavg()], "python": platform.python_version(),
-              "ray": _ray.__version__, "stable_baselines3": stable_baselines3.__version__,
-              "torch": str(torch.__version__), "results": rows}
+    result = {
+        "scenario": args.scenario,
+        "beacons": n_beacons,
+        "batch": args.batch,
+        "minibatch": args.minibatch,
+        "epochs": args.epochs,
+        "net": args.net,
+        "iterations": args.iterations,
+        "cores": os.cpu_count(),
+        "load_average": [round(v, 2) for v in os.getloadavg()],
+        "python": platform.python_version(),
+        "ray": _ray.__version__,
+        "stable_baselines3": stable_baselines3.__version__,
+        "torch": str(torch.__version__),
+        "results": rows,
+    }
     if args.json:
         print(json.dumps(result))
         return 0
-    print(f"{args.scenario}: {n_beacons} beacon(s); PPO {args.batch} env steps/update, {args.epochs} epochs, "
-          f"minibatch {args.minibatch}, net {args.net}; {args.iterations} timed updates; {os.cpu_count()} cores, "
-          f"load {result['load_average'][0]}")
+    print(
+        f"{args.scenario}: {n_beacons} beacon(s); PPO {args.batch} env steps/update, {args.epochs} epochs, "
+        f"minibatch {args.minibatch}, net {args.net}; {args.iterations} timed updates; {os.cpu_count()} cores, "
+        f"load {result['load_average'][0]}"
+    )
     print("| backend | configuration | env-steps/s | agent-steps/s | timed env steps | wall (s) | build (s) |")
     print("|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['backend']} | {r['config']} | {r['env_steps_per_s']:,.0f} | {r['agent_steps_per_s']:,.0f} | "
-              f"{r['env_steps']} | {r['wall_s']} | {r['build_s'] if r['build_s'] is not None else ''} |")
+        print(
+            f"| {r['backend']} | {r['config']} | {r['env_steps_per_s']:,.0f} | {r['agent_steps_per_s']:,.0f} | "
+            f"{r['env_steps']} | {r['wall_s']} | {r['build_s'] if r['build_s'] is not None else ''} |"
+        )
     return 0
 
 

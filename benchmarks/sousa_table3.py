@@ -48,8 +48,11 @@ if TYPE_CHECKING:
 
 PATHS = ("stationary", "lawnmower", "circle", "spiral")
 PATH_TITLES = {"stationary": "Stationary", "lawnmower": "Lawn Mower", "circle": "Circular", "spiral": "Spiral"}
-APPROACHES = (("A", "fim_a", {}), ("B (heading)", "fim_b", {"predictor": "heading"}),
-              ("B (chord)", "fim_b", {"predictor": "chord"}))
+APPROACHES = (
+    ("A", "fim_a", {}),
+    ("B (heading)", "fim_b", {"predictor": "heading"}),
+    ("B (chord)", "fim_b", {"predictor": "chord"}),
+)
 PAPER_TABLE3 = {"A": ("=", "-", "+", "+"), "B": ("=", "+", "-", "-")}
 DEFAULT_SEED = 700_000  # reporting seeds: disjoint from evaluate.py's (0..) and the trainers' validation (500000..)
 
@@ -57,10 +60,18 @@ DEFAULT_SEED = 700_000  # reporting seeds: disjoint from evaluate.py's (0..) and
 def make_path_config(path: str, args: argparse.Namespace) -> ScenarioConfig:
     from coopnav_env.scenarios import make_config
 
-    return make_config("sousa_asv", survey_path=path, depth_m=args.depth, ping_interval_s=args.ping_interval,
-                       circle_radius_m=args.circle_radius, mission_duration_s=args.duration,
-                       max_cycles=int(np.ceil(args.duration / args.ping_interval)) + 1,
-                       randomize_survey_path=(), randomize_depth_m=(), randomize_noise_scale=())
+    return make_config(
+        "sousa_asv",
+        survey_path=path,
+        depth_m=args.depth,
+        ping_interval_s=args.ping_interval,
+        circle_radius_m=args.circle_radius,
+        mission_duration_s=args.duration,
+        max_cycles=int(np.ceil(args.duration / args.ping_interval)) + 1,
+        randomize_survey_path=(),
+        randomize_depth_m=(),
+        randomize_noise_scale=(),
+    )
 
 
 def run_episodes(config: ScenarioConfig, policy: str, kwargs: dict, seeds: list) -> tuple:
@@ -112,21 +123,34 @@ def table3_marks(means: dict) -> dict:
 
 def build_report(results: dict, labels: list, args: argparse.Namespace) -> str:
     seeds = f"{args.seed}..{args.seed + args.episodes - 1}"
-    lines = [f"sousa_asv: depth {args.depth:g} m, ping interval "
-             f"{args.ping_interval:g} s (ROV ~{args.ping_interval:g} m per ping at ~1 m/s; ASV reach 2 m/s x "
-             f"{args.ping_interval:g} s), "
-             f"circle radius {args.circle_radius:g} m, {args.duration:g} s missions; {args.episodes} episodes per "
-             f"cell, seeds {seeds} (common random numbers).", "",
-             "Table III (measured): + best approach for the path (paired 95 % interval of eps_bar below every "
-             "other's), = tied with the best, - significantly worse than the best.", ""]
+    lines = [
+        f"sousa_asv: depth {args.depth:g} m, ping interval "
+        f"{args.ping_interval:g} s (ROV ~{args.ping_interval:g} m per ping at ~1 m/s; ASV reach 2 m/s x "
+        f"{args.ping_interval:g} s), "
+        f"circle radius {args.circle_radius:g} m, {args.duration:g} s missions; {args.episodes} episodes per "
+        f"cell, seeds {seeds} (common random numbers).",
+        "",
+        "Table III (measured): + best approach for the path (paired 95 % interval of eps_bar below every "
+        "other's), = tied with the best, - significantly worse than the best.",
+        "",
+    ]
     lines += ["| Approach | " + " | ".join(PATH_TITLES[p] for p in PATHS) + " |", "|---|" + "---|" * len(PATHS)]
     marks = {p: table3_marks({n: results[(p, n)][0] for n in labels}) for p in PATHS}
     for n in labels:
         lines.append(f"| {n} | " + " | ".join(marks[p][n] for p in PATHS) + " |")
-    lines += ["", "Paper's Table III (expected): " + "; ".join(
-        f"{k}: " + " ".join(f"{PATH_TITLES[p]} {m}" for p, m in zip(PATHS, v)) for k, v in PAPER_TABLE3.items()), ""]
-    lines += ["Tables I-II quantities: eps_bar (m) of eq. (7) with its 95 % interval over episodes, and "
-              "sigma^2_eps (m^2), both averaged over episodes.", ""]
+    lines += [
+        "",
+        "Paper's Table III (expected): "
+        + "; ".join(
+            f"{k}: " + " ".join(f"{PATH_TITLES[p]} {m}" for p, m in zip(PATHS, v)) for k, v in PAPER_TABLE3.items()
+        ),
+        "",
+    ]
+    lines += [
+        "Tables I-II quantities: eps_bar (m) of eq. (7) with its 95 % interval over episodes, and "
+        "sigma^2_eps (m^2), both averaged over episodes.",
+        "",
+    ]
     lines += ["| Approach | " + " | ".join(PATH_TITLES[p] for p in PATHS) + " |", "|---|" + "---|" * len(PATHS)]
     for n in labels:
         cells = []
@@ -136,8 +160,9 @@ def build_report(results: dict, labels: list, args: argparse.Namespace) -> str:
         lines.append(f"| {n} | " + " | ".join(cells) + " |")
     lines += ["", "Paired differences of eps_bar (m; negative: the first is better), 95 % t interval:", ""]
     lines += ["| | " + " | ".join(PATH_TITLES[p] for p in PATHS) + " |", "|---|" + "---|" * len(PATHS)]
-    pairs = [(n, labels[0]) for n in labels[1:]] + [(labels[i], labels[j]) for i in range(1, len(labels))
-                                                     for j in range(i + 1, len(labels))]
+    pairs = [(n, labels[0]) for n in labels[1:]] + [
+        (labels[i], labels[j]) for i in range(1, len(labels)) for j in range(i + 1, len(labels))
+    ]
     for n, m in pairs:
         cells = []
         for p in PATHS:
@@ -152,8 +177,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses seed SEED + i")
     p.add_argument("--depth", type=float, default=20.0, help="ROV depth (m); the paper: 1, 5, 20, 50; Fig. 6: 20")
-    p.add_argument("--ping-interval", type=float, default=20.0,
-                   help="s; 20 s gives the ~20 m of ROV travel per ping of Fig. 6")
+    p.add_argument(
+        "--ping-interval", type=float, default=20.0, help="s; 20 s gives the ~20 m of ROV travel per ping of Fig. 6"
+    )
     p.add_argument("--circle-radius", type=float, default=30.0, help="m, circle and spiral (not given in the paper)")
     p.add_argument("--duration", type=float, default=1200.0, help="mission length (s)")
     p.add_argument("--jobs", type=int, default=1, help="worker processes")

@@ -172,8 +172,9 @@ def machine_info() -> dict:
         pass
     if hasattr(os, "sched_getaffinity"):
         info["cpus_available"] = len(os.sched_getaffinity(0))
-    threads = {k: os.environ[k] for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-               if k in os.environ}
+    threads = {
+        k: os.environ[k] for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS") if k in os.environ
+    }
     if threads:
         info["thread_env"] = threads
     from importlib import metadata
@@ -247,8 +248,9 @@ def format_table(r: dict) -> str:
     m, med = r["machine"], r["median_steps_per_s"]
     rows = [(f"PettingZoo parallel_env({r['scenario']!r}), batch 1", r["pettingzoo_steps_per_s"], med["pettingzoo"])]
     rows += [(f"core Simulator, batch {b}", v, med["core"][b]) for b, v in r["core_steps_per_s"].items()]
-    rows.append(("MPE simple_spread_v3 (N=3, continuous)", r["mpe_simple_spread_steps_per_s"],
-                 med["mpe_simple_spread"]))
+    rows.append(
+        ("MPE simple_spread_v3 (N=3, continuous)", r["mpe_simple_spread_steps_per_s"], med["mpe_simple_spread"])
+    )
     width = max(len(row[0]) for row in rows)
     lines = [
         f"coopnav throughput: {r['seconds_per_measurement']:g} s per measurement, "
@@ -279,14 +281,22 @@ def format_table(r: dict) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         description="Environment steps per second of the coopnav PettingZoo env, the batched core "
-                    "(batch 1, 64, 1024) and PettingZoo's MPE simple_spread_v3.")
-    parser.add_argument("--seconds", type=_positive_seconds, default=3.0,
-                        help="timed seconds per measurement (default: 3)")
-    parser.add_argument("--scenario", default="gao_lawnmower",
-                        help="coopnav scenario for the PettingZoo env and the core (default: gao_lawnmower)")
-    parser.add_argument("--rounds", type=_positive_int, default=5,
-                        help="split each measurement into this many round-robin chunks; the best is reported "
-                             "(default: 5)")
+        "(batch 1, 64, 1024) and PettingZoo's MPE simple_spread_v3."
+    )
+    parser.add_argument(
+        "--seconds", type=_positive_seconds, default=3.0, help="timed seconds per measurement (default: 3)"
+    )
+    parser.add_argument(
+        "--scenario",
+        default="gao_lawnmower",
+        help="coopnav scenario for the PettingZoo env and the core (default: gao_lawnmower)",
+    )
+    parser.add_argument(
+        "--rounds",
+        type=_positive_int,
+        default=5,
+        help="split each measurement into this many round-robin chunks; the best is reported (default: 5)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     args = parser.parse_args(argv)
 

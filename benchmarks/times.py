@@ -36,23 +36,83 @@ def _items(out: Path) -> dict:
 
     items = {
         "ci": ("`bash .ci/run` on a fresh clone (install, the tests, the docs build)", ["bash", ".ci/run"], None),
-        "quickstart": ("the quick start's evaluation (10 episodes x 4 policies on gao_sea)",
-                       [PY, "evaluate.py", "--scenario", "gao_sea", "--policies", "ppo,ellipse,fim_a,static",
-                        "--episodes", "10", "--seed", "0", "--out", str(out / "demo"), "--overwrite"], ROOT),
-        "first_training": ("a first training: `train.py --scenario sousa_asv --timesteps 2000000` (sousa_asv.yml)",
-                           [PY, "train.py", "--scenario", "sousa_asv", "--timesteps", "2000000", "--seed", "0",
-                            "--out", str(out / "first_training"), "--no-progress"], ROOT),
-        "time_to_beat": ("`benchmarks/time_to_beat.py` (3 seeds, sousa_fast.yml)",
-                         [PY, "benchmarks/time_to_beat.py", "--out", str(out / "time_to_beat"), "--overwrite"], ROOT),
+        "quickstart": (
+            "the quick start's evaluation (10 episodes x 4 policies on gao_sea)",
+            [
+                PY,
+                "evaluate.py",
+                "--scenario",
+                "gao_sea",
+                "--policies",
+                "ppo,ellipse,fim_a,static",
+                "--episodes",
+                "10",
+                "--seed",
+                "0",
+                "--out",
+                str(out / "demo"),
+                "--overwrite",
+            ],
+            ROOT,
+        ),
+        "first_training": (
+            "a first training: `train.py --scenario sousa_asv --timesteps 2000000` (sousa_asv.yml)",
+            [
+                PY,
+                "train.py",
+                "--scenario",
+                "sousa_asv",
+                "--timesteps",
+                "2000000",
+                "--seed",
+                "0",
+                "--out",
+                str(out / "first_training"),
+                "--no-progress",
+            ],
+            ROOT,
+        ),
+        "time_to_beat": (
+            "`benchmarks/time_to_beat.py` (3 seeds, sousa_fast.yml)",
+            [PY, "benchmarks/time_to_beat.py", "--out", str(out / "time_to_beat"), "--overwrite"],
+            ROOT,
+        ),
     }
-    items["benchmark_task"] = ("`coopnav-benchmark --task lake --policies ppo` (one task of gao_lawnmower, 50 episodes)",
-                               [PY, "-m", "evaluation.benchmark", "--task", "lake", "--policies", "ppo", "--out",
-                                str(out / "benchmark_task"), "--overwrite", "--no-progress"], ROOT)
+    items["benchmark_task"] = (
+        "`coopnav-benchmark --task lake --policies ppo` (one task of gao_lawnmower, 50 episodes)",
+        [
+            PY,
+            "-m",
+            "evaluation.benchmark",
+            "--task",
+            "lake",
+            "--policies",
+            "ppo",
+            "--out",
+            str(out / "benchmark_task"),
+            "--overwrite",
+            "--no-progress",
+        ],
+        ROOT,
+    )
     for name, ts in TASK_SETS.items():
         items[f"benchmark:{name}"] = (
             f"`coopnav-benchmark --tasks {name} --policies ppo` ({len(ts.tasks)} tasks, {ts.episodes} episodes each)",
-            [PY, "-m", "evaluation.benchmark", "--tasks", name, "--policies", "ppo", "--out",
-             str(out / f"benchmark_{name}"), "--overwrite", "--no-progress"], ROOT)
+            [
+                PY,
+                "-m",
+                "evaluation.benchmark",
+                "--tasks",
+                name,
+                "--policies",
+                "ppo",
+                "--out",
+                str(out / f"benchmark_{name}"),
+                "--overwrite",
+                "--no-progress",
+            ],
+            ROOT,
+        )
     return items
 
 
@@ -63,7 +123,7 @@ def _clean_output(path: Path):
         shutil.rmtree(path)
 
 
-def measure(name: str, what: str, cmd: list, cwd, out: Path) -> dict:
+def measure(name: str, what: str, cmd: list, cwd: str | Path | None, out: Path) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
     tmp = None
@@ -79,19 +139,28 @@ def measure(name: str, what: str, cmd: list, cwd, out: Path) -> dict:
     with open(out / f"{name.replace(':', '_')}.log", "w") as log:
         rc = subprocess.run(cmd, cwd=cwd, env=env, stdout=log, stderr=subprocess.STDOUT).returncode
     seconds = time.perf_counter() - started
-    return {"item": name, "what": what, "command": shlex.join(cmd), "exit_status": rc, "seconds": round(seconds, 1),
-            "load_average_1min_before": round(load_before, 2),
-            "load_average_1min_after": round(os.getloadavg()[0], 2), "cores": os.cpu_count(),
-            "machine": platform.processor() or platform.machine(), "date": time.strftime("%Y-%m-%d %H:%M UTC",
-                                                                                          time.gmtime())}
+    return {
+        "item": name,
+        "what": what,
+        "command": shlex.join(cmd),
+        "exit_status": rc,
+        "seconds": round(seconds, 1),
+        "load_average_1min_before": round(load_before, 2),
+        "load_average_1min_after": round(os.getloadavg()[0], 2),
+        "cores": os.cpu_count(),
+        "machine": platform.processor() or platform.machine(),
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+    }
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="times.py", description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="times.py", description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--only", default=None, help="comma-separated items (default: all; --list shows them)")
-    p.add_argument("--out", type=Path, default=ROOT / "results" / "times", help="output directory "
-                                                                                "(default: %(default)s)")
+    p.add_argument(
+        "--out", type=Path, default=ROOT / "results" / "times", help="output directory (default: %(default)s)"
+    )
     p.add_argument("--list", action="store_true", help="list the items and exit")
     args = p.parse_args(argv)
     from coopnav_env.progress import format_seconds, say
@@ -116,12 +185,16 @@ def main(argv=None) -> int:
         rows.append(row)
         with open(args.out / "times.jsonl", "a") as f:
             f.write(json.dumps(row) + "\n")
-        say(f"[{k + 1}/{len(names)} items] {name}: {format_seconds(row['seconds'])} (exit {row['exit_status']}, "
-            f"load {row['load_average_1min_before']} -> {row['load_average_1min_after']})")
+        say(
+            f"[{k + 1}/{len(names)} items] {name}: {format_seconds(row['seconds'])} (exit {row['exit_status']}, "
+            f"load {row['load_average_1min_before']} -> {row['load_average_1min_after']})"
+        )
     print("\n| item | time | load average (1 min) before -> after | measured |\n|---|---|---|---|")
     for r in rows:
-        print(f"| {r['what']} | {format_seconds(r['seconds'])} | {r['load_average_1min_before']} -> "
-              f"{r['load_average_1min_after']} | {r['date']} |")
+        print(
+            f"| {r['what']} | {format_seconds(r['seconds'])} | {r['load_average_1min_before']} -> "
+            f"{r['load_average_1min_after']} | {r['date']} |"
+        )
     return 0 if all(r["exit_status"] == 0 for r in rows) else 1
 
 

@@ -78,9 +78,16 @@ def timed(venv_class: type) -> type:
     return Timed
 
 
-def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int, config: TrainConfig,
-          step_infos: bool = False,
-          training_reward: bool = False) -> Any:
+def build(
+    kind: str,
+    scenario: str,
+    n_envs: int,
+    seed: int,
+    supersuit_cpus: int,
+    config: TrainConfig,
+    step_infos: bool = False,
+    training_reward: bool = False,
+) -> Any:
     """``config``: the scenario's ``agents.training.TrainConfig``."""
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
@@ -88,8 +95,14 @@ def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int,
     if kind == "coopnav":
         from coopnav_env.vector import CoopNavVecEnv
 
-        raw = CoopNavVecEnv(scenario, n_envs=n_envs, seed=seed, step_infos=step_infos,
-                            reward_terms=config.reward if training_reward else None, **overrides)
+        raw = CoopNavVecEnv(
+            scenario,
+            n_envs=n_envs,
+            seed=seed,
+            step_infos=step_infos,
+            reward_terms=config.reward if training_reward else None,
+            **overrides,
+        )
     else:
         import supersuit as ss
 
@@ -100,9 +113,17 @@ def build(kind: str, scenario: str, n_envs: int, seed: int, supersuit_cpus: int,
     return timed(VecEnvWrapper)(raw)
 
 
-def measure(kind: str, scenario: str, config: TrainConfig, n_envs: int, rollouts: int, seed: int, supersuit_cpus: int,
-            step_infos: bool = False,
-            training_reward: bool = False) -> dict:
+def measure(
+    kind: str,
+    scenario: str,
+    config: TrainConfig,
+    n_envs: int,
+    rollouts: int,
+    seed: int,
+    supersuit_cpus: int,
+    step_infos: bool = False,
+    training_reward: bool = False,
+) -> dict:
     import dataclasses
 
     import torch
@@ -119,8 +140,9 @@ def measure(kind: str, scenario: str, config: TrainConfig, n_envs: int, rollouts
     venv = VecNormalize(VecMonitor(inner), gamma=gamma, **dataclasses.asdict(config.normalize))
     lr = learning_rate(ppo_hp.pop("learning_rate", 3e-4))
     kwargs = policy_kwargs(ppo_hp.pop("policy_kwargs", None))
-    model = PPO(config.policy, venv, learning_rate=lr, policy_kwargs=kwargs, seed=seed,
-                device="cpu", verbose=0, **ppo_hp)
+    model = PPO(
+        config.policy, venv, learning_rate=lr, policy_kwargs=kwargs, seed=seed, device="cpu", verbose=0, **ppo_hp
+    )
     per_rollout = model.n_steps * venv.num_envs
 
     class Phases(BaseCallback):
@@ -144,10 +166,17 @@ def measure(kind: str, scenario: str, config: TrainConfig, n_envs: int, rollouts
     wall = time.perf_counter() - t0
     steps = rollouts * per_rollout
     inner.close()
-    return {"kind": kind, "rows": venv.num_envs, "steps": steps, "wall_s": wall, "steps_per_s": steps / wall,
-            "env_s": inner.env_s, "env_share": inner.env_s / wall,
-            "rollout_other_share": (phases.rollout_s - inner.env_s) / wall,
-            "update_share": (wall - phases.rollout_s) / wall}
+    return {
+        "kind": kind,
+        "rows": venv.num_envs,
+        "steps": steps,
+        "wall_s": wall,
+        "steps_per_s": steps / wall,
+        "env_s": inner.env_s,
+        "env_share": inner.env_s / wall,
+        "rollout_other_share": (phases.rollout_s - inner.env_s) / wall,
+        "update_share": (wall - phases.rollout_s) / wall,
+    }
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -161,10 +190,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--supersuit-cpus", type=int, default=0)
     p.add_argument("--only", choices=["coopnav", "supersuit"])
-    p.add_argument("--training-reward", action="store_true",
-                   help="CoopNavVecEnv computes the YAML's training reward terms (train.py does)")
-    p.add_argument("--step-infos", action="store_true",
-                   help="CoopNavVecEnv builds every row's info dict every step (train.py does not)")
+    p.add_argument(
+        "--training-reward",
+        action="store_true",
+        help="CoopNavVecEnv computes the YAML's training reward terms (train.py does)",
+    )
+    p.add_argument(
+        "--step-infos",
+        action="store_true",
+        help="CoopNavVecEnv builds every row's info dict every step (train.py does not)",
+    )
     p.add_argument("--threads", type=int, default=1, help="torch threads (train.py's default: 1)")
     p.add_argument("--json", action="store_true")
     args = p.parse_args(argv)
@@ -172,8 +207,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     from coopnav_env import list_scenarios
 
     if args.scenario not in list_scenarios():
-        print(f"train_throughput.py: error: unknown scenario {args.scenario!r}; valid scenarios: "
-              f"{', '.join(list_scenarios())}", file=sys.stderr)
+        print(
+            f"train_throughput.py: error: unknown scenario {args.scenario!r}; valid scenarios: "
+            f"{', '.join(list_scenarios())}",
+            file=sys.stderr,
+        )
         return 2
     try:
         config = load_config(hyperparameter_file("sb3", args.scenario, args.config), TrainConfig)
@@ -185,29 +223,56 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     torch.set_num_threads(args.threads)
     kinds = [args.only] if args.only else ["coopnav", "supersuit"]
-    results = [measure(k, args.scenario, config, n_envs, args.rollouts, args.seed, args.supersuit_cpus, args.step_infos,
-                       args.training_reward) for k in kinds]
-    meta = {"scenario": args.scenario, "n_envs": n_envs, "step_infos": args.step_infos,
-            "training_reward": args.training_reward,
-            "overrides": config.env.overrides, "n_steps": config.ppo.get("n_steps"),
-            "n_epochs": config.ppo.get("n_epochs"), "batch_size": config.ppo.get("batch_size"),
-            "net_arch": (config.ppo.get("policy_kwargs") or {}).get("net_arch"),
-            "rollouts": args.rollouts, "torch_threads": torch.get_num_threads(), "cpus": os.cpu_count(),
-            "python": platform.python_version(), "load_avg_1m": os.getloadavg()[0]}
+    results = [
+        measure(
+            k,
+            args.scenario,
+            config,
+            n_envs,
+            args.rollouts,
+            args.seed,
+            args.supersuit_cpus,
+            args.step_infos,
+            args.training_reward,
+        )
+        for k in kinds
+    ]
+    meta = {
+        "scenario": args.scenario,
+        "n_envs": n_envs,
+        "step_infos": args.step_infos,
+        "training_reward": args.training_reward,
+        "overrides": config.env.overrides,
+        "n_steps": config.ppo.get("n_steps"),
+        "n_epochs": config.ppo.get("n_epochs"),
+        "batch_size": config.ppo.get("batch_size"),
+        "net_arch": (config.ppo.get("policy_kwargs") or {}).get("net_arch"),
+        "rollouts": args.rollouts,
+        "torch_threads": torch.get_num_threads(),
+        "cpus": os.cpu_count(),
+        "python": platform.python_version(),
+        "load_avg_1m": os.getloadavg()[0],
+    }
     by_kind = {r["kind"]: r for r in results}
     if "coopnav" in by_kind and "supersuit" in by_kind:
         meta["speedup"] = by_kind["coopnav"]["steps_per_s"] / by_kind["supersuit"]["steps_per_s"]
     if args.json:
         print(json.dumps({"meta": meta, "results": results}, indent=2))
         return 0
-    print(f"PPO on {args.scenario}: n_envs {n_envs}, n_steps {meta['n_steps']}, batch {meta['batch_size']}, "
-          f"{meta['n_epochs']} epochs, net {meta['net_arch']}, {args.rollouts} timed rollouts, "
-          f"{meta['torch_threads']} torch threads, load {meta['load_avg_1m']:.1f}")
-    print(f"{'vec env':<18}{'rows':>6}{'steps':>9}{'wall s':>9}{'steps/s':>10}{'env':>8}{'rollout other':>15}"
-          f"{'update':>9}")
+    print(
+        f"PPO on {args.scenario}: n_envs {n_envs}, n_steps {meta['n_steps']}, batch {meta['batch_size']}, "
+        f"{meta['n_epochs']} epochs, net {meta['net_arch']}, {args.rollouts} timed rollouts, "
+        f"{meta['torch_threads']} torch threads, load {meta['load_avg_1m']:.1f}"
+    )
+    print(
+        f"{'vec env':<18}{'rows':>6}{'steps':>9}{'wall s':>9}{'steps/s':>10}{'env':>8}{'rollout other':>15}"
+        f"{'update':>9}"
+    )
     for r in results:
-        print(f"{r['kind']:<18}{r['rows']:>6}{r['steps']:>9}{r['wall_s']:>9.1f}{r['steps_per_s']:>10.0f}"
-              f"{r['env_share']:>8.1%}{r['rollout_other_share']:>15.1%}{r['update_share']:>9.1%}")
+        print(
+            f"{r['kind']:<18}{r['rows']:>6}{r['steps']:>9}{r['wall_s']:>9.1f}{r['steps_per_s']:>10.0f}"
+            f"{r['env_share']:>8.1%}{r['rollout_other_share']:>15.1%}{r['update_share']:>9.1%}"
+        )
     if "speedup" in meta:
         print(f"coopnav VecEnv / SuperSuit: {meta['speedup']:.1f}x")
     return 0

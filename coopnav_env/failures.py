@@ -10,9 +10,13 @@ import errno
 
 __all__ = ["one_line"]
 
-_WHAT = {errno.ENOSPC: "the disk is full", errno.EROFS: "the folder is on a read-only file system",
-         errno.EDQUOT: "the disk quota is exceeded", errno.EACCES: "permission denied",
-         errno.EPERM: "permission denied"}
+_WHAT: dict[int | None, str] = {
+    errno.ENOSPC: "the disk is full",
+    errno.EROFS: "the folder is on a read-only file system",
+    errno.EDQUOT: "the disk quota is exceeded",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "permission denied",
+}
 
 
 def one_line(err: BaseException) -> str:

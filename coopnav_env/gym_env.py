@@ -30,12 +30,15 @@ class CoopNavGymEnv(gym.Env):
     action_space: spaces.Box
     observation_space: spaces.Box
 
-    def __init__(self, scenario: str | ScenarioConfig = "gao_lawnmower", render_mode: str | None = None,
-                 **overrides: Any) -> None:
+    def __init__(
+        self, scenario: str | ScenarioConfig = "gao_lawnmower", render_mode: str | None = None, **overrides: Any
+    ) -> None:
         self.config = make_config(scenario, **overrides)
         if self.config.n_beacons != 1:
-            raise ValueError(f"the Gymnasium view needs a scenario with one beacon; {self.config.name} has "
-                             f"{self.config.n_beacons} (use coopnav_env.parallel_env)")
+            raise ValueError(
+                f"the Gymnasium view needs a scenario with one beacon; {self.config.name} has "
+                f"{self.config.n_beacons} (use coopnav_env.parallel_env)"
+            )
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
         self.render_mode = render_mode
@@ -44,8 +47,9 @@ class CoopNavGymEnv(gym.Env):
         self.observation_space = observation_space(self.sim)
         self._recorder: EpisodeRecorder | None = None
 
-    def reset(self, *, seed: int | None = None,
-              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         episode_seed = int(self.np_random.integers(2**31))
         obs = self.sim.reset([episode_seed])
@@ -61,8 +65,13 @@ class CoopNavGymEnv(gym.Env):
         res = self.sim.step(a[None, None])
         if self._recorder is not None:
             self._recorder.record(self.sim.snapshot(), 0)
-        return (res.obs[0, 0], float(res.reward[0, 0]), bool(res.terminated[0]), bool(res.truncated[0]),
-                agent_infos(res.info, 0, res.beacon_info))
+        return (
+            res.obs[0, 0],
+            float(res.reward[0, 0]),
+            bool(res.terminated[0]),
+            bool(res.truncated[0]),
+            agent_infos(res.info, 0, res.beacon_info),
+        )
 
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array" or self._recorder is None:

@@ -1,17 +1,18 @@
 """'Did you mean' for mistyped names (scenarios, policies, task sets, tasks).
 
-    raise ValueError(f"unknown policy {name!r}{did_you_mean(name, valid)} valid: ...")
-    # unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...
+raise ValueError(f"unknown policy {name!r}{did_you_mean(name, valid)} valid: ...")
+# unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...
 """
 
 from __future__ import annotations
 
 import difflib
+from collections.abc import Iterable
 
 __all__ = ["did_you_mean"]
 
 
-def did_you_mean(name, valid) -> str:
+def did_you_mean(name: object, valid: Iterable[object]) -> str:
     """``"; did you mean 'x'?"`` with the closest of ``valid`` to ``name``
     (``difflib.get_close_matches``), or ``";"`` when none is close: the house style
     ``unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...``."""

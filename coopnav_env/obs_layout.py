@@ -110,28 +110,47 @@ def decode(obs: ArrayLike, config: ScenarioConfig) -> ObsView:
     S, K, N = config.n_survey, config.observed_waypoints, config.n_beacons
     L, T = config.position_scale_m, config.ping_interval_s
     own = fence_center_m(config) + L * obs[..., 0:2]
-    per = obs[..., OWN_DIM:OWN_DIM + S * (PER_SURVEY_FIXED + 2 * K)].reshape(lead + (S, PER_SURVEY_FIXED + 2 * K))
+    per = obs[..., OWN_DIM : OWN_DIM + S * (PER_SURVEY_FIXED + 2 * K)].reshape(lead + (S, PER_SURVEY_FIXED + 2 * K))
     rel = np.concatenate([L * per[..., 0:2], DEPTH_SCALE_M * per[..., 2:3]], -1)
     survey_en = own[..., None, :] + rel[..., :2]
     major, minor = ELLIPSE_SCALE_M * per[..., 3], ELLIPSE_SCALE_M * per[..., 4]
     bearing = np.mod(0.5 * np.arctan2(per[..., 6], per[..., 5]), np.pi)
     wp = survey_en[..., None, :] + L * per[..., 9:].reshape(lead + (S, K, 2))
-    peers_rel = obs[..., OWN_DIM + S * (PER_SURVEY_FIXED + 2 * K):].reshape(lead + (N - 1, 2))
+    peers_rel = obs[..., OWN_DIM + S * (PER_SURVEY_FIXED + 2 * K) :].reshape(lead + (N - 1, 2))
     return ObsView(
-        own_en_m=own, heading_en=obs[..., 2:4].copy(), speed_fraction=obs[..., 4].copy(),
-        own_std_m=STD_SCALE_M * obs[..., 5], survey_rel_m=rel, survey_en_m=survey_en,
-        depth_below_m=rel[..., 2], major_m=major, minor_m=minor, bearing_rad=bearing,
+        own_en_m=own,
+        heading_en=obs[..., 2:4].copy(),
+        speed_fraction=obs[..., 4].copy(),
+        own_std_m=STD_SCALE_M * obs[..., 5],
+        survey_rel_m=rel,
+        survey_en_m=survey_en,
+        depth_below_m=rel[..., 2],
+        major_m=major,
+        minor_m=minor,
+        bearing_rad=bearing,
         cov_m2=ellipse_to_covariance(major, minor, bearing, n_sigma=ELLIPSE_N_SIGMA),
-        reply_age_s=AGE_SCALE_PINGS * T * per[..., 7], range_age_s=AGE_SCALE_PINGS * T * per[..., 8],
-        waypoints_en_m=wp, peers_en_m=own[..., None, :] + L * peers_rel,
+        reply_age_s=AGE_SCALE_PINGS * T * per[..., 7],
+        range_age_s=AGE_SCALE_PINGS * T * per[..., 8],
+        waypoints_en_m=wp,
+        peers_en_m=own[..., None, :] + L * peers_rel,
     )
 
 
-def encode(config: ScenarioConfig, own_en_m: ArrayLike, survey_rel_m: ArrayLike, major_m: ArrayLike = 4.0,
-           minor_m: ArrayLike = 4.0, bearing_rad: ArrayLike = 0.0, heading_en: ArrayLike = (0.0, 1.0),
-           speed_fraction: float = 0.0, own_std_m: float = 2.0, reply_age_s: ArrayLike = 0.0,
-           range_age_s: ArrayLike = 0.0, waypoints_en_m: ArrayLike | None = None,
-           peers_en_m: ArrayLike | None = None) -> np.ndarray:
+def encode(
+    config: ScenarioConfig,
+    own_en_m: ArrayLike,
+    survey_rel_m: ArrayLike,
+    major_m: ArrayLike = 4.0,
+    minor_m: ArrayLike = 4.0,
+    bearing_rad: ArrayLike = 0.0,
+    heading_en: ArrayLike = (0.0, 1.0),
+    speed_fraction: float = 0.0,
+    own_std_m: float = 2.0,
+    reply_age_s: ArrayLike = 0.0,
+    range_age_s: ArrayLike = 0.0,
+    waypoints_en_m: ArrayLike | None = None,
+    peers_en_m: ArrayLike | None = None,
+) -> np.ndarray:
     """Build one beacon's observation (D,) float32 from quantities in metres (the
     inverse of :func:`decode`). survey_rel_m: (S, 3) survey estimate minus own
     (east, north, depth); waypoints default to the survey's own estimate."""
@@ -144,17 +163,27 @@ def encode(config: ScenarioConfig, own_en_m: ArrayLike, survey_rel_m: ArrayLike,
     if waypoints_en_m is None:
         waypoints_en_m = np.broadcast_to(survey_en[:, None, :], (S, K, 2))
     wp_rel = (np.asarray(waypoints_en_m, float).reshape(S, K, 2) - survey_en[:, None, :]) / L
-    per = np.concatenate([
-        rel[:, :2] / L, rel[:, 2:3] / DEPTH_SCALE_M,
-        np.broadcast_to(np.asarray(major_m, float), (S,))[:, None] / ELLIPSE_SCALE_M,
-        np.broadcast_to(np.asarray(minor_m, float), (S,))[:, None] / ELLIPSE_SCALE_M,
-        np.cos(2 * b)[:, None], np.sin(2 * b)[:, None],
-        np.broadcast_to(np.asarray(reply_age_s, float), (S,))[:, None] / (AGE_SCALE_PINGS * T),
-        np.broadcast_to(np.asarray(range_age_s, float), (S,))[:, None] / (AGE_SCALE_PINGS * T),
-        wp_rel.reshape(S, 2 * K),
-    ], -1)
-    parts = [(own - fence_center_m(config)) / L, np.asarray(heading_en, float), [speed_fraction],
-             [own_std_m / STD_SCALE_M], per.reshape(-1)]
+    per = np.concatenate(
+        [
+            rel[:, :2] / L,
+            rel[:, 2:3] / DEPTH_SCALE_M,
+            np.broadcast_to(np.asarray(major_m, float), (S,))[:, None] / ELLIPSE_SCALE_M,
+            np.broadcast_to(np.asarray(minor_m, float), (S,))[:, None] / ELLIPSE_SCALE_M,
+            np.cos(2 * b)[:, None],
+            np.sin(2 * b)[:, None],
+            np.broadcast_to(np.asarray(reply_age_s, float), (S,))[:, None] / (AGE_SCALE_PINGS * T),
+            np.broadcast_to(np.asarray(range_age_s, float), (S,))[:, None] / (AGE_SCALE_PINGS * T),
+            wp_rel.reshape(S, 2 * K),
+        ],
+        -1,
+    )
+    parts = [
+        (own - fence_center_m(config)) / L,
+        np.asarray(heading_en, float),
+        [speed_fraction],
+        [own_std_m / STD_SCALE_M],
+        per.reshape(-1),
+    ]
     if N > 1:
         peers = np.zeros((N - 1, 2)) if peers_en_m is None else np.asarray(peers_en_m, float).reshape(N - 1, 2) - own
         parts.append((peers / L).reshape(-1))
@@ -199,20 +228,27 @@ def decode_boat(obs: ArrayLike, config: ScenarioConfig) -> BoatView:
     obs = np.asarray(obs, dtype=float)
     part, i = {}, 0
     for name, n in obs_fields(config):
-        part[name] = obs[..., i:i + n]
+        part[name] = obs[..., i : i + n]
         i += n
     if obs.shape[-1] != i:
         raise ValueError(f"a boat observation has {i} values, got {obs.shape[-1]}")
     L = config.baseline_target_m
     river = {}
     if "bank_offset" in part:
-        river = dict(bank_offset_m=part["bank_offset"][..., 0] * 0.5 * config.river_width_m,
-                     river_direction_xy=part["river_direction_xy"],
-                     river_ahead_from_own_xy_m=part["river_ahead_from_own_xy"] * L)
+        river = dict(
+            bank_offset_m=part["bank_offset"][..., 0] * 0.5 * config.river_width_m,
+            river_direction_xy=part["river_direction_xy"],
+            river_ahead_from_own_xy_m=part["river_ahead_from_own_xy"] * L,
+        )
     return BoatView(
-        is_b1=part["role"][..., 0] > 0, own_velocity_xy_mps=part["own_velocity_xy"] * config.boat_max_speed_mps,
-        baseline_m=(1.0 + part["baseline_error"][..., 0]) * L, tracked_xy_m=part["tracked_xy"] * L,
+        is_b1=part["role"][..., 0] > 0,
+        own_velocity_xy_mps=part["own_velocity_xy"] * config.boat_max_speed_mps,
+        baseline_m=(1.0 + part["baseline_error"][..., 0]) * L,
+        tracked_xy_m=part["tracked_xy"] * L,
         tracked_velocity_xy_mps=part["tracked_velocity_xy"] * config.survey_speed_mps,
         fix_age_s=part["fix_age"][..., 0] * AGE_SCALE_PINGS * config.ping_interval_s,
-        has_fix=part["has_fix"][..., 0] > 0.5, x_axis_en=part["frame_bearing"],
-        own_from_tracked_xy_m=part["own_from_tracked_xy"] * L, **river)
+        has_fix=part["has_fix"][..., 0] > 0.5,
+        x_axis_en=part["frame_bearing"],
+        own_from_tracked_xy_m=part["own_from_tracked_xy"] * L,
+        **river,
+    )

@@ -113,11 +113,21 @@ class CoopNavParallelEnv(ParallelEnv):
     """
 
     # pettingzoo.ParallelEnv declares metadata an instance attribute (dict[str, Any]), as gymnasium.Env does
-    metadata: dict[str, Any] = {"name": "coopnav_v0", "render_modes": ["human", "rgb_array"],  # noqa: RUF012
-                                "is_parallelizable": True, "render_fps": 4}
+    metadata: dict[str, Any] = {  # noqa: RUF012
+        "name": "coopnav_v0",
+        "render_modes": ["human", "rgb_array"],
+        "is_parallelizable": True,
+        "render_fps": 4,
+    }
 
-    def __init__(self, scenario: str | ScenarioConfig = "gao_lawnmower", render_mode: str | None = None,
-                 seed: int | None = None, max_cycles: int | None = None, **overrides: Any) -> None:
+    def __init__(
+        self,
+        scenario: str | ScenarioConfig = "gao_lawnmower",
+        render_mode: str | None = None,
+        seed: int | None = None,
+        max_cycles: int | None = None,
+        **overrides: Any,
+    ) -> None:
         if max_cycles is not None:
             overrides["max_cycles"] = max_cycles
         self.config = make_config(scenario, **overrides)
@@ -143,8 +153,9 @@ class CoopNavParallelEnv(ParallelEnv):
     def action_space(self, agent: str) -> spaces.Box:
         return self._action_space
 
-    def reset(self, seed: int | None = None,
-              options: dict[str, Any] | None = None) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, dict[str, Any]]]:
         if seed is None:
             seed = self._seed if self._seed is not None else int(self._seed_rng.integers(2**31))
             self._seed = None
@@ -170,8 +181,10 @@ class CoopNavParallelEnv(ParallelEnv):
             raise ValueError(f"actions must be a dict agent -> action, got {type(actions).__name__}")
         if not self.agents:
             given = f" (actions given for agents that are not alive: {list(actions)})" if actions else ""
-            raise ValueError("step() with no live agents: the episode has ended or reset() was not called; "
-                             f"call reset() first{given}")
+            raise ValueError(
+                "step() with no live agents: the episode has ended or reset() was not called; "
+                f"call reset() first{given}"
+            )
         dead = [a for a in actions if a not in self.agents]
         if dead:
             raise ValueError(f"actions given for agents that are not alive: {dead}; alive: {self.agents}")

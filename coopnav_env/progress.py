@@ -17,11 +17,15 @@ from __future__ import annotations
 import os
 import sys
 import time
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    import threading
 
 __all__ = ["Progress", "announce_after", "format_seconds", "is_interactive", "say", "stage"]
 
 
-def is_interactive(stream=None) -> bool:
+def is_interactive(stream: TextIO | None = None) -> bool:
     """Whether ``stream`` (default stderr) is a terminal that reports a width: a bar can
     be drawn there. ``COOPNAV_PROGRESS=lines`` forces lines, ``=bar`` a bar."""
     forced = os.environ.get("COOPNAV_PROGRESS", "").strip().lower()
@@ -46,16 +50,16 @@ def format_seconds(seconds: float) -> str:
     return f"{int(seconds // 3600)} h {int(seconds % 3600 // 60):02d} min"
 
 
-def say(text: str, stream=None):
+def say(text: str, stream: TextIO | None = None) -> None:
     """One flushed line (a stage of a command), on stderr by default."""
     stream = sys.stderr if stream is None else stream
     print(text, file=stream, flush=True)
 
 
-_PENDING = []  # the active announce_after (a stage line ends it)
+_PENDING: list[announce_after] = []  # the active announce_after (a stage line ends it)
 
 
-def stage(text: str, stream=None):
+def stage(text: str, stream: TextIO | None = None) -> None:
     """A stage of a command (``say``), unless ``COOPNAV_PROGRESS=off``; it ends an
     ``announce_after`` still waiting (or erases its transient status)."""
     while _PENDING:
@@ -71,15 +75,21 @@ class Progress:
     lines; ``COOPNAV_PROGRESS`` overrides). ``every_s``: in line mode, the longest
     silence between lines. Updates past ``total`` are clipped: the bar ends at its total."""
 
-    def __init__(self, total: float, unit: str = "it", desc: str = "", stream=None, mode: str | None = None,
-                 every_s: float = 30.0):
+    def __init__(
+        self,
+        total: float,
+        unit: str = "it",
+        desc: str = "",
+        stream: TextIO | None = None,
+        mode: str | None = None,
+        every_s: float = 30.0,
+    ) -> None:
         self.stream = sys.stderr if stream is None else stream
         forced = os.environ.get("COOPNAV_PROGRESS", "").strip().lower()
         if forced == "off":
             mode = "off"
         if mode is None:
-            mode = forced if forced in ("bar", "lines", "off") else ("bar" if is_interactive(self.stream)
-                                                                    else "lines")
+            mode = forced if forced in ("bar", "lines", "off") else ("bar" if is_interactive(self.stream) else "lines")
         self.mode, self.total, self.unit, self.desc = mode, float(total), unit, desc
         self.n, self.every_s = 0.0, every_s
         self.t0 = self._last_line = time.perf_counter()
@@ -89,8 +99,15 @@ class Progress:
 
             whole = float(total).is_integer()
             fmt = "{l_bar}{bar}| {n:.0f}/{total_fmt} {unit} [{elapsed}<{remaining}]" if whole else None
-            self._bar = tqdm(total=int(total) if whole else total, unit=unit, desc=desc, file=self.stream,
-                             dynamic_ncols=True, bar_format=fmt, smoothing=0.1)
+            self._bar = tqdm(
+                total=int(total) if whole else total,
+                unit=unit,
+                desc=desc,
+                file=self.stream,
+                dynamic_ncols=True,
+                bar_format=fmt,
+                smoothing=0.1,
+            )
 
     # --------------------------------------------------------------------------------
     def __enter__(self):
@@ -99,7 +116,7 @@ class Progress:
     def __exit__(self, *exc):
         self.close()
 
-    def update(self, n: float = 1.0):
+    def update(self, n: float = 1.0) -> None:
         """``n`` more units done (clipped at the total)."""
         n = min(float(n), self.total - self.n)
         if n <= 0:
@@ -112,11 +129,11 @@ class Progress:
         elif self.mode == "lines" and not self._closed and time.perf_counter() - self._last_line >= self.every_s:
             self._line(self.desc)
 
-    def set(self, n: float):
+    def set(self, n: float) -> None:
         """Set the units done to ``n`` (clipped at the total; never backwards)."""
         self.update(n - self.n)
 
-    def stage(self, text: str):
+    def stage(self, text: str) -> None:
         """A new stage: the bar's description, or a line with the work done and the estimate
         (nothing once closed)."""
         if self._closed:
@@ -127,7 +144,7 @@ class Progress:
         elif self.mode == "lines":
             self._line(text)
 
-    def write(self, text: str, stream=None):
+    def write(self, text: str, stream: TextIO | None = None) -> None:
         """A message (on ``stream``, default the bar's) that does not break the bar; printed
         even with ``mode="off"`` when ``stream`` is given (it is output, not progress)."""
         if self._bar is not None:
@@ -151,7 +168,7 @@ class Progress:
         say(f"[{n}/{self.total:.0f} {self.unit}, {format_seconds(elapsed)}{left}] {text}", self.stream)
         self._last_line = time.perf_counter()
 
-    def close(self):
+    def close(self) -> None:
         if self._closed:
             return
         self._closed = True
@@ -171,10 +188,11 @@ class announce_after:
     simulator on first use). On a terminal the line is a transient status, erased when
     the block ends; elsewhere one flushed line. Nothing with ``COOPNAV_PROGRESS=off``."""
 
-    def __init__(self, text: str, seconds: float = 2.0, stream=None):
+    def __init__(self, text: str, seconds: float = 2.0, stream: TextIO | None = None) -> None:
         self.text, self.seconds = text, seconds
         self.stream = sys.stderr if stream is None else stream
-        self._timer, self._shown, self._transient = None, False, False
+        self._timer: threading.Timer | None = None
+        self._shown, self._transient = False, False
 
     def _show(self):
         self._shown = True
@@ -201,7 +219,7 @@ class announce_after:
             _PENDING.remove(self)
         self.finish()
 
-    def finish(self):
+    def finish(self) -> None:
         """Stop waiting; erase the transient status if it was shown."""
         if self._timer is not None:
             self._timer.cancel()

@@ -129,14 +129,25 @@ def strict_json(obj: Any, indent: int | None = 2) -> str:
 
 def _git(*args) -> str:
     try:
-        return subprocess.run(["git", *args], cwd=PROJECT_ROOT, capture_output=True, text=True,
-                              timeout=10).stdout.strip()
+        return subprocess.run(
+            ["git", *args], cwd=PROJECT_ROOT, capture_output=True, text=True, timeout=10
+        ).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return ""
 
 
-def version_record(packages: Iterable[str] = ("numpy", "scipy", "numba", "gymnasium", "pettingzoo", "torch",
-                             "stable_baselines3", "filterpy")) -> dict:
+def version_record(
+    packages: Iterable[str] = (
+        "numpy",
+        "scipy",
+        "numba",
+        "gymnasium",
+        "pettingzoo",
+        "torch",
+        "stable_baselines3",
+        "filterpy",
+    ),
+) -> dict:
     """What produced a result: Python, the given packages' versions (those that are
     installed; imported lazily, only their metadata is read), coopnav's version, and
     the git commit of the checkout (``git_dirty``: tracked files were modified)."""

@@ -47,8 +47,14 @@ class EpisodeRecorder:
 
     def arrays(self) -> tuple[np.ndarray, ...]:
         """(t (T,), true (T,S,3), dr, est, P (T,S,2,2), beacons (T,N,3))."""
-        return (np.array(self.t_s), np.array(self.true), np.array(self.dr), np.array(self.est),
-                np.array(self.P), np.array(self.beacons))
+        return (
+            np.array(self.t_s),
+            np.array(self.true),
+            np.array(self.dr),
+            np.array(self.est),
+            np.array(self.P),
+            np.array(self.beacons),
+        )
 
 
 def draw_episode(recorder: EpisodeRecorder, config: ScenarioConfig, fig: Figure | None = None) -> Figure:
@@ -64,18 +70,26 @@ def draw_episode(recorder: EpisodeRecorder, config: ScenarioConfig, fig: Figure 
     ax = fig.add_subplot(1, 1, 1)
     S = true.shape[1]
     for s in range(S):
-        wp = recorder.waypoints[s, :recorder.n_waypoints[s]]
+        wp = recorder.waypoints[s, : recorder.n_waypoints[s]]
         ax.plot(wp[:, 0], wp[:, 1], color="0.75", lw=1, ls=":", label="planned path" if s == 0 else None)
         ax.plot(true[:, s, 0], true[:, s, 1], color="k", lw=1.5, label="true" if s == 0 else None)
         ax.plot(dr[:, s, 0], dr[:, s, 1], color="tab:red", lw=1, ls="--", label="dead reckoning" if s == 0 else None)
         ax.plot(est[:, s, 0], est[:, s, 1], color="tab:blue", lw=1, label="EKF" if s == 0 else None)
         major, minor, bearing = error_ellipse(P[-1, s])
-        ax.add_patch(Ellipse((est[-1, s, 0], est[-1, s, 1]), 2 * float(major), 2 * float(minor),
-                             angle=float(np.degrees(np.pi / 2 - bearing)), fill=False, color="tab:blue",
-                             lw=1.5, label="2-sigma ellipse" if s == 0 else None))
+        ax.add_patch(
+            Ellipse(
+                (est[-1, s, 0], est[-1, s, 1]),
+                2 * float(major),
+                2 * float(minor),
+                angle=float(np.degrees(np.pi / 2 - bearing)),
+                fill=False,
+                color="tab:blue",
+                lw=1.5,
+                label="2-sigma ellipse" if s == 0 else None,
+            )
+        )
     for n in range(beacons.shape[1]):
-        ax.plot(beacons[:, n, 0], beacons[:, n, 1], color="tab:green", lw=1,
-                label="beacon path" if n == 0 else None)
+        ax.plot(beacons[:, n, 0], beacons[:, n, 1], color="tab:green", lw=1, label="beacon path" if n == 0 else None)
         ax.plot(beacons[-1, n, 0], beacons[-1, n, 1], "^", color="tab:green")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("east (m)")

@@ -164,8 +164,7 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         self._episodes += 1
         return seed
 
-    def reset(self, *, seed: int | None = None,
-              options: dict[str, Any] | None = None) -> tuple[dict, dict]:
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict, dict]:
         if seed is not None and self.base_seed is None:
             self.base_seed, self._episodes, self.copy_index = int(seed), 0, 0
         self.episode_seed = self.next_seed()
@@ -186,8 +185,9 @@ class CoopNavRLlibEnv(MultiAgentEnv):
         if not self.env.agents and self._err_steps:
             self.last_episode_survey_error_m = self._err_sum / self._err_steps
         if not self.full_infos:
-            infos = {a: {"survey_error_m": i["survey_error_m"], "dr_error_m": i["dr_error_m"]}
-                     for a, i in infos.items()}
+            infos = {
+                a: {"survey_error_m": i["survey_error_m"], "dr_error_m": i["dr_error_m"]} for a, i in infos.items()
+            }
         obs = {a: np.asarray(o, dtype=np.float32) for a, o in obs.items()}
         terms = dict(terms, __all__=all(terms.values()))
         truncs = dict(truncs, __all__=all(truncs.values()))
@@ -229,9 +229,16 @@ class SurveyErrorMetrics(_callback_base()):  # type: ignore[misc]  # Ray's base,
     evaluation's score; the trained reward may be another signal) to RLlib's
     results as ``env_runners/survey_error_m`` (mean over the last 100 episodes)."""
 
-    def on_episode_end(self, *, episode: Any = None, env_runner: Any = None, metrics_logger: Any = None,
-                       env: Any = None, env_index: int = 0,
-                       **kwargs: Any) -> None:
+    def on_episode_end(
+        self,
+        *,
+        episode: Any = None,
+        env_runner: Any = None,
+        metrics_logger: Any = None,
+        env: Any = None,
+        env_index: int = 0,
+        **kwargs: Any,
+    ) -> None:
         try:
             inner = env.envs[env_index].unwrapped
         except (AttributeError, IndexError, TypeError):

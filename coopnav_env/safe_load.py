@@ -25,13 +25,23 @@ from __future__ import annotations
 
 import json
 import os
+from typing import Any
 
 MAX_BYTES = 1 << 20  # 1 MiB: the largest config.yml / run.json the project writes is a few kB
 MAX_DEPTH = 64
 MAX_NODES = 200_000
 
-__all__ = ["MAX_BYTES", "MAX_DEPTH", "MAX_NODES", "UnsafeDataError", "loads_json", "loads_yaml", "read_json",
-           "read_text", "read_yaml"]
+__all__ = [
+    "MAX_BYTES",
+    "MAX_DEPTH",
+    "MAX_NODES",
+    "UnsafeDataError",
+    "loads_json",
+    "loads_yaml",
+    "read_json",
+    "read_text",
+    "read_yaml",
+]
 
 
 class UnsafeDataError(ValueError):
@@ -55,7 +65,7 @@ def _decode(data, where: str, max_bytes: int) -> str:
     return text
 
 
-def read_text(path, max_bytes: int = MAX_BYTES, what: str | None = None) -> str | None:
+def read_text(path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, what: str | None = None) -> str | None:
     """The UTF-8 text of ``path`` (None if it does not exist), at most ``max_bytes``
     (checked before reading all of it); an ``UnsafeDataError`` else."""
     where = what or str(path)
@@ -75,8 +85,24 @@ def read_text(path, max_bytes: int = MAX_BYTES, what: str | None = None) -> str 
 # YAML
 
 _STANDARD_TAG = "tag:yaml.org,2002:"
-_SAFE_TAGS = {_STANDARD_TAG + t for t in ("null", "bool", "int", "float", "str", "seq", "map", "binary",
-                                          "timestamp", "set", "omap", "pairs", "merge")}
+_SAFE_TAGS = {
+    _STANDARD_TAG + t
+    for t in (
+        "null",
+        "bool",
+        "int",
+        "float",
+        "str",
+        "seq",
+        "map",
+        "binary",
+        "timestamp",
+        "set",
+        "omap",
+        "pairs",
+        "merge",
+    )
+}
 
 
 def _check_yaml_events(text: str, where: str, max_depth: int, max_nodes: int):
@@ -107,8 +133,13 @@ def _check_yaml_events(text: str, where: str, max_depth: int, max_nodes: int):
         raise UnsafeDataError(f"{where}: not YAML: {' '.join(str(err).split())[:300]}") from None
 
 
-def loads_yaml(text, where: str = "YAML text", max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH,
-               max_nodes: int = MAX_NODES):
+def loads_yaml(
+    text: str | bytes,
+    where: str = "YAML text",
+    max_bytes: int = MAX_BYTES,
+    max_depth: int = MAX_DEPTH,
+    max_nodes: int = MAX_NODES,
+) -> Any:
     """``yaml.safe_load(text)`` after the checks of the module docstring (``text``:
     str or bytes)."""
     import yaml
@@ -124,7 +155,7 @@ def loads_yaml(text, where: str = "YAML text", max_bytes: int = MAX_BYTES, max_d
         raise UnsafeDataError(f"{where}: cannot be read ({type(err).__name__}): refused") from None
 
 
-def read_yaml(path, max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH):
+def read_yaml(path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH) -> Any:
     """``loads_yaml`` of a file (None if it does not exist)."""
     text = read_text(path, max_bytes)
     return None if text is None else loads_yaml(text, str(path), max_bytes, max_depth)
@@ -132,6 +163,7 @@ def read_yaml(path, max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH):
 
 # --------------------------------------------------------------------------------------
 # JSON
+
 
 def _json_depth_ok(text: str, max_depth: int) -> bool:
     depth = 0
@@ -155,7 +187,9 @@ def _json_depth_ok(text: str, max_depth: int) -> bool:
     return True
 
 
-def loads_json(text, where: str = "JSON text", max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH):
+def loads_json(
+    text: str | bytes, where: str = "JSON text", max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH
+) -> Any:
     """``json.loads(text)`` after the size and depth checks (``text``: str or bytes)."""
     text = _decode(text, where, max_bytes)
     if text.count("[") + text.count("{") > max_depth and not _json_depth_ok(text, max_depth):
@@ -168,7 +202,7 @@ def loads_json(text, where: str = "JSON text", max_bytes: int = MAX_BYTES, max_d
         raise UnsafeDataError(f"{where}: cannot be read ({type(err).__name__}): refused") from None
 
 
-def read_json(path, max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH):
+def read_json(path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH) -> Any:
     """``loads_json`` of a file (None if it does not exist)."""
     text = read_text(path, max_bytes)
     return None if text is None else loads_json(text, os.fspath(path), max_bytes, max_depth)

@@ -86,9 +86,11 @@ def refuse_test_seeds(first: Any, count: int = 1, what: str = "seed") -> None:
     last = first + count - 1
     if last >= TRAINING_SEED_LIMIT:
         span = f"{what} {first}" if count == 1 else f"{what} {first} with {count} episodes (seeds up to {last})"
-        raise ValueError(f"{span} reaches the benchmark's reserved seeds [2**61, 2**62), where its test seeds are: "
-                         f"training and validation seeds must stay below {TRAINING_SEED_LIMIT} "
-                         f"(coopnav_env.seeds.TRAINING_SEED_LIMIT)")
+        raise ValueError(
+            f"{span} reaches the benchmark's reserved seeds [2**61, 2**62), where its test seeds are: "
+            f"training and validation seeds must stay below {TRAINING_SEED_LIMIT} "
+            f"(coopnav_env.seeds.TRAINING_SEED_LIMIT)"
+        )
 
 
 def max_training_seed(seed: int, copies: int, episodes: int) -> int:

@@ -52,14 +52,23 @@ registry's.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 from .core import make_simulator
 from .core.reward import check_training_terms, training_reward, training_signal_names
 from .scenarios import make_config
 from .seeds import check_seed
 from .views import action_space, observation_space
+
+if TYPE_CHECKING:
+    from .scenarios import ScenarioConfig
 
 SEED_STRIDE = 1_000_003  # a prime larger than any batch: episode k of env e -> seed + e + k * SEED_STRIDE
 check_reward_terms = check_training_terms  # {signal: weight} validated against the registry
@@ -83,10 +92,20 @@ class CoopNavVecEnv(VecEnv):
     and the other randomization bounds included).
     """
 
-    metadata = {"render_modes": []}
+    # VecEnv declares metadata an instance attribute (dict[str, Any]; its __init__ sets it): a ClassVar would not match
+    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
+    action_space: spaces.Box
+    observation_space: spaces.Box
 
-    def __init__(self, scenario="gao_lawnmower", n_envs: int = 1, seed=None, step_infos: bool = True,
-                 reward_terms=None, **overrides):
+    def __init__(
+        self,
+        scenario: str | ScenarioConfig = "gao_lawnmower",
+        n_envs: int = 1,
+        seed: int | None = None,
+        step_infos: bool = True,
+        reward_terms: Mapping[str, float] | None = None,
+        **overrides: Any,
+    ) -> None:
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"n_envs must be an int >= 1, got {n_envs!r}")
         n_envs = int(n_envs)
@@ -99,11 +118,11 @@ class CoopNavVecEnv(VecEnv):
         self.render_mode = None
         self.possible_agents = [f"beacon_{j}" for j in range(self.n_beacons)]
         super().__init__(n_envs * self.n_beacons, observation_space(self.sim), action_space(self.sim))
-        self._base_seed = None
+        self._base_seed = 0  # set by self.seed() below
         self._episode = np.zeros(n_envs, dtype=np.int64)  # episodes started per environment
         self.episode_seeds = np.full(n_envs, -1, dtype=np.int64)  # seed of each current episode
         self.step_infos = bool(step_infos)
-        self._actions = None
+        self._actions: np.ndarray | None = None
         self._started = False
         self.seed(seed)
 
@@ -113,7 +132,7 @@ class CoopNavVecEnv(VecEnv):
         return [self.sim.variants[v] for v in self.sim.episode_variants().tolist()]
 
     # ------------------------------------------------------------------------------
-    def seed(self, seed=None):
+    def seed(self, seed: int | None = None) -> Sequence[int | None]:
         """Base seed for the episodes started from the next ``reset()`` on (None: random).
         Returns the first episode's seed of every row."""
         if seed is None:
@@ -129,19 +148,20 @@ class CoopNavVecEnv(VecEnv):
         self.episode_seeds[envs] = seeds
         return seeds
 
-    def reset(self):
+    def reset(self) -> VecEnvObs:
         """Start a new episode in every environment; returns (num_envs, obs_dim)."""
         obs = self.sim.reset(self._next_seeds(np.arange(self.n_envs)))
         self._started = True
         self._actions = None
-        self.reset_infos = self._row_infos(self.sim.reset_info(), self.sim.reset_beacon_info(),
-                                           np.zeros(self.n_envs, dtype=bool))
+        self.reset_infos = self._row_infos(
+            self.sim.reset_info(), self.sim.reset_beacon_info(), np.zeros(self.n_envs, dtype=bool)
+        )
         self._reset_seeds()
         self._reset_options()
         return obs.reshape(self.num_envs, self.obs_dim)
 
     # ------------------------------------------------------------------------------
-    def check_actions(self, actions) -> np.ndarray:
+    def check_actions(self, actions: np.ndarray) -> np.ndarray:
         """``actions`` (num_envs, D) as float64 (n_envs, n_beacons, D), clipped to [-1, 1]; D
         is the action space's 2, or 3 with ``channel_mode="decide"`` (which also takes D = 2,
         the motion alone: transmit every slot)."""
@@ -151,8 +171,10 @@ class CoopNavVecEnv(VecEnv):
             raise ValueError(f"actions are not numeric: {type(actions).__name__}") from err
         dim = self.action_space.shape[0]
         if a.shape != (self.num_envs, dim) and not (dim == 3 and a.shape == (self.num_envs, 2)):
-            raise ValueError(f"actions must have shape ({self.num_envs}, {dim}) (one row per beacon of every "
-                             f"environment), got shape {a.shape}")
+            raise ValueError(
+                f"actions must have shape ({self.num_envs}, {dim}) (one row per beacon of every "
+                f"environment), got shape {a.shape}"
+            )
         finite = np.isfinite(a).all(axis=1)
         if not finite.all():
             row = int(np.flatnonzero(~finite)[0])
@@ -162,12 +184,12 @@ class CoopNavVecEnv(VecEnv):
             a = np.concatenate([a, np.ones((self.num_envs, 1))], 1)
         return np.clip(a, -1.0, 1.0).reshape(self.n_envs, self.n_beacons, dim)
 
-    def step_async(self, actions):
+    def step_async(self, actions: np.ndarray) -> None:
         if not self._started:
             raise RuntimeError("step_async() before reset()")
         self._actions = self.check_actions(actions)
 
-    def step_wait(self):
+    def step_wait(self) -> VecEnvStepReturn:
         if self._actions is None:
             raise RuntimeError("step_wait() without a pending step_async()")
         actions, self._actions = self._actions, None
@@ -182,20 +204,32 @@ class CoopNavVecEnv(VecEnv):
         if done.any():
             ended = np.flatnonzero(done)
             if not self.step_infos:  # the final step's infos, on the rows that end
-                full = self._row_infos({k: v[ended] for k, v in info.items()},
-                                       {k: v[ended] for k, v in res.beacon_info.items()}, (trunc & ~term)[ended])
+                full = self._row_infos(
+                    {k: v[ended] for k, v in info.items()},
+                    {k: v[ended] for k, v in res.beacon_info.items()},
+                    (trunc & ~term)[ended],
+                )
                 for i, e in enumerate(ended.tolist()):
-                    infos[e * self.n_beacons:(e + 1) * self.n_beacons] = full[i * self.n_beacons:(i + 1) * self.n_beacons]
+                    infos[e * self.n_beacons : (e + 1) * self.n_beacons] = full[
+                        i * self.n_beacons : (i + 1) * self.n_beacons
+                    ]
             final = obs[ended]  # a copy: the rows are overwritten by the reset below
             for i, e in enumerate(ended.tolist()):
                 for j in range(self.n_beacons):
                     infos[e * self.n_beacons + j]["terminal_observation"] = final[i, j]
             obs = self.sim.reset(self._next_seeds(ended), done)
-        return (obs.reshape(self.num_envs, self.obs_dim), reward.reshape(-1).astype(np.float32),
-                np.repeat(done, self.n_beacons), infos)
+        return (
+            obs.reshape(self.num_envs, self.obs_dim),
+            reward.reshape(-1).astype(np.float32),
+            np.repeat(done, self.n_beacons),
+            infos,
+        )
 
-    def training_reward(self, res) -> np.ndarray:
-        """The weighted sum of ``reward_terms`` for this step, (n_envs, n_beacons)."""
+    def training_reward(self, res: Any) -> np.ndarray:
+        """The weighted sum of ``reward_terms`` for this step, (n_envs, n_beacons); ``res``
+        the core's StepResult. Only with ``reward_terms`` (else the step's reward is the env's)."""
+        if self.reward_terms is None:
+            raise ValueError("training_reward() needs reward_terms; without them the reward is the environment's")
         return training_reward(self.reward_terms, res, self.sim.reward_weights)
 
     def _row_infos(self, info: dict, beacon_info: dict, time_limit: np.ndarray) -> list:
@@ -231,16 +265,16 @@ class CoopNavVecEnv(VecEnv):
         """The true global state of every environment, (n_envs, state_dim), for centralized critics."""
         return self.sim.global_state()
 
-    def close(self):
+    def close(self) -> None:
         self._actions = None
 
-    def get_images(self):
+    def get_images(self) -> Sequence[np.ndarray | None]:
         return [None] * self.num_envs
 
     def _row_envs(self, indices) -> list:
         return [int(i) // self.n_beacons for i in self._get_indices(indices)]
 
-    def get_attr(self, attr_name, indices=None):
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """Per row: ``episode_seed`` its episode's seed, ``episode_cell`` its episode's
         (survey_path, depth_m), ``agent`` its beacon name; anything else (``config``
         included) is the VecEnv's own attribute."""
@@ -257,14 +291,16 @@ class CoopNavVecEnv(VecEnv):
         value = getattr(self, attr_name)
         return [value for _ in envs]
 
-    def set_attr(self, attr_name, value, indices=None):
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         """Rows share one simulator: only attributes of the whole VecEnv can be set."""
         rows = list(self._get_indices(indices))
         if sorted(int(i) for i in rows) != list(range(self.num_envs)):
             raise ValueError("the rows of CoopNavVecEnv share one simulator: set_attr applies to all rows only")
         setattr(self, attr_name, value)
 
-    def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+    ) -> list[Any]:
         """Calls the VecEnv's method ``method_name`` once and returns its result for each row."""
         rows = list(self._get_indices(indices))
         method = getattr(self, method_name, None)
@@ -273,5 +309,5 @@ class CoopNavVecEnv(VecEnv):
         result = method(*method_args, **method_kwargs)
         return [result for _ in rows]
 
-    def env_is_wrapped(self, wrapper_class, indices=None):
+    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
         return [False for _ in self._get_indices(indices)]

@@ -71,13 +71,24 @@ from __future__ import annotations
 import importlib
 
 _EXPORTS = {
-    "EvalConfig": "config", "UsageError": "config", "prepare": "config",
-    "EvalResult": "run", "evaluate": "run", "run_evaluation": "run", "EvaluationError": "run",
+    "EvalConfig": "config",
+    "UsageError": "config",
+    "prepare": "config",
+    "EvalResult": "run",
+    "evaluate": "run",
+    "run_evaluation": "run",
+    "EvaluationError": "run",
     "EvaluationInterrupted": "run",
-    "run_episodes": "episodes", "record_episode": "episodes", "make_policy": "episodes",
-    "error_stats": "stats", "summarize": "stats",
-    "EPISODE_COLUMNS": "report", "STEP_COLUMNS": "report", "EPISODE_COLUMN_DOCS": "report",
-    "STEP_COLUMN_DOCS": "report", "SUMMARY_COLUMN_DOCS": "report",
+    "run_episodes": "episodes",
+    "record_episode": "episodes",
+    "make_policy": "episodes",
+    "error_stats": "stats",
+    "summarize": "stats",
+    "EPISODE_COLUMNS": "report",
+    "STEP_COLUMNS": "report",
+    "EPISODE_COLUMN_DOCS": "report",
+    "STEP_COLUMN_DOCS": "report",
+    "SUMMARY_COLUMN_DOCS": "report",
     "main": "cli",
 }
 __all__ = sorted(_EXPORTS)

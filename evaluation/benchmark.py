@@ -50,6 +50,8 @@ import os
 import shlex
 import signal
 import sys
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -62,15 +64,31 @@ from .tasks import BENCHMARK_VERSION, TASK_SETS, get_task_set
 RESULT_FILES = ("results.json", "results.md")
 VERDICTS = ("win", "tie", "loss")
 
-__all__ = ["BenchmarkPlan", "RESULT_FILES", "build_results", "compare_task", "main", "plan_benchmark",
-           "render_markdown", "run_benchmark", "summarize_task_set", "write_results"]
+__all__ = [
+    "BenchmarkPlan",
+    "RESULT_FILES",
+    "build_results",
+    "compare_task",
+    "main",
+    "plan_benchmark",
+    "render_markdown",
+    "run_benchmark",
+    "summarize_task_set",
+    "write_results",
+]
 
 
 # ------------------------------------------------------------------------------------
 # statistics (pure: arrays in, dicts out)
 
-def compare_task(episode_errors: dict, planners, ranges_fused: dict | None = None, skipped: dict | None = None,
-                 confidence: float = 0.95) -> dict:
+
+def compare_task(
+    episode_errors: dict,
+    planners: Iterable[str],
+    ranges_fused: dict | None = None,
+    skipped: dict | None = None,
+    confidence: float = 0.95,
+) -> dict:
     """One task's statistics from ``episode_errors`` (policy -> per-episode mean errors,
     episode ``i`` of every policy on the same seed; None: the policy cannot drive the
     task, for the reason in ``skipped``), ``planners`` (the names the best planner is
@@ -94,8 +112,12 @@ def compare_task(episode_errors: dict, planners, ranges_fused: dict | None = Non
             continue
         x = runs[p]
         mean, lo, hi = t_interval(x, confidence)
-        stats = {"episodes": int(x.size), "mean_error_m": mean, "ci95_error_m": [lo, hi],
-                 "episode_mean_error_m": x.tolist()}
+        stats = {
+            "episodes": int(x.size),
+            "mean_error_m": mean,
+            "ci95_error_m": [lo, hi],
+            "episode_mean_error_m": x.tolist(),
+        }
         rf = ranges_fused.get(p)
         if rf is not None:
             rf = np.asarray(rf, dtype=float)
@@ -113,12 +135,12 @@ def compare_task(episode_errors: dict, planners, ranges_fused: dict | None = Non
     return {"best_planner": best, "policies": out, "wins": wins}
 
 
-def summarize_task_set(tasks: dict, policies) -> dict:
+def summarize_task_set(tasks: dict, policies: Iterable[str]) -> dict:
     """Per policy the count of each verdict over ``tasks`` (task -> ``compare_task``'s
     result): ``{policy: {"win", "tie", "loss", "best", "n/a", "tasks_won"}}``."""
     out = {}
     for p in policies:
-        counts = {"win": 0, "tie": 0, "loss": 0, "best": 0, "n/a": 0, "tasks_won": []}
+        counts: dict[str, Any] = {"win": 0, "tie": 0, "loss": 0, "best": 0, "n/a": 0, "tasks_won": []}
         for name, task in tasks.items():
             stats = task["policies"].get(p)
             if stats is None or "skipped" in stats:
@@ -135,10 +157,12 @@ def summarize_task_set(tasks: dict, policies) -> dict:
 # ------------------------------------------------------------------------------------
 # the plan: every check before any work
 
+
 @dataclasses.dataclass
 class SetPlan:
     """One task set of a run: its columns, each task's config, and the policies that
     cannot drive a task (task -> {policy: the reason})."""
+
     task_set: object
     columns: list  # planners, floors, then the challengers
     configs: dict  # task name -> ScenarioConfig
@@ -150,6 +174,7 @@ class SetPlan:
 class BenchmarkPlan:
     """A checked run (``plan_benchmark``): the task sets, the challengers, the episodes
     per task and policy, the ``--set`` overrides and the output directory."""
+
     sets: list
     challengers: list
     episodes: int
@@ -160,13 +185,12 @@ class BenchmarkPlan:
     @property
     def seeds(self) -> list:
         """The episodes' seeds: ``TEST_SEEDS[i]`` for i < episodes."""
-        return list(TEST_SEEDS[:self.episodes])
+        return list(TEST_SEEDS[: self.episodes])
 
     @property
     def official(self) -> bool:
         """Whether this run is a benchmark result: every set's own episode count, no --set."""
-        return (not self.overrides and not self.partial
-                and all(self.episodes == s.task_set.episodes for s in self.sets))
+        return not self.overrides and not self.partial and all(self.episodes == s.task_set.episodes for s in self.sets)
 
     def total_episodes(self) -> int:
         """Episodes the run plays (tasks x policies that can drive them x episodes)."""
@@ -185,9 +209,17 @@ def _split(text) -> list:
     return [str(t).strip() for t in text if str(t).strip()]
 
 
-def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides: dict | None = None,
-                   out: str = "results/benchmark", overwrite: bool = False, trust_pickle: bool = False,
-                   check_out: bool = True, only_tasks=None) -> BenchmarkPlan:
+def plan_benchmark(
+    tasks: str | Sequence[str],
+    policies: str | Sequence[str] | None = None,
+    episodes: int | None = None,
+    overrides: dict | None = None,
+    out: str = "results/benchmark",
+    overwrite: bool = False,
+    trust_pickle: bool = False,
+    check_out: bool = True,
+    only_tasks: str | Sequence[str] | None = None,
+) -> BenchmarkPlan:
     """Check everything and build the plan; raises UsageError (one line). ``tasks``: task
     set names (a list or "a,b"; "all": every set); ``policies``: the challengers;
     ``episodes``: None: each set's own count (the same for every set); ``overrides``:
@@ -214,8 +246,9 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
         except KeyError:
             from coopnav_env.names import did_you_mean
 
-            raise UsageError(f"unknown task set {n!r}{did_you_mean(n, list(TASK_SETS) + ['all'])} valid: "
-                             f"{', '.join(TASK_SETS)}, all") from None
+            raise UsageError(
+                f"unknown task set {n!r}{did_you_mean(n, list(TASK_SETS) + ['all'])} valid: {', '.join(TASK_SETS)}, all"
+            ) from None
     only = _split(only_tasks)
     if only:
         from coopnav_env.names import did_you_mean
@@ -223,8 +256,10 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
         known = [t.name for s in sets for t in s.tasks]
         for t in only:
             if t not in known:
-                raise UsageError(f"unknown task {t!r} in {', '.join(names)}{did_you_mean(t, known)} valid: "
-                                 f"{', '.join(dict.fromkeys(known))}")
+                raise UsageError(
+                    f"unknown task {t!r} in {', '.join(names)}{did_you_mean(t, known)} valid: "
+                    f"{', '.join(dict.fromkeys(known))}"
+                )
         sets = [dataclasses.replace(s, tasks=tuple(t for t in s.tasks if t.name in only)) for s in sets]
         sets = [s for s in sets if s.tasks]
     challengers = _split(policies)
@@ -245,8 +280,9 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
         outdir.check_not_in_use(out)
         held = [f for f in RESULT_FILES if os.path.exists(os.path.join(out, f))]
         if held and not overwrite:
-            raise UsageError(f"{out!r} holds a benchmark result ({', '.join(held)}); use --overwrite to replace it "
-                             "or another --out")
+            raise UsageError(
+                f"{out!r} holds a benchmark result ({', '.join(held)}); use --overwrite to replace it or another --out"
+            )
         if outdir.has_results(out):
             raise UsageError(f"{out!r} holds an evaluate.py result; use another --out")
     try:
@@ -256,7 +292,7 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
     except ValueError as err:
         raise UsageError(_first_line(err)) from None
     seed = TEST_SEEDS[0]
-    plans, drivable = [], {p: 0 for p in challengers}
+    plans, drivable = [], dict.fromkeys(challengers, 0)
     for ts in sets:
         base = list(ts.planners) + list(ts.floors)
         columns = base + [p for p in challengers if p not in base]
@@ -274,9 +310,10 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
                 if isinstance(err, agents.PolicyFormatError):
                     raise UsageError(f"policy {p!r}: {_first_line(err)}") from None
                 unresolved[p] = _first_line(_unknown_policy(p, ts.scenario, err, list_policies()))
-            except Exception as err:  # noqa: BLE001 - any failure to find it
+            except Exception as err:  # any failure to find it
                 unresolved[p] = _first_line(_unknown_policy(p, ts.scenario, err, list_policies()))
-        configs, cannot = {}, {}
+        configs: dict = {}
+        cannot: dict = {}
         for task in ts.tasks:
             try:
                 configs[task.name] = config = task.config(ts.scenario, **overrides)
@@ -291,10 +328,11 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
                     check_policy(p, config, seed)
                 except KeyboardInterrupt:
                     raise
-                except Exception as err:  # noqa: BLE001 - a policy that cannot act here
+                except Exception as err:  # a policy that cannot act here
                     if p not in challengers:
-                        raise UsageError(f"planner {p!r} cannot drive task {ts.name}/{task.name}: "
-                                         f"{_first_line(err)}") from None
+                        raise UsageError(
+                            f"planner {p!r} cannot drive task {ts.name}/{task.name}: {_first_line(err)}"
+                        ) from None
                     cannot[task.name][p] = _first_line(err)
                     continue
                 if p in drivable:
@@ -309,6 +347,7 @@ def plan_benchmark(tasks, policies=None, episodes: int | None = None, overrides:
 
 # ------------------------------------------------------------------------------------
 # running
+
 
 def _progress_bar(total: int, show: bool | None):
     """A bar on a terminal (advancing with every step of every episode), one line per task
@@ -326,12 +365,14 @@ def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
     from .episodes import run_episodes
 
     bar = _progress_bar(plan.total_episodes(), progress)
-    raw = {}
+    raw: dict = {}
     try:
         for sp in plan.sets:
-            raw[sp.task_set.name] = per_set = {}
+            per_set: dict = {}
+            raw[sp.task_set.name] = per_set
             for task, config in sp.configs.items():
-                per_set[task] = per_task = {}
+                per_task: dict[str, Any] = {}
+                per_set[task] = per_task
                 for p in sp.columns:
                     if p in sp.cannot[task]:
                         per_task[p] = None
@@ -339,8 +380,10 @@ def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
                     if bar is not None:
                         bar.stage(f"{sp.task_set.name}/{task} {p}")
                     rows, _ = run_episodes(config, p, plan.seeds, progress=None if bar is None else bar.update)
-                    per_task[p] = {"mean_error_m": [r["mean_error_m"] for r in rows],
-                                   "ranges_fused": [r["ranges_fused"] for r in rows]}
+                    per_task[p] = {
+                        "mean_error_m": [r["mean_error_m"] for r in rows],
+                        "ranges_fused": [r["ranges_fused"] for r in rows],
+                    }
     finally:
         if bar is not None:
             bar.close()
@@ -361,9 +404,16 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
             result = compare_task(errors, ts.planners, ranges_fused=ranges, skipped=sp.cannot[task.name])
             tasks[task.name] = {"overrides": plain(dict(task.overrides)), "about": task.about, **result}
         sets[ts.name] = {
-            "scenario": ts.scenario, "about": ts.about, "episodes": plan.episodes, "benchmark_episodes": ts.episodes,
-            "planners": list(ts.planners), "floors": list(ts.floors), "challengers": list(plan.challengers),
-            "columns": list(sp.columns), "trained_policies": sp.trained, "tasks": tasks,
+            "scenario": ts.scenario,
+            "about": ts.about,
+            "episodes": plan.episodes,
+            "benchmark_episodes": ts.episodes,
+            "planners": list(ts.planners),
+            "floors": list(ts.floors),
+            "challengers": list(plan.challengers),
+            "columns": list(sp.columns),
+            "trained_policies": sp.trained,
+            "tasks": tasks,
             "summary": summarize_task_set(tasks, sp.columns),
         }
     return {
@@ -394,6 +444,7 @@ def _not_official(plan: BenchmarkPlan) -> list:
 
 # ------------------------------------------------------------------------------------
 # results.md
+
 
 def _cells(task: dict, cols: list, cell) -> list:
     """One table row's cells: ``cell(policy, stats, task)`` for each policy, "n/a" where skipped."""
@@ -430,49 +481,81 @@ def render_markdown(results: dict) -> str:
     lines = [f"# coopnav benchmark v{results['benchmark_version']}", ""]
     if not results["official"]:
         lines += [f"**Not a benchmark result**: {'; '.join(results['not_official_because'])}.", ""]
-    lines += [f"Commit {commit}, coopnav {v.get('coopnav', '?')}; {results['episodes']} episodes per task and "
-              f"policy on the test seeds {results['seeds']['first']} + i (i < {results['episodes']}), the same "
-              "for every policy.", ""]
+    lines += [
+        f"Commit {commit}, coopnav {v.get('coopnav', '?')}; {results['episodes']} episodes per task and "
+        f"policy on the test seeds {results['seeds']['first']} + i (i < {results['episodes']}), the same "
+        "for every policy.",
+        "",
+    ]
     if results.get("command"):
         lines += [f"Command: `{results['command']}`", ""]
     for name, s in results["task_sets"].items():
         cols = s["columns"]
-        lines += [f"## {name} ({s['scenario']})", "", s["about"] + ".", "",
-                  f"Planners: {', '.join(s['planners'])}; floors: {', '.join(s['floors'])}; challengers: "
-                  f"{', '.join(s['challengers']) or 'none'}.", ""]
+        lines += [
+            f"## {name} ({s['scenario']})",
+            "",
+            s["about"] + ".",
+            "",
+            f"Planners: {', '.join(s['planners'])}; floors: {', '.join(s['floors'])}; challengers: "
+            f"{', '.join(s['challengers']) or 'none'}.",
+            "",
+        ]
         trained = {p: t for p, t in s["trained_policies"].items() if t}
         for p, t in trained.items():
             lines.append(f"- `{p}`: {t.get('shipped') or 'run directory'}, model `{t['model']}`")
         if trained:
             lines.append("")
-        lines += ["### Mean survey error (m), 95 % t interval", "",
-                  "Mean over episodes of each episode's mean error; **bold**: the task's best planner.", "",
-                  "| task | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
+        lines += [
+            "### Mean survey error (m), 95 % t interval",
+            "",
+            "Mean over episodes of each episode's mean error; **bold**: the task's best planner.",
+            "",
+            "| task | " + " | ".join(cols) + " |",
+            "|---|" + "---|" * len(cols),
+        ]
         for task, t in s["tasks"].items():
             lines.append(f"| {task} | " + " | ".join(_cells(t, cols, _mean_cell)) + " |")
-        lines += ["", "### Paired difference to the best planner (m), 95 % t interval", "",
-                  "Per episode, policy minus the task's best planner on the same seed; negative: lower error. "
-                  "win: the interval lies below 0; loss: above 0; tie: it holds 0.", "",
-                  "| task | best planner | " + " | ".join(cols) + " | wins |",
-                  "|---|---|" + "---|" * len(cols) + "---|"]
+        lines += [
+            "",
+            "### Paired difference to the best planner (m), 95 % t interval",
+            "",
+            "Per episode, policy minus the task's best planner on the same seed; negative: lower error. "
+            "win: the interval lies below 0; loss: above 0; tie: it holds 0.",
+            "",
+            "| task | best planner | " + " | ".join(cols) + " | wins |",
+            "|---|---|" + "---|" * len(cols) + "---|",
+        ]
         for task, t in s["tasks"].items():
             cells = _cells(t, cols, _paired_cell)
             wins = ", ".join(t["wins"]) or "-"
             lines.append(f"| {task} | {t['best_planner']} | " + " | ".join(cells) + f" | {wins} |")
-        lines += ["", "### Ranges fused per episode (pings used)", "",
-                  "| task | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
+        lines += [
+            "",
+            "### Ranges fused per episode (pings used)",
+            "",
+            "| task | " + " | ".join(cols) + " |",
+            "|---|" + "---|" * len(cols),
+        ]
         for task, t in s["tasks"].items():
             cells = [_ranges(t["policies"][p]) for p in cols]
             lines.append(f"| {task} | " + " | ".join(cells) + " |")
         n = len(s["tasks"])
-        lines += ["", f"### Wins over {n} tasks", "",
-                  "| policy | wins | ties | losses | best planner | n/a | tasks won |", "|---|---|---|---|---|---|---|"]
+        lines += [
+            "",
+            f"### Wins over {n} tasks",
+            "",
+            "| policy | wins | ties | losses | best planner | n/a | tasks won |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for p in cols:
             c = s["summary"][p]
-            lines.append(f"| {p} | {c['win']} | {c['tie']} | {c['loss']} | {c['best']} | {c['n/a']} | "
-                         f"{', '.join(c['tasks_won']) or '-'} |")
-        skipped = sorted({(p, st["skipped"]) for t in s["tasks"].values() for p, st in t["policies"].items()
-                          if "skipped" in st})
+            lines.append(
+                f"| {p} | {c['win']} | {c['tie']} | {c['loss']} | {c['best']} | {c['n/a']} | "
+                f"{', '.join(c['tasks_won']) or '-'} |"
+            )
+        skipped = sorted(
+            {(p, st["skipped"]) for t in s["tasks"].values() for p, st in t["policies"].items() if "skipped" in st}
+        )
         if skipped:
             lines += ["", "n/a: " + "; ".join(f"`{p}`: {why}" for p, why in skipped)]
         lines.append("")
@@ -500,54 +583,83 @@ def write_results(out: str, results: dict, figures: bool = True) -> list:
 # ------------------------------------------------------------------------------------
 # the command line
 
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
         raise UsageError(message)
 
 
 def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
-    p = _Parser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter,
-                description="Run policies on the benchmark's task sets (fixed test seeds, never trained on) "
-                            "against the planners, and write results.json and results.md to OUT.",
-                epilog="task sets: " + ", ".join(f"{n} ({s.scenario}, {len(s.tasks)} tasks)"
-                                                 for n, s in TASK_SETS.items())
-                       + "\nexample:\n  %(prog)s --tasks sousa_grid --policies ppo --out results/bench")
-    p.add_argument("--tasks", default=None, help="comma-separated task sets, or all (default with --task: the "
-                                                 "sets that hold it)")
-    p.add_argument("--task", default=None, metavar="NAME",
-                   help="run only this task (comma-separated names; --list shows them): a quick look, not a "
-                        "benchmark result")
-    p.add_argument("--policies", default=None,
-                   help="challengers, comma-separated: ppo, a shipped policy, a train.py run directory, or planners "
-                        "(the task sets' planners and floors always run)")
-    p.add_argument("--episodes", type=int, default=None,
-                   help="episodes per task and policy (default: the task set's, 50); another count is a quick "
-                        "look, not a benchmark result")
-    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
-                   help="set a scenario parameter on every task (a quick look, not a benchmark result)")
+    p = _Parser(
+        prog=prog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Run policies on the benchmark's task sets (fixed test seeds, never trained on) "
+        "against the planners, and write results.json and results.md to OUT.",
+        epilog="task sets: "
+        + ", ".join(f"{n} ({s.scenario}, {len(s.tasks)} tasks)" for n, s in TASK_SETS.items())
+        + "\nexample:\n  %(prog)s --tasks sousa_grid --policies ppo --out results/bench",
+    )
+    p.add_argument(
+        "--tasks", default=None, help="comma-separated task sets, or all (default with --task: the sets that hold it)"
+    )
+    p.add_argument(
+        "--task",
+        default=None,
+        metavar="NAME",
+        help="run only this task (comma-separated names; --list shows them): a quick look, not a benchmark result",
+    )
+    p.add_argument(
+        "--policies",
+        default=None,
+        help="challengers, comma-separated: ppo, a shipped policy, a train.py run directory, or planners "
+        "(the task sets' planners and floors always run)",
+    )
+    p.add_argument(
+        "--episodes",
+        type=int,
+        default=None,
+        help="episodes per task and policy (default: the task set's, 50); another count is a quick "
+        "look, not a benchmark result",
+    )
+    p.add_argument(
+        "--set",
+        dest="sets",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="set a scenario parameter on every task (a quick look, not a benchmark result)",
+    )
     p.add_argument("--out", default="results/benchmark", help="output directory (default: results/benchmark)")
     p.add_argument("--overwrite", action="store_true", help="replace a benchmark result already in OUT")
     p.add_argument("--list", action="store_true", help="list the task sets and their tasks, and exit")
-    p.add_argument("--no-progress", action="store_true",
-                   help="no progress (default: a bar on a terminal, a line per task and policy elsewhere)")
+    p.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress (default: a bar on a terminal, a line per task and policy elsewhere)",
+    )
     p.add_argument("--no-figures", action="store_true", help="write no benchmark_<set>.png")
-    p.add_argument("--trust-pickle", action="store_true",
-                   help="accept trained policies in pickle-based formats (only files you trust)")
+    p.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="accept trained policies in pickle-based formats (only files you trust)",
+    )
     return p
 
 
 def list_text() -> str:
     lines = []
     for n, s in TASK_SETS.items():
-        lines.append(f"{n}: scenario {s.scenario}, {s.episodes} episodes per task; planners "
-                     f"{', '.join(s.planners)}; floors {', '.join(s.floors)}")
+        lines.append(
+            f"{n}: scenario {s.scenario}, {s.episodes} episodes per task; planners "
+            f"{', '.join(s.planners)}; floors {', '.join(s.floors)}"
+        )
         for t in s.tasks:
             ov = ", ".join(f"{k}={v}" for k, v in t.overrides.items()) or "as configured"
             lines.append(f"  {t.name}: {ov}")
     return "\n".join(lines)
 
 
-def main(argv=None, prog: str | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """The command line; returns the exit status (0; 2 bad input; 1 a result that cannot be
     written; 130 interrupted)."""
     prog = prog or "coopnav-benchmark"
@@ -584,10 +696,19 @@ def _main(argv: list, prog: str) -> int:
         sets = dict(parse_assignment(item, "--set") for item in args.sets)
         from coopnav_env.progress import announce_after
 
-        with announce_after("checking the task sets and the policies (the first run also compiles the "
-                            "simulator, about a minute)", 2.0):
-            plan = plan_benchmark(args.tasks, args.policies, args.episodes, sets, args.out, args.overwrite,
-                                  args.trust_pickle, only_tasks=args.task)
+        with announce_after(
+            "checking the task sets and the policies (the first run also compiles the simulator, about a minute)", 2.0
+        ):
+            plan = plan_benchmark(
+                args.tasks,
+                args.policies,
+                args.episodes,
+                sets,
+                args.out,
+                args.overwrite,
+                args.trust_pickle,
+                only_tasks=args.task,
+            )
         command = " ".join([prog, shlex.join(argv)]).strip()
         with outdir.OutputLock(args.out, command):
             raw = run_benchmark(plan, progress=False if args.no_progress else None)

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import hashlib
 import os
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from coopnav_env.records import atomic_write_text, strict_json
 
@@ -26,11 +28,11 @@ MAX_BYTES = 2 << 30  # about 100 bytes per episode: evaluation.limits.MAX_TOTAL_
 __all__ = ["FILE", "digest", "key", "read", "verify", "write"]
 
 
-def key(r) -> str:
+def key(r: Mapping[str, Any]) -> str:
     return f"{r['cell']}|{r['policy']}|{r['seed']}"
 
 
-def digest(ep_row: dict, step_rows: list, ep_columns) -> str:
+def digest(ep_row: dict, step_rows: list, ep_columns: Sequence[str]) -> str:
     """SHA-256 of one episode's rows as the CSV files hold them."""
     from .report import STEP_COLUMNS, csv_text
 
@@ -57,15 +59,19 @@ def read(out: str) -> dict | None:
     return {str(k): v for k, v in rec["episodes"].items() if isinstance(v, str)}
 
 
-def verify(out: str, kept: list, ep_columns) -> tuple:
+def verify(out: str, kept: list, ep_columns: Sequence[str]) -> tuple:
     """``kept``: [(episode row, its step rows)] that passed the format checks. Returns
     (the verified ones, notes); a ``UsageError`` if one does not match its checksum."""
     recorded = read(out)
     if not kept:
         return [], []
     if recorded is None:
-        return [], [(f"{FILE} is missing or unreadable in {out!r}: the {len(kept)} episode(s) there cannot be "
-                     "verified and are run again")]
+        return [], [
+            (
+                f"{FILE} is missing or unreadable in {out!r}: the {len(kept)} episode(s) there cannot be "
+                "verified and are run again"
+            )
+        ]
     good, unknown = [], 0
     for ep, steps in kept:
         want = recorded.get(key(ep))
@@ -74,9 +80,11 @@ def verify(out: str, kept: list, ep_columns) -> tuple:
             continue
         if digest(ep, steps, ep_columns) != want:
             cell = f" in cell {ep['cell']}" if ep["cell"] else ""
-            raise UsageError(f"cannot resume: episode {ep['episode']} (seed {ep['seed']}) of policy {ep['policy']!r}"
-                             f"{cell} in {out!r} does not match its checksum in {FILE} (episodes.csv or steps.csv "
-                             "changed after it was written); use --overwrite to run it again, or another --out")
+            raise UsageError(
+                f"cannot resume: episode {ep['episode']} (seed {ep['seed']}) of policy {ep['policy']!r}"
+                f"{cell} in {out!r} does not match its checksum in {FILE} (episodes.csv or steps.csv "
+                "changed after it was written); use --overwrite to run it again, or another --out"
+            )
         good.append((ep, steps))
     notes = [f"{unknown} episode(s) have no checksum in {FILE}: they are run again"] if unknown else []
     return good, notes

@@ -15,6 +15,8 @@ import argparse
 import shlex
 import signal
 import sys
+from collections.abc import Sequence
+from typing import Any
 
 from .config import EvalConfig, UsageError, parse_assignment, split_top_level
 
@@ -53,63 +55,104 @@ def _choices_text() -> str:
     from baselines import list_policies
 
     shipped = ", ".join(agents.list_policies()) or "none shipped"
-    return (f"scenarios: {', '.join(coopnav_env.list_scenarios())}\n"
-            f"policies: planners {', '.join(list_policies())};\n"
-            f"  ppo (the scenario's shipped PPO policy); a shipped policy ({shipped});\n"
-            "  or a train.py run directory\n")
+    return (
+        f"scenarios: {', '.join(coopnav_env.list_scenarios())}\n"
+        f"policies: planners {', '.join(list_policies())};\n"
+        f"  ppo (the scenario's shipped PPO policy); a shipped policy ({shipped});\n"
+        "  or a train.py run directory\n"
+    )
 
 
 def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     """The argument parser (its ``error`` raises UsageError instead of exiting)."""
-    p = _Parser(prog=prog, formatter_class=_Formatter,
-                description="Evaluate coopnav policies on seeded episodes with common random numbers: episode i "
-                            "of every policy (and sweep cell) uses seed SEED + i.\nWrites episodes.csv, "
-                            "steps.csv, run.json, summary.json, summary.md and PNG figures to OUT.")
+    p = _Parser(
+        prog=prog,
+        formatter_class=_Formatter,
+        description="Evaluate coopnav policies on seeded episodes with common random numbers: episode i "
+        "of every policy (and sweep cell) uses seed SEED + i.\nWrites episodes.csv, "
+        "steps.csv, run.json, summary.json, summary.md and PNG figures to OUT.",
+    )
     p.add_argument("--scenario", default=_DEFAULTS.scenario, help="scenario name (listed below)")
-    p.add_argument("--policies", default=None,
-                   help="comma-separated policy names (listed below); default: every planner that can drive "
-                        "the scenario's network")
-    p.add_argument("--episodes", type=int, default=None,
-                   help=f"episodes per policy (and per sweep cell); default {_DEFAULTS.episodes}, with --resume "
-                        "the run's")
+    p.add_argument(
+        "--policies",
+        default=None,
+        help="comma-separated policy names (listed below); default: every planner that can drive "
+        "the scenario's network",
+    )
+    p.add_argument(
+        "--episodes",
+        type=int,
+        default=None,
+        help=f"episodes per policy (and per sweep cell); default {_DEFAULTS.episodes}, with --resume the run's",
+    )
     p.add_argument("--seed", type=int, default=_DEFAULTS.seed, help="episode i uses seed SEED + i")
-    p.add_argument("--out", default=_DEFAULTS.out,
-                   help="output directory (created; one run at a time; an earlier result there needs --resume "
-                        "or --overwrite)")
-    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
-                   help="set a scenario parameter for the whole run (repeatable)")
-    p.add_argument("--sweep", dest="sweeps", action="append", default=[], metavar="KEY=V1,V2,...",
-                   help="run the grid of these values (repeatable; the first key makes the table rows)")
-    p.add_argument("--resume", action="store_true",
-                   help="keep the complete episodes already in OUT (same --scenario, --seed, --set and --sweep) and "
-                        "run the missing ones; the run covers OUT's policies plus --policies, and the larger "
-                        "--episodes")
+    p.add_argument(
+        "--out",
+        default=_DEFAULTS.out,
+        help="output directory (created; one run at a time; an earlier result there needs --resume or --overwrite)",
+    )
+    p.add_argument(
+        "--set",
+        dest="sets",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="set a scenario parameter for the whole run (repeatable)",
+    )
+    p.add_argument(
+        "--sweep",
+        dest="sweeps",
+        action="append",
+        default=[],
+        metavar="KEY=V1,V2,...",
+        help="run the grid of these values (repeatable; the first key makes the table rows)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the complete episodes already in OUT (same --scenario, --seed, --set and --sweep) and "
+        "run the missing ones; the run covers OUT's policies plus --policies, and the larger "
+        "--episodes",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace the result already in OUT")
     p.add_argument("--batch-size", type=int, default=_DEFAULTS.batch_size, help="episodes simulated together")
     p.add_argument("--no-figures", action="store_true", help="write no PNG files")
-    p.add_argument("--trust-pickle", action="store_true",
-                   help="accept trained policies in pickle-based formats (an old SB3 .zip/.pkl run, an RLlib "
-                        "checkpoint), which can run code when loaded; only for files you trust (or convert them "
-                        "once: python -m agents.convert SRC --out NEW_DIR --trust-pickle)")
+    p.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="accept trained policies in pickle-based formats (an old SB3 .zip/.pkl run, an RLlib "
+        "checkpoint), which can run code when loaded; only for files you trust (or convert them "
+        "once: python -m agents.convert SRC --out NEW_DIR --trust-pickle)",
+    )
     return p
 
 
-def config_from_args(args) -> EvalConfig:
+def config_from_args(args: argparse.Namespace) -> EvalConfig:
     """The ``EvalConfig`` of parsed arguments; raises UsageError."""
     sets = dict(parse_assignment(item, "--set") for item in args.sets)
-    sweep = {}
+    sweep: dict[str, Any] = {}
     for item in args.sweeps:
         key, value = parse_assignment(item, "--sweep")
         if key in sweep:
             raise UsageError(f"--sweep {key} given twice")
         sweep[key] = split_top_level(value)
-    return EvalConfig(scenario=args.scenario, policies=args.policies, episodes=args.episodes, seed=args.seed,
-                      out=args.out, overrides=sets, sweep=sweep, resume=args.resume, overwrite=args.overwrite,
-                      batch_size=args.batch_size,
-                      figures=not args.no_figures, trust_pickle=args.trust_pickle)
+    return EvalConfig(
+        scenario=args.scenario,
+        policies=args.policies,
+        episodes=args.episodes,
+        seed=args.seed,
+        out=args.out,
+        overrides=sets,
+        sweep=sweep,
+        resume=args.resume,
+        overwrite=args.overwrite,
+        batch_size=args.batch_size,
+        figures=not args.no_figures,
+        trust_pickle=args.trust_pickle,
+    )
 
 
-def resume_command(argv, prog: str) -> str:
+def resume_command(argv: Sequence[str], prog: str) -> str:
     """The command that resumes the run of ``argv``: the same arguments, without
     --overwrite, with --resume."""
     args = [a for a in argv if not (len(a) > 4 and a.startswith("--ov") and "--overwrite".startswith(a))]
@@ -123,7 +166,7 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt(f"signal {signum}")
 
 
-def main(argv=None, prog: str | None = None) -> int:
+def main(argv: Sequence[str] | None = None, prog: str | None = None) -> int:
     """Run the command line; returns the exit status (0; 2 bad input; 1 a result that
     cannot be summarized; 130 interrupted)."""
     from .run import EvaluationError, EvaluationInterrupted, evaluate

@@ -20,15 +20,17 @@ import difflib
 import inspect
 import numbers
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any
 
 from coopnav_env.records import plain
 from coopnav_env.seeds import EVALUATE_SEED, MAX_SEED, check_seed
 
 from .errors import UsageError  # defined there (every module raises it), used and re-exported here
 
-
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 
 def _check_field_names(cls):
@@ -39,13 +41,15 @@ def _check_field_names(cls):
     def __init__(self, *args, **kwargs):
         unknown = [k for k in kwargs if k not in names]
         if unknown:
-            hints = ", ".join(repr(k) + "".join(f" (did you mean {c!r}?)"
-                                                for c in difflib.get_close_matches(k, names, n=1)) for k in unknown)
+            hints = ", ".join(
+                repr(k) + "".join(f" (did you mean {c!r}?)" for c in difflib.get_close_matches(k, names, n=1))
+                for k in unknown
+            )
             raise TypeError(f"unknown {cls.__name__} field(s) {hints}; valid fields: {', '.join(names)}")
         init(self, *args, **kwargs)
 
     __init__.__doc__ = init.__doc__
-    __init__.__signature__ = inspect.signature(init)
+    __init__.__signature__ = inspect.signature(init)  # type: ignore[attr-defined]  # read by inspect.signature
     cls.__init__ = __init__
     return cls
 
@@ -105,8 +109,11 @@ class EvalConfig:
             object.__setattr__(self, "policies", tuple(str(p) for p in policies))
         object.__setattr__(self, "out", os.fspath(self.out))
         object.__setattr__(self, "overrides", dict(self.overrides))
-        object.__setattr__(self, "sweep", {k: tuple(split_top_level(v) if isinstance(v, str) else v)
-                                           for k, v in dict(self.sweep).items()})
+        object.__setattr__(
+            self,
+            "sweep",
+            {k: tuple(split_top_level(v) if isinstance(v, str) else v) for k, v in dict(self.sweep).items()},
+        )
         from .limits import MAX_CELLS
 
         n_cells = 1
@@ -121,22 +128,23 @@ class EvalConfig:
             if isinstance(value, bool) or not isinstance(value, numbers.Integral):
                 raise UsageError(f"{name} (--{name.replace('_', '-')}) must be an integer, got {value!r}")
             object.__setattr__(self, name, int(value))
-            if value < 1:
+            if int(value) < 1:
                 raise UsageError(f"--{name.replace('_', '-')} must be >= 1, got {value}")
             from .limits import MAX_BATCH_SIZE, MAX_EPISODES
 
             high = MAX_EPISODES if name == "episodes" else MAX_BATCH_SIZE
-            if value > high:  # bounded work, before anything runs
+            if int(value) > high:  # bounded work, before anything runs
                 raise UsageError(f"--{name.replace('_', '-')} must be <= {high}, got {value}")
         try:  # the seed range every tool shares
             object.__setattr__(self, "seed", check_seed(self.seed, "--seed"))
         except ValueError as err:
             raise UsageError(str(err)) from None
         if self.resume and self.overwrite:
-            raise UsageError("--resume keeps the episodes in the output directory, --overwrite replaces them: "
-                             "give one of them")
+            raise UsageError(
+                "--resume keeps the episodes in the output directory, --overwrite replaces them: give one of them"
+            )
 
-    def replace(self, **changes) -> "EvalConfig":
+    def replace(self, **changes: Any) -> EvalConfig:
         """A copy with ``changes`` (unknown names are an error)."""
         return dataclasses.replace(self, **changes)
 
@@ -144,9 +152,12 @@ class EvalConfig:
 # ------------------------------------------------------------------------------------
 # scenario parameters: text or typed values -> the parameter's type
 
+
 def split_top_level(text: str) -> list:
     """Split on commas that are not inside brackets: '1,(2,3)' -> ['1', '(2,3)']."""
-    out, depth, cur = [], 0, []
+    out: list[str] = []
+    cur: list[str] = []
+    depth = 0
     for ch in text:
         if ch in "([{":
             depth += 1
@@ -171,7 +182,7 @@ def _default(key: str):
     return default_of(key)
 
 
-def parse_value(key: str, text: str):
+def parse_value(key: str, text: str) -> Any:
     """Parse ``text`` as the type of scenario parameter ``key``."""
     default = _default(key)
     text = text.strip()
@@ -204,20 +215,20 @@ def _parse(key: str, text: str, default):
                     raise ValueError
                 return names
             try:
-                v = ast.literal_eval(text)
+                literal = ast.literal_eval(text)
             except (ValueError, SyntaxError):
                 if default or not all(names):  # numbers expected
                     raise
                 return names  # randomize_survey_path=lawnmower,spiral
-            if not isinstance(v, (list, tuple)):
-                v = (v,)
-            return _to_tuple(v)
+            if not isinstance(literal, (list, tuple)):
+                literal = (literal,)
+            return _to_tuple(literal)
         return text
     except (ValueError, SyntaxError):
         raise UsageError(f"bad value {text!r} for {key} (a {type(default).__name__})") from None
 
 
-def coerce_value(key: str, value):
+def coerce_value(key: str, value: Any) -> Any:
     """A parameter value as the command line would give it: text is parsed
     (``parse_value``), numbers take the parameter's type (1 -> 1.0 for a float
     parameter, so cells and tables read the same), lists become tuples."""
@@ -234,7 +245,7 @@ def coerce_value(key: str, value):
     return _to_tuple(value)
 
 
-def parse_assignment(item: str, option: str):
+def parse_assignment(item: str, option: str) -> tuple[str, Any]:
     """``"KEY=VALUE"`` -> (key, value text)."""
     if "=" not in item:
         raise UsageError(f"{option} expects KEY=VALUE, got {item!r}")
@@ -247,11 +258,11 @@ def cell_id(cell: dict) -> str:
     return ";".join(f"{k}={v}" for k, v in cell.items())
 
 
-def sweep_layout(sweep: dict):
+def sweep_layout(sweep: dict) -> tuple[str, list, list]:
     """The table layout of a sweep: (row key, its values, the column cells: dicts of the
     other keys' values, in grid order)."""
     keys = list(sweep)
-    col_cells = [{}]
+    col_cells: list[dict] = [{}]
     for k in keys[1:]:
         col_cells = [dict(c, **{k: v}) for c in col_cells for v in sweep[k]]
     return keys[0], list(sweep[keys[0]]), col_cells
@@ -259,6 +270,7 @@ def sweep_layout(sweep: dict):
 
 # ------------------------------------------------------------------------------------
 # the plan: every check before any work
+
 
 @dataclass
 class Plan:
@@ -282,7 +294,7 @@ class Plan:
         """The episodes' seeds: seed + i."""
         return [self.config.seed + i for i in range(self.episodes)]
 
-    def first_config(self):
+    def first_config(self) -> ScenarioConfig:
         """The scenario config of the first cell (the figures' episode)."""
         return self.configs[cell_id(self.cells[0])]
 
@@ -312,8 +324,12 @@ def resolve_trained(name: str, scenario: str, trust_pickle: bool = False) -> dic
         pass
     if shipped is not None and (shipped.startswith("..") or shipped not in agents.list_policies()):
         shipped = None
-    return {"shipped": shipped, "model": _relative(model), "vecnormalize": None if stats is None else _relative(stats),
-            "config": None if config is None else _relative(config)}
+    return {
+        "shipped": shipped,
+        "model": _relative(model),
+        "vecnormalize": None if stats is None else _relative(stats),
+        "config": None if config is None else _relative(config),
+    }
 
 
 def _check_output(out: str):
@@ -335,7 +351,7 @@ def _ppo_scenarios() -> list:
     for name in coopnav_env.list_scenarios():
         try:
             agents.resolve("ppo", name)
-        except Exception:  # noqa: BLE001 - no shipped policy for it
+        except Exception:  # no shipped policy for it
             continue
         out.append(name)
     return out
@@ -345,21 +361,25 @@ def _unknown_policy(p: str, scenario: str, err: Exception, valid: list) -> Usage
     import agents
 
     if p == "ppo":
-        return UsageError(f"scenario {scenario!r} has no shipped policy, so 'ppo' names nothing; scenarios with "
-                          f"one: {', '.join(_ppo_scenarios()) or 'none'} (or give a train.py run directory)")
+        return UsageError(
+            f"scenario {scenario!r} has no shipped policy, so 'ppo' names nothing; scenarios with "
+            f"one: {', '.join(_ppo_scenarios()) or 'none'} (or give a train.py run directory)"
+        )
     from coopnav_env.names import did_you_mean
 
     first = (str(err).strip().splitlines() or [type(err).__name__])[0]
     hint = did_you_mean(p, list(valid) + ["ppo"] + list(agents.list_policies()))
-    return UsageError(f"unknown policy {p!r} ({first}){hint} valid: {', '.join(valid)}, ppo, a shipped policy "
-                      f"({', '.join(agents.list_policies()) or 'none shipped'}) or a train.py run directory")
+    return UsageError(
+        f"unknown policy {p!r} ({first}){hint} valid: {', '.join(valid)}, ppo, a shipped policy "
+        f"({', '.join(agents.list_policies()) or 'none shipped'}) or a train.py run directory"
+    )
 
 
 def _first_line(err: BaseException) -> str:
     return (str(err).strip().splitlines() or [type(err).__name__])[0]
 
 
-def check_policies(plan: "Plan") -> None:
+def check_policies(plan: Plan) -> None:
     """Check that every policy of ``plan`` loads and drives every cell's scenario: one
     observation of the first episode per beacon, each answered by a finite (2,) action.
     Raises UsageError naming the policy (and the model, for a trained one)."""
@@ -379,14 +399,14 @@ def check_policies(plan: "Plan") -> None:
                 check_policy(p, scenario_config, plan.config.seed)
             except KeyboardInterrupt:
                 raise
-            except Exception as err:  # noqa: BLE001 - a policy that cannot act here is bad input
+            except Exception as err:  # a policy that cannot act here is bad input
                 if p in plan.trained:
                     model = plan.trained[p]["model"]
                     raise UsageError(f"policy {p!r} (model {model}) cannot drive {where}: {_first_line(err)}") from None
                 raise UsageError(f"policy {p!r} cannot drive {where}: {_first_line(err)}") from None
 
 
-def _out_of_range(scenario: str, overrides: dict, sweep: dict, err: Exception) -> str:
+def _out_of_range(scenario: str, overrides: Mapping, sweep: Mapping, err: Exception) -> str:
     """One line naming the --set/--sweep parameter whose value the scenario cannot take."""
     import coopnav_env
 
@@ -396,7 +416,9 @@ def _out_of_range(scenario: str, overrides: dict, sweep: dict, err: Exception) -
                 coopnav_env.make_config(scenario, **{key: coerce_value(key, v)})
             except (ArithmeticError, TypeError, ValueError):
                 return f"bad value for {key}: {str(v)[:40]!r} is out of range ({type(err).__name__})"
-    return f"a --set/--sweep value is out of range ({type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''})"
+    return (
+        f"a --set/--sweep value is out of range ({type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''})"
+    )
 
 
 def prepare(config: EvalConfig) -> Plan:
@@ -414,8 +436,10 @@ def prepare(config: EvalConfig) -> Plan:
     if config.scenario not in scenarios:
         from coopnav_env.names import did_you_mean
 
-        raise UsageError(f"unknown scenario {config.scenario!r}{did_you_mean(config.scenario, scenarios)} "
-                         f"valid scenarios: {', '.join(scenarios)}")
+        raise UsageError(
+            f"unknown scenario {config.scenario!r}{did_you_mean(config.scenario, scenarios)} "
+            f"valid scenarios: {', '.join(scenarios)}"
+        )
     _check_output(config.out)
     outdir.check_not_in_use(config.out)
     out_state = outdir.snapshot(config.out)
@@ -441,17 +465,21 @@ def prepare(config: EvalConfig) -> Plan:
     if len(policies) > limits.MAX_POLICIES:
         raise UsageError(f"{len(policies)} policies, more than {limits.MAX_POLICIES}: refused")
     n_cells = 1
-    for key, raw in config.sweep.items():
+    for raw in config.sweep.values():
         n_cells *= max(len(raw), 1)
         if n_cells > limits.MAX_CELLS:
             raise UsageError(f"the --sweep grid has more than {limits.MAX_CELLS} cells: refused")
     if n_cells * len(policies) * episodes > limits.MAX_TOTAL_EPISODES:
-        raise UsageError(f"{n_cells} cell(s) x {len(policies)} policies x {episodes} episodes is more than "
-                         f"{limits.MAX_TOTAL_EPISODES} episodes: refused")
+        raise UsageError(
+            f"{n_cells} cell(s) x {len(policies)} policies x {episodes} episodes is more than "
+            f"{limits.MAX_TOTAL_EPISODES} episodes: refused"
+        )
     last_seed = config.seed + episodes - 1
     if last_seed > MAX_SEED:
-        raise UsageError(f"--seed {config.seed} with {episodes} episodes reaches seed {last_seed}, above the largest "
-                         f"valid seed {MAX_SEED} (coopnav_env.seeds.MAX_SEED)")
+        raise UsageError(
+            f"--seed {config.seed} with {episodes} episodes reaches seed {last_seed}, above the largest "
+            f"valid seed {MAX_SEED} (coopnav_env.seeds.MAX_SEED)"
+        )
     valid = list_policies()
     trained = {}
     for p in policies:
@@ -464,7 +492,7 @@ def prepare(config: EvalConfig) -> Plan:
                 if not isinstance(err, agents.PolicyFormatError):
                     raise _unknown_policy(p, config.scenario, err, valid) from None
                 raise UsageError(f"policy {p!r}: {_first_line(err)}") from None
-            except Exception as err:  # noqa: BLE001 - any failure to find it is a usage error
+            except Exception as err:  # any failure to find it is a usage error
                 raise _unknown_policy(p, config.scenario, err, valid) from None
     try:
         overrides = {k: coerce_value(k, v) for k, v in config.overrides.items()}
@@ -478,7 +506,7 @@ def prepare(config: EvalConfig) -> Plan:
             if len(set(map(repr, values))) != len(values):
                 raise UsageError(f"--sweep {key} repeats a value")
             sweep[key] = values
-        cells = [{}]
+        cells: list[dict] = [{}]
         for key, values in sweep.items():
             cells = [dict(c, **{key: v}) for c in cells for v in values]
         configs = {cell_id(cell): coopnav_env.make_config(config.scenario, **overrides, **cell) for cell in cells}
@@ -488,10 +516,27 @@ def prepare(config: EvalConfig) -> Plan:
         raise UsageError(str(err).splitlines()[0]) from None
     except (OverflowError, ZeroDivisionError, TypeError) as err:  # a value the scenario's checks let through
         raise UsageError(_out_of_range(config.scenario, overrides, config.sweep, err)) from None
-    run_info = {"scenario": config.scenario, "overrides": plain(overrides), "sweep": plain(sweep),
-                "seed": config.seed, "episodes": episodes, "policies": policies}
+    run_info = {
+        "scenario": config.scenario,
+        "overrides": plain(overrides),
+        "sweep": plain(sweep),
+        "seed": config.seed,
+        "episodes": episodes,
+        "policies": policies,
+    }
     outdir.check_existing(config, run_info, previous, trained)
-    plan = Plan(config=config, policies=policies, cells=cells, configs=configs, sweep=sweep, overrides=overrides,
-                trained=trained, run_info=run_info, episodes=episodes, previous=previous, out_state=out_state)
+    plan = Plan(
+        config=config,
+        policies=policies,
+        cells=cells,
+        configs=configs,
+        sweep=sweep,
+        overrides=overrides,
+        trained=trained,
+        run_info=run_info,
+        episodes=episodes,
+        previous=previous,
+        out_state=out_state,
+    )
     check_policies(plan)
     return plan

@@ -14,10 +14,16 @@ observation only. Everything the evaluation reads of a step comes through
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
-def make_policy(name: str, config, seed, agent: int):
+
+def make_policy(name: str, config: ScenarioConfig, seed: int | tuple[int, int] | None, agent: int) -> Any:
     """A planner from baselines/ by name, else a trained policy through agents/ (same interface)."""
     import baselines
 
@@ -28,7 +34,7 @@ def make_policy(name: str, config, seed, agent: int):
     return agents.make_policy(name, config, seed=seed, agent=agent)
 
 
-def check_policy(name: str, config, seed: int) -> None:
+def check_policy(name: str, config: ScenarioConfig, seed: int) -> None:
     """Check that ``name`` loads and drives ``config``'s scenario: a simulator of one
     episode (``seed``) is reset, one policy per beacon answers its first observation with
     a finite action of the scenario's shape (``views.action_dim``: 2, or 3 with a
@@ -55,7 +61,8 @@ def _step_measurements(sim, res, config) -> dict:
       ``outliers_rejected``, ``packets_lost`` (sums over survey vehicles),
       ``beacon_distance_m`` (mean over beacon-survey pairs), ``safety_violation`` (a
       pair closer than ``safety_distance_m``: the reward's ``safety`` term), ``geofence_violation``
-      (a beacon outside ``geofence_m``: its ``geofence`` term; the moving network has none), and for ``network="moving_lbl"``
+      (a beacon outside ``geofence_m``: its ``geofence`` term; the moving network has none), and for
+      ``network="moving_lbl"``
       ``error_x_m``, ``error_y_m`` (the first survey vehicle's signed error in the frame);
     * positions: ``t_s`` (B,), ``survey_true_m``, ``survey_est_m``, ``survey_dr_m``
       (B, S, 3), ``beacon_true_m`` (B, N, 3), ``waypoints_m`` (B, S, W, 3) and
@@ -65,24 +72,37 @@ def _step_measurements(sim, res, config) -> dict:
 
     snap = sim.snapshot()
     frame = config.network == "moving_lbl"
-    out = {"t_s": np.asarray(snap.t_s, dtype=float), "survey_true_m": snap.survey_true_m,
-           "survey_est_m": snap.survey_est_m, "survey_dr_m": snap.survey_dr_m, "beacon_true_m": snap.beacon_true_m,
-           "waypoints_m": snap.waypoints_m, "n_waypoints": snap.n_waypoints}
+    out = {
+        "t_s": np.asarray(snap.t_s, dtype=float),
+        "survey_true_m": snap.survey_true_m,
+        "survey_est_m": snap.survey_est_m,
+        "survey_dr_m": snap.survey_dr_m,
+        "beacon_true_m": snap.beacon_true_m,
+        "waypoints_m": snap.waypoints_m,
+        "n_waypoints": snap.n_waypoints,
+    }
     if res is None:
         return out
     major, minor, _ = error_ellipse(res.info["survey_cov_en_m2"])
     dist = np.linalg.norm(snap.survey_true_m[:, None, :, :] - snap.beacon_true_m[:, :, None, :], axis=-1)  # (B,N,S)
     no_term = np.zeros(res.reward.shape)
-    out.update({
-        "survey_error_m": res.info["survey_error_m"].mean(-1), "dr_error_m": res.info["dr_error_m"].mean(-1),
-        "ellipse_major_m": major.mean(-1), "ellipse_minor_m": minor.mean(-1), "reward": res.reward.mean(-1),
-        "beacon_distance_m": dist.mean((-1, -2)), "ranges_fused": res.info["ranges_fused"].sum(-1),
-        "outliers_rejected": res.info["outliers_rejected"].sum(-1), "packets_lost": res.info["packets_lost"].sum(-1),
-        # the reward's own indicator terms (core.reward): a beacon too close, a beacon outside the fence
-        "safety_violation": res.terms["safety"].any(-1),
-        "geofence_violation": res.terms.get("geofence", no_term).any(-1),
-        **_channel_use(res, config),
-    })
+    out.update(
+        {
+            "survey_error_m": res.info["survey_error_m"].mean(-1),
+            "dr_error_m": res.info["dr_error_m"].mean(-1),
+            "ellipse_major_m": major.mean(-1),
+            "ellipse_minor_m": minor.mean(-1),
+            "reward": res.reward.mean(-1),
+            "beacon_distance_m": dist.mean((-1, -2)),
+            "ranges_fused": res.info["ranges_fused"].sum(-1),
+            "outliers_rejected": res.info["outliers_rejected"].sum(-1),
+            "packets_lost": res.info["packets_lost"].sum(-1),
+            # the reward's own indicator terms (core.reward): a beacon too close, a beacon outside the fence
+            "safety_violation": res.terms["safety"].any(-1),
+            "geofence_violation": res.terms.get("geofence", no_term).any(-1),
+            **_channel_use(res, config),
+        }
+    )
     if frame:
         out["error_x_m"] = res.info["error_x_m"][:, 0]
         out["error_y_m"] = res.info["error_y_m"][:, 0]
@@ -99,17 +119,36 @@ def _channel_use(res, config) -> dict:
     from coopnav_env.core.channel import packet_duration_s, transmit_energy_j
 
     pings = np.full(res.reward.shape[0], float(config.n_beacons))
-    joules = transmit_energy_j(config.transmit_power_w, packet_duration_s(config.ping_packet_bits,
-                                                                           config.modem_bit_rate_bps))
+    joules = transmit_energy_j(
+        config.transmit_power_w, packet_duration_s(config.ping_packet_bits, config.modem_bit_rate_bps)
+    )
     return {"pings": pings, "collisions": np.zeros_like(pings), "energy_J": pings * joules}
 
 
-_PER_STEP = ("survey_error_m", "dr_error_m", "ellipse_major_m", "ellipse_minor_m", "reward", "beacon_distance_m",
-             "ranges_fused", "outliers_rejected", "packets_lost", "safety_violation", "geofence_violation", "pings",
-             "collisions", "energy_J")
+_PER_STEP = (
+    "survey_error_m",
+    "dr_error_m",
+    "ellipse_major_m",
+    "ellipse_minor_m",
+    "reward",
+    "beacon_distance_m",
+    "ranges_fused",
+    "outliers_rejected",
+    "packets_lost",
+    "safety_violation",
+    "geofence_violation",
+    "pings",
+    "collisions",
+    "energy_J",
+)
 
 
-def run_episodes(config, policy_name: str, seeds, progress=None):
+def run_episodes(
+    config: ScenarioConfig,
+    policy_name: str,
+    seeds: Sequence[int],
+    progress: Callable[[float], object] | None = None,
+) -> tuple[list[dict], list[dict]]:
     """Run ``policy_name`` (one instance per beacon and episode) on episodes ``seeds``
     as one batch. Returns (episode rows, step rows) without the cell/policy/episode
     columns (see ``evaluation.report.EPISODE_COLUMN_DOCS``). ``progress(n)`` is called
@@ -127,13 +166,13 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
     frame = config.network == "moving_lbl"
     keys = _PER_STEP + (("error_x_m", "error_y_m") if frame else ())
     done = np.zeros(B, dtype=bool)
-    hist = {k: [] for k in ("alive",) + keys}
+    hist: dict[str, list] = {k: [] for k in ("alive",) + keys}
     from coopnav_env.views import action_dim
 
     actions = np.zeros((B, N, action_dim(sim)))
     credited, k_step, horizon = 0.0, 0, max(int(getattr(config, "max_cycles", 1)), 1)
     while not done.all():
-        for b in np.flatnonzero(~done):
+        for b in np.flatnonzero(~done).tolist():
             for j in range(N):
                 actions[b, j] = policies[b][j].act(obs[b, j])
         actions[done] = 0.0
@@ -157,30 +196,51 @@ def run_episodes(config, policy_name: str, seeds, progress=None):
         n = int(H["alive"][:, b].sum())
         err, dr = H["survey_error_m"][:n, b], H["dr_error_m"][:n, b]
 
-        def total(k):
-            return int(H[k][:n, b].sum())
+        def total(k: str) -> int:
+            return int(H[k][:n, b].sum())  # noqa: B023 - called only in this iteration, below
 
-        episodes.append({
-            "seed": seed, "steps": n, "duration_s": n * T, "mean_error_m": float(err.mean()),
-            "final_error_m": float(err[-1]), "max_error_m": float(err.max()), "mean_dr_error_m": float(dr.mean()),
-            "final_dr_error_m": float(dr[-1]), "return": float(H["reward"][:n, b].sum()),
-            "ranges_fused": total("ranges_fused"), "outliers_rejected": total("outliers_rejected"),
-            "packets_lost": total("packets_lost"), "beacon_distance_m": float(H["beacon_distance_m"][:n, b].mean()),
-            "safety_violations": total("safety_violation"), "geofence_violations": total("geofence_violation"),
-            "pings": total("pings"), "collisions": total("collisions"),
-            "energy_J": float(H["energy_J"][:n, b].sum()),
-        })
-        for k in range(n):
-            steps.append({"seed": seed, "step": k + 1, "t_s": (k + 1) * T, "survey_error_m": float(err[k]),
-                          "dr_error_m": float(dr[k]), "ellipse_major_m": float(H["ellipse_major_m"][k, b]),
-                          "ellipse_minor_m": float(H["ellipse_minor_m"][k, b]), "reward": float(H["reward"][k, b]),
-                          "beacon_distance_m": float(H["beacon_distance_m"][k, b])})
+        episodes.append(
+            {
+                "seed": seed,
+                "steps": n,
+                "duration_s": n * T,
+                "mean_error_m": float(err.mean()),
+                "final_error_m": float(err[-1]),
+                "max_error_m": float(err.max()),
+                "mean_dr_error_m": float(dr.mean()),
+                "final_dr_error_m": float(dr[-1]),
+                "return": float(H["reward"][:n, b].sum()),
+                "ranges_fused": total("ranges_fused"),
+                "outliers_rejected": total("outliers_rejected"),
+                "packets_lost": total("packets_lost"),
+                "beacon_distance_m": float(H["beacon_distance_m"][:n, b].mean()),
+                "safety_violations": total("safety_violation"),
+                "geofence_violations": total("geofence_violation"),
+                "pings": total("pings"),
+                "collisions": total("collisions"),
+                "energy_J": float(H["energy_J"][:n, b].sum()),
+            }
+        )
+        for i in range(n):
+            steps.append(
+                {
+                    "seed": seed,
+                    "step": i + 1,
+                    "t_s": (i + 1) * T,
+                    "survey_error_m": float(err[i]),
+                    "dr_error_m": float(dr[i]),
+                    "ellipse_major_m": float(H["ellipse_major_m"][i, b]),
+                    "ellipse_minor_m": float(H["ellipse_minor_m"][i, b]),
+                    "reward": float(H["reward"][i, b]),
+                    "beacon_distance_m": float(H["beacon_distance_m"][i, b]),
+                }
+            )
             if frame:
-                steps[-1].update(error_x_m=float(H["error_x_m"][k, b]), error_y_m=float(H["error_y_m"][k, b]))
+                steps[-1].update(error_x_m=float(H["error_x_m"][i, b]), error_y_m=float(H["error_y_m"][i, b]))
     return episodes, steps
 
 
-def record_episode(config, policy_name: str, seed: int) -> dict:
+def record_episode(config: ScenarioConfig, policy_name: str, seed: int) -> dict:
     """Re-run one episode and keep every position (for the path figure): ``t_s`` (T,),
     ``survey_true_m``, ``survey_est_m``, ``survey_dr_m`` (T, S, 3), ``beacon_true_m``
     (T, N, 3), from the start (row 0) to the end; ``waypoints_m`` (S, W, 3) and
@@ -199,7 +259,9 @@ def record_episode(config, policy_name: str, seed: int) -> dict:
         snaps.append(_step_measurements(sim, res, config))
         if res.terminated[0] or res.truncated[0]:
             break
-    track = {k: np.array([s[k][0] for s in snaps])
-             for k in ("t_s", "survey_true_m", "survey_est_m", "survey_dr_m", "beacon_true_m")}
+    track = {
+        k: np.array([s[k][0] for s in snaps])
+        for k in ("t_s", "survey_true_m", "survey_est_m", "survey_dr_m", "beacon_true_m")
+    }
     track["waypoints_m"], track["n_waypoints"] = snaps[-1]["waypoints_m"][0], snaps[-1]["n_waypoints"][0]
     return track

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import io
 import os
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,11 +31,14 @@ from coopnav_env.records import atomic_write_bytes, plain
 from .config import cell_id, sweep_layout
 from .stats import find_cell
 
+if TYPE_CHECKING:
+    from .config import Plan
+
 DPI = 200
 TIME_LABEL = "time (s)"
 
 
-def save_figure(fig, path):
+def save_figure(fig: Any, path: str) -> None:
     """Render ``fig`` on an Agg canvas and write it to ``path`` as PNG (atomically)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
@@ -47,7 +51,7 @@ def save_figure(fig, path):
 def _time_series(step_rows, policy, key):
     """(t, mean, 25th, 75th percentile) of column ``key`` against time over the episodes
     of ``policy`` (None: every policy); the thin tails of long episodes are dropped."""
-    by_t = {}
+    by_t: dict = {}
     for r in step_rows:
         if policy is None or r["policy"] == policy:
             by_t.setdefault(float(r["t_s"]), []).append(float(r[key]))
@@ -56,8 +60,12 @@ def _time_series(step_rows, policy, key):
     most = max(len(v) for v in by_t.values())
     t = np.array([x for x in sorted(by_t) if len(by_t[x]) >= 0.5 * most])  # drop thin tails of long episodes
     vals = [np.array(by_t[x]) for x in t]
-    return t, np.array([v.mean() for v in vals]), np.array([np.percentile(v, 25) for v in vals]), \
-        np.array([np.percentile(v, 75) for v in vals])
+    return (
+        t,
+        np.array([v.mean() for v in vals]),
+        np.array([np.percentile(v, 25) for v in vals]),
+        np.array([np.percentile(v, 75) for v in vals]),
+    )
 
 
 def _finish(ax, xlabel, ylabel, fontsize=7, **legend):
@@ -77,7 +85,7 @@ def _band(ax, step_rows, policy, key, color, label, **line):
     return True
 
 
-def draw_paths(out, plan):
+def draw_paths(out: str, plan: Plan) -> str:
     """paths.png: both vehicles' paths in the first episode of each policy."""
     from matplotlib.figure import Figure
 
@@ -93,15 +101,24 @@ def draw_paths(out, plan):
         true, dr, est, beacons = rec["survey_true_m"], rec["survey_dr_m"], rec["survey_est_m"], rec["beacon_true_m"]
         ax = fig.add_subplot(rows, cols, i + 1)
         for s in range(true.shape[1]):
-            wp = rec["waypoints_m"][s, :rec["n_waypoints"][s]]
+            wp = rec["waypoints_m"][s, : rec["n_waypoints"][s]]
             first = s == 0
             # under the true path, wide and orange: visible where the vehicle follows it
-            ax.plot(wp[:, 0], wp[:, 1], color="tab:orange", lw=3.0, alpha=0.55, solid_capstyle="round",
-                    label="planned" if first else None, zorder=1)
+            ax.plot(
+                wp[:, 0],
+                wp[:, 1],
+                color="tab:orange",
+                lw=3.0,
+                alpha=0.55,
+                solid_capstyle="round",
+                label="planned" if first else None,
+                zorder=1,
+            )
             ax.plot(true[:, s, 0], true[:, s, 1], color="k", lw=1.3, label="survey (true)" if first else None)
             ax.plot(est[:, s, 0], est[:, s, 1], color="tab:blue", lw=0.9, label="survey (EKF)" if first else None)
-            ax.plot(dr[:, s, 0], dr[:, s, 1], color="tab:red", lw=0.9, ls="--",
-                    label="dead reckoning" if first else None)
+            ax.plot(
+                dr[:, s, 0], dr[:, s, 1], color="tab:red", lw=0.9, ls="--", label="dead reckoning" if first else None
+            )
         for j in range(beacons.shape[1]):
             ax.plot(beacons[:, j, 0], beacons[:, j, 1], color="tab:green", lw=1, label="beacon" if j == 0 else None)
             ax.plot(beacons[0, j, 0], beacons[0, j, 1], "o", color="tab:green", ms=4)
@@ -134,7 +151,7 @@ def panel_grid(n: int) -> tuple:
     return best[1], best[2]
 
 
-def draw_benchmark(out, results: dict) -> list:
+def draw_benchmark(out: str, results: dict) -> list:
     """benchmark_<set>.png per task set of a benchmark result (``evaluation.benchmark``):
     per task, each policy's mean survey error with its 95 % t interval, the task's best
     planner ringed; a log scale when the floors are far above the rest. Returns the names."""
@@ -162,27 +179,47 @@ def draw_benchmark(out, results: dict) -> list:
                 continue
             challenger = p in s["challengers"] and p not in s["planners"] + s["floors"]
             marker = "D" if challenger else ("v" if p in s["floors"] else "o")
-            ax.errorbar(xs, ys, yerr=[lo, hi], fmt=marker, ms=5 if challenger else 4, lw=1, capsize=2,
-                        color=f"C{k}", label=p + (" (challenger)" if challenger else " (floor)" if p in s["floors"]
-                                                  else ""))
+            ax.errorbar(
+                xs,
+                ys,
+                yerr=[lo, hi],
+                fmt=marker,
+                ms=5 if challenger else 4,
+                lw=1,
+                capsize=2,
+                color=f"C{k}",
+                label=p + (" (challenger)" if challenger else " (floor)" if p in s["floors"] else ""),
+            )
             bx = [x for x, b in zip(xs, best) if b]
             by = [y for y, b in zip(ys, best) if b]
             if bx:
-                ax.plot(bx, by, "o", ms=11, mfc="none", mec="k", mew=1.2,
-                        label="best planner of the task" if not any(
-                            h.get_label() == "best planner of the task" for h in ax.lines) else None)
+                ax.plot(
+                    bx,
+                    by,
+                    "o",
+                    ms=11,
+                    mfc="none",
+                    mec="k",
+                    mew=1.2,
+                    label="best planner of the task"
+                    if not any(h.get_label() == "best planner of the task" for h in ax.lines)
+                    else None,
+                )
             means += ys
         if means and min(means) > 0 and max(means) / min(means) > 10:  # floors far above the planners
             ax.set_yscale("log")
         ax.set_xticks(range(len(tasks)))
-        ax.set_xticklabels(tasks, rotation=35 if len(tasks) > 4 else 0, ha="right" if len(tasks) > 4 else "center",
-                           fontsize=7)
+        ax.set_xticklabels(
+            tasks, rotation=35 if len(tasks) > 4 else 0, ha="right" if len(tasks) > 4 else "center", fontsize=7
+        )
         ax.set_xlim(-0.6, len(tasks) - 0.4)
         ax.set_xlabel("task")
         ax.set_ylabel("mean survey error (m), 95 % t interval")
         tag = "" if results.get("official") else " (not a benchmark result)"
-        ax.set_title(f"benchmark {name} ({s['scenario']})\n{results['episodes']} test episodes per task and "
-                     f"policy{tag}", fontsize=9)
+        ax.set_title(
+            f"benchmark {name} ({s['scenario']})\n{results['episodes']} test episodes per task and policy{tag}",
+            fontsize=9,
+        )
         ax.grid(True, axis="y", lw=0.3)
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
         fig.tight_layout()
@@ -192,7 +229,7 @@ def draw_benchmark(out, results: dict) -> list:
     return written
 
 
-def draw_error_vs_time(out, plan, step_rows):
+def draw_error_vs_time(out: str, plan: Plan, step_rows: list) -> str:
     """error_vs_time.png: the policies' survey error on its own scale (top) and dead
     reckoning's (bottom), against a shared time axis."""
     from matplotlib.figure import Figure
@@ -214,7 +251,7 @@ def draw_error_vs_time(out, plan, step_rows):
     return "error_vs_time.png"
 
 
-def draw_ellipse_axes(out, plan, step_rows):
+def draw_ellipse_axes(out: str, plan: Plan, step_rows: list) -> str:
     """ellipse_axes.png: the filter's 2-sigma semi-axes against time, per policy."""
     from matplotlib.figure import Figure
 
@@ -235,7 +272,7 @@ def draw_ellipse_axes(out, plan, step_rows):
     return "ellipse_axes.png"
 
 
-def draw_frame_errors(out, plan, step_rows):
+def draw_frame_errors(out: str, plan: Plan, step_rows: list) -> str:
     """frame_errors.png, Matos & Cruz Figs. 6-8 for the first episode of each policy: the
     x and y errors in the moving frame and the filter's ellipse axes against time."""
     from matplotlib.figure import Figure
@@ -263,7 +300,7 @@ def draw_frame_errors(out, plan, step_rows):
     return "frame_errors.png"
 
 
-def draw_sweep_figure(out, plan, summary):
+def draw_sweep_figure(out: str, plan: Plan, summary: dict) -> str:
     """sweep.png: mean survey error against the first swept parameter, one panel per
     policy (one error scale), one line per combination of the other parameters."""
     from matplotlib.figure import Figure
@@ -293,7 +330,7 @@ def draw_sweep_figure(out, plan, summary):
     return "sweep.png"
 
 
-def draw_all(out, plan, step_rows, summary) -> list:
+def draw_all(out: str, plan: Plan, step_rows: list, summary: dict) -> list:
     """Every figure of the run (a sweep: sweep.png only); returns the file names."""
     if plan.sweep:
         return [draw_sweep_figure(out, plan, summary)]

@@ -21,6 +21,7 @@ from __future__ import annotations
 import os
 import socket
 import time
+from typing import Any
 
 from coopnav_env.records import atomic_write_text, read_json, strict_json
 
@@ -38,6 +39,7 @@ _DATA_FILES = ("run.json", "episodes.csv", "steps.csv", "summary.json")  # any o
 
 # ------------------------------------------------------------------------------------
 # what out holds
+
 
 def has_results(out: str) -> bool:
     """Whether ``out`` holds (part of) an evaluation's result."""
@@ -60,12 +62,16 @@ def _is_record(rec) -> str | None:
     """What is wrong with a run.json record (None: nothing)."""
     if not isinstance(rec, dict):
         return "not a JSON object"
-    checks = {"scenario": lambda v: isinstance(v, str), "overrides": lambda v: isinstance(v, dict),
-              "sweep": lambda v: isinstance(v, dict),
-              "seed": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
-              "episodes": lambda v: isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_EPISODES,
-              "policies": lambda v: isinstance(v, list) and v and all(isinstance(p, str) for p in v)
-              and len(set(v)) == len(v)}
+    checks = {
+        "scenario": lambda v: isinstance(v, str),
+        "overrides": lambda v: isinstance(v, dict),
+        "sweep": lambda v: isinstance(v, dict),
+        "seed": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+        "episodes": lambda v: isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_EPISODES,
+        "policies": lambda v: (
+            isinstance(v, list) and v and all(isinstance(p, str) for p in v) and len(set(v)) == len(v)
+        ),
+    }
     for key, ok in checks.items():
         if key not in rec or not ok(rec[key]):
             return f"no valid {key!r}"
@@ -78,8 +84,10 @@ def read_previous(out: str) -> dict | None:
     path = os.path.join(out, "run.json")
     if not os.path.exists(path):
         if has_results(out):
-            raise UsageError(f"cannot resume: {out!r} holds evaluation files but no run.json to check them against; "
-                             "use --overwrite to replace them, or another --out")
+            raise UsageError(
+                f"cannot resume: {out!r} holds evaluation files but no run.json to check them against; "
+                "use --overwrite to replace them, or another --out"
+            )
         return None
     try:
         rec = read_json(path)
@@ -87,8 +95,9 @@ def read_previous(out: str) -> dict | None:
     except (OSError, ValueError) as err:
         problem = f"not JSON: {str(err).splitlines()[0] if str(err) else type(err).__name__}"
     if problem is not None:
-        raise UsageError(f"cannot resume: {path} is unreadable ({problem}); use --overwrite to replace the result, "
-                         "or another --out")
+        raise UsageError(
+            f"cannot resume: {path} is unreadable ({problem}); use --overwrite to replace the result, or another --out"
+        )
     return rec
 
 
@@ -113,29 +122,37 @@ def _text(key, value) -> str:
     return str(value)
 
 
-def check_existing(config, run_info: dict, previous: dict | None, trained: dict) -> None:
+def check_existing(config: Any, run_info: dict, previous: dict | None, trained: dict) -> None:
     """Refuse (UsageError) to write into ``config.out`` over an earlier result without
-    ``resume`` or ``overwrite``, or to resume a run of other arguments."""
+    ``resume`` or ``overwrite``, or to resume a run of other arguments. ``config``: the
+    ``EvalConfig`` (typed Any: importing evaluation.config here, even for the type
+    checker, would be an import cycle, which tests/test_contract refuses)."""
     out = config.out
     if config.overwrite or not has_results(out):
         return
     if not config.resume:
-        raise UsageError(f"{out!r} already holds {describe(out)}; use --resume to keep its episodes and run the "
-                         "missing ones, --overwrite to replace it, or another --out")
-    for key, option in (("scenario", "--scenario"), ("seed", "--seed"), ("overrides", "--set"),
-                        ("sweep", "--sweep")):
-        old, new = previous.get(key), run_info[key]
+        raise UsageError(
+            f"{out!r} already holds {describe(out)}; use --resume to keep its episodes and run the "
+            "missing ones, --overwrite to replace it, or another --out"
+        )
+    assert previous is not None  # read_previous: None only when out holds no result
+    for key, option in (("scenario", "--scenario"), ("seed", "--seed"), ("overrides", "--set"), ("sweep", "--sweep")):
+        old, new = previous[key], run_info[key]  # _is_record: run.json has every key
         same = list(old.items()) == list(new.items()) if key == "sweep" else old == new
         if not same:
-            raise UsageError(f"cannot resume: {out!r} holds a run with {option} {_text(key, old)}, not "
-                             f"{_text(key, new)} (--resume keeps --scenario, --seed, --set and --sweep; use "
-                             "--overwrite or another --out)")
+            raise UsageError(
+                f"cannot resume: {out!r} holds a run with {option} {_text(key, old)}, not "
+                f"{_text(key, new)} (--resume keeps --scenario, --seed, --set and --sweep; use "
+                "--overwrite or another --out)"
+            )
     earlier = previous.get("trained_policies") or {}
     for name, now in trained.items():
         then = earlier.get(name) if isinstance(earlier, dict) else None
         if isinstance(then, dict) and then.get("model") != now["model"]:
-            raise UsageError(f"cannot resume: policy {name!r} was {then.get('model')} in {out!r}, now resolves to "
-                             f"{now['model']}; use --overwrite or another --out")
+            raise UsageError(
+                f"cannot resume: policy {name!r} was {then.get('model')} in {out!r}, now resolves to "
+                f"{now['model']}; use --overwrite or another --out"
+            )
 
 
 def clear(out: str) -> list:
@@ -163,6 +180,7 @@ def remove_summaries(out: str) -> None:
 # ------------------------------------------------------------------------------------
 # the lock
 
+
 def check_not_in_use(out: str) -> None:
     """UsageError if another run holds ``out`` (checked before anything else about it;
     the lock is taken, for the run, by ``OutputLock``)."""
@@ -174,8 +192,10 @@ def check_not_in_use(out: str) -> None:
     try:
         lock.acquire(timeout=0)
     except Timeout:
-        raise UsageError(f"{out!r} is in use by another evaluation ({OutputLock(out).owner_text()}); wait for it "
-                         "to end or use another --out") from None
+        raise UsageError(
+            f"{out!r} is in use by another evaluation ({OutputLock(out).owner_text()}); wait for it "
+            "to end or use another --out"
+        ) from None
     except OSError:
         return  # not lockable: OutputLock says why
     lock.release()
@@ -185,9 +205,9 @@ class OutputLock:
     """Hold ``out`` for one run: ``with OutputLock(out, command): ...``. Creates ``out``;
     a second holder gets a UsageError naming the first (from its owner file)."""
 
-    def __init__(self, out: str, command: str | None = None):
+    def __init__(self, out: str, command: str | None = None) -> None:
         self.out, self.command = out, command
-        self.lock = None
+        self.lock: Any = None
 
     def owner_text(self) -> str:
         try:
@@ -212,16 +232,25 @@ class OutputLock:
         try:
             lock.acquire(timeout=0)
         except Timeout:
-            raise UsageError(f"{self.out!r} is in use by another evaluation ({self.owner_text()}); wait for it "
-                             "to end or use another --out") from None
+            raise UsageError(
+                f"{self.out!r} is in use by another evaluation ({self.owner_text()}); wait for it "
+                "to end or use another --out"
+            ) from None
         except OSError as err:
             raise UsageError(f"cannot lock output directory {self.out!r}: {err.strerror or err}") from None
         self.lock = lock
         try:
-            atomic_write_text(os.path.join(self.out, OWNER_FILE), strict_json({
-                "pid": os.getpid(), "host": socket.gethostname(),
-                "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                "command": self.command or f"evaluation.evaluate (Python API, pid {os.getpid()})"}))
+            atomic_write_text(
+                os.path.join(self.out, OWNER_FILE),
+                strict_json(
+                    {
+                        "pid": os.getpid(),
+                        "host": socket.gethostname(),
+                        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                        "command": self.command or f"evaluation.evaluate (Python API, pid {os.getpid()})",
+                    }
+                ),
+            )
         except BaseException:
             lock.release()
             raise

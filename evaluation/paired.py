@@ -9,9 +9,10 @@ itself contributes (its currents, biases and noise) and leaves what the policies
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def t_interval(x, confidence: float = 0.95) -> tuple:
+def t_interval(x: ArrayLike, confidence: float = 0.95) -> tuple:
     """(mean, low, high): the ``confidence`` t interval of the mean of ``x`` (one value
     per episode). With one value the interval is that value."""
     from scipy import stats

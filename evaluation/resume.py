@@ -14,16 +14,35 @@ import io
 import math
 import os
 import re
+from typing import TYPE_CHECKING
 
 from .config import cell_id
 from .outdir import FORMAT_VERSION, has_results
 from .report import EPISODE_COLUMNS, STEP_COLUMNS, _fmt
 
+if TYPE_CHECKING:
+    from .config import Plan
+
 _INT = re.compile(r"-?[0-9]+\Z")
-EPISODE_INTS = ("steps", "ranges_fused", "outliers_rejected", "packets_lost", "safety_violations",
-                "geofence_violations", "pings", "collisions")
-STEP_FLOATS = ("t_s", "survey_error_m", "dr_error_m", "ellipse_major_m", "ellipse_minor_m", "reward",
-               "beacon_distance_m")
+EPISODE_INTS = (
+    "steps",
+    "ranges_fused",
+    "outliers_rejected",
+    "packets_lost",
+    "safety_violations",
+    "geofence_violations",
+    "pings",
+    "collisions",
+)
+STEP_FLOATS = (
+    "t_s",
+    "survey_error_m",
+    "dr_error_m",
+    "ellipse_major_m",
+    "ellipse_minor_m",
+    "reward",
+    "beacon_distance_m",
+)
 
 
 class _Unreadable(Exception):
@@ -67,18 +86,19 @@ def _cell_text(value) -> str:
     return str(_fmt(value))
 
 
-def kept_rows(out: str, plan) -> tuple:
+def kept_rows(out: str, plan: Plan) -> tuple:
     """(episode rows, step rows, notes) that ``resume`` keeps from ``out``: the episodes
     of ``plan`` whose episodes.csv row is well formed and whose steps.csv rows (steps 1..n,
     n its ``steps``) are all there and well formed; rows are dicts of the files' text.
     ``notes``: one line per reason episodes are run again."""
-    notes = []
+    notes: list[str] = []
     if plan.previous is None:
         return [], [], notes
     if plan.previous.get("format_version") != FORMAT_VERSION:
         if has_results(out):
-            notes.append(f"the episodes in {out!r} were written with rounded numbers (an older evaluation); "
-                         "they are run again")
+            notes.append(
+                f"the episodes in {out!r} were written with rounded numbers (an older evaluation); they are run again"
+            )
         return [], [], notes
     ep_columns = EPISODE_COLUMNS[:1] + list(plan.sweep) + EPISODE_COLUMNS[1:]
     cells = {cell_id(c): c for c in plan.cells}
@@ -106,7 +126,8 @@ def kept_rows(out: str, plan) -> tuple:
         st_read = None
         bad_files.append(f"steps.csv is unreadable ({err})")
 
-    episodes, bad_eps, seen = {}, 0, set()
+    episodes: dict = {}
+    bad_eps, seen = 0, set()
     if ep_read is not None:
         rows, complete = ep_read
         for i, fields in enumerate(rows):
@@ -132,7 +153,8 @@ def kept_rows(out: str, plan) -> tuple:
             seen.add(key)
             episodes[key] = r
 
-    groups, bad_groups = {}, set()
+    groups: dict = {}
+    bad_groups = set()
     if st_read is not None:
         rows, complete = st_read
         for i, fields in enumerate(rows):

@@ -18,7 +18,8 @@ from __future__ import annotations
 import math
 import os
 import sys
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import Any, NamedTuple
 
 from coopnav_env.records import atomic_write_text, strict_json, version_record
 
@@ -48,7 +49,7 @@ class EvaluationInterrupted(KeyboardInterrupt):
     """Ctrl-C (or SIGTERM on the command line) during an evaluation: ``saved`` of
     ``total`` episodes are on disk in ``out``; ``--resume`` runs the rest."""
 
-    def __init__(self, out: str, saved: int, total: int):
+    def __init__(self, out: str, saved: int, total: int) -> None:
         super().__init__(f"interrupted: {saved} of {total} episodes saved in {out!r}")
         self.out, self.saved, self.total = out, saved, total
 
@@ -83,7 +84,7 @@ def _check_finite(ep_rows, step_rows):
     """EvaluationError naming the first episode with a NaN or infinite value."""
     from .resume import STEP_FLOATS
 
-    checks = [(r, EPISODE_COLUMNS[4:], "episodes.csv") for r in ep_rows]
+    checks: list[tuple[dict, Sequence[str], str]] = [(r, EPISODE_COLUMNS[4:], "episodes.csv") for r in ep_rows]
     checks += [(r, STEP_FLOATS + ("error_x_m", "error_y_m"), "steps.csv") for r in step_rows]
     for r, columns, where in checks:
         for k in columns:
@@ -93,8 +94,10 @@ def _check_finite(ep_rows, step_rows):
             if not math.isfinite(float(v)):
                 step = f" step {r['step']}" if "step" in r else ""
                 cell = f" in cell {r['cell']}" if r["cell"] else ""
-                raise EvaluationError(f"episode {r['episode']} (seed {r['seed']}) of policy {r['policy']!r}{cell}"
-                                      f"{step}: {k} is {float(v)} in {where}; summary.json not written")
+                raise EvaluationError(
+                    f"episode {r['episode']} (seed {r['seed']}) of policy {r['policy']!r}{cell}"
+                    f"{step}: {k} is {float(v)} in {where}; summary.json not written"
+                )
 
 
 def evaluate(config: EvalConfig, command: str | None = None) -> EvalResult:
@@ -108,8 +111,9 @@ def evaluate(config: EvalConfig, command: str | None = None) -> EvalResult:
 
     from . import outdir
 
-    with announce_after("checking the scenario and the policies (the first run also compiles the simulator, "
-                        "about a minute)"):
+    with announce_after(
+        "checking the scenario and the policies (the first run also compiles the simulator, about a minute)"
+    ):
         plan = prepare(config)
     out = config.out
     with outdir.OutputLock(out, command):
@@ -135,10 +139,14 @@ def _run_locked(plan, saved: list) -> EvalResult:
         print(f"resuming: {note}", file=sys.stderr)
     saved[0] = len(ep_rows)
     previous = plan.previous or {}
-    run_record = dict(plan.run_info, trained_policies=plan.trained, format_version=outdir.FORMAT_VERSION,
-                      versions=version_record())
-    earlier = [v for v in previous.get("earlier_versions", []) + [previous.get("versions")]
-               if isinstance(v, dict) and v != run_record["versions"]]
+    run_record = dict(
+        plan.run_info, trained_policies=plan.trained, format_version=outdir.FORMAT_VERSION, versions=version_record()
+    )
+    earlier = [
+        v
+        for v in previous.get("earlier_versions", []) + [previous.get("versions")]
+        if isinstance(v, dict) and v != run_record["versions"]
+    ]
     if earlier:
         run_record["earlier_versions"] = earlier  # what produced the episodes kept by resume
     done = {(r["cell"], r["policy"], str(r["seed"])) for r in ep_rows}
@@ -149,14 +157,17 @@ def _run_locked(plan, saved: list) -> EvalResult:
         for p in plan.policies:
             missing = [(i, s) for i, s in enumerate(plan.seeds) if (cid, p, str(s)) not in done]
             for k in range(0, len(missing), config.batch_size):
-                todo.append((cell, p, missing[k:k + config.batch_size]))
+                todo.append((cell, p, missing[k : k + config.batch_size]))
     total = sum(len(m) for _, _, m in todo)
     skipped = len(plan.cells) * len(plan.policies) * plan.episodes - total
     if config.resume and plan.previous is not None:
         old_p, old_e = previous["policies"], previous["episodes"]
         if old_p != plan.policies or old_e != plan.episodes:
-            print(f"resuming: {out!r} held {old_e} episode(s) of {', '.join(old_p)}; the run now covers "
-                  f"{plan.episodes} of {', '.join(plan.policies)}", file=sys.stderr)
+            print(
+                f"resuming: {out!r} held {old_e} episode(s) of {', '.join(old_p)}; the run now covers "
+                f"{plan.episodes} of {', '.join(plan.policies)}",
+                file=sys.stderr,
+            )
         print(f"resuming: {skipped} episode(s) already done, {total} to run", file=sys.stderr)
     episode_key, step_key = _row_order(plan)
     from . import checksums
@@ -166,7 +177,7 @@ def _run_locked(plan, saved: list) -> EvalResult:
     def write_rows():
         ep_rows.sort(key=episode_key)
         step_rows.sort(key=step_key)
-        by_episode = {}
+        by_episode: dict = {}
         for r in step_rows:
             by_episode.setdefault(checksums.key(r), []).append(r)
         for r in ep_rows:  # each episode's checksum, computed once
@@ -188,8 +199,9 @@ def _run_locked(plan, saved: list) -> EvalResult:
             cid = cell_id(cell)
             if bar is not None:
                 bar.stage(f"{p} {cid}".strip() + f" ({len(chunk)} episodes)")
-            eps, sts = run_episodes(plan.configs[cid], p, [s for _, s in chunk],
-                                    progress=bar.update if bar is not None else None)
+            eps, sts = run_episodes(
+                plan.configs[cid], p, [s for _, s in chunk], progress=bar.update if bar is not None else None
+            )
             index = {s: i for i, s in chunk}
             for r in eps:
                 r.update({"cell": cid, "policy": p, "episode": index[r["seed"]], **cell})
@@ -223,7 +235,7 @@ def _run_locked(plan, saved: list) -> EvalResult:
     return EvalResult(summary, md, out, files)
 
 
-def run_evaluation(config: EvalConfig | None = None, **fields) -> dict:
+def run_evaluation(config: EvalConfig | None = None, **fields: Any) -> dict:
     """Run an evaluation and return its summary (summary.json's content).
     ``run_evaluation(EvalConfig(...))``, or the fields directly:
     ``run_evaluation(scenario="sousa_asv", policies="fim_a,static", episodes=5)``."""

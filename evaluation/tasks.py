@@ -19,23 +19,27 @@ from __future__ import annotations
 
 import dataclasses
 from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
 
 BENCHMARK_VERSION = 2  # 2: the gao_team and matos_river task sets
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
 
-__all__ = ["BENCHMARK_VERSION", "EPISODES", "FLOORS", "TASK_SETS", "Task", "TaskSet", "get_task_set",
-           "list_task_sets"]
+__all__ = ["BENCHMARK_VERSION", "EPISODES", "FLOORS", "TASK_SETS", "Task", "TaskSet", "get_task_set", "list_task_sets"]
 
 
 @dataclasses.dataclass(frozen=True)
 class Task:
     """One benchmark task: a name (unique in its set) and scenario overrides."""
+
     name: str
     overrides: MappingProxyType
     about: str = ""
 
-    def config(self, scenario: str, **extra):
+    def config(self, scenario: str, **extra: Any) -> ScenarioConfig:
         """The task's ``ScenarioConfig`` (``extra``: more overrides on top, e.g. ``--set``)."""
         from coopnav_env import make_config
 
@@ -45,6 +49,7 @@ class Task:
 @dataclasses.dataclass(frozen=True)
 class TaskSet:
     """A named set of tasks on one scenario, ``episodes`` per task and policy."""
+
     name: str
     scenario: str
     tasks: tuple
@@ -83,66 +88,107 @@ def _task(name: str, about: str = "", **overrides) -> Task:
 
 def _sousa_grid() -> tuple:
     """Sousa et al. Tables I-II: depth x survey path, 16 cells."""
-    return tuple(_task(f"{path}_{depth:g}m", f"survey_path={path}, depth_m={depth:g}", depth_m=float(depth),
-                       survey_path=path)
-                 for depth in (1, 5, 20, 50) for path in ("stationary", "lawnmower", "circle", "spiral"))
+    return tuple(
+        _task(f"{path}_{depth:g}m", f"survey_path={path}, depth_m={depth:g}", depth_m=float(depth), survey_path=path)
+        for depth in (1, 5, 20, 50)
+        for path in ("stationary", "lawnmower", "circle", "spiral")
+    )
 
 
 _SETS = (
-    TaskSet("sousa_grid", "sousa_asv", _sousa_grid(),
-            about="one ASV helping an ROV: the 16 cells of Sousa et al.'s Tables I-II (depth x survey path)"),
-    TaskSet("gao_lawnmower", "gao_lawnmower", (
-        _task("lake", "the lake trial as published"),
-        _task("deep_20m", "the survey at 20 m instead of 3 m", depth_m=20.0),
-        _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
-        _task("spiral", "a descending spiral instead of the lawnmower", survey_path="spiral"),
-        _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
-        _task("two_surveys", "team: two survey AUVs, one beacon", n_survey=2),
-    ), about="Gao & Chitre's lake trial and variations (depth, current, path, team)"),
-    TaskSet("gao_sea", "gao_sea", (
-        _task("sea", "the sea trial as published (0.3 m/s current)"),
-        _task("calm", "a 0.05 m/s current", current_speed_mps=0.05, current_speed_spread_mps=0.03),
-        _task("current_0.6", "a 0.6 m/s current", current_speed_mps=0.6),
-        _task("deep_30m", "the survey at 30 m instead of 5 m", depth_m=30.0),
-        _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
-    ), about="Gao & Chitre's sea trial and variations (current, depth, team)"),
-    TaskSet("gao_team", "gao_team", (
-        _task("team", "an ASV and a beacon AUV help two survey AUVs 60 m apart, as configured"),
-        _task("calm", "a 0.05 m/s current", current_speed_mps=0.05, current_speed_spread_mps=0.03),
-        _task("current_0.5", "a 0.5 m/s current", current_speed_mps=0.5),
-        _task("deep_30m", "the surveys at 30 m instead of 5 m", depth_m=30.0),
-        _task("apart_120m", "the two surveys 120 m apart instead of 60", survey_spacing_m=120.0),
-    ), about="cooperation: an ASV and a beacon AUV (different kinds) help two survey AUVs; the planners run "
-             "per beacon"),
-    TaskSet("swarm_mls", "swarm_mls", (
-        _task("swarm3", "three survey AUVs with MLS ranging, as configured"),
-        _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
-        _task("swarm2", "team: two survey AUVs", n_survey=2),
-        _task("swarm5", "team: five survey AUVs", n_survey=5),
-        _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
-    ), about="Kottege & Zimmer's MLS swarm and variations (current, team size)"),
-    TaskSet("sousa_ping", "sousa_ping", (
-        _task("lawnmower_5m", "two ASVs share the channel: lawnmower at 5 m", survey_path="lawnmower", depth_m=5.0),
-        _task("lawnmower_20m", "lawnmower at 20 m", survey_path="lawnmower", depth_m=20.0),
-        _task("circle_5m", "circle at 5 m", survey_path="circle", depth_m=5.0),
-        _task("circle_20m", "circle at 20 m", survey_path="circle", depth_m=20.0),
-    ), about="when to ping: two ASVs decide motion and transmission on one half-duplex channel; the planners "
-             "transmit on a TDMA schedule"),
-    TaskSet("matos_moving_lbl", "matos_moving_lbl", (
-        _task("paper", "Matos & Cruz's moving baseline as published"),
-        _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
-        _task("short_baseline", "a 50 m baseline instead of 100", baseline_target_m=50.0),
-        _task("frame_north", "the frame oriented north (0 deg) instead of east", frame_orientation_deg=0.0),
-        _task("noisy_ranges", "3 m range noise instead of 1.4", range_noise_std_m=3.0),
-    ), about="Matos & Cruz's moving long baseline (two boats) and variations"),
-    TaskSet("matos_river", "matos_river", (
-        _task("river", "down the 1.6 km winding river, as configured"),
-        _task("current_0.5", "a 0.5 m/s river current instead of 0.3", current_speed_mps=0.5),
-        _task("narrow_120m", "a 120 m wide river instead of 150", river_width_m=120.0),
-        _task("short_baseline", "a 60 m baseline instead of 100", baseline_target_m=60.0),
-        _task("noisy_ranges", "3 m range noise instead of 1.4", range_noise_std_m=3.0),
-    ), about="the moving network with the vehicle's mission in the world, down a winding river: the boats "
-             "must escort it"),
+    TaskSet(
+        "sousa_grid",
+        "sousa_asv",
+        _sousa_grid(),
+        about="one ASV helping an ROV: the 16 cells of Sousa et al.'s Tables I-II (depth x survey path)",
+    ),
+    TaskSet(
+        "gao_lawnmower",
+        "gao_lawnmower",
+        (
+            _task("lake", "the lake trial as published"),
+            _task("deep_20m", "the survey at 20 m instead of 3 m", depth_m=20.0),
+            _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
+            _task("spiral", "a descending spiral instead of the lawnmower", survey_path="spiral"),
+            _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
+            _task("two_surveys", "team: two survey AUVs, one beacon", n_survey=2),
+        ),
+        about="Gao & Chitre's lake trial and variations (depth, current, path, team)",
+    ),
+    TaskSet(
+        "gao_sea",
+        "gao_sea",
+        (
+            _task("sea", "the sea trial as published (0.3 m/s current)"),
+            _task("calm", "a 0.05 m/s current", current_speed_mps=0.05, current_speed_spread_mps=0.03),
+            _task("current_0.6", "a 0.6 m/s current", current_speed_mps=0.6),
+            _task("deep_30m", "the survey at 30 m instead of 5 m", depth_m=30.0),
+            _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
+        ),
+        about="Gao & Chitre's sea trial and variations (current, depth, team)",
+    ),
+    TaskSet(
+        "gao_team",
+        "gao_team",
+        (
+            _task("team", "an ASV and a beacon AUV help two survey AUVs 60 m apart, as configured"),
+            _task("calm", "a 0.05 m/s current", current_speed_mps=0.05, current_speed_spread_mps=0.03),
+            _task("current_0.5", "a 0.5 m/s current", current_speed_mps=0.5),
+            _task("deep_30m", "the surveys at 30 m instead of 5 m", depth_m=30.0),
+            _task("apart_120m", "the two surveys 120 m apart instead of 60", survey_spacing_m=120.0),
+        ),
+        about="cooperation: an ASV and a beacon AUV (different kinds) help two survey AUVs; the planners run "
+        "per beacon",
+    ),
+    TaskSet(
+        "swarm_mls",
+        "swarm_mls",
+        (
+            _task("swarm3", "three survey AUVs with MLS ranging, as configured"),
+            _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
+            _task("swarm2", "team: two survey AUVs", n_survey=2),
+            _task("swarm5", "team: five survey AUVs", n_survey=5),
+            _task("two_beacons", "team: two beacon AUVs", beacon_kinds=("beacon_auv", "beacon_auv")),
+        ),
+        about="Kottege & Zimmer's MLS swarm and variations (current, team size)",
+    ),
+    TaskSet(
+        "sousa_ping",
+        "sousa_ping",
+        (
+            _task("lawnmower_5m", "two ASVs share the channel: lawnmower at 5 m", survey_path="lawnmower", depth_m=5.0),
+            _task("lawnmower_20m", "lawnmower at 20 m", survey_path="lawnmower", depth_m=20.0),
+            _task("circle_5m", "circle at 5 m", survey_path="circle", depth_m=5.0),
+            _task("circle_20m", "circle at 20 m", survey_path="circle", depth_m=20.0),
+        ),
+        about="when to ping: two ASVs decide motion and transmission on one half-duplex channel; the planners "
+        "transmit on a TDMA schedule",
+    ),
+    TaskSet(
+        "matos_moving_lbl",
+        "matos_moving_lbl",
+        (
+            _task("paper", "Matos & Cruz's moving baseline as published"),
+            _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
+            _task("short_baseline", "a 50 m baseline instead of 100", baseline_target_m=50.0),
+            _task("frame_north", "the frame oriented north (0 deg) instead of east", frame_orientation_deg=0.0),
+            _task("noisy_ranges", "3 m range noise instead of 1.4", range_noise_std_m=3.0),
+        ),
+        about="Matos & Cruz's moving long baseline (two boats) and variations",
+    ),
+    TaskSet(
+        "matos_river",
+        "matos_river",
+        (
+            _task("river", "down the 1.6 km winding river, as configured"),
+            _task("current_0.5", "a 0.5 m/s river current instead of 0.3", current_speed_mps=0.5),
+            _task("narrow_120m", "a 120 m wide river instead of 150", river_width_m=120.0),
+            _task("short_baseline", "a 60 m baseline instead of 100", baseline_target_m=60.0),
+            _task("noisy_ranges", "3 m range noise instead of 1.4", range_noise_std_m=3.0),
+        ),
+        about="the moving network with the vehicle's mission in the world, down a winding river: the boats "
+        "must escort it",
+    ),
 )
 
 TASK_SETS = MappingProxyType({s.name: s for s in _SETS})
@@ -160,5 +206,6 @@ def get_task_set(name: str) -> TaskSet:
     except KeyError:
         from coopnav_env.names import did_you_mean
 
-        raise KeyError(f"unknown task set {name!r}{did_you_mean(name, TASK_SETS)} valid: "
-                       f"{', '.join(TASK_SETS)}") from None
+        raise KeyError(
+            f"unknown task set {name!r}{did_you_mean(name, TASK_SETS)} valid: {', '.join(TASK_SETS)}"
+        ) from None

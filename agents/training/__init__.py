@@ -20,17 +20,41 @@ Modules (imports one way: coopnav_env <- baselines <- agents <- agents.training)
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from .common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, read_run_record
-from .config import (ConfigError, EnvSpec, EvalSpec, NormalizeSpec, PeriodicEvalSpec, RaySpec, RLlibConfig,
-                     TrainConfig, config_from_record, load_config)
+from .config import (
+    ConfigError,
+    EnvSpec,
+    EvalSpec,
+    NormalizeSpec,
+    PeriodicEvalSpec,
+    RaySpec,
+    RLlibConfig,
+    TrainConfig,
+    config_from_record,
+    load_config,
+)
 
-__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "ConfigError", "EnvSpec", "EvalSpec", "NormalizeSpec",
-           "PeriodicEvalSpec", "RLlibConfig", "RaySpec", "TrainConfig", "config_from_record", "load_config", "resume",
-           "train"]
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_INTERRUPTED",
+    "ConfigError",
+    "EnvSpec",
+    "EvalSpec",
+    "NormalizeSpec",
+    "PeriodicEvalSpec",
+    "RLlibConfig",
+    "RaySpec",
+    "TrainConfig",
+    "config_from_record",
+    "load_config",
+    "resume",
+    "train",
+]
 
 
-def train(config, out, **options) -> int:
+def train(config: TrainConfig | RLlibConfig, out: str | Path, **options: Any) -> int:
     """Train ``config`` into the new run directory ``out``: ``sb3.train`` for a
     ``TrainConfig``, ``rllib.train`` for an ``RLlibConfig`` (``options``: theirs)."""
     if isinstance(config, RLlibConfig):
@@ -42,7 +66,7 @@ def train(config, out, **options) -> int:
     return sb3.train(config, out, **options)
 
 
-def resume(out, **options) -> int:
+def resume(out: str | Path, **options: Any) -> int:
     """Continue the run in ``out`` on its own backend (its config.yml says which)."""
     from . import rllib, sb3
 

@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import Any
 
 
 class BoundsError(ValueError):
     """A bound exceeded (``config`` re-raises it as its own ``ConfigError``)."""
+
 
 MAX_TIMESTEPS = 10**11
 MAX_N_ENVS = 4096
@@ -53,7 +55,8 @@ def _int_in(value, low, high, where: str):
 
 
 def _positive(value, where: str, high: float = math.inf):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 < value <= high:
+    v: Any = value  # numbers.Real narrows to an ABC that typeshed gives no < support
+    if isinstance(v, bool) or not isinstance(value, numbers.Real) or not 0 < v <= high:
         raise BoundsError(f"{where} must be a number in (0, {high:g}], got {value!r:.40}")
 
 
@@ -74,7 +77,7 @@ def _eval_cells(cells: dict, where: str):
             raise BoundsError(f"{where}: the grid has more than {MAX_EVAL_CELLS} cells: refused")
 
 
-def check_bounds(config) -> None:
+def check_bounds(config: Any) -> None:
     """Refuse (``ConfigError``) a config whose numbers are not finite or out of range."""
     _finite_numbers(config.to_dict(), "config")
     if config.timesteps is not None:
@@ -99,8 +102,9 @@ def check_bounds(config) -> None:
         n_steps = ppo.get("n_steps", 2048)
         _int_in(n_steps, 1, MAX_ROLLOUT, "ppo.n_steps")
         if n_steps * config.n_envs > MAX_ROLLOUT:
-            raise BoundsError(f"ppo.n_steps x n_envs = {n_steps * config.n_envs} rows per rollout, more than "
-                              f"{MAX_ROLLOUT}: refused")
+            raise BoundsError(
+                f"ppo.n_steps x n_envs = {n_steps * config.n_envs} rows per rollout, more than {MAX_ROLLOUT}: refused"
+            )
         for key, high in (("batch_size", MAX_ROLLOUT), ("n_epochs", 10_000)):
             if key in ppo:
                 _int_in(ppo[key], 1, high, f"ppo.{key}")

@@ -29,7 +29,7 @@ def _epilog(prog: str = "train.py") -> str:
     from coopnav_env import list_scenarios
 
     return f"""\
-scenarios: {', '.join(list_scenarios())}
+scenarios: {", ".join(list_scenarios())}
 
 examples:
   {prog} --scenario sousa_asv --timesteps 2000000 --out runs/sousa_ppo
@@ -41,7 +41,7 @@ examples:
 
 progress: a bar on a terminal, one line per stage (and every minute) elsewhere; --no-progress: none.
 
-the config: --config FILE, else {_rel(CONFIG_DIRS['sb3'])}/<scenario>.yml ({_rel(CONFIG_DIRS['rllib'])}/ with
+the config: --config FILE, else {_rel(CONFIG_DIRS["sb3"])}/<scenario>.yml ({_rel(CONFIG_DIRS["rllib"])}/ with
 --backend rllib), else default.yml there; then --set, --n-envs and --seed on top. Its
 sections and defaults: agents.training.config (TrainConfig, RLlibConfig); an unknown key is
 an error naming the closest valid one. The evaluation that picks the best model runs on the
@@ -90,62 +90,111 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
-    p = _Parser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_epilog(prog),
-                description="Train a PPO beacon policy on a coopnav scenario: stable-baselines3 on this\n"
-                            "machine (default), or Ray RLlib (--backend rllib) for scale-out.")
+    p = _Parser(
+        prog=prog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=_epilog(prog),
+        description="Train a PPO beacon policy on a coopnav scenario: stable-baselines3 on this\n"
+        "machine (default), or Ray RLlib (--backend rllib) for scale-out.",
+    )
     job = p.add_argument_group("the run")
-    job.add_argument("--scenario", metavar="NAME", help="scenario to train on (required unless --resume; "
-                                                        "the names are listed below)")
-    job.add_argument("--timesteps", metavar="N", type=_int_at_least(1),
-                     help="total environment steps (rows: beacons x environments; required unless --resume)")
+    job.add_argument(
+        "--scenario", metavar="NAME", help="scenario to train on (required unless --resume; the names are listed below)"
+    )
+    job.add_argument(
+        "--timesteps",
+        metavar="N",
+        type=_int_at_least(1),
+        help="total environment steps (rows: beacons x environments; required unless --resume)",
+    )
     job.add_argument("--out", metavar="DIR", help="run directory to create, absent or empty (required unless --resume)")
-    job.add_argument("--resume", metavar="DIR",
-                     help="continue the run in DIR from its last checkpoint, with its own config.yml and backend "
-                          "(then none of --scenario, --timesteps, --seed, --out, --config, --set, --n-envs, --tune)")
-    job.add_argument("--plot", metavar="RUN",
-                     help="(re)draw RUN/learning_curve.png from the run's evaluations.jsonl and baseline_eval.json, "
-                          "and exit (train.py draws it when a run ends or stops)")
-    job.add_argument("--seed", metavar="N", type=int,
-                     help="seed of the run (default: the config's seed, 0)")
-    job.add_argument("--backend", choices=("sb3", "rllib"),
-                     help="sb3: stable-baselines3 PPO on one machine; rllib: Ray RLlib PPO "
-                          "(pip install -e '.[rllib]') (default: sb3; with --resume the run's)")
+    job.add_argument(
+        "--resume",
+        metavar="DIR",
+        help="continue the run in DIR from its last checkpoint, with its own config.yml and backend "
+        "(then none of --scenario, --timesteps, --seed, --out, --config, --set, --n-envs, --tune)",
+    )
+    job.add_argument(
+        "--plot",
+        metavar="RUN",
+        help="(re)draw RUN/learning_curve.png from the run's evaluations.jsonl and baseline_eval.json, "
+        "and exit (train.py draws it when a run ends or stops)",
+    )
+    job.add_argument("--seed", metavar="N", type=int, help="seed of the run (default: the config's seed, 0)")
+    job.add_argument(
+        "--backend",
+        choices=("sb3", "rllib"),
+        help="sb3: stable-baselines3 PPO on one machine; rllib: Ray RLlib PPO "
+        "(pip install -e '.[rllib]') (default: sb3; with --resume the run's)",
+    )
     cfg = p.add_argument_group("the config")
-    cfg.add_argument("--config", metavar="FILE",
-                     help="config YAML (default: configs/ppo/<scenario>.yml, or configs/rllib/ for --backend rllib, "
-                          "else default.yml there)")
-    cfg.add_argument("--set", metavar="KEY=VALUE", action="append", type=_setting,
-                     help="override one config entry, VALUE read as YAML (repeatable; e.g. eval.episodes=4, "
-                          "ppo.learning_rate=lin_1e-3, env.overrides.max_cycles=50)")
-    cfg.add_argument("--n-envs", metavar="N", type=_int_at_least(1),
-                     help="environments in the batch: n_envs (rllib: env_runners.num_envs_per_env_runner) "
-                          "(default: the config's)")
+    cfg.add_argument(
+        "--config",
+        metavar="FILE",
+        help="config YAML (default: configs/ppo/<scenario>.yml, or configs/rllib/ for --backend rllib, "
+        "else default.yml there)",
+    )
+    cfg.add_argument(
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        type=_setting,
+        help="override one config entry, VALUE read as YAML (repeatable; e.g. eval.episodes=4, "
+        "ppo.learning_rate=lin_1e-3, env.overrides.max_cycles=50)",
+    )
+    cfg.add_argument(
+        "--n-envs",
+        metavar="N",
+        type=_int_at_least(1),
+        help="environments in the batch: n_envs (rllib: env_runners.num_envs_per_env_runner) (default: the config's)",
+    )
     run = p.add_argument_group("this process")
     run.add_argument("--device", default="cpu", help="torch device of the SB3 model (default: cpu)")
-    run.add_argument("--threads", metavar="N", type=_int_at_least(1), default=1,
-                     help="torch threads (default: 1; PPO's small batches gain little from more, and a busy "
-                          "machine makes extra threads spin)")
-    run.add_argument("--no-progress", action="store_true",
-                     help="no progress bar or progress lines (default: a bar on a terminal, a line per stage "
-                          "elsewhere; SB3 only)")
+    run.add_argument(
+        "--threads",
+        metavar="N",
+        type=_int_at_least(1),
+        default=1,
+        help="torch threads (default: 1; PPO's small batches gain little from more, and a busy "
+        "machine makes extra threads spin)",
+    )
+    run.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress bar or progress lines (default: a bar on a terminal, a line per stage elsewhere; SB3 only)",
+    )
     run.add_argument("--verbose", metavar="N", type=int, default=0, help="SB3's verbosity, 0-2 (default: 0)")
-    run.add_argument("--trust-pickle", action="store_true",
-                     help="accept pickle-based files, which can run code when loaded: an old run's .zip/.pkl "
-                          "checkpoints (--resume), an old init_from policy, an RLlib checkpoint (--resume of an "
-                          "rllib run); only for files you trust (default: refused; convert them once with "
-                          "coopnav-convert SRC --out NEW_DIR --trust-pickle)")
+    run.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="accept pickle-based files, which can run code when loaded: an old run's .zip/.pkl "
+        "checkpoints (--resume), an old init_from policy, an RLlib checkpoint (--resume of an "
+        "rllib run); only for files you trust (default: refused; convert them once with "
+        "coopnav-convert SRC --out NEW_DIR --trust-pickle)",
+    )
     ray = p.add_argument_group("--backend rllib only")
-    ray.add_argument("--num-env-runners", metavar="N", type=_int_at_least(0),
-                     help="env runner processes (0: sample in this process) (default: the config's "
-                          "env_runners.num_env_runners; with --resume the run's)")
-    ray.add_argument("--ray-address", metavar="ADDR",
-                     help="a running Ray cluster to join ('auto', or host:port) (default: start a local instance)")
-    ray.add_argument("--tune", action="append", metavar="KEY=V1,V2",
-                     help="a Ray Tune grid (repeatable; KEY: seed or a PPOConfig.training keyword such as lr)")
+    ray.add_argument(
+        "--num-env-runners",
+        metavar="N",
+        type=_int_at_least(0),
+        help="env runner processes (0: sample in this process) (default: the config's "
+        "env_runners.num_env_runners; with --resume the run's)",
+    )
+    ray.add_argument(
+        "--ray-address",
+        metavar="ADDR",
+        help="a running Ray cluster to join ('auto', or host:port) (default: start a local instance)",
+    )
+    ray.add_argument(
+        "--tune",
+        action="append",
+        metavar="KEY=V1,V2",
+        help="a Ray Tune grid (repeatable; KEY: seed or a PPOConfig.training keyword such as lr)",
+    )
     return p
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     """Parse ``argv`` (default ``sys.argv[1:]``), build the config and train; the exit status."""
     prog = Path(sys.argv[0]).name if argv is None and sys.argv and sys.argv[0] else "train.py"
     if prog in ("__main__.py", "-c", "cli.py"):
@@ -173,7 +222,7 @@ def main(argv=None) -> int:
         runlock.release_all()
 
 
-def run(args, argv=None) -> int:
+def run(args: argparse.Namespace, argv: list[str] | None = None) -> int:
     """The parsed command line -> ``sb3`` or ``rllib`` ``train``/``resume``."""
     if args.plot is not None:
         from .curve import draw_learning_curve
@@ -202,11 +251,22 @@ def run(args, argv=None) -> int:
         if args.backend is not None and args.backend != backend:
             raise ConfigError(f"{out} is a --backend {backend} run; drop --backend {args.backend}")
         if backend == "rllib":
-            return rllib.resume(out, num_env_runners=args.num_env_runners, ray_address=args.ray_address,
-                                threads=args.threads, trust_pickle=args.trust_pickle)
+            return rllib.resume(
+                out,
+                num_env_runners=args.num_env_runners,
+                ray_address=args.ray_address,
+                threads=args.threads,
+                trust_pickle=args.trust_pickle,
+            )
         _sb3_only(args, f" ({out} is an sb3 run)")
-        return sb3.resume(out, device=args.device, threads=args.threads, progress=not args.no_progress,
-                          verbose=args.verbose, trust_pickle=args.trust_pickle)
+        return sb3.resume(
+            out,
+            device=args.device,
+            threads=args.threads,
+            progress=not args.no_progress,
+            verbose=args.verbose,
+            trust_pickle=args.trust_pickle,
+        )
 
     backend = args.backend or "sb3"
     if args.out is not None and Path(args.out).is_dir():  # one trainer per folder (a new one: when created)
@@ -224,17 +284,31 @@ def run(args, argv=None) -> int:
     settings = dict(args.set or [])
     if args.n_envs is not None:
         settings["n_envs" if backend == "sb3" else "env_runners.num_envs_per_env_runner"] = args.n_envs
-    config = load_config(path, config_class(backend), settings, scenario=args.scenario, timesteps=args.timesteps,
-                         seed=args.seed)
+    config = load_config(
+        path, config_class(backend), settings, scenario=args.scenario, timesteps=args.timesteps, seed=args.seed
+    )
     common = {"command": command_line(argv), "hyperparameter_file": path, "threads": args.threads}
     if backend == "rllib":
         from coopnav_env.progress import stage
 
         stage(f"train.py: Ray RLlib PPO on {args.scenario}, {args.timesteps:,} steps into {args.out}; starting Ray")
-        return rllib.train(config, args.out, num_env_runners=args.num_env_runners, ray_address=args.ray_address,
-                           tune=rllib.parse_tune(args.tune or []), **common)
-    return sb3.train(config, args.out, device=args.device, progress=not args.no_progress, verbose=args.verbose,
-                     trust_pickle=args.trust_pickle, **common)
+        return rllib.train(
+            config,
+            args.out,
+            num_env_runners=args.num_env_runners,
+            ray_address=args.ray_address,
+            tune=rllib.parse_tune(args.tune or []),
+            **common,
+        )
+    return sb3.train(
+        config,
+        args.out,
+        device=args.device,
+        progress=not args.no_progress,
+        verbose=args.verbose,
+        trust_pickle=args.trust_pickle,
+        **common,
+    )
 
 
 def _sb3_only(args, why: str = ""):

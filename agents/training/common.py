@@ -24,7 +24,9 @@ import shlex
 import signal
 import sys
 import threading
+from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -34,23 +36,42 @@ from coopnav_env.seeds import refuse_test_seeds
 from .config import ConfigError
 from .scoring import eval_cells
 
+_C = TypeVar("_C")
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
+
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
-__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "Job", "StopFlag", "command_line", "new_run_dir", "prepare_job",
-           "read_run_record", "resume_command", "run_config", "resume_seed", "stop_on_signals", "write_run_record"]
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_INTERRUPTED",
+    "Job",
+    "StopFlag",
+    "command_line",
+    "new_run_dir",
+    "prepare_job",
+    "read_run_record",
+    "resume_command",
+    "run_config",
+    "resume_seed",
+    "stop_on_signals",
+    "write_run_record",
+]
 
 
 @dataclasses.dataclass
 class Job:
     """A config made concrete: the training scenario, its reward terms and the
     evaluation cells ([(label, ScenarioConfig)])."""
-    scenario_config: object
-    reward_terms: dict
+
+    scenario_config: ScenarioConfig
+    reward_terms: dict | None  # None: the environment's reward
     cells: list
 
 
-def prepare_job(config) -> Job:
+def prepare_job(config: Any) -> Job:
     """Check what a config names (scenario, timesteps, scenario parameters, reward
     terms, evaluation cells and baselines) before any work; a ``ConfigError`` else."""
     from baselines import list_policies
@@ -60,8 +81,11 @@ def prepare_job(config) -> Job:
     if config.scenario not in list_scenarios():
         from coopnav_env.names import did_you_mean
 
-        what = ("no scenario given;" if config.scenario is None else
-                f"unknown scenario {config.scenario!r}{did_you_mean(config.scenario, list_scenarios())}")
+        what = (
+            "no scenario given;"
+            if config.scenario is None
+            else f"unknown scenario {config.scenario!r}{did_you_mean(config.scenario, list_scenarios())}"
+        )
         raise ConfigError(f"{what} valid scenarios: {', '.join(list_scenarios())}")
     if config.timesteps is None or config.timesteps < 1:
         raise ConfigError(f"timesteps must be a positive number of environment steps, got {config.timesteps!r}")
@@ -88,19 +112,21 @@ def prepare_job(config) -> Job:
         if name not in list_policies():
             from coopnav_env.names import did_you_mean
 
-            raise ConfigError(f"eval.baselines: unknown policy {name!r}{did_you_mean(name, list_policies())} "
-                              f"valid: {', '.join(list_policies())}")
+            raise ConfigError(
+                f"eval.baselines: unknown policy {name!r}{did_you_mean(name, list_policies())} "
+                f"valid: {', '.join(list_policies())}"
+            )
     return Job(scenario_config, reward_terms, cells)
 
 
 # ----------------------------------------------------------------------------------
 # the run directory
 # ----------------------------------------------------------------------------------
-def resume_command(out) -> str:
+def resume_command(out: str | Path) -> str:
     return f"python train.py --resume {out}"
 
 
-def new_run_dir(out) -> Path:
+def new_run_dir(out: str | Path) -> Path:
     """``out`` as the directory of a new run: absent or empty (a ``ConfigError`` else)."""
     from .runlock import check_not_in_use
 
@@ -111,12 +137,13 @@ def new_run_dir(out) -> Path:
     if out.exists() and any(out.iterdir()):
         if (out / "config.yml").is_file():
             raise ConfigError(f"{out} exists and is not empty; use --resume {out} to continue it, or another --out")
-        raise ConfigError(f"{out} exists and is not empty, and is not a train.py run (no config.yml); use another "
-                          "--out")
+        raise ConfigError(
+            f"{out} exists and is not empty, and is not a train.py run (no config.yml); use another --out"
+        )
     return out
 
 
-def read_run_record(out) -> dict:
+def read_run_record(out: str | Path) -> dict:
     """The ``config.yml`` of run directory ``out`` (a ``ConfigError`` if there is none)."""
     from coopnav_env.safe_load import UnsafeDataError
 
@@ -130,7 +157,7 @@ def read_run_record(out) -> dict:
     return record
 
 
-def run_config(out, cls):
+def run_config(out: str | Path, cls: type[_C]) -> _C:
     """The config (``cls``) of run directory ``out``, from its config.yml."""
     from .config import config_from_record
 
@@ -142,20 +169,30 @@ def run_config(out, cls):
         raise ConfigError(f"{Path(out) / 'config.yml'}: {err}") from None
 
 
-def command_line(argv=None) -> str:
+def command_line(argv: list[str] | None = None) -> str:
     """``python train.py <argv>`` (``sys.argv[1:]`` by default), shell-quoted."""
     return "python train.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
 
 
-def write_run_record(out: Path, config, job: Job, *, command=None, hyperparameter_file=None, args=None,
-                     versions=None, **extra) -> dict:
+def write_run_record(
+    out: Path,
+    config: Any,
+    job: Job,
+    *,
+    command: str | None = None,
+    hyperparameter_file: str | Path | None = None,
+    args: dict | None = None,
+    versions: dict | None = None,
+    **extra: Any,
+) -> dict:
     """Write ``out/config.yml`` (see the module docstring) atomically; returns it.
     ``args``: the record's args (default: scenario, timesteps, seed); ``versions``:
     more version entries (e.g. Ray's); ``extra``: more top-level entries."""
     record = {
         "command": command,
-        "args": args if args is not None else {"scenario": config.scenario, "timesteps": config.timesteps,
-                                               "seed": config.seed},
+        "args": args
+        if args is not None
+        else {"scenario": config.scenario, "timesteps": config.timesteps, "seed": config.seed},
         "hyperparameter_file": None if hyperparameter_file is None else str(hyperparameter_file),
         "hyperparameters": config.hyperparameters(),
         **extra,
@@ -181,7 +218,7 @@ def resume_seed(seed: int, steps: int) -> int:
 class StopFlag:
     """Set by SIGINT or SIGTERM while ``stop_on_signals`` is active."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.requested = False
 
     def __bool__(self):
@@ -189,7 +226,7 @@ class StopFlag:
 
 
 @contextlib.contextmanager
-def stop_on_signals():
+def stop_on_signals() -> Iterator[StopFlag]:
     """While active, SIGINT and SIGTERM set the yielded ``StopFlag`` (the trainer
     checkpoints and returns ``EXIT_INTERRUPTED`` at its next boundary); a second
     signal acts as usual (KeyboardInterrupt, termination). Outside the main thread

@@ -28,10 +28,17 @@ import dataclasses
 import difflib
 import types
 import typing
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from coopnav_env.seeds import VALIDATION_SEED
+
+if TYPE_CHECKING:
+    from typing_extensions import Self
+
+_T = TypeVar("_T")
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 CONFIG_DIRS = {"sb3": PROJECT_ROOT / "configs" / "ppo", "rllib": PROJECT_ROOT / "configs" / "rllib"}
@@ -39,12 +46,29 @@ ACTIVATIONS = ("tanh", "relu", "elu", "leaky_relu")  # policy_kwargs.activation_
 JOB_KEYS = ("scenario", "timesteps", "seed")  # a run record's ``args``; the rest is ``hyperparameters``
 # keyword arguments of PPO.__init__ that the trainer sets itself
 SB3_RESERVED = {"self", "policy", "env", "seed", "device", "tensorboard_log", "verbose", "_init_setup_model"}
-LEGACY = {"env.variants": "env.variants is gone: set the core's per-episode randomization in env.overrides "
-                          "(randomize_survey_path, randomize_depth_m, randomize_noise_scale)"}
+LEGACY = {
+    "env.variants": "env.variants is gone: set the core's per-episode randomization in env.overrides "
+    "(randomize_survey_path, randomize_depth_m, randomize_noise_scale)"
+}
 
-__all__ = ["ConfigError", "EnvSpec", "EvalSpec", "ImitateSpec", "PeriodicEvalSpec", "NormalizeSpec", "RaySpec", "TrainConfig",
-           "RLlibConfig", "config_class", "config_from_record", "from_dict", "hyperparameter_file", "load_config",
-           "parse_value", "set_path"]
+__all__ = [
+    "ConfigError",
+    "EnvSpec",
+    "EvalSpec",
+    "ImitateSpec",
+    "PeriodicEvalSpec",
+    "NormalizeSpec",
+    "RaySpec",
+    "TrainConfig",
+    "RLlibConfig",
+    "config_class",
+    "config_from_record",
+    "from_dict",
+    "hyperparameter_file",
+    "load_config",
+    "parse_value",
+    "set_path",
+]
 
 
 class ConfigError(ValueError):
@@ -58,6 +82,7 @@ class ConfigError(ValueError):
 class EnvSpec:
     """The training scenario: its parameters (``make_config(scenario, **overrides)``),
     the core's per-episode randomization included (``randomize_depth_m: [..]``, ...)."""
+
     overrides: dict = field(default_factory=dict)
 
 
@@ -67,6 +92,7 @@ class EvalSpec:
     (episode ``i`` of every cell seeded ``seed + i``; 0: none), every combination of
     ``cells`` (``{parameter: [values]}``, randomization off) or the training scenario,
     and the ``baselines`` scored once on the same seeds."""
+
     episodes: int = 16
     seed: int = VALIDATION_SEED
     cells: dict = field(default_factory=dict)
@@ -77,6 +103,7 @@ class EvalSpec:
 class PeriodicEvalSpec(EvalSpec):
     """``EvalSpec`` every ``every_steps`` environment steps (0: never; the best model is
     kept) and at the end (the SB3 trainer)."""
+
     episodes: int = 32
     every_steps: int = 100_000
 
@@ -84,6 +111,7 @@ class PeriodicEvalSpec(EvalSpec):
 @dataclass
 class NormalizeSpec:
     """``stable_baselines3`` VecNormalize: saved beside the model (vecnormalize.pkl)."""
+
     norm_obs: bool = True
     norm_reward: bool = True
     clip_obs: float = 10.0
@@ -98,7 +126,8 @@ class ImitateSpec:
     training environments for ``steps`` row-steps, then the actor's mean is fitted to
     its actions and the critic to the returns, ``epochs`` passes in minibatches of
     ``batch_size`` at ``learning_rate``."""
-    planner: typing.Optional[str] = None
+
+    planner: str | None = None
     steps: int = 200_000
     epochs: int = 20
     batch_size: int = 4096
@@ -108,9 +137,10 @@ class ImitateSpec:
 @dataclass
 class RaySpec:
     """The local Ray instance an RLlib run starts (ignored with ``--ray-address``)."""
-    num_cpus: typing.Optional[int] = None  # None: the machine's cores (more if the env runners need more)
+
+    num_cpus: int | None = None  # None: the machine's cores (more if the env runners need more)
     object_store_memory_mb: float = 200.0
-    max_concurrent_trials: typing.Optional[int] = None  # a Tune grid's
+    max_concurrent_trials: int | None = None  # a Tune grid's
 
 
 @dataclass
@@ -118,8 +148,9 @@ class _Job:
     """What every training job has: the scenario, the total environment steps, the
     seed, the scenario's training parameters and the training reward
     (``{term: weight}``, see ``coopnav_env.vector``; {}: the environment's reward)."""
-    scenario: typing.Optional[str] = None
-    timesteps: typing.Optional[int] = None
+
+    scenario: str | None = None
+    timesteps: int | None = None
     seed: int = 0
     env: EnvSpec = field(default_factory=EnvSpec)
     reward: dict = field(default_factory=dict)
@@ -140,7 +171,7 @@ class _Job:
         at = keys.index("eval") if "eval" in keys else len(keys)
         return {k: d[k] for k in keys[:at] + ["env", "reward"] + keys[at:]}  # the YAML files' order
 
-    def check(self):
+    def check(self) -> Self:
         """Refuse what the fields' types cannot (a ``ConfigError``); returns self."""
         from .bounds import BoundsError, check_bounds
 
@@ -158,18 +189,20 @@ class TrainConfig(_Job):
     0; ``policy_kwargs.activation_fn`` a name: tanh, relu, elu, leaky_relu); {} leaves
     SB3's defaults. ``init_from``: start from another policy's weights and
     normalization (a run directory, a shipped policy name, a model .zip)."""
+
     policy: str = "MlpPolicy"
     n_envs: int = 16
     ppo: dict = field(default_factory=dict)
     normalize: NormalizeSpec = field(default_factory=NormalizeSpec)
     eval: PeriodicEvalSpec = field(default_factory=PeriodicEvalSpec)
     checkpoint_every_steps: int = 100_000
-    init_from: typing.Optional[str] = None
+    init_from: str | None = None
     imitate: ImitateSpec = field(default_factory=ImitateSpec)
 
-    def check(self):
-        from stable_baselines3 import PPO
+    def check(self) -> Self:
         import inspect
+
+        from stable_baselines3 import PPO
 
         valid = sorted(set(inspect.signature(PPO.__init__).parameters) - SB3_RESERVED)
         for key in self.ppo:
@@ -206,6 +239,7 @@ class RLlibConfig(_Job):
     ``PPOConfig.training`` keywords, ``model`` DefaultModelConfig keys, ``env_runners``
     and ``learners`` the keywords of ``PPOConfig.env_runners`` and ``.learners``;
     ``normalize_obs``: RLlib's MeanStdFilter per agent (saved in the checkpoint)."""
+
     ppo: dict = field(default_factory=dict)
     model: dict = field(default_factory=dict)
     normalize_obs: bool = False
@@ -230,7 +264,7 @@ def config_class(backend: str) -> type:
 # ----------------------------------------------------------------------------------
 # dict -> dataclass, strictly
 # ----------------------------------------------------------------------------------
-def unknown_key_message(key, valid, what: str) -> str:
+def unknown_key_message(key: str, valid: Iterable[str], what: str) -> str:
     """``unknown <what> 'foo'; did you mean 'bar'? valid: a, bar, c`` (the house style
     of ``coopnav_env.scenarios.base.check_overrides``)."""
     valid = sorted(valid)
@@ -239,8 +273,14 @@ def unknown_key_message(key, valid, what: str) -> str:
     return f"unknown {what} {key!r}{hint} valid: {', '.join(valid)}"
 
 
-_KIND = {int: "an integer", float: "a number", bool: "true or false", str: "a string", dict: "a mapping",
-         list: "a list"}
+_KIND = {
+    int: "an integer",
+    float: "a number",
+    bool: "true or false",
+    str: "a string",
+    dict: "a mapping",
+    list: "a list",
+}
 
 
 def _coerce(value, hint, where: str):
@@ -252,15 +292,19 @@ def _coerce(value, hint, where: str):
         hint = options[0]
         origin = typing.get_origin(hint)
     if dataclasses.is_dataclass(hint):
-        return from_dict(hint, {} if value is None else value, where)
+        return from_dict(typing.cast(type, hint), {} if value is None else value, where)
     base = origin or hint
     if base in (dict, list) and value is None:
         return base()
-    ok = {int: isinstance(value, int) and not isinstance(value, bool)
-               or isinstance(value, float) and value.is_integer(),
-          float: isinstance(value, (int, float)) and not isinstance(value, bool),
-          bool: isinstance(value, bool), str: isinstance(value, str),
-          dict: isinstance(value, dict), list: isinstance(value, (list, tuple))}[base]
+    ok = {
+        int: (isinstance(value, int) and not isinstance(value, bool))
+        or (isinstance(value, float) and value.is_integer()),
+        float: isinstance(value, (int, float)) and not isinstance(value, bool),
+        bool: isinstance(value, bool),
+        str: isinstance(value, str),
+        dict: isinstance(value, dict),
+        list: isinstance(value, (list, tuple)),
+    }[base]
     if not ok:
         raise ConfigError(f"{where} must be {_KIND[base]}, got {value!r}")
     try:
@@ -269,13 +313,13 @@ def _coerce(value, hint, where: str):
         raise ConfigError(f"{where} is out of range: {value!r:.40}") from None
 
 
-def from_dict(cls, data, where: str = ""):
+def from_dict(cls: type[_T], data: Any, where: str = "") -> _T:
     """``cls`` (a config dataclass) from a mapping, recursively; unknown keys, legacy
     keys and values of the wrong type are a ``ConfigError`` naming where they are."""
     if not isinstance(data, dict):
         raise ConfigError(f"{where or 'the config'} must be a mapping, got {data!r}")
     hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls) if f.init]
+    names = [f.name for f in dataclasses.fields(typing.cast(Any, cls)) if f.init]
     kwargs = {}
     for key, value in data.items():
         path = f"{where}.{key}" if where else str(key)
@@ -290,7 +334,7 @@ def from_dict(cls, data, where: str = ""):
 # ----------------------------------------------------------------------------------
 # files and overrides
 # ----------------------------------------------------------------------------------
-def parse_value(text: str):
+def parse_value(text: str) -> Any:
     """A command-line value: '3e-4' -> 0.0003, '2' -> 2, '[64, 64]' -> [64, 64],
     'true' -> True, 'null' -> None, 'tanh' -> 'tanh'."""
     text = str(text).strip()
@@ -309,7 +353,7 @@ def parse_value(text: str):
         raise ConfigError(str(err)) from None
 
 
-def set_path(data: dict, dotted: str, value) -> dict:
+def set_path(data: dict, dotted: str, value: Any) -> dict:
     """``data`` with ``data[a][b] = value`` for ``dotted`` "a.b" (sections created as
     needed; a non-mapping on the way is a ``ConfigError``)."""
     keys = dotted.split(".")
@@ -321,13 +365,13 @@ def set_path(data: dict, dotted: str, value) -> dict:
         if child is None:
             child = node[key] = {}
         if not isinstance(child, dict):
-            raise ConfigError(f"{'.'.join(keys[:i + 1])} is not a section (it is {child!r})")
+            raise ConfigError(f"{'.'.join(keys[: i + 1])} is not a section (it is {child!r})")
         node = child
     node[keys[-1]] = value
     return data
 
 
-def hyperparameter_file(backend: str, scenario, explicit=None) -> Path | None:
+def hyperparameter_file(backend: str, scenario: str | None, explicit: str | Path | None = None) -> Path | None:
     """The ``explicit`` file (it must exist), else ``configs/<ppo|rllib>/<scenario>.yml``,
     else that directory's ``default.yml``, else None (the dataclass defaults)."""
     if explicit:
@@ -342,7 +386,7 @@ def hyperparameter_file(backend: str, scenario, explicit=None) -> Path | None:
     return None
 
 
-def read_mapping(path) -> dict:
+def read_mapping(path: str | Path) -> dict:
     """A YAML file's mapping ({} if empty); anything else is a ``ConfigError``."""
     from coopnav_env.safe_load import UnsafeDataError, read_yaml
 
@@ -359,7 +403,9 @@ def read_mapping(path) -> dict:
     return data
 
 
-def load_config(path=None, cls=TrainConfig, settings: dict | None = None, **fields):
+def load_config(
+    path: str | Path | None = None, cls: type[_Job] = TrainConfig, settings: dict | None = None, **fields: Any
+) -> Any:
     """``cls`` from the YAML file ``path`` (None: the defaults), then ``settings``
     (``{"eval.episodes": 4, ...}``, dotted paths) and ``fields`` (top-level values
     that are not None: ``scenario=``, ``timesteps=``, ``seed=``, ...) on top; checked.
@@ -376,7 +422,7 @@ def load_config(path=None, cls=TrainConfig, settings: dict | None = None, **fiel
     return from_dict(cls, data).check()
 
 
-def config_from_record(record: dict, cls=None):
+def config_from_record(record: dict, cls: type | None = None) -> Any:
     """The config of a run from its ``config.yml`` (``args`` + ``hyperparameters``);
     ``cls`` None: the one of the record's backend (``args.backend``, sb3 if absent)."""
     if not isinstance(record, dict) or not isinstance(record.get("args"), dict):

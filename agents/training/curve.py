@@ -35,7 +35,7 @@ def _records(run: Path) -> list:
     return [r for r in out if isinstance(r, dict) and "survey_error_m" in r and "num_timesteps" in r]
 
 
-def draw_learning_curve(run, path=None) -> Path | None:
+def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path | None:
     """Draw ``run``'s learning curve into ``path`` (default ``RUN/learning_curve.png``),
     200 dpi, atomically. Returns the path, or None when the run has no validation yet."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -56,8 +56,10 @@ def draw_learning_curve(run, path=None) -> Path | None:
     FigureCanvasAgg(fig)
     left, right = fig.add_subplot(1, 2, 1), None
     right = fig.add_subplot(1, 2, 2, sharey=left)
-    for ax, xs, label in ((left, steps, "environment steps (rows: beacons x environments)"),
-                          (right, times, "training time (s, validations excluded)")):
+    for ax, xs, label in (
+        (left, steps, "environment steps (rows: beacons x environments)"),
+        (right, times, "training time (s, validations excluded)"),
+    ):
         ax.plot(xs, errors, "o-", color="tab:blue", ms=3.5, lw=1.4, label="PPO (validation)")
         for k, (name, score) in enumerate(sorted(baselines.items())):
             value = score.get("survey_error_m") if isinstance(score, dict) else None
@@ -65,8 +67,16 @@ def draw_learning_curve(run, path=None) -> Path | None:
                 ax.axhline(value, color=f"C{k + 1}", ls="--", lw=1.1, label=f"{name} ({value:.3f} m)")
         if best.get("num_timesteps") in steps:
             i = steps.index(best["num_timesteps"])
-            ax.plot([xs[i]], [errors[i]], marker="*", ms=13, color="tab:blue", mec="k", ls="none",
-                    label=f"best model ({errors[i]:.3f} m)")
+            ax.plot(
+                [xs[i]],
+                [errors[i]],
+                marker="*",
+                ms=13,
+                color="tab:blue",
+                mec="k",
+                ls="none",
+                label=f"best model ({errors[i]:.3f} m)",
+            )
         ax.set_xlabel(label)
         ax.grid(True, lw=0.3)
     # an early blow-up (hundreds of metres) would flatten the rest: clip the axis, mark what is above it
@@ -78,11 +88,18 @@ def draw_learning_curve(run, path=None) -> Path | None:
         for ax, xs in ((left, steps), (right, times)):
             above = [x for x, e in zip(xs, errors) if e > top]
             ax.set_ylim(0, top)
-            ax.plot(above, [top * 0.98] * len(above), "^", color="tab:red", ms=7, ls="none",
-                    label=f"off the scale (up to {max(errors):.0f} m)" if ax is right else None)
+            ax.plot(
+                above,
+                [top * 0.98] * len(above),
+                "^",
+                color="tab:red",
+                ms=7,
+                ls="none",
+                label=f"off the scale (up to {max(errors):.0f} m)" if ax is right else None,
+            )
     left.set_ylabel("validation mean survey error (m)")
     right.legend(fontsize=7, loc="best")
-    record = {}
+    record: dict = {}
     try:
         import yaml
 
@@ -90,8 +107,10 @@ def draw_learning_curve(run, path=None) -> Path | None:
     except (OSError, ValueError, ImportError, AttributeError):
         pass
     scenario = (record.get("args") or {}).get("scenario", "?") if isinstance(record, dict) else "?"
-    fig.suptitle(f"{run.name}: PPO on {scenario}, validation error (lower is better) beside the planners on the "
-                 "same seeds", fontsize=10)
+    fig.suptitle(
+        f"{run.name}: PPO on {scenario}, validation error (lower is better) beside the planners on the same seeds",
+        fontsize=10,
+    )
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=200)

@@ -28,13 +28,14 @@ on stdout), not counted in ``timesteps``.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 
 __all__ = ["imitate"]
 
 
-def collect(vecnorm, raw_env, planner: str, steps: int, seed: int) -> dict:
+def collect(vecnorm: Any, raw_env: Any, planner: str, steps: int, seed: int) -> dict:
     """Drive ``vecnorm`` (a VecNormalize over ``raw_env``'s rows, possibly through other
     wrappers) with ``planner`` for at least ``steps`` row-steps."""
     from baselines import make_policy
@@ -70,7 +71,7 @@ def discounted_returns(rewards: np.ndarray, dones: np.ndarray, gamma: float) -> 
     return out
 
 
-def imitate(model, vecnorm, raw_env, spec, seed: int) -> dict:
+def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int) -> dict:
     """Clone ``spec.planner`` into ``model`` (an SB3 PPO whose env is ``vecnorm``); returns
     what was done (steps, final losses, seconds)."""
     import torch
@@ -93,7 +94,7 @@ def imitate(model, vecnorm, raw_env, spec, seed: int) -> dict:
     for _ in range(spec.epochs):
         order = torch.as_tensor(rng.permutation(n), device=device)
         for start in range(0, n, spec.batch_size):
-            idx = order[start:start + spec.batch_size]
+            idx = order[start : start + spec.batch_size]
             mean = policy.get_distribution(x[idx]).distribution.mean
             value = policy.predict_values(x[idx]).squeeze(-1)
             la = ((mean - a[idx]) ** 2).mean()
@@ -107,6 +108,12 @@ def imitate(model, vecnorm, raw_env, spec, seed: int) -> dict:
     with torch.no_grad():
         mean = policy.get_distribution(x).distribution.mean.clamp(-1.0, 1.0)
         rms = float(torch.sqrt(((mean - a) ** 2).mean()))
-    return {"planner": spec.planner, "steps": int(n), "epochs": spec.epochs, "action_rms_error": round(rms, 4),
-            "actor_loss": round(actor_loss, 5), "critic_loss": round(critic_loss, 5),
-            "seconds": round(time.perf_counter() - t0, 1)}
+    return {
+        "planner": spec.planner,
+        "steps": int(n),
+        "epochs": spec.epochs,
+        "action_rms_error": round(rms, 4),
+        "actor_loss": round(actor_loss, 5),
+        "critic_loss": round(critic_loss, 5),
+        "seconds": round(time.perf_counter() - t0, 1),
+    }

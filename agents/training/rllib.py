@@ -82,30 +82,58 @@ import shutil
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from coopnav_env.records import atomic_append_line, atomic_write_text, read_json
 
 from . import runlock
-from .common import (EXIT_INTERRUPTED, new_run_dir, prepare_job, read_run_record, resume_command, resume_seed,
-                     run_config, stop_on_signals, write_run_record)
+from .common import (
+    EXIT_INTERRUPTED,
+    Job,
+    new_run_dir,
+    prepare_job,
+    read_run_record,
+    resume_command,
+    resume_seed,
+    run_config,
+    stop_on_signals,
+    write_run_record,
+)
 from .config import ConfigError, RLlibConfig, parse_value, unknown_key_message
 from .scoring import baselines_on_eval_seeds, evaluate
 
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no usage reports from training runs
 
-SUMMARY_COLUMNS = ["trial", "env_steps", "iterations", "episode_return_mean", "train_survey_error_m",
-                   "eval_survey_error_m", "checkpoint"]
+SUMMARY_COLUMNS = [
+    "trial",
+    "env_steps",
+    "iterations",
+    "episode_return_mean",
+    "train_survey_error_m",
+    "eval_survey_error_m",
+    "checkpoint",
+]
 RAY_MISSING = '--backend rllib needs Ray RLlib, which is not installed: pip install -e ".[rllib]"'
 
 __all__ = ["build_config", "metrics", "parse_tune", "require_ray", "resume", "save_checkpoint", "train"]
 
 
 @runlock.releasing
-def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None = None, hyperparameter_file=None,
-          num_env_runners: int | None = None, ray_address: str | None = None, tune: dict | None = None,
-          threads: int = 1, trust_pickle: bool = False) -> int:
+def train(
+    config: RLlibConfig,
+    out: str | Path,
+    resume: bool = False,
+    *,
+    command: str | None = None,
+    hyperparameter_file: str | Path | None = None,
+    num_env_runners: int | None = None,
+    ray_address: str | None = None,
+    tune: dict | None = None,
+    threads: int = 1,
+    trust_pickle: bool = False,
+) -> int:
     """Train ``config`` on RLlib into run directory ``out`` (new, or with ``resume`` the
     run's own directory, continued from its checkpoint). ``num_env_runners`` overrides
     ``env_runners.num_env_runners``; ``ray_address`` joins a running cluster; ``tune``
@@ -128,8 +156,10 @@ def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None
         elif not trust_pickle:
             from agents.formats import PickleRefused
 
-            raise PickleRefused(f"{out / 'checkpoint'} is an RLlib checkpoint, which is read by unpickling and can "
-                                f"run code: refused; if you trust it (your own run), pass --trust-pickle")
+            raise PickleRefused(
+                f"{out / 'checkpoint'} is an RLlib checkpoint, which is read by unpickling and can "
+                f"run code: refused; if you trust it (your own run), pass --trust-pickle"
+            )
         if num_env_runners is None:
             num_env_runners = record["args"].get("num_env_runners")
     else:
@@ -145,33 +175,55 @@ def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None
 
     torch.set_num_threads(threads)  # the learner runs in this process (num_learners: 0)
     if meta is not None:
+        assert config.timesteps is not None  # set by RLlibConfig.check()
         if int(meta["env_steps"]) >= config.timesteps:  # trained: at most the final evaluation is missing
             finish(out, meta, config, job)
-            print(f"done: {out} is already at {meta['env_steps']} of {config.timesteps} env steps; "
-                  f"checkpoint in {out / 'checkpoint'}")
+            print(
+                f"done: {out} is already at {meta['env_steps']} of {config.timesteps} env steps; "
+                f"checkpoint in {out / 'checkpoint'}"
+            )
             return 0
         drop_lost_iterations(out, int(meta["iteration"]))
         if record["args"].get("ray_address") and not ray_address:
-            print(f"note: the run used --ray-address {record['args']['ray_address']}; resuming on a local Ray "
-                  "instance (pass --ray-address to join a cluster)")
+            print(
+                f"note: the run used --ray-address {record['args']['ray_address']}; resuming on a local Ray "
+                "instance (pass --ray-address to join a cluster)"
+            )
         # fresh episodes: the environments' and RLlib's seed from the run's seed and the step count
         algo_config, _ = build_config(config, seed=resume_seed(config.seed, int(meta["env_steps"])))
     elif restart:  # stopped before its first checkpoint: again from step 0, with its config.yml
         (out / "progress.jsonl").unlink(missing_ok=True)
-        print(f"note: {out} has no checkpoint yet (stopped before its first one): starting it from scratch with "
-              "its config.yml", file=sys.stderr)
+        print(
+            f"note: {out} has no checkpoint yet (stopped before its first one): starting it from scratch with "
+            "its config.yml",
+            file=sys.stderr,
+        )
         algo_config, _ = build_config(config)
     else:
         algo_config, mapping = build_config(config)
         import ray
 
-        args = {"backend": "rllib", "scenario": config.scenario, "timesteps": config.timesteps, "seed": config.seed,
-                "num_env_runners": int(algo_config.num_env_runners or 0), "ray_address": ray_address,
-                "tune": dict(grid) or None}
+        args = {
+            "backend": "rllib",
+            "scenario": config.scenario,
+            "timesteps": config.timesteps,
+            "seed": config.seed,
+            "num_env_runners": int(algo_config.num_env_runners or 0),
+            "ray_address": ray_address,
+            "tune": dict(grid) or None,
+        }
         runlock.claim(out, new=True, command=command)  # the lock on --out: one trainer per folder
-        write_run_record(out, config, job, command=command, hyperparameter_file=hyperparameter_file, args=args,
-                         versions={"ray": str(ray.__version__)}, module_map=mapping,
-                         rllib_config=config_record(algo_config))
+        write_run_record(
+            out,
+            config,
+            job,
+            command=command,
+            hyperparameter_file=hyperparameter_file,
+            args=args,
+            versions={"ray": str(ray.__version__)},
+            module_map=mapping,
+            rllib_config=config_record(algo_config),
+        )
     cpus = cpus_per_trial(algo_config)
     started = init_ray(ray_address, config, cpus if grid else cpus - 1)
     import ray
@@ -185,16 +237,16 @@ def train(config: RLlibConfig, out, resume: bool = False, *, command: str | None
             ray.shutdown()
 
 
-def resume(out, **options) -> int:
+def resume(out: str | Path, **options: Any) -> int:
     """Continue the RLlib run in ``out`` with its own config.yml (``train``'s keyword
     options: num_env_runners, ray_address, threads, trust_pickle)."""
     return train(run_config(out, RLlibConfig), out, resume=True, **options)
 
 
-def require_ray():
+def require_ray() -> None:
     """A ``ConfigError`` (one line: how to install it) if Ray RLlib cannot be imported."""
     try:
-        import ray  # noqa: F401
+        import ray  # only checks it imports
         import ray.rllib  # noqa: F401
     except ImportError:
         raise ConfigError(RAY_MISSING) from None
@@ -210,8 +262,11 @@ def training_keywords() -> set:
 
     names = set()
     for fn in (PPOConfig.training, AlgorithmConfig.training):
-        names |= {n for n, p in inspect.signature(fn).parameters.items()
-                  if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
+        names |= {
+            n
+            for n, p in inspect.signature(fn).parameters.items()
+            if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)
+        }
     return names
 
 
@@ -251,8 +306,10 @@ def check_tune(grid: dict) -> dict:
     valid = training_keywords()
     for key, values in grid.items():
         if key != "seed" and key not in valid:
-            raise ConfigError(f"--tune {key}: not seed or a PPOConfig.training keyword (lr, gamma, lambda_, "
-                              "entropy_coeff, clip_param, num_epochs, minibatch_size, ...)")
+            raise ConfigError(
+                f"--tune {key}: not seed or a PPOConfig.training keyword (lr, gamma, lambda_, "
+                "entropy_coeff, clip_param, num_epochs, minibatch_size, ...)"
+            )
         if not values or any(v is None or v == "" for v in values):
             raise ConfigError(f"--tune {key}: empty value in {values!r}")
         if len(set(map(repr, values))) != len(values):
@@ -268,12 +325,16 @@ def check_tune(grid: dict) -> dict:
 def env_config(config: RLlibConfig, seed: int) -> dict:
     from coopnav_env.vector import check_reward_terms
 
-    return {"scenario": config.scenario, "overrides": dict(config.env.overrides), "seed": int(seed),
-            "reward_terms": check_reward_terms(config.reward),
-            "num_envs_per_env_runner": int(config.env_runners.get("num_envs_per_env_runner", 1) or 1)}
+    return {
+        "scenario": config.scenario,
+        "overrides": dict(config.env.overrides),
+        "seed": int(seed),
+        "reward_terms": check_reward_terms(config.reward),
+        "num_envs_per_env_runner": int(config.env_runners.get("num_envs_per_env_runner", 1) or 1),
+    }
 
 
-def build_config(config: RLlibConfig, seed: int | None = None):
+def build_config(config: RLlibConfig, seed: int | None = None) -> Any:
     """(PPOConfig, beacon -> module map) of a job: the adapter env, one module per
     beacon kind, the config's ``ppo``/``model``/``env_runners``/``learners`` sections.
     ``seed``: the run's (default ``config.seed``). Bad sections are a ``ConfigError``."""
@@ -281,8 +342,14 @@ def build_config(config: RLlibConfig, seed: int | None = None):
     from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
     from ray.rllib.core.rl_module.rl_module import RLModuleSpec
 
-    from coopnav_env.rllib_env import CoopNavRLlibEnv, KindMapping, SurveyErrorMetrics, mean_std_filter, module_ids, \
-        module_map
+    from coopnav_env.rllib_env import (
+        CoopNavRLlibEnv,
+        KindMapping,
+        SurveyErrorMetrics,
+        mean_std_filter,
+        module_ids,
+        module_map,
+    )
 
     seed = config.seed if seed is None else int(seed)
     valid = training_keywords()
@@ -301,23 +368,31 @@ def build_config(config: RLlibConfig, seed: int | None = None):
             .env_runners(**runners)
             .learners(**config.learners)
             .training(**config.ppo)
-            .multi_agent(policies=set(module_ids(mapping)), policy_mapping_fn=KindMapping(mapping),
-                         policies_to_train=module_ids(mapping))
-            .rl_module(rl_module_spec=MultiRLModuleSpec(
-                rl_module_specs={m: RLModuleSpec(model_config=dict(config.model)) for m in module_ids(mapping)}))
+            .multi_agent(
+                policies=set(module_ids(mapping)),
+                policy_mapping_fn=KindMapping(mapping),
+                policies_to_train=module_ids(mapping),
+            )
+            .rl_module(
+                rl_module_spec=MultiRLModuleSpec(
+                    rl_module_specs={m: RLModuleSpec(model_config=dict(config.model)) for m in module_ids(mapping)}
+                )
+            )
             .callbacks(SurveyErrorMetrics)
             .debugging(seed=seed, log_level="ERROR")
             .reporting(metrics_num_episodes_for_smoothing=100)
         )
         algo_config.validate()
     except (TypeError, ValueError, KeyError, AssertionError) as err:
-        raise ConfigError(f"bad RLlib hyperparameters: {' '.join(str(err).split())[:300] or type(err).__name__}") \
-            from None
+        raise ConfigError(
+            f"bad RLlib hyperparameters: {' '.join(str(err).split())[:300] or type(err).__name__}"
+        ) from None
     return algo_config, mapping
 
 
-def config_record(algo_config) -> dict:
+def config_record(algo_config: Any) -> dict:
     """The AlgorithmConfig as plain YAML-able values (callables and classes by name)."""
+
     def clean(v):
         if isinstance(v, enum.Enum):
             return clean(v.value)
@@ -354,20 +429,27 @@ def init_ray(address: str | None, config: RLlibConfig, cpus_needed: int) -> bool
         try:
             ray.init(address=address, log_to_driver=False, runtime_env=runtime_env)
         except (ConnectionError, RuntimeError, ValueError) as err:
-            raise ConfigError(f"cannot connect to the Ray cluster at {address!r} ({' '.join(str(err).split())[:200]}); "
-                              "start one with 'ray start --head' (with RAY_AUTH_MODE=token: the same token on every "
-                              "node and here)") from None
+            raise ConfigError(
+                f"cannot connect to the Ray cluster at {address!r} ({' '.join(str(err).split())[:200]}); "
+                "start one with 'ray start --head' (with RAY_AUTH_MODE=token: the same token on every "
+                "node and here)"
+            ) from None
         return True
     cores = os.cpu_count() or 1
     num_cpus = max(config.ray.num_cpus or max(cores, cpus_needed), cpus_needed)
     if num_cpus > cores:
         print(f"note: {cpus_needed} CPU(s) requested by the env runners on {cores} core(s): they share the cores")
-    ray.init(num_cpus=int(num_cpus), include_dashboard=False, log_to_driver=False,
-             object_store_memory=int(config.ray.object_store_memory_mb * 2**20), runtime_env=runtime_env)
+    ray.init(
+        num_cpus=int(num_cpus),
+        include_dashboard=False,
+        log_to_driver=False,
+        object_store_memory=int(config.ray.object_store_memory_mb * 2**20),
+        runtime_env=runtime_env,
+    )
     return True
 
 
-def cpus_per_trial(algo_config) -> int:
+def cpus_per_trial(algo_config: Any) -> int:
     runners = int(algo_config.num_env_runners or 0)
     return int(np.ceil(runners * float(algo_config.num_cpus_per_env_runner or 1))) + 1
 
@@ -375,7 +457,7 @@ def cpus_per_trial(algo_config) -> int:
 # ----------------------------------------------------------------------------------
 # 4. files
 # ----------------------------------------------------------------------------------
-def save_checkpoint(algo, out: Path, meta: dict) -> Path:
+def save_checkpoint(algo: Any, out: Path, meta: dict) -> Path:
     """The Algorithm checkpoint in ``out/checkpoint``, replaced whole: written to a
     temporary directory beside it, then renamed into place."""
     final = out / "checkpoint"
@@ -419,7 +501,7 @@ def resumable_checkpoint(out: Path) -> dict | None:
     return meta
 
 
-def drop_lost_iterations(out: Path, iteration: int):
+def drop_lost_iterations(out: Path, iteration: int) -> None:
     """Keep the lines of ``progress.jsonl`` up to ``iteration`` (the checkpoint a resumed
     run continues from): a run killed without a last checkpoint logged iterations whose
     training the checkpoint does not hold, and the resumed run trains them again."""
@@ -451,14 +533,17 @@ def metrics(result: dict) -> dict:
         return v if np.isfinite(v) else None
 
     steps = result.get("num_env_steps_sampled_lifetime", er.get("num_env_steps_sampled_lifetime", 0))
-    return {"iteration": int(result.get("training_iteration", 0)), "env_steps": int(num(steps) or 0),
-            "episode_return_mean": num(er.get("episode_return_mean")),
-            "survey_error_m": num(er.get("survey_error_m")),
-            "episodes": int(num(er.get("num_episodes_lifetime")) or 0),
-            "time_s": num(result.get("time_total_s"))}
+    return {
+        "iteration": int(result.get("training_iteration", 0)),
+        "env_steps": int(num(steps) or 0),
+        "episode_return_mean": num(er.get("episode_return_mean")),
+        "survey_error_m": num(er.get("survey_error_m")),
+        "episodes": int(num(er.get("num_episodes_lifetime")) or 0),
+        "time_s": num(result.get("time_total_s")),
+    }
 
 
-def evaluate_checkpoint(path, config: RLlibConfig, job) -> dict | None:
+def evaluate_checkpoint(path: str | Path, config: RLlibConfig, job: Job) -> dict | None:
     """The deterministic policy of checkpoint ``path`` on the fixed evaluation seeds
     (``scoring.evaluate``); None with ``eval.episodes`` 0."""
     if config.eval.episodes <= 0:
@@ -471,7 +556,7 @@ def evaluate_checkpoint(path, config: RLlibConfig, job) -> dict | None:
 # ----------------------------------------------------------------------------------
 # 5. one training run
 # ----------------------------------------------------------------------------------
-def run_training(algo_config, out: Path, config: RLlibConfig, job, restore: dict | None = None) -> int:
+def run_training(algo_config: Any, out: Path, config: RLlibConfig, job: Job, restore: dict | None = None) -> int:
     """Train until ``config.timesteps`` env steps (RLlib's lifetime count), checkpointing
     every ``checkpoint_every_iterations`` and at the end, then evaluate. ``restore``: the
     ``coopnav.json`` of ``out/checkpoint``, which the Algorithm is restored from first.
@@ -487,21 +572,26 @@ def run_training(algo_config, out: Path, config: RLlibConfig, job, restore: dict
         try:
             if restore:
                 algo.restore_from_path(str((out / "checkpoint").resolve()))
-            print(f"{'built and restored' if restore else 'built'} in {time.perf_counter() - t0:.1f} s: "
-                  f"{algo_config.num_env_runners} env runner(s) x {algo_config.num_envs_per_env_runner} env(s), "
-                  f"{algo_config.num_learners} remote learner(s)"
-                  + (f"; resuming at {start_steps} env steps, iteration {saved_iteration}" if restore else ""),
-                  flush=True)
+            print(
+                f"{'built and restored' if restore else 'built'} in {time.perf_counter() - t0:.1f} s: "
+                f"{algo_config.num_env_runners} env runner(s) x {algo_config.num_envs_per_env_runner} env(s), "
+                f"{algo_config.num_learners} remote learner(s)"
+                + (f"; resuming at {start_steps} env steps, iteration {saved_iteration}" if restore else ""),
+                flush=True,
+            )
             t_train = time.perf_counter()
+            assert config.timesteps is not None  # set by RLlibConfig.check()
             while m["env_steps"] < config.timesteps and not stop:
                 m = metrics(algo.train())
                 session = time.perf_counter() - t_train
                 m["wall_s"] = round(wall_before + session, 2)
                 atomic_append_line(out / "progress.jsonl", json.dumps(m))
                 rate = (m["env_steps"] - start_steps) / max(session, 1e-9)
-                print(f"iter {m['iteration']}: {m['env_steps']} env steps ({rate:.0f}/s), return "
-                      f"{_metres(m['episode_return_mean'])}, survey_error_m {_metres(m['survey_error_m'])}",
-                      flush=True)
+                print(
+                    f"iter {m['iteration']}: {m['env_steps']} env steps ({rate:.0f}/s), return "
+                    f"{_metres(m['episode_return_mean'])}, survey_error_m {_metres(m['survey_error_m'])}",
+                    flush=True,
+                )
                 if ckpt_every and m["iteration"] % ckpt_every == 0:
                     save_checkpoint(algo, out, m)
                     saved_iteration = m["iteration"]
@@ -510,17 +600,22 @@ def run_training(algo_config, out: Path, config: RLlibConfig, job, restore: dict
         finally:
             algo.stop()
     if stop:
-        print(f"stopped at {m['env_steps']} env steps (iteration {m['iteration']}), checkpoint in "
-              f"{out / 'checkpoint'}; continue with: {resume_command(out)} --trust-pickle", file=sys.stderr)
+        print(
+            f"stopped at {m['env_steps']} env steps (iteration {m['iteration']}), checkpoint in "
+            f"{out / 'checkpoint'}; continue with: {resume_command(out)} --trust-pickle",
+            file=sys.stderr,
+        )
         return EXIT_INTERRUPTED
     finish(out, m, config, job)
     wall = time.perf_counter() - t_train
-    print(f"done: {m['env_steps']} env steps ({m['env_steps'] - start_steps} in this run, {wall:.0f} s, "
-          f"{(m['env_steps'] - start_steps) / max(wall, 1e-9):.0f}/s); checkpoint in {out / 'checkpoint'}")
+    print(
+        f"done: {m['env_steps']} env steps ({m['env_steps'] - start_steps} in this run, {wall:.0f} s, "
+        f"{(m['env_steps'] - start_steps) / max(wall, 1e-9):.0f}/s); checkpoint in {out / 'checkpoint'}"
+    )
     return 0
 
 
-def finish(out: Path, m: dict, config: RLlibConfig, job):
+def finish(out: Path, m: dict, config: RLlibConfig, job: Job) -> None:
     """The final evaluation of ``out/checkpoint`` (``m``: its coopnav.json) on the fixed
     seeds, appended to evaluations.jsonl, unless that file already ends with it."""
     done = _last_json_line(out / "evaluations.jsonl")
@@ -531,14 +626,19 @@ def finish(out: Path, m: dict, config: RLlibConfig, job):
         return
     ev = config.eval
     baseline = baselines_on_eval_seeds(out, job.cells, ev.baselines, ev.episodes, ev.seed)
-    record = {"num_timesteps": m["env_steps"], "iteration": m["iteration"],
-              "survey_error_m": result["survey_error_m"],
-              **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline.items()}}
+    record = {
+        "num_timesteps": m["env_steps"],
+        "iteration": m["iteration"],
+        "survey_error_m": result["survey_error_m"],
+        **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline.items()},
+    }
     if len(job.cells) > 1:
         record["per_cell"] = {k: round(v, 4) for k, v in result["per_cell"].items()}
     atomic_append_line(out / "evaluations.jsonl", json.dumps(record))  # never a half-written line
-    print(f"eval: survey_error_m {result['survey_error_m']:.3f}"
-          + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline.items()))
+    print(
+        f"eval: survey_error_m {result['survey_error_m']:.3f}"
+        + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline.items())
+    )
 
 
 def _last_json_line(path: Path) -> dict | None:
@@ -561,7 +661,7 @@ def _metres(v) -> str:
 # ----------------------------------------------------------------------------------
 # 6. a Tune grid
 # ----------------------------------------------------------------------------------
-def run_tune(algo_config, grid: dict, out: Path, config: RLlibConfig, job) -> int:
+def run_tune(algo_config: Any, grid: dict, out: Path, config: RLlibConfig, job: Job) -> int:
     from ray import tune
 
     param_space = algo_config.to_dict()
@@ -570,27 +670,47 @@ def run_tune(algo_config, grid: dict, out: Path, config: RLlibConfig, job) -> in
         param_space[name] = tune.grid_search(values)
     if "seed" in grid:  # every trial's environments from its own seed
         base_env_config = env_config(config, config.seed)
-        param_space["env_config"] = tune.sample_from(lambda spec: {**base_env_config, "seed": int(spec.config["seed"])})
+        # Tune calls it with the trial's spec (an object with .config), though sample_from's stub says dict
+        param_space["env_config"] = tune.sample_from(
+            lambda spec: {**base_env_config, "seed": int(spec.config["seed"])}  # type: ignore[attr-defined]
+        )
     tuner = tune.Tuner(
-        algo_config.algo_class, param_space=param_space,  # the class: the name "PPO" makes Tune import every algorithm
-        tune_config=tune.TuneConfig(max_concurrent_trials=config.ray.max_concurrent_trials, reuse_actors=False,
-                                    trial_name_creator=_trial_name, trial_dirname_creator=_trial_name),
-        run_config=tune.RunConfig(name="tune", storage_path=str(out.resolve()), verbose=0,
-                                  stop={"num_env_steps_sampled_lifetime": config.timesteps},
-                                  checkpoint_config=tune.CheckpointConfig(checkpoint_at_end=True, num_to_keep=1)))
+        algo_config.algo_class,
+        param_space=param_space,  # the class: the name "PPO" makes Tune import every algorithm
+        tune_config=tune.TuneConfig(
+            max_concurrent_trials=config.ray.max_concurrent_trials,
+            reuse_actors=False,
+            trial_name_creator=_trial_name,
+            trial_dirname_creator=_trial_name,
+        ),
+        run_config=tune.RunConfig(
+            name="tune",
+            storage_path=str(out.resolve()),
+            verbose=0,
+            stop={"num_env_steps_sampled_lifetime": config.timesteps},
+            checkpoint_config=tune.CheckpointConfig(checkpoint_at_end=True, num_to_keep=1),
+        ),
+    )
     t0 = time.perf_counter()
     results = tuner.fit()
     print(f"tune: {len(results)} trial(s) in {time.perf_counter() - t0:.0f} s", flush=True)
     rows = []
-    for r in sorted(results, key=lambda r: r.path):
+    for r in sorted((results[i] for i in range(len(results))), key=lambda r: r.path):  # a ResultGrid indexes
         trial_cfg = r.config or {}
-        row = {"trial": Path(r.path).name}
+        row: dict[str, Any] = {"trial": Path(r.path).name}
         for key in grid:
             row[key] = trial_cfg.get("lambda" if key == "lambda_" else key)
         if r.error is not None:
-            row.update({"env_steps": None, "iterations": None, "episode_return_mean": None,
-                        "train_survey_error_m": None, "eval_survey_error_m": None,
-                        "checkpoint": f"error: {' '.join(str(r.error).split())[:120]}"})
+            row.update(
+                {
+                    "env_steps": None,
+                    "iterations": None,
+                    "episode_return_mean": None,
+                    "train_survey_error_m": None,
+                    "eval_survey_error_m": None,
+                    "checkpoint": f"error: {' '.join(str(r.error).split())[:120]}",
+                }
+            )
             rows.append(row)
             continue
         m = metrics(r.metrics or {})
@@ -600,10 +720,16 @@ def run_tune(algo_config, grid: dict, out: Path, config: RLlibConfig, job) -> in
 
             export(ckpt)
         evaluation = evaluate_checkpoint(ckpt, config, job) if ckpt else None
-        row.update({"env_steps": m["env_steps"], "iterations": m["iteration"],
-                    "episode_return_mean": m["episode_return_mean"], "train_survey_error_m": m["survey_error_m"],
-                    "eval_survey_error_m": evaluation["survey_error_m"] if evaluation else None,
-                    "checkpoint": str(ckpt.relative_to(out.resolve())) if ckpt else None})
+        row.update(
+            {
+                "env_steps": m["env_steps"],
+                "iterations": m["iteration"],
+                "episode_return_mean": m["episode_return_mean"],
+                "train_survey_error_m": m["survey_error_m"],
+                "eval_survey_error_m": evaluation["survey_error_m"] if evaluation else None,
+                "checkpoint": str(ckpt.relative_to(out.resolve())) if ckpt else None,
+            }
+        )
         rows.append(row)
     columns = ["trial", *grid, *SUMMARY_COLUMNS[1:]]
     write_summary(out, columns, rows)
@@ -622,7 +748,7 @@ def _trial_name(trial) -> str:
     return f"trial_{tag}"[:120]
 
 
-def write_summary(out: Path, columns: list, rows: list):
+def write_summary(out: Path, columns: list, rows: list) -> None:
     """summary.csv and summary.md (the same table), each written atomically."""
     import csv
     import io

@@ -18,9 +18,14 @@ import json
 import os
 import socket
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import ParamSpec, TypeVar
 
 from .config import ConfigError
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
 
 OWNER_FILE = ".train.owner.json"
 _HELD: dict = {}  # resolved folder -> (fd, owner file written)
@@ -50,15 +55,16 @@ def _flock(out: Path):
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         os.close(fd)
-        raise ConfigError(f"{out} is in use by another train.py run{_owner_text(out)}; wait for it to end or use "
-                          "another --out") from None
+        raise ConfigError(
+            f"{out} is in use by another train.py run{_owner_text(out)}; wait for it to end or use another --out"
+        ) from None
     except OSError as err:
         os.close(fd)
         raise ConfigError(f"cannot lock run folder {out}: {err.strerror or err}") from None
     return fd
 
 
-def check_not_in_use(out) -> None:
+def check_not_in_use(out: str | Path) -> None:
     """ConfigError if another process holds the folder ``out`` (which may not exist)."""
     out = Path(out)
     if not out.is_dir() or str(out.resolve()) in _HELD:
@@ -70,7 +76,7 @@ def check_not_in_use(out) -> None:
     os.close(fd)
 
 
-def hold(out) -> None:
+def hold(out: str | Path) -> None:
     """Lock the existing folder ``out`` for this process (no file written)."""
     out = Path(out)
     key = str(out.resolve())
@@ -78,7 +84,7 @@ def hold(out) -> None:
         _HELD[key] = [_flock(out), False]
 
 
-def claim(out, new: bool, command: str | None = None) -> None:
+def claim(out: str | Path, new: bool, command: str | None = None) -> None:
     """Create ``out`` if needed, lock it (if not held yet) and write the owner file. A
     new run's folder must still be empty (apart from the owner file) once locked."""
     out = Path(out)
@@ -90,20 +96,28 @@ def claim(out, new: bool, command: str | None = None) -> None:
     if not entry[1]:
         from coopnav_env.records import atomic_write_text
 
-        atomic_write_text(out / OWNER_FILE, json.dumps({
-            "pid": os.getpid(), "host": socket.gethostname(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-            "command": command or f"agents.training (Python API, pid {os.getpid()})"}))
+        atomic_write_text(
+            out / OWNER_FILE,
+            json.dumps(
+                {
+                    "pid": os.getpid(),
+                    "host": socket.gethostname(),
+                    "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                    "command": command or f"agents.training (Python API, pid {os.getpid()})",
+                }
+            ),
+        )
         entry[1] = True
 
 
-def releasing(train):
+def releasing(train: Callable[_P, _R]) -> Callable[_P, _R]:
     """Decorate a trainer: the folders it locked itself (``claim`` of a new ``--out``)
     are released when it returns, those held before (``hold`` by the command line)
     stay held until ``release_all``."""
     import functools
 
     @functools.wraps(train)
-    def wrapper(*args, **kwargs):
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
         before = set(_HELD)
         try:
             return train(*args, **kwargs)

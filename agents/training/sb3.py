@@ -49,16 +49,27 @@ from __future__ import annotations
 import json
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-from coopnav_env.records import atomic_append_line, atomic_write_text, read_json
+import numpy as np
 
 from agents import formats
 from agents.formats import PolicyFormatError
+from coopnav_env.records import atomic_append_line, atomic_write_text, read_json
 
 from . import runlock
-from .common import (EXIT_INTERRUPTED, new_run_dir, prepare_job, resume_command, resume_seed, run_config,
-                     stop_on_signals, write_run_record)
+from .common import (
+    EXIT_INTERRUPTED,
+    new_run_dir,
+    prepare_job,
+    resume_command,
+    resume_seed,
+    run_config,
+    stop_on_signals,
+    write_run_record,
+)
 from .config import ConfigError, TrainConfig
 from .scoring import baselines_on_eval_seeds, evaluate
 
@@ -66,9 +77,19 @@ __all__ = ["learning_rate", "policy_kwargs", "resume", "train", "warm_start_file
 
 
 @runlock.releasing
-def train(config: TrainConfig, out, resume: bool = False, *, command: str | None = None,
-          hyperparameter_file=None, device: str = "cpu", threads: int = 1, progress: bool = False,
-          verbose: int = 0, trust_pickle: bool = False) -> int:
+def train(
+    config: TrainConfig,
+    out: str | Path,
+    resume: bool = False,
+    *,
+    command: str | None = None,
+    hyperparameter_file: str | Path | None = None,
+    device: str = "cpu",
+    threads: int = 1,
+    progress: bool = False,
+    verbose: int = 0,
+    trust_pickle: bool = False,
+) -> int:
     """Train ``config`` into run directory ``out`` (new, or with ``resume`` the run's own
     directory, continued from its last checkpoint). Returns 0 when done,
     ``EXIT_INTERRUPTED`` after SIGINT/SIGTERM (checkpoint written). Bad input raises
@@ -95,13 +116,17 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
 
         valid = list_policies(job.scenario_config.network)
         if config.imitate.planner not in valid:
-            raise ConfigError(f"imitate.planner {config.imitate.planner!r} cannot drive {config.scenario!r}; "
-                              f"valid: {', '.join(valid)}")
+            raise ConfigError(
+                f"imitate.planner {config.imitate.planner!r} cannot drive {config.scenario!r}; "
+                f"valid: {', '.join(valid)}"
+            )
 
     from coopnav_env.progress import stage
 
-    stage(f"train.py: PPO on {config.scenario}, {config.timesteps:,} steps into {out}; loading torch and "
-          "stable-baselines3")
+    stage(
+        f"train.py: PPO on {config.scenario}, {config.timesteps:,} steps into {out}; loading torch and "
+        "stable-baselines3"
+    )
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.utils import set_random_seed
@@ -116,22 +141,38 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     torch.set_num_threads(threads)
 
     # --- the environment: one batched simulator, VecMonitor, VecNormalize -----------
-    stage(f"building {config.n_envs} environments of {config.scenario} (the first run compiles the simulator: "
-          "about a minute)")
-    raw_env = CoopNavVecEnv(job.scenario_config, n_envs=config.n_envs, seed=run_seed, step_infos=False,
-                            reward_terms=job.reward_terms)
+    stage(
+        f"building {config.n_envs} environments of {config.scenario} (the first run compiles the simulator: "
+        "about a minute)"
+    )
+    raw_env = CoopNavVecEnv(
+        job.scenario_config, n_envs=config.n_envs, seed=run_seed, step_infos=False, reward_terms=job.reward_terms
+    )
     venv = VecMonitor(raw_env)
     ckpt_stats = _read_stats(ckpt["vecnormalize"]) if ckpt else None
-    if ckpt_stats is not None:  # the checkpoint's statistics and settings, training on
+    if ckpt and ckpt_stats is not None:  # the checkpoint's statistics and settings, training on
         s = ckpt_stats
-        vecnorm = VecNormalize(venv, gamma=s["gamma"], norm_obs=s["norm_obs"], norm_reward=s["norm_reward"],
-                               clip_obs=s["clip_obs"], clip_reward=s["clip_reward"], epsilon=s["epsilon"])
+        vecnorm = VecNormalize(
+            venv,
+            gamma=s["gamma"],
+            norm_obs=s["norm_obs"],
+            norm_reward=s["norm_reward"],
+            clip_obs=s["clip_obs"],
+            clip_reward=s["clip_reward"],
+            epsilon=s["epsilon"],
+        )
         _restore(vecnorm, s, ckpt["vecnormalize"])
     else:
         norm = config.normalize
-        vecnorm = VecNormalize(venv, gamma=float(config.ppo.get("gamma", 0.99)), norm_obs=norm.norm_obs,
-                               norm_reward=norm.norm_reward, clip_obs=norm.clip_obs, clip_reward=norm.clip_reward,
-                               epsilon=norm.epsilon)
+        vecnorm = VecNormalize(
+            venv,
+            gamma=float(config.ppo.get("gamma", 0.99)),
+            norm_obs=norm.norm_obs,
+            norm_reward=norm.norm_reward,
+            clip_obs=norm.clip_obs,
+            clip_reward=norm.clip_reward,
+            epsilon=norm.epsilon,
+        )
 
     # --- PPO: built from the config; a checkpoint's or init_from's state loaded into it
     tb_dir = str(out / "tb") if _installed("tensorboard") else None
@@ -143,8 +184,17 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
         lr = learning_rate(ppo.pop("learning_rate", 3e-4))
         kwargs = policy_kwargs(ppo.pop("policy_kwargs", None))
         try:
-            model = PPO(config.policy, vecnorm, learning_rate=lr, policy_kwargs=kwargs, seed=run_seed,
-                        device=device, tensorboard_log=tb_dir, verbose=verbose, **ppo)
+            model = PPO(
+                config.policy,
+                vecnorm,
+                learning_rate=lr,
+                policy_kwargs=kwargs,
+                seed=run_seed,
+                device=device,
+                tensorboard_log=tb_dir,
+                verbose=verbose,
+                **ppo,
+            )
         except (TypeError, ValueError, AssertionError, KeyError) as err:
             raise ConfigError(f"bad PPO hyperparameters: {_first_line(err)}") from None
         if ckpt:  # weights, optimizer state and step count of the checkpoint
@@ -152,18 +202,29 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
         elif warm:  # weights, optimizer state and normalization from another policy
             load_state(model, warm[0], device, what=f"init_from {warm[0]}")
             if warm[1] is not None:
-                _restore(vecnorm, _read_stats(warm[1]), warm[1])
+                warm_stats = _read_stats(warm[1])
+                assert warm_stats is not None  # load_stats of a path: its statistics, or it raises
+                _restore(vecnorm, warm_stats, warm[1])
     imitation = None
     if config.imitate.planner is not None and not ckpt:  # behaviour cloning before PPO (a resumed run has it)
         from .imitation import imitate
 
         imitation = imitate(model, vecnorm, raw_env, config.imitate, run_seed)
-        print(f"imitated {imitation['planner']}: {imitation['steps']} steps, action rms error "
-              f"{imitation['action_rms_error']}, {imitation['seconds']} s", flush=True)
+        print(
+            f"imitated {imitation['planner']}: {imitation['steps']} steps, action rms error "
+            f"{imitation['action_rms_error']}, {imitation['seconds']} s",
+            flush=True,
+        )
     runlock.claim(out, new=not resume, command=command)  # the inputs are good: lock --out, the first file of a new run
     if not resume:
-        write_run_record(out, config, job, command=command, hyperparameter_file=hyperparameter_file,
-                         **({"imitation": imitation} if imitation else {}))
+        write_run_record(
+            out,
+            config,
+            job,
+            command=command,
+            hyperparameter_file=hyperparameter_file,
+            **({"imitation": imitation} if imitation else {}),
+        )
     if tb_dir is None:  # a note, not an error: after the inputs are known to be good, on stdout
         print("note: tensorboard is not installed, so no TensorBoard logs (pip install -e '.[train]')")
 
@@ -173,28 +234,39 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     if ev.every_steps > 0:
         todo = [b for b in ev.baselines or [] if b not in baseline_scores]
         if todo and ev.episodes > 0:
-            stage(f"scoring the planners {', '.join(todo)} on the validation seeds ({ev.episodes} episodes x "
-                  f"{len(job.cells)} cells): the lines PPO's validations are compared with")
+            stage(
+                f"scoring the planners {', '.join(todo)} on the validation seeds ({ev.episodes} episodes x "
+                f"{len(job.cells)} cells): the lines PPO's validations are compared with"
+            )
         baseline_scores = baselines_on_eval_seeds(out, job.cells, ev.baselines, ev.episodes, ev.seed)
 
     # --- learn, stopping cleanly on SIGINT/SIGTERM -----------------------------------
     # the steps that will really run: SB3 trains whole rollouts (n_steps x rows), so it
     # rounds the remaining steps up; the bar's total is that, and never passed
     rollout = int(model.n_steps) * int(vecnorm.num_envs)
+    assert config.timesteps is not None  # set by TrainConfig.check()
     remaining = max(config.timesteps - start_steps, 0)
     will_run = -(-remaining // rollout) * rollout
     every = f", a validation every {ev.every_steps:,}" if ev.every_steps > 0 else ""
-    stage(f"training: {will_run:,} steps in {will_run // rollout} rollouts of {rollout:,} (n_steps "
-          f"{model.n_steps} x {vecnorm.num_envs} rows){every}")
+    stage(
+        f"training: {will_run:,} steps in {will_run // rollout} rollouts of {rollout:,} (n_steps "
+        f"{model.n_steps} x {vecnorm.num_envs} rows){every}"
+    )
     t0 = time.perf_counter()
     from coopnav_env.progress import Progress
 
     bar = Progress(will_run, unit="step", desc="training", mode=None if progress else "off", every_s=60.0)
     with stop_on_signals() as stop, bar:
-        callback = make_callback(out, config, job.cells, vecnorm, baseline_scores, stop,
-                                 clock={"t0": t0, "started": started, "bar": bar})
-        model.learn(total_timesteps=remaining, callback=callback, progress_bar=False, reset_num_timesteps=not ckpt,
-                    tb_log_name="ppo")
+        callback = make_callback(
+            out, config, job.cells, vecnorm, baseline_scores, stop, clock={"t0": t0, "started": started, "bar": bar}
+        )
+        model.learn(
+            total_timesteps=remaining,
+            callback=callback,
+            progress_bar=False,
+            reset_num_timesteps=not ckpt,
+            tb_log_name="ppo",
+        )
     if stop:
         # the steps of the rollout cut short were not trained on: the checkpoint does not count them
         model.num_timesteps = getattr(callback, "trained_steps", start_steps)
@@ -212,9 +284,11 @@ def train(config: TrainConfig, out, resume: bool = False, *, command: str | None
     curve = _draw_curve(out)
     elapsed = time.perf_counter() - t0
     trained = model.num_timesteps - start_steps
-    print(f"done: {model.num_timesteps} steps ({trained} in this run, {elapsed:.0f} s, "
-          f"{trained / max(elapsed, 1e-9):.0f} steps/s); model in {out}"
-          + (f"; learning curve in {curve}" if curve else ""))
+    print(
+        f"done: {model.num_timesteps} steps ({trained} in this run, {elapsed:.0f} s, "
+        f"{trained / max(elapsed, 1e-9):.0f} steps/s); model in {out}"
+        + (f"; learning curve in {curve}" if curve else "")
+    )
     return 0
 
 
@@ -225,12 +299,12 @@ def _draw_curve(out: Path):
 
     try:
         return draw_learning_curve(out)
-    except Exception as err:  # noqa: BLE001 - the model is saved; the figure is a convenience
+    except Exception as err:  # the model is saved; the figure is a convenience
         print(f"note: learning_curve.png not drawn: {_first_line(err)}", file=sys.stderr)
         return None
 
 
-def resume(out, **options) -> int:
+def resume(out: str | Path, **options: Any) -> int:
     """Continue the SB3 run in ``out`` with its own config.yml (``train``'s keyword
     options: device, threads, progress, verbose, trust_pickle)."""
     return train(run_config(out, TrainConfig), out, resume=True, **options)
@@ -239,8 +313,13 @@ def resume(out, **options) -> int:
 # ----------------------------------------------------------------------------------
 # pieces of train
 # ----------------------------------------------------------------------------------
-RESTART_OUTPUTS = ("evaluations.jsonl", "best.json", "best_model.safetensors", "best_vecnormalize.safetensors",
-                   "baseline_eval.json")
+RESTART_OUTPUTS = (
+    "evaluations.jsonl",
+    "best.json",
+    "best_model.safetensors",
+    "best_vecnormalize.safetensors",
+    "baseline_eval.json",
+)
 
 
 def checkpoint_files(out: Path, trust_pickle: bool = False) -> dict | None:
@@ -255,8 +334,11 @@ def checkpoint_files(out: Path, trust_pickle: bool = False) -> dict | None:
         return None
     try:
         info = read_json(last)
-        entry = {"num_timesteps": int(info["num_timesteps"]), "model": str(info["model"]),
-                 "vecnormalize": str(info["vecnormalize"])}
+        entry: dict[str, Any] = {
+            "num_timesteps": int(info["num_timesteps"]),
+            "model": str(info["model"]),
+            "vecnormalize": str(info["vecnormalize"]),
+        }
     except (OSError, ValueError, KeyError, TypeError, OverflowError):
         raise ConfigError(f"{last} is not a checkpoint record (num_timesteps, model, vecnormalize)") from None
     if not 0 <= entry["num_timesteps"] <= 10**12:
@@ -276,19 +358,25 @@ def checkpoint_files(out: Path, trust_pickle: bool = False) -> dict | None:
     return entry
 
 
-def restart_from_scratch(out: Path):
+def restart_from_scratch(out: Path) -> None:
     """``--resume`` of a run stopped before its first checkpoint: it starts again from
     step 0 with its config.yml. Nothing is deleted: a run holding a model or
     evaluations but no checkpoint (an old run, a damaged one) is refused instead."""
     if (out / "model.safetensors").is_file():
-        raise ConfigError(f"{out} holds a final model but no checkpoint record (checkpoints/last_checkpoint.json): "
-                          "not resumable")
+        raise ConfigError(
+            f"{out} holds a final model but no checkpoint record (checkpoints/last_checkpoint.json): not resumable"
+        )
     kept = [name for name in RESTART_OUTPUTS if name != "baseline_eval.json" and (out / name).exists()]
     if kept:
-        raise ConfigError(f"{out} has no checkpoint (checkpoints/last_checkpoint.json) but holds {', '.join(kept)}: "
-                          "resuming would restart it and lose them; not resumable (start a new run with --out)")
-    print(f"note: {out} has no checkpoint yet (stopped before its first one): starting it from scratch with its "
-          f"config.yml", file=sys.stderr)
+        raise ConfigError(
+            f"{out} has no checkpoint (checkpoints/last_checkpoint.json) but holds {', '.join(kept)}: "
+            "resuming would restart it and lose them; not resumable (start a new run with --out)"
+        )
+    print(
+        f"note: {out} has no checkpoint yet (stopped before its first one): starting it from scratch with its "
+        f"config.yml",
+        file=sys.stderr,
+    )
 
 
 def last_evaluation_step(out: Path, steps: int) -> int:
@@ -309,27 +397,30 @@ def last_evaluation_step(out: Path, steps: int) -> int:
     return done
 
 
-def warm_start_files(spec, trust_pickle: bool = False) -> tuple:
+def warm_start_files(spec: Any, trust_pickle: bool = False) -> tuple:
     """(model file, normalization file or None) of ``init_from`` (``agents.resolve``)."""
     import agents
     from agents import rllib_policy
 
     if rllib_policy.is_rllib_path(str(spec)):
-        raise ConfigError(f"init_from: {spec!r} is not a stable-baselines3 model (an RLlib run): an SB3 run or "
-                          "policy only")
+        raise ConfigError(
+            f"init_from: {spec!r} is not a stable-baselines3 model (an RLlib run): an SB3 run or policy only"
+        )
     try:
         model, stats, _ = agents.resolve(str(spec), trust_pickle=trust_pickle)
     except ValueError as err:
         raise ConfigError(f"init_from: {err}") from None
     if model.name == "gate.yml":
-        raise ConfigError(f"init_from: {spec!r} is a gate of two networks ({model}); name one of its networks "
-                          "(the directories that file lists)")
+        raise ConfigError(
+            f"init_from: {spec!r} is a gate of two networks ({model}); name one of its networks "
+            "(the directories that file lists)"
+        )
     if model.suffix not in (".zip", ".safetensors"):
         raise ConfigError(f"init_from: {spec!r} is not a stable-baselines3 model ({model}): an SB3 run or policy only")
     return model, stats
 
 
-def load_state(model, path: Path, device, what: str, restore_steps: bool = False):
+def load_state(model: Any, path: Path, device: str, what: str, restore_steps: bool = False) -> None:
     """Load a model file's network weights (and optimizer state, if it holds one) into
     ``model`` (a PPO built from the config); with ``restore_steps`` its step count too.
     A trusted pickle-based .zip goes through SB3's ``set_parameters``."""
@@ -354,7 +445,7 @@ def load_state(model, path: Path, device, what: str, restore_steps: bool = False
         model._n_updates = int(spec.get("n_updates", 0))
 
 
-def _read_stats(path) -> dict:
+def _read_stats(path) -> dict | None:
     import agents
 
     try:
@@ -370,7 +461,7 @@ def _restore(vecnorm, stats: dict, path):
         raise ConfigError(f"{path}: {err}") from None
 
 
-def learning_rate(value):
+def learning_rate(value: float | str) -> float | Callable[[float], float]:
     """A float, or "lin_<x>": linear decay from x to 0 (rl-baselines3-zoo)."""
     if isinstance(value, str) and value.startswith("lin_"):
         start = float(value[4:])
@@ -389,24 +480,26 @@ def policy_kwargs(spec: dict | None) -> dict:
     return spec
 
 
-def save_model(model, path: Path, vecnorm=None):
+def save_model(model: Any, path: Path, vecnorm: Any = None) -> None:
     """The model file (network weights, optimizer state, step count; ``agents.formats``), atomically."""
     formats.save_model(model, path, norm_obs=None if vecnorm is None else vecnorm.norm_obs)
 
 
-def save_vecnormalize(vecnorm, path: Path):
+def save_vecnormalize(vecnorm: Any, path: Path) -> None:
     """The VecNormalize running statistics and settings (``agents.formats``), atomically."""
     formats.save_vecnormalize(vecnorm, path)
 
 
-def model_actor(model, vecnorm):
-    def act(obs, venv):
+def model_actor(model: Any, vecnorm: Any) -> Callable[[np.ndarray, Any], np.ndarray]:
+    def act(obs: np.ndarray, venv: Any) -> np.ndarray:
         return model.predict(vecnorm.normalize_obs(obs), deterministic=True)[0]
 
     return act
 
 
-def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline_scores: dict, stop, clock: dict):
+def make_callback(
+    out: Path, config: TrainConfig, cells: list, vecnorm: Any, baseline_scores: dict, stop: Any, clock: dict
+) -> Any:
     """The SB3 callback of a run: at every rollout start (the model has been trained on
     every step counted so far) checkpoint and evaluate when due; stop after a signal."""
     from stable_baselines3.common.callbacks import BaseCallback
@@ -435,8 +528,11 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
 
         def checkpoint(self):
             steps = self.model.num_timesteps
-            entry = {"num_timesteps": steps, "model": f"ckpt_{steps:010d}.safetensors",
-                     "vecnormalize": f"ckpt_{steps:010d}_vecnormalize.safetensors"}
+            entry: dict[str, Any] = {
+                "num_timesteps": steps,
+                "model": f"ckpt_{steps:010d}.safetensors",
+                "vecnormalize": f"ckpt_{steps:010d}_vecnormalize.safetensors",
+            }
             previous = read_json(ckpt_dir / "last_checkpoint.json")
             if previous == entry:
                 return
@@ -445,8 +541,9 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
             save_vecnormalize(vecnorm, ckpt_dir / entry["vecnormalize"])
             atomic_write_text(ckpt_dir / "last_checkpoint.json", json.dumps(entry))
             if previous and previous["model"] != entry["model"]:  # keep the last two
-                models = sorted(p for p in ckpt_dir.glob("ckpt_*.safetensors")
-                                if not p.name.endswith("_vecnormalize.safetensors"))
+                models = sorted(
+                    p for p in ckpt_dir.glob("ckpt_*.safetensors") if not p.name.endswith("_vecnormalize.safetensors")
+                )
                 for old in models[:-2]:
                     old.unlink(missing_ok=True)
                     (ckpt_dir / old.name.replace(".safetensors", "_vecnormalize.safetensors")).unlink(missing_ok=True)
@@ -460,10 +557,14 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
             now = time.perf_counter()
             clock["eval_s"] = clock.get("eval_s", 0.0) + (now - t0)
             # wall_s: since learning started, validations included; train_s: without them
-            record = {"num_timesteps": self.model.num_timesteps, "wall_s": round(now - clock["t0"], 1),
-                      "train_s": round(now - clock["t0"] - clock["eval_s"], 1),
-                      "wall_s_since_start": round(now - clock["started"], 1), "survey_error_m": score,
-                      **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline_scores.items()}}
+            record = {
+                "num_timesteps": self.model.num_timesteps,
+                "wall_s": round(now - clock["t0"], 1),
+                "train_s": round(now - clock["t0"] - clock["eval_s"], 1),
+                "wall_s_since_start": round(now - clock["started"], 1),
+                "survey_error_m": score,
+                **{f"{k}_survey_error_m": v["survey_error_m"] for k, v in baseline_scores.items()},
+            }
             if len(cells) > 1:
                 record["per_cell"] = {k: round(v, 4) for k, v in result["per_cell"].items()}
                 for k, v in baseline_scores.items():
@@ -480,12 +581,18 @@ def make_callback(out: Path, config: TrainConfig, cells: list, vecnorm, baseline
                 save_vecnormalize(vecnorm, out / "best_vecnormalize.safetensors")
                 atomic_write_text(out / "best.json", json.dumps(record))
             beaten = [k for k, v in baseline_scores.items() if score < v["survey_error_m"]]
-            clock["bar"].write(f"eval @ {self.model.num_timesteps}: survey_error_m {score:.3f}"
-                  + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline_scores.items())
-                  + "".join(f", beats {k} in {record[f'cells_beating_{k}']}/{len(cells)} cells"
-                            for k in baseline_scores if f"cells_beating_{k}" in record)
-                  + (f" (beats {', '.join(beaten)})" if beaten else "")
-                  + f" [{time.perf_counter() - t0:.1f} s]", stream=sys.stdout)
+            clock["bar"].write(
+                f"eval @ {self.model.num_timesteps}: survey_error_m {score:.3f}"
+                + "".join(f", {k} {v['survey_error_m']:.3f}" for k, v in baseline_scores.items())
+                + "".join(
+                    f", beats {k} in {record[f'cells_beating_{k}']}/{len(cells)} cells"
+                    for k in baseline_scores
+                    if f"cells_beating_{k}" in record
+                )
+                + (f" (beats {', '.join(beaten)})" if beaten else "")
+                + f" [{time.perf_counter() - t0:.1f} s]",
+                stream=sys.stdout,
+            )
             clock["bar"].stage("training")
             self.last_eval = self.model.num_timesteps
 

@@ -15,7 +15,9 @@ ones results are reported on.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -26,7 +28,7 @@ RANDOMIZATION_OFF = {"randomize_survey_path": (), "randomize_depth_m": (), "rand
 __all__ = ["RANDOMIZATION_OFF", "baseline_actor", "baselines_on_eval_seeds", "eval_cells", "evaluate"]
 
 
-def eval_cells(scenario_config, cells: dict | None = None) -> list:
+def eval_cells(scenario_config: Any, cells: dict | None = None) -> list:
     """[(label, ScenarioConfig)] the evaluation runs: every combination of ``cells``
     ({parameter: [values]}) as a fixed scenario, or without cells the training
     scenario (label "all"); the per-episode randomization is off in every cell (the
@@ -36,7 +38,7 @@ def eval_cells(scenario_config, cells: dict | None = None) -> list:
         return [("all", base)]
     if not isinstance(cells, dict):
         raise ValueError(f"eval.cells must map parameters to lists of values, got {cells!r}")
-    combos = [{}]
+    combos: list[dict] = [{}]
     for name, values in cells.items():
         if not isinstance(values, (list, tuple)) or not values:
             raise ValueError(f"eval.cells entry {name!r} must be a non-empty list of values")
@@ -44,7 +46,7 @@ def eval_cells(scenario_config, cells: dict | None = None) -> list:
     return [(";".join(f"{k}={v}" for k, v in combo.items()), base.replace(**combo)) for combo in combos]
 
 
-def evaluate(act, cells: list, episodes: int, seed: int) -> dict:
+def evaluate(act: Callable[[Any, Any], np.ndarray], cells: list, episodes: int, seed: int) -> dict:
     """Run ``act(obs (rows, D), venv) -> actions (rows, 2)`` for one episode in each of
     ``episodes`` environments seeded ``seed + e`` in every cell of ``cells``
     ([(label, ScenarioConfig)], see ``eval_cells``). Score: survey_error_m (the
@@ -70,16 +72,20 @@ def evaluate(act, cells: list, episodes: int, seed: int) -> dict:
         per_episode.extend((err_sum / steps).round(4).tolist())
         total += err_sum.sum()
         count += steps.sum()
-    return {"survey_error_m": float(total / count), "episodes": episodes * len(cells),
-            "survey_error_m_per_episode": per_episode, "per_cell": per_cell}
+    return {
+        "survey_error_m": float(total / count),
+        "episodes": episodes * len(cells),
+        "survey_error_m_per_episode": per_episode,
+        "per_cell": per_cell,
+    }
 
 
-def baseline_actor(name: str):
+def baseline_actor(name: str) -> Callable[[np.ndarray, Any], np.ndarray]:
     """A batch actor from one baselines policy per row (reset at the first step of a
     new evaluation environment)."""
     from baselines import make_policy
 
-    policies = {}
+    policies: dict[Any, Any] = {}  # "venv": the environment they were made for; row -> policy
 
     def act(obs, venv):
         if policies.get("venv") is not venv:
@@ -93,7 +99,7 @@ def baseline_actor(name: str):
     return act
 
 
-def baselines_on_eval_seeds(out: Path, cells: list, names, episodes: int, seed: int) -> dict:
+def baselines_on_eval_seeds(out: Path, cells: list, names: Iterable[str], episodes: int, seed: int) -> dict:
     """The planners ``names`` scored on the evaluation seeds, once per run: read from
     and written (atomically) to ``out/baseline_eval.json``; name -> {survey_error_m, per_cell}.
     Nothing is scored with ``episodes`` 0 (what the file holds is returned)."""
