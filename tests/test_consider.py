@@ -11,8 +11,15 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from coopnav_env.core.consider import (beacon_reset, carry_cross_covariance, ci_range_update, ci_trace,
-                                       consider_predict, covariance_intersection, schmidt_range_update)
+from coopnav_env.core.consider import (
+    beacon_reset,
+    carry_cross_covariance,
+    ci_range_update,
+    ci_trace,
+    consider_predict,
+    covariance_intersection,
+    schmidt_range_update,
+)
 from coopnav_env.core.navigation import joseph_update, range_prediction
 from coopnav_env.core.recovery import RangeWindow, WindowNoise, window_fix
 
@@ -210,9 +217,11 @@ def test_monte_carlo_consistency_with_a_biased_beacon():
         exceed = np.mean(v > c_999)
         cycles_in = np.mean((v.mean(axis=0) >= lo) & (v.mean(axis=0) <= hi))
         stats[name] = (mean, inside, exceed, cycles_in)
-        print(f"\n{name:8s} NEES mean {mean:7.2f} (band {lo:.2f}-{hi:.2f}); last ping {v[:, -1].mean():7.2f}; "
-              f"run-cycles in [{c_lo:.3f}, {c_hi:.2f}]: {inside:.1%}; > chi2.999: {exceed:.2%}; "
-              f"cycles with the run-mean in band: {cycles_in:.0%}")
+        print(
+            f"\n{name:8s} NEES mean {mean:7.2f} (band {lo:.2f}-{hi:.2f}); last ping {v[:, -1].mean():7.2f}; "
+            f"run-cycles in [{c_lo:.3f}, {c_hi:.2f}]: {inside:.1%}; > chi2.999: {exceed:.2%}; "
+            f"cycles with the run-mean in band: {cycles_in:.0%}"
+        )
     assert stats["ekf"][0] > hi  # over-confident
     mean, inside, exceed, _ = stats["schmidt"]
     assert lo <= mean <= hi and inside >= 0.85 and exceed <= 3 * 0.001
@@ -229,7 +238,7 @@ def _old_reinit(x, P, y, Hxy, R):
     u, t = Hxy / g, np.array([-Hxy[1], Hxy[0]]) / g
     x += y * u / g
     across = t @ P @ t + y * y
-    P[:, :] = (R + y * y) / g ** 2 * np.outer(u, u) + across * np.outer(t, t)
+    P[:, :] = (R + y * y) / g**2 * np.outer(u, u) + across * np.outer(t, t)
 
 
 def _ekf_h(x, b, dz, z, P, R):
@@ -292,12 +301,21 @@ def test_window_refix_after_lockout_beats_the_nearest_point_restart():
     out = {}
     for name, v in res.items():
         v = np.array(v)
-        out[name] = (np.mean(v[:, 1] <= 9.0), v[:, 1].mean(), np.median(v[:, 0]), np.mean(v[:, 0]),
-                     np.percentile(v[:, 0], 95))
-        print(f"\n{name}: within 3 sigma {out[name][0]:.1%}; NEES mean {out[name][1]:.2f} (band {lo:.2f}-{hi:.2f}); "
-              f"error median {out[name][2]:.1f} m, mean {out[name][3]:.1f} m, 95th pct {out[name][4]:.1f} m")
-    print(f"cross-covariance with the beacon's bias: sample {np.round(cross[0] / TRIALS, 1).tolist()}, "
-          f"the fix's Pxb on average {np.round(cross[1] / TRIALS, 1).tolist()}")
+        out[name] = (
+            np.mean(v[:, 1] <= 9.0),
+            v[:, 1].mean(),
+            np.median(v[:, 0]),
+            np.mean(v[:, 0]),
+            np.percentile(v[:, 0], 95),
+        )
+        print(
+            f"\n{name}: within 3 sigma {out[name][0]:.1%}; NEES mean {out[name][1]:.2f} (band {lo:.2f}-{hi:.2f}); "
+            f"error median {out[name][2]:.1f} m, mean {out[name][3]:.1f} m, 95th pct {out[name][4]:.1f} m"
+        )
+    print(
+        f"cross-covariance with the beacon's bias: sample {np.round(cross[0] / TRIALS, 1).tolist()}, "
+        f"the fix's Pxb on average {np.round(cross[1] / TRIALS, 1).tolist()}"
+    )
     assert out["new"][0] >= 0.95 and lo <= out["new"][1] <= hi
     # the sample cross-covariance's standard error is about 10 m x 3 m / sqrt(500) = 1.3 m^2
     assert np.abs(cross[0] - cross[1]).max() / TRIALS < 3.0
@@ -370,8 +388,10 @@ def test_monte_carlo_two_beacons_random_walk_and_fixes():
     lo, hi = chi2.ppf([0.025, 0.975], 2 * runs) / runs
     c_lo, c_hi, c_999 = chi2.ppf([0.025, 0.975, 0.999], 2)
     for name, v in nees.items():
-        print(f"\ntwo beacons, {name:8s} NEES mean {v.mean():6.2f} (band {lo:.2f}-{hi:.2f}); run-cycles in band "
-              f"{np.mean((v >= c_lo) & (v <= c_hi)):.1%}; > chi2.999: {np.mean(v > c_999):.2%}")
+        print(
+            f"\ntwo beacons, {name:8s} NEES mean {v.mean():6.2f} (band {lo:.2f}-{hi:.2f}); run-cycles in band "
+            f"{np.mean((v >= c_lo) & (v <= c_hi)):.1%}; > chi2.999: {np.mean(v > c_999):.2%}"
+        )
     assert nees["ekf"].mean() > hi
     v = nees["schmidt"]
     assert lo <= v.mean() <= hi and np.mean((v >= c_lo) & (v <= c_hi)) >= 0.85 and np.mean(v > c_999) <= 0.003

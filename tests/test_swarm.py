@@ -37,9 +37,17 @@ def test_range_and_bearing_pull_a_displaced_estimate_back():
     """One survey vehicle, the sender 20 m away: an estimate displaced 6 m ACROSS the line
     of sight (which a range alone barely corrects) is pulled back by the bearing, in
     the right direction; with the sign of the bearing wrong it would be pushed away."""
-    c, sim = _sim(B=1, n_survey=1, survey_path="stationary", beacon_start_distance_m=20.0,
-                  beacon_start_bearing_spread_deg=0.0, compass_bias_std_deg=0.0, current_speed_mps=0.0,
-                  current_speed_spread_mps=0.0, current_gm_std_mps=0.0)
+    c, sim = _sim(
+        B=1,
+        n_survey=1,
+        survey_path="stationary",
+        beacon_start_distance_m=20.0,
+        beacon_start_bearing_spread_deg=0.0,
+        compass_bias_std_deg=0.0,
+        current_speed_mps=0.0,
+        current_speed_spread_mps=0.0,
+        current_gm_std_mps=0.0,
+    )
     st = sim.state
     los = st.b_pos[0, 0, :2] - st.s_pos[0, 0, :2]
     across = np.array([-los[1], los[0]]) / np.linalg.norm(los)
@@ -56,8 +64,15 @@ def test_a_sender_behind_the_receiver_is_unfolded():
     """Two hydrophones fold a sender behind onto the front half-plane (azimuth 180 deg -
     bearing); the survey vehicle unfolds it with its estimate, so the bearing it fuses
     points astern, at the sender, and the estimate is corrected."""
-    c, sim = _sim(B=1, n_survey=1, survey_path="line", beacon_start_distance_m=20.0, beacon_start_bearing_deg=240.0,
-                  beacon_start_bearing_spread_deg=0.0, compass_bias_std_deg=0.0)
+    c, sim = _sim(
+        B=1,
+        n_survey=1,
+        survey_path="line",
+        beacon_start_distance_m=20.0,
+        beacon_start_bearing_deg=240.0,
+        beacon_start_bearing_spread_deg=0.0,
+        compass_bias_std_deg=0.0,
+    )
     st = sim.state
     # the line runs east and the survey starts heading east: the sender (bearing 240 deg) is astern
     assert np.angle(st.s_heading[0, 0]) == pytest.approx(0.0, abs=1e-9)

@@ -68,8 +68,9 @@ def _public_functions(
             if not node.name.startswith("_"):
                 yield from _public_functions(node.body, f"{owner}{node.name}.")
         elif isinstance(node, (ast.If, ast.Try)):
-            blocks = [node.body, node.orelse] + ([h.body for h in node.handlers] + [node.finalbody]
-                                                 if isinstance(node, ast.Try) else [])
+            blocks = [node.body, node.orelse] + (
+                [h.body for h in node.handlers] + [node.finalbody] if isinstance(node, ast.Try) else []
+            )
             for block in blocks:
                 yield from _public_functions(block, owner)
 
@@ -117,11 +118,12 @@ def test_pending_files_exist() -> None:
     files = _files()
     for entry in sorted(PENDING_FILES - PENDING_NEW_FILES):
         assert any(f == entry or (entry.endswith("/") and f.startswith(entry)) for f in files), (
-            f"PENDING_FILES entry {entry!r} matches no file")
+            f"PENDING_FILES entry {entry!r} matches no file"
+        )
 
 
 def test_the_checker_itself(tmp_path: Path) -> None:
-    source = '''
+    source = """
 def ok(a: int, *args: int, b: str = "", **kw: float) -> None: ...
 def no_return(a: int): ...
 def no_param(a, b: int) -> int: ...
@@ -138,8 +140,16 @@ class _Hidden:
     def m(self, y): ...
 if True:
     def under_if(a): ...
-'''
+"""
     tree = ast.parse(source)
     found = {name: _missing(node, m) for name, node, m in _public_functions(tree.body)}
-    assert found == {"ok": [], "no_return": ["return"], "no_param": ["a"], "C.__init__": ["x"], "C.m": [],
-                     "C.s": ["self"], "C.c": [], "under_if": ["a", "return"]}
+    assert found == {
+        "ok": [],
+        "no_return": ["return"],
+        "no_param": ["a"],
+        "C.__init__": ["x"],
+        "C.m": [],
+        "C.s": ["self"],
+        "C.c": [],
+        "under_if": ["a", "return"],
+    }

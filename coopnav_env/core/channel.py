@@ -69,12 +69,16 @@ def reply_time_s(config) -> float:
     """When a survey vehicle's reply starts, after the slot's ping instant (s): the ping's
     duration, the longest flight from within acoustic range and the turn-around."""
     c = config
-    return (packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps) + c.max_range_m / SLOWEST_SOUND_SPEED_MPS
-            + c.turnaround_s)
+    return (
+        packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps)
+        + c.max_range_m / SLOWEST_SOUND_SPEED_MPS
+        + c.turnaround_s
+    )
 
 
-def _resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, arrival, delivered, collided,
-                  deaf):
+def _resolve_slot(
+    pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, arrival, delivered, collided, deaf
+):
     """One slot's packets at every receiver, in place.
 
     pos, vel (B, V, 3): positions at t = 0 and constant velocities; tx_start (B, V):
@@ -140,11 +144,18 @@ def resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_ra
     arrival = np.empty((B, V, V))
     flags = [np.empty((B, V, V), dtype=bool) for _ in range(3)]
     kernel = resolve_slot_kernel_parallel if parallel else resolve_slot_kernel
-    kernel(pos, vel, tx_start, tx_dur, np.ascontiguousarray(temperature_c, float), float(salinity_psu),
-           float(max_range_m), arrival, *flags)
+    kernel(
+        pos,
+        vel,
+        tx_start,
+        tx_dur,
+        np.ascontiguousarray(temperature_c, float),
+        float(salinity_psu),
+        float(max_range_m),
+        arrival,
+        *flags,
+    )
     return (arrival, *flags)
-
-
 
 
 class Channel:
@@ -182,8 +193,16 @@ class Channel:
         pos = np.concatenate([st.b_pos, st.s_pos], 1)
         vel = np.concatenate([st.b_vel, st.s_vel_true], 1)
         start = np.concatenate([np.where(beacon_tx, 0.0, np.nan), np.where(survey_tx, self.reply_at_s, np.nan)], 1)
-        return resolve_slot(pos, vel, start, np.broadcast_to(self.tx_dur, (B, self.N + self.S)), st.temperature_c,
-                            c.salinity_psu, c.max_range_m, self.parallel)
+        return resolve_slot(
+            pos,
+            vel,
+            start,
+            np.broadcast_to(self.tx_dur, (B, self.N + self.S)),
+            st.temperature_c,
+            c.salinity_psu,
+            c.max_range_m,
+            self.parallel,
+        )
 
     def pings(self, beacon_tx):
         """The pings alone: (B, N, S) delivered at the survey vehicles (before the random
@@ -198,22 +217,45 @@ class Channel:
         N = self.N
         out = self._timeline(beacon_tx, survey_tx)
         delivered = out[1]
-        return (np.ascontiguousarray(np.swapaxes(delivered[:, N:, :N], 1, 2)),
-                np.ascontiguousarray(np.swapaxes(delivered[:, :N, :N], 1, 2)), out)
+        return (
+            np.ascontiguousarray(np.swapaxes(delivered[:, N:, :N], 1, 2)),
+            np.ascontiguousarray(np.swapaxes(delivered[:, :N, :N], 1, 2)),
+            out,
+        )
 
     def exchange(self, draws, reply_ok, peer_ok):
         """The replies and the peers' positions as ``Simulator._exchange_messages`` does
         them, through the channel's masks."""
         sim = self.sim
         c, st = sim.config, sim.state
-        self._k_exchange(st.s_pos, st.s_est, st.s_P, st.s_wp_index, st.s_last_range_t_s, st.b_pos,
-                         st.b_pos + st.b_nav_err, st.t_s, draws["message_u"], reply_ok, peer_ok, st.k_est, st.k_P,
-                         st.k_wp_index, st.k_age_s, st.k_range_age_s, st.k_peer, c.ping_interval_s, c.packet_loss_near,
-                         c.packet_loss_far, c.max_range_m)
+        self._k_exchange(
+            st.s_pos,
+            st.s_est,
+            st.s_P,
+            st.s_wp_index,
+            st.s_last_range_t_s,
+            st.b_pos,
+            st.b_pos + st.b_nav_err,
+            st.t_s,
+            draws["message_u"],
+            reply_ok,
+            peer_ok,
+            st.k_est,
+            st.k_P,
+            st.k_wp_index,
+            st.k_age_s,
+            st.k_range_age_s,
+            st.k_peer,
+            c.ping_interval_s,
+            c.packet_loss_near,
+            c.packet_loss_far,
+            c.max_range_m,
+        )
 
 
 # ------------------------------------------------------------------------------------
 # the registry of channel models: a scenario's ``channel_mode`` names one
+
 
 @dataclass(frozen=True)
 class ChannelModel:
@@ -229,8 +271,9 @@ class ChannelModel:
 _CHANNEL_MODELS: dict[str, ChannelModel] = {}
 
 
-def register_channel_model(name: str, build: Callable[[Any], Any], *, action_dim: int = 2,
-                           beacon_info_keys: tuple = (), doc: str = "") -> ChannelModel:
+def register_channel_model(
+    name: str, build: Callable[[Any], Any], *, action_dim: int = 2, beacon_info_keys: tuple = (), doc: str = ""
+) -> ChannelModel:
     """Register the channel model ``name`` (a scenario's ``channel_mode``) and return it.
 
     ``build(sim)``: the simulator's channel object (None: the free channel of the fixed
@@ -259,7 +302,13 @@ def channel_model_names() -> tuple[str, ...]:
     return tuple(_CHANNEL_MODELS)
 
 
-register_channel_model("clock", lambda sim: None,
-                       doc="the papers' fixed clock: every beacon pings every cycle on a free channel")
-register_channel_model("decide", Channel, action_dim=3, beacon_info_keys=("pings", "collisions", "energy_J"),
-                       doc="a decision slot per step on a shared channel in time (this module's docstring)")
+register_channel_model(
+    "clock", lambda sim: None, doc="the papers' fixed clock: every beacon pings every cycle on a free channel"
+)
+register_channel_model(
+    "decide",
+    Channel,
+    action_dim=3,
+    beacon_info_keys=("pings", "collisions", "energy_J"),
+    doc="a decision slot per step on a shared channel in time (this module's docstring)",
+)

@@ -287,12 +287,12 @@ def noise_psd_db(f_khz, shipping, wind_mps):
     ns = 40.0 + 20.0 * (shipping - 0.5) + 26.0 * lf - 60.0 * math.log10(f_khz + 0.03)
     nw = 50.0 + 7.5 * math.sqrt(wind_mps) + 20.0 * lf - 40.0 * math.log10(f_khz + 0.4)
     nth = -15.0 + 20.0 * lf
-    return 10.0 * math.log10(10.0 ** (nt / 10.0) + 10.0 ** (ns / 10.0) + 10.0 ** (nw / 10.0)
-                             + 10.0 ** (nth / 10.0))
+    return 10.0 * math.log10(10.0 ** (nt / 10.0) + 10.0 ** (ns / 10.0) + 10.0 ** (nw / 10.0) + 10.0 ** (nth / 10.0))
 
 
-def band_noise_db(band: Band = DEFAULT_BAND, noise: NoiseConditions = DEFAULT_NOISE, integrate: bool = True,
-                  points: int = 201) -> float:
+def band_noise_db(
+    band: Band = DEFAULT_BAND, noise: NoiseConditions = DEFAULT_NOISE, integrate: bool = True, points: int = 201
+) -> float:
     """Noise power in the band, dB re 1 uPa^2: the PSD integrated over
     [fc - B/2, fc + B/2] (trapezoid on ``points`` frequencies, linear power) or, with
     ``integrate=False``, NL(fc) + 10 log10(B) (flat over the band)."""
@@ -319,8 +319,12 @@ def snr_db(range_m, params: LinkParams = DEFAULT_LINK, source_level_db=None, noi
     ``source_level_db`` defaults to the link's; ``noise_db`` to ``band_noise_db``."""
     sl = params.source_level_db if source_level_db is None else source_level_db
     nl = band_noise_db(params.band, params.noise) if noise_db is None else noise_db
-    return received_level_db(sl, np.asarray(range_m, float), params.band.center_khz, params.spreading_k,
-                             params.directivity_index_db) - nl
+    return (
+        received_level_db(
+            sl, np.asarray(range_m, float), params.band.center_khz, params.spreading_k, params.directivity_index_db
+        )
+        - nl
+    )
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
@@ -371,10 +375,16 @@ def _scalars(params: LinkParams) -> _KernelScalars:
     if params.detection_model not in ("rayleigh", "logistic"):
         raise ValueError(f"detection_model must be 'rayleigh' or 'logistic', not {params.detection_model!r}")
     width = params.logistic_width_db if params.detection_model == "logistic" else 0.0
-    return _KernelScalars(float(params.band.center_khz), float(params.band.bandwidth_hz),
-                          float(params.spreading_k), float(params.directivity_index_db),
-                          float(params.detection_threshold_db), float(width), float(params.capture_threshold_db),
-                          float(params.bit_rate_bps))
+    return _KernelScalars(
+        float(params.band.center_khz),
+        float(params.band.bandwidth_hz),
+        float(params.spreading_k),
+        float(params.directivity_index_db),
+        float(params.detection_threshold_db),
+        float(width),
+        float(params.capture_threshold_db),
+        float(params.bit_rate_bps),
+    )
 
 
 def success_probability(range_m, n_bits, params: LinkParams = DEFAULT_LINK, noise_db=None):
@@ -412,8 +422,10 @@ def frames_needed(framing: MicroModemFraming, payload_bits) -> int:
     frame_bits = 8 * framing.frame_bytes
     n = max(1, -(-int(payload_bits) // frame_bits))
     if n > framing.max_frames:
-        raise ValueError(f"{payload_bits} bits need {n} frames of {framing.frame_bytes} bytes; this rate carries "
-                         f"at most {framing.max_frames}")
+        raise ValueError(
+            f"{payload_bits} bits need {n} frames of {framing.frame_bytes} bytes; this rate carries "
+            f"at most {framing.max_frames}"
+        )
     return n
 
 
@@ -469,8 +481,9 @@ def random_offsets_s(rng: np.random.Generator, shape, max_offset_s: float) -> np
     return rng.uniform(0.0, max_offset_s, size=shape)
 
 
-def staggered_offsets_s(n_senders: int, packet_s: float, max_range_m: float, sound_speed_mps: float = 1400.0,
-                        guard_s: float = 0.0) -> np.ndarray:
+def staggered_offsets_s(
+    n_senders: int, packet_s: float, max_range_m: float, sound_speed_mps: float = 1400.0, guard_s: float = 0.0
+) -> np.ndarray:
     """Starts k x (packet + max_range / c + guard) for k = 0..n-1: each packet has left
     every receiver within ``max_range_m`` before the next starts (a TDMA slot plan;
     1400 m/s is slower than any sea water, ``scenarios.base.SLOWEST_SOUND_SPEED_MPS``)."""
@@ -513,8 +526,9 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
                 arrival[b, v, w] = t0 + tau
                 end[b, v, w] = t0 + tau + dur[b, v]
                 rng[b, v, w] = c[b, v, w] * tau
-                rl[b, v, w] = received_level_db(sl[b, v], rng[b, v, w], s.center_khz, s.spreading_k,
-                                                s.directivity_index_db)
+                rl[b, v, w] = received_level_db(
+                    sl[b, v], rng[b, v, w], s.center_khz, s.spreading_k, s.directivity_index_db
+                )
                 snr[b, v, w] = rl[b, v, w] - noise_db[b]
         # 2. interference, capture, half duplex, success probability
         for w in range(V):
@@ -540,8 +554,9 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
     return arrival, end, rng, rl, snr, sir, overlapped, capt, deaf, p
 
 
-def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = DEFAULT_LINK,
-                  noise_db=None) -> SlotOutcome:
+def slot_timeline(
+    tx: SlotTransmissions, sound_speed_mps, params: LinkParams = DEFAULT_LINK, noise_db=None
+) -> SlotOutcome:
     """Resolve one slot of packets at every receiver with the sonar equation.
 
     For each sender v with a finite ``tx_start_s`` and each other vehicle w: the
@@ -587,8 +602,17 @@ def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = D
     c = np.ascontiguousarray(np.broadcast_to(c, (B, V, V)))
     nl = band_noise_db(params.band, params.noise) if noise_db is None else noise_db
     nl = np.ascontiguousarray(np.broadcast_to(np.asarray(nl, float), (B,)))
-    out = _slot_kernel(pos, vel, bv(tx.tx_start_s), bv(tx.duration_s), bv(tx.source_level_db), bv(tx.payload_bits),
-                       c, nl, _scalars(params))
+    out = _slot_kernel(
+        pos,
+        vel,
+        bv(tx.tx_start_s),
+        bv(tx.duration_s),
+        bv(tx.source_level_db),
+        bv(tx.payload_bits),
+        c,
+        nl,
+        _scalars(params),
+    )
     return SlotOutcome(*out)
 
 

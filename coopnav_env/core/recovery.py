@@ -52,6 +52,7 @@ from numba import njit
 
 class RangeWindow(NamedTuple):
     """The last M ranges of one survey filter, oldest first (arrays of length >= M)."""
+
     z: np.ndarray  # (M,) measured ranges, m
     beacon: np.ndarray  # (M, 2) the beacon's reported horizontal position at each ping, m
     shift: np.ndarray  # (M, 2) dead-reckoned survey displacement from ping k to the fix time, m
@@ -61,6 +62,7 @@ class RangeWindow(NamedTuple):
 
 class WindowNoise(NamedTuple):
     """What the fix weighs the ranges with."""
+
     range_var_m2: float  # R: ranging noise (sound speed's share included), m^2
     Pbb: np.ndarray  # (2, 2) the beacon's horizontal position error covariance (a bias over the window), m^2
     dr_rate_m2ps: float  # q: the survey's dead-reckoning variance growth per axis, m^2/s
@@ -82,8 +84,9 @@ def window_terms(x, win, m, noise, J, r, Sigma):
     for i in range(m):
         for j in range(m):
             uu = J[i, 0] * J[j, 0] + J[i, 1] * J[j, 1]
-            ubu = (J[i, 0] * (noise.Pbb[0, 0] * J[j, 0] + noise.Pbb[0, 1] * J[j, 1])
-                   + J[i, 1] * (noise.Pbb[1, 0] * J[j, 0] + noise.Pbb[1, 1] * J[j, 1]))
+            ubu = J[i, 0] * (noise.Pbb[0, 0] * J[j, 0] + noise.Pbb[0, 1] * J[j, 1]) + J[i, 1] * (
+                noise.Pbb[1, 0] * J[j, 0] + noise.Pbb[1, 1] * J[j, 1]
+            )
             Sigma[i, j] = ubu + q * min(win.age_s[i], win.age_s[j]) * uu
         Sigma[i, i] += noise.range_var_m2
 

@@ -91,11 +91,18 @@ class MovingNetworkSimulator(BatchSimulator):
         self._rotation_tolerance_rad = np.radians(c.frame_rotation_tolerance_deg)
         self._build_params()
         n_det = lbl.N_DETECTIONS
-        self._draws = rng.DrawLayout([
-            ("current", "normal", (2,)), ("substep", "normal", (self.K, 2)), ("depth", "normal", (1,)),
-            ("jitter", "normal", (n_det,)), ("acoustic_u", "uniform", (n_det, 3)), ("gps", "normal", (2, 2)),
-            ("boat", "normal", (2, 2)),  # per boat: surge, course (Gauss-Markov driving noise)
-        ], B)
+        self._draws = rng.DrawLayout(
+            [
+                ("current", "normal", (2,)),
+                ("substep", "normal", (self.K, 2)),
+                ("depth", "normal", (1,)),
+                ("jitter", "normal", (n_det,)),
+                ("acoustic_u", "uniform", (n_det, 3)),
+                ("gps", "normal", (2, 2)),
+                ("boat", "normal", (2, 2)),  # per boat: surge, course (Gauss-Markov driving noise)
+            ],
+            B,
+        )
         self.obs_dim = obs_dim_of(c)
         self.state_dim = 24 + (RIVER_STATE_DIM if self._world else 0)
         self.state: FrameState | None = None
@@ -104,16 +111,36 @@ class MovingNetworkSimulator(BatchSimulator):
         """The kernels' records of the scenario's numbers, once."""
         c = self.config
         vturn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s
-        Q = np.diag([c.frame_q_position_m2ps, c.frame_q_position_m2ps, c.frame_q_orientation_rad2ps,
-                     c.frame_q_current_m2ps3, c.frame_q_current_m2ps3, c.frame_q_baseline_m2ps])
-        self._vehicle_params = VehicleParams(float(c.survey_speed_mps), float(c.substep_s), float(c.los_alpha),
-                                             float(c.waypoint_acceptance_m), float(np.cos(vturn)),
-                                             float(np.sin(vturn)), Q, int(self.K))
-        self._cycle_params = cycle_params(c, gate_threshold(c.range_gate_probability, 1),
-                                          gate_threshold(c.range_gate_probability, 2))
-        self._observe_params = ObserveParams(float(c.baseline_target_m), float(c.boat_max_speed_mps),
-                                             float(c.survey_speed_mps), float(AGE_SCALE_PINGS * c.ping_interval_s),
-                                             int(c.max_cycles))
+        Q = np.diag(
+            [
+                c.frame_q_position_m2ps,
+                c.frame_q_position_m2ps,
+                c.frame_q_orientation_rad2ps,
+                c.frame_q_current_m2ps3,
+                c.frame_q_current_m2ps3,
+                c.frame_q_baseline_m2ps,
+            ]
+        )
+        self._vehicle_params = VehicleParams(
+            float(c.survey_speed_mps),
+            float(c.substep_s),
+            float(c.los_alpha),
+            float(c.waypoint_acceptance_m),
+            float(np.cos(vturn)),
+            float(np.sin(vturn)),
+            Q,
+            int(self.K),
+        )
+        self._cycle_params = cycle_params(
+            c, gate_threshold(c.range_gate_probability, 1), gate_threshold(c.range_gate_probability, 2)
+        )
+        self._observe_params = ObserveParams(
+            float(c.baseline_target_m),
+            float(c.boat_max_speed_mps),
+            float(c.survey_speed_mps),
+            float(AGE_SCALE_PINGS * c.ping_interval_s),
+            int(c.max_cycles),
+        )
 
     def _initial_state(self, seeds) -> FrameState:
         return initial_state(self, seeds)
@@ -139,34 +166,53 @@ class MovingNetworkSimulator(BatchSimulator):
         if self._world:
             # the mission through the frame the boats telemeter (their GPS at the cycle's start),
             # and the river's current where the boats and the vehicle are
-            st.s_waypoints[:, 0, :, 0], st.s_waypoints[:, 0, :, 1] = frame_waypoints(st.b_pos, st.b_gps_err,
-                                                                                     self._waypoints)
+            st.s_waypoints[:, 0, :, 0], st.s_waypoints[:, 0, :, 1] = frame_waypoints(
+                st.b_pos, st.b_gps_err, self._waypoints
+            )
             boat_current, vehicle_current = self._river_currents(self._river_at_boats()[1])
         else:
             vehicle_current = st.current_mean + st.current_gm
         # 1. the boats: their commands, then how far their motion strays from them
-        self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions),
-                        self._boat_turn_cos, self._boat_turn_sin, K, dt)
+        self._k_beacons(
+            st.b_pos,
+            st.b_heading,
+            st.b_vel,
+            self.command_velocity(actions),
+            self._boat_turn_cos,
+            self._boat_turn_sin,
+            K,
+            dt,
+        )
         if not self._world:  # uniform water: the vehicle's current at both boats
             boat_current = np.repeat(vehicle_current[:, None], 2, axis=1)
-        disturb_boats(st.b_pos, st.b_heading, st.b_vel, st.b_surge, st.b_steer, boat_current,
-                      c.boat_current_response, T)
+        disturb_boats(
+            st.b_pos, st.b_heading, st.b_vel, st.b_surge, st.b_steer, boat_current, c.boat_current_response, T
+        )
         bank = None
         if self._world:
             bank = (np.abs(self._river_at_boats()[0]) > 0.5 * c.river_width_m).astype(float)  # after the move
         n_boat = draws["boat"]
-        st.b_surge = boat_noise_step(st.b_surge, T, c.boat_noise_time_constant_s, c.boat_surge_noise_mps,
-                                     n_boat[..., 0])
-        st.b_steer = boat_noise_step(st.b_steer, T, c.boat_noise_time_constant_s,
-                                     np.radians(c.boat_steering_noise_deg), n_boat[..., 1])
+        st.b_surge = boat_noise_step(
+            st.b_surge, T, c.boat_noise_time_constant_s, c.boat_surge_noise_mps, n_boat[..., 0]
+        )
+        st.b_steer = boat_noise_step(
+            st.b_steer, T, c.boat_noise_time_constant_s, np.radians(c.boat_steering_noise_deg), n_boat[..., 1]
+        )
         # 2. the vehicle: guidance, motion, dead reckoning, filter prediction
         noise = draws["substep"] * st.ep_noise_scale[:, None, None]
         compass_noise = np.radians(c.compass_noise_deg) * noise[:, :, 0]
-        integrate_vehicle(packed(vehicle_of(st)), packed(filter_of(st)), compass_noise,
-                          c.speed_encoder_noise_mps * noise[:, :, 1], vehicle_current, packed(self._vehicle_params))
+        integrate_vehicle(
+            packed(vehicle_of(st)),
+            packed(filter_of(st)),
+            compass_noise,
+            c.speed_encoder_noise_mps * noise[:, :, 1],
+            vehicle_current,
+            packed(self._vehicle_params),
+        )
         n_cur = draws["current"]
-        st.current_gm = gauss_markov_step(st.current_gm, T, c.current_gm_time_constant_s, c.current_gm_std_mps,
-                                          n_cur[:, 0] + 1j * n_cur[:, 1])
+        st.current_gm = gauss_markov_step(
+            st.current_gm, T, c.current_gm_time_constant_s, c.current_gm_std_mps, n_cur[:, 0] + 1j * n_cur[:, 1]
+        )
         st.t_s = st.t_s + T
         st.cycle = st.cycle + 1
         st.b_gps_err = c.gps_noise_m * draws["gps"]
@@ -186,12 +232,26 @@ class MovingNetworkSimulator(BatchSimulator):
         turned = np.abs(np.angle(np.exp(1j * (phi[0] - st.ep_phi0_rad)))) > self._rotation_tolerance_rad
         if self._world:
             turned[:] = False  # the frame must turn with the river: no rotation term (see the package docstring)
-        cycle_draws = CycleDraws(st.temperature_c, st.ep_noise_scale, draws["depth"], draws["jitter"],
-                                 draws["acoustic_u"], np.log(draws["acoustic_u"][..., 2]))
+        cycle_draws = CycleDraws(
+            st.temperature_c,
+            st.ep_noise_scale,
+            draws["depth"],
+            draws["jitter"],
+            draws["acoustic_u"],
+            np.log(draws["acoustic_u"][..., 2]),
+        )
         boats = Boats(st.b_pos, st.b_vel, phi[0], length[0], en[1], phi[1], length[1])
         out, counts = np.empty(B, CYCLE_OUT), np.empty(B, CYCLE_COUNTS)
-        self._k_cycle(packed(vehicle_of(st)), packed(filter_of(st)), packed(boats), packed(tracker_of(st)),
-                      packed(cycle_draws), packed(self._cycle_params), out, counts)
+        self._k_cycle(
+            packed(vehicle_of(st)),
+            packed(filter_of(st)),
+            packed(boats),
+            packed(tracker_of(st)),
+            packed(cycle_draws),
+            packed(self._cycle_params),
+            out,
+            counts,
+        )
         return out, counts, turned
 
     def step(self, actions) -> StepResult:
@@ -205,12 +265,18 @@ class MovingNetworkSimulator(BatchSimulator):
         # --- the reward's terms (unweighted; the weights are term_weights') -----------------
         info_gain = logdet[:, 0] - logdet[:, 1]
         team = lambda name: np.broadcast_to(out[name][:, None], (B, 2))  # one value for both boats
-        arrays = {"info_gain": np.broadcast_to(info_gain[:, None], (B, 2)),
-                  "safety": out["safety"], "baseline": team("baseline_off"),
-                  "approach": team("approach"), "rotation": np.broadcast_to(turned.astype(float)[:, None], (B, 2)),
-                  "contact": team("contact"), "bank": bank}
-        ctx = TermContext(sim=self, config=c, state=st,
-                          arrays={"out": out, "counts": counts, "logdet": logdet, "turned": turned})
+        arrays = {
+            "info_gain": np.broadcast_to(info_gain[:, None], (B, 2)),
+            "safety": out["safety"],
+            "baseline": team("baseline_off"),
+            "approach": team("approach"),
+            "rotation": np.broadcast_to(turned.astype(float)[:, None], (B, 2)),
+            "contact": team("contact"),
+            "bank": bank,
+        }
+        ctx = TermContext(
+            sim=self, config=c, state=st, arrays={"out": out, "counts": counts, "logdet": logdet, "turned": turned}
+        )
         terms = collect_terms(self.reward_terms, arrays, ctx, (B, 2))  # registered terms, in their order
         reward = weighted_reward(terms, self.reward_weights)
         # --------------------------------------------------------------------------------------
@@ -255,12 +321,15 @@ class MovingNetworkSimulator(BatchSimulator):
             "survey_error_m": col(np.hypot(st.f_E[:, 0] - x, st.f_E[:, 1] - y)),
             "dr_error_m": col(np.linalg.norm(st.s_dr[:, 0, :2] - v, axis=-1)),
             "cov_logdet": col(floored_log(st.f_P[:, 0, 0] * st.f_P[:, 1, 1] - st.f_P[:, 0, 1] * st.f_P[:, 1, 0])),
-            "error_x_m": col(st.f_E[:, 0] - x), "error_y_m": col(st.f_E[:, 1] - y),
+            "error_x_m": col(st.f_E[:, 0] - x),
+            "error_y_m": col(st.f_E[:, 1] - y),
             "survey_error_en_m": np.stack([st.f_E[:, 0] - x, st.f_E[:, 1] - y], -1)[:, None],
             "survey_cov_en_m2": st.f_P[:, None, :2, :2].copy(),
             "phi_error_deg": col(np.degrees(np.angle(np.exp(1j * (st.f_E[:, 2] - phi))))),
             "baseline_error_m": col(st.f_E[:, 5] - length),
-            "ellipse_major_m": col(major), "ellipse_minor_m": col(minor), "vehicle_y_m": col(y),
+            "ellipse_major_m": col(major),
+            "ellipse_minor_m": col(minor),
+            "vehicle_y_m": col(y),
         }
 
     def snapshot(self) -> Snapshot:
@@ -284,10 +353,17 @@ class MovingNetworkSimulator(BatchSimulator):
         R = np.stack([np.stack([x_axis.real, x_axis.imag], -1), np.stack([x_axis.imag, -x_axis.real], -1)], -1)
         cov = R @ st.f_P[:, :2, :2] @ np.swapaxes(R, -1, -2)
         gps = np.concatenate([st.b_pos[..., :2] + st.b_gps_err, st.b_pos[..., 2:]], -1)
-        return Snapshot(t_s=st.t_s.copy(), survey_true_m=st.s_pos.copy(), survey_est_m=est[:, None],
-                        survey_dr_m=st.s_dr.copy(), survey_cov_en_m2=cov[:, None], beacon_true_m=st.b_pos.copy(),
-                        beacon_est_m=gps, waypoints_m=np.concatenate([wp_en, wp[..., 2:]], -1)[:, None],
-                        n_waypoints=st.s_n_waypoints.copy())
+        return Snapshot(
+            t_s=st.t_s.copy(),
+            survey_true_m=st.s_pos.copy(),
+            survey_est_m=est[:, None],
+            survey_dr_m=st.s_dr.copy(),
+            survey_cov_en_m2=cov[:, None],
+            beacon_true_m=st.b_pos.copy(),
+            beacon_est_m=gps,
+            waypoints_m=np.concatenate([wp_en, wp[..., 2:]], -1)[:, None],
+            n_waypoints=st.s_n_waypoints.copy(),
+        )
 
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
@@ -304,13 +380,24 @@ class MovingNetworkSimulator(BatchSimulator):
         the boat's position, / L: where to go (the boats know the river's map)."""
         c, st = self.config, self.state
         out = np.empty((self.batch_size, 2, OBS_DIM), dtype=np.float32)
-        self._k_observe(st.b_pos, st.b_gps_err, st.b_vel, packed(tracker_of(st)), st.cycle,
-                        packed(self._observe_params), out)
+        self._k_observe(
+            st.b_pos, st.b_gps_err, st.b_vel, packed(tracker_of(st)), st.cycle, packed(self._observe_params), out
+        )
         if self._world:
             extra = np.empty((self.batch_size, 2, RIVER_OBS_DIM), dtype=np.float32)
             L = c.baseline_target_m
-            observe_river(st.b_pos, st.b_gps_err, packed(tracker_of(st)), self._river_pts, self._river_cum,
-                          self._mission_dir, RIVER_LEAD_BASELINES * L, L, 0.5 * c.river_width_m, extra)
+            observe_river(
+                st.b_pos,
+                st.b_gps_err,
+                packed(tracker_of(st)),
+                self._river_pts,
+                self._river_cum,
+                self._mission_dir,
+                RIVER_LEAD_BASELINES * L,
+                L,
+                0.5 * c.river_width_m,
+                extra,
+            )
             out = np.concatenate([out, extra], -1)
         return out
 
@@ -329,12 +416,30 @@ class MovingNetworkSimulator(BatchSimulator):
         else:
             cur = st.current_mean + st.current_gm
         parts = [
-            x / L, y / L, (st.f_E[:, 0] - x) / 10.0, (st.f_E[:, 1] - y) / 10.0,
-            np.sin(st.f_E[:, 2] - phi), (st.f_E[:, 5] - length) / 10.0, (length - L) / L,
-            np.cos(phi - st.ep_phi0_rad), np.sin(phi - st.ep_phi0_rad), major / 50.0, minor / 50.0,
-            np.cos(2 * bearing), np.sin(2 * bearing), st.b_vel[:, 0, 0], st.b_vel[:, 0, 1], st.b_vel[:, 1, 0],
-            st.b_vel[:, 1, 1], st.s_vel_true[:, 0, 0], st.s_vel_true[:, 0, 1], cur.real, cur.imag,
-            (st.k_pos[:, 0] - v[:, 0]) / 10.0, (st.k_pos[:, 1] - v[:, 1]) / 10.0, st.cycle / c.max_cycles,
+            x / L,
+            y / L,
+            (st.f_E[:, 0] - x) / 10.0,
+            (st.f_E[:, 1] - y) / 10.0,
+            np.sin(st.f_E[:, 2] - phi),
+            (st.f_E[:, 5] - length) / 10.0,
+            (length - L) / L,
+            np.cos(phi - st.ep_phi0_rad),
+            np.sin(phi - st.ep_phi0_rad),
+            major / 50.0,
+            minor / 50.0,
+            np.cos(2 * bearing),
+            np.sin(2 * bearing),
+            st.b_vel[:, 0, 0],
+            st.b_vel[:, 0, 1],
+            st.b_vel[:, 1, 0],
+            st.b_vel[:, 1, 1],
+            st.s_vel_true[:, 0, 0],
+            st.s_vel_true[:, 0, 1],
+            cur.real,
+            cur.imag,
+            (st.k_pos[:, 0] - v[:, 0]) / 10.0,
+            (st.k_pos[:, 1] - v[:, 1]) / 10.0,
+            st.cycle / c.max_cycles,
         ]
         if self._world:
             off = boat_off / (0.5 * c.river_width_m)
