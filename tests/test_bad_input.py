@@ -66,7 +66,7 @@ def test_action_for_unknown_agent():
 def test_action_after_episode_end():
     env = _env(max_cycles=2)
     while env.agents:
-        env.step({a: ZERO for a in env.agents})
+        env.step(dict.fromkeys(env.agents, ZERO))
     with pytest.raises(ValueError, match=r"not alive.*beacon_0"):
         env.step({"beacon_0": ZERO})
 
@@ -75,7 +75,7 @@ def test_step_after_episode_end_without_actions():
     """An empty step after the end must not advance a finished episode silently."""
     env = _env(max_cycles=2)
     while env.agents:
-        env.step({a: ZERO for a in env.agents})
+        env.step(dict.fromkeys(env.agents, ZERO))
     t_end = env.sim.state.t_s.copy()
     with pytest.raises((ValueError, RuntimeError), match="reset"):
         env.step({})
@@ -279,7 +279,7 @@ def test_no_nan_rejections_without_fault_injection():
     env = _env(max_cycles=10)
     total = 0
     while env.agents:
-        _, _, _, _, infos = env.step({a: ZERO for a in env.agents})
+        _, _, _, _, infos = env.step(dict.fromkeys(env.agents, ZERO))
         total += infos["beacon_0"]["nan_rejected"]
     assert total == 0
 

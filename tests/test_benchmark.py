@@ -27,7 +27,6 @@ from evaluation import benchmark
 from evaluation.benchmark import BenchmarkPlan, compare_task, render_markdown, summarize_task_set
 from evaluation.tasks import FLOORS, TASK_SETS
 
-
 # ------------------------------------------------------------------------------------
 # seed separation
 
@@ -280,7 +279,7 @@ def test_the_markdown_of_a_run_with_a_skipped_policy():
     md = render_markdown(results)
     assert "Not a benchmark result" not in md and "| t | fim_a | best | n/a | - |" in md
     assert "`ppo`: cannot drive" in md
-    assert seeds.TEST_SEED_COUNT == len(TEST_SEEDS)
+    assert len(TEST_SEEDS) == seeds.TEST_SEED_COUNT
 
 
 def test_the_docs_list_every_task():

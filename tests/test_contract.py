@@ -35,7 +35,7 @@ def test_every_scenario_runs_through_the_protocol(name):
     config, sim, results = _run(name)
     assert isinstance(sim, BatchedSimulator)
     B, N, S = sim.batch_size, sim.N, sim.S
-    assert (N, S) == (config.n_beacons, config.n_survey if config.network != "moving_lbl" else 1)
+    assert (config.n_beacons, config.n_survey if config.network != "moving_lbl" else 1) == (N, S)
     for res in results:
         assert isinstance(res, StepResult)
         assert res.obs.shape == (B, N, sim.obs_dim) and res.obs.dtype == np.float32

@@ -171,7 +171,7 @@ def test_nothing_is_left_registered_after_a_test():
     with pytest.raises(ValueError, match="unknown acoustic_sensor 'toy'; valid: modem, mls"):
         coopnav_env.make_config("gao_lawnmower", acoustic_sensor="toy")
     # the built-in registries match what the scenario validation accepts
-    assert base.CHANNEL_MODES == channel_model_names()
+    assert channel_model_names() == base.CHANNEL_MODES
     assert reward.SURVEY_TERMS == ("info_gain", "safety", "geofence", "contact")
     assert reward.CHANNEL_TERMS == reward.SURVEY_TERMS + ("ping",)
     assert reward.MOVING_NETWORK_TERMS == ("info_gain", "safety", "baseline", "approach", "rotation", "contact")

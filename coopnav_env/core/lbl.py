@@ -110,7 +110,7 @@ def spherical_fix_batch(d1_m, d2_m, baseline_m):
 def horizontal_range(slant_m, depth_difference_m):
     """Horizontal part of a slant range; NaN-free (0 when the slant range is shorter than the depth). A ufunc."""
     v = slant_m * slant_m - depth_difference_m * depth_difference_m
-    return np.sqrt(0.0 if v < 0.0 else v)  # noqa: FURB136  (np.maximum(v, 0.0): NaN stays NaN)
+    return np.sqrt(0.0 if v < 0.0 else v)  # not np.maximum(v, 0.0): a NaN stays NaN
 
 
 @njit(cache=True)

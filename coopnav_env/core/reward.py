@@ -265,7 +265,9 @@ def check_training_terms(terms: Mapping[str, float] | None) -> dict[str, float] 
     if not terms:
         return None
     if not isinstance(terms, dict):
-        raise ValueError(f"reward terms must be a mapping term -> weight, got {terms!r}")  # noqa: TRY004 - a config error, as before
+        raise ValueError(
+            f"reward terms must be a mapping term -> weight, got {terms!r}"
+        )  # ValueError, not TypeError: a config error, as before
     valid = training_signal_names()
     out = {}
     for name, weight in terms.items():

@@ -190,7 +190,7 @@ class ScenarioConfig:
                     out[f.name] = f.default
         return out
 
-    def replace(self, **overrides: Any) -> "ScenarioConfig":
+    def replace(self, **overrides: Any) -> ScenarioConfig:
         """A copy with ``overrides`` (flat or dotted parameter names, or sections)."""
         return dataclasses.replace(self, **check_overrides(overrides))
 
