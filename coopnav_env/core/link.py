@@ -8,7 +8,8 @@ interference cut of ``channel``:
    Stojanovic 2007, path loss): TL(r, f) = k 10 log10(r / 1 m) + a(f) r / 1000,
    with a(f) in dB/km from Thorp's formula (f in kHz) and k = 2 (spherical) or 1.5
    ("practical"). ``thorp_absorption_db_per_km``, ``transmission_loss_db``.
-2. **Ambient noise** (the empirical Wenz/Coates model of Stojanovic 2007: turbulence, shipping s in [0, 1], wind w in m/s, thermal), a power
+2. **Ambient noise** (the empirical Wenz/Coates model of Stojanovic 2007: turbulence, shipping s in [0, 1],
+   wind w in m/s, thermal), a power
    spectral density in dB re 1 uPa^2/Hz; over a band B either integrated or
    NL(fc) + 10 log10(B). ``noise_psd_db``, ``band_noise_db``.
 3. **Sonar equation** (passive form for a one-way link, Urick 1983):

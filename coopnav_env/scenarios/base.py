@@ -49,7 +49,7 @@ def __getattr__(name: str) -> tuple:
 
 
 __all__ = [
-    "ACOUSTIC_SENSORS",
+    "ACOUSTIC_SENSORS",  # noqa: F822 - served by the module __getattr__ above
     "ACTION_MODES",
     "AREA_LIMIT_M",
     "BEACON_KINDS",

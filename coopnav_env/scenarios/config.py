@@ -110,13 +110,12 @@ class ScenarioConfig:
         check_overrides(params)
         values, explicit = {}, {}
         for key, v in params.items():  # sections first: flat and dotted keywords override them
-            if key in SECTION_BY_ATTR and not isinstance(v, dict):
-                if v is not None:
-                    check(
-                        isinstance(v, SECTION_BY_ATTR[key].cls),
-                        f"scenario section {key} must be a {SECTION_BY_ATTR[key].cls.__name__}, got {v!r}",
-                    )
-                    values.update((f.name, getattr(v, f.name)) for f in dataclasses.fields(v))
+            if key in SECTION_BY_ATTR and not isinstance(v, dict) and v is not None:
+                check(
+                    isinstance(v, SECTION_BY_ATTR[key].cls),
+                    f"scenario section {key} must be a {SECTION_BY_ATTR[key].cls.__name__}, got {v!r}",
+                )
+                values.update((f.name, getattr(v, f.name)) for f in dataclasses.fields(v))
         for key, v in params.items():
             if key not in SECTION_BY_ATTR:
                 explicit[flat_name(key)] = v

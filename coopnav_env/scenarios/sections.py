@@ -9,6 +9,7 @@ apply is ``None``); the checks here concern one section's fields only.
 
 from __future__ import annotations
 
+import itertools
 import numbers
 
 from .params import Section, check, check_coordinates, finite, param, section
@@ -46,7 +47,7 @@ class Timing(Section):
 
     @property
     def substeps_per_cycle(self) -> int:
-        return int(round(self.ping_interval_s / self.substep_s))
+        return round(self.ping_interval_s / self.substep_s)
 
     def check(self) -> None:
         check(self.substep_s <= self.ping_interval_s, "substep_s must not exceed ping_interval_s")
@@ -764,7 +765,7 @@ class River(Section):
             check(isinstance(p, tuple), f"river_centerline_m entries must be (east, north), got {p!r}")
             check_coordinates("river_centerline_m", p, 2)
         check(
-            all(a != b for a, b in zip(pts, pts[1:])),
+            all(a != b for a, b in itertools.pairwise(pts)),
             "scenario parameter river_centerline_m must not repeat a point twice in a row",
         )
 

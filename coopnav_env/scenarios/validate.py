@@ -18,9 +18,9 @@ SLOWEST_SOUND_SPEED_MPS = (
 def waypoint_count(c: Any, path: str) -> int:
     """How many waypoints ``guidance.build_path`` makes for ``path`` (before repeats)."""
     if path == "lawnmower":
-        return 2 * (int(math.floor(c.survey_area_m[1] / c.lawnmower_spacing_m + 1e-9)) + 1)
+        return 2 * (math.floor(c.survey_area_m[1] / c.lawnmower_spacing_m + 1e-9) + 1)
     if path in ("circle", "spiral"):
-        return max(int(math.ceil(c.circle_laps * 24)), 2) + 1
+        return max(math.ceil(c.circle_laps * 24), 2) + 1
     if path == "waypoints":
         return len(c.waypoints_m)
     return 2
