@@ -100,7 +100,7 @@ def test_gymnasium_view_matches_beacon_0_of_parallel_env():
     assert genv.observation_space.contains(obs)
     steps, done = 0, False
     while not done:
-        obs, reward, term, trunc, info = genv.step(genv.action_space.sample())
+        obs, _reward, term, trunc, info = genv.step(genv.action_space.sample())
         steps += 1
         done = term or trunc
     assert steps == 5 and trunc
@@ -216,7 +216,7 @@ def test_two_beacons_two_surveys_infos_per_vehicle():
     assert set(obs) == {"beacon_0", "beacon_1"}
     steps = 0
     while env.agents:
-        obs, rewards, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
+        obs, _rewards, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
         steps += 1
         assert set(infos) == {"beacon_0", "beacon_1"}
         for info in infos.values():

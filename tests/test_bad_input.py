@@ -225,7 +225,7 @@ def test_out_of_range_actions_are_clipped(mode):
     # and clipping matters: the unclipped direction would have moved the beacon elsewhere
     # (velocity mode: (5, -3) normalized is not (1, -1) normalized)
     if mode == "velocity":
-        out_other, env_other = _run([raw[0] / np.linalg.norm(raw[0])] + clipped[1:], action_mode=mode)
+        _out_other, env_other = _run([raw[0] / np.linalg.norm(raw[0])] + clipped[1:], action_mode=mode)
         assert not np.array_equal(env_other.sim.state.b_pos, env_clip.sim.state.b_pos)
 
 

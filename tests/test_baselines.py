@@ -184,14 +184,14 @@ def test_fim_b_maximizes_the_sum_of_determinants():
     ctx = BeaconContext.from_config(ASV)
     own = SURVEY + [20.0, 0.0]  # Sousa Fig. 6: the ROV moves from (0,0,-20) to (20,0,-20), ASV at (20,0)
     p1, p2 = SURVEY[None], (SURVEY + [20.0, 0.0])[None]
-    wp, val = fim_b_waypoint(ctx, own, p1, [20.0], p2, [20.0])
+    _wp, val = fim_b_waypoint(ctx, own, p1, [20.0], p2, [20.0])
     brute = _brute_force(
         lambda p: (two_range_det(own, p, p1, [20.0]) + two_range_det(own, p, p2, [20.0])).sum(-1), own, ctx.reach_m
     )
     assert val >= brute - 1e-6
     # with the vehicle standing still, B is A with the metric doubled
-    wp_a, val_a = fim_a_waypoint(ctx, own, p1, [20.0])
-    wp_b, val_b = fim_b_waypoint(ctx, own, p1, [20.0], p1, [20.0])
+    _wp_a, val_a = fim_a_waypoint(ctx, own, p1, [20.0])
+    _wp_b, val_b = fim_b_waypoint(ctx, own, p1, [20.0], p1, [20.0])
     assert val_b == pytest.approx(2 * val_a, rel=1e-6)
 
 
@@ -233,7 +233,7 @@ def test_ellipse_puts_the_next_range_along_the_major_axis(bearing_deg, own_offse
 
 def test_ellipse_respects_the_geofence():
     c = ASV.replace(depth_m=5.0)
-    e0, n0, e1, n1 = c.geofence_m
+    _e0, _n0, e1, _n1 = c.geofence_m
     survey = np.array([e1 - 10.0, 50.0])  # major axis east-west, the east side is outside the fence
     own = survey + [0.0, 30.0]
     obs = encode(c, own_en_m=own, survey_rel_m=[[0.0, -30.0, 5.0]], major_m=30.0, minor_m=4.0, bearing_rad=np.pi / 2)

@@ -83,7 +83,7 @@ def test_carried_variance_matches_the_monte_carlo_error_on_a_straight_run():
         beacon_dvl_scale_error_std=0.01,
         dvl_velocity_noise_mps=0.026,
     )
-    c, sim, d, err = _drive_east(15, B=B, **overrides)
+    _c, sim, _d, err = _drive_east(15, B=B, **overrides)
     mse = float((err**2).sum(-1).mean())
     # the carried variance minus the start fix's (err is measured from the start error)
     carried = float(2 * (sim.state.b_nav_var_m2[:, 0] - 1.0).mean())

@@ -48,7 +48,7 @@ def test_schmidt_update_matches_the_augmented_numpy_reference(nb):
         Pa = _spd(rng, 3 + nb, 4.0)
         P, Pxb, Pbb = Pa[:3, :3].copy(), Pa[:3, 3:].copy(), Pa[3:, 3:].copy()
         x = rng.normal(size=3) * 10
-        h, H = range_prediction(x, np.zeros(3), np.zeros(1), rng.normal(size=3) * 200)
+        _h, H = range_prediction(x, np.zeros(3), np.zeros(1), rng.normal(size=3) * 200)
         y, R = rng.normal() * 3, 0.5 + rng.random()
         xr, Pr, Pxbr, S = _schmidt_reference(x, P, Pxb, Pbb, y, H, R)
         K = np.zeros(3)
@@ -97,7 +97,7 @@ def test_other_beacons_cross_covariance_is_the_augmented_joseph_update():
     Pa += 20 * np.eye(7)  # still positive definite with the beacons made independent
     P, Pxb1, Pxb2, Pbb1 = Pa[:3, :3].copy(), Pa[:3, 3:5].copy(), Pa[:3, 5:7].copy(), Pa[3:5, 3:5].copy()
     x = np.array([5.0, -3.0, 40.0])
-    h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([250.0, 100.0, 5.0]))
+    _h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([250.0, 100.0, 5.0]))
     Ha = np.concatenate([H, -H[:2], np.zeros(2)])
     S = Ha @ Pa @ Ha + 0.8
     Ka = np.zeros(7)
@@ -152,7 +152,7 @@ def test_range_ci_is_the_information_form_at_the_best_omega(use_det):
     for _ in range(10):
         P = _spd(rng, 3, 10.0)
         x = rng.normal(size=3)
-        h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([300.0, 50.0, 0.0]))
+        _h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([300.0, 50.0, 0.0]))
         y, R = 2.0, 1.0
         x1, P1 = x.copy(), P.copy()
         w = ci_range_update(x1, P1, y, H, R, use_det)

@@ -169,7 +169,7 @@ def test_masked_row_is_unchanged():
     beacon = g.normal(size=(B, 3)) * 100
     z = np.linalg.norm(x - beacon, axis=1) + 5.0  # a big innovation, so an update would move x
     mask = np.array([True, False, True, False, False])
-    x_new, P_new, y, S = _coopnav_range_update(x, P, z, beacon, np.ones(B), mask)
+    x_new, P_new, y, _S = _coopnav_range_update(x, P, z, beacon, np.ones(B), mask)
     np.testing.assert_array_equal(x_new[~mask], x[~mask])
     np.testing.assert_array_equal(P_new[~mask], P[~mask])
     assert np.all(np.linalg.norm(x_new[mask] - x[mask], axis=1) > 0.1)

@@ -267,7 +267,7 @@ def test_analytic_agrees_with_signal_level_on_a_small_grid():
 
 def test_signal_delays_spread_as_modelled(sensor):
     args = _pose(2.5, 35.0, -100.0)
-    tdoa, toa = sensor.true_delays(*args)
+    _tdoa, toa = sensor.true_delays(*args)
     s_tdoa, s_toa = sensor.timing_std_samples(toa)
     rng = np.random.default_rng(11)
     tracker = PeakTracker()

@@ -342,7 +342,7 @@ def test_los_target_hand_geometry_tilted_segment():
         (0.25, 62.5 + 90j),
     ]  # along 0.25*50 + 0.75*100 = 87.5 -> (10+52.5, 20+70)
     for alpha, q_expected in cases:
-        q, along, length = guidance.los_target(np.array([v]), np.array([w0]), np.array([w1]), alpha)
+        q, along, _length = guidance.los_target(np.array([v]), np.array([w0]), np.array([w1]), alpha)
         assert q[0] == pytest.approx(q_expected, abs=1e-12)
         assert along[0] == pytest.approx(50.0, abs=1e-12)
         # |W1 Q| = alpha |W1 P|

@@ -140,7 +140,7 @@ def test_evaluate_shows_progress(tmp_path, tty):
 
 
 def test_evaluate_on_a_terminal_of_zero_columns_prints_lines(tmp_path):
-    rc, text, first = _run(
+    rc, text, _first = _run(
         [
             "evaluate.py",
             "--scenario",

@@ -72,7 +72,7 @@ def test_any_parameter_value_is_refused_by_name_or_runs_finite(scenario, data, v
             if not env.agents:
                 break
             actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in env.agents}
-            obs, rewards, terms, truncs, infos = env.step(actions)
+            obs, rewards, _terms, _truncs, infos = env.step(actions)
             for a, o in obs.items():
                 assert env.observation_space(a).contains(o), f"{name}={value!r}: observation outside the space"
             assert all(math.isfinite(r) for r in rewards.values()), f"{name}={value!r}: reward {rewards}"

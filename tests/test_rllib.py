@@ -187,7 +187,7 @@ def test_two_kinds_train_two_modules(local_ray):
     hp = json.loads(json.dumps(TINY))
     hp["env"]["overrides"]["beacon_kinds"] = ["beacon_auv", "asv"]
     hp["env_runners"]["num_envs_per_env_runner"] = 3
-    config, mapping = rllib_trainer.build_config(_config("gao_lawnmower", hp, num_env_runners=0))
+    config, _mapping = rllib_trainer.build_config(_config("gao_lawnmower", hp, num_env_runners=0))
     algo = config.build_algo()
     try:
         result = algo.train()

@@ -339,7 +339,7 @@ def test_tiny_training_run_on_the_newer_scenarios(tmp_path, scenario):
         == 0
     )
     config = coopnav_env.make_config(scenario, max_cycles=6)
-    eps, steps = evaluate.run_episodes(config, str(out), [0, 1])
+    eps, _steps = evaluate.run_episodes(config, str(out), [0, 1])
     assert len(eps) == 2 and all(np.isfinite(e["mean_error_m"]) for e in eps)
 
 

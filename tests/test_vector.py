@@ -278,7 +278,7 @@ def test_sb3_helpers_and_wrappers():
     wrapped.reset()
     episodes = 0
     for _ in range(11):
-        _, _, done, infos = wrapped.step(np.random.default_rng(0).uniform(-1, 1, (4, 2)))
+        _, _, _done, infos = wrapped.step(np.random.default_rng(0).uniform(-1, 1, (4, 2)))
         episodes += sum("episode" in i for i in infos)
     assert episodes == 8  # two episodes of two environments, two beacons each
     wrapped.close()
@@ -324,7 +324,7 @@ def test_training_reward_terms():
     plain.reset(), shaped.reset()
     for _ in range(4):
         a = np.random.default_rng(0).uniform(-1, 1, (6, 2))
-        o1, r1, d1, i1 = plain.step(a)
+        o1, r1, d1, _i1 = plain.step(a)
         o2, r2, d2, i2 = shaped.step(a)
         assert np.array_equal(o1, o2) and np.array_equal(d1, d2)
         st, c = shaped.sim.state, shaped.config
