@@ -52,10 +52,10 @@ def test_training_seeds_cannot_reach_the_test_seeds_within_the_documented_bound(
     seed = TRAINING_SEED_LIMIT - 1
     venv = CoopNavVecEnv("gao_lawnmower", n_envs=2, seed=seed, max_cycles=2)
     venv.reset()
-    drawn = set(int(s) for s in venv.episode_seeds)
+    drawn = {int(s) for s in venv.episode_seeds}
     for _ in range(6):  # three episodes of each env
         venv.step(np.zeros((2, 2)))
-        drawn |= set(int(s) for s in venv.episode_seeds)
+        drawn |= {int(s) for s in venv.episode_seeds}
     assert drawn == {max_training_seed(seed, e + 1, k + 1) for e in range(2) for k in range(4)}
     assert max(drawn) == seed + 1 + 3 * SEED_STRIDE and not any(is_test_seed(s) for s in drawn)
 
@@ -63,7 +63,7 @@ def test_training_seeds_cannot_reach_the_test_seeds_within_the_documented_bound(
 def test_refuse_test_seeds_is_one_line():
     refuse_test_seeds(TRAINING_SEED_LIMIT - 4, 4, "eval.seed")  # up to the limit - 1: fine
     for first, count in ((TRAINING_SEED_LIMIT - 3, 4), (TEST_SEED, 1), (TEST_SEED - 1, 2)):
-        with pytest.raises(ValueError, match="^eval.seed .*reserved seeds") as exc:
+        with pytest.raises(ValueError, match=r"^eval\.seed .*reserved seeds") as exc:
             refuse_test_seeds(first, count, "eval.seed")
         assert "\n" not in str(exc.value)
 

@@ -59,10 +59,10 @@ def test_a_parameter_of_an_absent_section_is_one_clear_error():
         r"network='survey_beacons'$",
     ):
         make_config("gao_sea", baseline_target_m=50.0)
-    with pytest.raises(ValueError, match="tdma_frame_slots belongs to section 'channel'.*channel_mode='decide'"):
+    with pytest.raises(ValueError, match=r"tdma_frame_slots belongs to section 'channel'.*channel_mode='decide'"):
         make_config("sousa_asv", tdma_frame_slots=2)
-    with pytest.raises(AttributeError, match="no parameter river_width_m.*section 'river'"):
-        make_config("gao_sea").river_width_m
+    with pytest.raises(AttributeError, match=r"no parameter river_width_m.*section 'river'"):
+        make_config("gao_sea").river_width_m  # noqa: B018 - the attribute access is what must raise
     assert not hasattr(make_config("gao_sea"), "mls_max_range_m")
     # the switch and the section's parameters together are fine
     c = make_config("sousa_asv", channel_mode="decide", tdma_frame_slots=2)

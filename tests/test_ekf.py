@@ -51,7 +51,7 @@ def _recorded_sequence(B, n_steps, seed):
     steps = []
     beacon = g.uniform(-200, 200, size=(B, 3))
     beacon[:, 2] = 1.0
-    for k in range(n_steps):
+    for _ in range(n_steps):
         dx = g.normal(size=(B, 3)) * np.array([20.0, 20.0, 0.5])  # dead-reckoned motion R v tau
         x_true = x_true + dx + g.normal(size=(B, 3)) * np.array([1.0, 1.0, 0.1])
         q = g.uniform(0.1, 3.0, size=B)
@@ -134,7 +134,7 @@ def test_axis_measurement_matches_filterpy_linear_update():
             f = ExtendedKalmanFilter(dim_x=3, dim_z=1)
             f.x, f.P = x[b].reshape(3, 1).copy(), P[b].copy()
             e = np.eye(3)[axis][None, :]
-            f.update(np.array([[z[b]]]), lambda s: e, lambda s: s[axis : axis + 1], R=np.array([[r]]))
+            f.update(np.array([[z[b]]]), lambda s, e=e: e, lambda s, axis=axis: s[axis : axis + 1], R=np.array([[r]]))
             np.testing.assert_allclose(x_new[b], f.x[:, 0], atol=1e-9)
             np.testing.assert_allclose(P_new[b], f.P, atol=1e-9)
         x, P = x_new, P_new

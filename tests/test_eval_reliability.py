@@ -453,7 +453,7 @@ def test_a_corrupt_model(tmp_path, capsys):
 
     policy = tmp_path / "corrupt"
     shutil.copytree(os.path.join(agents.POLICY_DIR, "ppo_gao_sea"), policy)
-    models = [n for n in os.listdir(policy) if n.startswith("model.") or n.startswith("best_model.")]
+    models = [n for n in os.listdir(policy) if n.startswith(("model.", "best_model."))]
     assert models
     for n in models:
         (policy / n).write_bytes(b"this is no model")
@@ -483,7 +483,7 @@ def test_bad_input_into_an_existing_result_changes_nothing(tmp_path, capsys, fas
     shutil.copytree(fast_ref, out)
     before = files(out)
     for argv in (["--policies", "static,perpendicular"], ["--seed", str(2**63)], ["--set", "max_cycles=0.5"]):
-        args = [a for a in FAST]
+        args = list(FAST)
         for i in range(0, len(argv), 2):
             if argv[i] in args:
                 args[args.index(argv[i]) + 1] = argv[i + 1]

@@ -116,9 +116,9 @@ def test_river_parameters_are_validated(override, message):
     ):
         make_config("matos_river", **override)
     # the river section applies only to world missions, the moving network's only to moving_lbl
-    with pytest.raises(ValueError, match="river_centerline_m belongs to section 'river'.*mission_frame='world'"):
+    with pytest.raises(ValueError, match=r"river_centerline_m belongs to section 'river'.*mission_frame='world'"):
         make_config("matos_moving_lbl", river_centerline_m=((0.0, 0.0), (1.0, 0.0)))
-    with pytest.raises(ValueError, match="mission_frame belongs to section 'moving'.*network='moving_lbl'"):
+    with pytest.raises(ValueError, match=r"mission_frame belongs to section 'moving'.*network='moving_lbl'"):
         make_config("gao_lawnmower", mission_frame="world")
 
 

@@ -4,8 +4,8 @@ agents.load and evaluate.py use, an interrupted run resumed, a Tune grid, and ba
 input.
 
 Skipped when Ray is not installed (pip install -e ".[rllib]"), except the test of the
-message train.py prints then; under CI (which installs it) a missing Ray fails instead. Time-boxed: 10-cycle missions, 16x16 networks, one
-to four PPO iterations of a few dozen steps. Everything Ray starts stays on loopback (no
+message train.py prints then; under CI (which installs it) a missing Ray fails instead. Time-boxed: 10-cycle
+missions, 16x16 networks, one to four PPO iterations of a few dozen steps. Everything Ray starts stays on loopback (no
 cluster networking: RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 makes Ray use 127.0.0.1
 for this machine) and is stopped by the test that started it.
 """

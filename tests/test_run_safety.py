@@ -224,7 +224,7 @@ def test_rllib_export_without_filters_of_a_normalized_run_is_refused(tmp_path, c
     (it would act on unnormalized observations: 2.31 vs 1.92 m, exit 0, before)."""
     run = _fake_rllib_run(tmp_path, normalize_obs=True)
     before = tree_hash(run)
-    with pytest.raises(agents.PolicyFormatError, match="filters.safetensors is missing"):
+    with pytest.raises(agents.PolicyFormatError, match=r"filters\.safetensors is missing"):
         agents.resolve(run)
     code, err = evaluate(
         [
@@ -376,7 +376,7 @@ def test_a_2e9_layer_in_a_header_is_refused_before_allocating(run):
     path = run / "model.safetensors"
     with safe_open(str(path), "pt") as f:
         spec = json.loads(f.metadata()["coopnav"])
-        tensors = {k: f.get_tensor(k) for k in f.keys()}
+        tensors = {k: f.get_tensor(k) for k in f.keys()}  # noqa: SIM118 - a safetensors file handle, not a dict: no __iter__
     spec["policy_kwargs"]["net_arch"] = [2_000_000_000]
     save_file(tensors, str(path), metadata={"coopnav": json.dumps(spec)})
     import tracemalloc

@@ -348,7 +348,7 @@ def test_an_rllib_checkpoint_is_refused_without_trust_pickle(tmp_path, capsys):
 def test_a_missing_normalization_file_is_refused(tiny_run, tmp_path, capsys):
     run = _copy(tiny_run, tmp_path)
     (run / "best_vecnormalize.safetensors").unlink()
-    with pytest.raises(agents.PolicyFormatError, match="best_vecnormalize.safetensors is missing"):
+    with pytest.raises(agents.PolicyFormatError, match=r"best_vecnormalize\.safetensors is missing"):
         agents.load(run)
     assert _evaluate(run, tmp_path) == 2
     err = capsys.readouterr().err.strip()

@@ -47,7 +47,7 @@ class Timing(Section):
 
     @property
     def substeps_per_cycle(self) -> int:
-        return round(self.ping_interval_s / self.substep_s)
+        return int(round(self.ping_interval_s / self.substep_s))  # noqa: RUF046 - numpy 1.x rounds a numpy float to a float
 
     def check(self) -> None:
         check(self.substep_s <= self.ping_interval_s, "substep_s must not exceed ping_interval_s")
