@@ -44,7 +44,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numba import njit, prange
@@ -53,19 +53,25 @@ from ..scenarios.base import SLOWEST_SOUND_SPEED_MPS
 from . import fusion
 from .acoustics import mackenzie_sound_speed, travel_time
 
+if TYPE_CHECKING:
+    from ..scenarios.base import ScenarioConfig
+    from .sim import Simulator
 
-def packet_duration_s(bits, bit_rate_bps):
+
+def packet_duration_s(bits: float | np.ndarray, bit_rate_bps: float | np.ndarray) -> float | np.ndarray:
     """How long a packet of ``bits`` occupies the channel at ``bit_rate_bps`` (s): bits / bit rate."""
     d = np.asarray(bits, dtype=float) / np.asarray(bit_rate_bps, dtype=float)
     return float(d) if d.ndim == 0 else d
 
 
-def transmit_energy_j(power_w, duration_s, packets=1):
+def transmit_energy_j(
+    power_w: float | np.ndarray, duration_s: float | np.ndarray, packets: int | np.ndarray = 1
+) -> float | np.ndarray:
     """Electrical energy of ``packets`` transmissions of ``duration_s`` each at ``power_w`` (J)."""
     return packets * power_w * duration_s
 
 
-def reply_time_s(config) -> float:
+def reply_time_s(config: ScenarioConfig) -> float:
     """When a survey vehicle's reply starts, after the slot's ping instant (s): the ping's
     duration, the longest flight from within acoustic range and the turn-around."""
     c = config
@@ -136,7 +142,16 @@ resolve_slot_kernel = njit(cache=True)(_resolve_slot)
 resolve_slot_kernel_parallel = njit(cache=True, parallel=True)(_resolve_slot)
 
 
-def resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, parallel=False):
+def resolve_slot(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    tx_start: np.ndarray,
+    tx_dur: np.ndarray,
+    temperature_c: np.ndarray,
+    salinity_psu: float,
+    max_range_m: float,
+    parallel: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_resolve_slot` on fresh output arrays: (arrival, delivered, collided, deaf), each (B, V, V)."""
     pos, vel = np.ascontiguousarray(pos, float), np.ascontiguousarray(vel, float)
     tx_start, tx_dur = np.ascontiguousarray(tx_start, float), np.ascontiguousarray(tx_dur, float)
@@ -163,7 +178,7 @@ class Channel:
     durations, reply time and energy per ping gathered once; ``pings`` and ``replies``
     resolve a slot in two passes (the replies depend on which pings were decoded)."""
 
-    def __init__(self, sim):
+    def __init__(self, sim: Simulator) -> None:
         c = sim.config
         self.sim = sim
         self.N, self.S = sim.N, sim.S
@@ -175,7 +190,7 @@ class Channel:
         self.parallel = sim.batch_size >= 256
         self._k_exchange = fusion.exchange_messages_parallel if self.parallel else fusion.exchange_messages
 
-    def transmit_mask(self, actions, cycle):
+    def transmit_mask(self, actions: np.ndarray, cycle: np.ndarray) -> np.ndarray:
         """(B, N) bool: who transmits this slot. The third action component > 0; a
         two-component action (the motion alone) transmits every slot, as the fixed clock;
         with ``tdma_frame_slots`` F > 0, beacon j only in slots k with k mod F == j mod F."""
@@ -187,8 +202,11 @@ class Channel:
             tx = tx & ((np.asarray(cycle)[:, None] % F) == (np.arange(N)[None, :] % F))
         return tx
 
-    def _timeline(self, beacon_tx, survey_tx):
+    def _timeline(
+        self, beacon_tx: np.ndarray, survey_tx: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         st, c = self.sim.state, self.sim.config
+        assert st is not None, "the simulator is reset before its channel is used"
         B = st.b_pos.shape[0]
         pos = np.concatenate([st.b_pos, st.s_pos], 1)
         vel = np.concatenate([st.b_vel, st.s_vel_true], 1)
@@ -204,14 +222,16 @@ class Channel:
             self.parallel,
         )
 
-    def pings(self, beacon_tx):
+    def pings(self, beacon_tx: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
         """The pings alone: (B, N, S) delivered at the survey vehicles (before the random
         loss), and the whole resolution (arrival, delivered, collided, deaf)."""
         N = self.N
         out = self._timeline(beacon_tx, np.zeros((beacon_tx.shape[0], self.S), dtype=bool))
         return out[1][:, :N, N:], out
 
-    def replies(self, beacon_tx, survey_tx):
+    def replies(
+        self, beacon_tx: np.ndarray, survey_tx: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
         """The whole slot with the replies of ``survey_tx`` (B, S): (reply_ok (B, N, S),
         peer_ok (B, N, N) [receiver, sender], resolution)."""
         N = self.N
@@ -223,11 +243,12 @@ class Channel:
             out,
         )
 
-    def exchange(self, draws, reply_ok, peer_ok):
+    def exchange(self, draws: dict[str, np.ndarray], reply_ok: np.ndarray, peer_ok: np.ndarray) -> None:
         """The replies and the peers' positions as ``Simulator._exchange_messages`` does
         them, through the channel's masks."""
         sim = self.sim
         c, st = sim.config, sim.state
+        assert st is not None, "the simulator is reset before its channel is used"
         self._k_exchange(
             st.s_pos,
             st.s_est,

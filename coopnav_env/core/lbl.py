@@ -27,12 +27,13 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit, vectorize
+from numpy.typing import ArrayLike
 
 from . import acoustics
 
 
 @njit(cache=True)
-def fix_xy(d1, d2, length):
+def fix_xy(d1: float, d2: float, length: float) -> tuple[float, float]:
     """The fix of section V for one set of ranges: x = (d1^2 - d2^2 + l^2) / (2 l) and
     y^2 = d1^2 - x^2 (negative when the range circles do not meet)."""
     x = (d1 * d1 - d2 * d2 + length * length) / (2.0 * length)
@@ -40,7 +41,7 @@ def fix_xy(d1, d2, length):
 
 
 @njit(cache=True)
-def spherical_fix_of(d1, d2, length):
+def spherical_fix_of(d1: float, d2: float, length: float) -> tuple[float, float, bool]:
     """``spherical_fix`` of one set of ranges without raising: (x, y, ok); where ok is
     False (no solution, a non-finite input or a non-positive baseline) x and y are 0."""
     ok = np.isfinite(d1) and np.isfinite(d2) and np.isfinite(length) and length > 0
@@ -67,7 +68,7 @@ def _flat_args(*arrays):
     return shape, [np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), shape)).reshape(-1) for a in arrays]
 
 
-def spherical_fix(d1_m, d2_m, baseline_m):
+def spherical_fix(d1_m: ArrayLike, d2_m: ArrayLike, baseline_m: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """The LBL fix of section V: x = (d1^2 - d2^2 + l^2) / (2 l), y = sqrt(d1^2 - x^2).
 
     Horizontal ranges d1 (to B1), d2 (to B2) and the baseline l, scalars or arrays.
@@ -95,7 +96,9 @@ def spherical_fix(d1_m, d2_m, baseline_m):
     return (x[()], y[()]) if shape == () else (x, y)
 
 
-def spherical_fix_batch(d1_m, d2_m, baseline_m):
+def spherical_fix_batch(
+    d1_m: ArrayLike, d2_m: ArrayLike, baseline_m: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``spherical_fix_of`` over arrays, for the batched simulator: returns (x, y, ok);
     where ok is False (no solution) x and y are 0."""
     shape, (a, b, c) = _flat_args(d1_m, d2_m, baseline_m)
@@ -107,20 +110,20 @@ def spherical_fix_batch(d1_m, d2_m, baseline_m):
 
 
 @vectorize(["float64(float64, float64)"], cache=True)
-def horizontal_range(slant_m, depth_difference_m):
+def horizontal_range(slant_m: float, depth_difference_m: float) -> float:
     """Horizontal part of a slant range; NaN-free (0 when the slant range is shorter than the depth). A ufunc."""
     v = slant_m * slant_m - depth_difference_m * depth_difference_m
     return np.sqrt(0.0 if v < 0.0 else v)  # not np.maximum(v, 0.0): a NaN stays NaN
 
 
 @njit(cache=True)
-def to_world(b1_e, b1_n, sin_phi, cos_phi, x, y):
+def to_world(b1_e: float, b1_n: float, sin_phi: float, cos_phi: float, x: float, y: float) -> tuple[float, float]:
     """Frame (x, y) -> (east, north) of one point given B1 and the frame bearing's sine and cosine."""
     return b1_e + x * sin_phi + y * cos_phi, b1_n + x * cos_phi + y * -sin_phi
 
 
 @njit(cache=True)
-def to_frame(rel_e, rel_n, sin_phi, cos_phi):
+def to_frame(rel_e: float, rel_n: float, sin_phi: float, cos_phi: float) -> tuple[float, float]:
     """(east, north) relative to B1 -> frame (x, y) of one point, given the frame bearing's sine and cosine."""
     return rel_e * sin_phi + rel_n * cos_phi, rel_e * cos_phi - rel_n * sin_phi
 
@@ -137,7 +140,7 @@ def _to_frame_rows(rel, phi, x, y):
         x[i], y[i] = to_frame(rel[i, 0], rel[i, 1], np.sin(phi[i]), np.cos(phi[i]))
 
 
-def frame_to_world(b1_en, phi_rad, x, y):
+def frame_to_world(b1_en: ArrayLike, phi_rad: ArrayLike, x: ArrayLike, y: ArrayLike) -> np.ndarray:
     """Frame (x, y) -> (east, north) given B1's position (..., 2) and the frame bearing phi (``to_world``)."""
     b1 = np.asarray(b1_en, dtype=float)
     shape = np.broadcast_shapes(b1.shape[:-1], np.shape(phi_rad), np.shape(x), np.shape(y))
@@ -148,7 +151,7 @@ def frame_to_world(b1_en, phi_rad, x, y):
     return out.reshape(shape + (2,))
 
 
-def baseline(b1_en, b2_en):
+def baseline(b1_en: np.ndarray, b2_en: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The frame of beacons B1, B2 (east, north) (..., 2): bearing phi of its x axis
     (clockwise from north) and the baseline length l. (numpy's arctan2: the
     simulator's kernels take phi from here.)"""
@@ -156,7 +159,9 @@ def baseline(b1_en, b2_en):
     return np.arctan2(base[..., 0], base[..., 1]), np.linalg.norm(base, axis=-1)
 
 
-def world_to_frame(b1_en, b2_en, p_en):
+def world_to_frame(
+    b1_en: np.ndarray, b2_en: np.ndarray, p_en: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(east, north) -> frame (x, y) of the beacons B1, B2 (``to_frame``); also returns phi and l."""
     phi, length = baseline(b1_en, b2_en)
     rel = np.asarray(p_en, dtype=float) - b1_en
@@ -325,15 +330,15 @@ def _exchange_rows(movers, c, cn, err, lost, turnaround_s, reaction_s, timeout_s
 
 def exchange(
     movers: Movers,
-    sound_speed_mps,
-    nominal_sound_speed_mps,
-    jitter_s,
-    late_s,
-    lost,
+    sound_speed_mps: ArrayLike,
+    nominal_sound_speed_mps: ArrayLike,
+    jitter_s: ArrayLike,
+    late_s: ArrayLike,
+    lost: ArrayLike,
     turnaround_s: float,
     reaction_s: float,
-    timeout_s,
-) -> dict:
+    timeout_s: ArrayLike,
+) -> dict[str, np.ndarray]:
     """Simulate one positioning cycle for a batch; t = 0 is the vehicle's S1 transmission.
 
     ``movers`` (``Movers``): positions (B, 3) at t = 0 and velocities (B, 3), held over
@@ -415,8 +420,14 @@ def _track_rows(t_a, t_b, t_c, ok_track, gps_frame, depth, cn, turnaround_s, rea
 
 
 def track_fix(
-    ex: dict, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, turnaround_s: float, reaction_s: float
-) -> tuple:
+    ex: dict[str, np.ndarray],
+    b1_en: np.ndarray,
+    b2_en: np.ndarray,
+    depth_below_m: ArrayLike,
+    nominal_sound_speed_mps: ArrayLike,
+    turnaround_s: float,
+    reaction_s: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """External tracking from the boats' own detection instants (section III, V).
 
     The boats never hear the vehicle's measurements; they share over their radio

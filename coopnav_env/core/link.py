@@ -63,6 +63,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit, vectorize
+from numpy.typing import ArrayLike
 
 from .acoustics import travel_time
 
@@ -251,7 +252,7 @@ class _KernelScalars(NamedTuple):
 
 
 @vectorize(["float64(float64)"], cache=True)
-def thorp_absorption_db_per_km(f_khz):
+def thorp_absorption_db_per_km(f_khz: float) -> float:
     """Thorp's absorption a(f), dB/km, f in kHz (Thorp 1967, as in Stojanovic 2007):
     10 log a(f) = 0.11 f^2/(1 + f^2) + 44 f^2/(4100 + f^2) + 2.75e-4 f^2 + 0.003.
     Valid above a few hundred Hz. A ufunc.
@@ -264,7 +265,7 @@ def thorp_absorption_db_per_km(f_khz):
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def transmission_loss_db(range_m, f_khz, spreading_k):
+def transmission_loss_db(range_m: float, f_khz: float, spreading_k: float) -> float:
     """TL = k 10 log10(r / 1 m) + a(f) r / 1000, dB (Stojanovic 2007, path loss
     A(l, f) = l^k a(f)^l in dB with l in m re 1 m). Ranges below 1 m count as 1 m
     (the source level's reference distance). A ufunc."""
@@ -273,7 +274,7 @@ def transmission_loss_db(range_m, f_khz, spreading_k):
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def noise_psd_db(f_khz, shipping, wind_mps):
+def noise_psd_db(f_khz: float, shipping: float, wind_mps: float) -> float:
     """Ambient noise power spectral density, dB re 1 uPa^2/Hz, f in kHz: the power sum
     of Stojanovic 2007's empirical terms (after Coates, "Underwater Acoustic
     Systems", 1990, fitting Wenz 1962's curves):
@@ -310,12 +311,19 @@ def band_noise_db(
 
 
 @vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
-def received_level_db(source_level_db, range_m, f_khz, spreading_k, directivity_index_db):
+def received_level_db(
+    source_level_db: float, range_m: float, f_khz: float, spreading_k: float, directivity_index_db: float
+) -> float:
     """RL = SL - TL(r, f) + DI, dB re 1 uPa (Urick 1983). A ufunc."""
     return source_level_db - transmission_loss_db(range_m, f_khz, spreading_k) + directivity_index_db
 
 
-def snr_db(range_m, params: LinkParams = DEFAULT_LINK, source_level_db=None, noise_db=None):
+def snr_db(
+    range_m: ArrayLike,
+    params: LinkParams = DEFAULT_LINK,
+    source_level_db: ArrayLike | None = None,
+    noise_db: ArrayLike | None = None,
+) -> np.ndarray:
     """In-band SNR = SL - TL + DI - NL_band (dB) at ``range_m`` (array or scalar).
     ``source_level_db`` defaults to the link's; ``noise_db`` to ``band_noise_db``."""
     sl = params.source_level_db if source_level_db is None else source_level_db
@@ -329,7 +337,7 @@ def snr_db(range_m, params: LinkParams = DEFAULT_LINK, source_level_db=None, noi
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def detection_probability(snr_db, threshold_db, logistic_width_db):
+def detection_probability(snr_db: float, threshold_db: float, logistic_width_db: float) -> float:
     """P(the probe is detected) at mean in-band SNR ``snr_db`` against ``threshold_db``.
 
     ``logistic_width_db`` <= 0 (the default of ``LinkParams`` maps to it): the
@@ -349,7 +357,7 @@ def detection_probability(snr_db, threshold_db, logistic_width_db):
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def bit_error_rate(snr_db, bandwidth_hz, bit_rate_bps):
+def bit_error_rate(snr_db: float, bandwidth_hz: float, bit_rate_bps: float) -> float:
     """Non-coherent binary FSK in white noise: BER = 0.5 exp(-Eb/N0 / 2) (Proakis,
     Digital Communications, binary orthogonal signals, non-coherent detection), with
     Eb/N0 = SNR x B / R (the in-band SNR spread over the bit rate). Uncoded, so
@@ -359,7 +367,7 @@ def bit_error_rate(snr_db, bandwidth_hz, bit_rate_bps):
 
 
 @vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def packet_error_rate(snr_db, bandwidth_hz, bit_rate_bps, n_bits):
+def packet_error_rate(snr_db: float, bandwidth_hz: float, bit_rate_bps: float, n_bits: float) -> float:
     """PER of an n-bit frame with independent bit errors: 1 - (1 - BER)^n."""
     ber = bit_error_rate(snr_db, bandwidth_hz, bit_rate_bps)
     return -math.expm1(n_bits * math.log1p(-ber))
@@ -388,7 +396,9 @@ def _scalars(params: LinkParams) -> _KernelScalars:
     )
 
 
-def success_probability(range_m, n_bits, params: LinkParams = DEFAULT_LINK, noise_db=None):
+def success_probability(
+    range_m: ArrayLike, n_bits: ArrayLike, params: LinkParams = DEFAULT_LINK, noise_db: ArrayLike | None = None
+) -> np.ndarray:
     """P(a packet of ``n_bits`` is decoded at ``range_m``) on a free channel:
     P(detect | SNR) x (1 - PER(SNR, n)). Arrays broadcast (``noise_db`` too)."""
     s = _scalars(params)
@@ -400,7 +410,7 @@ def success_probability(range_m, n_bits, params: LinkParams = DEFAULT_LINK, nois
 # --------------------------------------------------------------------- capture (SIR)
 
 
-def sir_db(signal_rl_db, interferer_rl_db):
+def sir_db(signal_rl_db: ArrayLike, interferer_rl_db: ArrayLike) -> np.ndarray:
     """SIR of one reception over simultaneous ones: its RL minus 10 log10 of the sum of
     the interferers' linear powers (dB). ``interferer_rl_db`` (..., K); +inf for K = 0
     or all -inf."""
@@ -410,7 +420,9 @@ def sir_db(signal_rl_db, interferer_rl_db):
         return np.asarray(signal_rl_db, float) - 10.0 * np.log10(total)
 
 
-def captured(signal_rl_db, interferer_rl_db, capture_threshold_db=10.0):
+def captured(
+    signal_rl_db: ArrayLike, interferer_rl_db: ArrayLike, capture_threshold_db: ArrayLike = 10.0
+) -> np.ndarray:
     """Whether a reception survives overlapping ones: SIR >= threshold (10 dB [U])."""
     return sir_db(signal_rl_db, interferer_rl_db) >= capture_threshold_db
 
@@ -418,7 +430,7 @@ def captured(signal_rl_db, interferer_rl_db, capture_threshold_db=10.0):
 # ------------------------------------------------------------------ packet timing
 
 
-def frames_needed(framing: MicroModemFraming, payload_bits) -> int:
+def frames_needed(framing: MicroModemFraming, payload_bits: int) -> int:
     """How many frames carry ``payload_bits`` (at least one; a frame is sent whole)."""
     frame_bits = 8 * framing.frame_bytes
     n = max(1, -(-int(payload_bits) // frame_bits))
@@ -430,7 +442,7 @@ def frames_needed(framing: MicroModemFraming, payload_bits) -> int:
     return n
 
 
-def packet_duration_s(framing: MicroModemFraming = DEFAULT_FRAMING, payload_bits=256) -> float:
+def packet_duration_s(framing: MicroModemFraming = DEFAULT_FRAMING, payload_bits: int = 256) -> float:
     """How long one Micro-Modem packet occupies the water (s):
     [cycle-init + gap] + probe + null + n x frame + (n - 1) x inter-frame gap, with
     frame = 8 x frame_bytes / bit rate. Default (FH-FSK rate 0, one 32-byte frame):
@@ -445,18 +457,22 @@ def packet_duration_s(framing: MicroModemFraming = DEFAULT_FRAMING, payload_bits
 
 
 @vectorize(["float64(float64, float64)"], cache=True)
-def acoustic_power_w(source_level_db, directivity_index_db):
+def acoustic_power_w(source_level_db: float, directivity_index_db: float) -> float:
     """Radiated acoustic power (W) for a source level: SL = 170.8 + 10 log10(P) + DI
     (Urick 1983), so P = 10^((SL - 170.8 - DI) / 10)."""
     return 10.0 ** ((source_level_db - SL_ONE_WATT_DB - directivity_index_db) / 10.0)
 
 
-def electrical_power_w(source_level_db, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
+def electrical_power_w(
+    source_level_db: ArrayLike, power: PowerModel = DEFAULT_POWER, directivity_index_db: ArrayLike = 0.0
+) -> np.ndarray:
     """Electrical power while transmitting (W): acoustic power / efficiency."""
     return acoustic_power_w(np.asarray(source_level_db, float), directivity_index_db) / power.efficiency
 
 
-def source_level_from_power_db(electrical_power_w, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
+def source_level_from_power_db(
+    electrical_power_w: ArrayLike, power: PowerModel = DEFAULT_POWER, directivity_index_db: ArrayLike = 0.0
+) -> np.ndarray:
     """The source level a modem drawing ``electrical_power_w`` while transmitting
     radiates: SL = 170.8 + 10 log10(efficiency x P_electrical) + DI (dB re 1 uPa at
     1 m; Urick 1983). The inverse of ``electrical_power_w``."""
@@ -464,12 +480,17 @@ def source_level_from_power_db(electrical_power_w, power: PowerModel = DEFAULT_P
     return SL_ONE_WATT_DB + 10.0 * np.log10(p_ac) + directivity_index_db
 
 
-def transmit_energy_j(source_level_db, duration_s, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
+def transmit_energy_j(
+    source_level_db: ArrayLike,
+    duration_s: ArrayLike,
+    power: PowerModel = DEFAULT_POWER,
+    directivity_index_db: ArrayLike = 0.0,
+) -> np.ndarray:
     """Electrical energy of a transmission (J): electrical power x duration."""
     return electrical_power_w(source_level_db, power, directivity_index_db) * np.asarray(duration_s, float)
 
 
-def receive_energy_j(duration_s, power: PowerModel = DEFAULT_POWER):
+def receive_energy_j(duration_s: ArrayLike, power: PowerModel = DEFAULT_POWER) -> np.ndarray:
     """Energy spent receiving for ``duration_s`` (J): receive power x duration."""
     return power.receive_power_w * np.asarray(duration_s, float)
 
@@ -477,7 +498,7 @@ def receive_energy_j(duration_s, power: PowerModel = DEFAULT_POWER):
 # ------------------------------------------------------------------ slot offsets
 
 
-def random_offsets_s(rng: np.random.Generator, shape, max_offset_s: float) -> np.ndarray:
+def random_offsets_s(rng: np.random.Generator, shape: int | tuple[int, ...], max_offset_s: float) -> np.ndarray:
     """Transmit starts drawn uniformly in [0, max_offset_s) (an ALOHA-like slot)."""
     return rng.uniform(0.0, max_offset_s, size=shape)
 
@@ -556,7 +577,10 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
 
 
 def slot_timeline(
-    tx: SlotTransmissions, sound_speed_mps, params: LinkParams = DEFAULT_LINK, noise_db=None
+    tx: SlotTransmissions,
+    sound_speed_mps: ArrayLike,
+    params: LinkParams = DEFAULT_LINK,
+    noise_db: ArrayLike | None = None,
 ) -> SlotOutcome:
     """Resolve one slot of packets at every receiver with the sonar equation.
 
@@ -593,7 +617,7 @@ def slot_timeline(
     pos = np.ascontiguousarray(tx.pos_m, float)
     B, V = pos.shape[:2]
 
-    def bv(x):
+    def bv(x: ArrayLike) -> np.ndarray:
         return np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), (B, V)))
 
     vel = np.ascontiguousarray(np.broadcast_to(np.asarray(tx.vel_mps, float), (B, V, 3)))
@@ -617,7 +641,7 @@ def slot_timeline(
     return SlotOutcome(*out)
 
 
-def draw_delivered(outcome: SlotOutcome, u) -> np.ndarray:
+def draw_delivered(outcome: SlotOutcome, u: ArrayLike) -> np.ndarray:
     """(B, V, V) delivered: ``u < p_success`` with uniforms ``u`` (same shape), so a
     caller keeps its common random numbers. Deaf or uncaptured receptions have
     p_success = 0 and are never delivered."""

@@ -70,7 +70,9 @@ class WindowNoise(NamedTuple):
 
 
 @njit(cache=True)
-def window_terms(x, win, m, noise, J, r, Sigma):
+def window_terms(
+    x: np.ndarray, win: RangeWindow, m: int, noise: WindowNoise, J: np.ndarray, r: np.ndarray, Sigma: np.ndarray
+) -> None:
     """(R1)-(R2) at the horizontal position x (2,): J (m, 2), residuals r (m,) and their
     covariance Sigma (m, m), written in place."""
     q = noise.dr_rate_m2ps
@@ -92,7 +94,16 @@ def window_terms(x, win, m, noise, J, r, Sigma):
 
 
 @njit(cache=True)
-def window_fix(win, m, noise, x0, P0, out_x, out_P, out_Pxb):
+def window_fix(
+    win: RangeWindow,
+    m: int,
+    noise: WindowNoise,
+    x0: np.ndarray,
+    P0: np.ndarray,
+    out_x: np.ndarray,
+    out_P: np.ndarray,
+    out_Pxb: np.ndarray,
+) -> int:
     """Re-fix the horizontal position from the last m ranges (eqs. R1-R5), starting from
     the locked-out estimate x0 (2,) with covariance P0 (2, 2). Writes the fix out_x (2,),
     its covariance out_P (2, 2) and its cross-covariance with the beacon's error out_Pxb
