@@ -340,12 +340,12 @@ class TrackingPolicy(Policy):
 _POLICIES: dict = {}
 
 
-def register_policy(name: str) -> Callable[[type], type]:
+def register_policy(name: str) -> Callable[[type[Policy]], type[Policy]]:
     """Class decorator: register a ``Policy`` subclass as the planner ``name``
     (``make_policy(name, ...)``, ``list_policies()``, evaluate.py's policy names). A name
     is registered once; re-importing the same class (a module reload) is allowed."""
 
-    def deco(cls: type) -> type:
+    def deco(cls: type[Policy]) -> type[Policy]:
         old = _POLICIES.get(name)
         if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
             raise ValueError(

@@ -170,7 +170,7 @@ def resolve_slot(
         arrival,
         *flags,
     )
-    return (arrival, *flags)
+    return arrival, flags[0], flags[1], flags[2]
 
 
 class Channel:

@@ -464,14 +464,14 @@ def acoustic_power_w(source_level_db: float, directivity_index_db: float) -> flo
 
 
 def electrical_power_w(
-    source_level_db: ArrayLike, power: PowerModel = DEFAULT_POWER, directivity_index_db: ArrayLike = 0.0
+    source_level_db: ArrayLike, power: PowerModel = DEFAULT_POWER, directivity_index_db: float = 0.0
 ) -> np.ndarray:
     """Electrical power while transmitting (W): acoustic power / efficiency."""
     return acoustic_power_w(np.asarray(source_level_db, float), directivity_index_db) / power.efficiency
 
 
 def source_level_from_power_db(
-    electrical_power_w: ArrayLike, power: PowerModel = DEFAULT_POWER, directivity_index_db: ArrayLike = 0.0
+    electrical_power_w: ArrayLike, power: PowerModel = DEFAULT_POWER, directivity_index_db: float = 0.0
 ) -> np.ndarray:
     """The source level a modem drawing ``electrical_power_w`` while transmitting
     radiates: SL = 170.8 + 10 log10(efficiency x P_electrical) + DI (dB re 1 uPa at
@@ -484,7 +484,7 @@ def transmit_energy_j(
     source_level_db: ArrayLike,
     duration_s: ArrayLike,
     power: PowerModel = DEFAULT_POWER,
-    directivity_index_db: ArrayLike = 0.0,
+    directivity_index_db: float = 0.0,
 ) -> np.ndarray:
     """Electrical energy of a transmission (J): electrical power x duration."""
     return electrical_power_w(source_level_db, power, directivity_index_db) * np.asarray(duration_s, float)

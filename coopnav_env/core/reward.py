@@ -211,19 +211,20 @@ def term_weights(config: Any, terms: Iterable[str]) -> dict[str, float]:
     return {t: _TERMS[t].weight_of(config) for t in terms}
 
 
-def weighted_reward(terms: dict, weights: dict) -> np.ndarray:
+def weighted_reward(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> np.ndarray:
     """sum_k weights[k] * terms[k], in ``weights``' order: (B, N)."""
-    total = None
+    total: np.ndarray | None = None
     for name, w in weights.items():
         part = w * terms[name]
         total = part if total is None else total + part
+    assert total is not None, "weighted_reward: no weights (a simulator has at least one term)"
     return total
 
 
-def penalties(terms: dict, weights: dict) -> np.ndarray:
+def penalties(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> np.ndarray | float:
     """The weighted penalty terms (the registered penalties present in ``weights``) as a
-    positive cost (B, N): what the training signal ``penalties`` subtracts."""
-    out = 0.0
+    positive cost (B, N) (0.0 when none is present): what the training signal ``penalties`` subtracts."""
+    out: np.ndarray | float = 0.0
     for t in registered_terms("env"):
         if t.penalty and t.name in weights:
             out = out - weights[t.name] * terms[t.name]
@@ -265,9 +266,8 @@ def check_training_terms(terms: Mapping[str, float] | None) -> dict[str, float] 
     if not terms:
         return None
     if not isinstance(terms, dict):
-        raise ValueError(
-            f"reward terms must be a mapping term -> weight, got {terms!r}"
-        )  # ValueError, not TypeError: a config error, as before
+        # ValueError, not TypeError: a config error, as before
+        raise ValueError(f"reward terms must be a mapping term -> weight, got {terms!r}")
     valid = training_signal_names()
     out = {}
     for name, weight in terms.items():
@@ -291,7 +291,9 @@ def training_reward(reward_terms: Mapping[str, float], res: Any, weights: Mappin
     total = np.zeros((B, N))
     ctx = TermContext(result=res, weights=weights, terms=res.terms)
     for name, w in reward_terms.items():
-        total += w * _TERMS[name].compute(ctx)
+        compute = _TERMS[name].compute
+        assert compute is not None, f"{name!r}: a training signal has a compute hook (register_term checks it)"
+        total += w * compute(ctx)
     return total
 
 

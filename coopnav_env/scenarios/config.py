@@ -108,7 +108,8 @@ class ScenarioConfig:
 
     def __init__(self, name: str = "custom", network: str = "survey_beacons", **params: Any) -> None:
         check_overrides(params)
-        values, explicit = {}, {}
+        values: dict[str, Any] = {}
+        explicit: dict[str, Any] = {}
         for key, v in params.items():  # sections first: flat and dotted keywords override them
             if key in SECTION_BY_ATTR and not isinstance(v, dict) and v is not None:
                 check(
@@ -179,7 +180,7 @@ class ScenarioConfig:
     def to_flat_dict(self, all_parameters: bool = False) -> dict:
         """{parameter: value}, flat (as run.json stores it): the parameters that apply or,
         with ``all_parameters``, every parameter (the defaults where a section is absent)."""
-        out = {"name": self.name, "network": self.network}
+        out: dict[str, Any] = {"name": self.name, "network": self.network}
         for spec in SECTIONS:
             part = getattr(self, spec.attr)
             for f in dataclasses.fields(spec.cls):
@@ -200,7 +201,9 @@ class ScenarioConfig:
 
     @property
     def substeps_per_cycle(self) -> int:
-        return self.timing.substeps_per_cycle
+        timing = self.timing
+        assert timing is not None, "every scenario has a timing section"
+        return timing.substeps_per_cycle
 
     @property
     def geofence_m(self) -> tuple:

@@ -791,7 +791,7 @@ class Randomization(Section):
         check(len(self.randomize_depth_m) <= 64, "randomize_depth_m: at most 64 depths")
         for d in self.randomize_depth_m:
             check(
-                isinstance(d, numbers.Real) and not isinstance(d, bool) and finite(d) and 0 <= d <= 6000,
+                isinstance(d, numbers.Real) and not isinstance(d, bool) and finite(d) and 0 <= float(d) <= 6000,
                 f"randomize_depth_m: depths must be numbers in [0, 6000] m, got {d!r}",
             )
         scale = self.randomize_noise_scale
@@ -800,7 +800,7 @@ class Randomization(Section):
             or (
                 len(scale) == 2
                 and all(
-                    isinstance(v, numbers.Real) and not isinstance(v, bool) and finite(v) and 0 <= v <= 100
+                    isinstance(v, numbers.Real) and not isinstance(v, bool) and finite(v) and 0 <= float(v) <= 100
                     for v in scale
                 )
                 and scale[0] <= scale[1]

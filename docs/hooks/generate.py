@@ -38,7 +38,9 @@ import sys
 import textwrap
 from pathlib import Path
 
-from mkdocs.structure.files import File
+from mkdocs.config.defaults import MkDocsConfig
+from mkdocs.structure.files import File, Files
+from mkdocs.structure.pages import Page
 
 log = logging.getLogger("mkdocs.hooks.generate")
 
@@ -96,9 +98,10 @@ def _scenario_sources() -> dict:
             ):
                 continue
             kw = {k.arg: k.value for k in call.keywords if k.arg}
-            if isinstance(kw.get("name"), ast.Constant):
+            name = kw.get("name")
+            if isinstance(name, ast.Constant):
                 text = "\n".join(lines[node.lineno - 1 : node.end_lineno])
-                out[kw["name"].value] = (path.relative_to(ROOT).as_posix(), text)
+                out[name.value] = (path.relative_to(ROOT).as_posix(), text)
     return out
 
 
@@ -354,7 +357,7 @@ def _rst_simple_table(doc: str) -> list:
     return rows
 
 
-def _size(text: str, K: int):
+def _size(text: str, K: int) -> int | None:
     t = text.replace(" ", "")
     if not t:
         return None
@@ -412,7 +415,9 @@ def observations_page() -> str:
         "",
     ]
     fields = getattr(ob, "OBS_FIELDS", None)
-    rows, per_survey, per_beacon = [], [], []
+    rows = []
+    per_survey: list[tuple[str, str]] = []
+    per_beacon: list[tuple[str, str]] = []
     if fields:  # a declared field list, if the code grows one
         for f in fields:
             name, size = f[0], f[1]
@@ -485,18 +490,18 @@ def observations_page() -> str:
     K, S, N = c.observed_waypoints, c.n_survey, c.n_beacons
     idx, rows = 0, []
     table = _rst_simple_table(ob.__doc__ or "") if not fields else []
-    own_rows = [(l, _size(sz, K)) for l, sz, m, i in table if i == 0 and sz and not l.startswith("per other")]
+    own_rows = [(l, _size(sz, K) or 0) for l, sz, m, i in table if i == 0 and sz and not l.startswith("per other")]
     for l, n in own_rows:
         rows.append([l, f"{idx}:{idx + n}"])
         idx += n
     for s in range(S):
         for l, sz in per_survey:
-            n = _size(sz, K)
+            n = _size(sz, K) or 0  # a row without a size (as in the sums above) takes no slice
             rows.append([f"survey {s}: {l}", f"{idx}:{idx + n}"])
             idx += n
     for j in range(N - 1):
         for l, sz in per_beacon:
-            n = _size(sz, K)
+            n = _size(sz, K) or 0  # a row without a size (as in the sums above) takes no slice
             rows.append([f"other beacon {j}: {l}", f"{idx}:{idx + n}"])
             idx += n
     if rows:
@@ -567,7 +572,7 @@ def column_table(name: str) -> str:
 # MkDocs events
 
 
-def on_files(files, config):
+def on_files(files: Files, config: MkDocsConfig) -> Files:
     for uri, make in (
         ("reference/parameters.md", parameters_page),
         ("reference/scenarios.md", scenarios_page),
@@ -577,8 +582,8 @@ def on_files(files, config):
     return files
 
 
-def on_page_markdown(markdown, page, config, files):
-    def replace(m):
+def on_page_markdown(markdown: str, page: Page, config: MkDocsConfig, files: Files) -> str:
+    def replace(m: re.Match[str]) -> str:
         try:
             return column_table(m.group(1))
         except Exception as err:  # any failure is a documentation error

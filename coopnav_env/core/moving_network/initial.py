@@ -18,6 +18,8 @@ errors.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .. import lbl, river, rng
@@ -25,8 +27,12 @@ from ..dynamics import bearing_to_unit
 from .observe import frame_waypoints
 from .state import RIVER_LEAD_BASELINES, FrameState
 
+if TYPE_CHECKING:
+    from ...scenarios.base import ScenarioConfig
+    from .simulator import MovingNetworkSimulator
 
-def boats_start(sim, u: np.ndarray) -> tuple:
+
+def boats_start(sim: MovingNetworkSimulator, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The boats' positions (B,2,3) and the frame's bearing phi0 (B,) at the start."""
     c = sim.config
     B, L = u.shape[0], c.baseline_target_m
@@ -46,7 +52,7 @@ def boats_start(sim, u: np.ndarray) -> tuple:
     return b_pos, phi0
 
 
-def boats_motion(config, phi0: np.ndarray) -> tuple:
+def boats_motion(config: ScenarioConfig, phi0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The boats' headings (B,2) complex and velocities (B,2,3): the transit speed along y."""
     B = phi0.shape[0]
     y_axis = bearing_to_unit(phi0 + np.pi / 2)
@@ -57,7 +63,7 @@ def boats_motion(config, phi0: np.ndarray) -> tuple:
     return b_heading, b_vel
 
 
-def vehicle_start(sim, b_pos: np.ndarray, phi0: np.ndarray, gps_err: np.ndarray) -> tuple:
+def vehicle_start(sim: MovingNetworkSimulator, b_pos: np.ndarray, phi0: np.ndarray, gps_err: np.ndarray) -> tuple:
     """The vehicle's start: (east, north) (B,2), depth, frame (x0, y0), its mission in the
     frame (B,1,W,3) and its first heading (B,) complex."""
     B, wps = phi0.shape[0], sim._waypoints
@@ -77,7 +83,9 @@ def vehicle_start(sim, b_pos: np.ndarray, phi0: np.ndarray, gps_err: np.ndarray)
     return start, z0, x0, y0, wp, heading
 
 
-def filter_prior(config, x0, y0, phi0: np.ndarray, n: np.ndarray) -> tuple:
+def filter_prior(
+    config: ScenarioConfig, x0: float | np.ndarray, y0: float | np.ndarray, phi0: np.ndarray, n: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The filter's start E (B,6) and P (B,6,6) around the vehicle's start (x0, y0)."""
     c, B = config, phi0.shape[0]
     sigma0 = c.initial_position_std_m
@@ -109,7 +117,7 @@ def filter_prior(config, x0, y0, phi0: np.ndarray, n: np.ndarray) -> tuple:
     return E, P
 
 
-def current_mean_of(sim, u: np.ndarray) -> np.ndarray:
+def current_mean_of(sim: MovingNetworkSimulator, u: np.ndarray) -> np.ndarray:
     """The episode's mean current (B,) complex; a river's flows along the river
     (``MovingNetworkSimulator._river_currents``): current_mean holds its speed."""
     c = sim.config
@@ -118,7 +126,7 @@ def current_mean_of(sim, u: np.ndarray) -> np.ndarray:
     return cur_speed + 0j if sim._world else cur_speed * bearing_to_unit(cur_dir)
 
 
-def initial_state(sim, seeds) -> FrameState:
+def initial_state(sim: MovingNetworkSimulator, seeds: np.ndarray) -> FrameState:
     """The state of new episodes for ``seeds`` (``MovingNetworkSimulator._initial_state``)."""
     c = sim.config
     B = len(seeds)

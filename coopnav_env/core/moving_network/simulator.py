@@ -11,6 +11,8 @@ multipath excesses' logarithms, the wrapped frame rotation.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .. import lbl, river, rng, substeps
@@ -57,11 +59,14 @@ from .state import (
 from .terms import step_info
 from .vehicle import boat_noise_step, disturb_boats, integrate_vehicle
 
+if TYPE_CHECKING:
+    from ...scenarios.base import ScenarioConfig
+
 
 class MovingNetworkSimulator(BatchSimulator):
     """The batched moving LBL network: B independent environments of one scenario."""
 
-    def __init__(self, config, batch_size: int = 1):
+    def __init__(self, config: ScenarioConfig, batch_size: int = 1) -> None:
         if int(batch_size) < 1:
             raise ValueError(f"batch_size must be >= 1, got {batch_size!r}")
         c = self.config = config
@@ -107,6 +112,13 @@ class MovingNetworkSimulator(BatchSimulator):
         self.state_dim = 24 + (RIVER_STATE_DIM if self._world else 0)
         self.state: FrameState | None = None
 
+    @property
+    def _live(self) -> FrameState:
+        """The state, after ``reset`` (``state`` is None before the first one)."""
+        st = self.state
+        assert st is not None, "MovingNetworkSimulator: call reset() before stepping or observing"
+        return st
+
     def _build_params(self) -> None:
         """The kernels' records of the scenario's numbers, once."""
         c = self.config
@@ -142,26 +154,26 @@ class MovingNetworkSimulator(BatchSimulator):
             int(c.max_cycles),
         )
 
-    def _initial_state(self, seeds) -> FrameState:
+    def _initial_state(self, seeds: np.ndarray) -> FrameState:
         return initial_state(self, seeds)
 
     # ------------------------------------------------------------------------------
-    def command_velocity(self, actions) -> np.ndarray:
+    def command_velocity(self, actions: np.ndarray) -> np.ndarray:
         """Actions (B,2,2) in [-1, 1] -> commanded ground velocity, complex (B,2).
         "frame_velocity": (v_x, v_y) / max speed in the GPS frame; "velocity":
         (v_east, v_north) / max speed (norm clipped to 1 in both); "heading_speed"."""
         a = np.ascontiguousarray(actions, dtype=float)
         out = np.empty(a.shape[:2], dtype=complex)
-        st = self.state
+        st = self._live
         command_velocity(a, st.b_pos, st.b_gps_err, self._max_speed, self._action_mode, out)
         return out
 
-    def _move(self, actions, draws: dict):
+    def _move(self, actions: np.ndarray, draws: dict) -> np.ndarray | None:
         """Steps 1-2: the boats' commands and how far their motion strays from them, the
         vehicle's sub-steps; the water's and the boats' Gauss-Markov states, the clocks and
         the new GPS errors. Returns the bank term (B,2) of a world mission (after the move),
         else None."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         K, dt, T = self.K, c.substep_s, c.ping_interval_s
         if self._world:
             # the mission through the frame the boats telemeter (their GPS at the cycle's start),
@@ -224,7 +236,7 @@ class MovingNetworkSimulator(BatchSimulator):
         positions, the multipath excesses' logarithms and the wrapped frame rotation are
         numpy's. Returns (out (B,) ``CYCLE_OUT``, counts (B,) ``CYCLE_COUNTS``, the frame
         turned beyond its tolerance (B,) bool)."""
-        st, B = self.state, self.batch_size
+        st, B = self._live, self.batch_size
         en = np.empty((2, B, 2, 2))
         en[0] = st.b_pos[..., :2]
         np.add(en[0], st.b_gps_err, out=en[1])
@@ -254,9 +266,9 @@ class MovingNetworkSimulator(BatchSimulator):
         )
         return out, counts, turned
 
-    def step(self, actions) -> StepResult:
+    def step(self, actions: np.ndarray) -> StepResult:
         """One positioning cycle for every environment (the package's docstring)."""
-        c, st, B = self.config, self.state, self.batch_size
+        c, st, B = self.config, self._live, self.batch_size
         draws = self._draws.draw(st.keys, st.cycle)
         bank = self._move(actions, draws)
         out, counts, turned = self._run_cycle(draws)
@@ -290,20 +302,20 @@ class MovingNetworkSimulator(BatchSimulator):
 
     def _beacon_info(self) -> dict:
         """Per boat (B, 2): the true horizontal error of its GPS position (m)."""
-        return {"beacon_error_m": np.hypot(self.state.b_gps_err[..., 0], self.state.b_gps_err[..., 1])}
+        return {"beacon_error_m": np.hypot(self._live.b_gps_err[..., 0], self._live.b_gps_err[..., 1])}
 
     def _river_at_boats(self) -> tuple:
         """Each boat's true signed offset from the river's centerline (B, 2), m (+ right of
         downstream), and the downstream unit tangent there (B, 2) complex (``river.offsets``)."""
-        return river.offsets(self.state.b_pos[..., :2], self._river_pts, self._river_cum)
+        return river.offsets(self._live.b_pos[..., :2], self._river_pts, self._river_cum)
 
-    def _river_currents(self, t_boats) -> tuple:
+    def _river_currents(self, t_boats: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The river's current at each boat (B, 2) and at the vehicle (B,), complex m/s, given
         the tangents at the boats (``_river_at_boats``): the episode's mean speed along the
         local downstream direction of the centerline (the nearest segment's,
         ``river.project``) plus the Gauss-Markov part, which is the same everywhere. [U] a
         plug flow: no slower water near the banks, no secondary flow in the bends."""
-        st = self.state
+        st = self._live
         _, t_vehicle = river.offsets(st.s_pos[:, 0, :2], self._river_pts, self._river_cum)
         speed = st.current_mean.real  # the river's mean speed (see initial.current_mean_of)
         return speed[:, None] * t_boats + st.current_gm[:, None], speed * t_vehicle + st.current_gm
@@ -312,7 +324,7 @@ class MovingNetworkSimulator(BatchSimulator):
         """The infos that follow from the state, in the true frame (as a step computes
         them in its kernel): errors of the filter and of dead reckoning, the frame's
         orientation and baseline errors, the 2-sigma ellipse, the vehicle's y."""
-        st = self.state
+        st = self._live
         v = st.s_pos[:, 0, :2]
         x, y, phi, length = lbl.world_to_frame(st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], v)
         major, minor, _ = error_ellipse(st.f_P)
@@ -337,7 +349,7 @@ class MovingNetworkSimulator(BatchSimulator):
         waypoints placed through the true frame (as the logged boat positions allow
         after the mission, section IV); the covariance rotated from the frame to
         east/north."""
-        st = self.state
+        st = self._live
         b1 = st.b_pos[:, 0, :2]
         phi, _ = lbl.baseline(b1, st.b_pos[:, 1, :2])
         est = np.concatenate([lbl.frame_to_world(b1, phi, st.f_E[:, 0], st.f_E[:, 1]), st.s_pos[:, 0, 2:]], -1)
@@ -378,7 +390,7 @@ class MovingNetworkSimulator(BatchSimulator):
         offset from the centerline / (river_width_m / 2), the river's direction and the
         centerline point ``RIVER_LEAD_BASELINES`` L ahead of the tracked vehicle, minus
         the boat's position, / L: where to go (the boats know the river's map)."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         out = np.empty((self.batch_size, 2, OBS_DIM), dtype=np.float32)
         self._k_observe(
             st.b_pos, st.b_gps_err, st.b_vel, packed(tracker_of(st)), st.cycle, packed(self._observe_params), out
@@ -405,7 +417,7 @@ class MovingNetworkSimulator(BatchSimulator):
         """True state for a centralized critic (B, state_dim), normalized: 24 values, and for a
         mission in the world the boats' offsets from the river's centerline / (width / 2) and
         the current at the vehicle in place of the uniform one."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         L = c.baseline_target_m
         b1, b2, v = st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], st.s_pos[:, 0, :2]
         x, y, phi, length = lbl.world_to_frame(b1, b2, v)

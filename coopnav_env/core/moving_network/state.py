@@ -13,12 +13,15 @@ results into the structured arrays ``CYCLE_OUT`` (floats) and ``CYCLE_COUNTS``.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, TypeVar, cast
 
 import numpy as np
 
 from ..sim import INFO_KEYS
 from ..state import BatchArrays
+
+if TYPE_CHECKING:
+    from ...scenarios.base import ScenarioConfig
 
 # ellipse_major_m / ellipse_minor_m: ELLIPSE_N_SIGMA (2-sigma) semi-axes of the filter's (x, y)
 # covariance, as in the observations, evaluate.py's steps and the plots
@@ -55,13 +58,13 @@ RIVER_LEAD_BASELINES = 0.5  # the river point the boats observe (and start at) l
 RIVER_STATE_DIM = 2  # global_state's extra values for a world mission: the boats' offsets from the centerline
 
 
-def obs_fields(config) -> tuple:
+def obs_fields(config: ScenarioConfig) -> tuple[tuple[str, int], ...]:
     """One boat's observation fields for ``config``: ``OBS_FIELDS``, and ``RIVER_OBS_FIELDS``
     after them for a mission in the world."""
     return OBS_FIELDS + (RIVER_OBS_FIELDS if config.mission_frame == "world" else ())
 
 
-def obs_dim_of(config) -> int:
+def obs_dim_of(config: ScenarioConfig) -> int:
     """The length of one boat's observation for ``config``."""
     return sum(n for _, n in obs_fields(config))
 
@@ -175,12 +178,15 @@ class CycleDraws(NamedTuple):
     log_u: np.ndarray
 
 
-def packed(record: tuple) -> tuple:
+_Record = TypeVar("_Record", bound=tuple)
+
+
+def packed(record: _Record) -> _Record:
     """A record as the plain tuple a kernel's entry point takes from Python, which names it
     again (``Vehicle(*v)``): numba types the arrays of a plain tuple in C, a NamedTuple's in
     Python (about half a microsecond an array, every call), so passing the records as
     NamedTuples cost a batch of one ~20% of its step. Inside the kernels they are named."""
-    return tuple(record)
+    return cast(_Record, tuple(record))  # typed as the record: the kernel names it again
 
 
 def vehicle_of(st: FrameState) -> Vehicle:
@@ -235,7 +241,7 @@ class CycleParams(NamedTuple):
     min_baseline_distance_m: float
 
 
-def cycle_params(config, gate1: float, gate2: float) -> CycleParams:
+def cycle_params(config: ScenarioConfig, gate1: float, gate2: float) -> CycleParams:
     """``CycleParams`` of a scenario, with its gates."""
     named = {"gate1": gate1, "gate2": gate2}
     return CycleParams(*(float(named[k] if k in named else getattr(config, k)) for k in CycleParams._fields))
