@@ -55,7 +55,7 @@ from .acoustics import mackenzie_sound_speed, travel_time
 
 if TYPE_CHECKING:
     from ..scenarios.base import ScenarioConfig
-    from .sim import Simulator
+    from .contract import BatchedSimulator  # not .sim: sim imports this module
 
 
 def packet_duration_s(bits: float | np.ndarray, bit_rate_bps: float | np.ndarray) -> float | np.ndarray:
@@ -178,7 +178,7 @@ class Channel:
     durations, reply time and energy per ping gathered once; ``pings`` and ``replies``
     resolve a slot in two passes (the replies depend on which pings were decoded)."""
 
-    def __init__(self, sim: Simulator) -> None:
+    def __init__(self, sim: BatchedSimulator) -> None:
         c = sim.config
         self.sim = sim
         self.N, self.S = sim.N, sim.S

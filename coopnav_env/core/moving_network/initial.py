@@ -18,7 +18,7 @@ errors.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -29,10 +29,13 @@ from .state import RIVER_LEAD_BASELINES, FrameState
 
 if TYPE_CHECKING:
     from ...scenarios.base import ScenarioConfig
-    from .simulator import MovingNetworkSimulator
+
+# sim: the MovingNetworkSimulator; typed Any since importing it here, even for type checking
+# only, makes an import cycle (simulator imports this module; tests/test_contract.py)
+_Simulator = Any
 
 
-def boats_start(sim: MovingNetworkSimulator, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def boats_start(sim: _Simulator, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The boats' positions (B,2,3) and the frame's bearing phi0 (B,) at the start."""
     c = sim.config
     B, L = u.shape[0], c.baseline_target_m
@@ -63,7 +66,7 @@ def boats_motion(config: ScenarioConfig, phi0: np.ndarray) -> tuple[np.ndarray, 
     return b_heading, b_vel
 
 
-def vehicle_start(sim: MovingNetworkSimulator, b_pos: np.ndarray, phi0: np.ndarray, gps_err: np.ndarray) -> tuple:
+def vehicle_start(sim: _Simulator, b_pos: np.ndarray, phi0: np.ndarray, gps_err: np.ndarray) -> tuple:
     """The vehicle's start: (east, north) (B,2), depth, frame (x0, y0), its mission in the
     frame (B,1,W,3) and its first heading (B,) complex."""
     B, wps = phi0.shape[0], sim._waypoints
@@ -117,7 +120,7 @@ def filter_prior(
     return E, P
 
 
-def current_mean_of(sim: MovingNetworkSimulator, u: np.ndarray) -> np.ndarray:
+def current_mean_of(sim: _Simulator, u: np.ndarray) -> np.ndarray:
     """The episode's mean current (B,) complex; a river's flows along the river
     (``MovingNetworkSimulator._river_currents``): current_mean holds its speed."""
     c = sim.config
@@ -126,7 +129,7 @@ def current_mean_of(sim: MovingNetworkSimulator, u: np.ndarray) -> np.ndarray:
     return cur_speed + 0j if sim._world else cur_speed * bearing_to_unit(cur_dir)
 
 
-def initial_state(sim: MovingNetworkSimulator, seeds: np.ndarray) -> FrameState:
+def initial_state(sim: _Simulator, seeds: np.ndarray) -> FrameState:
     """The state of new episodes for ``seeds`` (``MovingNetworkSimulator._initial_state``)."""
     c = sim.config
     B = len(seeds)
