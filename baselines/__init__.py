@@ -32,5 +32,13 @@ from .schedule import list_schedules
 for _module in _pkgutil.iter_modules(__path__):  # each planner module registers its planners
     _importlib.import_module(f"{__name__}.{_module.name}")
 
-__all__ = ["BeaconContext", "Policy", "list_policies", "list_schedules", "make_policy", "register_policy",
-           "unregister_policy", "waypoint_to_action"]
+__all__ = [
+    "BeaconContext",
+    "Policy",
+    "list_policies",
+    "list_schedules",
+    "make_policy",
+    "register_policy",
+    "unregister_policy",
+    "waypoint_to_action",
+]

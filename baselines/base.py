@@ -45,9 +45,13 @@ class BeaconContext:
         if not 0 <= agent_index < config.n_beacons:
             raise ValueError(f"agent index {agent_index} out of range for {config.n_beacons} beacon(s)")
         kind = config.beacon_kinds[agent_index]
-        return cls(config=config, agent_index=agent_index, max_speed_mps=config.max_speed_mps(kind),
-                   ping_interval_s=config.ping_interval_s,
-                   depth_m=config.beacon_auv_depth_m if kind == "beacon_auv" else 0.0)
+        return cls(
+            config=config,
+            agent_index=agent_index,
+            max_speed_mps=config.max_speed_mps(kind),
+            ping_interval_s=config.ping_interval_s,
+            depth_m=config.beacon_auv_depth_m if kind == "beacon_auv" else 0.0,
+        )
 
     @property
     def reach_m(self) -> float:
@@ -62,8 +66,12 @@ class BeaconContext:
         e0, n0, e1, n1 = c.geofence_m
         m = FENCE_MARGIN_M
         x, y = cand[..., 0], cand[..., 1]
-        v = (np.maximum(e0 + m - x, 0) + np.maximum(x - (e1 - m), 0)
-             + np.maximum(n0 + m - y, 0) + np.maximum(y - (n1 - m), 0))
+        v = (
+            np.maximum(e0 + m - x, 0)
+            + np.maximum(x - (e1 - m), 0)
+            + np.maximum(n0 + m - y, 0)
+            + np.maximum(y - (n1 - m), 0)
+        )
         d3 = slant_distance(cand, survey_en, depth_below)  # (..., M, S)
         v = v + np.maximum(c.safety_distance_m + SAFETY_MARGIN_M - d3, 0).sum(-1)
         v = v + np.maximum(d3 - c.max_range_m, 0).sum(-1)
@@ -72,15 +80,14 @@ class BeaconContext:
     def delivery_probability(self, distance_m: ArrayLike) -> np.ndarray:
         """Probability that a ping over ``distance_m`` arrives (the scenario's loss model)."""
         c = self.config
-        return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far,
-                                                       c.max_range_m)
+        return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
 
 
 def slant_distance(cand: np.ndarray, survey_en: np.ndarray, depth_below: ArrayLike) -> np.ndarray:
     """3-D distances (..., M, S) from beacon candidates (..., M, 2) at the beacon's depth
     to survey positions (S, 2) that lie depth_below (S,) deeper."""
     rel = cand[..., :, None, :] - survey_en
-    return np.sqrt((rel ** 2).sum(-1) + np.asarray(depth_below) ** 2)
+    return np.sqrt((rel**2).sum(-1) + np.asarray(depth_below) ** 2)
 
 
 def waypoint_to_action(ctx: BeaconContext, own_en: ArrayLike, waypoint_en: ArrayLike) -> np.ndarray:
@@ -98,8 +105,9 @@ def waypoint_to_action(ctx: BeaconContext, own_en: ArrayLike, waypoint_en: Array
     return np.clip(v, -1.0, 1.0).astype(np.float32)
 
 
-def advance_along_waypoints(start_en: ArrayLike, waypoints_en: ArrayLike, distance_m: ArrayLike,
-                            min_leg_m: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+def advance_along_waypoints(
+    start_en: ArrayLike, waypoints_en: ArrayLike, distance_m: ArrayLike, min_leg_m: float = 1e-3
+) -> tuple[np.ndarray, np.ndarray]:
     """Where a vehicle that follows its planned waypoints is after ``distance_m``.
 
     start_en (S, 2): where it is; waypoints_en (S, K, 2): its next planned
@@ -218,7 +226,7 @@ class SurveyTracker:
         dt = np.where(ok, self._t - t_mean, 0.0)  # (W, S)
         p_mean = (self._p * ok[..., None]).sum(0) / np.maximum(n, 1)[:, None]
         num = (dt[..., None] * (self._p - p_mean)).sum(0)
-        den = (dt ** 2).sum(0)
+        den = (dt**2).sum(0)
         v = np.where((den > 0)[:, None], num / np.where(den > 0, den, 1.0)[:, None], 0.0)
         return self._cap(v)
 
@@ -283,9 +291,11 @@ class Policy:
 
     def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None) -> None:
         if config.network not in self.networks:
-            raise ValueError(f"policy {self.name!r} drives {' / '.join(self.networks)} scenarios, not "
-                             f"network={config.network!r} ({config.name}); policies for it: "
-                             f"{', '.join(list_policies(config.network))}")
+            raise ValueError(
+                f"policy {self.name!r} drives {' / '.join(self.networks)} scenarios, not "
+                f"network={config.network!r} ({config.name}); policies for it: "
+                f"{', '.join(list_policies(config.network))}"
+            )
         self.config = config
         self.ctx = BeaconContext.from_config(config, agent_index)
         self.seed = seed
@@ -330,18 +340,22 @@ class TrackingPolicy(Policy):
 _POLICIES: dict = {}
 
 
-def register_policy(name: str) -> Callable[[type], type]:
+def register_policy(name: str) -> Callable[[type[Policy]], type[Policy]]:
     """Class decorator: register a ``Policy`` subclass as the planner ``name``
     (``make_policy(name, ...)``, ``list_policies()``, evaluate.py's policy names). A name
     is registered once; re-importing the same class (a module reload) is allowed."""
-    def deco(cls: type) -> type:
+
+    def deco(cls: type[Policy]) -> type[Policy]:
         old = _POLICIES.get(name)
         if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
-            raise ValueError(f"policy {name!r} is registered twice ({old.__module__}.{old.__qualname__} and "
-                             f"{cls.__module__}.{cls.__qualname__})")
+            raise ValueError(
+                f"policy {name!r} is registered twice ({old.__module__}.{old.__qualname__} and "
+                f"{cls.__module__}.{cls.__qualname__})"
+            )
         _POLICIES[name] = cls
         cls.name = name
         return cls
+
     return deco
 
 
@@ -366,8 +380,9 @@ def register_scheduler(fn: Callable[..., Policy]) -> Callable[..., Policy]:
     return fn
 
 
-def make_policy(name: str, env_or_config: Any, seed: int | Sequence[int] | None = None, agent: int | str = 0,
-                **kwargs: Any) -> Policy:
+def make_policy(
+    name: str, env_or_config: Any, seed: int | Sequence[int] | None = None, agent: int | str = 0, **kwargs: Any
+) -> Policy:
     """A baseline policy by name for one beacon (``agent``: index or "beacon_k").
 
     With ``channel_mode="decide"`` a name ``"<motion>+<schedule>"`` combines a planner
@@ -377,8 +392,9 @@ def make_policy(name: str, env_or_config: Any, seed: int | Sequence[int] | None 
     if motion not in _POLICIES:
         from coopnav_env.names import did_you_mean
 
-        raise ValueError(f"unknown policy {motion!r}{did_you_mean(motion, _POLICIES)} valid policies: "
-                         f"{', '.join(sorted(_POLICIES))}")
+        raise ValueError(
+            f"unknown policy {motion!r}{did_you_mean(motion, _POLICIES)} valid policies: {', '.join(sorted(_POLICIES))}"
+        )
     if isinstance(agent, str):
         if not agent.startswith("beacon_") or not agent[7:].isdigit():
             raise ValueError(f"agent must be an index or 'beacon_<k>', got {agent!r}")

@@ -49,8 +49,15 @@ if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
 
-def ellipse_waypoint(ctx: BeaconContext, own_en: ArrayLike, survey_en: np.ndarray, depth_below: ArrayLike,
-                     P: np.ndarray, range_var_m2: ArrayLike, **grid: int) -> tuple[np.ndarray, np.ndarray]:
+def ellipse_waypoint(
+    ctx: BeaconContext,
+    own_en: ArrayLike,
+    survey_en: np.ndarray,
+    depth_below: ArrayLike,
+    P: np.ndarray,
+    range_var_m2: ArrayLike,
+    **grid: int,
+) -> tuple[np.ndarray, np.ndarray]:
     """The point of the reaching disc whose range to the predicted survey position(s)
     survey_en (S, 2), depth_below (S,), covariance P (S, 2, 2) informs most.
     Returns (waypoint (2,), expected information at it)."""
@@ -79,8 +86,13 @@ class EllipsePolicy(TrackingPolicy):
 
     PREDICTORS = ("path", "chord")
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
-                 predictor: str = "path") -> None:
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        agent_index: int = 0,
+        seed: int | Sequence[int] | None = None,
+        predictor: str = "path",
+    ) -> None:
         if predictor not in self.PREDICTORS:
             raise ValueError(f"ellipse predictor must be one of {self.PREDICTORS}, got {predictor!r}")
         self.predictor = predictor
@@ -98,6 +110,6 @@ class EllipsePolicy(TrackingPolicy):
         en, dz = self.predict(view, T)
         grow = c.process_noise_horizontal_m2ps * (view.reply_age_s + T)
         P = view.cov_m2 + grow[:, None, None] * np.eye(2)
-        R = c.range_noise_std_m ** 2 + float(view.own_std_m) ** 2
+        R = c.range_noise_std_m**2 + float(view.own_std_m) ** 2
         wp, self.last_metric = ellipse_waypoint(self.ctx, view.own_en_m, en, dz, P, R)
         return wp

@@ -65,9 +65,15 @@ def two_range_det(own_en: ArrayLike, cand: np.ndarray, target_en: np.ndarray, de
     return range_information_det(target, beacons)
 
 
-def fim_a_waypoint(ctx: BeaconContext, own_en: ArrayLike, target_en: ArrayLike, depth_below: ArrayLike,
-                   safety_en: np.ndarray | None = None, safety_dz: ArrayLike | None = None,
-                   **grid: int) -> tuple[np.ndarray, np.ndarray]:
+def fim_a_waypoint(
+    ctx: BeaconContext,
+    own_en: ArrayLike,
+    target_en: ArrayLike,
+    depth_below: ArrayLike,
+    safety_en: np.ndarray | None = None,
+    safety_dz: ArrayLike | None = None,
+    **grid: int,
+) -> tuple[np.ndarray, np.ndarray]:
     """Approach A: the point of the reaching disc maximizing eq. (4). Returns
     (waypoint (2,), metric value at it)."""
     target_en = np.atleast_2d(target_en)
@@ -82,8 +88,15 @@ def fim_a_waypoint(ctx: BeaconContext, own_en: ArrayLike, target_en: ArrayLike, 
     return maximize_on_disc(score, np.asarray(own_en, float), ctx.reach_m, **grid)
 
 
-def fim_b_waypoint(ctx: BeaconContext, own_en: ArrayLike, p1_en: ArrayLike, p1_dz: ArrayLike, p2_en: ArrayLike,
-                   p2_dz: ArrayLike, **grid: int) -> tuple[np.ndarray, np.ndarray]:
+def fim_b_waypoint(
+    ctx: BeaconContext,
+    own_en: ArrayLike,
+    p1_en: ArrayLike,
+    p1_dz: ArrayLike,
+    p2_en: ArrayLike,
+    p2_dz: ArrayLike,
+    **grid: int,
+) -> tuple[np.ndarray, np.ndarray]:
     """Approach B: the point of the reaching disc maximizing eq. (6),
     m = det I(p1) + det I(p2). Returns (waypoint (2,), m at it)."""
     p1_en, p2_en = np.atleast_2d(p1_en), np.atleast_2d(p2_en)
@@ -115,8 +128,13 @@ class FimB(TrackingPolicy):
 
     PREDICTORS = SurveyTracker.PREDICTORS
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
-                 predictor: str = DEFAULT_B_PREDICTOR) -> None:
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        agent_index: int = 0,
+        seed: int | Sequence[int] | None = None,
+        predictor: str = DEFAULT_B_PREDICTOR,
+    ) -> None:
         if predictor not in self.PREDICTORS:
             raise ValueError(f"fim_b predictor must be one of {self.PREDICTORS}, got {predictor!r}")
         self.predictor = predictor

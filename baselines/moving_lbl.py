@@ -70,8 +70,14 @@ class PerpendicularPolicy(Policy):
 class AbeamPolicy(PerpendicularPolicy):
     """Transit paced on the tracked vehicle, baseline length held (see the module docstring)."""
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
-                 pace_gain_per_s: float = 0.02, baseline_gain_per_s: float = 0.05) -> None:
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        agent_index: int = 0,
+        seed: int | Sequence[int] | None = None,
+        pace_gain_per_s: float = 0.02,
+        baseline_gain_per_s: float = 0.05,
+    ) -> None:
         if not (pace_gain_per_s >= 0 and baseline_gain_per_s >= 0):
             raise ValueError("gains must be >= 0")
         self.pace_gain_per_s, self.baseline_gain_per_s = float(pace_gain_per_s), float(baseline_gain_per_s)
@@ -102,9 +108,15 @@ class RiverEscortPolicy(AbeamPolicy):
     constant 1 / gain), ``bank_margin_m`` keeps its target that far inside the bank when
     the river is narrower than the baseline allows."""
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
-                 gain_per_s: float = 0.1,
-                 bank_margin_m: float = 10.0, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        agent_index: int = 0,
+        seed: int | Sequence[int] | None = None,
+        gain_per_s: float = 0.1,
+        bank_margin_m: float = 10.0,
+        **kwargs: Any,
+    ) -> None:
         if not (gain_per_s > 0 and bank_margin_m >= 0):
             raise ValueError("gain_per_s must be > 0 and bank_margin_m >= 0")
         self.gain_per_s, self.bank_margin_m = float(gain_per_s), float(bank_margin_m)

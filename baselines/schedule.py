@@ -88,7 +88,7 @@ def predicted_gain_nats(view: ObsView, config: ScenarioConfig) -> float:
     h = rel[:, :2] / slant[:, None]
     grow = c.process_noise_horizontal_m2ps * (np.asarray(view.reply_age_s, float) + c.ping_interval_s)
     P = np.asarray(view.cov_m2, float) + grow[:, None, None] * np.eye(2)
-    R = c.range_noise_std_m ** 2 + float(view.own_std_m) ** 2
+    R = c.range_noise_std_m**2 + float(view.own_std_m) ** 2
     return float(np.log1p(np.einsum("si,sij,sj->s", h, P, h) / R).sum())
 
 
@@ -145,15 +145,23 @@ class ScheduledPolicy(Policy):
 
 
 @register_scheduler
-def make_scheduled(motion_cls: type[Policy], schedule_name: str, config: ScenarioConfig, agent_index: int,
-                   seed: int | Sequence[int] | None = None, **kwargs: Any) -> ScheduledPolicy:
+def make_scheduled(
+    motion_cls: type[Policy],
+    schedule_name: str,
+    config: ScenarioConfig,
+    agent_index: int,
+    seed: int | Sequence[int] | None = None,
+    **kwargs: Any,
+) -> ScheduledPolicy:
     """``motion_cls`` with the schedule ``schedule_name`` ("" or None: ``DEFAULT_SCHEDULE``);
     ``kwargs`` go to the schedule when it takes them (every, offset, frame,
     threshold_nats), the rest to the planner."""
     schedule_name = schedule_name or DEFAULT_SCHEDULE
     if config.channel_mode != "decide":
-        raise ValueError(f"transmit schedules need channel_mode='decide'; {config.name} pings on the fixed clock "
-                         f"(use the planner {motion_cls.name!r} alone)")
+        raise ValueError(
+            f"transmit schedules need channel_mode='decide'; {config.name} pings on the fixed clock "
+            f"(use the planner {motion_cls.name!r} alone)"
+        )
     if schedule_name not in SCHEDULES:
         raise ValueError(f"unknown schedule {schedule_name!r}; valid schedules: {', '.join(list_schedules())}")
     sched_keys = {"every", "offset", "frame", "threshold_nats"}

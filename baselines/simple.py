@@ -34,8 +34,13 @@ class CirclePolicy(TrackingPolicy):
     """Orbit the survey vehicle's predicted position anticlockwise at ``radius_m``,
     advancing by up to 90 % of the reaching set per ping (at most 60 degrees)."""
 
-    def __init__(self, config: ScenarioConfig, agent_index: int = 0, seed: int | Sequence[int] | None = None,
-                 radius_m: float = 40.0) -> None:
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        agent_index: int = 0,
+        seed: int | Sequence[int] | None = None,
+        radius_m: float = 40.0,
+    ) -> None:
         if not radius_m > 0:
             raise ValueError(f"radius_m must be > 0, got {radius_m!r}")
         self.radius_m = float(radius_m)

@@ -9,8 +9,7 @@ import warnings
 import gymnasium
 import numpy as np
 import pytest
-from pettingzoo.test import (api_test, max_cycles_test, parallel_api_test, parallel_seed_test, seed_test,
-                             state_test)
+from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, parallel_seed_test, seed_test, state_test
 
 import coopnav_env
 
@@ -48,8 +47,10 @@ def test_aec_seed(scenario):
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_max_cycles(scenario):
-    mod = types.SimpleNamespace(parallel_env=functools.partial(coopnav_env.parallel_env, scenario),
-                                env=functools.partial(coopnav_env.env, scenario))
+    mod = types.SimpleNamespace(
+        parallel_env=functools.partial(coopnav_env.parallel_env, scenario),
+        env=functools.partial(coopnav_env.env, scenario),
+    )
     max_cycles_test(mod)
 
 
@@ -99,7 +100,7 @@ def test_gymnasium_view_matches_beacon_0_of_parallel_env():
     assert genv.observation_space.contains(obs)
     steps, done = 0, False
     while not done:
-        obs, reward, term, trunc, info = genv.step(genv.action_space.sample())
+        obs, _reward, term, trunc, info = genv.step(genv.action_space.sample())
         steps += 1
         done = term or trunc
     assert steps == 5 and trunc
@@ -138,8 +139,16 @@ def test_infos_have_documented_keys_every_step():
         _, rewards, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
         for a, info in infos.items():
             assert np.isfinite(rewards[a])
-            for key in ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
-                        "outliers_rejected", "nan_rejected", "packets_lost"):
+            for key in (
+                "survey_error_m",
+                "dr_error_m",
+                "cov_logdet",
+                "range_ok",
+                "ranges_fused",
+                "outliers_rejected",
+                "nan_rejected",
+                "packets_lost",
+            ):
                 assert key in info, key
                 assert key + "_per_vehicle" in info, key
             assert isinstance(info["range_ok"], bool)
@@ -207,12 +216,20 @@ def test_two_beacons_two_surveys_infos_per_vehicle():
     assert set(obs) == {"beacon_0", "beacon_1"}
     steps = 0
     while env.agents:
-        obs, rewards, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
+        obs, _rewards, _, _, infos = env.step({a: env.action_space(a).sample() for a in env.agents})
         steps += 1
         assert set(infos) == {"beacon_0", "beacon_1"}
         for info in infos.values():
-            for key in ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
-                        "outliers_rejected", "nan_rejected", "packets_lost"):
+            for key in (
+                "survey_error_m",
+                "dr_error_m",
+                "cov_logdet",
+                "range_ok",
+                "ranges_fused",
+                "outliers_rejected",
+                "nan_rejected",
+                "packets_lost",
+            ):
                 per = info[key + "_per_vehicle"]
                 assert isinstance(per, list) and len(per) == 2, key
             assert info["survey_error_m"] == pytest.approx(np.mean(info["survey_error_m_per_vehicle"]))

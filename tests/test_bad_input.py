@@ -66,7 +66,7 @@ def test_action_for_unknown_agent():
 def test_action_after_episode_end():
     env = _env(max_cycles=2)
     while env.agents:
-        env.step({a: ZERO for a in env.agents})
+        env.step(dict.fromkeys(env.agents, ZERO))
     with pytest.raises(ValueError, match=r"not alive.*beacon_0"):
         env.step({"beacon_0": ZERO})
 
@@ -75,7 +75,7 @@ def test_step_after_episode_end_without_actions():
     """An empty step after the end must not advance a finished episode silently."""
     env = _env(max_cycles=2)
     while env.agents:
-        env.step({a: ZERO for a in env.agents})
+        env.step(dict.fromkeys(env.agents, ZERO))
     t_end = env.sim.state.t_s.copy()
     with pytest.raises((ValueError, RuntimeError), match="reset"):
         env.step({})
@@ -225,7 +225,7 @@ def test_out_of_range_actions_are_clipped(mode):
     # and clipping matters: the unclipped direction would have moved the beacon elsewhere
     # (velocity mode: (5, -3) normalized is not (1, -1) normalized)
     if mode == "velocity":
-        out_other, env_other = _run([raw[0] / np.linalg.norm(raw[0])] + clipped[1:], action_mode=mode)
+        _out_other, env_other = _run([raw[0] / np.linalg.norm(raw[0])] + clipped[1:], action_mode=mode)
         assert not np.array_equal(env_other.sim.state.b_pos, env_clip.sim.state.b_pos)
 
 
@@ -243,8 +243,9 @@ def test_gym_view_clips_like_the_parallel_env():
 # --- a NaN from a sensor never enters the filter -------------------------------------
 @pytest.mark.parametrize("ranging_mode", ["owtt", "twtt"])
 def test_sensor_nan_is_rejected_and_counted(ranging_mode):
-    env = coopnav_env.parallel_env("gao_lawnmower", sensor_nan_probability=0.5, ranging_mode=ranging_mode,
-                                   max_cycles=25, seed=2)
+    env = coopnav_env.parallel_env(
+        "gao_lawnmower", sensor_nan_probability=0.5, ranging_mode=ranging_mode, max_cycles=25, seed=2
+    )
     obs, _ = env.reset(seed=2)
     rng = np.random.default_rng(0)
     nan_total, fused_total, steps = 0, 0, 0
@@ -278,26 +279,29 @@ def test_no_nan_rejections_without_fault_injection():
     env = _env(max_cycles=10)
     total = 0
     while env.agents:
-        _, _, _, _, infos = env.step({a: ZERO for a in env.agents})
+        _, _, _, _, infos = env.step(dict.fromkeys(env.agents, ZERO))
         total += infos["beacon_0"]["nan_rejected"]
     assert total == 0
 
 
-@pytest.mark.parametrize("overrides, named", [
-    ({"survey_area_m": (130.0, 1e12)}, "survey_area_m"),
-    ({"lawnmower_spacing_m": 1e-7}, "lawnmower_spacing_m"),
-    ({"circle_laps": 1e7, "survey_path": "circle"}, "circle_laps"),
-    ({"survey_area_m": (1e300, 1e300)}, "survey_area_m"),
-    ({"lawnmower_spacing_m": 0}, "lawnmower_spacing_m"),
-    ({"survey_origin_m": (float("nan"), 0.0)}, "survey_origin_m"),
-    ({"range_noise_std_m": "1.0"}, "range_noise_std_m"),
-    ({"range_noise_std_m": 1e200}, "range_noise_std_m"),
-    ({"circle_laps": -1.0}, "circle_laps"),
-    ({"line_length_m": -5.0}, "line_length_m"),
-    ({"waypoint_acceptance_m": -1.0}, "waypoint_acceptance_m"),
-    ({"max_cycles": 2.5}, "max_cycles"),
-    ({"path_repeats": 1000, "survey_path": "circle", "circle_laps": 100.0}, "waypoints"),
-])
+@pytest.mark.parametrize(
+    "overrides, named",
+    [
+        ({"survey_area_m": (130.0, 1e12)}, "survey_area_m"),
+        ({"lawnmower_spacing_m": 1e-7}, "lawnmower_spacing_m"),
+        ({"circle_laps": 1e7, "survey_path": "circle"}, "circle_laps"),
+        ({"survey_area_m": (1e300, 1e300)}, "survey_area_m"),
+        ({"lawnmower_spacing_m": 0}, "lawnmower_spacing_m"),
+        ({"survey_origin_m": (float("nan"), 0.0)}, "survey_origin_m"),
+        ({"range_noise_std_m": "1.0"}, "range_noise_std_m"),
+        ({"range_noise_std_m": 1e200}, "range_noise_std_m"),
+        ({"circle_laps": -1.0}, "circle_laps"),
+        ({"line_length_m": -5.0}, "line_length_m"),
+        ({"waypoint_acceptance_m": -1.0}, "waypoint_acceptance_m"),
+        ({"max_cycles": 2.5}, "max_cycles"),
+        ({"path_repeats": 1000, "survey_path": "circle", "circle_laps": 100.0}, "waypoints"),
+    ],
+)
 def test_inputs_that_used_to_hang_or_crash_are_refused_at_once(overrides, named):
     """Each refused in well under a second with a ValueError naming the parameter and,
     for numbers, the allowed range (they used to grow to gigabytes, hang, divide by
@@ -322,7 +326,7 @@ def test_every_number_parameter_has_limits():
     from coopnav_env.scenarios.base import bounds, default_of, parameter_names
 
     numeric = {n for n in parameter_names() if type(default_of(n)) in (int, float)}
-    assert numeric == set(bounds()), (numeric ^ set(bounds()))
+    assert numeric == set(bounds()), numeric ^ set(bounds())
     for scenario in coopnav_env.list_scenarios():  # the defaults and every scenario lie inside them
         coopnav_env.make_config(scenario)
 

@@ -8,14 +8,27 @@ import coopnav_env
 from baselines import list_policies, make_policy, waypoint_to_action
 from baselines.base import BeaconContext, SurveyTracker
 from baselines.fim import fim_a_waypoint, fim_b_waypoint, two_range_det
-from coopnav_env.core.information import (best_second_range_det, ellipse_to_covariance, error_ellipse,
-                                          maximize_on_disc, optimal_start_distance_m, range_information_det)
+from coopnav_env.core.information import (
+    best_second_range_det,
+    ellipse_to_covariance,
+    error_ellipse,
+    maximize_on_disc,
+    optimal_start_distance_m,
+    range_information_det,
+)
 from coopnav_env.core.sim import Simulator
 from coopnav_env.obs_layout import decode, encode, obs_dim
 
 # an ASV scenario with round numbers: 2 m/s x 20 s = 40 m reaching set, 10 m safety distance
-ASV = coopnav_env.make_config("sousa_asv", survey_path="stationary", depth_m=20.0, ping_interval_s=20.0,
-                              asv_max_speed_mps=2.0, safety_distance_m=10.0, max_cycles=60)
+ASV = coopnav_env.make_config(
+    "sousa_asv",
+    survey_path="stationary",
+    depth_m=20.0,
+    ping_interval_s=20.0,
+    asv_max_speed_mps=2.0,
+    safety_distance_m=10.0,
+    max_cycles=60,
+)
 SURVEY = np.array([50.0, 50.0])  # where the hand-built survey vehicles sit
 
 
@@ -28,6 +41,7 @@ def act_waypoint(policy, obs):
 
 # ------------------------------------------------------------------------------------
 # information helpers
+
 
 def test_two_range_det_is_sin_squared_at_equal_depth():
     target = np.zeros(3)
@@ -91,6 +105,7 @@ def test_sousa_asv_starts_at_the_optimal_distance():
 # ------------------------------------------------------------------------------------
 # observation layout
 
+
 def test_decode_matches_the_simulator_state():
     c = coopnav_env.make_config("gao_sea", n_survey=2, beacon_kinds=("beacon_auv", "asv"))
     sim = Simulator(c, 2)
@@ -111,8 +126,15 @@ def test_decode_matches_the_simulator_state():
 
 
 def test_encode_decode_round_trip():
-    obs = encode(ASV, own_en_m=[10.0, -20.0], survey_rel_m=[[30.0, 40.0, 20.0]], major_m=12.0, minor_m=3.0,
-                 bearing_rad=2.0, reply_age_s=20.0)
+    obs = encode(
+        ASV,
+        own_en_m=[10.0, -20.0],
+        survey_rel_m=[[30.0, 40.0, 20.0]],
+        major_m=12.0,
+        minor_m=3.0,
+        bearing_rad=2.0,
+        reply_age_s=20.0,
+    )
     assert obs.shape == (obs_dim(ASV),)
     v = decode(obs, ASV)
     assert np.allclose(v.own_en_m, [10, -20], atol=1e-3)
@@ -122,6 +144,7 @@ def test_encode_decode_round_trip():
 
 # ------------------------------------------------------------------------------------
 # planners on hand-built geometry
+
 
 def test_fim_a_picks_the_tangent_point_at_equal_depth():
     """Vehicle at the beacon's depth at the origin, beacon on the x axis: det is sin^2 of the
@@ -143,7 +166,7 @@ def test_fim_a_picks_the_tangent_point_at_equal_depth():
 def _brute_force(score, center, radius, n=401):
     g = np.linspace(-radius, radius, n)
     pts = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
-    pts = pts[(pts ** 2).sum(-1) <= radius ** 2] + center
+    pts = pts[(pts**2).sum(-1) <= radius**2] + center
     return score(pts).max()
 
 
@@ -161,13 +184,14 @@ def test_fim_b_maximizes_the_sum_of_determinants():
     ctx = BeaconContext.from_config(ASV)
     own = SURVEY + [20.0, 0.0]  # Sousa Fig. 6: the ROV moves from (0,0,-20) to (20,0,-20), ASV at (20,0)
     p1, p2 = SURVEY[None], (SURVEY + [20.0, 0.0])[None]
-    wp, val = fim_b_waypoint(ctx, own, p1, [20.0], p2, [20.0])
-    brute = _brute_force(lambda p: (two_range_det(own, p, p1, [20.0]) + two_range_det(own, p, p2, [20.0])).sum(-1),
-                         own, ctx.reach_m)
+    _wp, val = fim_b_waypoint(ctx, own, p1, [20.0], p2, [20.0])
+    brute = _brute_force(
+        lambda p: (two_range_det(own, p, p1, [20.0]) + two_range_det(own, p, p2, [20.0])).sum(-1), own, ctx.reach_m
+    )
     assert val >= brute - 1e-6
     # with the vehicle standing still, B is A with the metric doubled
-    wp_a, val_a = fim_a_waypoint(ctx, own, p1, [20.0])
-    wp_b, val_b = fim_b_waypoint(ctx, own, p1, [20.0], p1, [20.0])
+    _wp_a, val_a = fim_a_waypoint(ctx, own, p1, [20.0])
+    _wp_b, val_b = fim_b_waypoint(ctx, own, p1, [20.0], p1, [20.0])
     assert val_b == pytest.approx(2 * val_a, rel=1e-6)
 
 
@@ -191,8 +215,14 @@ def test_fim_b_predicts_with_constant_velocity():
 def test_ellipse_puts_the_next_range_along_the_major_axis(bearing_deg, own_offset):
     c = ASV.replace(depth_m=5.0)
     b = np.radians(bearing_deg)
-    obs = encode(c, own_en_m=SURVEY + own_offset, survey_rel_m=[[-own_offset[0], -own_offset[1], 5.0]],
-                 major_m=30.0, minor_m=4.0, bearing_rad=b)
+    obs = encode(
+        c,
+        own_en_m=SURVEY + own_offset,
+        survey_rel_m=[[-own_offset[0], -own_offset[1], 5.0]],
+        major_m=30.0,
+        minor_m=4.0,
+        bearing_rad=b,
+    )
     policy = make_policy("ellipse", c)
     wp = act_waypoint(policy, obs) - SURVEY
     axis = np.array([np.sin(b), np.cos(b)])  # major axis (east, north)
@@ -203,11 +233,10 @@ def test_ellipse_puts_the_next_range_along_the_major_axis(bearing_deg, own_offse
 
 def test_ellipse_respects_the_geofence():
     c = ASV.replace(depth_m=5.0)
-    e0, n0, e1, n1 = c.geofence_m
+    _e0, _n0, e1, _n1 = c.geofence_m
     survey = np.array([e1 - 10.0, 50.0])  # major axis east-west, the east side is outside the fence
     own = survey + [0.0, 30.0]
-    obs = encode(c, own_en_m=own, survey_rel_m=[[0.0, -30.0, 5.0]], major_m=30.0, minor_m=4.0,
-                 bearing_rad=np.pi / 2)
+    obs = encode(c, own_en_m=own, survey_rel_m=[[0.0, -30.0, 5.0]], major_m=30.0, minor_m=4.0, bearing_rad=np.pi / 2)
     wp = act_waypoint(make_policy("ellipse", c), obs)
     assert wp[0] <= e1
     assert wp[0] < survey[0] - 15.0  # went to the west end of the axis instead
@@ -243,6 +272,7 @@ def test_survey_tracker_without_history_is_still():
 # ------------------------------------------------------------------------------------
 # the interface, on the real environment
 
+
 def test_make_policy_rejects_unknown_names():
     with pytest.raises(ValueError, match="valid policies"):
         make_policy("nope", ASV)
@@ -252,9 +282,14 @@ def test_make_policy_rejects_unknown_names():
         make_policy("fim_a", "matos_moving_lbl")
 
 
-@pytest.mark.parametrize("scenario,kw", [("gao_lawnmower", {}), ("gao_sea", {"beacon_kinds": ("beacon_auv", "asv"),
-                                                                          "n_survey": 2}),
-                                         ("matos_moving_lbl", {})])
+@pytest.mark.parametrize(
+    "scenario,kw",
+    [
+        ("gao_lawnmower", {}),
+        ("gao_sea", {"beacon_kinds": ("beacon_auv", "asv"), "n_survey": 2}),
+        ("matos_moving_lbl", {}),
+    ],
+)
 def test_every_policy_drives_the_pettingzoo_env(scenario, kw):
     env = coopnav_env.parallel_env(scenario, seed=0, max_cycles=3, **kw)
     for name in list_policies(env.config.network):
@@ -298,10 +333,14 @@ def test_advance_along_waypoints_turns_stops_and_extrapolates():
     from baselines.base import advance_along_waypoints
 
     start = np.array([[0.0, 0.0]] * 4)
-    wp = np.array([[[10.0, 0.0], [10.0, 20.0]],  # turn north after 10 m
-                   [[10.0, 0.0], [10.0, 20.0]],  # past the last waypoint: keeps the last leg's direction (B2)
-                   [[10.0, 0.0], [10.0, 0.0]],  # the path ends at (10, 0): stops there (B3)
-                   [[0.0, 0.0], [0.0, 0.0]]])  # nothing observed
+    wp = np.array(
+        [
+            [[10.0, 0.0], [10.0, 20.0]],  # turn north after 10 m
+            [[10.0, 0.0], [10.0, 20.0]],  # past the last waypoint: keeps the last leg's direction (B2)
+            [[10.0, 0.0], [10.0, 0.0]],  # the path ends at (10, 0): stops there (B3)
+            [[0.0, 0.0], [0.0, 0.0]],
+        ]
+    )  # nothing observed
     pos, known = advance_along_waypoints(start, wp, np.array([24.0, 40.0, 24.0, 24.0]))
     assert np.allclose(pos, [[10.0, 14.0], [10.0, 30.0], [10.0, 0.0], [0.0, 0.0]])
     assert known.tolist() == [True, True, True, False]
@@ -352,8 +391,10 @@ def test_ellipse_path_prediction_on_the_real_lawnmower():
     for k in range(c.max_cycles):
         a = pol.act(obs[0, 0])
         view = decode(obs[0, 0], c)
-        pred = {"path": pol.tracker.predict_along_path(view, c.ping_interval_s)[0][0],
-                "chord": pol.tracker.predict(view, c.ping_interval_s, "chord")[0][0]}
+        pred = {
+            "path": pol.tracker.predict_along_path(view, c.ping_interval_s)[0][0],
+            "chord": pol.tracker.predict(view, c.ping_interval_s, "chord")[0][0],
+        }
         res = sim.step(a[None, None])
         obs = res.obs
         if k >= 3:
@@ -396,9 +437,16 @@ def test_fim_b_against_fim_a_at_the_papers_fig6_regime():
     from evaluation.episodes import run_episodes
     from evaluation.paired import t_interval
 
-    config = coopnav_env.make_config("sousa_asv", survey_path="circle", depth_m=20.0, ping_interval_s=20.0,
-                                     max_cycles=40, randomize_survey_path=(), randomize_depth_m=(),
-                                     randomize_noise_scale=())
+    config = coopnav_env.make_config(
+        "sousa_asv",
+        survey_path="circle",
+        depth_m=20.0,
+        ping_interval_s=20.0,
+        max_cycles=40,
+        randomize_survey_path=(),
+        randomize_depth_m=(),
+        randomize_noise_scale=(),
+    )
     seeds = list(range(700000, 700006))
     a = np.array([e["mean_error_m"] for e in run_episodes(config, "fim_a", seeds)[0]])
     b = np.array([e["mean_error_m"] for e in run_episodes(config, "fim_b", seeds)[0]])

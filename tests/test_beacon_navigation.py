@@ -10,9 +10,15 @@ import pytest
 import coopnav_env
 from coopnav_env.core import make_simulator
 
-QUIET = dict(dvl_velocity_noise_mps=0.0, dvl_lock_loss_probability=0.0, beacon_dvl_heading_bias_std_deg=0.0,
-             beacon_dvl_heading_cycle_deg=0.0, beacon_dvl_scale_error_std=0.0, beacon_surface_above_std_m=0.0,
-             beacon_surface_every_s=0.0)
+QUIET = dict(
+    dvl_velocity_noise_mps=0.0,
+    dvl_lock_loss_probability=0.0,
+    beacon_dvl_heading_bias_std_deg=0.0,
+    beacon_dvl_heading_cycle_deg=0.0,
+    beacon_dvl_scale_error_std=0.0,
+    beacon_surface_above_std_m=0.0,
+    beacon_surface_every_s=0.0,
+)
 EAST = np.array([1.0, 0.0])  # velocity action: due east at full speed
 
 
@@ -33,6 +39,7 @@ def test_heading_bias_rotates_the_track_clockwise():
     """1 degree of compass bias on a 20-cycle eastward run: the error is the displacement
     turned clockwise by 1 degree minus the displacement, (e^{-i b0} - 1) d, i.e.
     2 sin(0.5 deg) |d| ~ 1.75 % of the distance, pointing mostly south."""
+
     def bias(st):
         st.b_dvl_heading_bias_rad[:] = np.radians(1.0)
 
@@ -54,6 +61,7 @@ def test_scale_error_stretches_the_track():
 
 def test_one_cycle_heading_error_depends_on_the_heading():
     """b1 sin(heading + phase): eastward (bearing 90 deg) with phase 0 gives b1."""
+
     def phase(st):
         st.b_dvl_heading_phase_rad[:] = 0.0
 
@@ -69,10 +77,14 @@ def test_carried_variance_matches_the_monte_carlo_error_on_a_straight_run():
     mean squared error equals twice the per-axis variance the beacon carries (straight
     run: the one-cycle part is a constant b1 sin(phase + 90 deg) there, E = b1^2 / 2)."""
     B = 4000
-    overrides = dict(beacon_dvl_heading_bias_std_deg=0.5, beacon_dvl_heading_cycle_deg=1.0,
-                     beacon_dvl_scale_error_std=0.01, dvl_velocity_noise_mps=0.026)
-    c, sim, d, err = _drive_east(15, B=B, **overrides)
-    mse = float((err ** 2).sum(-1).mean())
+    overrides = dict(
+        beacon_dvl_heading_bias_std_deg=0.5,
+        beacon_dvl_heading_cycle_deg=1.0,
+        beacon_dvl_scale_error_std=0.01,
+        dvl_velocity_noise_mps=0.026,
+    )
+    _c, sim, _d, err = _drive_east(15, B=B, **overrides)
+    mse = float((err**2).sum(-1).mean())
     # the carried variance minus the start fix's (err is measured from the start error)
     carried = float(2 * (sim.state.b_nav_var_m2[:, 0] - 1.0).mean())
     assert carried > 20.0
@@ -90,11 +102,11 @@ def test_surfacing_on_a_clock_resets_to_a_gps_fix():
         surfaced = k % 5 == 0  # every 100 s = 5 cycles of 20 s
         assert bool(st.b_surfacings.all()) == surfaced and not (st.b_surfacings.any() and not surfaced)
         if surfaced:
-            np.testing.assert_allclose(st.b_nav_var_m2, c.gps_noise_m ** 2)
+            np.testing.assert_allclose(st.b_nav_var_m2, c.gps_noise_m**2)
             err = np.hypot(st.b_nav_err[:, 0, 0], st.b_nav_err[:, 0, 1])
-            assert np.sqrt((err ** 2).mean() / 2) == pytest.approx(c.gps_noise_m, rel=0.25)
+            assert np.sqrt((err**2).mean() / 2) == pytest.approx(c.gps_noise_m, rel=0.25)
         elif k > 5:  # after the first fix the variance grows from the GPS's again
-            assert (st.b_nav_var_m2 > c.gps_noise_m ** 2).all()
+            assert (st.b_nav_var_m2 > c.gps_noise_m**2).all()
 
 
 def test_surfacing_when_the_own_std_exceeds_the_threshold():
@@ -105,7 +117,7 @@ def test_surfacing_when_the_own_std_exceeds_the_threshold():
     surfaced = 0
     for _ in range(60):
         sim.step(np.broadcast_to(EAST, (8, 1, 2)))
-        assert (sim.state.b_nav_var_m2 <= 4.0 ** 2 + 1e-9).all()  # never carried above the threshold
+        assert (sim.state.b_nav_var_m2 <= 4.0**2 + 1e-9).all()  # never carried above the threshold
         surfaced += int(sim.state.b_surfacings.sum())
     assert surfaced > 8
 
@@ -116,4 +128,4 @@ def test_the_lake_trial_beacon_has_gps_every_cycle():
     sim = make_simulator(c, 4)
     sim.reset(np.arange(4))
     sim.step(np.zeros((4, 1, 2)))
-    np.testing.assert_allclose(sim.state.b_nav_var_m2, c.gps_noise_m ** 2)
+    np.testing.assert_allclose(sim.state.b_nav_var_m2, c.gps_noise_m**2)

@@ -10,16 +10,26 @@ import pytest
 from scipy import stats
 
 from coopnav_env import seeds
-from coopnav_env.seeds import (MAX_SEED, TEST_SEED, TEST_SEEDS, TRAINING_COPY_BOUND, TRAINING_EPISODE_BOUND,
-                               TRAINING_SEED_LIMIT, VALIDATION_SEED, is_test_seed, max_training_seed, refuse_test_seeds)
+from coopnav_env.seeds import (
+    MAX_SEED,
+    TEST_SEED,
+    TEST_SEEDS,
+    TRAINING_COPY_BOUND,
+    TRAINING_EPISODE_BOUND,
+    TRAINING_SEED_LIMIT,
+    VALIDATION_SEED,
+    is_test_seed,
+    max_training_seed,
+    refuse_test_seeds,
+)
 from coopnav_env.vector import SEED_STRIDE, CoopNavVecEnv
 from evaluation import benchmark
 from evaluation.benchmark import BenchmarkPlan, compare_task, render_markdown, summarize_task_set
 from evaluation.tasks import FLOORS, TASK_SETS
 
-
 # ------------------------------------------------------------------------------------
 # seed separation
+
 
 def test_every_task_set_plays_test_seeds_only():
     assert TEST_SEEDS[0] == TEST_SEED == 2**62 - 2**20 and TEST_SEEDS[-1] == MAX_SEED
@@ -42,10 +52,10 @@ def test_training_seeds_cannot_reach_the_test_seeds_within_the_documented_bound(
     seed = TRAINING_SEED_LIMIT - 1
     venv = CoopNavVecEnv("gao_lawnmower", n_envs=2, seed=seed, max_cycles=2)
     venv.reset()
-    drawn = set(int(s) for s in venv.episode_seeds)
+    drawn = {int(s) for s in venv.episode_seeds}
     for _ in range(6):  # three episodes of each env
         venv.step(np.zeros((2, 2)))
-        drawn |= set(int(s) for s in venv.episode_seeds)
+        drawn |= {int(s) for s in venv.episode_seeds}
     assert drawn == {max_training_seed(seed, e + 1, k + 1) for e in range(2) for k in range(4)}
     assert max(drawn) == seed + 1 + 3 * SEED_STRIDE and not any(is_test_seed(s) for s in drawn)
 
@@ -53,7 +63,7 @@ def test_training_seeds_cannot_reach_the_test_seeds_within_the_documented_bound(
 def test_refuse_test_seeds_is_one_line():
     refuse_test_seeds(TRAINING_SEED_LIMIT - 4, 4, "eval.seed")  # up to the limit - 1: fine
     for first, count in ((TRAINING_SEED_LIMIT - 3, 4), (TEST_SEED, 1), (TEST_SEED - 1, 2)):
-        with pytest.raises(ValueError, match="^eval.seed .*reserved seeds") as exc:
+        with pytest.raises(ValueError, match=r"^eval\.seed .*reserved seeds") as exc:
             refuse_test_seeds(first, count, "eval.seed")
         assert "\n" not in str(exc.value)
 
@@ -87,16 +97,33 @@ def test_the_trainers_accept_seeds_below_the_limit():
     from agents.training import PeriodicEvalSpec, TrainConfig
     from agents.training.common import prepare_job
 
-    job = prepare_job(TrainConfig(scenario="gao_lawnmower", timesteps=100, seed=TRAINING_SEED_LIMIT - 1,
-                                  eval=PeriodicEvalSpec(seed=TRAINING_SEED_LIMIT - 32, episodes=32)))
+    job = prepare_job(
+        TrainConfig(
+            scenario="gao_lawnmower",
+            timesteps=100,
+            seed=TRAINING_SEED_LIMIT - 1,
+            eval=PeriodicEvalSpec(seed=TRAINING_SEED_LIMIT - 32, episodes=32),
+        )
+    )
     assert job.scenario_config.name == "gao_lawnmower"  # accepted: a job, not a ConfigError
 
 
 def test_train_py_refuses_a_test_seed_with_one_line_and_exit_2(tmp_path, capsys):
     from agents.training import cli
 
-    rc = cli.main(["--scenario", "gao_lawnmower", "--timesteps", "100", "--seed", str(TEST_SEED),
-                   "--out", str(tmp_path / "run"), "--no-progress"])
+    rc = cli.main(
+        [
+            "--scenario",
+            "gao_lawnmower",
+            "--timesteps",
+            "100",
+            "--seed",
+            str(TEST_SEED),
+            "--out",
+            str(tmp_path / "run"),
+            "--no-progress",
+        ]
+    )
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1 and "reserved seeds" in err
     assert not (tmp_path / "run").exists()
@@ -104,6 +131,7 @@ def test_train_py_refuses_a_test_seed_with_one_line_and_exit_2(tmp_path, capsys)
 
 # ------------------------------------------------------------------------------------
 # the statistics, on a toy case with a known answer
+
 
 def test_paired_difference_and_interval_on_a_known_case():
     rng = np.random.default_rng(0)
@@ -118,8 +146,12 @@ def test_paired_difference_and_interval_on_a_known_case():
         "worse": a + 0.5 + eps,
         "other_team": None,
     }
-    task = compare_task(episodes, planners=["fim_a", "circle"], ranges_fused={"ppo": [10, 11, 12, 13, 14]},
-                        skipped={"other_team": "observations of size 21"})
+    task = compare_task(
+        episodes,
+        planners=["fim_a", "circle"],
+        ranges_fused={"ppo": [10, 11, 12, 13, 14]},
+        skipped={"other_team": "observations of size 21"},
+    )
     assert task["best_planner"] == "fim_a"
     d = task["policies"]["ppo"]["paired"]
     h = stats.t.ppf(0.975, 4) * eps.std(ddof=1) / np.sqrt(5)  # = 2.776 * 0.1581 / 2.236 = 0.196
@@ -153,11 +185,13 @@ def test_the_best_planner_is_the_lowest_mean_among_planners_only():
 # ------------------------------------------------------------------------------------
 # the command
 
+
 def test_a_tiny_run_of_the_command(tmp_path, capsys):
     out = tmp_path / "bench"
     t0 = time.perf_counter()
-    rc = benchmark.main(["--tasks", "gao_lawnmower", "--episodes", "2", "--set", "max_cycles=3", "--out", str(out),
-                         "--no-progress"])
+    rc = benchmark.main(
+        ["--tasks", "gao_lawnmower", "--episodes", "2", "--set", "max_cycles=3", "--out", str(out), "--no-progress"]
+    )
     assert rc == 0, capsys.readouterr().err
     assert time.perf_counter() - t0 < 30
     results = json.loads((out / "results.json").read_text())
@@ -187,14 +221,17 @@ def test_a_tiny_run_of_the_command(tmp_path, capsys):
     assert (out / "results.json").read_bytes() == before
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--tasks", "nope"], "unknown task set 'nope'"),
-    (["--tasks", "gao_sea", "--policies", "fim_x"], "policy 'fim_x' can drive no task"),
-    (["--tasks", "gao_sea", "--episodes", "1"], "--episodes must be in [2,"),
-    (["--tasks", "gao_sea", "--set", "bogus=1"], "unknown scenario parameter"),
-    (["--policies", "ppo"], "--tasks is required"),
-    (["--tasks", "gao_sea", "--bogus"], "unrecognized arguments"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--tasks", "nope"], "unknown task set 'nope'"),
+        (["--tasks", "gao_sea", "--policies", "fim_x"], "policy 'fim_x' can drive no task"),
+        (["--tasks", "gao_sea", "--episodes", "1"], "--episodes must be in [2,"),
+        (["--tasks", "gao_sea", "--set", "bogus=1"], "unknown scenario parameter"),
+        (["--policies", "ppo"], "--tasks is required"),
+        (["--tasks", "gao_sea", "--bogus"], "unrecognized arguments"),
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, argv, message):
     out = tmp_path / "bench"
     assert benchmark.main(argv + ["--out", str(out)]) == 2
@@ -217,15 +254,32 @@ def test_ppo_without_a_shipped_policy_is_one_line(tmp_path, capsys, monkeypatch)
 
 def test_the_markdown_of_a_run_with_a_skipped_policy():
     task = compare_task({"fim_a": [1.0, 1.2], "ppo": None}, ["fim_a"], skipped={"ppo": "cannot drive"})
-    results = {"benchmark_version": 1, "official": True, "not_official_because": [], "command": "x",
-               "episodes": 2, "seeds": {"first": TEST_SEED}, "versions": {"git_commit": "abc"},
-               "task_sets": {"s": {"scenario": "gao_sea", "about": "a", "planners": ["fim_a"], "floors": [],
-                                   "challengers": ["ppo"], "columns": ["fim_a", "ppo"], "trained_policies": {},
-                                   "tasks": {"t": task}, "summary": summarize_task_set({"t": task}, ["fim_a", "ppo"])}}}
+    results = {
+        "benchmark_version": 1,
+        "official": True,
+        "not_official_because": [],
+        "command": "x",
+        "episodes": 2,
+        "seeds": {"first": TEST_SEED},
+        "versions": {"git_commit": "abc"},
+        "task_sets": {
+            "s": {
+                "scenario": "gao_sea",
+                "about": "a",
+                "planners": ["fim_a"],
+                "floors": [],
+                "challengers": ["ppo"],
+                "columns": ["fim_a", "ppo"],
+                "trained_policies": {},
+                "tasks": {"t": task},
+                "summary": summarize_task_set({"t": task}, ["fim_a", "ppo"]),
+            }
+        },
+    }
     md = render_markdown(results)
     assert "Not a benchmark result" not in md and "| t | fim_a | best | n/a | - |" in md
     assert "`ppo`: cannot drive" in md
-    assert seeds.TEST_SEED_COUNT == len(TEST_SEEDS)
+    assert len(TEST_SEEDS) == seeds.TEST_SEED_COUNT
 
 
 def test_the_docs_list_every_task():

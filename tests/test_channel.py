@@ -37,6 +37,7 @@ def timeline(positions, starts, durations, velocities=None, max_range_m=1500.0):
 # --------------------------------------------------------------------------------------
 # physics against hand-computed timelines
 
+
 def test_packet_duration_is_bits_over_bit_rate():
     assert packet_duration_s(64, 80.0) == 0.8
     assert packet_duration_s(128, 80.0) == 1.6
@@ -84,8 +85,9 @@ def test_a_receiver_that_transmits_while_a_packet_arrives_loses_it():
 
 
 def test_out_of_range_packets_are_neither_heard_nor_harmful():
-    arrival, delivered, collided, _ = timeline([(150, 0), (-2000, 0), (0, 0)], [0.0, 0.0, None], [0.8, 0.8, 1.6],
-                                               max_range_m=1500.0)
+    arrival, delivered, collided, _ = timeline(
+        [(150, 0), (-2000, 0), (0, 0)], [0.0, 0.0, None], [0.8, 0.8, 1.6], max_range_m=1500.0
+    )
     assert np.isnan(arrival[0, 1, 2]) and not delivered[0, 1, 2]
     assert delivered[0, 0, 2] and not collided[0, 0, 2]
 
@@ -97,13 +99,15 @@ def test_the_time_of_flight_follows_the_moving_receiver():
     tau = arrival[0, 0, 1] - 0.5
     r = np.array([501.0, 0.5, 0.0]) + np.array([2.0, 1.0, 0.0]) * tau
     np.testing.assert_allclose(np.linalg.norm(r) / C0, tau, rtol=1e-12)
-    assert tau == pytest.approx(travel_time(np.zeros(3), np.array([501.0, 0.5, 0.0]), np.array([2.0, 1.0, 0.0]), C0),
-                                rel=1e-12)
+    assert tau == pytest.approx(
+        travel_time(np.zeros(3), np.array([501.0, 0.5, 0.0]), np.array([2.0, 1.0, 0.0]), C0), rel=1e-12
+    )
     assert tau > 501.0 / C0  # it flies away from the sender
 
 
 # --------------------------------------------------------------------------------------
 # the simulator in channel_mode="decide"
+
 
 def _decide_sim(B=2, **kw):
     sim = make_simulator(coopnav_env.make_config("sousa_ping", **kw), B)
@@ -167,8 +171,9 @@ def test_the_ping_price_enters_the_reward():
     assert sim.reward_weights["ping"] == -0.3 and TERM_WEIGHTS["ping"] == "ping_penalty"
     res = sim.step(_actions(2, [True, False]))
     np.testing.assert_allclose(res.reward, weighted_reward(res.terms, sim.reward_weights), atol=1e-12)
-    assert res.reward[0, 0] == pytest.approx(res.reward[0, 1] - 0.3 - 0.2 * res.terms["contact"][0, 0]
-                                             + 0.2 * res.terms["contact"][0, 1])
+    assert res.reward[0, 0] == pytest.approx(
+        res.reward[0, 1] - 0.3 - 0.2 * res.terms["contact"][0, 0] + 0.2 * res.terms["contact"][0, 1]
+    )
 
 
 def test_decide_mode_is_refused_where_it_cannot_work():
@@ -182,6 +187,7 @@ def test_decide_mode_is_refused_where_it_cannot_work():
 
 # --------------------------------------------------------------------------------------
 # the existing scenarios: unchanged bit for bit (arrays recorded before the channel existed)
+
 
 def test_default_scenarios_are_unchanged():
     """The fixed-clock scenarios replay the episodes recorded before the channel existed,
@@ -211,6 +217,7 @@ def test_clock_scenarios_keep_their_spaces_terms_and_infos(name):
 # --------------------------------------------------------------------------------------
 # the new scenario through the views and the contracts
 
+
 def test_decide_action_space_and_action_check():
     env = coopnav_env.parallel_env("sousa_ping")
     assert env.action_space("beacon_1").shape == (3,) and action_space(env.sim).shape == (3,)
@@ -238,8 +245,11 @@ def test_sousa_ping_runs_through_the_protocol():
     sim = make_simulator(config, 3)
     assert isinstance(sim, BatchedSimulator)
     sim.reset(np.arange(3) + 40)
-    assert tuple(sim.reset_beacon_info()) == tuple(sim.beacon_info_keys) == (
-        "beacon_error_m", "pings", "collisions", "energy_J")
+    assert (
+        tuple(sim.reset_beacon_info())
+        == tuple(sim.beacon_info_keys)
+        == ("beacon_error_m", "pings", "collisions", "energy_J")
+    )
     # the protocol checks of every scenario (shapes, the reward as the weighted sum of
     # indicator terms, infos) run on sousa_ping in tests/test_contract.py; here what the
     # channel adds: the ping term and the channel's beacon infos
@@ -287,6 +297,7 @@ def test_vecenv_takes_three_component_actions():
 # --------------------------------------------------------------------------------------
 # the transmit schedules
 
+
 def _episode(name, seed=3, cycles=24):
     from baselines import make_policy
 
@@ -320,8 +331,9 @@ def test_schedules_are_refused_on_the_fixed_clock():
         make_policy("fim_a+tdma", "sousa_asv")
     with pytest.raises(ValueError, match="valid schedules"):
         make_policy("fim_a+aloha", "sousa_ping")
-    assert make_policy("fim_a", "sousa_asv").act(np.zeros(coopnav_env.parallel_env("sousa_asv").sim.obs_dim,
-                                                         np.float32)).shape == (2,)
+    assert make_policy("fim_a", "sousa_asv").act(
+        np.zeros(coopnav_env.parallel_env("sousa_asv").sim.obs_dim, np.float32)
+    ).shape == (2,)
 
 
 def test_event_gain_by_hand():
@@ -336,5 +348,5 @@ def test_event_gain_by_hand():
     view.own_std_m = np.float64(0.5)
     q = config.process_noise_horizontal_m2ps * (5.0 + 5.0)
     h = np.array([0.6, 0.8])
-    expected = np.log1p(h @ (np.diag([4.0, 1.0]) + q * np.eye(2)) @ h / (config.range_noise_std_m ** 2 + 0.25))
+    expected = np.log1p(h @ (np.diag([4.0, 1.0]) + q * np.eye(2)) @ h / (config.range_noise_std_m**2 + 0.25))
     assert predicted_gain_nats(view, config) == pytest.approx(expected)

@@ -8,8 +8,15 @@ import numpy as np
 import pytest
 
 import coopnav_env
-from coopnav_env.scenarios.base import (SECTIONS, ScenarioConfig, bounds, default_of, make_config, parameter_names,
-                                        section_of)
+from coopnav_env.scenarios.base import (
+    SECTIONS,
+    ScenarioConfig,
+    bounds,
+    default_of,
+    make_config,
+    parameter_names,
+    section_of,
+)
 from coopnav_env.scenarios.sections import Timing
 
 
@@ -45,14 +52,17 @@ def test_absent_sections_are_none_and_not_shown():
 
 
 def test_a_parameter_of_an_absent_section_is_one_clear_error():
-    with pytest.raises(ValueError, match=r"^scenario parameter baseline_target_m belongs to section 'moving', which "
-                                         r"applies only with network='moving_lbl'; this scenario has "
-                                         r"network='survey_beacons'$"):
+    with pytest.raises(
+        ValueError,
+        match=r"^scenario parameter baseline_target_m belongs to section 'moving', which "
+        r"applies only with network='moving_lbl'; this scenario has "
+        r"network='survey_beacons'$",
+    ):
         make_config("gao_sea", baseline_target_m=50.0)
-    with pytest.raises(ValueError, match="tdma_frame_slots belongs to section 'channel'.*channel_mode='decide'"):
+    with pytest.raises(ValueError, match=r"tdma_frame_slots belongs to section 'channel'.*channel_mode='decide'"):
         make_config("sousa_asv", tdma_frame_slots=2)
-    with pytest.raises(AttributeError, match="no parameter river_width_m.*section 'river'"):
-        make_config("gao_sea").river_width_m
+    with pytest.raises(AttributeError, match=r"no parameter river_width_m.*section 'river'"):
+        make_config("gao_sea").river_width_m  # noqa: B018 - the attribute access is what must raise
     assert not hasattr(make_config("gao_sea"), "mls_max_range_m")
     # the switch and the section's parameters together are fine
     c = make_config("sousa_asv", channel_mode="decide", tdma_frame_slots=2)
@@ -73,8 +83,13 @@ def test_unknown_names_suggest_the_closest():
 
 
 def test_numpy_scalars_and_lists_are_coerced():
-    c = make_config("gao_sea", max_cycles=np.int64(7), ping_interval_s=np.float32(10.0),
-                    randomize_depth_m=[1.0, 5.0], survey_area_m=[100.0, 100.0])
+    c = make_config(
+        "gao_sea",
+        max_cycles=np.int64(7),
+        ping_interval_s=np.float32(10.0),
+        randomize_depth_m=[1.0, 5.0],
+        survey_area_m=[100.0, 100.0],
+    )
     assert type(c.max_cycles) is int and type(c.ping_interval_s) is float
     assert c.randomize_depth_m == (1.0, 5.0) and c.survey_area_m == (100.0, 100.0)
 

@@ -11,8 +11,15 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from coopnav_env.core.consider import (beacon_reset, carry_cross_covariance, ci_range_update, ci_trace,
-                                       consider_predict, covariance_intersection, schmidt_range_update)
+from coopnav_env.core.consider import (
+    beacon_reset,
+    carry_cross_covariance,
+    ci_range_update,
+    ci_trace,
+    consider_predict,
+    covariance_intersection,
+    schmidt_range_update,
+)
 from coopnav_env.core.navigation import joseph_update, range_prediction
 from coopnav_env.core.recovery import RangeWindow, WindowNoise, window_fix
 
@@ -41,7 +48,7 @@ def test_schmidt_update_matches_the_augmented_numpy_reference(nb):
         Pa = _spd(rng, 3 + nb, 4.0)
         P, Pxb, Pbb = Pa[:3, :3].copy(), Pa[:3, 3:].copy(), Pa[3:, 3:].copy()
         x = rng.normal(size=3) * 10
-        h, H = range_prediction(x, np.zeros(3), np.zeros(1), rng.normal(size=3) * 200)
+        _h, H = range_prediction(x, np.zeros(3), np.zeros(1), rng.normal(size=3) * 200)
         y, R = rng.normal() * 3, 0.5 + rng.random()
         xr, Pr, Pxbr, S = _schmidt_reference(x, P, Pxb, Pbb, y, H, R)
         K = np.zeros(3)
@@ -90,7 +97,7 @@ def test_other_beacons_cross_covariance_is_the_augmented_joseph_update():
     Pa += 20 * np.eye(7)  # still positive definite with the beacons made independent
     P, Pxb1, Pxb2, Pbb1 = Pa[:3, :3].copy(), Pa[:3, 3:5].copy(), Pa[:3, 5:7].copy(), Pa[3:5, 3:5].copy()
     x = np.array([5.0, -3.0, 40.0])
-    h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([250.0, 100.0, 5.0]))
+    _h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([250.0, 100.0, 5.0]))
     Ha = np.concatenate([H, -H[:2], np.zeros(2)])
     S = Ha @ Pa @ Ha + 0.8
     Ka = np.zeros(7)
@@ -145,7 +152,7 @@ def test_range_ci_is_the_information_form_at_the_best_omega(use_det):
     for _ in range(10):
         P = _spd(rng, 3, 10.0)
         x = rng.normal(size=3)
-        h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([300.0, 50.0, 0.0]))
+        _h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([300.0, 50.0, 0.0]))
         y, R = 2.0, 1.0
         x1, P1 = x.copy(), P.copy()
         w = ci_range_update(x1, P1, y, H, R, use_det)
@@ -210,9 +217,11 @@ def test_monte_carlo_consistency_with_a_biased_beacon():
         exceed = np.mean(v > c_999)
         cycles_in = np.mean((v.mean(axis=0) >= lo) & (v.mean(axis=0) <= hi))
         stats[name] = (mean, inside, exceed, cycles_in)
-        print(f"\n{name:8s} NEES mean {mean:7.2f} (band {lo:.2f}-{hi:.2f}); last ping {v[:, -1].mean():7.2f}; "
-              f"run-cycles in [{c_lo:.3f}, {c_hi:.2f}]: {inside:.1%}; > chi2.999: {exceed:.2%}; "
-              f"cycles with the run-mean in band: {cycles_in:.0%}")
+        print(
+            f"\n{name:8s} NEES mean {mean:7.2f} (band {lo:.2f}-{hi:.2f}); last ping {v[:, -1].mean():7.2f}; "
+            f"run-cycles in [{c_lo:.3f}, {c_hi:.2f}]: {inside:.1%}; > chi2.999: {exceed:.2%}; "
+            f"cycles with the run-mean in band: {cycles_in:.0%}"
+        )
     assert stats["ekf"][0] > hi  # over-confident
     mean, inside, exceed, _ = stats["schmidt"]
     assert lo <= mean <= hi and inside >= 0.85 and exceed <= 3 * 0.001
@@ -229,7 +238,7 @@ def _old_reinit(x, P, y, Hxy, R):
     u, t = Hxy / g, np.array([-Hxy[1], Hxy[0]]) / g
     x += y * u / g
     across = t @ P @ t + y * y
-    P[:, :] = (R + y * y) / g ** 2 * np.outer(u, u) + across * np.outer(t, t)
+    P[:, :] = (R + y * y) / g**2 * np.outer(u, u) + across * np.outer(t, t)
 
 
 def _ekf_h(x, b, dz, z, P, R):
@@ -292,12 +301,21 @@ def test_window_refix_after_lockout_beats_the_nearest_point_restart():
     out = {}
     for name, v in res.items():
         v = np.array(v)
-        out[name] = (np.mean(v[:, 1] <= 9.0), v[:, 1].mean(), np.median(v[:, 0]), np.mean(v[:, 0]),
-                     np.percentile(v[:, 0], 95))
-        print(f"\n{name}: within 3 sigma {out[name][0]:.1%}; NEES mean {out[name][1]:.2f} (band {lo:.2f}-{hi:.2f}); "
-              f"error median {out[name][2]:.1f} m, mean {out[name][3]:.1f} m, 95th pct {out[name][4]:.1f} m")
-    print(f"cross-covariance with the beacon's bias: sample {np.round(cross[0] / TRIALS, 1).tolist()}, "
-          f"the fix's Pxb on average {np.round(cross[1] / TRIALS, 1).tolist()}")
+        out[name] = (
+            np.mean(v[:, 1] <= 9.0),
+            v[:, 1].mean(),
+            np.median(v[:, 0]),
+            np.mean(v[:, 0]),
+            np.percentile(v[:, 0], 95),
+        )
+        print(
+            f"\n{name}: within 3 sigma {out[name][0]:.1%}; NEES mean {out[name][1]:.2f} (band {lo:.2f}-{hi:.2f}); "
+            f"error median {out[name][2]:.1f} m, mean {out[name][3]:.1f} m, 95th pct {out[name][4]:.1f} m"
+        )
+    print(
+        f"cross-covariance with the beacon's bias: sample {np.round(cross[0] / TRIALS, 1).tolist()}, "
+        f"the fix's Pxb on average {np.round(cross[1] / TRIALS, 1).tolist()}"
+    )
     assert out["new"][0] >= 0.95 and lo <= out["new"][1] <= hi
     # the sample cross-covariance's standard error is about 10 m x 3 m / sqrt(500) = 1.3 m^2
     assert np.abs(cross[0] - cross[1]).max() / TRIALS < 3.0
@@ -370,8 +388,10 @@ def test_monte_carlo_two_beacons_random_walk_and_fixes():
     lo, hi = chi2.ppf([0.025, 0.975], 2 * runs) / runs
     c_lo, c_hi, c_999 = chi2.ppf([0.025, 0.975, 0.999], 2)
     for name, v in nees.items():
-        print(f"\ntwo beacons, {name:8s} NEES mean {v.mean():6.2f} (band {lo:.2f}-{hi:.2f}); run-cycles in band "
-              f"{np.mean((v >= c_lo) & (v <= c_hi)):.1%}; > chi2.999: {np.mean(v > c_999):.2%}")
+        print(
+            f"\ntwo beacons, {name:8s} NEES mean {v.mean():6.2f} (band {lo:.2f}-{hi:.2f}); run-cycles in band "
+            f"{np.mean((v >= c_lo) & (v <= c_hi)):.1%}; > chi2.999: {np.mean(v > c_999):.2%}"
+        )
     assert nees["ekf"].mean() > hi
     v = nees["schmidt"]
     assert lo <= v.mean() <= hi and np.mean((v >= c_lo) & (v <= c_hi)) >= 0.85 and np.mean(v > c_999) <= 0.003

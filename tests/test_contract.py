@@ -35,7 +35,7 @@ def test_every_scenario_runs_through_the_protocol(name):
     config, sim, results = _run(name)
     assert isinstance(sim, BatchedSimulator)
     B, N, S = sim.batch_size, sim.N, sim.S
-    assert (N, S) == (config.n_beacons, config.n_survey if config.network != "moving_lbl" else 1)
+    assert (config.n_beacons, config.n_survey if config.network != "moving_lbl" else 1) == (N, S)
     for res in results:
         assert isinstance(res, StepResult)
         assert res.obs.shape == (B, N, sim.obs_dim) and res.obs.dtype == np.float32
@@ -44,8 +44,9 @@ def test_every_scenario_runs_through_the_protocol(name):
         assert tuple(res.info) == tuple(sim.info_keys)
         assert all(v.shape[:2] == (B, S) for v in res.info.values())
         assert res.info["survey_error_en_m"].shape == (B, S, 2)
-        np.testing.assert_allclose(np.linalg.norm(res.info["survey_error_en_m"], axis=-1), res.info["survey_error_m"],
-                                   rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(
+            np.linalg.norm(res.info["survey_error_en_m"], axis=-1), res.info["survey_error_m"], rtol=1e-9, atol=1e-12
+        )
         assert tuple(res.beacon_info) == tuple(sim.beacon_info_keys)
         assert all(v.shape == (B, N) and np.all(v >= 0) for v in res.beacon_info.values())
         assert tuple(res.terms) == tuple(sim.reward_terms)
@@ -72,8 +73,9 @@ def test_every_scenario_runs_through_the_protocol(name):
     # east/north for the moving network) the same ellipse
     err = np.linalg.norm(snap.survey_est_m[..., :2] - snap.survey_true_m[..., :2], axis=-1)
     np.testing.assert_allclose(err, results[-1].info["survey_error_m"], rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(np.linalg.eigvalsh(snap.survey_cov_en_m2), np.linalg.eigvalsh(results[-1].info["survey_cov_en_m2"]),
-                               rtol=1e-9)
+    np.testing.assert_allclose(
+        np.linalg.eigvalsh(snap.survey_cov_en_m2), np.linalg.eigvalsh(results[-1].info["survey_cov_en_m2"]), rtol=1e-9
+    )
 
 
 @pytest.mark.parametrize("name", SCENARIOS)
@@ -118,8 +120,9 @@ def test_vecenv_reset_infos_have_the_step_keys():
 def test_survey_reward_terms_by_hand():
     """The survey network's terms against the snapshot's positions: 'too close' is a
     3-D distance under safety_distance_m, 'outside' a beacon beyond the fence."""
-    config = coopnav_env.make_config("gao_lawnmower", safety_penalty=2.0, geofence_penalty=3.0, contact_penalty=0.5,
-                                     safety_distance_m=30.0)
+    config = coopnav_env.make_config(
+        "gao_lawnmower", safety_penalty=2.0, geofence_penalty=3.0, contact_penalty=0.5, safety_distance_m=30.0
+    )
     sim = make_simulator(config, 1)
     sim.reset([3])
     st = sim.state
@@ -128,7 +131,9 @@ def test_survey_reward_terms_by_hand():
     snap = sim.snapshot()
     dist = np.linalg.norm(snap.beacon_true_m[0, 0] - snap.survey_true_m[0, 0])
     assert dist < 30.0 and res.terms["safety"][0, 0] == 1.0
-    expected = res.terms["info_gain"] - 2.0 * res.terms["safety"] - 3.0 * res.terms["geofence"] - 0.5 * res.terms["contact"]
+    expected = (
+        res.terms["info_gain"] - 2.0 * res.terms["safety"] - 3.0 * res.terms["geofence"] - 0.5 * res.terms["contact"]
+    )
     np.testing.assert_allclose(res.reward, expected, atol=1e-12)
     st.b_pos[0, 0, :2] = np.array(config.geofence_m[2:]) + 500.0
     res = sim.step(np.zeros((1, 1, 2)))
@@ -167,7 +172,7 @@ def _imports(name: str, path: Path, modules: dict) -> set:
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")
-                base = base[:len(base) - node.level + 1]
+                base = base[: len(base) - node.level + 1]
                 mod = ".".join(base + ([node.module] if node.module else []))
             else:
                 mod = node.module or ""
@@ -234,15 +239,22 @@ def test_no_import_cycles():
 
 def test_no_import_path_edits_in_tests_or_benchmarks():
     needle = "sys." + "path"  # spelled so that grep finds no edit here either
-    offenders = [str(p.relative_to(ROOT)) for d in ("tests", "benchmarks") for p in (ROOT / d).rglob("*.py")
-                 if needle in p.read_text()]
+    offenders = [
+        str(p.relative_to(ROOT))
+        for d in ("tests", "benchmarks")
+        for p in (ROOT / d).rglob("*.py")
+        if needle in p.read_text()
+    ]
     assert not offenders, offenders
 
 
 def test_evaluation_reads_no_simulator_internals():
     """The evaluation reads the step result and the snapshot, not ``sim.state``."""
-    offenders = [str(p.relative_to(ROOT)) for p in (ROOT / "evaluation").rglob("*.py")
-                 if ".state." in p.read_text() or "sim.state" in p.read_text()]
+    offenders = [
+        str(p.relative_to(ROOT))
+        for p in (ROOT / "evaluation").rglob("*.py")
+        if ".state." in p.read_text() or "sim.state" in p.read_text()
+    ]
     assert not offenders, offenders
 
 
@@ -263,5 +275,8 @@ def test_infos_let_anyone_check_the_filter(name):
         own = np.linalg.norm(snap.beacon_est_m[0, j, :2] - snap.beacon_true_m[0, j, :2])
         assert info["beacon_error_m"] == pytest.approx(own, rel=1e-9, abs=1e-12)
     if name != "matos_moving_lbl":  # east/north: the snapshot's estimate minus truth
-        np.testing.assert_allclose(np.array(infos["beacon_0"]["survey_error_en_m"]),
-                                   snap.survey_est_m[0, :, :2] - snap.survey_true_m[0, :, :2], atol=1e-9)
+        np.testing.assert_allclose(
+            np.array(infos["beacon_0"]["survey_error_en_m"]),
+            snap.survey_est_m[0, :, :2] - snap.survey_true_m[0, :, :2],
+            atol=1e-9,
+        )

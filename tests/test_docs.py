@@ -35,9 +35,10 @@ def test_parameter_reference_has_one_table_per_section_with_unit_range_and_doc(h
             if m["low"] is not None:  # every number shows its range
                 assert cells[4] == range_text(f), (f.name, cells)
     assert hook.unit_of("ping_interval_s") == "s" and hook.unit_of("current_speed_mps") == "m/s"
-    assert '`ping_interval_s` | float | `20.0` | s | (0, 3600] |' in page  # name, type, default, unit, range
+    assert "`ping_interval_s` | float | `20.0` | s | (0, 3600] |" in page  # name, type, default, unit, range
     assert set(parameter_names()) - {"name", "network"} == {
-        f.name for spec in SECTIONS for f in dataclasses.fields(spec.cls)}
+        f.name for spec in SECTIONS for f in dataclasses.fields(spec.cls)
+    }
 
 
 def test_scenarios_page_lists_every_registered_scenario_with_its_sections(hook):

@@ -51,7 +51,7 @@ def _recorded_sequence(B, n_steps, seed):
     steps = []
     beacon = g.uniform(-200, 200, size=(B, 3))
     beacon[:, 2] = 1.0
-    for k in range(n_steps):
+    for _ in range(n_steps):
         dx = g.normal(size=(B, 3)) * np.array([20.0, 20.0, 0.5])  # dead-reckoned motion R v tau
         x_true = x_true + dx + g.normal(size=(B, 3)) * np.array([1.0, 1.0, 0.1])
         q = g.uniform(0.1, 3.0, size=B)
@@ -98,8 +98,14 @@ def test_batched_ekf_matches_filterpy():
         for b, f in enumerate(filters):
             if not step["mask"][b]:
                 continue
-            f.update(np.array([[step["z"][b]]]), _hjac, _hx, R=np.array([[step["R"][b]]]),
-                     args=(step["beacon"][b],), hx_args=(step["beacon"][b],))
+            f.update(
+                np.array([[step["z"][b]]]),
+                _hjac,
+                _hx,
+                R=np.array([[step["R"][b]]]),
+                args=(step["beacon"][b],),
+                hx_args=(step["beacon"][b],),
+            )
             n_updates += 1
             # the innovation (eq. 10) and its variance (eq. 11) as well
             assert y[b] == pytest.approx(float(f.y[0, 0]), abs=1e-9)
@@ -128,7 +134,7 @@ def test_axis_measurement_matches_filterpy_linear_update():
             f = ExtendedKalmanFilter(dim_x=3, dim_z=1)
             f.x, f.P = x[b].reshape(3, 1).copy(), P[b].copy()
             e = np.eye(3)[axis][None, :]
-            f.update(np.array([[z[b]]]), lambda s: e, lambda s: s[axis:axis + 1], R=np.array([[r]]))
+            f.update(np.array([[z[b]]]), lambda s, e=e: e, lambda s, axis=axis: s[axis : axis + 1], R=np.array([[r]]))
             np.testing.assert_allclose(x_new[b], f.x[:, 0], atol=1e-9)
             np.testing.assert_allclose(P_new[b], f.P, atol=1e-9)
         x, P = x_new, P_new
@@ -163,7 +169,7 @@ def test_masked_row_is_unchanged():
     beacon = g.normal(size=(B, 3)) * 100
     z = np.linalg.norm(x - beacon, axis=1) + 5.0  # a big innovation, so an update would move x
     mask = np.array([True, False, True, False, False])
-    x_new, P_new, y, S = _coopnav_range_update(x, P, z, beacon, np.ones(B), mask)
+    x_new, P_new, y, _S = _coopnav_range_update(x, P, z, beacon, np.ones(B), mask)
     np.testing.assert_array_equal(x_new[~mask], x[~mask])
     np.testing.assert_array_equal(P_new[~mask], P[~mask])
     assert np.all(np.linalg.norm(x_new[mask] - x[mask], axis=1) > 0.1)
@@ -195,7 +201,9 @@ def test_range_model_multi_leg_and_jacobian():
     for i in range(3):
         dx = np.zeros(3)
         dx[i] = eps
-        fd = (navigation.range_model(x + dx, v, delays, beacon)[0] - navigation.range_model(x - dx, v, delays, beacon)[0]) / (2 * eps)
+        fd = (
+            navigation.range_model(x + dx, v, delays, beacon)[0] - navigation.range_model(x - dx, v, delays, beacon)[0]
+        ) / (2 * eps)
         np.testing.assert_allclose(H[:, i], fd, atol=1e-8)
     # one leg of zero delay is eq. (7)-(8)
     h1, H1 = navigation.range_model(x, v, np.zeros((B, 1)), beacon)
@@ -261,10 +269,16 @@ def _nees_summary(scenario="gao_lawnmower", **overrides):
     lo3, hi3 = chi2.ppf([0.025, 0.975], 3 * N_RUNS) / N_RUNS
     lo2, hi2 = chi2.ppf([0.025, 0.975], 2 * N_RUNS) / N_RUNS
     return dict(
-        cycles=int(full.sum()), episode_cycles=len(active),
-        band3=(lo3, hi3), mean3=float(m3.mean()), frac3=float(np.mean((m3 >= lo3) & (m3 <= hi3))),
-        band2=(lo2, hi2), mean2=float(m2.mean()), frac2=float(np.mean((m2 >= lo2) & (m2 <= hi2))),
-        per_cycle3=m3, per_cycle2=m2,
+        cycles=int(full.sum()),
+        episode_cycles=len(active),
+        band3=(lo3, hi3),
+        mean3=float(m3.mean()),
+        frac3=float(np.mean((m3 >= lo3) & (m3 <= hi3))),
+        band2=(lo2, hi2),
+        mean2=float(m2.mean()),
+        frac2=float(np.mean((m2 >= lo2) & (m2 <= hi2))),
+        per_cycle3=m3,
+        per_cycle2=m2,
     )
 
 
@@ -294,10 +308,19 @@ def test_nees_harness_on_a_matched_model():
     """
     sigma, T = 0.1, 20.0
     r = _nees_summary(
-        beacon_kinds=("asv",), survey_speed_scale_error_std=0.0, compass_bias_std_deg=0.0,
-        compass_noise_deg=0.0, attitude_noise_deg=0.0, current_speed_mps=0.0, current_speed_spread_mps=0.0,
-        current_gm_std_mps=sigma, current_gm_time_constant_s=0.01, outlier_probability=0.0,
-        temperature_uncertainty_c=0.0, clock_offset_std_s=0.0, clock_drift_ppm=0.0,
+        beacon_kinds=("asv",),
+        survey_speed_scale_error_std=0.0,
+        compass_bias_std_deg=0.0,
+        compass_noise_deg=0.0,
+        attitude_noise_deg=0.0,
+        current_speed_mps=0.0,
+        current_speed_spread_mps=0.0,
+        current_gm_std_mps=sigma,
+        current_gm_time_constant_s=0.01,
+        outlier_probability=0.0,
+        temperature_uncertainty_c=0.0,
+        clock_offset_std_s=0.0,
+        clock_drift_ppm=0.0,
         process_noise_horizontal_m2ps=(T * sigma) ** 2 / T,
     )
     report = _format(r)

@@ -26,25 +26,51 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 EVALUATE = [sys.executable, os.path.join(ROOT, "evaluate.py")]
 
 # a fast run (one batch per episode, so several batch files are written)
-FAST = ["--scenario", "gao_lawnmower", "--set", "max_cycles=12", "--policies", "static,fim_a", "--episodes", "3",
-        "--batch-size", "1", "--no-figures"]
+FAST = [
+    "--scenario",
+    "gao_lawnmower",
+    "--set",
+    "max_cycles=12",
+    "--policies",
+    "static,fim_a",
+    "--episodes",
+    "3",
+    "--batch-size",
+    "1",
+    "--no-figures",
+]
 # a run of a few seconds (episodes of ~240 steps), to be killed, interrupted or locked out
-LONG = ["--scenario", "sousa_asv", "--set", "max_cycles=200", "--policies", "static,fim_a", "--episodes", "3",
-        "--batch-size", "1", "--no-figures"]
+LONG = [
+    "--scenario",
+    "sousa_asv",
+    "--set",
+    "max_cycles=200",
+    "--policies",
+    "static,fim_a",
+    "--episodes",
+    "3",
+    "--batch-size",
+    "1",
+    "--no-figures",
+]
 
 
 def files(path) -> dict:
     """name -> bytes of every file in ``path`` (None if it does not exist)."""
     if not os.path.isdir(path):
         return None
-    return {n: open(os.path.join(path, n), "rb").read() for n in sorted(os.listdir(path))
-            if os.path.isfile(os.path.join(path, n))}
+    return {
+        n: open(os.path.join(path, n), "rb").read()
+        for n in sorted(os.listdir(path))
+        if os.path.isfile(os.path.join(path, n))
+    }
 
 
 def results(path) -> dict:
     """The result files that must not differ between a resumed and an uninterrupted run."""
-    return {n: open(os.path.join(path, n), "rb").read() for n in ("summary.json", "summary.md", "episodes.csv",
-                                                                   "steps.csv")}
+    return {
+        n: open(os.path.join(path, n), "rb").read() for n in ("summary.json", "summary.md", "episodes.csv", "steps.csv")
+    }
 
 
 def run_main(argv, capsys):
@@ -61,8 +87,9 @@ def _default_sigint():
 
 
 def start(argv):
-    return subprocess.Popen(EVALUATE + argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
-                            preexec_fn=_default_sigint)
+    return subprocess.Popen(
+        EVALUATE + argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT, preexec_fn=_default_sigint
+    )
 
 
 def wait_for(path, proc, timeout=60.0):
@@ -92,6 +119,7 @@ def long_ref(tmp_path_factory):
 
 # ------------------------------------------------------------------------------------
 # one run owns --out
+
 
 def test_a_second_writer_is_refused_and_the_first_run_is_intact(tmp_path, capsys, long_ref):
     out = str(tmp_path / "o")
@@ -130,8 +158,23 @@ def test_an_earlier_result_needs_resume_or_overwrite(tmp_path, capsys, fast_ref)
     code, _, err = run_main(FAST + ["--out", out], capsys)
     assert code == 2 and "unfinished evaluation" in err
     # --overwrite replaces it
-    code, _, err = run_main(["--scenario", "gao_lawnmower", "--set", "max_cycles=5", "--policies", "static",
-                             "--episodes", "2", "--out", out, "--overwrite", "--no-figures"], capsys)
+    code, _, err = run_main(
+        [
+            "--scenario",
+            "gao_lawnmower",
+            "--set",
+            "max_cycles=5",
+            "--policies",
+            "static",
+            "--episodes",
+            "2",
+            "--out",
+            out,
+            "--overwrite",
+            "--no-figures",
+        ],
+        capsys,
+    )
     assert code == 0, err
     run = json.loads(open(os.path.join(out, "run.json")).read())
     assert run["policies"] == ["static"] and run["episodes"] == 2 and run["overrides"] == {"max_cycles": 5}
@@ -142,6 +185,7 @@ def test_an_earlier_result_needs_resume_or_overwrite(tmp_path, capsys, fast_ref)
 
 # ------------------------------------------------------------------------------------
 # --resume keeps only what is complete, of the same run
+
 
 def test_a_noop_resume_changes_nothing(tmp_path, capsys, fast_ref):
     out = str(tmp_path / "o")
@@ -200,12 +244,15 @@ def test_garbled_episodes_csv_rows_are_run_again(tmp_path, capsys, fast_ref, dam
     assert results(out) == results(fast_ref)
 
 
-@pytest.mark.parametrize("argv,needle", [
-    (["--seed", "7"], "--seed"),
-    (["--set", "max_cycles=11"], "--set"),
-    (["--scenario", "gao_sea"], "--scenario"),
-    (["--sweep", "depth_m=5,20"], "--sweep"),
-])
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--seed", "7"], "--seed"),
+        (["--set", "max_cycles=11"], "--set"),
+        (["--scenario", "gao_sea"], "--scenario"),
+        (["--sweep", "depth_m=5,20"], "--sweep"),
+    ],
+)
 def test_resume_refuses_a_run_of_other_arguments(tmp_path, capsys, fast_ref, argv, needle):
     out = str(tmp_path / "o")
     shutil.copytree(fast_ref, out)
@@ -217,7 +264,7 @@ def test_resume_refuses_a_run_of_other_arguments(tmp_path, capsys, fast_ref, arg
         elif argv[i] == "--set":
             args[args.index("--set") + 1] = argv[i + 1]
         else:
-            args += argv[i:i + 2]
+            args += argv[i : i + 2]
     code, stdout, err = run_main(args + ["--out", out, "--resume"], capsys)
     assert code == 2 and stdout == ""
     assert len(err.strip().splitlines()) == 1 and "cannot resume" in err and needle in err, err
@@ -254,8 +301,23 @@ def test_resume_extends_policies_and_episodes_consistently(tmp_path, capsys, fas
     run = json.loads(open(os.path.join(out, "run.json")).read())
     assert run["policies"] == ["static", "fim_a"] and run["episodes"] == 3
     # fewer episodes, no --policies: nothing is dropped, nothing changes
-    code, _, err = run_main(["--scenario", "gao_lawnmower", "--set", "max_cycles=12", "--episodes", "1",
-                             "--batch-size", "1", "--no-figures", "--out", out, "--resume"], capsys)
+    code, _, err = run_main(
+        [
+            "--scenario",
+            "gao_lawnmower",
+            "--set",
+            "max_cycles=12",
+            "--episodes",
+            "1",
+            "--batch-size",
+            "1",
+            "--no-figures",
+            "--out",
+            out,
+            "--resume",
+        ],
+        capsys,
+    )
     assert code == 0, err
     assert results(out) == results(fast_ref)
 
@@ -284,6 +346,7 @@ def test_a_nan_is_an_error_naming_the_episode(tmp_path, capsys, monkeypatch):
 # ------------------------------------------------------------------------------------
 # bad input: one line, exit status 2, nothing written
 
+
 def _shipped(name):
     import agents
 
@@ -291,21 +354,33 @@ def _shipped(name):
         pytest.skip(f"{name} is not shipped")
 
 
-@pytest.mark.parametrize("argv,needle", [
-    (["--scenario", "sousa_asv", "--policies", "perpendicular"], "perpendicular"),
-    (["--scenario", "matos_moving_lbl", "--policies", "fim_a"], "fim_a"),
-    (["--seed", str(2**63)], "--seed"),
-    (["--seed", str(MAX_SEED)], "seed"),  # with 2 episodes the second seed is too large
-    (["--seed", "-1"], "--seed"),
-    (["--seed", "1.5"], "--seed"),
-    (["--seed", "seven"], "--seed"),
-    (["--episodes", "-2"], "--episodes"),
-    (["--resume", "--overwrite"], "--overwrite"),
-])
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--scenario", "sousa_asv", "--policies", "perpendicular"], "perpendicular"),
+        (["--scenario", "matos_moving_lbl", "--policies", "fim_a"], "fim_a"),
+        (["--seed", str(2**63)], "--seed"),
+        (["--seed", str(MAX_SEED)], "seed"),  # with 2 episodes the second seed is too large
+        (["--seed", "-1"], "--seed"),
+        (["--seed", "1.5"], "--seed"),
+        (["--seed", "seven"], "--seed"),
+        (["--episodes", "-2"], "--episodes"),
+        (["--resume", "--overwrite"], "--overwrite"),
+    ],
+)
 def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, capsys, argv, needle):
     out = tmp_path / "never"
-    base = ["--scenario", "gao_lawnmower", "--set", "max_cycles=3", "--policies", "static", "--episodes", "2",
-            "--no-figures"]
+    base = [
+        "--scenario",
+        "gao_lawnmower",
+        "--set",
+        "max_cycles=3",
+        "--policies",
+        "static",
+        "--episodes",
+        "2",
+        "--no-figures",
+    ]
     code, stdout, err = run_main(base + argv + ["--out", str(out)], capsys)
     assert code == 2 and stdout == ""
     assert len(err.strip().splitlines()) == 1 and needle in err, err
@@ -314,9 +389,24 @@ def test_bad_input_is_one_line_exit_2_nothing_written(tmp_path, capsys, argv, ne
 
 
 def test_the_largest_seed_runs(tmp_path, capsys):
-    code, _, err = run_main(["--scenario", "gao_lawnmower", "--set", "max_cycles=3", "--policies", "static,random",
-                             "--episodes", "1", "--seed", str(MAX_SEED), "--no-figures", "--out",
-                             str(tmp_path / "o")], capsys)
+    code, _, err = run_main(
+        [
+            "--scenario",
+            "gao_lawnmower",
+            "--set",
+            "max_cycles=3",
+            "--policies",
+            "static,random",
+            "--episodes",
+            "1",
+            "--seed",
+            str(MAX_SEED),
+            "--no-figures",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+        capsys,
+    )
     assert code == 0, err
 
 
@@ -337,8 +427,21 @@ def test_ppo_on_a_scenario_without_a_shipped_policy(tmp_path, capsys, monkeypatc
 def test_a_model_that_does_not_fit_the_scenario(tmp_path, capsys):
     _shipped("ppo_swarm_mls")
     out = tmp_path / "never"
-    code, _, err = run_main(["--scenario", "gao_lawnmower", "--set", "max_cycles=3", "--policies",
-                             "static,ppo_swarm_mls", "--episodes", "1", "--out", str(out)], capsys)
+    code, _, err = run_main(
+        [
+            "--scenario",
+            "gao_lawnmower",
+            "--set",
+            "max_cycles=3",
+            "--policies",
+            "static,ppo_swarm_mls",
+            "--episodes",
+            "1",
+            "--out",
+            str(out),
+        ],
+        capsys,
+    )
     assert code == 2 and len(err.strip().splitlines()) == 1, err
     assert "ppo_swarm_mls" in err and "observations" in err and "Traceback" not in err
     assert not out.exists()
@@ -350,13 +453,26 @@ def test_a_corrupt_model(tmp_path, capsys):
 
     policy = tmp_path / "corrupt"
     shutil.copytree(os.path.join(agents.POLICY_DIR, "ppo_gao_sea"), policy)
-    models = [n for n in os.listdir(policy) if n.startswith("model.") or n.startswith("best_model.")]
+    models = [n for n in os.listdir(policy) if n.startswith(("model.", "best_model."))]
     assert models
     for n in models:
         (policy / n).write_bytes(b"this is no model")
     out = tmp_path / "never"
-    code, _, err = run_main(["--scenario", "gao_lawnmower", "--set", "max_cycles=3", "--policies", f"{policy},static",
-                             "--episodes", "1", "--out", str(out)], capsys)
+    code, _, err = run_main(
+        [
+            "--scenario",
+            "gao_lawnmower",
+            "--set",
+            "max_cycles=3",
+            "--policies",
+            f"{policy},static",
+            "--episodes",
+            "1",
+            "--out",
+            str(out),
+        ],
+        capsys,
+    )
     assert code == 2 and len(err.strip().splitlines()) == 1, err
     assert str(policy) in err and "Traceback" not in err
     assert not out.exists()
@@ -367,12 +483,12 @@ def test_bad_input_into_an_existing_result_changes_nothing(tmp_path, capsys, fas
     shutil.copytree(fast_ref, out)
     before = files(out)
     for argv in (["--policies", "static,perpendicular"], ["--seed", str(2**63)], ["--set", "max_cycles=0.5"]):
-        args = [a for a in FAST]
+        args = list(FAST)
         for i in range(0, len(argv), 2):
             if argv[i] in args:
                 args[args.index(argv[i]) + 1] = argv[i + 1]
             else:
-                args += argv[i:i + 2]
+                args += argv[i : i + 2]
         code, _, err = run_main(args + ["--out", out, "--resume"], capsys)
         assert code == 2 and len(err.strip().splitlines()) == 1, err
         assert files(out) == before
@@ -380,6 +496,7 @@ def test_bad_input_into_an_existing_result_changes_nothing(tmp_path, capsys, fas
 
 # ------------------------------------------------------------------------------------
 # interrupted runs: exit 130, the resume command, and an exact resume
+
 
 def _resume_argv(err: str) -> list:
     line = [ln for ln in err.splitlines() if "resume with: " in ln]
@@ -415,8 +532,9 @@ def _kill_and_resume(out, delays):
         time.sleep(delay)
         proc.kill()
         proc.communicate()
-    done = subprocess.run(EVALUATE + LONG + ["--out", out, "--resume"], capture_output=True, text=True, cwd=ROOT,
-                          timeout=180)
+    done = subprocess.run(
+        EVALUATE + LONG + ["--out", out, "--resume"], capture_output=True, text=True, cwd=ROOT, timeout=180
+    )
     assert done.returncode == 0, done.stderr
     return done
 
@@ -428,8 +546,9 @@ def test_resume_after_sigkill_after_the_first_batch_is_exact(tmp_path, long_ref)
     proc.kill()
     proc.communicate()
     assert not os.path.exists(os.path.join(out, "summary.json"))
-    done = subprocess.run(EVALUATE + LONG + ["--out", out, "--resume"], capture_output=True, text=True, cwd=ROOT,
-                          timeout=180)
+    done = subprocess.run(
+        EVALUATE + LONG + ["--out", out, "--resume"], capture_output=True, text=True, cwd=ROOT, timeout=180
+    )
     assert done.returncode == 0, done.stderr
     assert results(out) == results(long_ref)
 
@@ -453,12 +572,15 @@ def test_set_parses_tuples_of_names_and_checks_the_length_of_points(tmp_path, ca
     assert parse_value("survey_area_m", "100, 80") == (100.0, 80.0)
     assert parse_value("randomize_survey_path", "lawnmower,spiral") == ("lawnmower", "spiral")
     assert parse_value("randomize_depth_m", "3,20") == (3.0, 20.0)
-    code, _, err = run_main(["--scenario", "gao_sea", "--set", "survey_area_m=1,2,3", "--out",
-                             str(tmp_path / "never")], capsys)
+    code, _, err = run_main(
+        ["--scenario", "gao_sea", "--set", "survey_area_m=1,2,3", "--out", str(tmp_path / "never")], capsys
+    )
     assert code == 2 and err.strip() == "evaluate.py: error: survey_area_m takes 2 values, got 3", err
-    code, _, err = run_main(["--scenario", "gao_sea", "--set", "beacon_kinds=asv,,", "--out",
-                             str(tmp_path / "never")], capsys)
+    code, _, err = run_main(
+        ["--scenario", "gao_sea", "--set", "beacon_kinds=asv,,", "--out", str(tmp_path / "never")], capsys
+    )
     assert code == 2 and "bad value" in err and "beacon_kinds" in err and len(err.strip().splitlines()) == 1
-    code, _, err = run_main(["--scenario", "gao_sea", "--set", "beacon_kinds=asv,boat_x", "--out",
-                             str(tmp_path / "never")], capsys)
+    code, _, err = run_main(
+        ["--scenario", "gao_sea", "--set", "beacon_kinds=asv,boat_x", "--out", str(tmp_path / "never")], capsys
+    )
     assert code == 2 and "boat_x" in err and len(err.strip().splitlines()) == 1, err

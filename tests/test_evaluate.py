@@ -25,31 +25,57 @@ def rows(path):
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
     out = str(tmp_path_factory.mktemp("eval") / "run")
-    code = evaluate.main(TINY + ["--policies", "static,fim_a,random", "--episodes", "2", "--seed", "5",
-                                 "--out", out])
+    code = evaluate.main(TINY + ["--policies", "static,fim_a,random", "--episodes", "2", "--seed", "5", "--out", out])
     assert code == 0
     return out
 
 
 def test_outputs_and_columns(tiny_run):
-    for name in ("summary.json", "summary.md", "episodes.csv", "steps.csv", "run.json", "paths.png",
-                 "error_vs_time.png", "ellipse_axes.png"):
+    for name in (
+        "summary.json",
+        "summary.md",
+        "episodes.csv",
+        "steps.csv",
+        "run.json",
+        "paths.png",
+        "error_vs_time.png",
+        "ellipse_axes.png",
+    ):
         assert os.path.getsize(os.path.join(tiny_run, name)) > 0, name
     assert not [f for f in os.listdir(tiny_run) if f.endswith(".tmp")]
     with open(os.path.join(tiny_run, "summary.json")) as f:
         summary = json.load(f)
     assert summary["scenario"] == "gao_lawnmower" and summary["episodes"] == 2
     assert set(summary["policies"]) == {"static", "fim_a", "random"}
-    keys = {"mean_error_m", "median_error_m", "p95_error_m", "std_error_m", "ci95_error_m", "final_error_m",
-            "mean_return", "ranges_fused", "outliers_rejected", "beacon_distance_m"}
+    keys = {
+        "mean_error_m",
+        "median_error_m",
+        "p95_error_m",
+        "std_error_m",
+        "ci95_error_m",
+        "final_error_m",
+        "mean_return",
+        "ranges_fused",
+        "outliers_rejected",
+        "beacon_distance_m",
+    }
     for stats in summary["policies"].values():
         assert keys <= set(stats)
         lo, hi = stats["ci95_error_m"]
         assert lo <= stats["mean_error_m"] <= hi
     eps = rows(os.path.join(tiny_run, "episodes.csv"))
     assert len(eps) == 3 * 2
-    assert {"policy", "episode", "seed", "mean_error_m", "final_error_m", "return", "ranges_fused",
-            "outliers_rejected", "beacon_distance_m"} <= set(eps[0])
+    assert {
+        "policy",
+        "episode",
+        "seed",
+        "mean_error_m",
+        "final_error_m",
+        "return",
+        "ranges_fused",
+        "outliers_rejected",
+        "beacon_distance_m",
+    } <= set(eps[0])
     assert sorted({r["seed"] for r in eps}) == ["5", "6"]
     steps = rows(os.path.join(tiny_run, "steps.csv"))
     assert len(steps) == 3 * 2 * 3
@@ -70,16 +96,19 @@ def test_common_random_numbers(tiny_run):
 
 def test_resume_skips_done_episodes(tmp_path):
     out = str(tmp_path / "r")
-    assert evaluate.main(TINY + ["--policies", "static,ellipse", "--episodes", "2", "--out", out,
-                                 "--no-figures"]) == 0
+    assert evaluate.main(TINY + ["--policies", "static,ellipse", "--episodes", "2", "--out", out, "--no-figures"]) == 0
     before = rows(os.path.join(out, "episodes.csv"))
     # an interrupted run: the last episode of one policy is missing from the files
     with open(os.path.join(out, "episodes.csv")) as f:
         lines = f.readlines()
     with open(os.path.join(out, "episodes.csv"), "w") as f:
         f.writelines(lines[:-1])
-    assert evaluate.main(TINY + ["--policies", "static,ellipse", "--episodes", "3", "--out", out,
-                                 "--no-figures", "--resume"]) == 0
+    assert (
+        evaluate.main(
+            TINY + ["--policies", "static,ellipse", "--episodes", "3", "--out", out, "--no-figures", "--resume"]
+        )
+        == 0
+    )
     after = rows(os.path.join(out, "episodes.csv"))
     assert len(after) == 2 * 3
     keep = {(r["policy"], r["seed"]): r for r in after}
@@ -88,16 +117,32 @@ def test_resume_skips_done_episodes(tmp_path):
     steps = rows(os.path.join(out, "steps.csv"))
     assert len(steps) == 2 * 3 * 3
     # resuming into a run of another scenario is refused
-    code = evaluate.main(["--scenario", "sousa_asv", "--policies", "static", "--episodes", "1", "--out", out,
-                          "--resume"])
+    code = evaluate.main(
+        ["--scenario", "sousa_asv", "--policies", "static", "--episodes", "1", "--out", out, "--resume"]
+    )
     assert code == 2
 
 
 def test_sweep_writes_the_table_layout(tmp_path):
     out = str(tmp_path / "s")
-    code = evaluate.main(["--scenario", "sousa_asv", "--set", "max_cycles=2", "--policies", "fim_a,static",
-                          "--episodes", "1", "--sweep", "depth_m=1,50", "--sweep", "survey_path=stationary,circle",
-                          "--out", out])
+    code = evaluate.main(
+        [
+            "--scenario",
+            "sousa_asv",
+            "--set",
+            "max_cycles=2",
+            "--policies",
+            "fim_a,static",
+            "--episodes",
+            "1",
+            "--sweep",
+            "depth_m=1,50",
+            "--sweep",
+            "survey_path=stationary,circle",
+            "--out",
+            out,
+        ]
+    )
     assert code == 0
     summary = json.load(open(os.path.join(out, "summary.json")))
     assert len(summary["cells"]) == 4
@@ -110,17 +155,20 @@ def test_sweep_writes_the_table_layout(tmp_path):
     assert os.path.getsize(os.path.join(out, "sweep.png")) > 0
 
 
-@pytest.mark.parametrize("argv,needle", [
-    (["--policies", "static,nope"], "unknown policy 'nope'"),
-    (["--scenario", "atlantis"], "unknown scenario 'atlantis'"),
-    (["--sweep", "depth=1,5"], "depth"),
-    (["--sweep", "survey_path=stationary,zigzag"], "zigzag"),
-    (["--sweep", "depth_m=1,deep"], "deep"),
-    (["--set", "max_cycles=2.5"], "max_cycles"),
-    (["--set", "depth_m=-3"], "depth_m"),
-    (["--episodes", "0"], "--episodes"),
-    (["--bogus"], "unrecognized"),
-])
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--policies", "static,nope"], "unknown policy 'nope'"),
+        (["--scenario", "atlantis"], "unknown scenario 'atlantis'"),
+        (["--sweep", "depth=1,5"], "depth"),
+        (["--sweep", "survey_path=stationary,zigzag"], "zigzag"),
+        (["--sweep", "depth_m=1,deep"], "deep"),
+        (["--set", "max_cycles=2.5"], "max_cycles"),
+        (["--set", "depth_m=-3"], "depth_m"),
+        (["--episodes", "0"], "--episodes"),
+        (["--bogus"], "unrecognized"),
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, argv, needle):
     out = tmp_path / "never"
     code = evaluate.main(["--out", str(out)] + argv)
@@ -133,8 +181,12 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, argv, needle):
 def test_output_path_that_is_a_file(tmp_path):
     f = tmp_path / "file.txt"
     f.write_text("x")
-    proc = subprocess.run([sys.executable, os.path.join(ROOT, "evaluate.py"), "--out", str(f), "--episodes", "1"],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "evaluate.py"), "--out", str(f), "--episodes", "1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and "is a file" in proc.stderr
     assert proc.stdout == ""
@@ -147,17 +199,38 @@ def test_a_trained_run_directory_evaluates_beside_the_planners(tmp_path):
 
     from agents.training import cli as train
 
-    hp = {"n_envs": 2, "ppo": {"n_steps": 32, "batch_size": 64, "n_epochs": 1, "policy_kwargs": {"net_arch": [8]}},
-          "env": {"overrides": {"max_cycles": 4}}, "eval": {"every_steps": 10**9, "episodes": 1, "seed": 7, "baselines": []},
-          "checkpoint_every_steps": 10**9}
+    hp = {
+        "n_envs": 2,
+        "ppo": {"n_steps": 32, "batch_size": 64, "n_epochs": 1, "policy_kwargs": {"net_arch": [8]}},
+        "env": {"overrides": {"max_cycles": 4}},
+        "eval": {"every_steps": 10**9, "episodes": 1, "seed": 7, "baselines": []},
+        "checkpoint_every_steps": 10**9,
+    }
     cfg = tmp_path / "hp.yml"
     cfg.write_text(yaml.safe_dump(hp))
     run = tmp_path / "ppo_run"
-    assert train.main(["--scenario", "gao_lawnmower", "--timesteps", "64", "--seed", "1", "--out", str(run),
-                       "--config", str(cfg), "--no-progress"]) == 0
+    assert (
+        train.main(
+            [
+                "--scenario",
+                "gao_lawnmower",
+                "--timesteps",
+                "64",
+                "--seed",
+                "1",
+                "--out",
+                str(run),
+                "--config",
+                str(cfg),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     out = tmp_path / "eval"
-    code = evaluate.main(TINY + ["--policies", f"{run},static", "--episodes", "2", "--seed", "3", "--out", str(out),
-                                 "--no-figures"])
+    code = evaluate.main(
+        TINY + ["--policies", f"{run},static", "--episodes", "2", "--seed", "3", "--out", str(out), "--no-figures"]
+    )
     assert code == 0
     summary = json.loads((out / "summary.json").read_text())
     assert set(summary["policies"]) == {str(run), "static"}
@@ -170,10 +243,34 @@ def test_library_api_gives_what_the_command_line_gives(tmp_path):
     from evaluation import EvalConfig, run_evaluation
 
     cli_out, api_out = tmp_path / "cli", tmp_path / "api"
-    assert evaluate.main(["--scenario", "gao_lawnmower", "--policies", "fim_a,static", "--episodes", "2",
-                          "--set", "max_cycles=4", "--out", str(cli_out), "--no-figures"]) == 0
-    summary = run_evaluation(EvalConfig(scenario="gao_lawnmower", policies=("fim_a", "static"), episodes=2,
-                                        overrides={"max_cycles": 4}, out=str(api_out), figures=False))
+    assert (
+        evaluate.main(
+            [
+                "--scenario",
+                "gao_lawnmower",
+                "--policies",
+                "fim_a,static",
+                "--episodes",
+                "2",
+                "--set",
+                "max_cycles=4",
+                "--out",
+                str(cli_out),
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
+    summary = run_evaluation(
+        EvalConfig(
+            scenario="gao_lawnmower",
+            policies=("fim_a", "static"),
+            episodes=2,
+            overrides={"max_cycles": 4},
+            out=str(api_out),
+            figures=False,
+        )
+    )
     assert summary == json.loads((cli_out / "summary.json").read_text())
     assert summary == json.loads((api_out / "summary.json").read_text())
     assert (api_out / "steps.csv").read_text() == (cli_out / "steps.csv").read_text()
@@ -197,7 +294,7 @@ def test_eval_config_refuses_unknown_fields_naming_the_closest():
 
 
 def test_ppo_resolution_is_recorded(tmp_path):
-    """"ppo" on gao_lawnmower is the shipped ppo_gao_lawnmower: run.json's trained_policies and
+    """ "ppo" on gao_lawnmower is the shipped ppo_gao_lawnmower: run.json's trained_policies and
     summary.md say so; prepare checks that it drives the scenario and writes nothing."""
     from evaluation import EvalConfig, prepare
     from evaluation.report import trained_lines

@@ -61,8 +61,10 @@ def offenders() -> dict:
 
 def test_functions_are_short_and_take_few_parameters():
     bad = {k: v for k, v in offenders().items() if k not in PENDING}
-    assert not bad, (f"over {MAX_FUNCTION_LINES} lines or {MAX_PARAMETERS} parameters "
-                     f"((lines, parameters) each; pass a named record): {bad}")
+    assert not bad, (
+        f"over {MAX_FUNCTION_LINES} lines or {MAX_PARAMETERS} parameters "
+        f"((lines, parameters) each; pass a named record): {bad}"
+    )
 
 
 def test_pending_offenders_are_still_offenders():

@@ -41,8 +41,7 @@ def _episode(seed, reinit, speed_scale=1.18):
     """The kind of episode that decided the shallow lawnmower cells: sousa_asv at 1 m on
     the lawnmower with an 18 % speed-scale error (a 3.6-sigma draw at the default
     spread), fim_a driving the ASV."""
-    c = coopnav_env.make_config("sousa_asv", survey_path="lawnmower", depth_m=1.0,
-                                reinit_after_rejected_ranges=reinit)
+    c = coopnav_env.make_config("sousa_asv", survey_path="lawnmower", depth_m=1.0, reinit_after_rejected_ranges=reinit)
     sim = make_simulator(c, 1)
     obs = sim.reset([seed])
     sim.state.s_speed_scale[:] = speed_scale

@@ -58,8 +58,17 @@ def _exchange(vehicle, vel=(0, 0, 0), c=C, cn=C, jitter=None, lost=None, tau=0.0
     b1, b2 = np.zeros((B, 3)), np.array([[100.0, 0.0, 0.0]])
     jit = np.zeros((B, 7)) if jitter is None else np.array([jitter])
     lo = np.zeros((B, 7), dtype=bool) if lost is None else np.array([lost])
-    return lbl.exchange(lbl.Movers(v3, np.array([vel], dtype=float), b1, z, b2, z), np.array([c]), np.array([cn]), jit,
-                        np.zeros((B, 7)), lo, tau, react, 2.0)
+    return lbl.exchange(
+        lbl.Movers(v3, np.array([vel], dtype=float), b1, z, b2, z),
+        np.array([c]),
+        np.array([cn]),
+        jit,
+        np.zeros((B, 7)),
+        lo,
+        tau,
+        react,
+        2.0,
+    )
 
 
 def test_exchange_static_geometry_gives_the_true_distances():
@@ -177,9 +186,15 @@ def _run(config, B, seed0, actions_fn=None, policy="perpendicular"):
 
 # the boats following their commands exactly (the boat_* noise off), and the filter tuned to
 # them (the frame_q_* defaults of ScenarioConfig: phi and c nearly constant)
-PERFECT_BOATS = dict(boat_surge_noise_mps=0.0, boat_steering_noise_deg=0.0, boat_current_response=0.0,
-                     frame_q_position_m2ps=0.01, frame_q_orientation_rad2ps=1e-6, frame_q_current_m2ps3=1e-4,
-                     frame_q_baseline_m2ps=0.02)
+PERFECT_BOATS = dict(
+    boat_surge_noise_mps=0.0,
+    boat_steering_noise_deg=0.0,
+    boat_current_response=0.0,
+    frame_q_position_m2ps=0.01,
+    frame_q_orientation_rad2ps=1e-6,
+    frame_q_current_m2ps3=1e-4,
+    frame_q_baseline_m2ps=0.02,
+)
 
 # stated in the README: within 75 cycles (150 s) |phi error| < 4 deg. What is left is not
 # lag: the filter sees theta_compass - phi, so it estimates phi plus the compass bias
@@ -188,8 +203,13 @@ PHI_CONVERGENCE_CYCLES = 75
 
 
 def test_frame_orientation_converges_after_a_30_degree_error():
-    c = make_config("matos_moving_lbl", initial_frame_orientation_error_deg=30.0,
-                    initial_frame_orientation_std_deg=30.0, max_cycles=150, **PERFECT_BOATS)
+    c = make_config(
+        "matos_moving_lbl",
+        initial_frame_orientation_error_deg=30.0,
+        initial_frame_orientation_std_deg=30.0,
+        max_cycles=150,
+        **PERFECT_BOATS,
+    )
     out = _run(c, 8, 100)
     phi = np.abs(out["phi_error_deg"])
     assert np.mean(phi[0]) > 20.0  # 30 deg off plus the prior draw (std 30 deg)
@@ -212,10 +232,10 @@ def test_baseline_estimate_tracks_a_boat_speed_mismatch():
     out = _run(c, 6, 200, mismatch)
     l_err = out["baseline_error_m"]
     steps = np.flatnonzero(np.isfinite(l_err).all(1))
-    late = l_err[steps[len(steps) // 2:]]
+    late = l_err[steps[len(steps) // 2 :]]
     # the baseline grew by ~0.05 m/s x 600 s = 30 m; the random-walk model of l follows the
     # ramp with a lag of rate x T / K ~ 1.3 m (K ~ 0.075 at steady state), not 30 m
-    assert np.sqrt(np.mean(late ** 2)) < 2.0
+    assert np.sqrt(np.mean(late**2)) < 2.0
     assert np.abs(np.mean(late)) < 2.0
 
 
@@ -277,8 +297,20 @@ def test_evaluate_reports_moving_frame_errors(tmp_path):
     from evaluation.cli import main
 
     out = tmp_path / "ev"
-    rc = main(["--scenario", "matos_moving_lbl", "--policies", "perpendicular,static", "--episodes", "2",
-               "--set", "max_cycles=40", "--out", str(out)])
+    rc = main(
+        [
+            "--scenario",
+            "matos_moving_lbl",
+            "--policies",
+            "perpendicular,static",
+            "--episodes",
+            "2",
+            "--set",
+            "max_cycles=40",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     s = json.loads((out / "summary.json").read_text())
     for p in ("perpendicular", "static"):
@@ -334,8 +366,9 @@ def test_boat_speed_and_course_fluctuate_as_gauss_markov():
 
 
 def test_perfect_boats_follow_their_commands_and_the_current_response_adds_to_them():
-    c = make_config("matos_moving_lbl", boat_surge_noise_mps=0.0, boat_steering_noise_deg=0.0,
-                    current_speed_mps=0.4, max_cycles=20)
+    c = make_config(
+        "matos_moving_lbl", boat_surge_noise_mps=0.0, boat_steering_noise_deg=0.0, current_speed_mps=0.4, max_cycles=20
+    )
     B = 4
     for response in (0.0, c.boat_current_response, 1.0):
         sim = make_simulator(c.replace(boat_current_response=response), B)
@@ -359,8 +392,9 @@ def _frame_current(st, eps=1e-3):
     b1, b2, v = st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], st.s_pos[:, 0, :2]
     cur = st.current_mean + st.current_gm
     x0, y0, _, _ = lbl.world_to_frame(b1, b2, v)
-    x1, y1, _, _ = lbl.world_to_frame(b1 + eps * st.b_vel[:, 0, :2], b2 + eps * st.b_vel[:, 1, :2],
-                                      v + eps * np.stack([cur.real, cur.imag], -1))
+    x1, y1, _, _ = lbl.world_to_frame(
+        b1 + eps * st.b_vel[:, 0, :2], b2 + eps * st.b_vel[:, 1, :2], v + eps * np.stack([cur.real, cur.imag], -1)
+    )
     return (x1 - x0) / eps, (y1 - y0) / eps
 
 
@@ -378,8 +412,17 @@ def _nees_runs(B=100, seed0=0, **overrides):
         st = sim.state
         x, y, phi, length = lbl.world_to_frame(st.b_pos[:, 0, :2], st.b_pos[:, 1, :2], st.s_pos[:, 0, :2])
         cx, cy = _frame_current(st)
-        e = np.stack([st.f_E[:, 0] - x, st.f_E[:, 1] - y, np.angle(np.exp(1j * (st.f_E[:, 2] - phi))),
-                      st.f_E[:, 3] - cx, st.f_E[:, 4] - cy, st.f_E[:, 5] - length], -1)
+        e = np.stack(
+            [
+                st.f_E[:, 0] - x,
+                st.f_E[:, 1] - y,
+                np.angle(np.exp(1j * (st.f_E[:, 2] - phi))),
+                st.f_E[:, 3] - cx,
+                st.f_E[:, 4] - cy,
+                st.f_E[:, 5] - length,
+            ],
+            -1,
+        )
         nan = np.where(alive, 1.0, np.nan)
         n2.append(nan * np.einsum("bi,bi->b", e[:, :2], np.linalg.solve(st.f_P[:, :2, :2], e[:, :2, None])[..., 0]))
         n6.append(nan * np.einsum("bi,bi->b", e, np.linalg.solve(st.f_P, e[..., None])[..., 0]))

@@ -14,8 +14,17 @@ import pytest
 from benchmarks.mls_analytic_vs_signal import run_grid
 from benchmarks.mls_tank import headline_checks, run_sweep, statistics
 from coopnav_env.core.acoustics import mackenzie_sound_speed
-from coopnav_env.core.mls import (MLSConfig, MLSSensor, PeakTracker, Reflection, error_statistics,
-                                  estimate_from_delays, geometric_truth, mls_error_bounds, wrap_angle_rad)
+from coopnav_env.core.mls import (
+    MLSConfig,
+    MLSSensor,
+    PeakTracker,
+    Reflection,
+    error_statistics,
+    estimate_from_delays,
+    geometric_truth,
+    mls_error_bounds,
+    wrap_angle_rad,
+)
 
 D, L, V, FS = 0.3, 0.5, 1500.0, 96_000.0
 
@@ -49,9 +58,15 @@ def test_eqs_1_to_10_hand_computed():
     # r_11..r_22 = 1.0, 1.1, 1.2, 1.3 m: r_1 = sqrt(1.0825), r_2 = sqrt(1.5425) (eq. 8),
     # r = sqrt(1.25) (eq. 9); heading atan2(r1 sin th1 - r2 sin th2, r1 cos th1 - r2 cos th2)
     # = atan2(-1.398427, 0.022829) = -89.0646 deg (eq. 10).
-    m = estimate_from_delays([9.6, -13.576450198781712], [[64.0, 70.4], [76.8, 83.2]],
-                             hydrophone_base_m=D, projector_spacing_m=L, sound_speed_mps=V,
-                             sample_rate_hz=FS, estimator="paper")
+    m = estimate_from_delays(
+        [9.6, -13.576450198781712],
+        [[64.0, 70.4], [76.8, 83.2]],
+        hydrophone_base_m=D,
+        projector_spacing_m=L,
+        sound_speed_mps=V,
+        sample_rate_hz=FS,
+        estimator="paper",
+    )
     assert np.degrees(m.sub_azimuths_rad) == pytest.approx([-30.0, 45.0], abs=1e-9)
     assert math.degrees(m.azimuth_rad) == pytest.approx(7.5, abs=1e-9)
     assert m.sub_ranges_m == pytest.approx([1.0404326023342405, 1.241974234837422], abs=1e-12)
@@ -61,8 +76,15 @@ def test_eqs_1_to_10_hand_computed():
 
 def test_eq2_clips_beyond_endfire():
     # |delta| > d (noise near +-90 deg): the sub-azimuth saturates at -+90 deg, no NaN
-    m = estimate_from_delays([25.0, -25.0], [[64.0, 70.4], [76.8, 83.2]], hydrophone_base_m=D,
-                             projector_spacing_m=L, sound_speed_mps=V, sample_rate_hz=FS, estimator="paper")
+    m = estimate_from_delays(
+        [25.0, -25.0],
+        [[64.0, 70.4], [76.8, 83.2]],
+        hydrophone_base_m=D,
+        projector_spacing_m=L,
+        sound_speed_mps=V,
+        sample_rate_hz=FS,
+        estimator="paper",
+    )
     assert np.degrees(m.sub_azimuths_rad) == pytest.approx([-90.0, 90.0])
 
 
@@ -72,8 +94,14 @@ def test_paper_statistics_eqs_15_to_19():
 
 
 # --- geometry -----------------------------------------------------------------------
-POSES = [(1.0, 0.0, 150.0), (1.0, 40.0, 60.0), (2.0, -70.0, 10.0), (0.6, 10.0, 90.0), (3.0, 55.0, -120.0),
-         (1.5, -30.0, 180.0)]
+POSES = [
+    (1.0, 0.0, 150.0),
+    (1.0, 40.0, 60.0),
+    (2.0, -70.0, 10.0),
+    (0.6, 10.0, 90.0),
+    (3.0, 55.0, -120.0),
+    (1.5, -30.0, 180.0),
+]
 
 
 @pytest.mark.parametrize("pose", POSES)
@@ -108,8 +136,9 @@ def test_world_frame_poses(quiet):
     c, s = math.cos(psi), math.sin(psi)
     p_rel = np.array([1.7 * math.cos(math.radians(25.0)), 1.7 * math.sin(math.radians(25.0))])
     obs = np.array([100.0, -40.0])
-    m = quiet.ideal_measurement(obs + np.array([c * p_rel[0] - s * p_rel[1], s * p_rel[0] + c * p_rel[1]]),
-                                psi + math.radians(70.0), obs, psi)
+    m = quiet.ideal_measurement(
+        obs + np.array([c * p_rel[0] - s * p_rel[1], s * p_rel[0] + c * p_rel[1]]), psi + math.radians(70.0), obs, psi
+    )
     for a, b in zip(m[:3], rel[:3]):
         assert float(a) == pytest.approx(float(b), abs=1e-9)
 
@@ -123,7 +152,7 @@ def test_noise_free_signal_recovers_pose(quiet, pose):
     az, r, hd = geometric_truth(*args)
     assert abs(math.degrees(m.azimuth_rad - az)) < 0.3
     assert abs(float(m.range_m - r)) < 1.5e-3
-    assert abs(math.degrees(wrap_angle_rad(m.heading_rad - hd))) < 2.0     # grows as r / l
+    assert abs(math.degrees(wrap_angle_rad(m.heading_rad - hd))) < 2.0  # grows as r / l
     tdoa, toa = quiet.true_delays(*args)
     assert np.all(np.abs(m.tdoa_samples - tdoa) < 0.1) and np.all(np.abs(m.toa_samples - toa) < 0.1)
     # the peak locking is tabulated exactly
@@ -143,20 +172,25 @@ def test_sound_speed_from_mackenzie_and_its_error():
     m = s.ideal_measurement(*args)
     ratio = s.sound_speed_assumed_mps / s.sound_speed_true_mps
     assert float(m.range_m) == pytest.approx(3.0 * ratio, rel=1e-3)
-    assert float(m.range_m) - 3.0 > 0.03                       # ~+1.6 %: 15 vs 20 degC
+    assert float(m.range_m) - 3.0 > 0.03  # ~+1.6 %: 15 vs 20 degC
 
 
 def test_wall_reflection_arrives_on_the_image_path():
     # wall x = 2 m (normal east); sender at (1, 0) heading 0 (bow at 1.25 m), observer at the origin
-    s = MLSSensor(MLSConfig(snr_db_at_1m=math.inf, band_hz=None,
-                            reflection=Reflection("wall", 0.8, wall_point_m=(2.0, 0.0), wall_normal=(1.0, 0.0))))
+    s = MLSSensor(
+        MLSConfig(
+            snr_db_at_1m=math.inf,
+            band_hz=None,
+            reflection=Reflection("wall", 0.8, wall_point_m=(2.0, 0.0), wall_normal=(1.0, 0.0)),
+        )
+    )
     delays, amps = s._paths(np.array([1.0, 0.0]), 0.0, np.zeros(2), 0.0)
     # image of the bow projector at (2.75, 0); H1 at (0, 0.15)
     assert delays[0, 0, 1] == pytest.approx(math.hypot(2.75, 0.15) * FS / s.sound_speed_true_mps)
     assert amps[0, 0, 1] == pytest.approx(0.8 / math.hypot(2.75, 0.15))
     ch = s.synthesize(np.array([1.0, 0.0]), 0.0, np.zeros(2), 0.0, np.random.default_rng(0))
     mf = np.fft.irfft(np.fft.rfft(ch[0, 0]) * np.conj(np.fft.rfft(s.replica)), n=s.nfft)
-    direct, image = int(round(delays[0, 0, 0])), int(round(delays[0, 0, 1]))
+    direct, image = int(round(delays[0, 0, 0])), int(round(delays[0, 0, 1]))  # noqa: RUF046 - numpy 1.x rounds to a float
     assert mf[image] == pytest.approx(0.8 * 1.25 / math.hypot(2.75, 0.15) * mf[direct], rel=0.05)
 
 
@@ -165,13 +199,20 @@ def _jacobian_std(tdoa, toa, dtau, estimator="paper"):
     x0 = np.concatenate([tdoa, toa.ravel()])
 
     def f(x):
-        m = estimate_from_delays(x[:2], x[2:].reshape(2, 2), hydrophone_base_m=D, projector_spacing_m=L,
-                                 sound_speed_mps=V, sample_rate_hz=FS, estimator=estimator)
+        m = estimate_from_delays(
+            x[:2],
+            x[2:].reshape(2, 2),
+            hydrophone_base_m=D,
+            projector_spacing_m=L,
+            sound_speed_mps=V,
+            sample_rate_hz=FS,
+            estimator=estimator,
+        )
         return np.array([float(m.azimuth_rad), float(m.range_m), float(m.heading_rad)])
 
     h = 1e-4
     J = np.stack([(f(x0 + h * e) - f(x0 - h * e)) / (2 * h) for e in np.eye(6)], axis=1)
-    return np.sqrt((J ** 2) @ (np.full(6, dtau) ** 2))
+    return np.sqrt((J**2) @ (np.full(6, dtau) ** 2))
 
 
 @pytest.mark.parametrize("pose", [(3.0, 20.0, 70.0), (5.0, -50.0, 150.0), (4.0, 60.0, -30.0)])
@@ -179,24 +220,41 @@ def test_corrected_bounds_match_the_jacobian(pose):
     args = _pose(*pose)
     s = MLSSensor(MLSConfig(snr_db_at_1m=math.inf, estimator="paper", sample_rate_hz=FS))
     tdoa, toa = s.true_delays(*args)
-    m = estimate_from_delays(tdoa, toa, hydrophone_base_m=D, projector_spacing_m=L, sound_speed_mps=V,
-                             sample_rate_hz=FS, estimator="paper")
+    m = estimate_from_delays(
+        tdoa, toa, hydrophone_base_m=D, projector_spacing_m=L, sound_speed_mps=V, sample_rate_hz=FS, estimator="paper"
+    )
     dtau = 0.05
-    b = mls_error_bounds(m.sub_azimuths_rad, m.sub_ranges_m, m.range_m, hydrophone_base_m=D,
-                         projector_spacing_m=L, sound_speed_mps=V, sample_rate_hz=FS, tdoa_std_samples=dtau)
+    b = mls_error_bounds(
+        m.sub_azimuths_rad,
+        m.sub_ranges_m,
+        m.range_m,
+        hydrophone_base_m=D,
+        projector_spacing_m=L,
+        sound_speed_mps=V,
+        sample_rate_hz=FS,
+        tdoa_std_samples=dtau,
+    )
     assert np.array([float(x) for x in b]) == pytest.approx(_jacobian_std(tdoa, toa, dtau), rel=0.01)
-    printed = mls_error_bounds(m.sub_azimuths_rad, m.sub_ranges_m, m.range_m, hydrophone_base_m=D,
-                               projector_spacing_m=L, sound_speed_mps=V, sample_rate_hz=FS,
-                               tdoa_std_samples=dtau, as_printed=True)
-    assert float(printed[0]) == pytest.approx(float(b[0]))              # eq. (11) is right
-    assert float(printed[1]) == pytest.approx(4.0 * float(b[1]))        # eq. (12) is 4x too large
+    printed = mls_error_bounds(
+        m.sub_azimuths_rad,
+        m.sub_ranges_m,
+        m.range_m,
+        hydrophone_base_m=D,
+        projector_spacing_m=L,
+        sound_speed_mps=V,
+        sample_rate_hz=FS,
+        tdoa_std_samples=dtau,
+        as_printed=True,
+    )
+    assert float(printed[0]) == pytest.approx(float(b[0]))  # eq. (11) is right
+    assert float(printed[1]) == pytest.approx(4.0 * float(b[1]))  # eq. (12) is 4x too large
 
 
 def test_ideal_timing_bound_is_cramer_rao_for_a_flat_band():
     s = MLSSensor(MLSConfig(band_hz=None, snr_db_at_1m=10.0))
-    toa = np.full((2, 2), FS / s.sound_speed_true_mps)                 # 1 m: unit amplitude
+    toa = np.full((2, 2), FS / s.sound_speed_true_mps)  # 1 m: unit amplitude
     _, s_toa = s.timing_std_samples(toa, interpolation="ideal")
-    crb = math.sqrt(s.noise_sigma ** 2 * 3.0 / (math.pi ** 2 * s.n_chips))
+    crb = math.sqrt(s.noise_sigma**2 * 3.0 / (math.pi**2 * s.n_chips))
     assert float(s_toa[0, 0]) == pytest.approx(crb, rel=0.02)
 
 
@@ -209,12 +267,16 @@ def test_analytic_agrees_with_signal_level_on_a_small_grid():
 
 def test_signal_delays_spread_as_modelled(sensor):
     args = _pose(2.5, 35.0, -100.0)
-    tdoa, toa = sensor.true_delays(*args)
+    _tdoa, toa = sensor.true_delays(*args)
     s_tdoa, s_toa = sensor.timing_std_samples(toa)
     rng = np.random.default_rng(11)
     tracker = PeakTracker()
-    E = np.array([np.concatenate([m.tdoa_samples, m.toa_samples.ravel()])
-                  for m in (sensor.measure_signal(*args, rng=rng, tracker=tracker) for _ in range(150))])
+    E = np.array(
+        [
+            np.concatenate([m.tdoa_samples, m.toa_samples.ravel()])
+            for m in (sensor.measure_signal(*args, rng=rng, tracker=tracker) for _ in range(150))
+        ]
+    )
     ratio = E.std(axis=0) / np.concatenate([s_tdoa, s_toa.ravel()])
     assert np.all(np.abs(ratio - 1.0) < 0.25), ratio
 
@@ -235,15 +297,26 @@ def test_tank_sweep_analytic_mode_meets_the_headline_bounds():
 
 
 # --- bad input ----------------------------------------------------------------------
-@pytest.mark.parametrize("kw, name", [
-    (dict(sample_rate_hz=0.0), "sample_rate_hz"), (dict(sample_rate_hz=-96e3), "sample_rate_hz"),
-    (dict(hydrophone_base_m=0.0), "hydrophone_base_m"), (dict(projector_spacing_m=float("nan")), "projector_spacing_m"),
-    (dict(max_range_m=-1.0), "max_range_m"), (dict(mls_order=3), "mls_order"), (dict(mls_order=10.5), "mls_order"),
-    (dict(band_hz=(4e3, 60e3)), "band_hz"), (dict(band_hz=(5e3, 1e3)), "band_hz"), (dict(band_hz=3.0), "band_hz"),
-    (dict(snr_db_at_1m=float("nan")), "snr_db_at_1m"), (dict(depth_m=-1.0), "depth_m"),
-    (dict(sync_jitter_s=-1e-6), "sync_jitter_s"), (dict(estimator="magic"), "estimator"),
-    (dict(spline_halfwidth_samples=1), "spline_halfwidth_samples"),
-])
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        (dict(sample_rate_hz=0.0), "sample_rate_hz"),
+        (dict(sample_rate_hz=-96e3), "sample_rate_hz"),
+        (dict(hydrophone_base_m=0.0), "hydrophone_base_m"),
+        (dict(projector_spacing_m=float("nan")), "projector_spacing_m"),
+        (dict(max_range_m=-1.0), "max_range_m"),
+        (dict(mls_order=3), "mls_order"),
+        (dict(mls_order=10.5), "mls_order"),
+        (dict(band_hz=(4e3, 60e3)), "band_hz"),
+        (dict(band_hz=(5e3, 1e3)), "band_hz"),
+        (dict(band_hz=3.0), "band_hz"),
+        (dict(snr_db_at_1m=float("nan")), "snr_db_at_1m"),
+        (dict(depth_m=-1.0), "depth_m"),
+        (dict(sync_jitter_s=-1e-6), "sync_jitter_s"),
+        (dict(estimator="magic"), "estimator"),
+        (dict(spline_halfwidth_samples=1), "spline_halfwidth_samples"),
+    ],
+)
 def test_bad_config(kw, name):
     with pytest.raises(ValueError, match=name):
         MLSConfig(**kw)

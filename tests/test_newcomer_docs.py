@@ -65,7 +65,9 @@ def test_the_pages_commands_parse_and_name_real_things(page):
     scenarios = set(coopnav_env.list_scenarios())
     policies = set(baselines.list_policies()) | {"ppo"} | set(agents.list_policies())
     parsed = [p for p in map(_parse, _commands(PAGES[page].read_text())) if p is not None]
-    assert {kind for kind, _ in parsed} >= ({"evaluate", "train"} if page == "getting-started" else {"evaluate"}), parsed
+    assert {kind for kind, _ in parsed} >= ({"evaluate", "train"} if page == "getting-started" else {"evaluate"}), (
+        parsed
+    )
     for kind, args in parsed:
         if getattr(args, "scenario", None) is not None:
             assert args.scenario in scenarios, args.scenario
@@ -97,7 +99,7 @@ def test_ci_install_and_test_count_are_one_story():
 def test_the_times_table_is_one_story_and_names_its_command():
     guide = (ROOT / "docs" / "getting-started.md").read_text()
     readme = _flat((ROOT / "README.md").read_text())
-    table = guide[guide.index("## How long things take"):guide.index("## A first environment loop")]
+    table = guide[guide.index("## How long things take") : guide.index("## A first environment loop")]
     assert "python benchmarks/times.py" in table and "python benchmarks/times.py" in readme
     assert (ROOT / "benchmarks" / "times.py").is_file()
     for figure in ("3.5 min", "under 3 min", "4 min 29 s", "about 25 min", "36 min"):
@@ -116,8 +118,10 @@ def _times_items() -> dict:
 
 
 def test_the_promised_figures_are_in_the_docs():
-    for page, figure in (("getting-started.md", "figures/learning_curve.png"),
-                         ("benchmark.md", "figures/benchmark_gao_lawnmower.png")):
+    for page, figure in (
+        ("getting-started.md", "figures/learning_curve.png"),
+        ("benchmark.md", "figures/benchmark_gao_lawnmower.png"),
+    ):
         assert figure in (ROOT / "docs" / page).read_text(), (page, figure)
         assert (ROOT / "docs" / figure).is_file(), figure
 
@@ -141,10 +145,13 @@ def test_train_out_on_a_folder_that_is_not_a_run_does_not_suggest_resume(tmp_pat
     assert "--resume" not in str(err.value) and "not a train.py run" in str(err.value)
 
 
-@pytest.mark.parametrize("argv, hint", [
-    (["--scenario", "sousa_asx", "--policies", "fim_a"], "did you mean 'sousa_asv'?"),
-    (["--scenario", "sousa_asv", "--policies", "fim_c"], "did you mean 'fim_"),
-])
+@pytest.mark.parametrize(
+    "argv, hint",
+    [
+        (["--scenario", "sousa_asx", "--policies", "fim_a"], "did you mean 'sousa_asv'?"),
+        (["--scenario", "sousa_asv", "--policies", "fim_c"], "did you mean 'fim_"),
+    ],
+)
 def test_evaluate_suggests_the_closest_name(tmp_path, capsys, argv, hint):
     from evaluation.cli import main
 
@@ -153,10 +160,13 @@ def test_evaluate_suggests_the_closest_name(tmp_path, capsys, argv, hint):
     assert hint in err and len(err.strip().splitlines()) == 1, err
 
 
-@pytest.mark.parametrize("argv, hint", [
-    (["--tasks", "sousa_grd"], "did you mean 'sousa_grid'?"),
-    (["--tasks", "gao_sea", "--task", "calmm"], "did you mean 'calm'?"),
-])
+@pytest.mark.parametrize(
+    "argv, hint",
+    [
+        (["--tasks", "sousa_grd"], "did you mean 'sousa_grid'?"),
+        (["--tasks", "gao_sea", "--task", "calmm"], "did you mean 'calm'?"),
+    ],
+)
 def test_benchmark_suggests_the_closest_name(tmp_path, capsys, argv, hint):
     from evaluation.benchmark import main
 
@@ -183,8 +193,16 @@ def test_plot_redraws_a_learning_curve(tmp_path, capsys):
     run = tmp_path / "run"
     run.mkdir()
     (run / "config.yml").write_text("args: {scenario: sousa_asv, timesteps: 2048, seed: 0}\n")
-    rows = [{"num_timesteps": 1024 * k, "train_s": 3.0 * k, "wall_s": 4.0 * k, "survey_error_m": 2.0 / k,
-             "fim_a_survey_error_m": 1.2} for k in (1, 2)]
+    rows = [
+        {
+            "num_timesteps": 1024 * k,
+            "train_s": 3.0 * k,
+            "wall_s": 4.0 * k,
+            "survey_error_m": 2.0 / k,
+            "fim_a_survey_error_m": 1.2,
+        }
+        for k in (1, 2)
+    ]
     rows.append({"num_timesteps": 3072, "train_s": 9.0, "survey_error_m": 400.0})  # a blow-up, clipped
     (run / "evaluations.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
     (run / "baseline_eval.json").write_text(json.dumps({"fim_a": {"survey_error_m": 1.2, "per_cell": {}}}))
@@ -215,8 +233,19 @@ def test_benchmark_figure_from_results(tmp_path):
 
     errors = {"fim_a": [1.0, 1.2, 1.1], "ellipse": [1.3, 1.2, 1.4], "static": [9.0, 8.0, 10.0], "mine": [0.9, 1.0, 1.0]}
     task = {"overrides": {}, "about": "", **compare_task(errors, ["fim_a", "ellipse"])}
-    results = {"episodes": 3, "official": False, "task_sets": {"toy": {
-        "scenario": "gao_sea", "columns": list(errors), "planners": ["fim_a", "ellipse"], "floors": ["static"],
-        "challengers": ["mine"], "tasks": {"a": task, "b": task}}}}
+    results = {
+        "episodes": 3,
+        "official": False,
+        "task_sets": {
+            "toy": {
+                "scenario": "gao_sea",
+                "columns": list(errors),
+                "planners": ["fim_a", "ellipse"],
+                "floors": ["static"],
+                "challengers": ["mine"],
+                "tasks": {"a": task, "b": task},
+            }
+        },
+    }
     assert draw_benchmark(str(tmp_path), results) == ["benchmark_toy.png"]
     assert (tmp_path / "benchmark_toy.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

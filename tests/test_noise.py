@@ -32,10 +32,14 @@ def test_modem_range_variance_matches_the_simulated_ranges(two_way):
     zero = np.zeros(3)
     delays = np.zeros(2)
     true = np.linalg.norm(survey - beacon)
-    r = np.array([modem_range(survey, zero, beacon, zero, C, C, sigma / C, n, two_way, 0.015, 0.0, delays)
-                  for n in rng.standard_normal(N_DRAWS)])
+    r = np.array(
+        [
+            modem_range(survey, zero, beacon, zero, C, C, sigma / C, n, two_way, 0.015, 0.0, delays)
+            for n in rng.standard_normal(N_DRAWS)
+        ]
+    )
     R = modem_range_variance(sigma, two_way, 0.0, true, 0.0)
-    assert R == pytest.approx(sigma ** 2 / (2.0 if two_way else 1.0))
+    assert R == pytest.approx(sigma**2 / (2.0 if two_way else 1.0))  # noqa: SIM300 - R is the noise variance, not a constant
     lo, hi = _variance_bounds(R, N_DRAWS)
     assert lo < r.var(ddof=1) < hi
     assert abs(r.mean() - true) < 4 * np.sqrt(R / N_DRAWS)  # unbiased (static vehicles, exact sound speed)
@@ -58,9 +62,17 @@ def test_lbl_exchange_covariance_is_the_one_the_filter_uses():
     z = np.zeros((N_DRAWS, 3))
     b2 = np.tile([100.0, 0.0, 0.0], (N_DRAWS, 1))
     jit = sigma / C * rng.standard_normal((N_DRAWS, lbl.N_DETECTIONS))
-    ex = lbl.exchange(lbl.Movers(v3, z, z, z, b2, z), np.full(N_DRAWS, C), np.full(N_DRAWS, C), jit,
-                      np.zeros((N_DRAWS, lbl.N_DETECTIONS)), np.zeros((N_DRAWS, lbl.N_DETECTIONS), dtype=bool),
-                      0.01, 0.01, 2.0)
+    ex = lbl.exchange(
+        lbl.Movers(v3, z, z, z, b2, z),
+        np.full(N_DRAWS, C),
+        np.full(N_DRAWS, C),
+        jit,
+        np.zeros((N_DRAWS, lbl.N_DETECTIONS)),
+        np.zeros((N_DRAWS, lbl.N_DETECTIONS), dtype=bool),
+        0.01,
+        0.01,
+        2.0,
+    )
     cov = np.cov(np.stack([ex["d1"], ex["d2"], ex["l"]]))
     expect = exchange_covariance_m2(sigma)
     assert expect[0, 0] == pytest.approx(1.0)

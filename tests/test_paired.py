@@ -22,6 +22,6 @@ def test_pairing_removes_the_common_episode_effect():
     episode = rng.normal(0.0, 5.0, 50)
     a = episode + 1.0 + rng.normal(0, 0.01, 50)
     b = episode + 1.1 + rng.normal(0, 0.01, 50)
-    m, lo, hi = t_interval(a - b)
+    _m, lo, hi = t_interval(a - b)
     assert lo < -0.1 < hi and hi < 0
     assert t_interval([0.7]) == (0.7, 0.7, 0.7)

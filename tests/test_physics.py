@@ -79,8 +79,9 @@ def test_travel_time_tangential_receiver():
     # Moving at right angles to the line of sight: (c tau)^2 = d^2 + (v tau)^2,
     # so tau = d / sqrt(c^2 - v^2).
     d, v = 800.0, 3.0
-    tau = acoustics.travel_time_s(np.array([10.0, 20.0, 5.0]), np.array([10.0 + d, 20.0, 5.0]),
-                                  np.array([0.0, v, 0.0]), C)
+    tau = acoustics.travel_time_s(
+        np.array([10.0, 20.0, 5.0]), np.array([10.0 + d, 20.0, 5.0]), np.array([0.0, v, 0.0]), C
+    )
     assert float(tau) == pytest.approx(d / np.sqrt(C**2 - v**2), rel=1e-10)
 
 
@@ -126,8 +127,15 @@ def test_drag_constant_and_terminal_speed():
 
 
 def _ode_speed(u0, thrust, times):
-    sol = solve_ivp(lambda t, u: (thrust - K_DRAG * u * u) / MASS, (0.0, times[-1]), [u0],
-                    t_eval=times, method="DOP853", rtol=1e-12, atol=1e-12)
+    sol = solve_ivp(
+        lambda t, u: (thrust - K_DRAG * u * u) / MASS,
+        (0.0, times[-1]),
+        [u0],
+        t_eval=times,
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-12,
+    )
     assert sol.success
     return sol.y[0]
 
@@ -195,8 +203,7 @@ def test_forward_axis_hand_values():
     # bearing 0, level: due north
     np.testing.assert_allclose(dynamics.forward_axis(0.0, 0.0), [0.0, 1.0, 0.0], atol=1e-15)
     # bearing 180, 30 deg nose up: south and up (depth decreasing): (0, -cos30, -sin30)
-    np.testing.assert_allclose(dynamics.forward_axis(np.pi, np.radians(30.0)),
-                               [0.0, -np.sqrt(3) / 2, -0.5], atol=1e-15)
+    np.testing.assert_allclose(dynamics.forward_axis(np.pi, np.radians(30.0)), [0.0, -np.sqrt(3) / 2, -0.5], atol=1e-15)
     # heading east, rolled 90 deg starboard-down: the starboard axis points down and the
     # body's down axis points to port, which is north
     M = dynamics.body_to_nav_matrix(np.pi / 2, 0.0, np.pi / 2)
@@ -237,8 +244,9 @@ def test_turn_towards_limit_and_direction():
     assert int(np.argmax(np.abs(_bearing_diff(np.array(bearings), np.pi / 2)) < 1e-12)) == 16
     assert bearings[-1] == pytest.approx(np.pi / 2, abs=1e-12)
     # the short way round: from 10 deg to 350 deg turns anticlockwise (bearing decreases)
-    h2 = dynamics.turn_towards(dynamics.bearing_to_unit(np.radians(10.0)),
-                               dynamics.bearing_to_unit(np.radians(350.0)), np.radians(5.0))
+    h2 = dynamics.turn_towards(
+        dynamics.bearing_to_unit(np.radians(10.0)), dynamics.bearing_to_unit(np.radians(350.0)), np.radians(5.0)
+    )
     assert float(np.degrees(dynamics.unit_to_bearing(h2))) == pytest.approx(5.0, abs=1e-10)
     # zero desired vector: keep heading
     h3 = dynamics.turn_towards(dynamics.bearing_to_unit(1.0), 0j, 0.5)
@@ -254,8 +262,9 @@ def test_beacon_kernel_turns_at_the_limit_then_goes_straight():
     heading = np.array([[dynamics.bearing_to_unit(0.0)]])
     vel = np.zeros((1, 1, 3))
     turn = np.radians(30.0)
-    integrate_beacons(pos, heading, vel, np.array([[1.0 + 0.0j]]), np.array([np.cos(turn)]), np.array([np.sin(turn)]),
-                      5, 1.0)
+    integrate_beacons(
+        pos, heading, vel, np.array([[1.0 + 0.0j]]), np.array([np.cos(turn)]), np.array([np.sin(turn)]), 5, 1.0
+    )
     # hand sum: sin30+sin60+1+1+1 east, cos30+cos60+0+0+0 north
     assert pos[0, 0, 0] == pytest.approx(0.5 + np.sqrt(3) / 2 + 3.0, abs=1e-12)
     assert pos[0, 0, 1] == pytest.approx(np.sqrt(3) / 2 + 0.5, abs=1e-12)
@@ -304,8 +313,9 @@ def test_gauss_markov_stationary_variance():
     # lag-one correlation a = exp(-1/30) = 0.96722
     assert np.corrcoef(v_prev, v)[0, 1] == pytest.approx(a, abs=0.005)
     # complex values (east + 1j north, as the simulator uses) work per component
-    z = dynamics.gauss_markov_step(np.full(n_chain, 0.01 + 0.0j), dt, tau, std,
-                                   g.standard_normal(n_chain) + 1j * g.standard_normal(n_chain))
+    z = dynamics.gauss_markov_step(
+        np.full(n_chain, 0.01 + 0.0j), dt, tau, std, g.standard_normal(n_chain) + 1j * g.standard_normal(n_chain)
+    )
     assert np.mean(z.real) == pytest.approx(0.01 * a, abs=4 * std * np.sqrt(1 - a * a) / np.sqrt(n_chain))
     assert np.std(z.imag) == pytest.approx(std * np.sqrt(1 - a * a), rel=0.04)
 
@@ -326,10 +336,13 @@ def test_los_target_hand_geometry_tilted_segment():
     # W0 = (10, 20), W1 = (70, 100): length 100, direction t = (0.6, 0.8), normal n = (-0.8, 0.6).
     # V = W0 + 50 t + 10 n = (32, 66), so P = W0 + 50 t = (40, 60).
     w0, w1, v = 10 + 20j, 70 + 100j, 32 + 66j
-    cases = [(0.0, 70 + 100j), (1.0, 40 + 60j),
-             (0.25, 62.5 + 90j)]  # along 0.25*50 + 0.75*100 = 87.5 -> (10+52.5, 20+70)
+    cases = [
+        (0.0, 70 + 100j),
+        (1.0, 40 + 60j),
+        (0.25, 62.5 + 90j),
+    ]  # along 0.25*50 + 0.75*100 = 87.5 -> (10+52.5, 20+70)
     for alpha, q_expected in cases:
-        q, along, length = guidance.los_target(np.array([v]), np.array([w0]), np.array([w1]), alpha)
+        q, along, _length = guidance.los_target(np.array([v]), np.array([w0]), np.array([w1]), alpha)
         assert q[0] == pytest.approx(q_expected, abs=1e-12)
         assert along[0] == pytest.approx(50.0, abs=1e-12)
         # |W1 Q| = alpha |W1 P|
@@ -363,9 +376,13 @@ def test_build_path_lawnmower():
 # error ellipse and Fisher information
 # ----------------------------------------------------------------------------------
 def test_error_ellipse_hand_values():
-    P = np.array([[[9.0, 0.0], [0.0, 4.0]],  # major along east: 2*3 = 6, minor 2*2 = 4
-                  [[1.0, 0.0], [0.0, 4.0]],  # major along north
-                  [[2.0, 1.0], [1.0, 2.0]]])  # eigenvalues 3 (along NE, bearing 45 deg), 1
+    P = np.array(
+        [
+            [[9.0, 0.0], [0.0, 4.0]],  # major along east: 2*3 = 6, minor 2*2 = 4
+            [[1.0, 0.0], [0.0, 4.0]],  # major along north
+            [[2.0, 1.0], [1.0, 2.0]],
+        ]
+    )  # eigenvalues 3 (along NE, bearing 45 deg), 1
     major, minor, bearing = information.error_ellipse(P)
     np.testing.assert_allclose(major, [6.0, 4.0, 2 * np.sqrt(3.0)], atol=1e-12)
     np.testing.assert_allclose(minor, [4.0, 2.0, 2.0], atol=1e-12)
@@ -399,16 +416,23 @@ def test_fisher_information_right_angle_and_collinear():
     assert abs(float(information.det2(information.fisher_information(target, collinear, 1.0)))) < 1e-15
     # also at right angles along a diagonal, sigma 2: J = I/4, det 1/16
     diag = target + np.array([[10.0, 10.0, 0.0], [-5.0, 5.0, 0.0]])
-    assert float(information.det2(information.fisher_information(target, diag, 2.0))) == pytest.approx(1 / 16, abs=1e-15)
+    assert float(information.det2(information.fisher_information(target, diag, 2.0))) == pytest.approx(
+        1 / 16, abs=1e-15
+    )
 
 
 def test_fisher_information_slant_and_batch():
     # a beacon 3 m east and 4 m deeper than the target: u = (-0.6, 0, -0.8)
     target = np.zeros(3)
     beacon = np.array([[3.0, 0.0, 4.0]])
-    np.testing.assert_allclose(information.fisher_information(target, beacon, 1.0), [[0.36, 0.0], [0.0, 0.0]], atol=1e-15)
-    np.testing.assert_allclose(information.fisher_information(target, beacon, 2.0, horizontal=False),
-                               np.array([[0.36, 0, 0.48], [0, 0, 0], [0.48, 0, 0.64]]) / 4, atol=1e-15)
+    np.testing.assert_allclose(
+        information.fisher_information(target, beacon, 1.0), [[0.36, 0.0], [0.0, 0.0]], atol=1e-15
+    )
+    np.testing.assert_allclose(
+        information.fisher_information(target, beacon, 2.0, horizontal=False),
+        np.array([[0.36, 0, 0.48], [0, 0, 0], [0.48, 0, 0.64]]) / 4,
+        atol=1e-15,
+    )
     # batch (B, M, 3) with per-beacon sigmas
     targets = np.zeros((2, 3))
     beacons = np.array([[[1.0, 0, 0], [0, 1.0, 0]], [[1.0, 0, 0], [0, 1.0, 0]]])
@@ -449,8 +473,11 @@ def test_rng_row_equals_seed_alone():
     # a different stream, counter or seed gives different (uncorrelated) numbers
     keys = rng.env_keys(np.arange(200))
     a = rng.normal(keys, 1, np.zeros(200), (50,)).ravel()
-    for other in (rng.normal(keys, 2, np.zeros(200), (50,)), rng.normal(keys, 1, np.ones(200), (50,)),
-                  rng.normal(rng.env_keys(np.arange(200) + 200), 1, np.zeros(200), (50,))):
+    for other in (
+        rng.normal(keys, 2, np.zeros(200), (50,)),
+        rng.normal(keys, 1, np.ones(200), (50,)),
+        rng.normal(rng.env_keys(np.arange(200) + 200), 1, np.zeros(200), (50,)),
+    ):
         assert abs(np.corrcoef(a, other.ravel())[0, 1]) < 4 / np.sqrt(a.size)
 
 
@@ -464,7 +491,7 @@ def test_survey_kernel_dead_reckons_along_eq5_forward_axis():
     pos = np.array([[[0.0, 0.0, depth]]])
     est, dr = pos.copy(), pos.copy()
     waypoints = np.array([[[[0.0, 0.0, depth], [1000.0, 0.0, depth]]]])
-    u, thrust = 1.2, 1.2 ** 2 * 6.0  # cruising: thrust = k u^2 with k = 6
+    u, thrust = 1.2, 1.2**2 * 6.0  # cruising: thrust = k u^2 with k = 6
     bias, compass_noise, pitch_noise = np.radians(2.0), np.radians(0.7), np.radians(1.5)
     sv = SurveyView(pos=pos, est=est, P=np.zeros((1, 1, 3, 3)), dr=dr, heading=np.array([[1.0 + 0.0j]]),  # due east
                     wp_index=np.array([[1]]), done=np.array([[False]]), vel_true=np.zeros((1, 1, 3)),

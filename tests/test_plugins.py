@@ -48,15 +48,36 @@ def _speed(ctx):
 
 @pytest.fixture
 def toy_parts():
-    measurements.register_sensor("toy", LostRanges, draws=[("toy_u", "uniform", lambda S, N, K: (N, S))],
-                                 validate=_reject_twtt, doc="every range lost")
+    measurements.register_sensor(
+        "toy",
+        LostRanges,
+        draws=[("toy_u", "uniform", lambda S, N, K: (N, S))],
+        validate=_reject_twtt,
+        doc="every range lost",
+    )
     only_toy = {"acoustic_sensor": ("toy",)}  # the terms belong to the scenarios with the toy sensor
-    register_term("toy_speed", compute=_speed, networks=("survey_beacons",), modes=only_toy,
-                  doc="the beacon's speed over ground (m/s)")
-    register_term("toy_const", weight="geofence_penalty", penalty=True, compute=lambda ctx: 1.0,
-                  networks=("survey_beacons",), modes=only_toy, doc="1 every cycle")
-    register_term("toy_signal", kind="training", compute=lambda ctx: 2.0 * ctx.result.terms["toy_speed"],
-                  doc="twice the beacon's speed")
+    register_term(
+        "toy_speed",
+        compute=_speed,
+        networks=("survey_beacons",),
+        modes=only_toy,
+        doc="the beacon's speed over ground (m/s)",
+    )
+    register_term(
+        "toy_const",
+        weight="geofence_penalty",
+        penalty=True,
+        compute=lambda ctx: 1.0,
+        networks=("survey_beacons",),
+        modes=only_toy,
+        doc="1 every cycle",
+    )
+    register_term(
+        "toy_signal",
+        kind="training",
+        compute=lambda ctx: 2.0 * ctx.result.terms["toy_speed"],
+        doc="twice the beacon's speed",
+    )
     yield
     for name in ("toy_speed", "toy_const", "toy_signal"):
         unregister_term(name)
@@ -64,8 +85,9 @@ def toy_parts():
 
 
 def test_a_toy_sensor_and_toy_terms_run_through_the_survey_simulator(toy_parts):
-    config = coopnav_env.make_config("gao_lawnmower", acoustic_sensor="toy", geofence_penalty=0.25,
-                                     beacon_kinds=("beacon_auv", "asv"))
+    config = coopnav_env.make_config(
+        "gao_lawnmower", acoustic_sensor="toy", geofence_penalty=0.25, beacon_kinds=("beacon_auv", "asv")
+    )
     sim = make_simulator(config, B)
     assert sim.reward_terms == SURVEY_TERMS + ("toy_speed", "toy_const") == terms_for(config)
     assert sim.reward_weights["toy_speed"] == 1.0 and sim.reward_weights["toy_const"] == -0.25
@@ -87,8 +109,10 @@ def test_a_toy_sensor_and_toy_terms_run_through_the_survey_simulator(toy_parts):
     assert sim.sensor.draw_shapes == [(B, 2, 1)] * STEPS  # its own draws, (B, N, S)
     # the penalties (the training signal "penalties") count a registered penalty term
     assert "toy_const" in reward.PENALTY_TERMS and reward.TERM_WEIGHTS["toy_const"] == "geofence_penalty"
-    np.testing.assert_allclose(reward.penalties(res.terms, sim.reward_weights),
-                               0.25 * (res.terms["geofence"] + 1.0) + config.safety_penalty * res.terms["safety"])
+    np.testing.assert_allclose(
+        reward.penalties(res.terms, sim.reward_weights),
+        0.25 * (res.terms["geofence"] + 1.0) + config.safety_penalty * res.terms["safety"],
+    )
 
 
 def test_the_toy_sensor_keeps_the_shared_draws_and_reaches_every_view(toy_parts):
@@ -147,7 +171,7 @@ def test_nothing_is_left_registered_after_a_test():
     with pytest.raises(ValueError, match="unknown acoustic_sensor 'toy'; valid: modem, mls"):
         coopnav_env.make_config("gao_lawnmower", acoustic_sensor="toy")
     # the built-in registries match what the scenario validation accepts
-    assert base.CHANNEL_MODES == channel_model_names()
+    assert channel_model_names() == base.CHANNEL_MODES
     assert reward.SURVEY_TERMS == ("info_gain", "safety", "geofence", "contact")
     assert reward.CHANNEL_TERMS == reward.SURVEY_TERMS + ("ping",)
     assert reward.MOVING_NETWORK_TERMS == ("info_gain", "safety", "baseline", "approach", "rotation", "contact")

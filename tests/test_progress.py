@@ -58,8 +58,9 @@ def _run(args, tty: bool, cols: int = 100, timeout: float = 600.0):
         os.close(slave)
         fd = master
     else:
-        proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                env=_env(), cwd=ROOT)
+        proc = subprocess.Popen(
+            cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=_env(), cwd=ROOT
+        )
         fd = proc.stdout.fileno()
     try:
         while True:
@@ -117,16 +118,46 @@ def _check(rc, text, first, tty):
 
 @pytest.mark.parametrize("tty", [True, False], ids=["terminal", "pipe"])
 def test_evaluate_shows_progress(tmp_path, tty):
-    rc, text, first = _run(["evaluate.py", "--scenario", "gao_lawnmower", "--policies", "fim_a,static",
-                            "--episodes", "2", "--set", "max_cycles=20", "--no-figures", "--out",
-                            str(tmp_path / "ev")], tty)
+    rc, text, first = _run(
+        [
+            "evaluate.py",
+            "--scenario",
+            "gao_lawnmower",
+            "--policies",
+            "fim_a,static",
+            "--episodes",
+            "2",
+            "--set",
+            "max_cycles=20",
+            "--no-figures",
+            "--out",
+            str(tmp_path / "ev"),
+        ],
+        tty,
+    )
     _check(rc, text, first, tty)
     assert "fim_a" in text and "static" in text
 
 
 def test_evaluate_on_a_terminal_of_zero_columns_prints_lines(tmp_path):
-    rc, text, first = _run(["evaluate.py", "--scenario", "gao_lawnmower", "--policies", "fim_a", "--episodes", "2",
-                            "--set", "max_cycles=20", "--no-figures", "--out", str(tmp_path / "ev")], True, cols=0)
+    rc, text, _first = _run(
+        [
+            "evaluate.py",
+            "--scenario",
+            "gao_lawnmower",
+            "--policies",
+            "fim_a",
+            "--episodes",
+            "2",
+            "--set",
+            "max_cycles=20",
+            "--no-figures",
+            "--out",
+            str(tmp_path / "ev"),
+        ],
+        True,
+        cols=0,
+    )
     assert rc == 0, text[-3000:]
     text = text.replace("\r\n", "\n")
     assert re.search(r"^\[2/2 episode, [^\]]*\] done$", text, flags=re.M), text[-2000:]
@@ -135,8 +166,21 @@ def test_evaluate_on_a_terminal_of_zero_columns_prints_lines(tmp_path):
 @pytest.mark.parametrize("tty", [True, False], ids=["terminal", "pipe"])
 def test_benchmark_shows_progress_and_draws_its_figure(tmp_path, tty):
     out = tmp_path / "bench"
-    rc, text, first = _run(["-m", "evaluation.benchmark", "--task", "lake", "--episodes", "2", "--set",
-                            "max_cycles=20", "--out", str(out)], tty)
+    rc, text, first = _run(
+        [
+            "-m",
+            "evaluation.benchmark",
+            "--task",
+            "lake",
+            "--episodes",
+            "2",
+            "--set",
+            "max_cycles=20",
+            "--out",
+            str(out),
+        ],
+        tty,
+    )
     _check(rc, text, first, tty)
     if not tty:
         assert "gao_lawnmower/lake fim_a" in text  # a line per task and policy
@@ -150,8 +194,9 @@ def test_train_shows_stages_and_a_bar_that_ends_at_its_total(tmp_path, tty):
     cfg = tmp_path / "tiny.yml"
     cfg.write_text(TINY_TRAIN)
     out = tmp_path / "run"
-    rc, text, first = _run(["train.py", "--scenario", "sousa_asv", "--timesteps", "1000", "--config", str(cfg),
-                            "--out", str(out)], tty)
+    rc, text, first = _run(
+        ["train.py", "--scenario", "sousa_asv", "--timesteps", "1000", "--config", str(cfg), "--out", str(out)], tty
+    )
     _check(rc, text, first, tty)
     for said in ("loading torch", "building 4 environments", "scoring the planners fim_a", "training: 1,024 steps"):
         assert said in text, said
@@ -164,8 +209,25 @@ def test_train_shows_stages_and_a_bar_that_ends_at_its_total(tmp_path, tty):
 def test_time_to_beat_shows_progress(tmp_path, tty):
     cfg = tmp_path / "tiny.yml"
     cfg.write_text(TINY_TRAIN)
-    rc, text, first = _run(["benchmarks/time_to_beat.py", "--config", str(cfg), "--seeds", "0", "--budget-s", "3",
-                            "--eval-every", "512", "--eval-episodes", "1", "--threads", "1", "--out",
-                            str(tmp_path / "ttb")], tty)
+    rc, text, first = _run(
+        [
+            "benchmarks/time_to_beat.py",
+            "--config",
+            str(cfg),
+            "--seeds",
+            "0",
+            "--budget-s",
+            "3",
+            "--eval-every",
+            "512",
+            "--eval-episodes",
+            "1",
+            "--threads",
+            "1",
+            "--out",
+            str(tmp_path / "ttb"),
+        ],
+        tty,
+    )
     _check(rc, text, first, tty)
     assert "seed 0: validation at" in text

@@ -7,8 +7,9 @@ import coopnav_env
 from coopnav_env import make_config
 from coopnav_env.core.sim import Simulator
 
-DR = dict(randomize_survey_path=("lawnmower", "circle"), randomize_depth_m=(1.0, 50.0),
-          randomize_noise_scale=(0.5, 2.0))
+DR = dict(
+    randomize_survey_path=("lawnmower", "circle"), randomize_depth_m=(1.0, 50.0), randomize_noise_scale=(0.5, 2.0)
+)
 
 
 def test_variants_cover_the_grid_and_follow_the_seed():
@@ -25,7 +26,7 @@ def test_variants_cover_the_grid_and_follow_the_seed():
     # a circle's waypoints lie on its circle, a lawnmower's on its tracks
     for b in range(64):
         kind = sim.variants[st.ep_variant[b]][0]
-        wp = st.s_waypoints[b, 0, :st.s_n_waypoints[b, 0], :2]
+        wp = st.s_waypoints[b, 0, : st.s_n_waypoints[b, 0], :2]
         radius = np.linalg.norm(wp - wp.mean(0), axis=1)
         assert (np.ptp(radius) < 1.0) == (kind == "circle")
     # the same seed alone draws the same episode
@@ -39,8 +40,13 @@ def test_noise_scale_scales_the_range_noise():
     """Range residuals against the true geometry grow with the drawn noise scale."""
     spread = {}
     for scale in (0.5, 2.0):
-        env = coopnav_env.parallel_env("gao_lawnmower", randomize_noise_scale=(scale, scale), outlier_probability=0.0,
-                                       compass_bias_std_deg=0.0, survey_speed_scale_error_std=0.0)
+        env = coopnav_env.parallel_env(
+            "gao_lawnmower",
+            randomize_noise_scale=(scale, scale),
+            outlier_probability=0.0,
+            compass_bias_std_deg=0.0,
+            survey_speed_scale_error_std=0.0,
+        )
         env.reset(seed=3)
         errs = []
         while env.agents:

@@ -112,8 +112,14 @@ def test_another_simd_path_stays_within_the_tolerance():
         pytest.skip("this CPU runs numpy's baseline SIMD path only: no other path to compare")
     code = SIMD_CHECK.format(here=str(Path(__file__).resolve()), scenarios=SIMD_SCENARIOS)
     env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=" ".join(targets))
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600,
-                         cwd=Path(__file__).resolve().parent.parent)
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=Path(__file__).resolve().parent.parent,
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     counts = json.loads(out.stdout.strip().splitlines()[-1])
     assert counts["arrays"] > 100 and counts["beyond"] == 0, counts

@@ -101,20 +101,24 @@ def test_observation_of_the_frame_mission_is_unchanged_and_the_river_adds_five()
     assert make_simulator(make_config("matos_moving_lbl")).reward_terms[-1] == "contact"
 
 
-@pytest.mark.parametrize("override,message", [
-    (dict(mission_frame="earth"), "mission_frame 'earth'; valid: frame, world"),
-    (dict(river_centerline_m=()), "river_centerline_m must hold 2 to"),
-    (dict(river_centerline_m=((0.0, 0.0), (0.0, 0.0))), "river_centerline_m must not repeat"),
-    (dict(river_width_m=0.0), "river_width_m must be in (0, 10000]"),
-])
+@pytest.mark.parametrize(
+    "override,message",
+    [
+        (dict(mission_frame="earth"), "mission_frame 'earth'; valid: frame, world"),
+        (dict(river_centerline_m=()), "river_centerline_m must hold 2 to"),
+        (dict(river_centerline_m=((0.0, 0.0), (0.0, 0.0))), "river_centerline_m must not repeat"),
+        (dict(river_width_m=0.0), "river_width_m must be in (0, 10000]"),
+    ],
+)
 def test_river_parameters_are_validated(override, message):
-    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[")
-                       .replace("]", r"\]")):
+    with pytest.raises(
+        ValueError, match=message.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[").replace("]", r"\]")
+    ):
         make_config("matos_river", **override)
     # the river section applies only to world missions, the moving network's only to moving_lbl
-    with pytest.raises(ValueError, match="river_centerline_m belongs to section 'river'.*mission_frame='world'"):
+    with pytest.raises(ValueError, match=r"river_centerline_m belongs to section 'river'.*mission_frame='world'"):
         make_config("matos_moving_lbl", river_centerline_m=((0.0, 0.0), (1.0, 0.0)))
-    with pytest.raises(ValueError, match="mission_frame belongs to section 'moving'.*network='moving_lbl'"):
+    with pytest.raises(ValueError, match=r"mission_frame belongs to section 'moving'.*network='moving_lbl'"):
         make_config("gao_lawnmower", mission_frame="world")
 
 

@@ -4,8 +4,8 @@ agents.load and evaluate.py use, an interrupted run resumed, a Tune grid, and ba
 input.
 
 Skipped when Ray is not installed (pip install -e ".[rllib]"), except the test of the
-message train.py prints then; under CI (which installs it) a missing Ray fails instead. Time-boxed: 10-cycle missions, 16x16 networks, one
-to four PPO iterations of a few dozen steps. Everything Ray starts stays on loopback (no
+message train.py prints then; under CI (which installs it) a missing Ray fails instead. Time-boxed: 10-cycle
+missions, 16x16 networks, one to four PPO iterations of a few dozen steps. Everything Ray starts stays on loopback (no
 cluster networking: RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 makes Ray use 127.0.0.1
 for this machine) and is stopped by the test that started it.
 """
@@ -52,9 +52,11 @@ def _tiny_yaml(tmp_path, **changes) -> str:
 
 def test_missing_ray_is_one_line_and_exit_2(tmp_path):
     """Runs whether or not Ray is installed: `import ray` is made to fail."""
-    code = ("import runpy, sys; sys.modules['ray'] = None; "
-            f"sys.argv = ['train.py', '--backend', 'rllib', '--scenario', 'sousa_asv', '--timesteps', '10', "
-            f"'--out', {str(tmp_path / 'run')!r}]; runpy.run_path('train.py', run_name='__main__')")
+    code = (
+        "import runpy, sys; sys.modules['ray'] = None; "
+        f"sys.argv = ['train.py', '--backend', 'rllib', '--scenario', 'sousa_asv', '--timesteps', '10', "
+        f"'--out', {str(tmp_path / 'run')!r}]; runpy.run_path('train.py', run_name='__main__')"
+    )
     r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
@@ -99,8 +101,13 @@ def local_ray(ray_mod):
     """One small local Ray instance for the local-mode tests (stopped afterwards)."""
     if ray_mod.is_initialized():
         ray_mod.shutdown()
-    ray_mod.init(num_cpus=2, include_dashboard=False, log_to_driver=False, object_store_memory=100 * 2**20,
-                 runtime_env={"env_vars": {"PYTHONPATH": str(ROOT), **LOOPBACK_ENV}})
+    ray_mod.init(
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        object_store_memory=100 * 2**20,
+        runtime_env={"env_vars": {"PYTHONPATH": str(ROOT), **LOOPBACK_ENV}},
+    )
     yield ray_mod
     ray_mod.shutdown()
 
@@ -113,8 +120,9 @@ def test_adapter_replays_the_vector_rows_and_computes_the_training_reward(ray_mo
     from coopnav_env.vector import CoopNavVecEnv
 
     terms = {"std": 1.0, "penalties": 1.0, "error": 0.5}
-    env = CoopNavRLlibEnv({"scenario": "sousa_asv", "seed": 7, "copy_index": 2, "reward_terms": terms,
-                           "overrides": {"max_cycles": 4}})
+    env = CoopNavRLlibEnv(
+        {"scenario": "sousa_asv", "seed": 7, "copy_index": 2, "reward_terms": terms, "overrides": {"max_cycles": 4}}
+    )
     venv = CoopNavVecEnv("sousa_asv", n_envs=3, seed=7, reward_terms=terms, max_cycles=4)
     obs, _ = env.reset()
     vobs = venv.reset()
@@ -179,7 +187,7 @@ def test_two_kinds_train_two_modules(local_ray):
     hp = json.loads(json.dumps(TINY))
     hp["env"]["overrides"]["beacon_kinds"] = ["beacon_auv", "asv"]
     hp["env_runners"]["num_envs_per_env_runner"] = 3
-    config, mapping = rllib_trainer.build_config(_config("gao_lawnmower", hp, num_env_runners=0))
+    config, _mapping = rllib_trainer.build_config(_config("gao_lawnmower", hp, num_env_runners=0))
     algo = config.build_algo()
     try:
         result = algo.train()
@@ -197,12 +205,31 @@ def test_run_directory_loads_acts_and_evaluates(tmp_path, local_ray, capsys):
     import evaluate
 
     out = tmp_path / "run"
-    argv = ["--backend", "rllib", "--scenario", "sousa_asv", "--timesteps", str(2 * CYCLES), "--seed", "3",
-            "--out", str(out), "--config", _tiny_yaml(tmp_path)]
+    argv = [
+        "--backend",
+        "rllib",
+        "--scenario",
+        "sousa_asv",
+        "--timesteps",
+        str(2 * CYCLES),
+        "--seed",
+        "3",
+        "--out",
+        str(out),
+        "--config",
+        _tiny_yaml(tmp_path),
+    ]
     assert cli.main(argv) == 0
-    for name in ("config.yml", "checkpoint/rllib_checkpoint.json", "checkpoint/coopnav.json", "progress.jsonl",
-                 "evaluations.jsonl", "checkpoint/learner_group/learner/rl_module/asv",
-                 "checkpoint/policy_export/asv.safetensors", "checkpoint/policy_export/filters.safetensors"):
+    for name in (
+        "config.yml",
+        "checkpoint/rllib_checkpoint.json",
+        "checkpoint/coopnav.json",
+        "progress.jsonl",
+        "evaluations.jsonl",
+        "checkpoint/learner_group/learner/rl_module/asv",
+        "checkpoint/policy_export/asv.safetensors",
+        "checkpoint/policy_export/filters.safetensors",
+    ):
         assert (out / name).exists(), name
     assert not list(out.glob(".checkpoint*"))  # no temporary checkpoint left behind
     config = yaml.safe_load((out / "config.yml").read_text())
@@ -230,8 +257,24 @@ def test_run_directory_loads_acts_and_evaluates(tmp_path, local_ray, capsys):
     # evaluate.py beside a planner, one short episode
     capsys.readouterr()
     res = tmp_path / "eval"
-    assert evaluate.main(["--scenario", "sousa_asv", "--policies", f"{out},static", "--episodes", "1",
-                          "--set", "max_cycles=5", "--out", str(res), "--no-figures"]) == 0
+    assert (
+        evaluate.main(
+            [
+                "--scenario",
+                "sousa_asv",
+                "--policies",
+                f"{out},static",
+                "--episodes",
+                "1",
+                "--set",
+                "max_cycles=5",
+                "--out",
+                str(res),
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
     summary = json.loads((res / "summary.json").read_text())
     text = json.dumps(summary)
     assert str(out) in text and "static" in text
@@ -282,8 +325,18 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
     ref, out = tmp_path / "ref", tmp_path / "run"
 
     def argv(run):
-        return ["--backend", "rllib", "--scenario", "sousa_asv", "--timesteps", str(total), "--out", str(run),
-                "--config", config]
+        return [
+            "--backend",
+            "rllib",
+            "--scenario",
+            "sousa_asv",
+            "--timesteps",
+            str(total),
+            "--out",
+            str(run),
+            "--config",
+            config,
+        ]
 
     assert cli.main(argv(ref)) == 0
     reached = json.loads((ref / "checkpoint" / "coopnav.json").read_text())
@@ -335,18 +388,33 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path, local_ray, mon
     assert capsys.readouterr().err.strip() == f"train.py: error: {out} is a --backend rllib run; drop --backend sb3"
 
 
-@pytest.mark.parametrize("run_args, argv, needle", [
-    ({"scenario": "sousa_asv", "timesteps": 10, "seed": 0}, ["--backend", "rllib"],
-     "is a --backend sb3 run; drop --backend rllib"),
-    ({"scenario": "sousa_asv", "timesteps": 10, "seed": 0}, ["--num-env-runners", "2"],
-     "--num-env-runners only with --backend rllib"),
-    ({"backend": "rllib", "scenario": "sousa_asv", "timesteps": 10, "seed": 0, "tune": {"lr": [1e-4, 3e-4]}}, [],
-     "is a Ray Tune grid (--tune): --resume continues single runs only"),
-])
+@pytest.mark.parametrize(
+    "run_args, argv, needle",
+    [
+        (
+            {"scenario": "sousa_asv", "timesteps": 10, "seed": 0},
+            ["--backend", "rllib"],
+            "is a --backend sb3 run; drop --backend rllib",
+        ),
+        (
+            {"scenario": "sousa_asv", "timesteps": 10, "seed": 0},
+            ["--num-env-runners", "2"],
+            "--num-env-runners only with --backend rllib",
+        ),
+        (
+            {"backend": "rllib", "scenario": "sousa_asv", "timesteps": 10, "seed": 0, "tune": {"lr": [1e-4, 3e-4]}},
+            [],
+            "is a Ray Tune grid (--tune): --resume continues single runs only",
+        ),
+    ],
+)
 def test_resume_takes_the_backend_from_the_run(tmp_path, capsys, ray_mod, run_args, argv, needle):
 
-    (tmp_path / "config.yml").write_text(yaml.safe_dump({"args": run_args, "hyperparameter_file": "x.yml",
-                                                         "hyperparameters": json.loads(json.dumps(TINY))}))
+    (tmp_path / "config.yml").write_text(
+        yaml.safe_dump(
+            {"args": run_args, "hyperparameter_file": "x.yml", "hyperparameters": json.loads(json.dumps(TINY))}
+        )
+    )
     assert cli.main(["--resume", str(tmp_path), *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0], err
@@ -355,8 +423,20 @@ def test_resume_takes_the_backend_from_the_run(tmp_path, capsys, ray_mod, run_ar
 def test_tune_grid_writes_one_summary_table(tmp_path, local_ray):
 
     out = tmp_path / "sweep"
-    argv = ["--backend", "rllib", "--scenario", "gao_lawnmower", "--timesteps", str(2 * CYCLES), "--out", str(out),
-            "--config", _tiny_yaml(tmp_path), "--tune", "lr=1e-4,3e-4"]
+    argv = [
+        "--backend",
+        "rllib",
+        "--scenario",
+        "gao_lawnmower",
+        "--timesteps",
+        str(2 * CYCLES),
+        "--out",
+        str(out),
+        "--config",
+        _tiny_yaml(tmp_path),
+        "--tune",
+        "lr=1e-4,3e-4",
+    ]
     assert cli.main(argv) == 0
     rows = (out / "summary.csv").read_text().splitlines()
     assert rows[0].split(",")[:3] == ["trial", "lr", "env_steps"]
@@ -373,15 +453,18 @@ def test_tune_grid_writes_one_summary_table(tmp_path, local_ray):
     assert "," not in str(ckpt) and "=" not in ckpt.parent.name  # usable in evaluate.py --policies A,B
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--backend", "rllib", "--tune", "bogus=1,2"], "--tune bogus"),
-    (["--backend", "rllib", "--tune", "lr"], "--tune expects KEY=V1,V2"),
-    (["--backend", "rllib", "--tune", "seed=0,0.5"], "seed takes integers"),
-    (["--num-env-runners", "2"], "only with --backend rllib"),
-    (["--backend", "rllib", "--resume", "no/such/run"], "not a train.py run directory"),
-    (["--resume", "no/such/run", "--tune", "lr=1e-4,3e-4"], "drop --tune"),
-    (["--backend", "rllib", "--num-env-runners", "-1"], "must be >= 0"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--backend", "rllib", "--tune", "bogus=1,2"], "--tune bogus"),
+        (["--backend", "rllib", "--tune", "lr"], "--tune expects KEY=V1,V2"),
+        (["--backend", "rllib", "--tune", "seed=0,0.5"], "seed takes integers"),
+        (["--num-env-runners", "2"], "only with --backend rllib"),
+        (["--backend", "rllib", "--resume", "no/such/run"], "not a train.py run directory"),
+        (["--resume", "no/such/run", "--tune", "lr=1e-4,3e-4"], "drop --tune"),
+        (["--backend", "rllib", "--num-env-runners", "-1"], "must be >= 0"),
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, ray_mod, argv, needle):
 
     if "--resume" not in argv:
@@ -402,19 +485,37 @@ def test_shipped_configs_build(ray_mod):
             assert config.num_env_runners >= 0 and set(mapping) == set(coopnav_env.parallel_env(name).possible_agents)
 
 
-@pytest.mark.parametrize("yml, needle", [
-    ("ppo: {n_steps: 5}", "unknown ppo key (PPOConfig.training keyword) 'n_steps'"),
-    ("ppo: {minibatch_size: 500, train_batch_size_per_learner: 100}", "minibatch_size"),
-    ("policy: MlpPolicy", "unknown section 'policy'"),
-    ("eval: {episdoes: 3}", "unknown eval key 'episdoes'; did you mean 'episodes'?"),
-    ("reward: {bogus: 1}", "unknown reward term"),
-])
+@pytest.mark.parametrize(
+    "yml, needle",
+    [
+        ("ppo: {n_steps: 5}", "unknown ppo key (PPOConfig.training keyword) 'n_steps'"),
+        ("ppo: {minibatch_size: 500, train_batch_size_per_learner: 100}", "minibatch_size"),
+        ("policy: MlpPolicy", "unknown section 'policy'"),
+        ("eval: {episdoes: 3}", "unknown eval key 'episdoes'; did you mean 'episodes'?"),
+        ("reward: {bogus: 1}", "unknown reward term"),
+    ],
+)
 def test_bad_hyperparameters_are_one_line(tmp_path, capsys, ray_mod, yml, needle):
 
     path = tmp_path / "bad.yml"
     path.write_text(yml)
-    assert cli.main(["--backend", "rllib", "--scenario", "sousa_asv", "--timesteps", "10", "--out",
-                     str(tmp_path / "run"), "--config", str(path)]) == 2
+    assert (
+        cli.main(
+            [
+                "--backend",
+                "rllib",
+                "--scenario",
+                "sousa_asv",
+                "--timesteps",
+                "10",
+                "--out",
+                str(tmp_path / "run"),
+                "--config",
+                str(path),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0], err
     assert not (tmp_path / "run").exists()
@@ -445,19 +546,41 @@ def test_local_head_and_two_env_runners(tmp_path, monkeypatch, ray_mod):
         monkeypatch.setenv(k, v)
     temp_dir = tempfile.mkdtemp(prefix="rt", dir="/tmp")  # short: Ray's socket paths
     port = _free_port()
-    ports = {f"--{name}": _free_port() for name in ("ray-client-server-port", "dashboard-port",
-                                                     "dashboard-agent-listen-port", "dashboard-agent-grpc-port",
-                                                     "metrics-export-port", "runtime-env-agent-port")}
+    ports = {
+        f"--{name}": _free_port()
+        for name in (
+            "ray-client-server-port",
+            "dashboard-port",
+            "dashboard-agent-listen-port",
+            "dashboard-agent-grpc-port",
+            "metrics-export-port",
+            "runtime-env-agent-port",
+        )
+    }
     log = open(Path(temp_dir) / "head.log", "w")
     t_start = time.monotonic()
     head = subprocess.Popen(
-        [sys.executable, "-m", "ray.scripts.scripts", "start", "--head", "--block", f"--port={port}",
-         "--node-ip-address=127.0.0.1", "--num-cpus=2", "--include-dashboard=false",
-         "--object-store-memory=100000000", f"--temp-dir={temp_dir}", "--disable-usage-stats",
-         *(f"{k}={v}" for k, v in ports.items())],
-        stdout=log, stderr=subprocess.STDOUT,
+        [
+            sys.executable,
+            "-m",
+            "ray.scripts.scripts",
+            "start",
+            "--head",
+            "--block",
+            f"--port={port}",
+            "--node-ip-address=127.0.0.1",
+            "--num-cpus=2",
+            "--include-dashboard=false",
+            "--object-store-memory=100000000",
+            f"--temp-dir={temp_dir}",
+            "--disable-usage-stats",
+            *(f"{k}={v}" for k, v in ports.items()),
+        ],
+        stdout=log,
+        stderr=subprocess.STDOUT,
         env={**os.environ, **LOOPBACK_ENV, "PYTHONPATH": str(ROOT), "RAY_GRACEFUL_SHUTDOWN_DRAIN_TIMEOUT_S": "0"},
-        start_new_session=True)
+        start_new_session=True,
+    )
     try:
         deadline = time.monotonic() + 60
         while True:
@@ -469,9 +592,22 @@ def test_local_head_and_two_env_runners(tmp_path, monkeypatch, ray_mod):
                 assert time.monotonic() < deadline, "the Ray head did not come up"
                 time.sleep(0.3)
         out = tmp_path / "run"
-        argv = ["--backend", "rllib", "--scenario", "gao_lawnmower", "--timesteps", str(2 * CYCLES),
-                "--num-env-runners", "2", "--ray-address", f"127.0.0.1:{port}", "--out", str(out),
-                "--config", _tiny_yaml(tmp_path, eval={"episodes": 0})]
+        argv = [
+            "--backend",
+            "rllib",
+            "--scenario",
+            "gao_lawnmower",
+            "--timesteps",
+            str(2 * CYCLES),
+            "--num-env-runners",
+            "2",
+            "--ray-address",
+            f"127.0.0.1:{port}",
+            "--out",
+            str(out),
+            "--config",
+            _tiny_yaml(tmp_path, eval={"episodes": 0}),
+        ]
         t_up = time.monotonic()
         assert cli.main(argv) == 0
         print(f"head up in {t_up - t_start:.1f} s, trained in {time.monotonic() - t_up:.1f} s")

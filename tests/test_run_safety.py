@@ -31,10 +31,22 @@ from evaluation import cli as eval_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = ROOT / "agents" / "policies" / "ppo_gao_sea"
-FAST = ["--scenario", "gao_lawnmower", "--set", "max_cycles=12", "--policies", "static,fim_a", "--episodes", "3",
-        "--batch-size", "1", "--no-figures"]
-BOMB = ('a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n'
-        + "".join(f"{chr(98 + i)}: &{chr(98 + i)} [" + ",".join([f"*{chr(97 + i)}"] * 9) + "]\n" for i in range(8)))
+FAST = [
+    "--scenario",
+    "gao_lawnmower",
+    "--set",
+    "max_cycles=12",
+    "--policies",
+    "static,fim_a",
+    "--episodes",
+    "3",
+    "--batch-size",
+    "1",
+    "--no-figures",
+]
+BOMB = 'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n' + "".join(
+    f"{chr(98 + i)}: &{chr(98 + i)} [" + ",".join([f"*{chr(97 + i)}"] * 9) + "]\n" for i in range(8)
+)
 DEEP = "x: " + "[" * 20000 + "]" * 20000 + "\n"
 
 
@@ -101,8 +113,20 @@ def test_symlinked_best_model_is_refused(run, outside, tmp_path, capsys):
     before = tree_hash(run)
     with pytest.raises(agents.PolicyFormatError, match="symbolic link"):
         agents.load(run)
-    code, err = evaluate(["--scenario", "gao_sea", "--policies", str(run), "--episodes", "1",
-                          "--out", str(tmp_path / "o"), "--no-figures"], capsys)
+    code, err = evaluate(
+        [
+            "--scenario",
+            "gao_sea",
+            "--policies",
+            str(run),
+            "--episodes",
+            "1",
+            "--out",
+            str(tmp_path / "o"),
+            "--no-figures",
+        ],
+        capsys,
+    )
     one_line_exit_2(code, err, "outside the run folder")
     assert tree_hash(run) == before and not (tmp_path / "o").exists()
 
@@ -121,9 +145,15 @@ def test_symlinked_checkpoints_folder_is_refused_by_load_and_resume(run, outside
     ckpt.mkdir()
     shutil.copy(outside / "model.safetensors", ckpt / "ckpt_0000000256.safetensors")
     shutil.copy(outside / "vecnormalize.safetensors", ckpt / "ckpt_0000000256_vecnormalize.safetensors")
-    (ckpt / "last_checkpoint.json").write_text(json.dumps({"num_timesteps": 256,
-                                                           "model": "ckpt_0000000256.safetensors",
-                                                           "vecnormalize": "ckpt_0000000256_vecnormalize.safetensors"}))
+    (ckpt / "last_checkpoint.json").write_text(
+        json.dumps(
+            {
+                "num_timesteps": 256,
+                "model": "ckpt_0000000256.safetensors",
+                "vecnormalize": "ckpt_0000000256_vecnormalize.safetensors",
+            }
+        )
+    )
     (run / "checkpoints").symlink_to(ckpt)
     before, before_out = tree_hash(run), tree_hash(outside)
     with pytest.raises(agents.PolicyFormatError, match="symbolic link"):
@@ -138,9 +168,15 @@ def test_a_symlinked_file_inside_checkpoints_is_refused_by_resume(run, outside, 
     ckpt.mkdir()
     (ckpt / "ckpt_0000000256.safetensors").symlink_to(outside / "model.safetensors")
     shutil.copy(run / "vecnormalize.safetensors", ckpt / "ckpt_0000000256_vecnormalize.safetensors")
-    (ckpt / "last_checkpoint.json").write_text(json.dumps({"num_timesteps": 256,
-                                                           "model": "ckpt_0000000256.safetensors",
-                                                           "vecnormalize": "ckpt_0000000256_vecnormalize.safetensors"}))
+    (ckpt / "last_checkpoint.json").write_text(
+        json.dumps(
+            {
+                "num_timesteps": 256,
+                "model": "ckpt_0000000256.safetensors",
+                "vecnormalize": "ckpt_0000000256_vecnormalize.safetensors",
+            }
+        )
+    )
     before = tree_hash(run)
     code, err = train(["--resume", str(run), "--no-progress"], capsys)
     one_line_exit_2(code, err, "symbolic link")
@@ -156,13 +192,21 @@ def _fake_rllib_run(base: Path, normalize_obs: bool) -> Path:
     ckpt = run / "checkpoint"
     (ckpt / "learner_group" / "learner" / "rl_module" / "beacon").mkdir(parents=True)
     (ckpt / "rllib_checkpoint.json").write_text("{}")
-    (run / "config.yml").write_text(yaml.safe_dump({"args": {"backend": "rllib", "scenario": "gao_sea",
-                                                             "timesteps": 1000, "seed": 0},
-                                                    "hyperparameters": {"normalize_obs": normalize_obs}}))
+    (run / "config.yml").write_text(
+        yaml.safe_dump(
+            {
+                "args": {"backend": "rllib", "scenario": "gao_sea", "timesteps": 1000, "seed": 0},
+                "hyperparameters": {"normalize_obs": normalize_obs},
+            }
+        )
+    )
     export = ckpt / "policy_export"
     export.mkdir()
-    save_file({"w": np.zeros(2, np.float32)}, str(export / "beacon.safetensors"),
-              metadata={"coopnav": json.dumps({"format": "coopnav-rllib-module", "version": 1})})
+    save_file(
+        {"w": np.zeros(2, np.float32)},
+        str(export / "beacon.safetensors"),
+        metadata={"coopnav": json.dumps({"format": "coopnav-rllib-module", "version": 1})},
+    )
     return run
 
 
@@ -180,15 +224,28 @@ def test_rllib_export_without_filters_of_a_normalized_run_is_refused(tmp_path, c
     (it would act on unnormalized observations: 2.31 vs 1.92 m, exit 0, before)."""
     run = _fake_rllib_run(tmp_path, normalize_obs=True)
     before = tree_hash(run)
-    with pytest.raises(agents.PolicyFormatError, match="filters.safetensors is missing"):
+    with pytest.raises(agents.PolicyFormatError, match=r"filters\.safetensors is missing"):
         agents.resolve(run)
-    code, err = evaluate(["--scenario", "gao_sea", "--policies", str(run), "--episodes", "1",
-                          "--out", str(tmp_path / "o"), "--no-figures"], capsys)
+    code, err = evaluate(
+        [
+            "--scenario",
+            "gao_sea",
+            "--policies",
+            str(run),
+            "--episodes",
+            "1",
+            "--out",
+            str(tmp_path / "o"),
+            "--no-figures",
+        ],
+        capsys,
+    )
     one_line_exit_2(code, err, "filters.safetensors is missing")
     assert tree_hash(run) == before and not (tmp_path / "o").exists()
     # the same run without normalize_obs resolves (its module is read later)
-    (run / "config.yml").write_text((run / "config.yml").read_text().replace("normalize_obs: true",
-                                                                             "normalize_obs: false"))
+    (run / "config.yml").write_text(
+        (run / "config.yml").read_text().replace("normalize_obs: true", "normalize_obs: false")
+    )
     assert agents.resolve(run)[0] == run / "checkpoint"
 
 
@@ -208,8 +265,9 @@ def test_convert_copies_nothing_from_outside(run, tmp_path, how, capsys):
 
 
 def test_a_gate_naming_its_own_folder_is_refused_at_once(run, capsys):
-    (run / "gate.yml").write_text(yaml.safe_dump({"kind": "depth_gate", "threshold_m": 5.0,
-                                                  "shallow": ".", "deep": "."}))
+    (run / "gate.yml").write_text(
+        yaml.safe_dump({"kind": "depth_gate", "threshold_m": 5.0, "shallow": ".", "deep": "."})
+    )
     t0 = time.perf_counter()
     with pytest.raises(agents.PolicyFormatError, match="a gate itself"):
         agents.load(run)
@@ -235,7 +293,7 @@ def test_a_tampered_episode_row_is_refused_on_resume(tmp_path, fast_ref, capsys)
     col = header.index("mean_error_m")
     value = fields[col]
     digit = next(i for i, ch in enumerate(value) if ch.isdigit() and ch != "0")
-    fields[col] = value[:digit] + str((int(value[digit]) % 9) + 1) + value[digit + 1:]  # well formed, different
+    fields[col] = value[:digit] + str((int(value[digit]) % 9) + 1) + value[digit + 1 :]  # well formed, different
     assert fields[col] != value
     lines[2] = ",".join(fields)
     path.write_text("".join(lines))
@@ -258,10 +316,16 @@ def test_episodes_without_checksums_are_run_again(tmp_path, fast_ref, capsys):
 
 # ------------------------------------------------------------------------------------
 # unbounded work from metadata or arguments
-@pytest.mark.parametrize("text,needle", [(BOMB, "anchors"), (DEEP, "nests deeper"),
-                                         ("a: !!python/object/apply:os.system ['true']\n", "tag"),
-                                         (b"\x80\x04\x95\xff\x00binary", "not UTF-8")],
-                         ids=["alias_bomb", "deep_20000", "python_tag", "binary"])
+@pytest.mark.parametrize(
+    "text,needle",
+    [
+        (BOMB, "anchors"),
+        (DEEP, "nests deeper"),
+        ("a: !!python/object/apply:os.system ['true']\n", "tag"),
+        (b"\x80\x04\x95\xff\x00binary", "not UTF-8"),
+    ],
+    ids=["alias_bomb", "deep_20000", "python_tag", "binary"],
+)
 def test_yaml_bombs_are_refused_in_under_a_second(text, needle):
     t0 = time.perf_counter()
     with pytest.raises(UnsafeDataError, match=needle):
@@ -282,10 +346,16 @@ def test_shipped_yaml_files_read_with_the_bounded_loader():
         assert read_yaml(path) == yaml.safe_load(path.read_text()), path
 
 
-@pytest.mark.parametrize("content,needle", [(BOMB, "anchors"), (DEEP, "nests deeper"),
-                                            ("args: !!python/object/apply:os.system ['true']\n", "tag"),
-                                            (b"\x00\xff\xfe binary", "not UTF-8")],
-                         ids=["alias_bomb", "deep_20000", "python_tag", "binary"])
+@pytest.mark.parametrize(
+    "content,needle",
+    [
+        (BOMB, "anchors"),
+        (DEEP, "nests deeper"),
+        ("args: !!python/object/apply:os.system ['true']\n", "tag"),
+        (b"\x00\xff\xfe binary", "not UTF-8"),
+    ],
+    ids=["alias_bomb", "deep_20000", "python_tag", "binary"],
+)
 def test_train_resume_of_a_hostile_config_yml_is_one_line(run, content, needle, capsys):
     path = run / "config.yml"
     path.write_bytes(content.encode() if isinstance(content, str) else content)
@@ -306,7 +376,7 @@ def test_a_2e9_layer_in_a_header_is_refused_before_allocating(run):
     path = run / "model.safetensors"
     with safe_open(str(path), "pt") as f:
         spec = json.loads(f.metadata()["coopnav"])
-        tensors = {k: f.get_tensor(k) for k in f.keys()}
+        tensors = {k: f.get_tensor(k) for k in f.keys()}  # noqa: SIM118 - a safetensors file handle, not a dict: no __iter__
     spec["policy_kwargs"]["net_arch"] = [2_000_000_000]
     save_file(tensors, str(path), metadata={"coopnav": json.dumps(spec)})
     import tracemalloc
@@ -321,34 +391,56 @@ def test_a_2e9_layer_in_a_header_is_refused_before_allocating(run):
     assert peak < 200e6  # the layer alone would be 8 GB of weights per input
 
 
-@pytest.mark.parametrize("setting,needle", [
-    ("n_envs=10000000", "n_envs"), ("ppo.learning_rate=.inf", "learning_rate"),
-    ("ppo.policy_kwargs.net_arch=[2000000000]", "layer width"), ("eval.episodes=1000000000000", "eval.episodes"),
-    ("normalize.clip_obs=" + "1" + "0" * 400, "normalize.clip_obs"),
-    ("env.overrides.depth_m=" + "1" + "0" * 400, "depth_m"), (None, "timesteps"),
-], ids=["n_envs", "lr_inf", "net_arch", "eval_episodes", "clip_obs_10e400", "depth_10e400", "timesteps_1e30"])
+@pytest.mark.parametrize(
+    "setting,needle",
+    [
+        ("n_envs=10000000", "n_envs"),
+        ("ppo.learning_rate=.inf", "learning_rate"),
+        ("ppo.policy_kwargs.net_arch=[2000000000]", "layer width"),
+        ("eval.episodes=1000000000000", "eval.episodes"),
+        ("normalize.clip_obs=" + "1" + "0" * 400, "normalize.clip_obs"),
+        ("env.overrides.depth_m=" + "1" + "0" * 400, "depth_m"),
+        (None, "timesteps"),
+    ],
+    ids=["n_envs", "lr_inf", "net_arch", "eval_episodes", "clip_obs_10e400", "depth_10e400", "timesteps_1e30"],
+)
 def test_trainer_settings_are_bounded_before_anything_is_written(tmp_path, setting, needle, capsys):
     out = tmp_path / "run"
     steps = "1000" if setting is not None else "1" + "0" * 30
-    code, err = train(["--scenario", "sousa_asv", "--timesteps", steps, "--out", str(out), "--no-progress"]
-                      + (["--set", setting] if setting is not None else []), capsys)
+    code, err = train(
+        ["--scenario", "sousa_asv", "--timesteps", steps, "--out", str(out), "--no-progress"]
+        + (["--set", setting] if setting is not None else []),
+        capsys,
+    )
     one_line_exit_2(code, err, needle)
     assert not out.exists()
 
 
-@pytest.mark.parametrize("argv,needle", [
-    (["--episodes", str(10**12)], "--episodes"),
-    (["--batch-size", str(10**9)], "--batch-size"),
-    (["--sweep", "depth_m=" + ",".join(str(1 + i) for i in range(1000)),
-      "--sweep", "max_cycles=" + ",".join(str(10 + i) for i in range(1000))], "cells"),
-    (["--set", "depth_m=" + "1" + "0" * 400], "depth_m"),
-    (["--set", "depth_m=1e400"], "depth_m"),
-], ids=["episodes_1e12", "batch_1e9", "sweep_1e6_cells", "depth_10e400", "depth_1e400"])
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--episodes", str(10**12)], "--episodes"),
+        (["--batch-size", str(10**9)], "--batch-size"),
+        (
+            [
+                "--sweep",
+                "depth_m=" + ",".join(str(1 + i) for i in range(1000)),
+                "--sweep",
+                "max_cycles=" + ",".join(str(10 + i) for i in range(1000)),
+            ],
+            "cells",
+        ),
+        (["--set", "depth_m=" + "1" + "0" * 400], "depth_m"),
+        (["--set", "depth_m=1e400"], "depth_m"),
+    ],
+    ids=["episodes_1e12", "batch_1e9", "sweep_1e6_cells", "depth_10e400", "depth_1e400"],
+)
 def test_evaluation_work_is_bounded(tmp_path, argv, needle, capsys):
     out = tmp_path / "o"
     t0 = time.perf_counter()
-    code, err = evaluate(["--scenario", "sousa_asv", "--policies", "static", "--out", str(out), "--no-figures"]
-                         + argv, capsys)
+    code, err = evaluate(
+        ["--scenario", "sousa_asv", "--policies", "static", "--out", str(out), "--no-figures"] + argv, capsys
+    )
     one_line_exit_2(code, err, needle)
     assert time.perf_counter() - t0 < 30.0 and not out.exists()  # imports included, on a busy machine
 
@@ -369,8 +461,10 @@ def test_a_run_json_asking_for_1e12_episodes_is_refused(tmp_path, fast_ref, caps
 # one trainer per folder
 def _hold(folder: Path):
     """Another process holding the folder's lock, as a running train.py does."""
-    code = ("import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDONLY); "
-            "fcntl.flock(fd, fcntl.LOCK_EX); print('held', flush=True); time.sleep(60)")
+    code = (
+        "import fcntl, os, sys, time; fd = os.open(sys.argv[1], os.O_RDONLY); "
+        "fcntl.flock(fd, fcntl.LOCK_EX); print('held', flush=True); time.sleep(60)"
+    )
     proc = subprocess.Popen([sys.executable, "-c", code, str(folder)], stdout=subprocess.PIPE, text=True)
     assert proc.stdout.readline().strip() == "held"
     return proc
@@ -383,8 +477,11 @@ def test_two_trainers_on_one_folder(run, tmp_path, mode, capsys):
     before = tree_hash(folder)
     holder = _hold(folder)
     try:
-        argv = (["--resume", str(run)] if mode == "resume" else
-                ["--scenario", "sousa_asv", "--timesteps", "1000", "--out", str(folder)])
+        argv = (
+            ["--resume", str(run)]
+            if mode == "resume"
+            else ["--scenario", "sousa_asv", "--timesteps", "1000", "--out", str(folder)]
+        )
         code, err = train(argv + ["--no-progress"], capsys)
     finally:
         holder.kill()
@@ -406,14 +503,33 @@ def test_resume_of_a_run_without_checkpoints_never_deletes_its_evaluations(run, 
 def test_a_resumed_run_gets_its_final_evaluation_back(tmp_path, capsys):
     """A run stopped after its last checkpoint but before its final evaluation: --resume
     evaluates it, and keeps the evaluations it had."""
-    config = {"n_envs": 4, "checkpoint_every_steps": 256,
-              "ppo": {"n_steps": 64, "batch_size": 128, "n_epochs": 1, "policy_kwargs": {"net_arch": [16, 16]}},
-              "env": {"overrides": {"max_cycles": 10, "mission_duration_s": 200.0}},
-              "eval": {"every_steps": 256, "episodes": 1, "seed": 1000000, "baselines": []}}
+    config = {
+        "n_envs": 4,
+        "checkpoint_every_steps": 256,
+        "ppo": {"n_steps": 64, "batch_size": 128, "n_epochs": 1, "policy_kwargs": {"net_arch": [16, 16]}},
+        "env": {"overrides": {"max_cycles": 10, "mission_duration_s": 200.0}},
+        "eval": {"every_steps": 256, "episodes": 1, "seed": 1000000, "baselines": []},
+    }
     (tmp_path / "tiny.yml").write_text(yaml.safe_dump(config))
     out = tmp_path / "run"
-    assert train_cli.main(["--scenario", "sousa_asv", "--timesteps", "512", "--seed", "3", "--out", str(out),
-                           "--config", str(tmp_path / "tiny.yml"), "--no-progress"]) == 0
+    assert (
+        train_cli.main(
+            [
+                "--scenario",
+                "sousa_asv",
+                "--timesteps",
+                "512",
+                "--seed",
+                "3",
+                "--out",
+                str(out),
+                "--config",
+                str(tmp_path / "tiny.yml"),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     lines = (out / "evaluations.jsonl").read_text().splitlines()
     assert [json.loads(x)["num_timesteps"] for x in lines] == [256, 512]
     (out / "evaluations.jsonl").write_text(lines[0] + "\n")  # stopped before the final evaluation
@@ -427,8 +543,9 @@ def test_a_resumed_run_gets_its_final_evaluation_back(tmp_path, capsys):
 def test_a_resumed_run_keeps_its_evaluation_schedule(tmp_path):
     from agents.training.sb3 import last_evaluation_step
 
-    (tmp_path / "evaluations.jsonl").write_text("".join(json.dumps({"num_timesteps": n}) + "\n"
-                                                        for n in (512, 1024, 2048)) + "garbled\n")
+    (tmp_path / "evaluations.jsonl").write_text(
+        "".join(json.dumps({"num_timesteps": n}) + "\n" for n in (512, 1024, 2048)) + "garbled\n"
+    )
     assert last_evaluation_step(tmp_path, 1536) == 1024  # the next is due at 1024 + every_steps, as before
     assert last_evaluation_step(tmp_path, 4096) == 2048  # the final one is still due at 4096
     assert last_evaluation_step(tmp_path / "none", 10) == 0
@@ -452,8 +569,22 @@ def small_tmpfs(tmp_path):
 def test_a_full_disk_during_evaluate_is_one_line(small_tmpfs, capsys):
     out = small_tmpfs / "o"
     (small_tmpfs / "filler").write_bytes(b"\0" * 40_000)  # leaves room for run.json, not for the steps
-    code, err = evaluate(["--scenario", "sousa_asv", "--set", "max_cycles=200", "--policies", "static,fim_a",
-                          "--episodes", "4", "--out", str(out), "--no-figures"], capsys)
+    code, err = evaluate(
+        [
+            "--scenario",
+            "sousa_asv",
+            "--set",
+            "max_cycles=200",
+            "--policies",
+            "static,fim_a",
+            "--episodes",
+            "4",
+            "--out",
+            str(out),
+            "--no-figures",
+        ],
+        capsys,
+    )
     one_line_exit_2(code, err, "the disk is full")
     left = sorted(os.listdir(out))
     assert not [n for n in left if n.endswith(".tmp")], left  # nothing half-written
@@ -500,9 +631,26 @@ def test_enospc_during_train_in_process_is_one_line(tmp_path, monkeypatch, capsy
 
     monkeypatch.setattr(records.os, "replace", full)
     out = tmp_path / "new"
-    code, err = train(["--scenario", "sousa_asv", "--timesteps", "64", "--out", str(out), "--set", "n_envs=1",
-                       "--set", "ppo.n_steps=64", "--set", "ppo.batch_size=64", "--set", "eval.every_steps=0",
-                       "--no-progress"], capsys)
+    code, err = train(
+        [
+            "--scenario",
+            "sousa_asv",
+            "--timesteps",
+            "64",
+            "--out",
+            str(out),
+            "--set",
+            "n_envs=1",
+            "--set",
+            "ppo.n_steps=64",
+            "--set",
+            "ppo.batch_size=64",
+            "--set",
+            "eval.every_steps=0",
+            "--no-progress",
+        ],
+        capsys,
+    )
     one_line_exit_2(code, err, "the disk is full")
     assert not [p for p in out.rglob("*") if p.name.endswith(".tmp")]
 
@@ -516,13 +664,38 @@ def test_enospc_during_train_is_one_line_and_nothing_half_written(run, tmp_path)
         "import errno, os\n_real = os.replace\n"
         "def _full(src, dst, *a, **k):\n"
         "    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(dst))\n"
-        "os.replace = _full\n")
+        "os.replace = _full\n"
+    )
     out = tmp_path / "new"
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(shim), str(ROOT)]))
-    r = subprocess.run([sys.executable, str(ROOT / "train.py"), "--scenario", "sousa_asv", "--timesteps", "64",
-                        "--out", str(out), "--set", "n_envs=1", "--set", "ppo.n_steps=64",
-                        "--set", "ppo.batch_size=64", "--set", "eval.every_steps=0", "--set", "eval.episodes=0",
-                        "--no-progress"], env=env, capture_output=True, text=True, timeout=300, check=False)
+    r = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "train.py"),
+            "--scenario",
+            "sousa_asv",
+            "--timesteps",
+            "64",
+            "--out",
+            str(out),
+            "--set",
+            "n_envs=1",
+            "--set",
+            "ppo.n_steps=64",
+            "--set",
+            "ppo.batch_size=64",
+            "--set",
+            "eval.every_steps=0",
+            "--set",
+            "eval.episodes=0",
+            "--no-progress",
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
     one_line_exit_2(r.returncode, r.stderr, "the disk is full")
     assert not [p for p in out.rglob("*") if p.name.endswith(".tmp")]
 
@@ -532,12 +705,15 @@ def test_enospc_during_train_is_one_line_and_nothing_half_written(run, tmp_path)
 SCENARIO_XFAIL = pytest.mark.xfail(strict=True, reason="scenario validation: fixed on the config branch")
 
 
-@pytest.mark.parametrize("scenario,key,value", [
-    pytest.param("sousa_asv", "substep_s", 5e-324, marks=SCENARIO_XFAIL),
-    pytest.param("sousa_asv", "depth_m", 10**400, marks=SCENARIO_XFAIL),
-    pytest.param("matos_river", "river_width_m", 5e-324, marks=SCENARIO_XFAIL),
-    ("sousa_asv", "depth_m", 1e400),
-])
+@pytest.mark.parametrize(
+    "scenario,key,value",
+    [
+        pytest.param("sousa_asv", "substep_s", 5e-324, marks=SCENARIO_XFAIL),
+        pytest.param("sousa_asv", "depth_m", 10**400, marks=SCENARIO_XFAIL),
+        pytest.param("matos_river", "river_width_m", 5e-324, marks=SCENARIO_XFAIL),
+        ("sousa_asv", "depth_m", 1e400),
+    ],
+)
 def test_make_config_refuses_out_of_range_values_in_one_line(scenario, key, value):
     import coopnav_env
 
@@ -546,14 +722,31 @@ def test_make_config_refuses_out_of_range_values_in_one_line(scenario, key, valu
     assert key in str(info.value) and "\n" not in str(info.value)
 
 
-@pytest.mark.parametrize("scenario,setting", [
-    ("sousa_asv", "substep_s=5e-324"),
-    ("sousa_asv", "depth_m=" + "1" + "0" * 400),
-    pytest.param("matos_river", "river_width_m=5e-324", marks=SCENARIO_XFAIL),
-])
+@pytest.mark.parametrize(
+    "scenario,setting",
+    [
+        ("sousa_asv", "substep_s=5e-324"),
+        ("sousa_asv", "depth_m=" + "1" + "0" * 400),
+        pytest.param("matos_river", "river_width_m=5e-324", marks=SCENARIO_XFAIL),
+    ],
+)
 def test_evaluate_set_refuses_out_of_range_values_in_one_line(tmp_path, scenario, setting, capsys):
     out = tmp_path / "o"
-    code, err = evaluate(["--scenario", scenario, "--policies", "static", "--episodes", "1", "--out", str(out),
-                          "--set", setting, "--no-figures"], capsys)
+    code, err = evaluate(
+        [
+            "--scenario",
+            scenario,
+            "--policies",
+            "static",
+            "--episodes",
+            "1",
+            "--out",
+            str(out),
+            "--set",
+            setting,
+            "--no-figures",
+        ],
+        capsys,
+    )
     one_line_exit_2(code, err, setting.split("=")[0])
     assert not out.exists()

@@ -19,8 +19,11 @@ import pytest
 import yaml
 
 # Ray (the RLlib test) on loopback only, as tests/test_rllib.py: read when ray is first imported
-for _k, _v in {"RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0", "RAY_USAGE_STATS_ENABLED": "0",
-               "RAY_AUTH_MODE": "token"}.items():
+for _k, _v in {
+    "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0",
+    "RAY_USAGE_STATS_ENABLED": "0",
+    "RAY_AUTH_MODE": "token",
+}.items():
     os.environ.setdefault(_k, _v)
 
 import agents  # noqa: E402
@@ -40,9 +43,13 @@ TINY = {
 }
 # the policies converted from the old pickle-based files (ppo_gao_sea was, until it was
 # replaced on 2026-12-02 by a fine-tune trained in the safe format)
-SHIPPED = {"ppo_swarm_mls": "ppo_swarm_mls",
-           "ppo_sousa_asv_deep": "ppo_sousa_asv/deep", "ppo_sousa_asv_shallow": "ppo_sousa_asv/shallow",
-           "ppo_sousa_asv_shallow_ft": "ppo_sousa_asv/shallow_ft", "ppo_sousa_asv": "ppo_sousa_asv"}
+SHIPPED = {
+    "ppo_swarm_mls": "ppo_swarm_mls",
+    "ppo_sousa_asv_deep": "ppo_sousa_asv/deep",
+    "ppo_sousa_asv_shallow": "ppo_sousa_asv/shallow",
+    "ppo_sousa_asv_shallow_ft": "ppo_sousa_asv/shallow_ft",
+    "ppo_sousa_asv": "ppo_sousa_asv",
+}
 
 
 class Payload:
@@ -66,8 +73,24 @@ def tiny_run(tmp_path_factory):
     base = tmp_path_factory.mktemp("tiny")
     (base / "tiny.yml").write_text(yaml.safe_dump(TINY))
     out = base / "run"
-    assert train_cli.main(["--scenario", "sousa_asv", "--timesteps", "512", "--seed", "3", "--out", str(out),
-                           "--config", str(base / "tiny.yml"), "--no-progress"]) == 0
+    assert (
+        train_cli.main(
+            [
+                "--scenario",
+                "sousa_asv",
+                "--timesteps",
+                "512",
+                "--seed",
+                "3",
+                "--out",
+                str(out),
+                "--config",
+                str(base / "tiny.yml"),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     return out
 
 
@@ -86,13 +109,24 @@ def old_run(tiny_run, tmp_path_factory):
     shutil.copy(tiny_run / "config.yml", out / "config.yml")
     config = coopnav_env.make_config("sousa_asv", max_cycles=10, mission_duration_s=200.0)
     venv = VecNormalize(VecMonitor(CoopNavVecEnv(config, n_envs=4, seed=3)), gamma=0.99)
-    model = PPO("MlpPolicy", venv, n_steps=64, batch_size=128, n_epochs=1, seed=3,
-                policy_kwargs={"net_arch": [16, 16]}, device="cpu")
+    model = PPO(
+        "MlpPolicy",
+        venv,
+        n_steps=64,
+        batch_size=128,
+        n_epochs=1,
+        seed=3,
+        policy_kwargs={"net_arch": [16, 16]},
+        device="cpu",
+    )
     model.learn(256)
     model.save(out / "checkpoints" / "ckpt_0000000256.zip")
     venv.save(out / "checkpoints" / "ckpt_0000000256_vecnormalize.pkl")
-    (out / "checkpoints" / "last_checkpoint.json").write_text(json.dumps(
-        {"num_timesteps": 256, "model": "ckpt_0000000256.zip", "vecnormalize": "ckpt_0000000256_vecnormalize.pkl"}))
+    (out / "checkpoints" / "last_checkpoint.json").write_text(
+        json.dumps(
+            {"num_timesteps": 256, "model": "ckpt_0000000256.zip", "vecnormalize": "ckpt_0000000256_vecnormalize.pkl"}
+        )
+    )
     model.save(out / "model.zip")
     venv.save(out / "vecnormalize.pkl")
     return out
@@ -105,8 +139,22 @@ def _copy(run, tmp_path, name="copy") -> Path:
 
 
 def _evaluate(policy, tmp_path, *extra) -> int:
-    return eval_cli.main(["--scenario", "sousa_asv", "--policies", str(policy), "--episodes", "1", "--set",
-                          "max_cycles=3", "--out", str(tmp_path / "eval_out"), "--no-figures", *extra])
+    return eval_cli.main(
+        [
+            "--scenario",
+            "sousa_asv",
+            "--policies",
+            str(policy),
+            "--episodes",
+            "1",
+            "--set",
+            "max_cycles=3",
+            "--out",
+            str(tmp_path / "eval_out"),
+            "--no-figures",
+            *extra,
+        ]
+    )
 
 
 def _refused(capsys, code, marker, name):
@@ -154,14 +202,17 @@ def test_loading_imports_no_unpickler(monkeypatch):
 
 # ------------------------------------------------------------------------------------
 # malicious pickles in every file of a new-format run directory
-@pytest.mark.parametrize("poison, drop", [
-    ("best_model.safetensors", []),
-    ("best_vecnormalize.safetensors", []),
-    ("model.safetensors", ["best_model.safetensors"]),
-    ("vecnormalize.safetensors", ["best_model.safetensors"]),
-    ("checkpoints/ckpt_0000000512.safetensors", ["best_model.safetensors", "model.safetensors"]),
-    ("checkpoints/ckpt_0000000512_vecnormalize.safetensors", ["best_model.safetensors", "model.safetensors"]),
-])
+@pytest.mark.parametrize(
+    "poison, drop",
+    [
+        ("best_model.safetensors", []),
+        ("best_vecnormalize.safetensors", []),
+        ("model.safetensors", ["best_model.safetensors"]),
+        ("vecnormalize.safetensors", ["best_model.safetensors"]),
+        ("checkpoints/ckpt_0000000512.safetensors", ["best_model.safetensors", "model.safetensors"]),
+        ("checkpoints/ckpt_0000000512_vecnormalize.safetensors", ["best_model.safetensors", "model.safetensors"]),
+    ],
+)
 def test_evaluate_refuses_a_pickle_in_a_run_file(tiny_run, tmp_path, capsys, poison, drop):
     run = _copy(tiny_run, tmp_path)
     for name in drop:
@@ -177,8 +228,9 @@ def test_evaluate_refuses_a_pickle_in_a_run_file(tiny_run, tmp_path, capsys, poi
     assert not marker.exists()
 
 
-@pytest.mark.parametrize("poison", ["checkpoints/ckpt_0000000512.safetensors",
-                                    "checkpoints/ckpt_0000000512_vecnormalize.safetensors"])
+@pytest.mark.parametrize(
+    "poison", ["checkpoints/ckpt_0000000512.safetensors", "checkpoints/ckpt_0000000512_vecnormalize.safetensors"]
+)
 def test_resume_refuses_a_pickle_in_a_checkpoint(tiny_run, tmp_path, capsys, poison):
     run = _copy(tiny_run, tmp_path)
     marker = tmp_path / "PWNED"
@@ -192,8 +244,19 @@ def test_init_from_refuses_a_pickle(tiny_run, tmp_path, capsys, poison):
     marker = tmp_path / "PWNED"
     (source / poison).write_bytes(_evil(marker))
     (tmp_path / "tiny.yml").write_text(yaml.safe_dump(dict(TINY, init_from=str(source))))
-    code = train_cli.main(["--scenario", "sousa_asv", "--timesteps", "256", "--out", str(tmp_path / "warm"),
-                           "--config", str(tmp_path / "tiny.yml"), "--no-progress"])
+    code = train_cli.main(
+        [
+            "--scenario",
+            "sousa_asv",
+            "--timesteps",
+            "256",
+            "--out",
+            str(tmp_path / "warm"),
+            "--config",
+            str(tmp_path / "tiny.yml"),
+            "--no-progress",
+        ]
+    )
     _refused(capsys, code, marker, poison)
     assert not (tmp_path / "warm").exists()
 
@@ -231,8 +294,14 @@ def test_an_old_format_run_is_refused_without_trust_pickle(old_run, tmp_path, ca
 def test_trust_pickle_converts_a_genuine_old_run(old_run, tmp_path, capsys):
     new = tmp_path / "new"
     assert convert.main([str(old_run), "--out", str(new), "--trust-pickle"]) == 0
-    for name in ("config.yml", "model.safetensors", "vecnormalize.safetensors", "checkpoints/last_checkpoint.json",
-                 "checkpoints/ckpt_0000000256.safetensors", "checkpoints/ckpt_0000000256_vecnormalize.safetensors"):
+    for name in (
+        "config.yml",
+        "model.safetensors",
+        "vecnormalize.safetensors",
+        "checkpoints/last_checkpoint.json",
+        "checkpoints/ckpt_0000000256.safetensors",
+        "checkpoints/ckpt_0000000256_vecnormalize.safetensors",
+    ):
         assert (new / name).is_file(), name
     assert not [p for p in new.rglob("*") if p.suffix in (".zip", ".pkl")]
     old = agents.load(old_run, trust_pickle=True)
@@ -279,7 +348,7 @@ def test_an_rllib_checkpoint_is_refused_without_trust_pickle(tmp_path, capsys):
 def test_a_missing_normalization_file_is_refused(tiny_run, tmp_path, capsys):
     run = _copy(tiny_run, tmp_path)
     (run / "best_vecnormalize.safetensors").unlink()
-    with pytest.raises(agents.PolicyFormatError, match="best_vecnormalize.safetensors is missing"):
+    with pytest.raises(agents.PolicyFormatError, match=r"best_vecnormalize\.safetensors is missing"):
         agents.load(run)
     assert _evaluate(run, tmp_path) == 2
     err = capsys.readouterr().err.strip()
@@ -352,15 +421,29 @@ def test_rllib_checkpoints_load_from_their_safe_export(tmp_path, capsys):
     from agents.training.config import from_dict
 
     cycles = 10
-    hp = {"scenario": "sousa_asv", "normalize_obs": True, "model": {"fcnet_hiddens": [16, 16]},
-          "ppo": {"train_batch_size_per_learner": 2 * cycles, "minibatch_size": cycles, "num_epochs": 1},
-          "env_runners": {"num_env_runners": 0, "num_envs_per_env_runner": 1}, "learners": {"num_learners": 0},
-          "env": {"overrides": {"max_cycles": cycles}}}
+    hp = {
+        "scenario": "sousa_asv",
+        "normalize_obs": True,
+        "model": {"fcnet_hiddens": [16, 16]},
+        "ppo": {"train_batch_size_per_learner": 2 * cycles, "minibatch_size": cycles, "num_epochs": 1},
+        "env_runners": {"num_env_runners": 0, "num_envs_per_env_runner": 1},
+        "learners": {"num_learners": 0},
+        "env": {"overrides": {"max_cycles": cycles}},
+    }
     if ray.is_initialized():
         ray.shutdown()
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, object_store_memory=100 * 2**20,
-             runtime_env={"env_vars": {"PYTHONPATH": str(Path(__file__).resolve().parents[1]),
-                                       "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}})
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        object_store_memory=100 * 2**20,
+        runtime_env={
+            "env_vars": {
+                "PYTHONPATH": str(Path(__file__).resolve().parents[1]),
+                "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0",
+            }
+        },
+    )
     try:
         algo_config, _ = rllib_trainer.build_config(from_dict(RLlibConfig, hp))
         algo = algo_config.build_algo()

@@ -17,7 +17,7 @@ def _sim(B=1, **overrides):
 
 
 def test_round_robin_one_sender_per_cycle():
-    c, sim = _sim(B=3, beacon_kinds=("beacon_auv", "beacon_auv"), beacon_start_distance_m=10.0)
+    _c, sim = _sim(B=3, beacon_kinds=("beacon_auv", "beacon_auv"), beacon_start_distance_m=10.0)
     draws = sim._cycle_draws(sim.state.cycle)
     for cycle in range(4):
         sim.state.cycle = np.full(3, cycle + 1)  # the sensor measures after the counter advanced
@@ -37,9 +37,17 @@ def test_range_and_bearing_pull_a_displaced_estimate_back():
     """One survey vehicle, the sender 20 m away: an estimate displaced 6 m ACROSS the line
     of sight (which a range alone barely corrects) is pulled back by the bearing, in
     the right direction; with the sign of the bearing wrong it would be pushed away."""
-    c, sim = _sim(B=1, n_survey=1, survey_path="stationary", beacon_start_distance_m=20.0,
-                  beacon_start_bearing_spread_deg=0.0, compass_bias_std_deg=0.0, current_speed_mps=0.0,
-                  current_speed_spread_mps=0.0, current_gm_std_mps=0.0)
+    _c, sim = _sim(
+        B=1,
+        n_survey=1,
+        survey_path="stationary",
+        beacon_start_distance_m=20.0,
+        beacon_start_bearing_spread_deg=0.0,
+        compass_bias_std_deg=0.0,
+        current_speed_mps=0.0,
+        current_speed_spread_mps=0.0,
+        current_gm_std_mps=0.0,
+    )
     st = sim.state
     los = st.b_pos[0, 0, :2] - st.s_pos[0, 0, :2]
     across = np.array([-los[1], los[0]]) / np.linalg.norm(los)
@@ -56,13 +64,20 @@ def test_a_sender_behind_the_receiver_is_unfolded():
     """Two hydrophones fold a sender behind onto the front half-plane (azimuth 180 deg -
     bearing); the survey vehicle unfolds it with its estimate, so the bearing it fuses
     points astern, at the sender, and the estimate is corrected."""
-    c, sim = _sim(B=1, n_survey=1, survey_path="line", beacon_start_distance_m=20.0, beacon_start_bearing_deg=240.0,
-                  beacon_start_bearing_spread_deg=0.0, compass_bias_std_deg=0.0)
+    _c, sim = _sim(
+        B=1,
+        n_survey=1,
+        survey_path="line",
+        beacon_start_distance_m=20.0,
+        beacon_start_bearing_deg=240.0,
+        beacon_start_bearing_spread_deg=0.0,
+        compass_bias_std_deg=0.0,
+    )
     st = sim.state
     # the line runs east and the survey starts heading east: the sender (bearing 240 deg) is astern
     assert np.angle(st.s_heading[0, 0]) == pytest.approx(0.0, abs=1e-9)
     sim.state.cycle = np.ones(1, dtype=np.int64)
-    state, rng_m, bearing, var_r, var_b = sim.sensor.measure(sim._cycle_draws(np.zeros(1, dtype=np.int64)))
+    state, rng_m, bearing, _var_r, _var_b = sim.sensor.measure(sim._cycle_draws(np.zeros(1, dtype=np.int64)))
     los = st.b_pos[0, 0, :2] - st.s_pos[0, 0, :2]
     true_bearing = np.arctan2(los[0], los[1])  # clockwise from north
     folded_error = np.degrees(abs((bearing[0, 0, 0] - true_bearing + np.pi) % (2 * np.pi) - np.pi))
@@ -100,6 +115,6 @@ def test_swarm_runs_under_the_vector_env():
     obs = venv.reset()
     assert obs.shape == (4, venv.obs_dim)
     for _ in range(6):
-        obs, r, done, infos = venv.step(np.zeros((4, 2), dtype=np.float32))
+        obs, r, _done, _infos = venv.step(np.zeros((4, 2), dtype=np.float32))
         assert np.all(np.isfinite(r))
     assert coopnav_env.parallel_env("swarm_mls").config.n_survey == 3

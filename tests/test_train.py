@@ -52,8 +52,21 @@ def _tiny_yaml(tmp_path, **changes):
 
 
 def _run(tmp_path, out, timesteps, **changes):
-    return cli.main(["--scenario", "sousa_asv", "--timesteps", str(timesteps), "--seed", "3", "--out", str(out),
-                     "--config", _tiny_yaml(tmp_path, **changes), "--no-progress"])
+    return cli.main(
+        [
+            "--scenario",
+            "sousa_asv",
+            "--timesteps",
+            str(timesteps),
+            "--seed",
+            "3",
+            "--out",
+            str(out),
+            "--config",
+            _tiny_yaml(tmp_path, **changes),
+            "--no-progress",
+        ]
+    )
 
 
 def test_tiny_training_run_writes_a_loadable_policy(tmp_path, monkeypatch):
@@ -61,8 +74,16 @@ def test_tiny_training_run_writes_a_loadable_policy(tmp_path, monkeypatch):
     t0 = time.perf_counter()
     assert _run(tmp_path, out, 1000) == 0
     assert time.perf_counter() - t0 < 60
-    for name in ("config.yml", "model.safetensors", "vecnormalize.safetensors", "best_model.safetensors",
-                 "best_vecnormalize.safetensors", "best.json", "evaluations.jsonl", "checkpoints/last_checkpoint.json"):
+    for name in (
+        "config.yml",
+        "model.safetensors",
+        "vecnormalize.safetensors",
+        "best_model.safetensors",
+        "best_vecnormalize.safetensors",
+        "best.json",
+        "evaluations.jsonl",
+        "checkpoints/last_checkpoint.json",
+    ):
         assert (out / name).is_file(), name
     assert not list(out.rglob(".*.tmp*"))  # no temporary file left behind
     assert not [f for f in out.rglob("*") if f.suffix in (".zip", ".pkl")]  # no pickle-based file
@@ -138,8 +159,9 @@ def test_interrupted_run_resumes_to_the_same_step_count(tmp_path):
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, str(ROOT / "train.py"), *args], capture_output=True, text=True,
-                          timeout=120, cwd=ROOT)
+    return subprocess.run(
+        [sys.executable, str(ROOT / "train.py"), *args], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
 
 
 def test_bad_input_is_one_line_and_exit_2(tmp_path):
@@ -226,11 +248,19 @@ def test_evaluation_scores_a_baseline_on_the_same_seeds():
 
 
 def test_eval_cells_are_fixed_scenarios_with_randomization_off():
-    trained = coopnav_env.make_config("sousa_asv", randomize_depth_m=(1.0, 50.0),
-                                      randomize_survey_path=("circle", "spiral"), randomize_noise_scale=(0.5, 1.5))
+    trained = coopnav_env.make_config(
+        "sousa_asv",
+        randomize_depth_m=(1.0, 50.0),
+        randomize_survey_path=("circle", "spiral"),
+        randomize_noise_scale=(0.5, 1.5),
+    )
     cells = scoring.eval_cells(trained, {"depth_m": [1.0, 50.0], "survey_path": ["circle", "spiral"]})
-    assert [label for label, _ in cells] == ["depth_m=1.0;survey_path=circle", "depth_m=1.0;survey_path=spiral",
-                                             "depth_m=50.0;survey_path=circle", "depth_m=50.0;survey_path=spiral"]
+    assert [label for label, _ in cells] == [
+        "depth_m=1.0;survey_path=circle",
+        "depth_m=1.0;survey_path=spiral",
+        "depth_m=50.0;survey_path=circle",
+        "depth_m=50.0;survey_path=spiral",
+    ]
     for _, config in cells:
         assert config.randomize_depth_m == () and config.randomize_survey_path == ()
         assert config.randomize_noise_scale == ()
@@ -244,11 +274,27 @@ def test_eval_cells_are_fixed_scenarios_with_randomization_off():
 
 def test_randomized_training_with_a_training_reward_and_per_cell_evaluation(tmp_path):
     out = tmp_path / "run"
-    overrides = {"max_cycles": 10, "mission_duration_s": 200.0, "randomize_depth_m": [1.0, 50.0],
-                 "randomize_survey_path": ["stationary", "circle"], "randomize_noise_scale": [0.75, 1.25]}
-    code = _run(tmp_path, out, 500, env={"overrides": overrides}, reward={"error": 1.0, "penalties": 1.0},
-                eval={"every_steps": 256, "episodes": 1, "seed": 500000, "baselines": [],
-                      "cells": {"depth_m": [1.0, 50.0], "survey_path": ["stationary", "circle"]}})
+    overrides = {
+        "max_cycles": 10,
+        "mission_duration_s": 200.0,
+        "randomize_depth_m": [1.0, 50.0],
+        "randomize_survey_path": ["stationary", "circle"],
+        "randomize_noise_scale": [0.75, 1.25],
+    }
+    code = _run(
+        tmp_path,
+        out,
+        500,
+        env={"overrides": overrides},
+        reward={"error": 1.0, "penalties": 1.0},
+        eval={
+            "every_steps": 256,
+            "episodes": 1,
+            "seed": 500000,
+            "baselines": [],
+            "cells": {"depth_m": [1.0, 50.0], "survey_path": ["stationary", "circle"]},
+        },
+    )
     assert code == 0
     config = yaml.safe_load((out / "config.yml").read_text())
     assert config["scenario_config"]["randomize_depth_m"] == [1.0, 50.0]
@@ -274,10 +320,26 @@ def test_tiny_training_run_on_the_newer_scenarios(tmp_path, scenario):
     import evaluate
 
     out = tmp_path / scenario
-    assert cli.main(["--scenario", scenario, "--timesteps", "600", "--seed", "0", "--out", str(out),
-                     "--config", _tiny_yaml(tmp_path), "--no-progress"]) == 0
+    assert (
+        cli.main(
+            [
+                "--scenario",
+                scenario,
+                "--timesteps",
+                "600",
+                "--seed",
+                "0",
+                "--out",
+                str(out),
+                "--config",
+                _tiny_yaml(tmp_path),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     config = coopnav_env.make_config(scenario, max_cycles=6)
-    eps, steps = evaluate.run_episodes(config, str(out), [0, 1])
+    eps, _steps = evaluate.run_episodes(config, str(out), [0, 1])
     assert len(eps) == 2 and all(np.isfinite(e["mean_error_m"]) for e in eps)
 
 
@@ -314,8 +376,17 @@ def test_init_from_starts_from_another_runs_weights_and_normalization(tmp_path, 
     assert _run(tmp_path, source, 256, eval={"every_steps": 0}) == 0
     # learning rate 0: the warm-started weights cannot move, so they must equal the source's
     warm = tmp_path / "warm"
-    assert _run(tmp_path, warm, 256, eval={"every_steps": 0}, init_from=str(source),
-                ppo=dict(TINY["ppo"], learning_rate=0.0)) == 0
+    assert (
+        _run(
+            tmp_path,
+            warm,
+            256,
+            eval={"every_steps": 0},
+            init_from=str(source),
+            ppo=dict(TINY["ppo"], learning_rate=0.0),
+        )
+        == 0
+    )
     a, b = agents.load(source).model.policy.state_dict(), agents.load(warm).model.policy.state_dict()
     assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
     src_stats = read_vecnormalize(source / "vecnormalize.safetensors")
@@ -329,8 +400,16 @@ def test_init_from_starts_from_another_runs_weights_and_normalization(tmp_path, 
     assert not all(torch.equal(a[k], c[k]) for k in a)
 
     # a network of another shape, or a gate of two networks, is a one-line error
-    assert _run(tmp_path, tmp_path / "bad", 256, init_from=str(source),
-                ppo=dict(TINY["ppo"], policy_kwargs={"net_arch": [8]})) == 2
+    assert (
+        _run(
+            tmp_path,
+            tmp_path / "bad",
+            256,
+            init_from=str(source),
+            ppo=dict(TINY["ppo"], policy_kwargs={"net_arch": [8]}),
+        )
+        == 2
+    )
     assert "does not fit this network" in capsys.readouterr().err
     assert _run(tmp_path, tmp_path / "gate", 256, init_from="ppo_sousa_asv") == 2
     assert "name one of its networks" in capsys.readouterr().err
@@ -339,8 +418,9 @@ def test_init_from_starts_from_another_runs_weights_and_normalization(tmp_path, 
 # ------------------------------------------------------------------------------------
 # the typed configs, the library API, the command line's help, the import layering
 CONFIG_FILES = sorted((ROOT / "configs" / "ppo").rglob("*.yml")) + sorted((ROOT / "configs" / "rllib").glob("*.yml"))
-RUN_RECORDS = sorted((ROOT / "agents" / "policies").glob("*/config.yml")) + \
-    sorted((ROOT / "agents" / "policies").glob("*/*/config.yml"))
+RUN_RECORDS = sorted((ROOT / "agents" / "policies").glob("*/config.yml")) + sorted(
+    (ROOT / "agents" / "policies").glob("*/*/config.yml")
+)
 
 
 def test_every_config_file_and_run_record_loads_into_its_typed_config():
@@ -358,16 +438,22 @@ def test_every_config_file_and_run_record_loads_into_its_typed_config():
         assert config.ppo == record["hyperparameters"]["ppo"], path
 
 
-@pytest.mark.parametrize("data, message", [
-    ({"eval": {"episdoes": 3}}, "unknown eval key 'episdoes'; did you mean 'episodes'? valid: baselines, cells, "
-                                "episodes, every_steps, seed"),
-    ({"evals": {}}, "unknown section 'evals'; did you mean 'eval'?"),
-    ({"normalize": {"norm_ob": True}}, "unknown normalize key 'norm_ob'; did you mean 'norm_obs'?"),
-    ({"ppo": {"n_stepz": 3}}, "unknown ppo key 'n_stepz'; did you mean 'n_steps'?"),
-    ({"eval": {"episodes": "many"}}, "eval.episodes must be an integer, got 'many'"),
-    ({"eval": []}, "eval must be a mapping"),
-    ({"ppo": {"policy_kwargs": {"activation_fn": "sigmoid"}}}, "unknown activation_fn 'sigmoid'"),
-])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        (
+            {"eval": {"episdoes": 3}},
+            "unknown eval key 'episdoes'; did you mean 'episodes'? valid: baselines, cells, "
+            "episodes, every_steps, seed",
+        ),
+        ({"evals": {}}, "unknown section 'evals'; did you mean 'eval'?"),
+        ({"normalize": {"norm_ob": True}}, "unknown normalize key 'norm_ob'; did you mean 'norm_obs'?"),
+        ({"ppo": {"n_stepz": 3}}, "unknown ppo key 'n_stepz'; did you mean 'n_steps'?"),
+        ({"eval": {"episodes": "many"}}, "eval.episodes must be an integer, got 'many'"),
+        ({"eval": []}, "eval must be a mapping"),
+        ({"ppo": {"policy_kwargs": {"activation_fn": "sigmoid"}}}, "unknown activation_fn 'sigmoid'"),
+    ],
+)
 def test_an_unknown_key_or_a_wrong_type_is_a_one_line_error_naming_the_closest(tmp_path, data, message):
     with pytest.raises(ConfigError) as exc:
         from_dict(TrainConfig, data).check()
@@ -383,9 +469,14 @@ def test_an_unknown_key_or_a_wrong_type_is_a_one_line_error_naming_the_closest(t
 
 
 def test_overrides_apply_on_top_of_the_file(tmp_path):
-    config = load_config(ROOT / "configs" / "ppo" / "sousa_asv.yml", TrainConfig,
-                         {"eval.episodes": 3, "ppo.n_steps": 32, "env.overrides.max_cycles": 5},
-                         scenario="sousa_asv", timesteps=10, seed=None)
+    config = load_config(
+        ROOT / "configs" / "ppo" / "sousa_asv.yml",
+        TrainConfig,
+        {"eval.episodes": 3, "ppo.n_steps": 32, "env.overrides.max_cycles": 5},
+        scenario="sousa_asv",
+        timesteps=10,
+        seed=None,
+    )
     assert (config.eval.episodes, config.ppo["n_steps"], config.env.overrides["max_cycles"]) == (3, 32, 5)
     assert config.ppo["batch_size"] == 4096 and config.seed == 0  # the rest is the file's, then the defaults'
     assert TrainConfig().eval.seed == coopnav_env.seeds.VALIDATION_SEED == RLlibConfig().eval.seed
@@ -396,10 +487,16 @@ def test_overrides_apply_on_top_of_the_file(tmp_path):
 def test_training_through_the_library_api(tmp_path, capsys):
     """agents.training.sb3.train(TrainConfig, out) without the command line: the run
     loads with agents.load; bad input raises ConfigError and writes nothing."""
-    config = TrainConfig(scenario="gao_lawnmower", timesteps=300, seed=2, n_envs=2,
-                         ppo={"n_steps": 64, "batch_size": 64, "n_epochs": 1, "policy_kwargs": {"net_arch": [8]}},
-                         env=EnvSpec(overrides={"max_cycles": 6}), eval=PeriodicEvalSpec(every_steps=128, episodes=1),
-                         checkpoint_every_steps=128)
+    config = TrainConfig(
+        scenario="gao_lawnmower",
+        timesteps=300,
+        seed=2,
+        n_envs=2,
+        ppo={"n_steps": 64, "batch_size": 64, "n_epochs": 1, "policy_kwargs": {"net_arch": [8]}},
+        env=EnvSpec(overrides={"max_cycles": 6}),
+        eval=PeriodicEvalSpec(every_steps=128, episodes=1),
+        checkpoint_every_steps=128,
+    )
     out = tmp_path / "lib"
     assert sb3.train(config, out) == 0
     policy = agents.load(out, scenario="gao_lawnmower")
@@ -432,10 +529,12 @@ def test_help_teaches_defaults_required_options_and_scenarios():
 
 def test_importing_the_command_line_is_cheap_and_one_way():
     """agents.training.cli imports neither the evaluation nor train.py (nor torch, SB3 or Ray)."""
-    code = ("import sys, agents.training.cli, agents.training.rllib; "
-            "bad = sorted(m for m in sys.modules if m.split('.')[0] in "
-            "('evaluation', 'evaluate', 'train', 'train_rllib', 'torch', 'stable_baselines3', 'ray')); "
-            "print(bad)")
+    code = (
+        "import sys, agents.training.cli, agents.training.rllib; "
+        "bad = sorted(m for m in sys.modules if m.split('.')[0] in "
+        "('evaluation', 'evaluate', 'train', 'train_rllib', 'torch', 'stable_baselines3', 'ray')); "
+        "print(bad)"
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd="/")
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "[]"
@@ -451,10 +550,28 @@ def test_imitation_clones_the_planner_before_ppo(tmp_path):
     from baselines import make_policy
 
     out = tmp_path / "bc"
-    changes = {"imitate": {"planner": "circle", "steps": 2000, "epochs": 30, "batch_size": 256},
-               "ppo": {**TINY["ppo"], "learning_rate": 1e-9, "policy_kwargs": {"net_arch": [64, 64]}}}
-    assert cli.main(["--scenario", "sousa_asv", "--timesteps", "256", "--seed", "0", "--out", str(out),
-                     "--config", _tiny_yaml(tmp_path, **changes), "--no-progress"]) == 0
+    changes = {
+        "imitate": {"planner": "circle", "steps": 2000, "epochs": 30, "batch_size": 256},
+        "ppo": {**TINY["ppo"], "learning_rate": 1e-9, "policy_kwargs": {"net_arch": [64, 64]}},
+    }
+    assert (
+        cli.main(
+            [
+                "--scenario",
+                "sousa_asv",
+                "--timesteps",
+                "256",
+                "--seed",
+                "0",
+                "--out",
+                str(out),
+                "--config",
+                _tiny_yaml(tmp_path, **changes),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     record = yaml.safe_load((out / "config.yml").read_text())
     assert record["imitation"]["planner"] == "circle" and record["imitation"]["steps"] >= 2000
     assert record["hyperparameters"]["imitate"]["planner"] == "circle"
@@ -478,8 +595,19 @@ def test_imitation_clones_the_planner_before_ppo(tmp_path):
 
 def test_imitation_refuses_a_planner_that_cannot_drive_the_scenario(tmp_path, capsys):
     out = tmp_path / "never"
-    code = cli.main(["--scenario", "sousa_asv", "--timesteps", "256", "--out", str(out), "--config",
-                     _tiny_yaml(tmp_path, imitate={"planner": "abeam"}), "--no-progress"])
+    code = cli.main(
+        [
+            "--scenario",
+            "sousa_asv",
+            "--timesteps",
+            "256",
+            "--out",
+            str(out),
+            "--config",
+            _tiny_yaml(tmp_path, imitate={"planner": "abeam"}),
+            "--no-progress",
+        ]
+    )
     err = capsys.readouterr().err.strip()
     assert code == 2 and "imitate.planner 'abeam' cannot drive 'sousa_asv'" in err and "\n" not in err
     assert not out.exists()

@@ -278,14 +278,17 @@ def test_sb3_helpers_and_wrappers():
     wrapped.reset()
     episodes = 0
     for _ in range(11):
-        _, _, done, infos = wrapped.step(np.random.default_rng(0).uniform(-1, 1, (4, 2)))
+        _, _, _done, infos = wrapped.step(np.random.default_rng(0).uniform(-1, 1, (4, 2)))
         episodes += sum("episode" in i for i in infos)
     assert episodes == 8  # two episodes of two environments, two beacons each
     wrapped.close()
 
 
-DR = dict(randomize_depth_m=(1.0, 5.0, 20.0, 50.0), randomize_survey_path=("stationary", "lawnmower", "circle", "spiral"),
-          randomize_noise_scale=(0.75, 1.25))
+DR = dict(
+    randomize_depth_m=(1.0, 5.0, 20.0, 50.0),
+    randomize_survey_path=("stationary", "lawnmower", "circle", "spiral"),
+    randomize_noise_scale=(0.75, 1.25),
+)
 
 
 def test_per_episode_randomization_is_the_cores_in_one_simulator():
@@ -301,8 +304,9 @@ def test_per_episode_randomization_is_the_cores_in_one_simulator():
     assert venv.get_attr("episode_cell", indices=[5]) == [cells[5]]
     assert [c[1] for c in cells] == [float(d) for d in venv.sim.state.s_pos[:, 0, 2]]  # each at its depth
     picked = [3, 11]
-    envs = [coopnav_env.parallel_env("sousa_asv", seed=seed + e, max_cycles=3, mission_duration_s=0.0, **DR)
-            for e in picked]
+    envs = [
+        coopnav_env.parallel_env("sousa_asv", seed=seed + e, max_cycles=3, mission_duration_s=0.0, **DR) for e in picked
+    ]
     for env in envs:
         env.reset()
     assert _compare_with_pettingzoo(_Only(venv, picked), envs, 7, np.random.default_rng(2)) == 4
@@ -314,12 +318,13 @@ def test_training_reward_terms():
     observations, dones and infos stay the environment's."""
     kw = dict(n_envs=3, seed=8, max_cycles=4)
     plain = CoopNavVecEnv("gao_lawnmower", **kw, **TWO_BY_TWO)
-    shaped = CoopNavVecEnv("gao_lawnmower", reward_terms={"error": 2.0, "env": 1.0, "penalties": 0.5}, **kw,
-                           **TWO_BY_TWO)
+    shaped = CoopNavVecEnv(
+        "gao_lawnmower", reward_terms={"error": 2.0, "env": 1.0, "penalties": 0.5}, **kw, **TWO_BY_TWO
+    )
     plain.reset(), shaped.reset()
     for _ in range(4):
         a = np.random.default_rng(0).uniform(-1, 1, (6, 2))
-        o1, r1, d1, i1 = plain.step(a)
+        o1, r1, d1, _i1 = plain.step(a)
         o2, r2, d2, i2 = shaped.step(a)
         assert np.array_equal(o1, o2) and np.array_equal(d1, d2)
         st, c = shaped.sim.state, shaped.config
@@ -342,8 +347,14 @@ def test_training_reward_terms():
     assert np.allclose(r, [-i["survey_error_m"] for i in infos])
     # rejected: minus the ranges the survey filter gated out; every range a 200 m multipath here
     for prob, expect in ((1.0, -1.0), (0.0, 0.0)):
-        rej = CoopNavVecEnv("sousa_asv", n_envs=2, seed=0, reward_terms={"rejected": 1.0}, outlier_probability=prob,
-                            outlier_mean_excess_m=200.0)
+        rej = CoopNavVecEnv(
+            "sousa_asv",
+            n_envs=2,
+            seed=0,
+            reward_terms={"rejected": 1.0},
+            outlier_probability=prob,
+            outlier_mean_excess_m=200.0,
+        )
         rej.reset()
         for _ in range(3):
             _, r, _, infos = rej.step(np.zeros((2, 2)))

@@ -41,9 +41,17 @@ def mackenzie_sound_speed(temperature_c: float, salinity_psu: float, depth_m: fl
     t = temperature_c
     s = salinity_psu - 35.0
     d = depth_m
-    return (1448.96 + 4.591 * t - 5.304e-2 * t * t + 2.374e-4 * t * t * t
-            + 1.340 * s + 1.630e-2 * d + 1.675e-7 * d * d
-            - 1.025e-2 * t * s - 7.139e-13 * t * d * d * d)
+    return (
+        1448.96
+        + 4.591 * t
+        - 5.304e-2 * t * t
+        + 2.374e-4 * t * t * t
+        + 1.340 * s
+        + 1.630e-2 * d
+        + 1.675e-7 * d * d
+        - 1.025e-2 * t * s
+        - 7.139e-13 * t * d * d * d
+    )
 
 
 @vectorize(["float64(float64, float64, float64, float64)"], cache=True)
@@ -64,8 +72,9 @@ def ranging_variance_m2(detection_std_m: float, two_way: bool) -> float:
 
 
 @njit(cache=True)
-def travel_time(sender: np.ndarray, receiver: np.ndarray, receiver_velocity: np.ndarray,
-                sound_speed_mps: float) -> float:
+def travel_time(
+    sender: np.ndarray, receiver: np.ndarray, receiver_velocity: np.ndarray, sound_speed_mps: float
+) -> float:
     """Time for sound sent from a fixed point to reach a receiver moving at constant velocity.
 
     Solves tau = |r + v tau - s| / c by fixed-point iteration, a contraction with
@@ -85,9 +94,13 @@ def travel_time(sender: np.ndarray, receiver: np.ndarray, receiver_velocity: np.
     return tau
 
 
-def travel_time_s(sender_pos_m: ArrayLike, receiver_pos_m: ArrayLike, receiver_vel_mps: ArrayLike,
-                  sound_speed_mps: ArrayLike) -> np.ndarray:
+def travel_time_s(
+    sender_pos_m: ArrayLike, receiver_pos_m: ArrayLike, receiver_vel_mps: ArrayLike, sound_speed_mps: ArrayLike
+) -> np.ndarray:
     """``travel_time`` over arrays: positions and velocity (..., 3), sound speed (...)."""
     return np.vectorize(travel_time, signature="(3),(3),(3),()->()")(
-        np.asarray(sender_pos_m, float), np.asarray(receiver_pos_m, float),
-        np.asarray(receiver_vel_mps, float), np.asarray(sound_speed_mps, float))
+        np.asarray(sender_pos_m, float),
+        np.asarray(receiver_pos_m, float),
+        np.asarray(receiver_vel_mps, float),
+        np.asarray(sound_speed_mps, float),
+    )

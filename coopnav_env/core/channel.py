@@ -44,7 +44,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numba import njit, prange
@@ -54,28 +54,38 @@ from . import fusion
 from .acoustics import mackenzie_sound_speed, travel_time
 from .kernel_records import beacon_view, knowledge_view, survey_view
 
+if TYPE_CHECKING:
+    from ..scenarios.base import ScenarioConfig
+    from .contract import BatchedSimulator  # not .sim: sim imports this module
 
-def packet_duration_s(bits, bit_rate_bps):
+
+def packet_duration_s(bits: float | np.ndarray, bit_rate_bps: float | np.ndarray) -> float | np.ndarray:
     """How long a packet of ``bits`` occupies the channel at ``bit_rate_bps`` (s): bits / bit rate."""
     d = np.asarray(bits, dtype=float) / np.asarray(bit_rate_bps, dtype=float)
     return float(d) if d.ndim == 0 else d
 
 
-def transmit_energy_j(power_w, duration_s, packets=1):
+def transmit_energy_j(
+    power_w: float | np.ndarray, duration_s: float | np.ndarray, packets: int | np.ndarray = 1
+) -> float | np.ndarray:
     """Electrical energy of ``packets`` transmissions of ``duration_s`` each at ``power_w`` (J)."""
     return packets * power_w * duration_s
 
 
-def reply_time_s(config) -> float:
+def reply_time_s(config: ScenarioConfig) -> float:
     """When a survey vehicle's reply starts, after the slot's ping instant (s): the ping's
     duration, the longest flight from within acoustic range and the turn-around."""
     c = config
-    return (packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps) + c.max_range_m / SLOWEST_SOUND_SPEED_MPS
-            + c.turnaround_s)
+    return (
+        packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps)
+        + c.max_range_m / SLOWEST_SOUND_SPEED_MPS
+        + c.turnaround_s
+    )
 
 
-def _resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, arrival, delivered, collided,
-                  deaf):
+def _resolve_slot(
+    pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, arrival, delivered, collided, deaf
+):
     """One slot's packets at every receiver, in place.
 
     pos, vel (B, V, 3): positions at t = 0 and constant velocities; tx_start (B, V):
@@ -133,7 +143,16 @@ resolve_slot_kernel = njit(cache=True)(_resolve_slot)
 resolve_slot_kernel_parallel = njit(cache=True, parallel=True)(_resolve_slot)
 
 
-def resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, parallel=False):
+def resolve_slot(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    tx_start: np.ndarray,
+    tx_dur: np.ndarray,
+    temperature_c: np.ndarray,
+    salinity_psu: float,
+    max_range_m: float,
+    parallel: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_resolve_slot` on fresh output arrays: (arrival, delivered, collided, deaf), each (B, V, V)."""
     pos, vel = np.ascontiguousarray(pos, float), np.ascontiguousarray(vel, float)
     tx_start, tx_dur = np.ascontiguousarray(tx_start, float), np.ascontiguousarray(tx_dur, float)
@@ -141,11 +160,18 @@ def resolve_slot(pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_ra
     arrival = np.empty((B, V, V))
     flags = [np.empty((B, V, V), dtype=bool) for _ in range(3)]
     kernel = resolve_slot_kernel_parallel if parallel else resolve_slot_kernel
-    kernel(pos, vel, tx_start, tx_dur, np.ascontiguousarray(temperature_c, float), float(salinity_psu),
-           float(max_range_m), arrival, *flags)
-    return (arrival, *flags)
-
-
+    kernel(
+        pos,
+        vel,
+        tx_start,
+        tx_dur,
+        np.ascontiguousarray(temperature_c, float),
+        float(salinity_psu),
+        float(max_range_m),
+        arrival,
+        *flags,
+    )
+    return arrival, flags[0], flags[1], flags[2]
 
 
 class Channel:
@@ -153,7 +179,7 @@ class Channel:
     durations, reply time and energy per ping gathered once; ``pings`` and ``replies``
     resolve a slot in two passes (the replies depend on which pings were decoded)."""
 
-    def __init__(self, sim):
+    def __init__(self, sim: BatchedSimulator) -> None:
         c = sim.config
         self.sim = sim
         self.N, self.S = sim.N, sim.S
@@ -165,7 +191,7 @@ class Channel:
         self.parallel = sim.batch_size >= 256
         self._k_exchange = fusion.exchange_messages_parallel if self.parallel else fusion.exchange_messages
 
-    def transmit_mask(self, actions, cycle):
+    def transmit_mask(self, actions: np.ndarray, cycle: np.ndarray) -> np.ndarray:
         """(B, N) bool: who transmits this slot. The third action component > 0; a
         two-component action (the motion alone) transmits every slot, as the fixed clock;
         with ``tdma_frame_slots`` F > 0, beacon j only in slots k with k mod F == j mod F."""
@@ -177,42 +203,59 @@ class Channel:
             tx = tx & ((np.asarray(cycle)[:, None] % F) == (np.arange(N)[None, :] % F))
         return tx
 
-    def _timeline(self, beacon_tx, survey_tx):
+    def _timeline(
+        self, beacon_tx: np.ndarray, survey_tx: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         st, c = self.sim.state, self.sim.config
+        assert st is not None, "the simulator is reset before its channel is used"
         B = st.b_pos.shape[0]
         pos = np.concatenate([st.b_pos, st.s_pos], 1)
         vel = np.concatenate([st.b_vel, st.s_vel_true], 1)
         start = np.concatenate([np.where(beacon_tx, 0.0, np.nan), np.where(survey_tx, self.reply_at_s, np.nan)], 1)
-        return resolve_slot(pos, vel, start, np.broadcast_to(self.tx_dur, (B, self.N + self.S)), st.temperature_c,
-                            c.salinity_psu, c.max_range_m, self.parallel)
+        return resolve_slot(
+            pos,
+            vel,
+            start,
+            np.broadcast_to(self.tx_dur, (B, self.N + self.S)),
+            st.temperature_c,
+            c.salinity_psu,
+            c.max_range_m,
+            self.parallel,
+        )
 
-    def pings(self, beacon_tx):
+    def pings(self, beacon_tx: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
         """The pings alone: (B, N, S) delivered at the survey vehicles (before the random
         loss), and the whole resolution (arrival, delivered, collided, deaf)."""
         N = self.N
         out = self._timeline(beacon_tx, np.zeros((beacon_tx.shape[0], self.S), dtype=bool))
         return out[1][:, :N, N:], out
 
-    def replies(self, beacon_tx, survey_tx):
+    def replies(
+        self, beacon_tx: np.ndarray, survey_tx: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
         """The whole slot with the replies of ``survey_tx`` (B, S): (reply_ok (B, N, S),
         peer_ok (B, N, N) [receiver, sender], resolution)."""
         N = self.N
         out = self._timeline(beacon_tx, survey_tx)
         delivered = out[1]
-        return (np.ascontiguousarray(np.swapaxes(delivered[:, N:, :N], 1, 2)),
-                np.ascontiguousarray(np.swapaxes(delivered[:, :N, :N], 1, 2)), out)
+        return (
+            np.ascontiguousarray(np.swapaxes(delivered[:, N:, :N], 1, 2)),
+            np.ascontiguousarray(np.swapaxes(delivered[:, :N, :N], 1, 2)),
+            out,
+        )
 
-    def exchange(self, draws, reply_ok, peer_ok):
+    def exchange(self, draws: dict[str, np.ndarray], reply_ok: np.ndarray, peer_ok: np.ndarray) -> None:
         """The replies and the peers' positions as ``Simulator._exchange_messages`` does
         them, through the channel's masks."""
         st = self.sim.state
+        assert st is not None, "the simulator is reset before its channel is used"
         self._k_exchange(survey_view(st), beacon_view(st), knowledge_view(st), st.t_s, draws["message_u"], reply_ok,
                          peer_ok, self.sim.params)
 
 
-
 # ------------------------------------------------------------------------------------
 # the registry of channel models: a scenario's ``channel_mode`` names one
+
 
 @dataclass(frozen=True)
 class ChannelModel:
@@ -228,8 +271,9 @@ class ChannelModel:
 _CHANNEL_MODELS: dict[str, ChannelModel] = {}
 
 
-def register_channel_model(name: str, build: Callable[[Any], Any], *, action_dim: int = 2,
-                           beacon_info_keys: tuple = (), doc: str = "") -> ChannelModel:
+def register_channel_model(
+    name: str, build: Callable[[Any], Any], *, action_dim: int = 2, beacon_info_keys: tuple = (), doc: str = ""
+) -> ChannelModel:
     """Register the channel model ``name`` (a scenario's ``channel_mode``) and return it.
 
     ``build(sim)``: the simulator's channel object (None: the free channel of the fixed
@@ -258,7 +302,13 @@ def channel_model_names() -> tuple[str, ...]:
     return tuple(_CHANNEL_MODELS)
 
 
-register_channel_model("clock", lambda sim: None,
-                       doc="the papers' fixed clock: every beacon pings every cycle on a free channel")
-register_channel_model("decide", Channel, action_dim=3, beacon_info_keys=("pings", "collisions", "energy_J"),
-                       doc="a decision slot per step on a shared channel in time (this module's docstring)")
+register_channel_model(
+    "clock", lambda sim: None, doc="the papers' fixed clock: every beacon pings every cycle on a free channel"
+)
+register_channel_model(
+    "decide",
+    Channel,
+    action_dim=3,
+    beacon_info_keys=("pings", "collisions", "energy_J"),
+    doc="a decision slot per step on a shared channel in time (this module's docstring)",
+)

@@ -63,7 +63,17 @@ GOLDEN = 0.6180339887498949
 
 
 @njit(cache=True)
-def schmidt_range_update(x, P, Pxb, Pbb, y, H, R, gate, K):
+def schmidt_range_update(
+    x: np.ndarray,
+    P: np.ndarray,
+    Pxb: np.ndarray,
+    Pbb: np.ndarray,
+    y: float,
+    H: np.ndarray,
+    R: float,
+    gate: float,
+    K: np.ndarray,
+) -> tuple[float, bool]:
     """Schmidt-Kalman update of one survey filter with one range, the beacon's position
     error a consider state, in place (x (3,), P (3, 3), Pxb (3, nb); Pbb (nb, nb) is
     read only). y = z - h (``navigation.range_prediction`` gives h and H, with the
@@ -109,7 +119,7 @@ def schmidt_range_update(x, P, Pxb, Pbb, y, H, R, gate, K):
 
 
 @njit(cache=True)
-def carry_cross_covariance(Pxb, K, H):
+def carry_cross_covariance(Pxb: np.ndarray, K: np.ndarray, H: np.ndarray) -> None:
     """Eq. (C6): Pxb <- (I - K H) Pxb in place, for every cross-covariance the update
     with gain K (3,) and measurement row H (3,) did not involve: the other beacons'
     after a range, all of them after a depth or GPS update (its K = P H^T / S before
@@ -122,7 +132,7 @@ def carry_cross_covariance(Pxb, K, H):
 
 
 @njit(cache=True)
-def consider_predict(Pxb, dt_s, tau_s):
+def consider_predict(Pxb: np.ndarray, dt_s: float, tau_s: float) -> None:
     """Eq. (C7) for one (survey, beacon) cross-covariance, in place: Pxb <- phi Pxb,
     phi = exp(-dt_s / tau_s); tau_s <= 0 or inf: the beacon's error is a bias or a
     random walk (its increments independent of the survey's error), Pxb unchanged.
@@ -135,14 +145,14 @@ def consider_predict(Pxb, dt_s, tau_s):
 
 
 @njit(cache=True)
-def beacon_reset(Pxb):
+def beacon_reset(Pxb: np.ndarray) -> None:
     """Eq. (C8): the beacon took a GPS fix; its new error is independent of the survey's:
     Pxb <- 0 in place."""
     Pxb[:, :] = 0.0
 
 
 @njit(cache=True)
-def ci_trace(P, H, R, w):
+def ci_trace(P: np.ndarray, H: np.ndarray, R: float, w: float) -> float:
     """trace(C(w)) of the scalar-range CI (see ``ci_range_update``): with s = H P H^T,
     C = (P - K H P) / w, K = P H^T / (s + R w / (1 - w)) (Sherman-Morrison)."""
     if w >= 1.0:
@@ -153,7 +163,7 @@ def ci_trace(P, H, R, w):
 
 
 @njit(cache=True)
-def ci_range_update(x, P, y, H, R, use_det):
+def ci_range_update(x: np.ndarray, P: np.ndarray, y: float, H: np.ndarray, R: float, use_det: bool) -> float:
     """Covariance intersection of the filter (x, P) with one range whose errors are
     correlated with it in an unknown way (Julier & Uhlmann 1997), in place; returns w.
 
@@ -200,7 +210,15 @@ def _ci_criterion(Ai, Bi, w, use_det):
 
 
 @njit(cache=True)
-def covariance_intersection(a, A, b, B, use_det, out_x, out_P):
+def covariance_intersection(
+    a: np.ndarray,
+    A: np.ndarray,
+    b: np.ndarray,
+    B: np.ndarray,
+    use_det: bool,
+    out_x: np.ndarray,
+    out_P: np.ndarray,
+) -> float:
     """Two-estimate CI (Julier & Uhlmann 1997) of (a, A) and (b, B) (n,), (n, n), both
     full rank: C^-1 = w A^-1 + (1 - w) B^-1 (CI1), c = C (w A^-1 a + (1 - w) B^-1 b)
     (CI2); w in [0, 1] minimizing det(C) or trace(C), by golden-section search (both
@@ -234,7 +252,7 @@ RHO_STEPS = 127.0
 
 
 @njit(cache=True)
-def encode_pbb(Pbb):
+def encode_pbb(Pbb: np.ndarray) -> tuple[int, int, int]:
     """The beacon's horizontal covariance Pbb (2, 2) as three 8-bit codes (M1): sigma_e
     and sigma_n on a log scale, sigma = 0.05 m * 10^(c / 51) (0.05 m to 5 km in 4.6 %
     steps), rounded up; rho = (c - 127) / 127, rounded toward 0. Returns (c_e, c_n, c_rho)."""
@@ -250,7 +268,7 @@ def encode_pbb(Pbb):
 
 
 @njit(cache=True)
-def decode_pbb(c_e, c_n, c_rho, out):
+def decode_pbb(c_e: int, c_n: int, c_rho: int, out: np.ndarray) -> None:
     """Pbb (2, 2) from ``encode_pbb``'s codes into out, made to dominate the sent one (M2):
     with f = 10^(1/51) the std step, sigma rounded up by at most f and rho toward 0 by
     less than 1/127, the off-diagonal is off by at most

@@ -48,8 +48,9 @@ def thrust_speed(u0_mps: float, thrust_n: float, k: float, mass_kg: float, t_s: 
     return u_inf / np.tanh(np.arctanh(1.0 / max(ratio, 1.0 + 1e-15)) + g * t_s)
 
 
-def thrust_speed_profile(u0_mps: ArrayLike, thrust_n: ArrayLike, k: float, mass_kg: float,
-                         times_s: ArrayLike) -> np.ndarray:
+def thrust_speed_profile(
+    u0_mps: ArrayLike, thrust_n: ArrayLike, k: float, mass_kg: float, times_s: ArrayLike
+) -> np.ndarray:
     """``thrust_speed`` at several times: u0 and thrust (shape X), times (K,) -> X + (K,)."""
     u0 = np.asarray(u0_mps, dtype=float)[..., None]
     thrust = np.asarray(thrust_n, dtype=float)[..., None]
@@ -121,8 +122,13 @@ def turn_towards(heading: ArrayLike, desired: ArrayLike, max_turn_rad: ArrayLike
 
 
 # --- ocean current: constant + first-order Gauss-Markov ---------------------------------
-def gauss_markov_step(v: np.ndarray | float, dt_s: float, time_constant_s: np.ndarray | float,
-                      std: np.ndarray | float, noise: np.ndarray | float) -> np.ndarray:
+def gauss_markov_step(
+    v: np.ndarray | float,
+    dt_s: float,
+    time_constant_s: np.ndarray | float,
+    std: np.ndarray | float,
+    noise: np.ndarray | float,
+) -> np.ndarray:
     """Exact discretization of dv = -v/tau dt + q dW with stationary std ``std``.
 
     v <- a v + sqrt(1 - a^2) std n, a = exp(-dt/tau) (cf. UUV Simulator's

@@ -60,8 +60,12 @@ def build_path(config: ScenarioConfig, vehicle_index: int = 0) -> tuple[np.ndarr
         end = c.spiral_end_depth_m if c.spiral_end_depth_m > c.depth_m else c.depth_m + 20.0
         wp = _circle(center, c.circle_radius_m, c.circle_laps, c.depth_m, end)
     elif c.survey_path == "line":
-        wp = np.array([(center[0] - c.line_length_m / 2, center[1], c.depth_m),
-                       (center[0] + c.line_length_m / 2, center[1], c.depth_m)])
+        wp = np.array(
+            [
+                (center[0] - c.line_length_m / 2, center[1], c.depth_m),
+                (center[0] + c.line_length_m / 2, center[1], c.depth_m),
+            ]
+        )
     elif c.survey_path == "stationary":
         wp = np.array([(center[0], center[1], c.depth_m)] * 2)
         hover = True
@@ -97,8 +101,10 @@ def los_point(est: complex, seg_start: complex, seg_end: complex, alpha: float) 
     return seg_start + (alpha * along + (1.0 - alpha) * seg_len) * t, along, seg_len
 
 
-def los_target(est_h: ArrayLike, seg_start: ArrayLike, seg_end: ArrayLike,
-               alpha: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def los_target(
+    est_h: ArrayLike, seg_start: ArrayLike, seg_end: ArrayLike, alpha: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``los_point`` over arrays (for analysis and tests; the simulator calls los_point)."""
-    return np.vectorize(lambda e, a, b: los_point(complex(e), complex(a), complex(b), float(alpha)),
-                        otypes=[complex, float, float])(est_h, seg_start, seg_end)
+    return np.vectorize(
+        lambda e, a, b: los_point(complex(e), complex(a), complex(b), float(alpha)), otypes=[complex, float, float]
+    )(est_h, seg_start, seg_end)

@@ -13,8 +13,9 @@ from numba import njit, vectorize
 from numpy.typing import ArrayLike
 
 
-def fisher_information(target: np.ndarray, beacons: np.ndarray, range_std_m: ArrayLike,
-                       horizontal: bool = True) -> np.ndarray:
+def fisher_information(
+    target: np.ndarray, beacons: np.ndarray, range_std_m: ArrayLike, horizontal: bool = True
+) -> np.ndarray:
     """Fisher information matrix of range-only measurements of ``target``.
 
     J = sum_i u_i u_i^T / sigma_i^2 with u_i the unit vector from beacon i to the
@@ -94,16 +95,18 @@ def error_ellipse(P: ArrayLike, n_sigma: float = ELLIPSE_N_SIGMA) -> tuple[np.nd
 # additive: the functions above keep their signatures.
 
 
-def ellipse_to_covariance(major_m: ArrayLike, minor_m: ArrayLike, bearing_rad: ArrayLike,
-                          n_sigma: float = ELLIPSE_N_SIGMA) -> np.ndarray:
+def ellipse_to_covariance(
+    major_m: ArrayLike, minor_m: ArrayLike, bearing_rad: ArrayLike, n_sigma: float = ELLIPSE_N_SIGMA
+) -> np.ndarray:
     """The horizontal covariance (..., 2, 2) (east, north) of an error ellipse.
 
     The inverse of :func:`error_ellipse`: n-sigma semi-axes and the bearing of the
     major axis (clockwise from north). Observations carry the ellipse; planners
     rebuild the covariance with this.
     """
-    major, minor, bearing = np.broadcast_arrays(np.asarray(major_m, float), np.asarray(minor_m, float),
-                                                np.asarray(bearing_rad, float))
+    major, minor, bearing = np.broadcast_arrays(
+        np.asarray(major_m, float), np.asarray(minor_m, float), np.asarray(bearing_rad, float)
+    )
     lam1, lam2 = (major / n_sigma) ** 2, (minor / n_sigma) ** 2
     ue, un = np.sin(bearing), np.cos(bearing)  # major axis as an (east, north) unit vector
     P = np.empty(major.shape + (2, 2))
@@ -150,8 +153,14 @@ def project_to_disc(points: np.ndarray, center: np.ndarray, radius: np.ndarray) 
     return center + rel * scale
 
 
-def maximize_on_disc(score: Callable[[np.ndarray], np.ndarray], center: ArrayLike, radius: ArrayLike,
-                     n_rings: int = 10, n_angles: int = 64, refine_iters: int = 12) -> tuple[np.ndarray, np.ndarray]:
+def maximize_on_disc(
+    score: Callable[[np.ndarray], np.ndarray],
+    center: ArrayLike,
+    radius: ArrayLike,
+    n_rings: int = 10,
+    n_angles: int = 64,
+    refine_iters: int = 12,
+) -> tuple[np.ndarray, np.ndarray]:
     """Maximize ``score`` over discs: a vectorized polar grid, then a local refinement.
 
     ``score`` maps candidate points (..., M, 2) to values (..., M) (use large
@@ -184,8 +193,9 @@ def maximize_on_disc(score: Callable[[np.ndarray], np.ndarray], center: ArrayLik
     return best, best_val
 
 
-def best_second_range_det(horizontal_distance_m: ArrayLike, depth_difference_m: float, reach_m: float,
-                          **grid: int) -> np.ndarray:
+def best_second_range_det(
+    horizontal_distance_m: ArrayLike, depth_difference_m: float, reach_m: float, **grid: int
+) -> np.ndarray:
     """The largest det of the two-range information matrix within the reaching set.
 
     The survey vehicle is at the origin, ``depth_difference_m`` below the beacon;
@@ -252,6 +262,5 @@ def _optimal_start_distance_cached(h, R):
         hi *= 2.0
     lo_b = ds[max(k - 1, 0)] if k > 0 else 0.0
     hi_b = ds[min(k + 1, len(ds) - 1)]
-    res = minimize_scalar(lambda d: -f(d), bounds=(lo_b, hi_b), method="bounded",
-                          options={"xatol": 1e-4 * (R + h)})
+    res = minimize_scalar(lambda d: -f(d), bounds=(lo_b, hi_b), method="bounded", options={"xatol": 1e-4 * (R + h)})
     return float(res.x) if -res.fun >= vals[k] else float(ds[k])

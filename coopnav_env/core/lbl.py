@@ -27,12 +27,13 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit, vectorize
+from numpy.typing import ArrayLike
 
 from . import acoustics
 
 
 @njit(cache=True)
-def fix_xy(d1, d2, length):
+def fix_xy(d1: float, d2: float, length: float) -> tuple[float, float]:
     """The fix of section V for one set of ranges: x = (d1^2 - d2^2 + l^2) / (2 l) and
     y^2 = d1^2 - x^2 (negative when the range circles do not meet)."""
     x = (d1 * d1 - d2 * d2 + length * length) / (2.0 * length)
@@ -40,7 +41,7 @@ def fix_xy(d1, d2, length):
 
 
 @njit(cache=True)
-def spherical_fix_of(d1, d2, length):
+def spherical_fix_of(d1: float, d2: float, length: float) -> tuple[float, float, bool]:
     """``spherical_fix`` of one set of ranges without raising: (x, y, ok); where ok is
     False (no solution, a non-finite input or a non-positive baseline) x and y are 0."""
     ok = np.isfinite(d1) and np.isfinite(d2) and np.isfinite(length) and length > 0
@@ -64,11 +65,10 @@ def _fix_batch_rows(d1, d2, length, x, y, ok):
 
 def _flat_args(*arrays):
     shape = np.broadcast_shapes(*(np.shape(a) for a in arrays))
-    return shape, [np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), shape)).reshape(-1)
-                   for a in arrays]
+    return shape, [np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float), shape)).reshape(-1) for a in arrays]
 
 
-def spherical_fix(d1_m, d2_m, baseline_m):
+def spherical_fix(d1_m: ArrayLike, d2_m: ArrayLike, baseline_m: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """The LBL fix of section V: x = (d1^2 - d2^2 + l^2) / (2 l), y = sqrt(d1^2 - x^2).
 
     Horizontal ranges d1 (to B1), d2 (to B2) and the baseline l, scalars or arrays.
@@ -90,12 +90,15 @@ def spherical_fix(d1_m, d2_m, baseline_m):
     if np.any(y2 < 0):
         raise ValueError(
             f"spherical_fix: no solution for d1={d1}, d2={d2}, l={l}: the range circles do not meet "
-            "(|d1 - d2| <= l <= d1 + d2 is needed)")
+            "(|d1 - d2| <= l <= d1 + d2 is needed)"
+        )
     x, y = x.reshape(shape), np.sqrt(y2).reshape(shape)
     return (x[()], y[()]) if shape == () else (x, y)
 
 
-def spherical_fix_batch(d1_m, d2_m, baseline_m):
+def spherical_fix_batch(
+    d1_m: ArrayLike, d2_m: ArrayLike, baseline_m: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``spherical_fix_of`` over arrays, for the batched simulator: returns (x, y, ok);
     where ok is False (no solution) x and y are 0."""
     shape, (a, b, c) = _flat_args(d1_m, d2_m, baseline_m)
@@ -107,20 +110,20 @@ def spherical_fix_batch(d1_m, d2_m, baseline_m):
 
 
 @vectorize(["float64(float64, float64)"], cache=True)
-def horizontal_range(slant_m, depth_difference_m):
+def horizontal_range(slant_m: float, depth_difference_m: float) -> float:
     """Horizontal part of a slant range; NaN-free (0 when the slant range is shorter than the depth). A ufunc."""
     v = slant_m * slant_m - depth_difference_m * depth_difference_m
-    return np.sqrt(0.0 if v < 0.0 else v)  # noqa: FURB136  (np.maximum(v, 0.0): NaN stays NaN)
+    return np.sqrt(0.0 if v < 0.0 else v)  # not np.maximum(v, 0.0): a NaN stays NaN
 
 
 @njit(cache=True)
-def to_world(b1_e, b1_n, sin_phi, cos_phi, x, y):
+def to_world(b1_e: float, b1_n: float, sin_phi: float, cos_phi: float, x: float, y: float) -> tuple[float, float]:
     """Frame (x, y) -> (east, north) of one point given B1 and the frame bearing's sine and cosine."""
     return b1_e + x * sin_phi + y * cos_phi, b1_n + x * cos_phi + y * -sin_phi
 
 
 @njit(cache=True)
-def to_frame(rel_e, rel_n, sin_phi, cos_phi):
+def to_frame(rel_e: float, rel_n: float, sin_phi: float, cos_phi: float) -> tuple[float, float]:
     """(east, north) relative to B1 -> frame (x, y) of one point, given the frame bearing's sine and cosine."""
     return rel_e * sin_phi + rel_n * cos_phi, rel_e * cos_phi - rel_n * sin_phi
 
@@ -137,7 +140,7 @@ def _to_frame_rows(rel, phi, x, y):
         x[i], y[i] = to_frame(rel[i, 0], rel[i, 1], np.sin(phi[i]), np.cos(phi[i]))
 
 
-def frame_to_world(b1_en, phi_rad, x, y):
+def frame_to_world(b1_en: ArrayLike, phi_rad: ArrayLike, x: ArrayLike, y: ArrayLike) -> np.ndarray:
     """Frame (x, y) -> (east, north) given B1's position (..., 2) and the frame bearing phi (``to_world``)."""
     b1 = np.asarray(b1_en, dtype=float)
     shape = np.broadcast_shapes(b1.shape[:-1], np.shape(phi_rad), np.shape(x), np.shape(y))
@@ -148,7 +151,7 @@ def frame_to_world(b1_en, phi_rad, x, y):
     return out.reshape(shape + (2,))
 
 
-def baseline(b1_en, b2_en):
+def baseline(b1_en: np.ndarray, b2_en: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The frame of beacons B1, B2 (east, north) (..., 2): bearing phi of its x axis
     (clockwise from north) and the baseline length l. (numpy's arctan2: the
     simulator's kernels take phi from here.)"""
@@ -156,7 +159,9 @@ def baseline(b1_en, b2_en):
     return np.arctan2(base[..., 0], base[..., 1]), np.linalg.norm(base, axis=-1)
 
 
-def world_to_frame(b1_en, b2_en, p_en):
+def world_to_frame(
+    b1_en: np.ndarray, b2_en: np.ndarray, p_en: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(east, north) -> frame (x, y) of the beacons B1, B2 (``to_frame``); also returns phi and l."""
     phi, length = baseline(b1_en, b2_en)
     rel = np.asarray(p_en, dtype=float) - b1_en
@@ -230,9 +235,17 @@ class FrameGeometry(NamedTuple):
 
 
 @njit(cache=True)
-def exchange_of(movers: Movers, sound_speed_mps: float, nominal_sound_speed_mps: float, err_s: np.ndarray,
-                lost: np.ndarray, turnaround_s: float, reaction_s: float, timeout_s: float,
-                work: np.ndarray) -> ExchangeResult:
+def exchange_of(
+    movers: Movers,
+    sound_speed_mps: float,
+    nominal_sound_speed_mps: float,
+    err_s: np.ndarray,
+    lost: np.ndarray,
+    turnaround_s: float,
+    reaction_s: float,
+    timeout_s: float,
+    work: np.ndarray,
+) -> ExchangeResult:
     """One environment's positioning cycle (see ``exchange``): ``movers`` (``Movers``, (3,)
     each), err_s (7,) each detection's timing error (jitter plus multipath excess), lost
     (7,); work (2, 3) scratch. Returns an ``ExchangeResult``."""
@@ -255,8 +268,7 @@ def exchange_of(movers: Movers, sound_speed_mps: float, nominal_sound_speed_mps:
     ok_m = ok2b and not lost[3]
     # S4: the vehicle interrogates B2 on hearing S2 (or at the timeout); B2 replies S5 at t5
     t3s = t3 + reaction_s if ok_d1 else timeout_s
-    t_s4_b2 = t3s + tt(_at(vehicle_m, vehicle_vel_mps, t3s, p), _at(b2_m, b2_vel_mps, t3s, q), b2_vel_mps,
-                       c) + err_s[4]
+    t_s4_b2 = t3s + tt(_at(vehicle_m, vehicle_vel_mps, t3s, p), _at(b2_m, b2_vel_mps, t3s, q), b2_vel_mps, c) + err_s[4]
     t5 = t_s4_b2 + tau
     t6 = t5 + tt(_at(b2_m, b2_vel_mps, t5, p), _at(vehicle_m, vehicle_vel_mps, t5, q), vehicle_vel_mps, c) + err_s[5]
     ok_d2 = not lost[4] and not lost[5]
@@ -275,8 +287,9 @@ def exchange_of(movers: Movers, sound_speed_mps: float, nominal_sound_speed_mps:
     n_lost = 0
     for i in range(lost.shape[0]):
         n_lost += lost[i]
-    return ExchangeResult(d1, m, d2, l, ok_d1, ok_m, ok_d2, ok_l, t3, t3s, t6, t_s1_b1, t_s1_b2, t_s4_b2, ok_track,
-                          n_lost)
+    return ExchangeResult(
+        d1, m, d2, l, ok_d1, ok_m, ok_d2, ok_l, t3, t3s, t6, t_s1_b1, t_s1_b2, t_s4_b2, ok_track, n_lost
+    )
 
 
 # the float and the flag fields of ``ExchangeResult``, as ``exchange`` returns them
@@ -291,17 +304,41 @@ def _exchange_rows(movers, c, cn, err, lost, turnaround_s, reaction_s, timeout_s
     work = np.empty((2, 3))
     vehicle, vehicle_vel, b1, b1_vel, b2, b2_vel = movers
     for b in range(vehicle.shape[0]):
-        r = exchange_of(Movers(vehicle[b], vehicle_vel[b], b1[b], b1_vel[b], b2[b], b2_vel[b]), c[b], cn[b], err[b],
-                        lost[b], turnaround_s, reaction_s, timeout_s[b], work)
+        r = exchange_of(
+            Movers(vehicle[b], vehicle_vel[b], b1[b], b1_vel[b], b2[b], b2_vel[b]),
+            c[b],
+            cn[b],
+            err[b],
+            lost[b],
+            turnaround_s,
+            reaction_s,
+            timeout_s[b],
+            work,
+        )
         fval[b, 0], fval[b, 1], fval[b, 2], fval[b, 3] = r.d1, r.m, r.d2, r.l
-        fval[b, 4], fval[b, 5], fval[b, 6], fval[b, 7], fval[b, 8], fval[b, 9] = (r.t3, r.t3s, r.t6, r.t_s1_b1,
-                                                                                r.t_s1_b2, r.t_s4_b2)
+        fval[b, 4], fval[b, 5], fval[b, 6], fval[b, 7], fval[b, 8], fval[b, 9] = (
+            r.t3,
+            r.t3s,
+            r.t6,
+            r.t_s1_b1,
+            r.t_s1_b2,
+            r.t_s4_b2,
+        )
         flag[b, 0], flag[b, 1], flag[b, 2], flag[b, 3], flag[b, 4] = r.ok_d1, r.ok_m, r.ok_d2, r.ok_l, r.ok_track
         n_lost[b] = r.lost_count
 
 
-def exchange(movers: Movers, sound_speed_mps, nominal_sound_speed_mps, jitter_s, late_s, lost, turnaround_s: float,
-             reaction_s: float, timeout_s) -> dict:
+def exchange(
+    movers: Movers,
+    sound_speed_mps: ArrayLike,
+    nominal_sound_speed_mps: ArrayLike,
+    jitter_s: ArrayLike,
+    late_s: ArrayLike,
+    lost: ArrayLike,
+    turnaround_s: float,
+    reaction_s: float,
+    timeout_s: ArrayLike,
+) -> dict[str, np.ndarray]:
     """Simulate one positioning cycle for a batch; t = 0 is the vehicle's S1 transmission.
 
     ``movers`` (``Movers``): positions (B, 3) at t = 0 and velocities (B, 3), held over
@@ -319,12 +356,25 @@ def exchange(movers: Movers, sound_speed_mps, nominal_sound_speed_mps, jitter_s,
     """
     vec = Movers(*(np.ascontiguousarray(a, dtype=float) for a in movers))
     B = vec.vehicle_m.shape[0]
-    c, cn, timeout = (np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float)
-                      for a in (sound_speed_mps, nominal_sound_speed_mps, timeout_s))
+    c, cn, timeout = (
+        np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float)
+        for a in (sound_speed_mps, nominal_sound_speed_mps, timeout_s)
+    )
     err = np.ascontiguousarray(np.asarray(jitter_s, dtype=float) + late_s)
     fval, flag, n_lost = np.empty((B, 10)), np.empty((B, 5), dtype=bool), np.empty(B, dtype=np.int64)
-    _exchange_rows(vec, c, cn, err, np.ascontiguousarray(lost, dtype=bool), float(turnaround_s), float(reaction_s),
-                   timeout, fval, flag, n_lost)
+    _exchange_rows(
+        vec,
+        c,
+        cn,
+        err,
+        np.ascontiguousarray(lost, dtype=bool),
+        float(turnaround_s),
+        float(reaction_s),
+        timeout,
+        fval,
+        flag,
+        n_lost,
+    )
     out = {}
     for name, col in zip(_EXCHANGE_FLOATS, fval.T):
         out[name] = col.copy()
@@ -335,9 +385,17 @@ def exchange(movers: Movers, sound_speed_mps, nominal_sound_speed_mps, jitter_s,
 
 
 @njit(cache=True)
-def track_fix_of(t_s1_b1: float, t_s1_b2: float, t_s4_b2: float, ok_track: bool, frame: FrameGeometry,
-                 depth_below_m: float, nominal_sound_speed_mps: float, turnaround_s: float,
-                 reaction_s: float) -> tuple:
+def track_fix_of(
+    t_s1_b1: float,
+    t_s1_b2: float,
+    t_s4_b2: float,
+    ok_track: bool,
+    frame: FrameGeometry,
+    depth_below_m: float,
+    nominal_sound_speed_mps: float,
+    turnaround_s: float,
+    reaction_s: float,
+) -> tuple:
     """``track_fix`` for one environment: the detection instants and their flag, the GPS
     frame (``FrameGeometry``), the depth below the boats. Returns (east, north, ok)."""
     cn = nominal_sound_speed_mps
@@ -356,12 +414,20 @@ def _track_rows(t_a, t_b, t_c, ok_track, gps_frame, depth, cn, turnaround_s, rea
     b1, phi, length = gps_frame
     for b in range(t_a.shape[0]):
         frame = FrameGeometry(b1[b, 0], b1[b, 1], np.sin(phi[b]), np.cos(phi[b]), length[b])
-        fix[b, 0], fix[b, 1], ok[b] = track_fix_of(t_a[b], t_b[b], t_c[b], ok_track[b], frame, depth[b], cn[b],
-                                                   turnaround_s, reaction_s)
+        fix[b, 0], fix[b, 1], ok[b] = track_fix_of(
+            t_a[b], t_b[b], t_c[b], ok_track[b], frame, depth[b], cn[b], turnaround_s, reaction_s
+        )
 
 
-def track_fix(ex: dict, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, turnaround_s: float,
-              reaction_s: float) -> tuple:
+def track_fix(
+    ex: dict[str, np.ndarray],
+    b1_en: np.ndarray,
+    b2_en: np.ndarray,
+    depth_below_m: ArrayLike,
+    nominal_sound_speed_mps: ArrayLike,
+    turnaround_s: float,
+    reaction_s: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """External tracking from the boats' own detection instants (section III, V).
 
     The boats never hear the vehicle's measurements; they share over their radio
@@ -376,10 +442,23 @@ def track_fix(ex: dict, b1_en, b2_en, depth_below_m, nominal_sound_speed_mps, tu
     phi, length = baseline(b1_en, b2_en)  # of the GPS positions
     t_a = np.ascontiguousarray(ex["t_s1_b1"], dtype=float)
     B = t_a.shape[0]
-    flat = [np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float) for a in
-            (ex["t_s1_b2"], ex["t_s4_b2"], phi, length, depth_below_m, nominal_sound_speed_mps)]
+    flat = [
+        np.ascontiguousarray(np.broadcast_to(a, (B,)), dtype=float)
+        for a in (ex["t_s1_b2"], ex["t_s4_b2"], phi, length, depth_below_m, nominal_sound_speed_mps)
+    ]
     fix, ok = np.empty((B, 2)), np.empty(B, dtype=bool)
     gps_frame = (np.ascontiguousarray(np.broadcast_to(b1_en, (B, 2)), dtype=float), flat[2], flat[3])
-    _track_rows(t_a, flat[0], flat[1], np.ascontiguousarray(ex["ok_track"], dtype=bool), gps_frame, flat[4], flat[5],
-                float(turnaround_s), float(reaction_s), fix, ok)
+    _track_rows(
+        t_a,
+        flat[0],
+        flat[1],
+        np.ascontiguousarray(ex["ok_track"], dtype=bool),
+        gps_frame,
+        flat[4],
+        flat[5],
+        float(turnaround_s),
+        float(reaction_s),
+        fix,
+        ok,
+    )
     return fix, ok

@@ -8,7 +8,8 @@ interference cut of ``channel``:
    Stojanovic 2007, path loss): TL(r, f) = k 10 log10(r / 1 m) + a(f) r / 1000,
    with a(f) in dB/km from Thorp's formula (f in kHz) and k = 2 (spherical) or 1.5
    ("practical"). ``thorp_absorption_db_per_km``, ``transmission_loss_db``.
-2. **Ambient noise** (the empirical Wenz/Coates model of Stojanovic 2007: turbulence, shipping s in [0, 1], wind w in m/s, thermal), a power
+2. **Ambient noise** (the empirical Wenz/Coates model of Stojanovic 2007: turbulence, shipping s in [0, 1],
+   wind w in m/s, thermal), a power
    spectral density in dB re 1 uPa^2/Hz; over a band B either integrated or
    NL(fc) + 10 log10(B). ``noise_psd_db``, ``band_noise_db``.
 3. **Sonar equation** (passive form for a one-way link, Urick 1983):
@@ -62,13 +63,21 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit, vectorize
+from numpy.typing import ArrayLike
 
 from .acoustics import travel_time
 
-# Urick 1983: a 1 W omnidirectional acoustic source gives 170.8 dB re 1 uPa at 1 m
-# (intensity 1 W / (4 pi m^2) over rho c = 1.5e6 rayl; 10 log10 of (p / 1 uPa)^2).
-SL_ONE_WATT_DB = 170.8
-
+# the modem's electrical side (PowerModel, energy per packet) lives in link_energy, re-exported here
+from .link_energy import (  # noqa: F401
+    DEFAULT_POWER,
+    SL_ONE_WATT_DB,
+    PowerModel,
+    acoustic_power_w,
+    electrical_power_w,
+    receive_energy_j,
+    source_level_from_power_db,
+    transmit_energy_j,
+)
 
 # --------------------------------------------------------------------------- records
 
@@ -161,20 +170,6 @@ class MicroModemFraming(NamedTuple):
     with_cycle_init: bool = True
 
 
-class PowerModel(NamedTuple):
-    """Electrical side of the modem.
-
-    - ``efficiency`` 0.25 [U]: acoustic over electrical power of amplifier and
-      transducer.
-    - ``receive_power_w`` 0.3 [U] and ``idle_power_w`` 0.08 [U]: the modem's draw while
-      receiving and while listening idle (not in a primary source here).
-    """
-
-    efficiency: float = 0.25
-    receive_power_w: float = 0.3
-    idle_power_w: float = 0.08
-
-
 class SlotTransmissions(NamedTuple):
     """The packets of one slot, over a batch of B environments and V vehicles.
 
@@ -230,7 +225,6 @@ DEFAULT_BAND = Band()
 DEFAULT_NOISE = NoiseConditions()
 DEFAULT_LINK = LinkParams()
 DEFAULT_FRAMING = MicroModemFraming()
-DEFAULT_POWER = PowerModel()
 
 
 class _KernelScalars(NamedTuple):
@@ -250,7 +244,7 @@ class _KernelScalars(NamedTuple):
 
 
 @vectorize(["float64(float64)"], cache=True)
-def thorp_absorption_db_per_km(f_khz):
+def thorp_absorption_db_per_km(f_khz: float) -> float:
     """Thorp's absorption a(f), dB/km, f in kHz (Thorp 1967, as in Stojanovic 2007):
     10 log a(f) = 0.11 f^2/(1 + f^2) + 44 f^2/(4100 + f^2) + 2.75e-4 f^2 + 0.003.
     Valid above a few hundred Hz. A ufunc.
@@ -263,7 +257,7 @@ def thorp_absorption_db_per_km(f_khz):
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def transmission_loss_db(range_m, f_khz, spreading_k):
+def transmission_loss_db(range_m: float, f_khz: float, spreading_k: float) -> float:
     """TL = k 10 log10(r / 1 m) + a(f) r / 1000, dB (Stojanovic 2007, path loss
     A(l, f) = l^k a(f)^l in dB with l in m re 1 m). Ranges below 1 m count as 1 m
     (the source level's reference distance). A ufunc."""
@@ -272,7 +266,7 @@ def transmission_loss_db(range_m, f_khz, spreading_k):
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def noise_psd_db(f_khz, shipping, wind_mps):
+def noise_psd_db(f_khz: float, shipping: float, wind_mps: float) -> float:
     """Ambient noise power spectral density, dB re 1 uPa^2/Hz, f in kHz: the power sum
     of Stojanovic 2007's empirical terms (after Coates, "Underwater Acoustic
     Systems", 1990, fitting Wenz 1962's curves):
@@ -287,12 +281,12 @@ def noise_psd_db(f_khz, shipping, wind_mps):
     ns = 40.0 + 20.0 * (shipping - 0.5) + 26.0 * lf - 60.0 * math.log10(f_khz + 0.03)
     nw = 50.0 + 7.5 * math.sqrt(wind_mps) + 20.0 * lf - 40.0 * math.log10(f_khz + 0.4)
     nth = -15.0 + 20.0 * lf
-    return 10.0 * math.log10(10.0 ** (nt / 10.0) + 10.0 ** (ns / 10.0) + 10.0 ** (nw / 10.0)
-                             + 10.0 ** (nth / 10.0))
+    return 10.0 * math.log10(10.0 ** (nt / 10.0) + 10.0 ** (ns / 10.0) + 10.0 ** (nw / 10.0) + 10.0 ** (nth / 10.0))
 
 
-def band_noise_db(band: Band = DEFAULT_BAND, noise: NoiseConditions = DEFAULT_NOISE, integrate: bool = True,
-                  points: int = 201) -> float:
+def band_noise_db(
+    band: Band = DEFAULT_BAND, noise: NoiseConditions = DEFAULT_NOISE, integrate: bool = True, points: int = 201
+) -> float:
     """Noise power in the band, dB re 1 uPa^2: the PSD integrated over
     [fc - B/2, fc + B/2] (trapezoid on ``points`` frequencies, linear power) or, with
     ``integrate=False``, NL(fc) + 10 log10(B) (flat over the band)."""
@@ -309,22 +303,33 @@ def band_noise_db(band: Band = DEFAULT_BAND, noise: NoiseConditions = DEFAULT_NO
 
 
 @vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
-def received_level_db(source_level_db, range_m, f_khz, spreading_k, directivity_index_db):
+def received_level_db(
+    source_level_db: float, range_m: float, f_khz: float, spreading_k: float, directivity_index_db: float
+) -> float:
     """RL = SL - TL(r, f) + DI, dB re 1 uPa (Urick 1983). A ufunc."""
     return source_level_db - transmission_loss_db(range_m, f_khz, spreading_k) + directivity_index_db
 
 
-def snr_db(range_m, params: LinkParams = DEFAULT_LINK, source_level_db=None, noise_db=None):
+def snr_db(
+    range_m: ArrayLike,
+    params: LinkParams = DEFAULT_LINK,
+    source_level_db: ArrayLike | None = None,
+    noise_db: ArrayLike | None = None,
+) -> np.ndarray:
     """In-band SNR = SL - TL + DI - NL_band (dB) at ``range_m`` (array or scalar).
     ``source_level_db`` defaults to the link's; ``noise_db`` to ``band_noise_db``."""
     sl = params.source_level_db if source_level_db is None else source_level_db
     nl = band_noise_db(params.band, params.noise) if noise_db is None else noise_db
-    return received_level_db(sl, np.asarray(range_m, float), params.band.center_khz, params.spreading_k,
-                             params.directivity_index_db) - nl
+    return (
+        received_level_db(
+            sl, np.asarray(range_m, float), params.band.center_khz, params.spreading_k, params.directivity_index_db
+        )
+        - nl
+    )
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def detection_probability(snr_db, threshold_db, logistic_width_db):
+def detection_probability(snr_db: float, threshold_db: float, logistic_width_db: float) -> float:
     """P(the probe is detected) at mean in-band SNR ``snr_db`` against ``threshold_db``.
 
     ``logistic_width_db`` <= 0 (the default of ``LinkParams`` maps to it): the
@@ -344,7 +349,7 @@ def detection_probability(snr_db, threshold_db, logistic_width_db):
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def bit_error_rate(snr_db, bandwidth_hz, bit_rate_bps):
+def bit_error_rate(snr_db: float, bandwidth_hz: float, bit_rate_bps: float) -> float:
     """Non-coherent binary FSK in white noise: BER = 0.5 exp(-Eb/N0 / 2) (Proakis,
     Digital Communications, binary orthogonal signals, non-coherent detection), with
     Eb/N0 = SNR x B / R (the in-band SNR spread over the bit rate). Uncoded, so
@@ -354,7 +359,7 @@ def bit_error_rate(snr_db, bandwidth_hz, bit_rate_bps):
 
 
 @vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def packet_error_rate(snr_db, bandwidth_hz, bit_rate_bps, n_bits):
+def packet_error_rate(snr_db: float, bandwidth_hz: float, bit_rate_bps: float, n_bits: float) -> float:
     """PER of an n-bit frame with independent bit errors: 1 - (1 - BER)^n."""
     ber = bit_error_rate(snr_db, bandwidth_hz, bit_rate_bps)
     return -math.expm1(n_bits * math.log1p(-ber))
@@ -371,13 +376,21 @@ def _scalars(params: LinkParams) -> _KernelScalars:
     if params.detection_model not in ("rayleigh", "logistic"):
         raise ValueError(f"detection_model must be 'rayleigh' or 'logistic', not {params.detection_model!r}")
     width = params.logistic_width_db if params.detection_model == "logistic" else 0.0
-    return _KernelScalars(float(params.band.center_khz), float(params.band.bandwidth_hz),
-                          float(params.spreading_k), float(params.directivity_index_db),
-                          float(params.detection_threshold_db), float(width), float(params.capture_threshold_db),
-                          float(params.bit_rate_bps))
+    return _KernelScalars(
+        float(params.band.center_khz),
+        float(params.band.bandwidth_hz),
+        float(params.spreading_k),
+        float(params.directivity_index_db),
+        float(params.detection_threshold_db),
+        float(width),
+        float(params.capture_threshold_db),
+        float(params.bit_rate_bps),
+    )
 
 
-def success_probability(range_m, n_bits, params: LinkParams = DEFAULT_LINK, noise_db=None):
+def success_probability(
+    range_m: ArrayLike, n_bits: ArrayLike, params: LinkParams = DEFAULT_LINK, noise_db: ArrayLike | None = None
+) -> np.ndarray:
     """P(a packet of ``n_bits`` is decoded at ``range_m``) on a free channel:
     P(detect | SNR) x (1 - PER(SNR, n)). Arrays broadcast (``noise_db`` too)."""
     s = _scalars(params)
@@ -389,7 +402,7 @@ def success_probability(range_m, n_bits, params: LinkParams = DEFAULT_LINK, nois
 # --------------------------------------------------------------------- capture (SIR)
 
 
-def sir_db(signal_rl_db, interferer_rl_db):
+def sir_db(signal_rl_db: ArrayLike, interferer_rl_db: ArrayLike) -> np.ndarray:
     """SIR of one reception over simultaneous ones: its RL minus 10 log10 of the sum of
     the interferers' linear powers (dB). ``interferer_rl_db`` (..., K); +inf for K = 0
     or all -inf."""
@@ -399,7 +412,9 @@ def sir_db(signal_rl_db, interferer_rl_db):
         return np.asarray(signal_rl_db, float) - 10.0 * np.log10(total)
 
 
-def captured(signal_rl_db, interferer_rl_db, capture_threshold_db=10.0):
+def captured(
+    signal_rl_db: ArrayLike, interferer_rl_db: ArrayLike, capture_threshold_db: ArrayLike = 10.0
+) -> np.ndarray:
     """Whether a reception survives overlapping ones: SIR >= threshold (10 dB [U])."""
     return sir_db(signal_rl_db, interferer_rl_db) >= capture_threshold_db
 
@@ -407,17 +422,19 @@ def captured(signal_rl_db, interferer_rl_db, capture_threshold_db=10.0):
 # ------------------------------------------------------------------ packet timing
 
 
-def frames_needed(framing: MicroModemFraming, payload_bits) -> int:
+def frames_needed(framing: MicroModemFraming, payload_bits: int) -> int:
     """How many frames carry ``payload_bits`` (at least one; a frame is sent whole)."""
     frame_bits = 8 * framing.frame_bytes
     n = max(1, -(-int(payload_bits) // frame_bits))
     if n > framing.max_frames:
-        raise ValueError(f"{payload_bits} bits need {n} frames of {framing.frame_bytes} bytes; this rate carries "
-                         f"at most {framing.max_frames}")
+        raise ValueError(
+            f"{payload_bits} bits need {n} frames of {framing.frame_bytes} bytes; this rate carries "
+            f"at most {framing.max_frames}"
+        )
     return n
 
 
-def packet_duration_s(framing: MicroModemFraming = DEFAULT_FRAMING, payload_bits=256) -> float:
+def packet_duration_s(framing: MicroModemFraming = DEFAULT_FRAMING, payload_bits: int = 256) -> float:
     """How long one Micro-Modem packet occupies the water (s):
     [cycle-init + gap] + probe + null + n x frame + (n - 1) x inter-frame gap, with
     frame = 8 x frame_bytes / bit rate. Default (FH-FSK rate 0, one 32-byte frame):
@@ -428,49 +445,17 @@ def packet_duration_s(framing: MicroModemFraming = DEFAULT_FRAMING, payload_bits
     return head_s + framing.probe_s + framing.probe_gap_s + n * frame_s + (n - 1) * framing.inter_frame_gap_s
 
 
-# ------------------------------------------------------------------------- energy
-
-
-@vectorize(["float64(float64, float64)"], cache=True)
-def acoustic_power_w(source_level_db, directivity_index_db):
-    """Radiated acoustic power (W) for a source level: SL = 170.8 + 10 log10(P) + DI
-    (Urick 1983), so P = 10^((SL - 170.8 - DI) / 10)."""
-    return 10.0 ** ((source_level_db - SL_ONE_WATT_DB - directivity_index_db) / 10.0)
-
-
-def electrical_power_w(source_level_db, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
-    """Electrical power while transmitting (W): acoustic power / efficiency."""
-    return acoustic_power_w(np.asarray(source_level_db, float), directivity_index_db) / power.efficiency
-
-
-def source_level_from_power_db(electrical_power_w, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
-    """The source level a modem drawing ``electrical_power_w`` while transmitting
-    radiates: SL = 170.8 + 10 log10(efficiency x P_electrical) + DI (dB re 1 uPa at
-    1 m; Urick 1983). The inverse of ``electrical_power_w``."""
-    p_ac = np.asarray(electrical_power_w, float) * power.efficiency
-    return SL_ONE_WATT_DB + 10.0 * np.log10(p_ac) + directivity_index_db
-
-
-def transmit_energy_j(source_level_db, duration_s, power: PowerModel = DEFAULT_POWER, directivity_index_db=0.0):
-    """Electrical energy of a transmission (J): electrical power x duration."""
-    return electrical_power_w(source_level_db, power, directivity_index_db) * np.asarray(duration_s, float)
-
-
-def receive_energy_j(duration_s, power: PowerModel = DEFAULT_POWER):
-    """Energy spent receiving for ``duration_s`` (J): receive power x duration."""
-    return power.receive_power_w * np.asarray(duration_s, float)
-
-
 # ------------------------------------------------------------------ slot offsets
 
 
-def random_offsets_s(rng: np.random.Generator, shape, max_offset_s: float) -> np.ndarray:
+def random_offsets_s(rng: np.random.Generator, shape: int | tuple[int, ...], max_offset_s: float) -> np.ndarray:
     """Transmit starts drawn uniformly in [0, max_offset_s) (an ALOHA-like slot)."""
     return rng.uniform(0.0, max_offset_s, size=shape)
 
 
-def staggered_offsets_s(n_senders: int, packet_s: float, max_range_m: float, sound_speed_mps: float = 1400.0,
-                        guard_s: float = 0.0) -> np.ndarray:
+def staggered_offsets_s(
+    n_senders: int, packet_s: float, max_range_m: float, sound_speed_mps: float = 1400.0, guard_s: float = 0.0
+) -> np.ndarray:
     """Starts k x (packet + max_range / c + guard) for k = 0..n-1: each packet has left
     every receiver within ``max_range_m`` before the next starts (a TDMA slot plan;
     1400 m/s is slower than any sea water, ``scenarios.base.SLOWEST_SOUND_SPEED_MPS``)."""
@@ -513,8 +498,9 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
                 arrival[b, v, w] = t0 + tau
                 end[b, v, w] = t0 + tau + dur[b, v]
                 rng[b, v, w] = c[b, v, w] * tau
-                rl[b, v, w] = received_level_db(sl[b, v], rng[b, v, w], s.center_khz, s.spreading_k,
-                                                s.directivity_index_db)
+                rl[b, v, w] = received_level_db(
+                    sl[b, v], rng[b, v, w], s.center_khz, s.spreading_k, s.directivity_index_db
+                )
                 snr[b, v, w] = rl[b, v, w] - noise_db[b]
         # 2. interference, capture, half duplex, success probability
         for w in range(V):
@@ -540,8 +526,12 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
     return arrival, end, rng, rl, snr, sir, overlapped, capt, deaf, p
 
 
-def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = DEFAULT_LINK,
-                  noise_db=None) -> SlotOutcome:
+def slot_timeline(
+    tx: SlotTransmissions,
+    sound_speed_mps: ArrayLike,
+    params: LinkParams = DEFAULT_LINK,
+    noise_db: ArrayLike | None = None,
+) -> SlotOutcome:
     """Resolve one slot of packets at every receiver with the sonar equation.
 
     For each sender v with a finite ``tx_start_s`` and each other vehicle w: the
@@ -577,7 +567,7 @@ def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = D
     pos = np.ascontiguousarray(tx.pos_m, float)
     B, V = pos.shape[:2]
 
-    def bv(x):
+    def bv(x: ArrayLike) -> np.ndarray:
         return np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), (B, V)))
 
     vel = np.ascontiguousarray(np.broadcast_to(np.asarray(tx.vel_mps, float), (B, V, 3)))
@@ -587,12 +577,21 @@ def slot_timeline(tx: SlotTransmissions, sound_speed_mps, params: LinkParams = D
     c = np.ascontiguousarray(np.broadcast_to(c, (B, V, V)))
     nl = band_noise_db(params.band, params.noise) if noise_db is None else noise_db
     nl = np.ascontiguousarray(np.broadcast_to(np.asarray(nl, float), (B,)))
-    out = _slot_kernel(pos, vel, bv(tx.tx_start_s), bv(tx.duration_s), bv(tx.source_level_db), bv(tx.payload_bits),
-                       c, nl, _scalars(params))
+    out = _slot_kernel(
+        pos,
+        vel,
+        bv(tx.tx_start_s),
+        bv(tx.duration_s),
+        bv(tx.source_level_db),
+        bv(tx.payload_bits),
+        c,
+        nl,
+        _scalars(params),
+    )
     return SlotOutcome(*out)
 
 
-def draw_delivered(outcome: SlotOutcome, u) -> np.ndarray:
+def draw_delivered(outcome: SlotOutcome, u: ArrayLike) -> np.ndarray:
     """(B, V, V) delivered: ``u < p_success`` with uniforms ``u`` (same shape), so a
     caller keeps its common random numbers. Deaf or uncaptured receptions have
     p_success = 0 and are never delivered."""

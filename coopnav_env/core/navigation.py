@@ -31,8 +31,9 @@ def predict(x: np.ndarray, P: np.ndarray, dx: np.ndarray | float, Q: np.ndarray)
 
 
 @njit(cache=True)
-def range_prediction(x: np.ndarray, velocity: np.ndarray, delays_s: np.ndarray,
-                     beacon: np.ndarray) -> tuple[float, np.ndarray]:
+def range_prediction(
+    x: np.ndarray, velocity: np.ndarray, delays_s: np.ndarray, beacon: np.ndarray
+) -> tuple[float, np.ndarray]:
     """Predicted range and its Jacobian (eqs. 7-8) for one filter, with the motion
     of the vehicle while sound travels.
 
@@ -163,16 +164,18 @@ def _update_rows(x, P, z, h, H, R, mask, y, S):
             joseph_update(x[m], P[m], z[m], h[m], H[m], R[m])
 
 
-def scalar_update(x: ArrayLike, P: ArrayLike, z: ArrayLike, h: ArrayLike, H: ArrayLike, R: ArrayLike,
-                  mask: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def scalar_update(
+    x: ArrayLike, P: ArrayLike, z: ArrayLike, h: ArrayLike, H: ArrayLike, R: ArrayLike, mask: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Eqs. (9)-(13) for one scalar measurement per filter, over leading batch axes.
 
     x (..., 3), P (..., 3, 3), H (..., 3); z, h, R, mask broadcast to (...).
     Returns new (x, P) and the innovation y and its variance S; rows where mask
     is False are returned unchanged.
     """
-    lead = np.broadcast_shapes(np.shape(x)[:-1], np.shape(P)[:-2], np.shape(H)[:-1], np.shape(z), np.shape(h),
-                               np.shape(R), np.shape(mask))
+    lead = np.broadcast_shapes(
+        np.shape(x)[:-1], np.shape(P)[:-2], np.shape(H)[:-1], np.shape(z), np.shape(h), np.shape(R), np.shape(mask)
+    )
     x2 = np.array(np.broadcast_to(x, lead + (3,)), dtype=float).reshape(-1, 3)
     P2 = np.array(np.broadcast_to(P, lead + (3, 3)), dtype=float).reshape(-1, 3, 3)
     flat = [np.ascontiguousarray(np.broadcast_to(a, lead), dtype=float).reshape(-1) for a in (z, h, R)]
@@ -191,15 +194,19 @@ def _predict_rows(x, v, d, b, h, H):
         H[m] = Hm
 
 
-def range_model(x: ArrayLike, velocity: ArrayLike, delays_s: ArrayLike,
-                beacon: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def range_model(
+    x: ArrayLike, velocity: ArrayLike, delays_s: ArrayLike, beacon: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """``range_prediction`` over leading batch axes: x, velocity, beacon (..., 3);
     delays_s (..., L). Returns h (...) and H (..., 3)."""
-    lead = np.broadcast_shapes(np.shape(x)[:-1], np.shape(velocity)[:-1], np.shape(delays_s)[:-1],
-                               np.shape(beacon)[:-1])
+    lead = np.broadcast_shapes(
+        np.shape(x)[:-1], np.shape(velocity)[:-1], np.shape(delays_s)[:-1], np.shape(beacon)[:-1]
+    )
     L = np.shape(delays_s)[-1]
-    args = [np.ascontiguousarray(np.broadcast_to(a, lead + (n,)), dtype=float).reshape(-1, n)
-            for a, n in ((x, 3), (velocity, 3), (delays_s, L), (beacon, 3))]
+    args = [
+        np.ascontiguousarray(np.broadcast_to(a, lead + (n,)), dtype=float).reshape(-1, n)
+        for a, n in ((x, 3), (velocity, 3), (delays_s, L), (beacon, 3))
+    ]
     M = args[0].shape[0]
     h, H = np.empty(M), np.empty((M, 3))
     _predict_rows(args[0], args[1], args[2], args[3], h, H)
@@ -220,8 +227,9 @@ def axis_measurement(axis: int, shape: tuple[int, ...]) -> np.ndarray:
 
 # --- the general update, over a batch (any state and measurement size) -------------------
 @njit(cache=True)
-def joseph_update_vector(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.ndarray, gate: float,
-                         work: tuple[np.ndarray, ...]) -> tuple[float, int]:
+def joseph_update_vector(
+    x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.ndarray, gate: float, work: tuple[np.ndarray, ...]
+) -> tuple[float, int]:
     """Eqs. (9)-(13) for an m-vector measurement of one filter, Joseph form, in place.
 
     x (n,), P (n, n), innovation y = z - h (m,), H (m, n), R (m, m); gate: the
@@ -276,9 +284,19 @@ def joseph_update_vector(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndar
 @njit(cache=True)
 def joseph_work(n: int, m: int) -> tuple[np.ndarray, ...]:
     """Scratch arrays for ``joseph_update_vector`` with state size n and up to m measurements."""
-    return (np.empty((m, n)), np.empty((m, m)), np.empty((m, m)), np.empty((m, 1)), np.empty((m, n)),
-            np.empty((n, n)), np.empty((m, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
-            np.empty(m, dtype=np.int64))
+    return (
+        np.empty((m, n)),
+        np.empty((m, m)),
+        np.empty((m, m)),
+        np.empty((m, 1)),
+        np.empty((m, n)),
+        np.empty((n, n)),
+        np.empty((m, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty(m, dtype=np.int64),
+    )
 
 
 @njit(cache=True)
@@ -290,8 +308,9 @@ def _joseph_rows(x, P, y, H, R, mask, gate, nis, singular):
         singular[b] = status < 0
 
 
-def joseph_update_batch(x: ArrayLike, P: ArrayLike, y: ArrayLike, H: ArrayLike, R: ArrayLike, mask: ArrayLike,
-                        gate: float = np.inf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def joseph_update_batch(
+    x: ArrayLike, P: ArrayLike, y: ArrayLike, H: ArrayLike, R: ArrayLike, mask: ArrayLike, gate: float = np.inf
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Eqs. (9)-(13) for an m-vector measurement per filter, Joseph form, over a batch.
 
     x (B, n), P (B, n, n), innovation y = z - h (B, m), H (B, m, n), R (m, m) or
@@ -326,8 +345,9 @@ FRAME_STATE = ("x_m", "y_m", "phi_rad", "current_x_mps", "current_y_mps", "basel
 
 
 @njit(cache=True)
-def frame_predict(E: np.ndarray, P: np.ndarray, speed_mps: float, heading_rad: float, dt_s: float,
-                  Q: np.ndarray) -> None:
+def frame_predict(
+    E: np.ndarray, P: np.ndarray, speed_mps: float, heading_rad: float, dt_s: float, Q: np.ndarray
+) -> None:
     """Integrate the filter over dt_s with the measured water speed and compass heading
     held constant, in place (one filter; E (6,), P (6, 6), Q (6, 6) per second).
 
@@ -348,7 +368,7 @@ def frame_predict(E: np.ndarray, P: np.ndarray, speed_mps: float, heading_rad: f
     E[1] += (speed_mps * s + E[4]) * dt_s
     Phi = np.eye(6) + A * dt_s
     AQ = A @ Q
-    Qd = Q * dt_s + (AQ + AQ.T) * (dt_s * dt_s / 2.0) + AQ @ A.T * (dt_s ** 3 / 3.0)
+    Qd = Q * dt_s + (AQ + AQ.T) * (dt_s * dt_s / 2.0) + AQ @ A.T * (dt_s**3 / 3.0)
     P[:, :] = Phi @ P @ Phi.T + Qd
 
 
@@ -376,8 +396,9 @@ def frame_velocity(E: np.ndarray, speed_mps: ArrayLike, heading_rad: ArrayLike) 
 
 
 @njit(cache=True)
-def frame_range_prediction(E: np.ndarray, beacon: int, depth_below_m: float, vx: float, vy: float,
-                           delays_s: np.ndarray, H: np.ndarray) -> float:
+def frame_range_prediction(
+    E: np.ndarray, beacon: int, depth_below_m: float, vx: float, vy: float, delays_s: np.ndarray, H: np.ndarray
+) -> float:
     """Predicted range z* to beacon B1 (beacon=1) or B2 (beacon=2) of one filter E (6,)
     and its Jacobian over the 6 states, written into H (6,); returns z*.
 
@@ -409,8 +430,9 @@ def _frame_range_rows(E, beacon, depth, vel, delays, h, H):
         h[b] = frame_range_prediction(E[b], beacon, depth[b], vel[b, 0], vel[b, 1], delays[b], H[b])
 
 
-def frame_range_model(E: np.ndarray, beacon: int, depth_below_m: ArrayLike, velocity_mps: np.ndarray,
-                      delays_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def frame_range_model(
+    E: np.ndarray, beacon: int, depth_below_m: ArrayLike, velocity_mps: np.ndarray, delays_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """``frame_range_prediction`` for filters E (B, 6): depth_below_m (B,) or scalar,
     velocity_mps (B, 2) frame-relative, delays_s (B, L). Returns h (B,), H (B, 6)."""
     E = np.ascontiguousarray(E, dtype=float)

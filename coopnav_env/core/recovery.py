@@ -52,6 +52,7 @@ from numba import njit
 
 class RangeWindow(NamedTuple):
     """The last M ranges of one survey filter, oldest first (arrays of length >= M)."""
+
     z: np.ndarray  # (M,) measured ranges, m
     beacon: np.ndarray  # (M, 2) the beacon's reported horizontal position at each ping, m
     shift: np.ndarray  # (M, 2) dead-reckoned survey displacement from ping k to the fix time, m
@@ -61,6 +62,7 @@ class RangeWindow(NamedTuple):
 
 class WindowNoise(NamedTuple):
     """What the fix weighs the ranges with."""
+
     range_var_m2: float  # R: ranging noise (sound speed's share included), m^2
     Pbb: np.ndarray  # (2, 2) the beacon's horizontal position error covariance (a bias over the window), m^2
     dr_rate_m2ps: float  # q: the survey's dead-reckoning variance growth per axis, m^2/s
@@ -68,7 +70,9 @@ class WindowNoise(NamedTuple):
 
 
 @njit(cache=True)
-def window_terms(x, win, m, noise, J, r, Sigma):
+def window_terms(
+    x: np.ndarray, win: RangeWindow, m: int, noise: WindowNoise, J: np.ndarray, r: np.ndarray, Sigma: np.ndarray
+) -> None:
     """(R1)-(R2) at the horizontal position x (2,): J (m, 2), residuals r (m,) and their
     covariance Sigma (m, m), written in place."""
     q = noise.dr_rate_m2ps
@@ -82,14 +86,24 @@ def window_terms(x, win, m, noise, J, r, Sigma):
     for i in range(m):
         for j in range(m):
             uu = J[i, 0] * J[j, 0] + J[i, 1] * J[j, 1]
-            ubu = (J[i, 0] * (noise.Pbb[0, 0] * J[j, 0] + noise.Pbb[0, 1] * J[j, 1])
-                   + J[i, 1] * (noise.Pbb[1, 0] * J[j, 0] + noise.Pbb[1, 1] * J[j, 1]))
+            ubu = J[i, 0] * (noise.Pbb[0, 0] * J[j, 0] + noise.Pbb[0, 1] * J[j, 1]) + J[i, 1] * (
+                noise.Pbb[1, 0] * J[j, 0] + noise.Pbb[1, 1] * J[j, 1]
+            )
             Sigma[i, j] = ubu + q * min(win.age_s[i], win.age_s[j]) * uu
         Sigma[i, i] += noise.range_var_m2
 
 
 @njit(cache=True)
-def window_fix(win, m, noise, x0, P0, out_x, out_P, out_Pxb):
+def window_fix(
+    win: RangeWindow,
+    m: int,
+    noise: WindowNoise,
+    x0: np.ndarray,
+    P0: np.ndarray,
+    out_x: np.ndarray,
+    out_P: np.ndarray,
+    out_Pxb: np.ndarray,
+) -> int:
     """Re-fix the horizontal position from the last m ranges (eqs. R1-R5), starting from
     the locked-out estimate x0 (2,) with covariance P0 (2, 2). Writes the fix out_x (2,),
     its covariance out_P (2, 2) and its cross-covariance with the beacon's error out_Pxb

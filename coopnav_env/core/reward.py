@@ -93,8 +93,11 @@ class RewardTerm:
         ``config`` returns this term: the network is one of ``networks`` and every
         ``modes`` parameter has one of the listed values."""
         network = getattr(config, "network", None) if network is None else network
-        return (self.kind == "env" and network in self.networks
-                and all(getattr(config, k, None) in v for k, v in self.modes.items()))
+        return (
+            self.kind == "env"
+            and network in self.networks
+            and all(getattr(config, k, None) in v for k, v in self.modes.items())
+        )
 
     def weight_of(self, config: Any) -> float:
         """The scenario's weight: ``sign`` x the weight parameter's value (``sign`` alone
@@ -122,10 +125,18 @@ class RewardTerm:
 _TERMS: dict[str, RewardTerm] = {}
 
 
-def register_term(name: str, *, doc: str, weight: str | None = None, sign: float | None = None,
-                  penalty: bool = False, networks: tuple = (SURVEY_NETWORK, MOVING_NETWORK),
-                  modes: Mapping[str, tuple] | None = None, compute: Callable[[TermContext], Any] | None = None,
-                  kind: str = "env") -> RewardTerm:
+def register_term(
+    name: str,
+    *,
+    doc: str,
+    weight: str | None = None,
+    sign: float | None = None,
+    penalty: bool = False,
+    networks: tuple = (SURVEY_NETWORK, MOVING_NETWORK),
+    modes: Mapping[str, tuple] | None = None,
+    compute: Callable[[TermContext], Any] | None = None,
+    kind: str = "env",
+) -> RewardTerm:
     """Register a reward term (or, ``kind="training"``, a training signal) and return it.
 
     ``weight``: the scenario parameter whose value weighs the term (None: weight 1);
@@ -154,8 +165,17 @@ def register_term(name: str, *, doc: str, weight: str | None = None, sign: float
             raise ValueError(f"reward term {name!r}: {p!r} is not a scenario parameter (ScenarioConfig field)")
     if sign is None:
         sign = 1.0 if weight is None else -1.0
-    term = RewardTerm(name=name, doc=doc, weight=weight, sign=float(sign), penalty=bool(penalty),
-                      networks=tuple(networks), modes=dict(modes or {}), compute=compute, kind=kind)
+    term = RewardTerm(
+        name=name,
+        doc=doc,
+        weight=weight,
+        sign=float(sign),
+        penalty=bool(penalty),
+        networks=tuple(networks),
+        modes=dict(modes or {}),
+        compute=compute,
+        kind=kind,
+    )
     _TERMS[name] = term
     return term
 
@@ -192,27 +212,29 @@ def term_weights(config: Any, terms: Iterable[str]) -> dict[str, float]:
     return {t: _TERMS[t].weight_of(config) for t in terms}
 
 
-def weighted_reward(terms: dict, weights: dict) -> np.ndarray:
+def weighted_reward(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> np.ndarray:
     """sum_k weights[k] * terms[k], in ``weights``' order: (B, N)."""
-    total = None
+    total: np.ndarray | None = None
     for name, w in weights.items():
         part = w * terms[name]
         total = part if total is None else total + part
+    assert total is not None, "weighted_reward: no weights (a simulator has at least one term)"
     return total
 
 
-def penalties(terms: dict, weights: dict) -> np.ndarray:
+def penalties(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> np.ndarray | float:
     """The weighted penalty terms (the registered penalties present in ``weights``) as a
-    positive cost (B, N): what the training signal ``penalties`` subtracts."""
-    out = 0.0
+    positive cost (B, N) (0.0 when none is present): what the training signal ``penalties`` subtracts."""
+    out: np.ndarray | float = 0.0
     for t in registered_terms("env"):
         if t.penalty and t.name in weights:
             out = out - weights[t.name] * terms[t.name]
     return out
 
 
-def collect_terms(names: Iterable[str], arrays: Mapping[str, np.ndarray], ctx: TermContext,
-                  shape: tuple) -> dict[str, np.ndarray]:
+def collect_terms(
+    names: Iterable[str], arrays: Mapping[str, np.ndarray], ctx: TermContext, shape: tuple
+) -> dict[str, np.ndarray]:
     """The step's terms by name, in ``names``' order: a registered term with a ``compute``
     hook is computed from ``ctx`` (with the terms so far, as floats of ``shape``);
     the others are the simulator's own ``arrays`` by name."""
@@ -224,14 +246,16 @@ def collect_terms(names: Iterable[str], arrays: Mapping[str, np.ndarray], ctx: T
                 raise KeyError(f"reward term {name!r} has no compute hook and the simulator does not compute it")
             out[name] = arrays[name]
         else:
-            value = term.compute(TermContext(sim=ctx.sim, config=ctx.config, state=ctx.state, terms=dict(out),
-                                             arrays=ctx.arrays))
+            value = term.compute(
+                TermContext(sim=ctx.sim, config=ctx.config, state=ctx.state, terms=dict(out), arrays=ctx.arrays)
+            )
             out[name] = np.broadcast_to(np.asarray(value, dtype=float), shape)
     return out
 
 
 # ------------------------------------------------------------------------------------
 # training signals (kind "training")
+
 
 def training_signal_names() -> tuple[str, ...]:
     """The registered training signals' names (the valid keys of ``reward_terms``)."""
@@ -243,7 +267,8 @@ def check_training_terms(terms: Mapping[str, float] | None) -> dict[str, float] 
     if not terms:
         return None
     if not isinstance(terms, dict):
-        raise ValueError(f"reward terms must be a mapping term -> weight, got {terms!r}")  # noqa: TRY004 - a config error, as before
+        # ValueError, not TypeError: a config error, as before
+        raise ValueError(f"reward terms must be a mapping term -> weight, got {terms!r}")
     valid = training_signal_names()
     out = {}
     for name, weight in terms.items():
@@ -267,15 +292,19 @@ def training_reward(reward_terms: Mapping[str, float], res: Any, weights: Mappin
     total = np.zeros((B, N))
     ctx = TermContext(result=res, weights=weights, terms=res.terms)
     for name, w in reward_terms.items():
-        total += w * _TERMS[name].compute(ctx)
+        compute = _TERMS[name].compute
+        assert compute is not None, f"{name!r}: a training signal has a compute hook (register_term checks it)"
+        total += w * compute(ctx)
     return total
 
 
 # ------------------------------------------------------------------------------------
 # the documentation tables and the derived names
 
+
 def markdown_table(kind: str = "env") -> str:
     """The registered terms of ``kind`` as a Markdown table (the docs' generated table)."""
+
     def md(text: str) -> str:
         return text.replace("``", "`").replace("|", "\\|")
 
@@ -284,8 +313,11 @@ def markdown_table(kind: str = "env") -> str:
         rows += [f"| `{t.name}` | {md(t.doc)} |" for t in registered_terms("training")]
     else:
         rows = ["| term | value per beacon and cycle | weight | penalty | returned by |", "|---|---|---|---|---|"]
-        rows += [f"| `{t.name}` | {md(t.doc)} | {md(t.weight_text())} | {'yes' if t.penalty else 'no'} | "
-                 f"{md(t.applies_text())} |" for t in registered_terms(kind)]
+        rows += [
+            f"| `{t.name}` | {md(t.doc)} | {md(t.weight_text())} | {'yes' if t.penalty else 'no'} | "
+            f"{md(t.applies_text())} |"
+            for t in registered_terms(kind)
+        ]
     return "\n".join(rows) + "\n"
 
 
@@ -313,38 +345,86 @@ def __getattr__(name: str) -> Any:
 # the built-in terms. Registration order is the order of the weighted sum, so these keep
 # the order the simulators have always added them in (bit-identical rewards).
 
-register_term("info_gain", doc="information the survey filters gained from this cycle's measurements: sum over "
-              "survey vehicles of log det P_before - log det P_after of the horizontal position covariance (nats; "
-              "shared by the team)")
-register_term("safety", weight="safety_penalty", penalty=True,
-              doc="1 if the beacon is closer than ``safety_distance_m`` to a survey vehicle")
-register_term("geofence", weight="geofence_penalty", penalty=True, networks=(SURVEY_NETWORK,),
-              doc="1 if the beacon is outside the geofence")
-register_term("baseline", weight="baseline_penalty", penalty=True, networks=(MOVING_NETWORK,),
-              doc="1 if the boats' baseline is off ``baseline_target_m`` by more than ``baseline_tolerance_m``")
-register_term("approach", weight="approach_penalty", penalty=True, networks=(MOVING_NETWORK,),
-              doc="1 if the vehicle is nearer the baseline than ``min_baseline_distance_m``")
-register_term("rotation", weight="rotation_penalty", penalty=True, networks=(MOVING_NETWORK,),
-              doc="1 if the frame turned more than ``frame_rotation_tolerance_deg`` from its start (always 0 with "
-              "``mission_frame=\"world\"``: the frame must turn with the river)")
-register_term("contact", weight="contact_penalty",
-              doc="1 if none of its ranges was fused this cycle (moving network: none of the vehicle's); not a "
-              "penalty for the training signal ``penalties``")
-register_term("ping", weight="ping_penalty", penalty=True, networks=(SURVEY_NETWORK,),
-              modes={"channel_mode": ("decide",)},
-              doc="1 if the beacon transmitted a ping this cycle: the price of the channel and of the transmit "
-              "energy (``core.channel``)")
-register_term("bank", weight="bank_penalty", penalty=True, networks=(MOVING_NETWORK,),
-              modes={"mission_frame": ("world",)},
-              doc="1 if the boat is farther than ``river_width_m`` / 2 from the river's centerline (a river survey)")
+register_term(
+    "info_gain",
+    doc="information the survey filters gained from this cycle's measurements: sum over "
+    "survey vehicles of log det P_before - log det P_after of the horizontal position covariance (nats; "
+    "shared by the team)",
+)
+register_term(
+    "safety",
+    weight="safety_penalty",
+    penalty=True,
+    doc="1 if the beacon is closer than ``safety_distance_m`` to a survey vehicle",
+)
+register_term(
+    "geofence",
+    weight="geofence_penalty",
+    penalty=True,
+    networks=(SURVEY_NETWORK,),
+    doc="1 if the beacon is outside the geofence",
+)
+register_term(
+    "baseline",
+    weight="baseline_penalty",
+    penalty=True,
+    networks=(MOVING_NETWORK,),
+    doc="1 if the boats' baseline is off ``baseline_target_m`` by more than ``baseline_tolerance_m``",
+)
+register_term(
+    "approach",
+    weight="approach_penalty",
+    penalty=True,
+    networks=(MOVING_NETWORK,),
+    doc="1 if the vehicle is nearer the baseline than ``min_baseline_distance_m``",
+)
+register_term(
+    "rotation",
+    weight="rotation_penalty",
+    penalty=True,
+    networks=(MOVING_NETWORK,),
+    doc="1 if the frame turned more than ``frame_rotation_tolerance_deg`` from its start (always 0 with "
+    '``mission_frame="world"``: the frame must turn with the river)',
+)
+register_term(
+    "contact",
+    weight="contact_penalty",
+    doc="1 if none of its ranges was fused this cycle (moving network: none of the vehicle's); not a "
+    "penalty for the training signal ``penalties``",
+)
+register_term(
+    "ping",
+    weight="ping_penalty",
+    penalty=True,
+    networks=(SURVEY_NETWORK,),
+    modes={"channel_mode": ("decide",)},
+    doc="1 if the beacon transmitted a ping this cycle: the price of the channel and of the transmit "
+    "energy (``core.channel``)",
+)
+register_term(
+    "bank",
+    weight="bank_penalty",
+    penalty=True,
+    networks=(MOVING_NETWORK,),
+    modes={"mission_frame": ("world",)},
+    doc="1 if the boat is farther than ``river_width_m`` / 2 from the river's centerline (a river survey)",
+)
 
 # the training signals (CoopNavVecEnv's and the RLlib adapter's reward_terms)
-register_term("env", kind="training", compute=lambda ctx: ctx.result.reward,
-              doc="the environment's reward (information gain - penalties)")
-register_term("error", kind="training", compute=lambda ctx: -ctx.result.info["survey_error_m"].mean(-1)[:, None],
-              doc="-survey_error_m: minus the true horizontal error after the cycle, averaged over the survey "
-              "vehicles (privileged: the simulator's truth, used only as a training signal; the policy still acts "
-              "on its observation). Summed over an episode it is -(steps x mean error), the evaluation score itself")
+register_term(
+    "env",
+    kind="training",
+    compute=lambda ctx: ctx.result.reward,
+    doc="the environment's reward (information gain - penalties)",
+)
+register_term(
+    "error",
+    kind="training",
+    compute=lambda ctx: -ctx.result.info["survey_error_m"].mean(-1)[:, None],
+    doc="-survey_error_m: minus the true horizontal error after the cycle, averaged over the survey "
+    "vehicles (privileged: the simulator's truth, used only as a training signal; the policy still acts "
+    "on its observation). Summed over an episode it is -(steps x mean error), the evaluation score itself",
+)
 
 
 def _std_signal(ctx: TermContext) -> np.ndarray:
@@ -352,16 +432,32 @@ def _std_signal(ctx: TermContext) -> np.ndarray:
     return -np.sqrt(np.maximum(P[..., 0, 0] + P[..., 1, 1], 0.0)).mean(-1)[:, None]
 
 
-register_term("std", kind="training", compute=_std_signal,
-              doc="-sqrt(trace of the horizontal EKF covariance) after the cycle: the filter's own RMS error "
-              "prediction (not privileged, less noisy)")
-register_term("logdet", kind="training", compute=lambda ctx: -0.5 * ctx.result.info["cov_logdet"].mean(-1)[:, None],
-              doc="-0.5 log det of the horizontal EKF covariance after the cycle")
-register_term("penalties", kind="training", compute=lambda ctx: -penalties(ctx.result.terms, ctx.weights),
-              doc="minus the beacon's weighted penalty terms of the step (the environment terms marked penalty: "
-              "safety, geofence, ping and the moving network's baseline, approach, rotation, bank): the "
-              "environment's penalties without its contact term")
-register_term("rejected", kind="training", compute=lambda ctx: -ctx.result.info["outliers_rejected"].sum(-1)[:, None],
-              doc="-(ranges the survey filter's innovation gate rejected this cycle), summed over the survey "
-              "vehicles: besides the multipath outliers the gate is there for, a rejected range is a filter that "
-              "has drifted further than it believes (a lock-out, once every range is rejected)")
+register_term(
+    "std",
+    kind="training",
+    compute=_std_signal,
+    doc="-sqrt(trace of the horizontal EKF covariance) after the cycle: the filter's own RMS error "
+    "prediction (not privileged, less noisy)",
+)
+register_term(
+    "logdet",
+    kind="training",
+    compute=lambda ctx: -0.5 * ctx.result.info["cov_logdet"].mean(-1)[:, None],
+    doc="-0.5 log det of the horizontal EKF covariance after the cycle",
+)
+register_term(
+    "penalties",
+    kind="training",
+    compute=lambda ctx: -penalties(ctx.result.terms, ctx.weights),
+    doc="minus the beacon's weighted penalty terms of the step (the environment terms marked penalty: "
+    "safety, geofence, ping and the moving network's baseline, approach, rotation, bank): the "
+    "environment's penalties without its contact term",
+)
+register_term(
+    "rejected",
+    kind="training",
+    compute=lambda ctx: -ctx.result.info["outliers_rejected"].sum(-1)[:, None],
+    doc="-(ranges the survey filter's innovation gate rejected this cycle), summed over the survey "
+    "vehicles: besides the multipath outliers the gate is there for, a rejected range is a filter that "
+    "has drifted further than it believes (a lock-out, once every range is rejected)",
+)

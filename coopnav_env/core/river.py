@@ -116,9 +116,15 @@ def cross_section_at(s_m: float, pts: np.ndarray, cum: np.ndarray, direction: fl
     return np.array([b1.real, b1.imag]), np.array([b2.real, b2.imag]), float(np.arctan2(x_axis.real, x_axis.imag))
 
 
-def meander(length_m: float, wavelength_m: float, amplitude_m: float, bearing_deg: float = 90.0, start_m: float = 0.0,
-            step_m: float = 25.0,
-            origin_en_m: tuple[float, float] = (0.0, 0.0)) -> tuple:
+def meander(
+    length_m: float,
+    wavelength_m: float,
+    amplitude_m: float,
+    bearing_deg: float = 90.0,
+    start_m: float = 0.0,
+    step_m: float = 25.0,
+    origin_en_m: tuple[float, float] = (0.0, 0.0),
+) -> tuple:
     """A sine-generated centerline (e, n) points: along the main axis (bearing_deg, clockwise
     from north) from start_m to start_m + length_m every step_m, displaced across it by
     amplitude_m sin(2 pi a / wavelength_m) (a: the main-axis coordinate; positive to the left

@@ -85,8 +85,9 @@ class DrawLayout:
     returns name -> (B, *shape).
     """
 
-    def __init__(self, layout: Iterable[tuple[str, str, tuple[int, ...]]], batch_size: int,
-                 stream: int = STREAM_CYCLE) -> None:
+    def __init__(
+        self, layout: Iterable[tuple[str, str, tuple[int, ...]]], batch_size: int, stream: int = STREAM_CYCLE
+    ) -> None:
         self.layout, self.stream = list(layout), int(stream)
         self.slices, start = [], 0
         for name, kind, shape in self.layout:

@@ -47,10 +47,35 @@ def __getattr__(name: str) -> tuple:
         return sections.ACOUSTIC_SENSORS
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
+
 __all__ = [
-    "ACOUSTIC_SENSORS", "ACTION_MODES", "AREA_LIMIT_M", "BEACON_KINDS", "CHANNEL_MODES", "COORDINATE_LIMIT_M",
-    "MAX_RIVER_POINTS", "MAX_WAYPOINTS", "MISSION_FRAMES", "NETWORKS", "RANGING_MODES", "SECTIONS",
-    "SLOWEST_SOUND_SPEED_MPS", "SURVEY_PATHS", "ScenarioConfig", "SectionSpec", "bounds", "check_overrides",
-    "default_of", "flat_name", "list_scenarios", "make_config", "param", "parameter_names", "range_text",
-    "register", "resolve_config", "section_of", "waypoint_count",
+    "ACOUSTIC_SENSORS",  # noqa: F822 - served by the module __getattr__ above
+    "ACTION_MODES",
+    "AREA_LIMIT_M",
+    "BEACON_KINDS",
+    "CHANNEL_MODES",
+    "COORDINATE_LIMIT_M",
+    "MAX_RIVER_POINTS",
+    "MAX_WAYPOINTS",
+    "MISSION_FRAMES",
+    "NETWORKS",
+    "RANGING_MODES",
+    "SECTIONS",
+    "SLOWEST_SOUND_SPEED_MPS",
+    "SURVEY_PATHS",
+    "ScenarioConfig",
+    "SectionSpec",
+    "bounds",
+    "check_overrides",
+    "default_of",
+    "flat_name",
+    "list_scenarios",
+    "make_config",
+    "param",
+    "parameter_names",
+    "range_text",
+    "register",
+    "resolve_config",
+    "section_of",
+    "waypoint_count",
 ]

@@ -108,13 +108,15 @@ class ScenarioConfig:
 
     def __init__(self, name: str = "custom", network: str = "survey_beacons", **params: Any) -> None:
         check_overrides(params)
-        values, explicit = {}, {}
+        values: dict[str, Any] = {}
+        explicit: dict[str, Any] = {}
         for key, v in params.items():  # sections first: flat and dotted keywords override them
-            if key in SECTION_BY_ATTR and not isinstance(v, dict):
-                if v is not None:
-                    check(isinstance(v, SECTION_BY_ATTR[key].cls),
-                          f"scenario section {key} must be a {SECTION_BY_ATTR[key].cls.__name__}, got {v!r}")
-                    values.update((f.name, getattr(v, f.name)) for f in dataclasses.fields(v))
+            if key in SECTION_BY_ATTR and not isinstance(v, dict) and v is not None:
+                check(
+                    isinstance(v, SECTION_BY_ATTR[key].cls),
+                    f"scenario section {key} must be a {SECTION_BY_ATTR[key].cls.__name__}, got {v!r}",
+                )
+                values.update((f.name, getattr(v, f.name)) for f in dataclasses.fields(v))
         for key, v in params.items():
             if key not in SECTION_BY_ATTR:
                 explicit[flat_name(key)] = v
@@ -124,8 +126,10 @@ class ScenarioConfig:
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "network", network)
         check(isinstance(name, str), f"scenario parameter name must be a string, got {name!r}")
-        check(isinstance(network, str) and network in S.NETWORKS,
-              f"unknown network {network!r}; valid networks: {', '.join(S.NETWORKS)}")
+        check(
+            isinstance(network, str) and network in S.NETWORKS,
+            f"unknown network {network!r}; valid networks: {', '.join(S.NETWORKS)}",
+        )
         switch = {"network": network, **values}
         for spec in SECTIONS:
             if all(switch.get(k, DEFAULTS[k]) == v for k, v in spec.requires):
@@ -135,10 +139,12 @@ class ScenarioConfig:
                     object.__setattr__(self, n, getattr(part, n))
             else:
                 for key in explicit:
-                    check(OWNER[key] != spec.attr,
-                          f"scenario parameter {key} belongs to section {spec.attr!r}, which applies only with "
-                          f"{_requires_text(spec)}; this scenario has "
-                          + ", ".join(f"{k}={switch.get(k, DEFAULTS[k])!r}" for k, _ in spec.requires))
+                    check(
+                        OWNER[key] != spec.attr,
+                        f"scenario parameter {key} belongs to section {spec.attr!r}, which applies only with "
+                        f"{_requires_text(spec)}; this scenario has "
+                        + ", ".join(f"{k}={switch.get(k, DEFAULTS[k])!r}" for k, _ in spec.requires),
+                    )
                 part = None
             object.__setattr__(self, spec.attr, part)
         validate(self)
@@ -151,8 +157,10 @@ class ScenarioConfig:
         part = self.__dict__.get(OWNER[key])
         if part is None:
             spec = SECTION_BY_ATTR[OWNER[key]]
-            raise AttributeError(f"scenario {self.__dict__.get('name')!r} has no parameter {key}: its section "
-                                 f"{spec.attr!r} applies only with {_requires_text(spec)}")
+            raise AttributeError(
+                f"scenario {self.__dict__.get('name')!r} has no parameter {key}: its section "
+                f"{spec.attr!r} applies only with {_requires_text(spec)}"
+            )
         return getattr(part, key)
 
     def __repr__(self) -> str:
@@ -172,7 +180,7 @@ class ScenarioConfig:
     def to_flat_dict(self, all_parameters: bool = False) -> dict:
         """{parameter: value}, flat (as run.json stores it): the parameters that apply or,
         with ``all_parameters``, every parameter (the defaults where a section is absent)."""
-        out = {"name": self.name, "network": self.network}
+        out: dict[str, Any] = {"name": self.name, "network": self.network}
         for spec in SECTIONS:
             part = getattr(self, spec.attr)
             for f in dataclasses.fields(spec.cls):
@@ -182,7 +190,7 @@ class ScenarioConfig:
                     out[f.name] = f.default
         return out
 
-    def replace(self, **overrides: Any) -> "ScenarioConfig":
+    def replace(self, **overrides: Any) -> ScenarioConfig:
         """A copy with ``overrides`` (flat or dotted parameter names, or sections)."""
         return dataclasses.replace(self, **check_overrides(overrides))
 
@@ -193,7 +201,9 @@ class ScenarioConfig:
 
     @property
     def substeps_per_cycle(self) -> int:
-        return self.timing.substeps_per_cycle
+        timing = self.timing
+        assert timing is not None, "every scenario has a timing section"
+        return timing.substeps_per_cycle
 
     @property
     def geofence_m(self) -> tuple:
@@ -260,8 +270,11 @@ def section_of(key: str) -> str | None:
 
 def bounds() -> dict:
     """{parameter: (low, high, open_low)} of every number parameter (from the metadata)."""
-    return {n: (f.metadata["low"], f.metadata["high"], f.metadata["open_low"])
-            for n, f in FIELD.items() if f.metadata.get("low") is not None}
+    return {
+        n: (f.metadata["low"], f.metadata["high"], f.metadata["open_low"])
+        for n, f in FIELD.items()
+        if f.metadata.get("low") is not None
+    }
 
 
 def check_overrides(overrides: dict) -> dict:

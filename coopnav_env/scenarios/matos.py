@@ -81,11 +81,15 @@ register("matos_moving_lbl", MATOS_MOVING_LBL)
 # off the main axis, radius of curvature >= 200 m), 150 m bank to bank, drawn from 150 m
 # above the mission's start to 150 m beyond its end so that the boats have river there too.
 # The vehicle follows the centerline downstream at 2 m depth, waypoints every 50 m.
-RIVER_CENTERLINE_M = river.meander(length_m=1900.0, wavelength_m=800.0, amplitude_m=80.0, bearing_deg=90.0,
-                                   start_m=-150.0, step_m=25.0)
-RIVER_MISSION_M = tuple((e, n, 2.0) for e, n in
-                        river.meander(length_m=1600.0, wavelength_m=800.0, amplitude_m=80.0, bearing_deg=90.0,
-                                      start_m=0.0, step_m=50.0))
+RIVER_CENTERLINE_M = river.meander(
+    length_m=1900.0, wavelength_m=800.0, amplitude_m=80.0, bearing_deg=90.0, start_m=-150.0, step_m=25.0
+)
+RIVER_MISSION_M = tuple(
+    (e, n, 2.0)
+    for e, n in river.meander(
+        length_m=1600.0, wavelength_m=800.0, amplitude_m=80.0, bearing_deg=90.0, start_m=0.0, step_m=50.0
+    )
+)
 
 MATOS_RIVER = ScenarioConfig(
     name="matos_river",

@@ -18,8 +18,17 @@ from typing import Any
 COORDINATE_LIMIT_M = 1e6  # |east|, |north| of origins and waypoints
 
 
-def param(default: Any, *, doc: str, unit: str = "-", low: float | None = None, high: float | None = None,
-          open_low: bool = False, choices: tuple | None = None, source: str = "") -> Any:
+def param(
+    default: Any,
+    *,
+    doc: str,
+    unit: str = "-",
+    low: float | None = None,
+    high: float | None = None,
+    open_low: bool = False,
+    choices: tuple | None = None,
+    source: str = "",
+) -> Any:
     """A parameter field: its default and its metadata.
 
     Args:
@@ -34,8 +43,15 @@ def param(default: Any, *, doc: str, unit: str = "-", low: float | None = None, 
     """
     if isinstance(default, (int, float)) and not isinstance(default, bool):
         assert low is not None and high is not None, "a number parameter needs low and high"
-    meta = {"unit": unit, "low": low, "high": high, "open_low": open_low, "choices": choices, "doc": doc,
-            "source": source}
+    meta = {
+        "unit": unit,
+        "low": low,
+        "high": high,
+        "open_low": open_low,
+        "choices": choices,
+        "doc": doc,
+        "source": source,
+    }
     return dataclasses.field(default=default, metadata=meta)
 
 
@@ -76,22 +92,29 @@ def real(v: Any) -> bool:
 
 
 def check_coordinates(name: str, values: Any, n: int) -> None:
-    check(isinstance(values, tuple) and len(values) == n,
-          f"scenario parameter {name} must be {n} numbers, got {values!r}")
+    check(
+        isinstance(values, tuple) and len(values) == n, f"scenario parameter {name} must be {n} numbers, got {values!r}"
+    )
     for v in values:
-        check(real(v) and abs(v) <= COORDINATE_LIMIT_M,
-              f"scenario parameter {name} must hold finite numbers within +-{COORDINATE_LIMIT_M:g} m, got {values!r}")
+        check(
+            real(v) and abs(v) <= COORDINATE_LIMIT_M,
+            f"scenario parameter {name} must hold finite numbers within +-{COORDINATE_LIMIT_M:g} m, got {values!r}",
+        )
 
 
 def check_field(field: dataclasses.Field, v: Any) -> None:
     """Type, finiteness, range (numbers) and choices (strings) of one parameter's value."""
     name, kind = field.name, kind_of(field)
     if kind is int:
-        check(isinstance(v, numbers.Integral) and not isinstance(v, bool),
-              f"scenario parameter {name} must be an integer, got {v!r}")
+        check(
+            isinstance(v, numbers.Integral) and not isinstance(v, bool),
+            f"scenario parameter {name} must be an integer, got {v!r}",
+        )
     elif kind is float:
-        check(isinstance(v, numbers.Real) and not isinstance(v, bool),
-              f"scenario parameter {name} must be a number, got {v!r}")
+        check(
+            isinstance(v, numbers.Real) and not isinstance(v, bool),
+            f"scenario parameter {name} must be a number, got {v!r}",
+        )
         check(finite(v), f"scenario parameter {name} must be finite, got {v!r}")
     elif kind is str:
         check(isinstance(v, str), f"scenario parameter {name} must be a string, got {v!r}")

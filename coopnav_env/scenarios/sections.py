@@ -9,6 +9,7 @@ apply is ``None``); the checks here concern one section's fields only.
 
 from __future__ import annotations
 
+import itertools
 import numbers
 
 from .params import Section, check, check_coordinates, finite, param, section
@@ -30,127 +31,218 @@ MAX_WAYPOINTS = 100_000  # a path that needs more is refused before it is built
 class Timing(Section):
     """Timing: the acoustic cycle (one decision step) and the episode's length."""
 
-    ping_interval_s: float = param(20.0, unit="s", low=0, high=3600.0, open_low=True,
-        doc="one decision step = one acoustic cycle (Gao & Chitre: 20 s)")
+    ping_interval_s: float = param(
+        20.0,
+        unit="s",
+        low=0,
+        high=3600.0,
+        open_low=True,
+        doc="one decision step = one acoustic cycle (Gao & Chitre: 20 s)",
+    )
     substep_s: float = param(1.0, unit="s", low=0, high=60.0, open_low=True, doc="integration step inside a cycle")
     max_cycles: int = param(400, low=1, high=100000, doc="truncation")
-    mission_duration_s: float = param(0.0, unit="s", low=0.0, high=1000000.0,
-        doc="> 0: the survey's mission also ends after this time")
+    mission_duration_s: float = param(
+        0.0, unit="s", low=0.0, high=1000000.0, doc="> 0: the survey's mission also ends after this time"
+    )
 
     @property
     def substeps_per_cycle(self) -> int:
-        return int(round(self.ping_interval_s / self.substep_s))
+        return int(round(self.ping_interval_s / self.substep_s))  # noqa: RUF046 - numpy 1.x rounds a numpy float to a float
 
     def check(self) -> None:
         check(self.substep_s <= self.ping_interval_s, "substep_s must not exceed ping_interval_s")
-        check(abs(self.substeps_per_cycle * self.substep_s - self.ping_interval_s) < 1e-9 * self.ping_interval_s,
-              f"ping_interval_s ({self.ping_interval_s}) must be a whole multiple of substep_s ({self.substep_s})")
-        check(self.substeps_per_cycle <= 4095,
-              f"substep_s ({self.substep_s:g}) gives {self.substeps_per_cycle} sub-steps per cycle; at most 4095")
+        check(
+            abs(self.substeps_per_cycle * self.substep_s - self.ping_interval_s) < 1e-9 * self.ping_interval_s,
+            f"ping_interval_s ({self.ping_interval_s}) must be a whole multiple of substep_s ({self.substep_s})",
+        )
+        check(
+            self.substeps_per_cycle <= 4095,
+            f"substep_s ({self.substep_s:g}) gives {self.substeps_per_cycle} sub-steps per cycle; at most 4095",
+        )
 
 
 @section
 class Roster(Section):
     """Who takes part: survey vehicles, the beacons (one per learning agent) and how they are commanded."""
 
-    n_survey: int = param(1, low=1, high=16,
-        doc="survey vehicles (each flies its own copy of the path, survey_spacing_m apart)")
-    beacon_kinds: tuple = param(("beacon_auv",), 
-        doc="one entry per learning agent: \"beacon_auv\" | \"asv\" (survey_beacons), \"boat\" (moving_lbl)")
-    action_mode: str = param("velocity", choices=ACTION_MODES,
-        doc=("\"velocity\": (v_east, v_north)/max; \"heading_speed\"; \"frame_velocity\" (moving_lbl only): (v_x, "
-             "v_y)/max in the boats' frame, x along B1 -> B2 as their GPS gives it"))
+    n_survey: int = param(
+        1, low=1, high=16, doc="survey vehicles (each flies its own copy of the path, survey_spacing_m apart)"
+    )
+    beacon_kinds: tuple = param(
+        ("beacon_auv",), doc='one entry per learning agent: "beacon_auv" | "asv" (survey_beacons), "boat" (moving_lbl)'
+    )
+    action_mode: str = param(
+        "velocity",
+        choices=ACTION_MODES,
+        doc=(
+            '"velocity": (v_east, v_north)/max; "heading_speed"; "frame_velocity" (moving_lbl only): (v_x, '
+            "v_y)/max in the boats' frame, x along B1 -> B2 as their GPS gives it"
+        ),
+    )
 
     def check(self) -> None:
         check(len(self.beacon_kinds) >= 1, "beacon_kinds must be a non-empty tuple")
         check(len(self.beacon_kinds) <= 16, f"at most 16 beacons, got {len(self.beacon_kinds)}")
         for k in self.beacon_kinds:
-            check(isinstance(k, str) and k in BEACON_KINDS,
-                  f"beacon_kinds: unknown beacon kind {k!r}; valid kinds: {', '.join(BEACON_KINDS)}")
+            check(
+                isinstance(k, str) and k in BEACON_KINDS,
+                f"beacon_kinds: unknown beacon kind {k!r}; valid kinds: {', '.join(BEACON_KINDS)}",
+            )
 
 
 @section
 class SurveyPath(Section):
     """The survey's mission, planned in the navigation frame (east, north, depth)."""
 
-    survey_path: str = param("lawnmower", choices=SURVEY_PATHS, doc="the path the survey vehicles fly (its size: the fields below)")
+    survey_path: str = param(
+        "lawnmower", choices=SURVEY_PATHS, doc="the path the survey vehicles fly (its size: the fields below)"
+    )
     survey_origin_m: tuple = param((0.0, 0.0), unit="m", doc="south-west corner of the survey area")
     survey_area_m: tuple = param((130.0, 100.0), unit="m", doc="east extent, north extent")
     lawnmower_spacing_m: float = param(25.0, unit="m", low=0, high=10000.0, open_low=True, doc="track spacing")
     depth_m: float = param(5.0, unit="m", low=0.0, high=6000.0, doc="mission depth (start depth of a spiral)")
-    spiral_end_depth_m: float = param(0.0, unit="m", low=0.0, high=6000.0,
-        doc="spiral: depth at the end; <= depth_m means depth_m + 20")
-    circle_radius_m: float = param(40.0, unit="m", low=0.0, high=10000.0,
-        doc="survey_path=\"circle\": radius around the area's centre")
-    circle_laps: float = param(2.0, low=0, high=1000.0, open_low=True, doc="survey_path=\"circle\": laps flown")
-    line_length_m: float = param(100.0, unit="m", low=0, high=20000.0, open_low=True,
-        doc="survey_path=\"line\": back and forth along east")
-    path_repeats: int = param(1, low=1, high=1000,
-        doc="the path is flown this many times, alternately forward and back")
-    waypoints_m: tuple = param((), unit="m", doc="survey_path=\"waypoints\": ((east, north, depth), ...)")
-    survey_spacing_m: float = param(30.0, unit="m", low=0.0, high=10000.0,
-        doc="offset between the paths of several survey vehicles")
-    waypoint_acceptance_m: float = param(3.0, unit="m", low=0, high=1000.0, open_low=True,
-        doc="a waypoint counts as reached within this horizontal distance")
+    spiral_end_depth_m: float = param(
+        0.0, unit="m", low=0.0, high=6000.0, doc="spiral: depth at the end; <= depth_m means depth_m + 20"
+    )
+    circle_radius_m: float = param(
+        40.0, unit="m", low=0.0, high=10000.0, doc='survey_path="circle": radius around the area\'s centre'
+    )
+    circle_laps: float = param(2.0, low=0, high=1000.0, open_low=True, doc='survey_path="circle": laps flown')
+    line_length_m: float = param(
+        100.0, unit="m", low=0, high=20000.0, open_low=True, doc='survey_path="line": back and forth along east'
+    )
+    path_repeats: int = param(
+        1, low=1, high=1000, doc="the path is flown this many times, alternately forward and back"
+    )
+    waypoints_m: tuple = param((), unit="m", doc='survey_path="waypoints": ((east, north, depth), ...)')
+    survey_spacing_m: float = param(
+        30.0, unit="m", low=0.0, high=10000.0, doc="offset between the paths of several survey vehicles"
+    )
+    waypoint_acceptance_m: float = param(
+        3.0,
+        unit="m",
+        low=0,
+        high=1000.0,
+        open_low=True,
+        doc="a waypoint counts as reached within this horizontal distance",
+    )
     los_alpha: float = param(0.5, low=0.0, high=1.0, doc="Matos & Cruz Fig. 5: |W_i Q| = alpha |W_i P|")
 
     def check(self) -> None:
         check_coordinates("survey_origin_m", self.survey_origin_m, 2)
         check_coordinates("survey_area_m", self.survey_area_m, 2)
-        check(all(0 < v <= AREA_LIMIT_M for v in self.survey_area_m),
-              f"scenario parameter survey_area_m must be two lengths in (0, {AREA_LIMIT_M:g}] m, "
-              f"got {self.survey_area_m!r}")
+        check(
+            all(0 < v <= AREA_LIMIT_M for v in self.survey_area_m),
+            f"scenario parameter survey_area_m must be two lengths in (0, {AREA_LIMIT_M:g}] m, "
+            f"got {self.survey_area_m!r}",
+        )
         check(len(self.waypoints_m) <= MAX_WAYPOINTS, f"waypoints_m has more than {MAX_WAYPOINTS} entries")
         for w in self.waypoints_m:
             check(isinstance(w, tuple) and len(w) == 3, f"waypoints_m entries must be (east, north, depth), got {w!r}")
             check_coordinates("waypoints_m", w, 3)
             check(0 <= w[2] <= 6000, f"waypoints_m depths must be in [0, 6000] m, got {w!r}")
-        check(self.survey_path != "waypoints" or len(self.waypoints_m) >= 2,
-              "survey_path='waypoints' needs at least two waypoints_m entries (east, north, depth)")
+        check(
+            self.survey_path != "waypoints" or len(self.waypoints_m) >= 2,
+            "survey_path='waypoints' needs at least two waypoints_m entries (east, north, depth)",
+        )
 
 
 @section
 class SurveyVehicle(Section):
     """The survey vehicle's thrust model (Gao & Chitre eq. 1) and its autopilot limits."""
 
-    survey_mass_kg: float = param(45.0, unit="kg", low=0, high=100000.0, open_low=True,
+    survey_mass_kg: float = param(
+        45.0,
+        unit="kg",
+        low=0,
+        high=100000.0,
+        open_low=True,
         source="reference-values.md §1; assumption [U]",
-        doc="STARFISH 40-60 kg [U], ref-values section 1")
-    survey_drag_coefficient: float = param(0.42, low=0, high=10.0, open_low=True, source="reference-values.md §1",
-        doc="Allen et al. 2000, ref-values section 1")
-    survey_cross_section_m2: float = param(0.0284, unit="m²", low=0, high=100.0, open_low=True,
+        doc="STARFISH 40-60 kg [U], ref-values section 1",
+    )
+    survey_drag_coefficient: float = param(
+        0.42,
+        low=0,
+        high=10.0,
+        open_low=True,
         source="reference-values.md §1",
-        doc="REMUS frontal area, ref-values section 1")
-    water_density_kgpm3: float = param(1026.0, unit="kg/m³", low=900.0, high=1100.0, source="reference-values.md §1",
-        doc="sea water's density, ref-values section 1")
-    max_thrust_n: float = param(14.0, unit="N", low=0, high=100000.0, open_low=True, source="assumption [U]",
-        doc="full thrust; 1.5 m/s at 100 % with this section's mass, drag and area [U, derived]")
-    survey_thrust_percent: float = param(60.0, unit="%", low=0.0, high=100.0, doc="lake trial: 60 %, sea trial: 70 %")
-    survey_speed_scale_error_std: float = param(0.05, low=0.0, high=0.5, source="assumption [U]",
-        doc="true/modelled water speed - 1, per episode [U 5-10 %]")
-    survey_max_turn_rate_dps: float = param(12.0, unit="deg/s", low=0, high=360.0, open_low=True,
+        doc="Allen et al. 2000, ref-values section 1",
+    )
+    survey_cross_section_m2: float = param(
+        0.0284,
+        unit="m²",
+        low=0,
+        high=100.0,
+        open_low=True,
+        source="reference-values.md §1",
+        doc="REMUS frontal area, ref-values section 1",
+    )
+    water_density_kgpm3: float = param(
+        1026.0,
+        unit="kg/m³",
+        low=900.0,
+        high=1100.0,
+        source="reference-values.md §1",
+        doc="sea water's density, ref-values section 1",
+    )
+    max_thrust_n: float = param(
+        14.0,
+        unit="N",
+        low=0,
+        high=100000.0,
+        open_low=True,
         source="assumption [U]",
-        doc="[U]")
-    survey_max_pitch_deg: float = param(20.0, unit="deg", low=0, high=90.0, open_low=True, source="assumption [U]",
-        doc="[U]")
-    survey_depth_gain_per_m: float = param(0.2, unit="1/m", low=0.0, high=100.0, source="assumption [U]",
-        doc="pitch command (rad) per metre of depth error [U]")
+        doc="full thrust; 1.5 m/s at 100 % with this section's mass, drag and area [U, derived]",
+    )
+    survey_thrust_percent: float = param(60.0, unit="%", low=0.0, high=100.0, doc="lake trial: 60 %, sea trial: 70 %")
+    survey_speed_scale_error_std: float = param(
+        0.05, low=0.0, high=0.5, source="assumption [U]", doc="true/modelled water speed - 1, per episode [U 5-10 %]"
+    )
+    survey_max_turn_rate_dps: float = param(
+        12.0, unit="deg/s", low=0, high=360.0, open_low=True, source="assumption [U]", doc="[U]"
+    )
+    survey_max_pitch_deg: float = param(
+        20.0, unit="deg", low=0, high=90.0, open_low=True, source="assumption [U]", doc="[U]"
+    )
+    survey_depth_gain_per_m: float = param(
+        0.2,
+        unit="1/m",
+        low=0.0,
+        high=100.0,
+        source="assumption [U]",
+        doc="pitch command (rad) per metre of depth error [U]",
+    )
 
 
 @section
 class SurveySensors(Section):
     """The survey vehicle's dead-reckoning sensors and GPS."""
 
-    compass_noise_deg: float = param(1.0, unit="deg", low=0.0, high=45.0, source="reference-values.md §2",
-        doc="OS5000, <30 deg tilt, ref-values section 2")
-    compass_bias_std_deg: float = param(1.0, unit="deg", low=0.0, high=45.0, source="assumption [U]",
-        doc="residual heading bias per run [U 1-3 deg]")
-    attitude_noise_deg: float = param(0.3, unit="deg", low=0.0, high=45.0, source="assumption [U]",
-        doc="pitch/roll [U 0.2-0.5 deg]")
-    depth_noise_m: float = param(0.05, unit="m", low=0.0, high=100.0, source="assumption [U]",
-        doc="Bar30 resolution is 2 mm; noise [U]")
-    gps_noise_m: float = param(2.1, unit="m", low=0.0, high=1000.0, source="reference-values.md §2",
-        doc="u-blox M8, 1-sigma per axis, ref-values section 2")
+    compass_noise_deg: float = param(
+        1.0,
+        unit="deg",
+        low=0.0,
+        high=45.0,
+        source="reference-values.md §2",
+        doc="OS5000, <30 deg tilt, ref-values section 2",
+    )
+    compass_bias_std_deg: float = param(
+        1.0, unit="deg", low=0.0, high=45.0, source="assumption [U]", doc="residual heading bias per run [U 1-3 deg]"
+    )
+    attitude_noise_deg: float = param(
+        0.3, unit="deg", low=0.0, high=45.0, source="assumption [U]", doc="pitch/roll [U 0.2-0.5 deg]"
+    )
+    depth_noise_m: float = param(
+        0.05, unit="m", low=0.0, high=100.0, source="assumption [U]", doc="Bar30 resolution is 2 mm; noise [U]"
+    )
+    gps_noise_m: float = param(
+        2.1,
+        unit="m",
+        low=0.0,
+        high=1000.0,
+        source="reference-values.md §2",
+        doc="u-blox M8, 1-sigma per axis, ref-values section 2",
+    )
     gps_max_depth_m: float = param(0.3, unit="m", low=0.0, high=100.0, doc="GPS fixes only this close to the surface")
     sensor_nan_probability: float = param(0.0, low=0.0, high=1.0, doc="fault injection: a measurement is NaN")
 
@@ -159,17 +251,27 @@ class SurveySensors(Section):
 class SurveyEKF(Section):
     """The survey vehicle's EKF (Gao & Chitre eqs. 4-13)."""
 
-    initial_position_std_m: float = param(2.0, unit="m", low=0, high=10000.0, open_low=True,
-        doc="GPS fix before diving")
-    process_noise_horizontal_m2ps: float = param(1.0, unit="m²/s", low=0.0, high=10000.0,
-        doc=("Q per second, east and north: tuned so that the NEES of gao_lawnmower sits in its chi-square band "
-             "(tests/test_ekf.py); it stands for the biases the filter does not model (speed scale, compass bias, "
-             "current estimate)"))
+    initial_position_std_m: float = param(
+        2.0, unit="m", low=0, high=10000.0, open_low=True, doc="GPS fix before diving"
+    )
+    process_noise_horizontal_m2ps: float = param(
+        1.0,
+        unit="m²/s",
+        low=0.0,
+        high=10000.0,
+        doc=(
+            "Q per second, east and north: tuned so that the NEES of gao_lawnmower sits in its chi-square band "
+            "(tests/test_ekf.py); it stands for the biases the filter does not model (speed scale, compass bias, "
+            "current estimate)"
+        ),
+    )
     process_noise_vertical_m2ps: float = param(0.002, unit="m²/s", low=0.0, high=10000.0, doc="Q per second, depth")
-    range_gate_probability: float = param(0.99, low=0, high=0.999999, open_low=True,
-        doc="chi-square innovation gate (1 dof)")
-    reinit_after_rejected_ranges: int = param(3, low=0, high=1000,
-        doc="survey filter: restart from the range after this many gated out in a row (0: never)")
+    range_gate_probability: float = param(
+        0.99, low=0, high=0.999999, open_low=True, doc="chi-square innovation gate (1 dof)"
+    )
+    reinit_after_rejected_ranges: int = param(
+        3, low=0, high=1000, doc="survey filter: restart from the range after this many gated out in a row (0: never)"
+    )
     survey_uses_beacon_current: bool = param(True, doc="add the current a DVL beacon AUV sends (Gao II-A)")
 
 
@@ -179,34 +281,74 @@ class BeaconAUV(Section):
     distance travelled (0.5-2 % of it with a magnetic compass): per episode and beacon a compass error
     b0 + b1 sin(heading + phase) (constant plus one-cycle, Hench & Rosman 2010) and a velocity scale error."""
 
-    beacon_auv_max_speed_mps: float = param(1.5, unit="m/s", low=0, high=20.0, open_low=True, source="assumption [U]",
-        doc="STARFISH <= 1.5 m/s [U]")
-    beacon_auv_max_turn_rate_dps: float = param(12.0, unit="deg/s", low=0, high=360.0, open_low=True,
-        source="assumption [U]",
-        doc="[U]")
-    beacon_auv_depth_m: float = param(2.0, unit="m", low=0.0, high=6000.0, source="assumption [U]",
-        doc="the beacon AUV's constant depth [U]")
-    dvl_velocity_noise_mps: float = param(0.026, unit="m/s", low=0.0, high=10.0, source="reference-values.md §2",
-        doc="HoloOcean DVL default, ref-values section 2")
+    beacon_auv_max_speed_mps: float = param(
+        1.5, unit="m/s", low=0, high=20.0, open_low=True, source="assumption [U]", doc="STARFISH <= 1.5 m/s [U]"
+    )
+    beacon_auv_max_turn_rate_dps: float = param(
+        12.0, unit="deg/s", low=0, high=360.0, open_low=True, source="assumption [U]", doc="[U]"
+    )
+    beacon_auv_depth_m: float = param(
+        2.0, unit="m", low=0.0, high=6000.0, source="assumption [U]", doc="the beacon AUV's constant depth [U]"
+    )
+    dvl_velocity_noise_mps: float = param(
+        0.026,
+        unit="m/s",
+        low=0.0,
+        high=10.0,
+        source="reference-values.md §2",
+        doc="HoloOcean DVL default, ref-values section 2",
+    )
     dvl_lock_loss_probability: float = param(0.02, low=0.0, high=1.0, source="assumption [U]", doc="per cycle [U]")
     dvl_lock_regain_probability: float = param(0.5, low=0.0, high=1.0, source="assumption [U]", doc="per cycle [U]")
-    beacon_current_estimate_error_mps: float = param(0.05, unit="m/s", low=0.0, high=10.0, source="assumption [U]",
-        doc="its current estimate (DVL - thrust model) [U]")
-    beacon_dvl_heading_bias_std_deg: float = param(0.5, unit="deg", low=0.0, high=45.0,
+    beacon_current_estimate_error_mps: float = param(
+        0.05,
+        unit="m/s",
+        low=0.0,
+        high=10.0,
+        source="assumption [U]",
+        doc="its current estimate (DVL - thrust model) [U]",
+    )
+    beacon_dvl_heading_bias_std_deg: float = param(
+        0.5,
+        unit="deg",
+        low=0.0,
+        high=45.0,
         source="reference-values.md §2; assumption [U]",
-        doc=("the beacon AUV's DVL dead reckoning drifts with distance travelled (0.5-2 % of it with a magnetic "
-             "compass): per episode and beacon a compass error b0 + b1 sin(heading + phase) (constant plus one-"
-             "cycle, Hench & Rosman 2010) and a velocity scale error std of b0; residual bias 1-3 deg per run "
-             "before calibration, ref-values section 2 [U]"))
-    beacon_dvl_heading_cycle_deg: float = param(1.0, unit="deg", low=0.0, high=45.0, source="assumption [U]",
-        doc=("b1, random phase: heading-dependent compass error; Hench & Rosman 2010: <1 % of track after "
-             "calibration [U]"))
-    beacon_dvl_scale_error_std: float = param(0.01, low=0.0, high=0.5, source="reference-values.md §2",
-        doc="DVL velocity scale error (A50 standard firmware ~1 %), ref-values section 2")
-    beacon_surface_every_s: float = param(0.0, unit="s", low=0.0, high=1000000.0,
-        doc="> 0: the beacon AUV takes a GPS fix at the surface this often (0: never)")
-    beacon_surface_above_std_m: float = param(0.0, unit="m", low=0.0, high=10000.0,
-        doc="> 0: ... and whenever its own position std exceeds this (0: never)")
+        doc=(
+            "the beacon AUV's DVL dead reckoning drifts with distance travelled (0.5-2 % of it with a magnetic "
+            "compass): per episode and beacon a compass error b0 + b1 sin(heading + phase) (constant plus one-"
+            "cycle, Hench & Rosman 2010) and a velocity scale error std of b0; residual bias 1-3 deg per run "
+            "before calibration, ref-values section 2 [U]"
+        ),
+    )
+    beacon_dvl_heading_cycle_deg: float = param(
+        1.0,
+        unit="deg",
+        low=0.0,
+        high=45.0,
+        source="assumption [U]",
+        doc=(
+            "b1, random phase: heading-dependent compass error; Hench & Rosman 2010: <1 % of track after "
+            "calibration [U]"
+        ),
+    )
+    beacon_dvl_scale_error_std: float = param(
+        0.01,
+        low=0.0,
+        high=0.5,
+        source="reference-values.md §2",
+        doc="DVL velocity scale error (A50 standard firmware ~1 %), ref-values section 2",
+    )
+    beacon_surface_every_s: float = param(
+        0.0,
+        unit="s",
+        low=0.0,
+        high=1000000.0,
+        doc="> 0: the beacon AUV takes a GPS fix at the surface this often (0: never)",
+    )
+    beacon_surface_above_std_m: float = param(
+        0.0, unit="m", low=0.0, high=10000.0, doc="> 0: ... and whenever its own position std exceeds this (0: never)"
+    )
 
 
 @section
@@ -214,21 +356,24 @@ class ASV(Section):
     """The GPS-positioned surface vehicle (``beacon_kinds`` entry ``"asv"``)."""
 
     asv_max_speed_mps: float = param(2.0, unit="m/s", low=0, high=20.0, open_low=True, doc="Sousa et al.")
-    asv_max_turn_rate_dps: float = param(30.0, unit="deg/s", low=0, high=360.0, open_low=True,
-        source="assumption [U]",
-        doc="[U]")
+    asv_max_turn_rate_dps: float = param(
+        30.0, unit="deg/s", low=0, high=360.0, open_low=True, source="assumption [U]", doc="[U]"
+    )
 
 
 @section
 class BeaconStart(Section):
     """Where the survey network's beacons start, relative to the survey's start point."""
 
-    beacon_start_distance_m: float = param(60.0, unit="m", low=0.0, high=20000.0,
-        doc="from the survey's start point; 0: the FIM-optimal distance")
-    beacon_start_bearing_deg: float = param(225.0, unit="deg", low=-360.0, high=360.0,
-        doc="bearing of the beacon from the survey start")
-    beacon_start_bearing_spread_deg: float = param(30.0, unit="deg", low=0.0, high=360.0,
-        doc="randomized per episode, +/-")
+    beacon_start_distance_m: float = param(
+        60.0, unit="m", low=0.0, high=20000.0, doc="from the survey's start point; 0: the FIM-optimal distance"
+    )
+    beacon_start_bearing_deg: float = param(
+        225.0, unit="deg", low=-360.0, high=360.0, doc="bearing of the beacon from the survey start"
+    )
+    beacon_start_bearing_spread_deg: float = param(
+        30.0, unit="deg", low=0.0, high=360.0, doc="randomized per episode, +/-"
+    )
 
 
 @section
@@ -240,69 +385,148 @@ class Acoustics(Section):
     a decision slot, a beacon transmits when its action's third component is > 0, and the packets share one
     half-duplex channel in time (core/channel.py)."""
 
-    acoustic_sensor: str = param("modem",  # a registered sensor (core.measurements): checked by validate
-        doc="\"modem\": range-only pings; \"mls\": range and azimuth from an MLS array (section mls); or a "
-            "registered plug-in sensor")
-    ranging_mode: str = param("owtt", choices=RANGING_MODES,
-        doc="one-way (synchronized clocks) or two-way travel time")
-    channel_mode: str = param("clock", choices=CHANNEL_MODES, 
-        doc="\"clock\": every beacon pings every cycle; \"decide\": the beacons decide (section channel)")
-    range_noise_std_m: float = param(1.0, unit="m", low=0, high=1000.0, open_low=True, source="assumption [U]",
-        doc=("one detection's timing jitter as range, c sigma_t: a one-way range's std; a two-way range has "
-             "1/sqrt(2) of it [U: Micro-Modem OWTT 1-3 m]"))
-    turnaround_s: float = param(0.015, unit="s", low=0.0, high=10.0, source="reference-values.md §3",
-        doc="transponder turn-around delay, ref-values section 3")
-    max_range_m: float = param(1500.0, unit="m", low=0, high=100000.0, open_low=True, source="assumption [U]",
-        doc="no packet arrives beyond this range [U]")
-    packet_loss_near: float = param(0.05, low=0.0, high=1.0, source="assumption [U]",
-        doc="loss probability at zero range [U, 10-50 %]")
-    packet_loss_far: float = param(0.5, low=0.0, high=1.0, source="assumption [U]",
-        doc="loss probability at max_range_m [U]")
-    outlier_probability: float = param(0.03, low=0.0, high=1.0, source="reference-values.md §3; assumption [U]",
-        doc="multipath, ref-values section 3 [U 1-10 %]")
-    outlier_mean_excess_m: float = param(30.0, unit="m", low=0.0, high=10000.0,
-        doc="multipath ranges are too long by Exp(this)")
+    acoustic_sensor: str = param(
+        "modem",  # a registered sensor (core.measurements): checked by validate
+        doc='"modem": range-only pings; "mls": range and azimuth from an MLS array (section mls); or a '
+        "registered plug-in sensor",
+    )
+    ranging_mode: str = param("owtt", choices=RANGING_MODES, doc="one-way (synchronized clocks) or two-way travel time")
+    channel_mode: str = param(
+        "clock",
+        choices=CHANNEL_MODES,
+        doc='"clock": every beacon pings every cycle; "decide": the beacons decide (section channel)',
+    )
+    range_noise_std_m: float = param(
+        1.0,
+        unit="m",
+        low=0,
+        high=1000.0,
+        open_low=True,
+        source="assumption [U]",
+        doc=(
+            "one detection's timing jitter as range, c sigma_t: a one-way range's std; a two-way range has "
+            "1/sqrt(2) of it [U: Micro-Modem OWTT 1-3 m]"
+        ),
+    )
+    turnaround_s: float = param(
+        0.015,
+        unit="s",
+        low=0.0,
+        high=10.0,
+        source="reference-values.md §3",
+        doc="transponder turn-around delay, ref-values section 3",
+    )
+    max_range_m: float = param(
+        1500.0,
+        unit="m",
+        low=0,
+        high=100000.0,
+        open_low=True,
+        source="assumption [U]",
+        doc="no packet arrives beyond this range [U]",
+    )
+    packet_loss_near: float = param(
+        0.05, low=0.0, high=1.0, source="assumption [U]", doc="loss probability at zero range [U, 10-50 %]"
+    )
+    packet_loss_far: float = param(
+        0.5, low=0.0, high=1.0, source="assumption [U]", doc="loss probability at max_range_m [U]"
+    )
+    outlier_probability: float = param(
+        0.03,
+        low=0.0,
+        high=1.0,
+        source="reference-values.md §3; assumption [U]",
+        doc="multipath, ref-values section 3 [U 1-10 %]",
+    )
+    outlier_mean_excess_m: float = param(
+        30.0, unit="m", low=0.0, high=10000.0, doc="multipath ranges are too long by Exp(this)"
+    )
     water_temperature_c: float = param(28.0, unit="°C", low=-2.0, high=40.0, doc="Singapore waters")
     salinity_psu: float = param(30.0, unit="PSU", low=0.0, high=45.0, doc="for the sound speed (Mackenzie 1981)")
-    temperature_uncertainty_c: float = param(0.5, unit="°C", low=0.0, high=20.0,
-        doc="true temperature differs per episode")
+    temperature_uncertainty_c: float = param(
+        0.5, unit="°C", low=0.0, high=20.0, doc="true temperature differs per episode"
+    )
     clock_offset_std_s: float = param(0.0001, unit="s", low=0.0, high=10.0, doc="OWTT clock offset at start (0.15 m)")
-    clock_drift_ppm: float = param(0.01, unit="ppm", low=0.0, high=10000.0, source="assumption [U]",
-        doc="OWTT clock drift, per episode +/- [U]")
+    clock_drift_ppm: float = param(
+        0.01, unit="ppm", low=0.0, high=10000.0, source="assumption [U]", doc="OWTT clock drift, per episode +/- [U]"
+    )
 
 
 @section
 class Modem(Section):
     """The acoustic modem's packets and power (the channel's timing, and the energy a ping costs)."""
 
-    modem_bit_rate_bps: float = param(80.0, unit="bit/s", low=0, high=1000000.0, open_low=True, source="reference-values.md §3",
-        doc="WHOI Micro-Modem FH-FSK, the slowest of its 80-5400 bps, ref-values section 3")
-    ping_packet_bits: int = param(64, unit="bit", low=1, high=1000000, source="assumption [U]",
-        doc="a beacon's ping: id, send time, own position and variance [U]")
-    reply_packet_bits: int = param(128, unit="bit", low=1, high=1000000, source="assumption [U]",
-        doc="a survey vehicle's reply: estimate, covariance, waypoint index, range age [U]")
-    transmit_power_w: float = param(40.0, unit="W", low=0.0, high=10000.0, source="assumption [U]",
-        doc="electrical power while a modem transmits [U: tens of watts]")
+    modem_bit_rate_bps: float = param(
+        80.0,
+        unit="bit/s",
+        low=0,
+        high=1000000.0,
+        open_low=True,
+        source="reference-values.md §3",
+        doc="WHOI Micro-Modem FH-FSK, the slowest of its 80-5400 bps, ref-values section 3",
+    )
+    ping_packet_bits: int = param(
+        64,
+        unit="bit",
+        low=1,
+        high=1000000,
+        source="assumption [U]",
+        doc="a beacon's ping: id, send time, own position and variance [U]",
+    )
+    reply_packet_bits: int = param(
+        128,
+        unit="bit",
+        low=1,
+        high=1000000,
+        source="assumption [U]",
+        doc="a survey vehicle's reply: estimate, covariance, waypoint index, range age [U]",
+    )
+    transmit_power_w: float = param(
+        40.0,
+        unit="W",
+        low=0.0,
+        high=10000.0,
+        source="assumption [U]",
+        doc="electrical power while a modem transmits [U: tens of watts]",
+    )
 
 
 @section
 class MLSSensor(Section):
     """Kottege & Zimmer's MLS array (``acoustic_sensor="mls"``)."""
 
-    mls_snr_db_at_1m: float = param(30.0, unit="dB", low=-50.0, high=150.0, source="assumption [U]",
-        doc="in-band SNR per sample at 1 m [U]; falls 20 log10(r)")
-    mls_max_range_m: float = param(60.0, unit="m", low=1.0, high=10000.0, source="assumption [U]",
-        doc="receive window; farther senders are not heard [U]")
+    mls_snr_db_at_1m: float = param(
+        30.0,
+        unit="dB",
+        low=-50.0,
+        high=150.0,
+        source="assumption [U]",
+        doc="in-band SNR per sample at 1 m [U]; falls 20 log10(r)",
+    )
+    mls_max_range_m: float = param(
+        60.0,
+        unit="m",
+        low=1.0,
+        high=10000.0,
+        source="assumption [U]",
+        doc="receive window; farther senders are not heard [U]",
+    )
 
 
 @section
 class Channel(Section):
     """The acoustic channel as a shared, costly resource (``channel_mode="decide"``)."""
 
-    ping_penalty: float = param(0.0, low=0.0, high=1000000.0,
-        doc="reward weight of the \"ping\" term (per ping a beacon transmits)")
-    tdma_frame_slots: int = param(0, unit="slots", low=0, high=1024,
-        doc="> 0: beacon j may transmit only in slots k with k mod this == j mod this (0: any slot)")
+    ping_penalty: float = param(
+        0.0, low=0.0, high=1000000.0, doc='reward weight of the "ping" term (per ping a beacon transmits)'
+    )
+    tdma_frame_slots: int = param(
+        0,
+        unit="slots",
+        low=0,
+        high=1024,
+        doc="> 0: beacon j may transmit only in slots k with k mod this == j mod this (0: any slot)",
+    )
 
 
 @section
@@ -310,30 +534,39 @@ class Current(Section):
     """The ocean current: a constant part drawn per episode plus a first-order Gauss-Markov part."""
 
     current_speed_mps: float = param(0.05, unit="m/s", low=0.0, high=10.0, doc="mean speed of the constant part")
-    current_speed_spread_mps: float = param(0.03, unit="m/s", low=0.0, high=10.0,
-        doc="uniform +/- around current_speed_mps")
-    current_direction_deg: float = param(90.0, unit="deg", low=-360.0, high=360.0,
-        doc="direction the water flows TO, clockwise from north")
-    current_direction_spread_deg: float = param(45.0, unit="deg", low=0.0, high=360.0,
-        doc="uniform +/- around current_direction_deg")
-    current_gm_std_mps: float = param(0.02, unit="m/s", low=0.0, high=10.0,
-        doc="stationary std of the varying part, per axis")
-    current_gm_time_constant_s: float = param(600.0, unit="s", low=0, high=10000000.0, open_low=True,
-        doc="correlation time of the varying part")
+    current_speed_spread_mps: float = param(
+        0.03, unit="m/s", low=0.0, high=10.0, doc="uniform +/- around current_speed_mps"
+    )
+    current_direction_deg: float = param(
+        90.0, unit="deg", low=-360.0, high=360.0, doc="direction the water flows TO, clockwise from north"
+    )
+    current_direction_spread_deg: float = param(
+        45.0, unit="deg", low=0.0, high=360.0, doc="uniform +/- around current_direction_deg"
+    )
+    current_gm_std_mps: float = param(
+        0.02, unit="m/s", low=0.0, high=10.0, doc="stationary std of the varying part, per axis"
+    )
+    current_gm_time_constant_s: float = param(
+        600.0, unit="s", low=0, high=10000000.0, open_low=True, doc="correlation time of the varying part"
+    )
 
 
 @section
 class Reward(Section):
     """The reward's weights and thresholds common to every network."""
 
-    safety_distance_m: float = param(10.0, unit="m", low=0.0, high=10000.0,
-        doc="a beacon nearer a survey vehicle (3-D) than this is \"too close\"")
-    geofence_margin_m: float = param(300.0, unit="m", low=0.0, high=100000.0,
-        doc="fence = survey area grown by this much")
-    safety_penalty: float = param(1.0, low=0.0, high=1000000.0,
-        doc="reward weight of the \"safety\" term (per cycle too close)")
-    geofence_penalty: float = param(1.0, low=0.0, high=1000000.0,
-        doc="reward weight of the \"geofence\" term (per cycle outside)")
+    safety_distance_m: float = param(
+        10.0, unit="m", low=0.0, high=10000.0, doc='a beacon nearer a survey vehicle (3-D) than this is "too close"'
+    )
+    geofence_margin_m: float = param(
+        300.0, unit="m", low=0.0, high=100000.0, doc="fence = survey area grown by this much"
+    )
+    safety_penalty: float = param(
+        1.0, low=0.0, high=1000000.0, doc='reward weight of the "safety" term (per cycle too close)'
+    )
+    geofence_penalty: float = param(
+        1.0, low=0.0, high=1000000.0, doc='reward weight of the "geofence" term (per cycle outside)'
+    )
     contact_penalty: float = param(0.2, low=0.0, high=1000000.0, doc="no range of this beacon fused this cycle")
 
 
@@ -341,22 +574,57 @@ class Reward(Section):
 class Boat(Section):
     """The beacon boats of the moving LBL network (``beacon_kinds=("boat", "boat")``)."""
 
-    boat_max_speed_mps: float = param(1.5, unit="m/s", low=0, high=20.0, open_low=True, source="assumption [U]",
-        doc="small outboard boat at survey pace [U]")
-    boat_max_turn_rate_dps: float = param(20.0, unit="deg/s", low=0, high=360.0, open_low=True,
+    boat_max_speed_mps: float = param(
+        1.5,
+        unit="m/s",
+        low=0,
+        high=20.0,
+        open_low=True,
         source="assumption [U]",
-        doc="[U]")
-    boat_transit_speed_mps: float = param(0.5, unit="m/s", low=-20.0, high=20.0, source="assumption [U]",
-        doc="boats' speed along the frame's y axis (signed) [U: \"constant speed\"]")
-    boat_surge_noise_mps: float = param(0.15, unit="m/s", low=0.0, high=5.0, source="assumption [U]",
-        doc=("m/s, stationary std of each boat's ground-speed fluctuation along its heading, Gauss-Markov [U "
-             "0.1-0.2]"))
-    boat_steering_noise_deg: float = param(5.0, unit="deg", low=0.0, high=90.0, source="assumption [U]",
-        doc="deg, stationary std of each boat's course-over-ground error, Gauss-Markov [U]")
-    boat_noise_time_constant_s: float = param(30.0, unit="s", low=0.0, high=100000.0, source="assumption [U]",
-        doc="s, correlation time of the surge and course errors (0: white per cycle) [U]")
-    boat_current_response: float = param(0.2, low=0.0, high=1.0, source="assumption [U]",
-        doc="fraction of the water current the boats' ground-speed control does not cancel [U]")
+        doc="small outboard boat at survey pace [U]",
+    )
+    boat_max_turn_rate_dps: float = param(
+        20.0, unit="deg/s", low=0, high=360.0, open_low=True, source="assumption [U]", doc="[U]"
+    )
+    boat_transit_speed_mps: float = param(
+        0.5,
+        unit="m/s",
+        low=-20.0,
+        high=20.0,
+        source="assumption [U]",
+        doc="boats' speed along the frame's y axis (signed) [U: \"constant speed\"]",
+    )
+    boat_surge_noise_mps: float = param(
+        0.15,
+        unit="m/s",
+        low=0.0,
+        high=5.0,
+        source="assumption [U]",
+        doc=("m/s, stationary std of each boat's ground-speed fluctuation along its heading, Gauss-Markov [U 0.1-0.2]"),
+    )
+    boat_steering_noise_deg: float = param(
+        5.0,
+        unit="deg",
+        low=0.0,
+        high=90.0,
+        source="assumption [U]",
+        doc="deg, stationary std of each boat's course-over-ground error, Gauss-Markov [U]",
+    )
+    boat_noise_time_constant_s: float = param(
+        30.0,
+        unit="s",
+        low=0.0,
+        high=100000.0,
+        source="assumption [U]",
+        doc="s, correlation time of the surge and course errors (0: white per cycle) [U]",
+    )
+    boat_current_response: float = param(
+        0.2,
+        low=0.0,
+        high=1.0,
+        source="assumption [U]",
+        doc="fraction of the water current the boats' ground-speed control does not cancel [U]",
+    )
 
 
 @section
@@ -366,72 +634,140 @@ class MovingNetwork(Section):
     vehicle stays at y > 0); depth as usual. With ``mission_frame="world"`` they are (east, north, depth),
     re-expressed in the frame every cycle through the boats' GPS: a river survey (section ``river``)."""
 
-    mission_frame: str = param("frame", choices=MISSION_FRAMES,
-        doc=("where the vehicle's mission lives: \"frame\", waypoints_m in the boats' frame (x, y, depth), the "
-             "paper's; \"world\", waypoints_m in (east, north, depth), re-expressed in the frame every cycle "
-             "through the boats' GPS (they telemeter B1's position and the bearing to B2): a river survey"))
-    frame_orientation_deg: float = param(90.0, unit="deg", low=-360.0, high=360.0,
-        doc="initial bearing of the frame's x axis (B1 -> B2)")
-    frame_orientation_spread_deg: float = param(0.0, unit="deg", low=0.0, high=360.0,
-        doc="randomized per episode, +/-")
-    baseline_target_m: float = param(100.0, unit="m", low=0, high=10000.0, open_low=True,
-        doc="the boats' intended separation (paper: 100 m)")
-    survey_speed_mps: float = param(1.0, unit="m/s", low=0, high=20.0, open_low=True,
-        doc="water speed held by the vehicle's speed controller (paper: 1 m/s)")
-    speed_encoder_noise_mps: float = param(0.02, unit="m/s", low=0.0, high=5.0, source="assumption [U]",
-        doc="propeller-encoder water-speed noise, per sub-step [U]")
-    initial_frame_orientation_std_deg: float = param(5.0, unit="deg", low=0, high=180.0, open_low=True,
+    mission_frame: str = param(
+        "frame",
+        choices=MISSION_FRAMES,
+        doc=(
+            "where the vehicle's mission lives: \"frame\", waypoints_m in the boats' frame (x, y, depth), the "
+            'paper\'s; "world", waypoints_m in (east, north, depth), re-expressed in the frame every cycle '
+            "through the boats' GPS (they telemeter B1's position and the bearing to B2): a river survey"
+        ),
+    )
+    frame_orientation_deg: float = param(
+        90.0, unit="deg", low=-360.0, high=360.0, doc="initial bearing of the frame's x axis (B1 -> B2)"
+    )
+    frame_orientation_spread_deg: float = param(0.0, unit="deg", low=0.0, high=360.0, doc="randomized per episode, +/-")
+    baseline_target_m: float = param(
+        100.0, unit="m", low=0, high=10000.0, open_low=True, doc="the boats' intended separation (paper: 100 m)"
+    )
+    survey_speed_mps: float = param(
+        1.0,
+        unit="m/s",
+        low=0,
+        high=20.0,
+        open_low=True,
+        doc="water speed held by the vehicle's speed controller (paper: 1 m/s)",
+    )
+    speed_encoder_noise_mps: float = param(
+        0.02,
+        unit="m/s",
+        low=0.0,
+        high=5.0,
         source="assumption [U]",
-        doc="the filter's prior on phi [U]")
-    initial_frame_orientation_error_deg: float = param(0.0, unit="deg", low=-180.0, high=180.0,
-        doc="a fixed error added to the prior mean (tests)")
-    initial_current_std_mps: float = param(0.5, unit="m/s", low=0, high=10.0, open_low=True,
-        doc="prior on the frame-relative current (boats' speed unknown)")
+        doc="propeller-encoder water-speed noise, per sub-step [U]",
+    )
+    initial_frame_orientation_std_deg: float = param(
+        5.0, unit="deg", low=0, high=180.0, open_low=True, source="assumption [U]", doc="the filter's prior on phi [U]"
+    )
+    initial_frame_orientation_error_deg: float = param(
+        0.0, unit="deg", low=-180.0, high=180.0, doc="a fixed error added to the prior mean (tests)"
+    )
+    initial_current_std_mps: float = param(
+        0.5,
+        unit="m/s",
+        low=0,
+        high=10.0,
+        open_low=True,
+        doc="prior on the frame-relative current (boats' speed unknown)",
+    )
     initial_baseline_std_m: float = param(5.0, unit="m", low=0, high=1000.0, open_low=True, doc="prior on l")
-    frame_q_position_m2ps: float = param(0.01, unit="m²/s", low=0.0, high=10000.0, source="assumption [U]",
-        doc="Q of the moving-frame EKF, per second: x and y [U, tuned]")
+    frame_q_position_m2ps: float = param(
+        0.01,
+        unit="m²/s",
+        low=0.0,
+        high=10000.0,
+        source="assumption [U]",
+        doc="Q of the moving-frame EKF, per second: x and y [U, tuned]",
+    )
     frame_q_orientation_rad2ps: float = param(1e-06, unit="rad²/s", low=0.0, high=10.0, doc="phi")
-    frame_q_current_m2ps3: float = param(0.0001, unit="m²/s³", low=0.0, high=100.0,
-        doc="c_x, c_y (boat speed changes, current variation)")
-    frame_q_baseline_m2ps: float = param(0.02, unit="m²/s", low=0.0, high=10000.0,
-        doc="l: a random walk that follows a boat-speed mismatch (tests/test_matos.py)")
-    baseline_tolerance_m: float = param(10.0, unit="m", low=0.0, high=10000.0,
-        doc="reward: |l - target| beyond this costs baseline_penalty")
-    baseline_penalty: float = param(1.0, low=0.0, high=1000000.0, doc="reward weight of the \"baseline\" term")
-    frame_rotation_tolerance_deg: float = param(10.0, unit="deg", low=0.0, high=360.0,
-        doc="reward: the frame turned further than this from its start costs rotation_penalty")
-    rotation_penalty: float = param(1.0, low=0.0, high=1000000.0,
-        doc="reward weight of the \"rotation\" term (the filter models phi as constant)")
-    min_baseline_distance_m: float = param(15.0, unit="m", low=0.0, high=10000.0,
-        doc="reward: the vehicle closer than this to the baseline costs approach_penalty")
-    approach_penalty: float = param(1.0, low=0.0, high=1000000.0,
-        doc="reward weight of the \"approach\" term (the fix degenerates on the baseline)")
+    frame_q_current_m2ps3: float = param(
+        0.0001, unit="m²/s³", low=0.0, high=100.0, doc="c_x, c_y (boat speed changes, current variation)"
+    )
+    frame_q_baseline_m2ps: float = param(
+        0.02,
+        unit="m²/s",
+        low=0.0,
+        high=10000.0,
+        doc="l: a random walk that follows a boat-speed mismatch (tests/test_matos.py)",
+    )
+    baseline_tolerance_m: float = param(
+        10.0, unit="m", low=0.0, high=10000.0, doc="reward: |l - target| beyond this costs baseline_penalty"
+    )
+    baseline_penalty: float = param(1.0, low=0.0, high=1000000.0, doc='reward weight of the "baseline" term')
+    frame_rotation_tolerance_deg: float = param(
+        10.0,
+        unit="deg",
+        low=0.0,
+        high=360.0,
+        doc="reward: the frame turned further than this from its start costs rotation_penalty",
+    )
+    rotation_penalty: float = param(
+        1.0, low=0.0, high=1000000.0, doc='reward weight of the "rotation" term (the filter models phi as constant)'
+    )
+    min_baseline_distance_m: float = param(
+        15.0,
+        unit="m",
+        low=0.0,
+        high=10000.0,
+        doc="reward: the vehicle closer than this to the baseline costs approach_penalty",
+    )
+    approach_penalty: float = param(
+        1.0, low=0.0, high=1000000.0, doc='reward weight of the "approach" term (the fix degenerates on the baseline)'
+    )
 
 
 @section
 class River(Section):
     """The river of a world mission (``network="moving_lbl"``, ``mission_frame="world"``)."""
 
-    river_centerline_m: tuple = param((), unit="m",
-        doc=("mission_frame=\"world\": the river's centerline ((east, north), ...), listed downstream; its current "
-             "flows along it"))
-    river_width_m: float = param(150.0, unit="m", low=0, high=10000.0, open_low=True, source="assumption [U]",
-        doc=("mission_frame=\"world\": bank to bank; a boat farther than half of it from the centerline is on the "
-             "bank [U]"))
-    bank_penalty: float = param(1.0, low=0.0, high=1000000.0,
-        doc="reward weight of the \"bank\" term (per boat and cycle outside the river)")
+    river_centerline_m: tuple = param(
+        (),
+        unit="m",
+        doc=(
+            'mission_frame="world": the river\'s centerline ((east, north), ...), listed downstream; its current '
+            "flows along it"
+        ),
+    )
+    river_width_m: float = param(
+        150.0,
+        unit="m",
+        low=0,
+        high=10000.0,
+        open_low=True,
+        source="assumption [U]",
+        doc=(
+            'mission_frame="world": bank to bank; a boat farther than half of it from the centerline is on the bank [U]'
+        ),
+    )
+    bank_penalty: float = param(
+        1.0, low=0.0, high=1000000.0, doc='reward weight of the "bank" term (per boat and cycle outside the river)'
+    )
 
     def check(self) -> None:
         """The centerline: a polyline of at least two distinct consecutive (east, north) points."""
         pts = self.river_centerline_m
-        check(2 <= len(pts) <= MAX_RIVER_POINTS,
-              f"scenario parameter river_centerline_m must hold 2 to {MAX_RIVER_POINTS} (east, north) points for "
-              f"mission_frame='world', got {len(pts)}")
+        check(
+            2 <= len(pts) <= MAX_RIVER_POINTS,
+            f"scenario parameter river_centerline_m must hold 2 to {MAX_RIVER_POINTS} (east, north) points for "
+            f"mission_frame='world', got {len(pts)}",
+        )
         for p in pts:
             check(isinstance(p, tuple), f"river_centerline_m entries must be (east, north), got {p!r}")
             check_coordinates("river_centerline_m", p, 2)
-        check(all(a != b for a, b in zip(pts, pts[1:])),
-              "scenario parameter river_centerline_m must not repeat a point twice in a row")
+        check(
+            all(a != b for a, b in itertools.pairwise(pts)),
+            "scenario parameter river_centerline_m must not repeat a point twice in a row",
+        )
 
 
 @section
@@ -440,9 +776,13 @@ class Randomization(Section):
 
     randomize_survey_path: tuple = param((), doc="choices of survey_path; () keeps survey_path")
     randomize_depth_m: tuple = param((), unit="m", doc="choices of depth_m; () keeps depth_m")
-    randomize_noise_scale: tuple = param((),
-        doc=("(low, high): uniform factor on range noise, compass noise and bias, attitude noise and speed-scale "
-             "error; () keeps 1"))
+    randomize_noise_scale: tuple = param(
+        (),
+        doc=(
+            "(low, high): uniform factor on range noise, compass noise and bias, attitude noise and speed-scale "
+            "error; () keeps 1"
+        ),
+    )
 
     def check(self) -> None:
         paths = [p for p in SURVEY_PATHS if p != "waypoints"]
@@ -450,13 +790,23 @@ class Randomization(Section):
             check(isinstance(k, str) and k in paths, f"randomize_survey_path: {k!r} is not one of {', '.join(paths)}")
         check(len(self.randomize_depth_m) <= 64, "randomize_depth_m: at most 64 depths")
         for d in self.randomize_depth_m:
-            check(isinstance(d, numbers.Real) and not isinstance(d, bool) and finite(d) and 0 <= d <= 6000,
-                  f"randomize_depth_m: depths must be numbers in [0, 6000] m, got {d!r}")
+            check(
+                isinstance(d, numbers.Real) and not isinstance(d, bool) and finite(d) and 0 <= float(d) <= 6000,
+                f"randomize_depth_m: depths must be numbers in [0, 6000] m, got {d!r}",
+            )
         scale = self.randomize_noise_scale
-        check(scale == () or (len(scale) == 2 and all(
-            isinstance(v, numbers.Real) and not isinstance(v, bool) and finite(v) and 0 <= v <= 100 for v in scale)
-            and scale[0] <= scale[1]),
-            f"randomize_noise_scale must be () or (low, high) with 0 <= low <= high <= 100, got {scale!r}")
+        check(
+            scale == ()
+            or (
+                len(scale) == 2
+                and all(
+                    isinstance(v, numbers.Real) and not isinstance(v, bool) and finite(v) and 0 <= float(v) <= 100
+                    for v in scale
+                )
+                and scale[0] <= scale[1]
+            ),
+            f"randomize_noise_scale must be () or (low, high) with 0 <= low <= high <= 100, got {scale!r}",
+        )
 
 
 @section

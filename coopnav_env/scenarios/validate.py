@@ -10,15 +10,17 @@ from typing import Any
 from .params import check
 from .sections import MAX_WAYPOINTS
 
-SLOWEST_SOUND_SPEED_MPS = 1400.0  # below any sea water's (Mackenzie 1981 at -2 degC, 25 ppt: ~1430 m/s): bounds a packet's flight time
+SLOWEST_SOUND_SPEED_MPS = (
+    1400.0  # below any sea water's (Mackenzie 1981 at -2 degC, 25 ppt: ~1430 m/s): bounds a packet's flight time
+)
 
 
 def waypoint_count(c: Any, path: str) -> int:
     """How many waypoints ``guidance.build_path`` makes for ``path`` (before repeats)."""
     if path == "lawnmower":
-        return 2 * (int(math.floor(c.survey_area_m[1] / c.lawnmower_spacing_m + 1e-9)) + 1)
+        return 2 * (math.floor(c.survey_area_m[1] / c.lawnmower_spacing_m + 1e-9) + 1)
     if path in ("circle", "spiral"):
-        return max(int(math.ceil(c.circle_laps * 24)), 2) + 1
+        return max(math.ceil(c.circle_laps * 24), 2) + 1
     if path == "waypoints":
         return len(c.waypoints_m)
     return 2
@@ -40,34 +42,52 @@ def validate(c: Any) -> None:
     randomized = c.randomize_survey_path if c.randomization is not None else ()
     for path in set(randomized or (c.survey_path,)):
         n = waypoint_count(c, path) * (c.path_repeats if path != "stationary" else 1)
-        check(n <= MAX_WAYPOINTS, f"survey_path={path!r} with these parameters needs {n} waypoints (at most "
-                                  f"{MAX_WAYPOINTS}): raise lawnmower_spacing_m or lower circle_laps/path_repeats")
+        check(
+            n <= MAX_WAYPOINTS,
+            f"survey_path={path!r} with these parameters needs {n} waypoints (at most "
+            f"{MAX_WAYPOINTS}): raise lawnmower_spacing_m or lower circle_laps/path_repeats",
+        )
 
 
 def _check_moving_network(c: Any) -> None:
     """network='moving_lbl': two boats, one vehicle on a waypoint mission, two-way ranges."""
-    check(c.beacon_kinds == ("boat", "boat"),
-          f"network='moving_lbl' needs beacon_kinds=('boat', 'boat') (B1, B2), got {c.beacon_kinds!r}")
+    check(
+        c.beacon_kinds == ("boat", "boat"),
+        f"network='moving_lbl' needs beacon_kinds=('boat', 'boat') (B1, B2), got {c.beacon_kinds!r}",
+    )
     check(c.n_survey == 1, f"network='moving_lbl' simulates one vehicle, got n_survey={c.n_survey}")
-    check(c.survey_path == "waypoints",
-          f"network='moving_lbl' needs survey_path='waypoints' ({c.mission_frame} coordinates)")
+    check(
+        c.survey_path == "waypoints",
+        f"network='moving_lbl' needs survey_path='waypoints' ({c.mission_frame} coordinates)",
+    )
     if c.mission_frame == "frame":
-        check(all(w[1] > 0 for w in c.waypoints_m),
-              "waypoints_m: network='moving_lbl' needs y > 0 in every waypoint (the vehicle must not cross the baseline)")
-    check(abs(c.boat_transit_speed_mps) <= c.boat_max_speed_mps,
-          f"boat_transit_speed_mps ({c.boat_transit_speed_mps}) exceeds boat_max_speed_mps ({c.boat_max_speed_mps})")
+        check(
+            all(w[1] > 0 for w in c.waypoints_m),
+            "waypoints_m: network='moving_lbl' needs y > 0 in every waypoint (the vehicle must not cross the baseline)",
+        )
+    check(
+        abs(c.boat_transit_speed_mps) <= c.boat_max_speed_mps,
+        f"boat_transit_speed_mps ({c.boat_transit_speed_mps}) exceeds boat_max_speed_mps ({c.boat_max_speed_mps})",
+    )
     check(c.ranging_mode == "twtt", "network='moving_lbl' ranges by two-way travel time: ranging_mode='twtt'")
 
 
 def _check_decision_slot(c: Any) -> None:
     """channel_mode='decide': the survey network with modem OWTT, and a slot long enough
     for the pings, their flight, the turn-around, the replies and theirs."""
-    check(c.network == "survey_beacons" and c.acoustic_sensor == "modem" and c.ranging_mode == "owtt",
-          "channel_mode='decide' needs network='survey_beacons', acoustic_sensor='modem' and ranging_mode='owtt' "
-          "(a beacon's ping is the one-way range)")
-    need = ((c.ping_packet_bits + c.reply_packet_bits) / c.modem_bit_rate_bps
-            + 2.0 * c.max_range_m / SLOWEST_SOUND_SPEED_MPS + c.turnaround_s)
-    check(need <= c.ping_interval_s,
-          f"channel_mode='decide': a slot of ping_interval_s={c.ping_interval_s:g} s cannot hold a ping and a reply "
-          f"({need:.3f} s: (ping_packet_bits + reply_packet_bits) / modem_bit_rate_bps + 2 max_range_m / "
-          f"{SLOWEST_SOUND_SPEED_MPS:g} m/s + turnaround_s); raise the bit rate or the slot, or lower max_range_m")
+    check(
+        c.network == "survey_beacons" and c.acoustic_sensor == "modem" and c.ranging_mode == "owtt",
+        "channel_mode='decide' needs network='survey_beacons', acoustic_sensor='modem' and ranging_mode='owtt' "
+        "(a beacon's ping is the one-way range)",
+    )
+    need = (
+        (c.ping_packet_bits + c.reply_packet_bits) / c.modem_bit_rate_bps
+        + 2.0 * c.max_range_m / SLOWEST_SOUND_SPEED_MPS
+        + c.turnaround_s
+    )
+    check(
+        need <= c.ping_interval_s,
+        f"channel_mode='decide': a slot of ping_interval_s={c.ping_interval_s:g} s cannot hold a ping and a reply "
+        f"({need:.3f} s: (ping_packet_bits + reply_packet_bits) / modem_bit_rate_bps + 2 max_range_m / "
+        f"{SLOWEST_SOUND_SPEED_MPS:g} m/s + turnaround_s); raise the bit rate or the slot, or lower max_range_m",
+    )

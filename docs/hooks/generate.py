@@ -38,13 +38,16 @@ import sys
 import textwrap
 from pathlib import Path
 
-from mkdocs.structure.files import File
+from mkdocs.config.defaults import MkDocsConfig
+from mkdocs.structure.files import File, Files
+from mkdocs.structure.pages import Page
 
 log = logging.getLogger("mkdocs.hooks.generate")
 
 ROOT = Path(__file__).resolve().parents[2]  # the repository (docs/hooks/generate.py)
 if str(ROOT) not in sys.path:  # the project's packages, installed or not
     sys.path.insert(0, str(ROOT))
+
 
 def unit_of(name: str) -> str:
     """A parameter's unit, from its ``param(unit=...)`` metadata ("-" when dimensionless)."""
@@ -55,6 +58,7 @@ def unit_of(name: str) -> str:
 
 # ------------------------------------------------------------------------------------
 # markdown helpers
+
 
 def _cell(text) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
@@ -78,6 +82,7 @@ def _anchor(text: str) -> str:
 # ------------------------------------------------------------------------------------
 # reference/parameters.md
 
+
 def _scenario_sources() -> dict:
     """{scenario name: (file, source)}: the ``NAME = ScenarioConfig(name=..., ...)`` statement
     of each scenario in coopnav_env/scenarios/*.py, verbatim with its comments."""
@@ -87,13 +92,16 @@ def _scenario_sources() -> dict:
         lines = source.splitlines()
         for node in ast.parse(source).body:
             call = node.value if isinstance(node, (ast.Assign, ast.AnnAssign)) else None
-            if not (isinstance(call, ast.Call) and getattr(call.func, "id", getattr(call.func, "attr", None))
-                    == "ScenarioConfig"):
+            if not (
+                isinstance(call, ast.Call)
+                and getattr(call.func, "id", getattr(call.func, "attr", None)) == "ScenarioConfig"
+            ):
                 continue
             kw = {k.arg: k.value for k in call.keywords if k.arg}
-            if isinstance(kw.get("name"), ast.Constant):
-                text = "\n".join(lines[node.lineno - 1:node.end_lineno])
-                out[kw["name"].value] = (path.relative_to(ROOT).as_posix(), text)
+            name = kw.get("name")
+            if isinstance(name, ast.Constant):
+                text = "\n".join(lines[node.lineno - 1 : node.end_lineno])
+                out[name.value] = (path.relative_to(ROOT).as_posix(), text)
     return out
 
 
@@ -110,7 +118,7 @@ def parameters_page() -> str:
     out = [
         "# Scenario parameters",
         "",
-        "!!! info \"Generated from the code\"",
+        '!!! info "Generated from the code"',
         "    This page is generated at build time (`docs/hooks/generate.py`) from the sections of",
         "    `coopnav_env.scenarios.base.ScenarioConfig` (`coopnav_env/scenarios/sections.py`): each",
         "    parameter's default, unit, range, meaning and source are declared there with",
@@ -122,55 +130,103 @@ def parameters_page() -> str:
         "across sections, and `config.ping_interval_s` reads `config.timing.ping_interval_s`.",
         "A section that does not apply to a scenario is `None` (the *applies* column below); setting",
         "one of its parameters is an error that names the setting that enables it. `[U]` marks a",
-        "value the sources do not give (an assumption); \"ref-values section N\" and \"reference-values.md",
-        "§N\" cite `shared/reference-values.md`. A range `(0, x]` excludes 0.",
+        'value the sources do not give (an assumption); "ref-values section N" and "reference-values.md',
+        '§N" cite `shared/reference-values.md`. A range `(0, x]` excludes 0.',
         "",
         f"{n_params} parameters in {len(SECTIONS)} sections, plus `name` (the scenario's name) and `network`",
-        "(the simulator: `\"survey_beacons\"` or `\"moving_lbl\"`). Which sections and values each",
+        '(the simulator: `"survey_beacons"` or `"moving_lbl"`). Which sections and values each',
         "registered scenario has: [Scenarios](scenarios.md); [overrides by scenario](#overrides-by-scenario)",
         "follows the sections.",
         "",
-        _table(["section", "class", "applies", "parameters"],
-               [[f"[`{s.attr}`](#{s.attr})", f"`{s.cls.__name__}`", _applies_text(s),
-                 str(len(dataclasses.fields(s.cls)))] for s in SECTIONS]),
+        _table(
+            ["section", "class", "applies", "parameters"],
+            [
+                [
+                    f"[`{s.attr}`](#{s.attr})",
+                    f"`{s.cls.__name__}`",
+                    _applies_text(s),
+                    str(len(dataclasses.fields(s.cls))),
+                ]
+                for s in SECTIONS
+            ],
+        ),
         "",
     ]
     from coopnav_env.scenarios.sections import NETWORKS
 
-    out += ["## Top level {#top-level}", "",
-            "Two fields outside the sections: the scenario's name and the simulator that reads it.", "",
-            _table(["parameter", "type", "default", "unit", "range", "meaning", "source"],
-                   [['<a id="name"></a>`name`', "str", _code(defaults.name), "-", "—",
-                     "the scenario's name (make_config sets it)", "—"],
-                    ['<a id="network"></a>`network`', "str", _code(defaults.network), "-",
-                     ", ".join(f"`{n!r}`" for n in NETWORKS),
-                     "which simulator: survey vehicles in a fixed navigation frame with beacons that ping them "
-                     "(Gao & Chitre, Sousa et al.), or one AUV in the frame of two beacon boats (Matos & Cruz)",
-                     "—"]]), ""]
+    out += [
+        "## Top level {#top-level}",
+        "",
+        "Two fields outside the sections: the scenario's name and the simulator that reads it.",
+        "",
+        _table(
+            ["parameter", "type", "default", "unit", "range", "meaning", "source"],
+            [
+                [
+                    '<a id="name"></a>`name`',
+                    "str",
+                    _code(defaults.name),
+                    "-",
+                    "—",
+                    "the scenario's name (make_config sets it)",
+                    "—",
+                ],
+                [
+                    '<a id="network"></a>`network`',
+                    "str",
+                    _code(defaults.network),
+                    "-",
+                    ", ".join(f"`{n!r}`" for n in NETWORKS),
+                    "which simulator: survey vehicles in a fixed navigation frame with beacons that ping them "
+                    "(Gao & Chitre, Sousa et al.), or one AUV in the frame of two beacon boats (Matos & Cruz)",
+                    "—",
+                ],
+            ],
+        ),
+        "",
+    ]
     for spec in SECTIONS:
         doc = " ".join(textwrap.dedent(spec.cls.__doc__ or "").split())
-        out += [f"## `{spec.attr}`: {spec.cls.__name__} {{#{spec.attr}}}", "", doc, "",
-                f"Applies: {_applies_text(spec)}.", ""]
+        out += [
+            f"## `{spec.attr}`: {spec.cls.__name__} {{#{spec.attr}}}",
+            "",
+            doc,
+            "",
+            f"Applies: {_applies_text(spec)}.",
+            "",
+        ]
         rows = []
         for f in dataclasses.fields(spec.cls):
             m = f.metadata
             choices = ", ".join(f"`{c!r}`" for c in m["choices"]) if m.get("choices") else ""
-            rows.append([f'<a id="{f.name}"></a>`{f.name}`', type(f.default).__name__, _code(f.default), m["unit"],
-                         range_text(f) or choices or "—", m["doc"], m["source"] or "—"])
+            rows.append(
+                [
+                    f'<a id="{f.name}"></a>`{f.name}`',
+                    type(f.default).__name__,
+                    _code(f.default),
+                    m["unit"],
+                    range_text(f) or choices or "—",
+                    m["doc"],
+                    m["source"] or "—",
+                ]
+            )
         out += [_table(["parameter", "type", "default", "unit", "range", "meaning", "source"], rows), ""]
 
     # which scenario overrides what
     names = coopnav_env.list_scenarios()
     configs = {n: coopnav_env.make_config(n) for n in names}
     flat_default = defaults.to_flat_dict(all_parameters=True)
-    changed = [p for p in flat_default if p != "name"
-               and any(configs[n].applies(p) and getattr(configs[n], p) != flat_default[p] for n in names)]
+    changed = [
+        p
+        for p in flat_default
+        if p != "name" and any(configs[n].applies(p) and getattr(configs[n], p) != flat_default[p] for n in names)
+    ]
     out += [
         "## Overrides by scenario {#overrides-by-scenario}",
         "",
         "Each registered scenario (`coopnav_env.list_scenarios()`) against the defaults above:",
         "a value where `coopnav_env.make_config(name)` differs from the default, blank where it",
-        "keeps it, \"n/a\" where the parameter's section does not apply. Parameters no scenario",
+        'keeps it, "n/a" where the parameter\'s section does not apply. Parameters no scenario',
         "changes are not listed.",
         "",
     ]
@@ -188,9 +244,13 @@ def parameters_page() -> str:
 
     # the scenario files themselves
     sources = _scenario_sources()
-    out += ["### The scenario files", "",
-            "Each scenario's definition as written, with the comments that say where each value",
-            "comes from (a keyword may restate a default).", ""]
+    out += [
+        "### The scenario files",
+        "",
+        "Each scenario's definition as written, with the comments that say where each value",
+        "comes from (a keyword may restate a default).",
+        "",
+    ]
     for n in names:
         if n in sources:
             path, text = sources[n]
@@ -203,6 +263,7 @@ def parameters_page() -> str:
 # ------------------------------------------------------------------------------------
 # reference/scenarios.md
 
+
 def scenarios_page() -> str:
     """Every registered scenario: its sections and the values that differ from the defaults."""
     import coopnav_env
@@ -214,7 +275,7 @@ def scenarios_page() -> str:
     out = [
         "# Scenarios",
         "",
-        "!!! info \"Generated from the registry\"",
+        '!!! info "Generated from the registry"',
         "    This page is generated at build time (`docs/hooks/generate.py`) from",
         "    `coopnav_env.list_scenarios()` and `coopnav_env.make_config(name)`: a scenario registered",
         "    in `coopnav_env/scenarios/` appears here without further work.",
@@ -223,16 +284,29 @@ def scenarios_page() -> str:
         "are `None`: their parameters cannot be set) and every value that differs from its",
         "[default](parameters.md).",
         "",
-        _table(["scenario", "network", "beacons", "sections that do not apply"],
-               [[f"[`{n}`](#{_anchor(n)})", f"`{c.network}`", _code(c.beacon_kinds),
-                 ", ".join(f"`{s.attr}`" for s in SECTIONS if getattr(c, s.attr) is None) or "—"]
-                for n, c in configs.items()]),
+        _table(
+            ["scenario", "network", "beacons", "sections that do not apply"],
+            [
+                [
+                    f"[`{n}`](#{_anchor(n)})",
+                    f"`{c.network}`",
+                    _code(c.beacon_kinds),
+                    ", ".join(f"`{s.attr}`" for s in SECTIONS if getattr(c, s.attr) is None) or "—",
+                ]
+                for n, c in configs.items()
+            ],
+        ),
         "",
     ]
     for n, c in configs.items():
-        out += [f"## `{n}` {{#{_anchor(n)}}}", "",
-                f"`network={c.network!r}`. Sections: "
-                + ", ".join(f"[`{a}`](parameters.md#{a})" for a in c.sections()) + ".", ""]
+        out += [
+            f"## `{n}` {{#{_anchor(n)}}}",
+            "",
+            f"`network={c.network!r}`. Sections: "
+            + ", ".join(f"[`{a}`](parameters.md#{a})" for a in c.sections())
+            + ".",
+            "",
+        ]
         rows = []
         for a, part in c.sections().items():
             for f in dataclasses.fields(part):
@@ -241,15 +315,27 @@ def scenarios_page() -> str:
                     text = _code(v)
                     if len(text) > 120 and isinstance(v, tuple):
                         text = f"{len(v)} entries, from `{v[0]!r}` to `{v[-1]!r}`"
-                    rows.append([f"[`{f.name}`](parameters.md#{f.name})", f"`{a}`", text, _code(flat_default[f.name]),
-                                 f.metadata["unit"]])
-        out += [_table(["parameter", "section", "value", "default", "unit"], rows) if rows
-                else "All parameters at their defaults.", ""]
+                    rows.append(
+                        [
+                            f"[`{f.name}`](parameters.md#{f.name})",
+                            f"`{a}`",
+                            text,
+                            _code(flat_default[f.name]),
+                            f.metadata["unit"],
+                        ]
+                    )
+        out += [
+            _table(["parameter", "section", "value", "default", "unit"], rows)
+            if rows
+            else "All parameters at their defaults.",
+            "",
+        ]
     return "\n".join(out)
 
 
 # ------------------------------------------------------------------------------------
 # reference/observations.md
+
 
 def _rst_simple_table(doc: str) -> list:
     """Rows (label, size, meaning, indent) of the first reST simple table in ``doc``."""
@@ -260,18 +346,18 @@ def _rst_simple_table(doc: str) -> list:
     rule = lines[rules[0]]
     spans = [m.span() for m in re.finditer(r"=+", rule)]
     rows = []
-    for line in lines[rules[0] + 1:rules[1]]:
+    for line in lines[rules[0] + 1 : rules[1]]:
         if not line.strip():
             continue
-        label = line[:spans[1][0]].rstrip()
-        size = line[spans[1][0]:spans[2][0]].strip() if len(spans) > 2 else line[spans[1][0]:].strip()
-        meaning = line[spans[2][0]:].strip() if len(spans) > 2 else ""
+        label = line[: spans[1][0]].rstrip()
+        size = line[spans[1][0] : spans[2][0]].strip() if len(spans) > 2 else line[spans[1][0] :].strip()
+        meaning = line[spans[2][0] :].strip() if len(spans) > 2 else ""
         indent = len(label) - len(label.lstrip())
         rows.append((label.strip(), size, meaning, indent))
     return rows
 
 
-def _size(text: str, K: int):
+def _size(text: str, K: int) -> int | None:
     t = text.replace(" ", "")
     if not t:
         return None
@@ -292,7 +378,7 @@ def observations_page() -> str:
     out = [
         "# Observation layout",
         "",
-        "!!! info \"Generated from the code\"",
+        '!!! info "Generated from the code"',
         "    This page is generated at build time (`docs/hooks/generate.py`) from",
         "    `coopnav_env.core.observation` (the survey network's layout table and constants),",
         "    `coopnav_env.core.moving_network.OBS_FIELDS` (the moving network's boats) and",
@@ -307,19 +393,31 @@ def observations_page() -> str:
     ]
     rows = []
     for n, c in configs.items():
-        rows.append([f"`{n}`", f"`{c.network}`", c.n_survey if c.network != "moving_lbl" else "1",
-                     c.n_beacons, c.observed_waypoints if c.network != "moving_lbl" else "—",
-                     obs_layout.obs_dim(c)])
-    out += [_table(["scenario", "network", "survey vehicles S", "beacons N", "observed waypoints K", "D"],
-                   rows), ""]
+        rows.append(
+            [
+                f"`{n}`",
+                f"`{c.network}`",
+                c.n_survey if c.network != "moving_lbl" else "1",
+                c.n_beacons,
+                c.observed_waypoints if c.network != "moving_lbl" else "—",
+                obs_layout.obs_dim(c),
+            ]
+        )
+    out += [_table(["scenario", "network", "survey vehicles S", "beacons N", "observed waypoints K", "D"], rows), ""]
 
     # survey network
-    out += ["## Survey network (`network=\"survey_beacons\"`)", "",
-            "One beacon's vector, in this order. Positions are divided by "
-            "L = `config.position_scale_m` (half the survey area's larger side plus the geofence margin); "
-            "T is `ping_interval_s`.", ""]
+    out += [
+        '## Survey network (`network="survey_beacons"`)',
+        "",
+        "One beacon's vector, in this order. Positions are divided by "
+        "L = `config.position_scale_m` (half the survey area's larger side plus the geofence margin); "
+        "T is `ping_interval_s`.",
+        "",
+    ]
     fields = getattr(ob, "OBS_FIELDS", None)
-    rows, per_survey, per_beacon = [], [], []
+    rows = []
+    per_survey: list[tuple[str, str]] = []
+    per_beacon: list[tuple[str, str]] = []
     if fields:  # a declared field list, if the code grows one
         for f in fields:
             name, size = f[0], f[1]
@@ -340,8 +438,12 @@ def observations_page() -> str:
                 group = "beacon" if label.startswith("per other beacon") else "own"
             rows.append([("&nbsp;&nbsp;&nbsp;&nbsp;" if indent else "") + label, size, meaning])
             (per_survey if group == "survey" else per_beacon if group == "beacon" else []).append((label, size))
-        out += [_table(["field", "size", "meaning"], rows), "",
-                "`per other beacon` is repeated N - 1 times (the other beacons, in agent order).", ""]
+        out += [
+            _table(["field", "size", "meaning"], rows),
+            "",
+            "`per other beacon` is repeated N - 1 times (the other beacons, in agent order).",
+            "",
+        ]
         # check the table against the code's dimension
         for n, c in configs.items():
             if c.network != "survey_beacons":
@@ -352,44 +454,71 @@ def observations_page() -> str:
             beac = sum(_size(s, K) or 0 for l, s in per_beacon)
             total = own + c.n_survey * surv + (c.n_beacons - 1) * beac
             if total != obs_layout.obs_dim(c):
-                log.warning(f"generate.py: the layout table of coopnav_env.core.observation sums to {total} for "
-                            f"{n}, but obs_layout.obs_dim gives {obs_layout.obs_dim(c)}")
-    consts = [(k, getattr(ob, k)) for k in ("OWN_DIM", "PER_SURVEY_FIXED", "DEPTH_SCALE_M", "ELLIPSE_SCALE_M",
-                                            "STD_SCALE_M", "AGE_SCALE_PINGS", "OBS_BOUND", "ELLIPSE_N_SIGMA")
-              if hasattr(ob, k)]
-    out += ["The layout's constants (`coopnav_env.core.observation`):", "",
-            _table(["constant", "value"], [[f"`{k}`", _code(v)] for k, v in consts]), "",
-            "D = `OWN_DIM` + S (`PER_SURVEY_FIXED` + 2K) + 2 (N - 1) "
-            "(`coopnav_env.core.observation.obs_dim`).", ""]
+                log.warning(
+                    f"generate.py: the layout table of coopnav_env.core.observation sums to {total} for "
+                    f"{n}, but obs_layout.obs_dim gives {obs_layout.obs_dim(c)}"
+                )
+    consts = [
+        (k, getattr(ob, k))
+        for k in (
+            "OWN_DIM",
+            "PER_SURVEY_FIXED",
+            "DEPTH_SCALE_M",
+            "ELLIPSE_SCALE_M",
+            "STD_SCALE_M",
+            "AGE_SCALE_PINGS",
+            "OBS_BOUND",
+            "ELLIPSE_N_SIGMA",
+        )
+        if hasattr(ob, k)
+    ]
+    out += [
+        "The layout's constants (`coopnav_env.core.observation`):",
+        "",
+        _table(["constant", "value"], [[f"`{k}`", _code(v)] for k, v in consts]),
+        "",
+        "D = `OWN_DIM` + S (`PER_SURVEY_FIXED` + 2K) + 2 (N - 1) (`coopnav_env.core.observation.obs_dim`).",
+        "",
+    ]
     # indices for one example
-    ex = "gao_lawnmower" if "gao_lawnmower" in configs else next(n for n, c in configs.items()
-                                                                   if c.network == "survey_beacons")
+    ex = (
+        "gao_lawnmower"
+        if "gao_lawnmower" in configs
+        else next(n for n, c in configs.items() if c.network == "survey_beacons")
+    )
     c = configs[ex]
     K, S, N = c.observed_waypoints, c.n_survey, c.n_beacons
     idx, rows = 0, []
     table = _rst_simple_table(ob.__doc__ or "") if not fields else []
-    own_rows = [(l, _size(sz, K)) for l, sz, m, i in table if i == 0 and sz and not l.startswith("per other")]
+    own_rows = [(l, _size(sz, K) or 0) for l, sz, m, i in table if i == 0 and sz and not l.startswith("per other")]
     for l, n in own_rows:
         rows.append([l, f"{idx}:{idx + n}"])
         idx += n
     for s in range(S):
         for l, sz in per_survey:
-            n = _size(sz, K)
+            n = _size(sz, K) or 0  # a row without a size (as in the sums above) takes no slice
             rows.append([f"survey {s}: {l}", f"{idx}:{idx + n}"])
             idx += n
     for j in range(N - 1):
         for l, sz in per_beacon:
-            n = _size(sz, K)
+            n = _size(sz, K) or 0  # a row without a size (as in the sums above) takes no slice
             rows.append([f"other beacon {j}: {l}", f"{idx}:{idx + n}"])
             idx += n
     if rows:
-        out += [f"Example: `{ex}` (S = {S}, N = {N}, K = {K}, D = {obs_layout.obs_dim(c)}), slices of "
-                "the vector:", "", _table(["field", "slice"], rows), ""]
+        out += [
+            f"Example: `{ex}` (S = {S}, N = {N}, K = {K}, D = {obs_layout.obs_dim(c)}), slices of the vector:",
+            "",
+            _table(["field", "slice"], rows),
+            "",
+        ]
 
     # moving network
-    out += ["## Moving LBL network (`network=\"moving_lbl\"`)", "",
-            "One boat's vector (`coopnav_env.core.moving_network.OBS_FIELDS`, "
-            f"`OBS_DIM` = {mn.OBS_DIM}), in this order:", ""]
+    out += [
+        '## Moving LBL network (`network="moving_lbl"`)',
+        "",
+        f"One boat's vector (`coopnav_env.core.moving_network.OBS_FIELDS`, `OBS_DIM` = {mn.OBS_DIM}), in this order:",
+        "",
+    ]
     rows, idx = [], 0
     with_meaning = any(len(f) > 2 for f in mn.OBS_FIELDS)  # (name, size[, meaning])
     for f in mn.OBS_FIELDS:
@@ -399,8 +528,7 @@ def observations_page() -> str:
     out += [_table(["field", "size", "slice"] + (["meaning"] if with_meaning else []), rows), ""]
     doc = inspect.getdoc(mn.MovingNetworkSimulator.observe) or ""
     if doc:
-        out += ["What the code says of these fields (the docstring of "
-                "`MovingNetworkSimulator.observe`):", ""]
+        out += ["What the code says of these fields (the docstring of `MovingNetworkSimulator.observe`):", ""]
         out += ["> " + line if line else ">" for line in doc.splitlines()]
         out += [""]
     return "\n".join(out)
@@ -443,19 +571,25 @@ def column_table(name: str) -> str:
 # ------------------------------------------------------------------------------------
 # MkDocs events
 
-def on_files(files, config):
-    for uri, make in (("reference/parameters.md", parameters_page), ("reference/scenarios.md", scenarios_page),
-                      ("reference/observations.md", observations_page)):
+
+def on_files(files: Files, config: MkDocsConfig) -> Files:
+    for uri, make in (
+        ("reference/parameters.md", parameters_page),
+        ("reference/scenarios.md", scenarios_page),
+        ("reference/observations.md", observations_page),
+    ):
         files.append(File.generated(config, uri, content=make()))
     return files
 
 
-def on_page_markdown(markdown, page, config, files):
-    def replace(m):
+def on_page_markdown(markdown: str, page: Page, config: MkDocsConfig, files: Files) -> str:
+    def replace(m: re.Match[str]) -> str:
         try:
             return column_table(m.group(1))
-        except Exception as err:  # noqa: BLE001 - any failure is a documentation error
-            log.warning(f"generate.py: {page.file.src_uri}: cannot generate {m.group(1)} from evaluation.report: {err!r}")
+        except Exception as err:  # any failure is a documentation error
+            log.warning(
+                f"generate.py: {page.file.src_uri}: cannot generate {m.group(1)} from evaluation.report: {err!r}"
+            )
             return m.group(0)
 
     return GENERATED_RE.sub(replace, markdown)

@@ -30,8 +30,12 @@ VARIANTS = {
     "matos_moving_lbl": {"outlier_probability": 0.05, "packet_loss_near": 0.05, "packet_loss_far": 0.5},
     "matos_river": {"outlier_probability": 0.05, "packet_loss_near": 0.05, "packet_loss_far": 0.5},
     "gao_sea": {"beacon_surface_every_s": 200.0, "randomize_noise_scale": (0.5, 2.0)},
-    "sousa_asv": {"randomize_survey_path": ("lawnmower", "spiral"), "randomize_depth_m": (5.0, 20.0),
-                  "ranging_mode": "twtt", "sensor_nan_probability": 0.05},
+    "sousa_asv": {
+        "randomize_survey_path": ("lawnmower", "spiral"),
+        "randomize_depth_m": (5.0, 20.0),
+        "ranging_mode": "twtt",
+        "sensor_nan_probability": 0.05,
+    },
 }
 
 

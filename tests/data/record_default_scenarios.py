@@ -27,7 +27,7 @@ def record(scenario: str, batch: int, seeds) -> dict:
     sim = make_simulator(config, batch)
     steps = {"obs0": sim.reset(list(seeds))}
     rng = np.random.default_rng(1234)
-    for t in range(STEPS):
+    for _ in range(STEPS):
         res = sim.step(rng.uniform(-1.0, 1.0, (batch, config.n_beacons, 2)))
         row = {"obs": res.obs, "reward": res.reward, "terminated": res.terminated, "truncated": res.truncated}
         row.update({f"info.{k}": v for k, v in res.info.items()})

@@ -96,7 +96,14 @@ from .sensor import MLSSensor
 from .signal import PeakTracker
 
 __all__ = [
-    "MLSConfig", "Reflection", "MLSSensor", "MLSMeasurement", "PeakTracker",
-    "estimate_from_delays", "mls_error_bounds", "geometric_truth", "wrap_angle_rad",
+    "MLSConfig",
+    "Reflection",
+    "MLSSensor",
+    "MLSMeasurement",
+    "PeakTracker",
+    "estimate_from_delays",
+    "mls_error_bounds",
+    "geometric_truth",
+    "wrap_angle_rad",
     "error_statistics",
 ]

@@ -42,8 +42,12 @@ class AnalyticModel:
     sensor's eqs. (1)-(10) with the receiver's sound speed; sound_speed_assumed_mps:
     that sound speed (for the bounds)."""
 
-    def __init__(self, chain: SignalChain, estimate: Callable[[np.ndarray, np.ndarray], MLSMeasurement],
-                 sound_speed_assumed_mps: float) -> None:
+    def __init__(
+        self,
+        chain: SignalChain,
+        estimate: Callable[[np.ndarray, np.ndarray], MLSMeasurement],
+        sound_speed_assumed_mps: float,
+    ) -> None:
         cfg = chain.config
         self.config = cfg
         self.chain = chain
@@ -66,11 +70,11 @@ class AnalyticModel:
         if M % 2 == 0:
             wts[-1] = 1.0
         self._wts = wts
-        w2 = wts * chain.omega ** 2
+        w2 = wts * chain.omega**2
         R2 = np.abs(chain.R) ** 2
         curv = float(np.sum(w2 * R2))
-        self._K_mf = M * float(np.sum(w2 * R2 * H ** 2)) / curv ** 2
-        self._K_nn = M * M * float(np.sum(w2 * H ** 4)) / curv ** 2
+        self._K_mf = M * float(np.sum(w2 * R2 * H**2)) / curv**2
+        self._K_nn = M * M * float(np.sum(w2 * H**4)) / curv**2
         # (b) What the paper's estimator realises. The cubic spline through the 2K+1
         # correlation samples around the integer peak c has a bias b(u) and a noise
         # gain that depend on where the true peak c + u lies (peak locking). Without
@@ -89,8 +93,8 @@ class AnalyticModel:
         K = cfg.spline_halfwidth_samples
         offs = np.arange(-K, K + 1)
         n_u = 512
-        self._u_table = -1.0 + 2.0 * (np.arange(n_u) + 0.5) / n_u          # bin centres
-        base = self._autocorr(offs[None, :] - self._u_table[:, None])      # R_rr(o - u)
+        self._u_table = -1.0 + 2.0 * (np.arange(n_u) + 0.5) / n_u  # bin centres
+        base = self._autocorr(offs[None, :] - self._u_table[:, None])  # R_rr(o - u)
         eps = 1e-6 * float(self._autocorr(np.zeros(1))[0])
         cols = [base]
         for k in range(2 * K + 1):
@@ -98,14 +102,14 @@ class AnalyticModel:
                 c = base.copy()
                 c[:, k] += sgn * eps
                 cols.append(c)
-        allc = np.concatenate(cols, axis=0)                                # ((1 + 2(2K+1)) U, 2K+1)
+        allc = np.concatenate(cols, axis=0)  # ((1 + 2(2K+1)) U, 2K+1)
         est = spline_peak_offsets(offs, allc.T).reshape(1 + 2 * (2 * K + 1), n_u)
         self._bias_table = est[0] - self._u_table
-        grad = (est[1::2] - est[2::2]).T / (2.0 * eps)                    # (U, 2K+1)
+        grad = (est[1::2] - est[2::2]).T / (2.0 * eps)  # (U, 2K+1)
         lag = (offs[:, None] - offs[None, :]).ravel()
         cosm = np.cos(chain.omega[:, None] * lag[None, :])
-        C_mf = ((R2 * H ** 2 * wts) @ cosm / M).reshape(2 * K + 1, 2 * K + 1)
-        C_nn = ((H ** 4 * wts) @ cosm).reshape(2 * K + 1, 2 * K + 1)
+        C_mf = ((R2 * H**2 * wts) @ cosm / M).reshape(2 * K + 1, 2 * K + 1)
+        C_nn = ((H**4 * wts) @ cosm).reshape(2 * K + 1, 2 * K + 1)
         self._F_mf_table = np.einsum("ua,ab,ub->u", grad, C_mf, grad)
         self._F_nn_table = np.einsum("ua,ab,ub->u", grad, C_nn, grad)
         # branch decision: D = n_s - n_0 (s = the neighbour the true peak leans to)
@@ -138,14 +142,15 @@ class AnalyticModel:
     def _noise_weights(self, toa, tdoa):
         """(alpha, beta, scale) of the sample-noise covariance alpha C_mf + beta C_nn and
         the peak's amplitude, for the TDOAs (..., 2) and the TOAs (..., 2, 2)."""
-        r2 = (toa * self.chain.geometry.sound_speed_true_mps / self.fs) ** 2   # 1/A^2 = r^2
-        s2 = self.noise_sigma ** 2
+        r2 = (toa * self.chain.geometry.sound_speed_true_mps / self.fs) ** 2  # 1/A^2 = r^2
+        s2 = self.noise_sigma**2
         a_toa = 1.0 / np.sqrt(r2)
         alpha_tdoa = s2 * (1.0 / r2[..., 0] + 1.0 / r2[..., 1])
         return (alpha_tdoa, s2 * s2, a_toa[..., 0] * a_toa[..., 1]), (s2, 0.0, a_toa)
 
-    def timing_std_samples(self, toa_samples: ArrayLike, tdoa_samples: ArrayLike | None = None,
-                           interpolation: str = "spline") -> tuple[np.ndarray, np.ndarray]:
+    def timing_std_samples(
+        self, toa_samples: ArrayLike, tdoa_samples: ArrayLike | None = None, interpolation: str = "spline"
+    ) -> tuple[np.ndarray, np.ndarray]:
         """See ``MLSSensor.timing_std_samples``."""
         toa = np.asarray(toa_samples, dtype=float)
         tdoa = toa[..., 0] - toa[..., 1] if tdoa_samples is None else np.asarray(tdoa_samples, dtype=float)
@@ -178,8 +183,14 @@ class AnalyticModel:
         b1 = self._table(self._bias_table, u1)
         return tau + np.where(flip, b1 + np.sqrt(var1) / scale * z_e, b0 + np.sqrt(var0) / scale * z_e)
 
-    def measure_from_delays(self, tdoa: np.ndarray, toa: np.ndarray, rng: np.random.Generator | None,
-                            normals: ArrayLike | None, interpolation_bias: bool) -> MLSMeasurement:
+    def measure_from_delays(
+        self,
+        tdoa: np.ndarray,
+        toa: np.ndarray,
+        rng: np.random.Generator | None,
+        normals: ArrayLike | None,
+        interpolation_bias: bool,
+    ) -> MLSMeasurement:
         """``MLSSensor.measure_analytic`` from the true delays (``true_delays``); they are not modified."""
         batch = tdoa.shape[:-1]
         if normals is None:
@@ -191,7 +202,7 @@ class AnalyticModel:
             if z.shape != batch + (N_NORMALS,):
                 raise ValueError(f"normals must have shape {batch + (N_NORMALS,)}, got {z.shape}")
         jitter = z[..., 6] * self.config.sync_jitter_s * self.fs
-        toa = toa + jitter[..., None, None]                 # the arrivals move; their TDOA does not
+        toa = toa + jitter[..., None, None]  # the arrivals move; their TDOA does not
         z_tdoa, z_toa = z[..., 0:2], z[..., 2:6].reshape(batch + (2, 2))
         if interpolation_bias:
             (a1, b1, s1), (a2, b2, s2) = self._noise_weights(toa, tdoa)
@@ -203,18 +214,27 @@ class AnalyticModel:
             toa_m = toa + s_toa * z_toa
         return self.estimate(tdoa_m, toa_m)
 
-    def bounds_from_delays(self, tdoa: np.ndarray, toa: np.ndarray,
-                           as_printed: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def bounds_from_delays(
+        self, tdoa: np.ndarray, toa: np.ndarray, as_printed: bool = False
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``MLSSensor.error_bounds`` from the true delays (``true_delays``)."""
         ideal = self.estimate(tdoa, toa)
         s_tdoa, s_toa = self.timing_std_samples(toa)
         if as_printed:
             s_tdoa = np.max(s_tdoa, axis=-1, keepdims=True)
         g = self.chain.geometry
-        b = mls_error_bounds(ideal.sub_azimuths_rad, ideal.sub_ranges_m, ideal.range_m,
-                             hydrophone_base_m=g.d, projector_spacing_m=g.l,
-                             sound_speed_mps=self.sound_speed_assumed_mps, sample_rate_hz=self.fs,
-                             tdoa_std_samples=s_tdoa, toa_std_samples=s_toa, as_printed=as_printed)
+        b = mls_error_bounds(
+            ideal.sub_azimuths_rad,
+            ideal.sub_ranges_m,
+            ideal.range_m,
+            hydrophone_base_m=g.d,
+            projector_spacing_m=g.l,
+            sound_speed_mps=self.sound_speed_assumed_mps,
+            sample_rate_hz=self.fs,
+            tdoa_std_samples=s_tdoa,
+            toa_std_samples=s_toa,
+            as_printed=as_printed,
+        )
         if self.config.sync_jitter_s > 0.0 and not as_printed:
             d_r = np.sqrt(b[1] ** 2 + (self.sound_speed_assumed_mps * self.config.sync_jitter_s) ** 2)
             b = (b[0], d_r, b[2])

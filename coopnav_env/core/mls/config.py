@@ -20,6 +20,7 @@ class Reflection:
     ``wall_normal`` (world frame); the projector is mirrored across it. Amplitude
     ``coefficient`` / path length (a pressure-release surface is about -1, a rigid
     wall about +1)."""
+
     kind: str = "surface"
     coefficient: float = -0.9
     wall_point_m: tuple = (0.0, 0.0)
@@ -62,6 +63,7 @@ class MLSConfig:
     the previous peak). spline_halfwidth_samples: samples each side of the peak fed
     to the cubic spline. estimator: "exact" or "paper" (see ``estimate_from_delays``).
     """
+
     hydrophone_base_m: float = 0.3
     projector_spacing_m: float = 0.5
     sample_rate_hz: float = 96_000.0
@@ -86,6 +88,7 @@ class MLSConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+
         for name in ("hydrophone_base_m", "projector_spacing_m", "sample_rate_hz", "max_range_m", "band_edge_hz"):
             positive(name)
         if not (isinstance(self.mls_order, (int, np.integer)) and 4 <= self.mls_order <= 16):
@@ -97,8 +100,11 @@ class MLSConfig:
                 raise ValueError(f"band_hz must be None or (low, high) in Hz, got {self.band_hz!r}") from None
             if not (0.0 <= lo < hi <= 0.5 * self.sample_rate_hz):
                 raise ValueError(f"band_hz must satisfy 0 <= low < high <= sample_rate_hz/2, got {self.band_hz!r}")
-        if not (isinstance(self.snr_db_at_1m, (int, float)) and not math.isnan(self.snr_db_at_1m)
-                and self.snr_db_at_1m > -math.inf):
+        if not (
+            isinstance(self.snr_db_at_1m, (int, float))
+            and not math.isnan(self.snr_db_at_1m)
+            and self.snr_db_at_1m > -math.inf
+        ):
             raise ValueError(f"snr_db_at_1m must be a number (math.inf for no noise), got {self.snr_db_at_1m!r}")
         for name in ("water_temperature_c", "salinity_psu", "depth_m"):
             v = getattr(self, name)

@@ -36,18 +36,26 @@ from .geometry import wrap_angle_rad
 
 class MLSMeasurement(NamedTuple):
     """One (or a batch of) MLS measurements. Angles rad, lengths m, delays in samples."""
-    azimuth_rad: np.ndarray        # eq. (5) or the projectors' midpoint bearing, in [-pi/2, pi/2]
-    range_m: np.ndarray            # eq. (9)
-    heading_rad: np.ndarray        # eq. (10), in (-pi, pi]
-    sub_azimuths_rad: np.ndarray   # (..., 2): theta_1 (bow), theta_2 (stern), eqs. (2)-(4)
-    sub_ranges_m: np.ndarray       # (..., 2): r_1, r_2, eq. (8)
-    tdoa_samples: np.ndarray       # (..., 2): tau_0^i, delay of H1's channel behind H2's, chirp i
-    toa_samples: np.ndarray        # (..., 2, 2): tau_0^ij, projector i to hydrophone j, from emission
+
+    azimuth_rad: np.ndarray  # eq. (5) or the projectors' midpoint bearing, in [-pi/2, pi/2]
+    range_m: np.ndarray  # eq. (9)
+    heading_rad: np.ndarray  # eq. (10), in (-pi, pi]
+    sub_azimuths_rad: np.ndarray  # (..., 2): theta_1 (bow), theta_2 (stern), eqs. (2)-(4)
+    sub_ranges_m: np.ndarray  # (..., 2): r_1, r_2, eq. (8)
+    tdoa_samples: np.ndarray  # (..., 2): tau_0^i, delay of H1's channel behind H2's, chirp i
+    toa_samples: np.ndarray  # (..., 2, 2): tau_0^ij, projector i to hydrophone j, from emission
 
 
-def estimate_from_delays(tdoa_samples: ArrayLike, toa_samples: ArrayLike, *, hydrophone_base_m: float,
-                         projector_spacing_m: float,
-                         sound_speed_mps: float, sample_rate_hz: float, estimator: str = "exact") -> MLSMeasurement:
+def estimate_from_delays(
+    tdoa_samples: ArrayLike,
+    toa_samples: ArrayLike,
+    *,
+    hydrophone_base_m: float,
+    projector_spacing_m: float,
+    sound_speed_mps: float,
+    sample_rate_hz: float,
+    estimator: str = "exact",
+) -> MLSMeasurement:
     """Eqs. (1)-(10): delays -> sub-azimuths, azimuth, sub-ranges, range, heading.
 
     tdoa_samples: (..., 2), tau_0^i (samples), the lag of hydrophone H1's channel
@@ -88,7 +96,7 @@ def estimate_from_delays(tdoa_samples: ArrayLike, toa_samples: ArrayLike, *, hyd
 
     if estimator == "paper":
         theta_i = theta_ff
-        theta = 0.5 * (theta_i[..., 0] + theta_i[..., 1])                  # eq. (5)
+        theta = 0.5 * (theta_i[..., 0] + theta_i[..., 1])  # eq. (5)
     else:
         # Near-field sub-azimuths: r_i2^2 - r_i1^2 = 2 r_i d sin(theta_i) exactly, and
         # r_i2^2 - r_i1^2 = -delta_i (r_i1 + r_i2); eq. (2)-(3) are its plane-wave limit
@@ -97,11 +105,17 @@ def estimate_from_delays(tdoa_samples: ArrayLike, toa_samples: ArrayLike, *, hyd
         theta_i = np.arcsin(np.clip(np.sin(theta_ff) * scale, -1.0, 1.0))
         # In place of eq. (5) (the mean of the sub-azimuths, biased when r ~ l): the
         # bearing of the projectors' midpoint located by (r_i, theta_i).
-        theta = np.arctan2(r_i[..., 0] * np.sin(theta_i[..., 0]) + r_i[..., 1] * np.sin(theta_i[..., 1]),
-                           r_i[..., 0] * np.cos(theta_i[..., 0]) + r_i[..., 1] * np.cos(theta_i[..., 1]))
+        theta = np.arctan2(
+            r_i[..., 0] * np.sin(theta_i[..., 0]) + r_i[..., 1] * np.sin(theta_i[..., 1]),
+            r_i[..., 0] * np.cos(theta_i[..., 0]) + r_i[..., 1] * np.cos(theta_i[..., 1]),
+        )
 
     # eq. (10): heading = direction of the stern-to-bow vector P2 -> P1; tan^-1 is
     # the quadrant-aware arctangent (the heading covers the full circle)
-    alpha = wrap_angle_rad(np.arctan2(r_i[..., 0] * np.sin(theta_i[..., 0]) - r_i[..., 1] * np.sin(theta_i[..., 1]),
-                                      r_i[..., 0] * np.cos(theta_i[..., 0]) - r_i[..., 1] * np.cos(theta_i[..., 1])))
+    alpha = wrap_angle_rad(
+        np.arctan2(
+            r_i[..., 0] * np.sin(theta_i[..., 0]) - r_i[..., 1] * np.sin(theta_i[..., 1]),
+            r_i[..., 0] * np.cos(theta_i[..., 0]) - r_i[..., 1] * np.cos(theta_i[..., 1]),
+        )
+    )
     return MLSMeasurement(theta, r, alpha, theta_i, r_i, tau_i, tau_ij)

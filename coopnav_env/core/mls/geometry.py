@@ -40,8 +40,9 @@ def wrap_angle_rad(x: ArrayLike) -> Any:
     return np.pi - np.mod(np.pi - x, _TWO_PI)
 
 
-def pose_arrays(sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def pose_arrays(
+    sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike, observer_heading_rad: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The poses as float arrays (sender pos, sender heading, observer pos, observer
     heading), checked: positions with a last axis of 2, everything finite."""
     sp = np.asarray(sender_pos_m, dtype=float)
@@ -51,15 +52,20 @@ def pose_arrays(sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer
     for name, p in (("sender_pos_m", sp), ("observer_pos_m", op)):
         if p.ndim == 0 or p.shape[-1] != 2:
             raise ValueError(f"{name} must have a last axis of length 2 (east, north in m), got shape {p.shape}")
-    for name, a in (("sender_pos_m", sp), ("observer_pos_m", op), ("sender_heading_rad", sh),
-                    ("observer_heading_rad", oh)):
+    for name, a in (
+        ("sender_pos_m", sp),
+        ("observer_pos_m", op),
+        ("sender_heading_rad", sh),
+        ("observer_heading_rad", oh),
+    ):
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{name} must be finite")
     return sp, sh, op, oh
 
 
-def relative_pose(sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                  observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def relative_pose(
+    sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike, observer_heading_rad: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """Sender's reference point (..., 2) in the observer's body frame and the relative heading (...)."""
     sp, sh, op, oh = pose_arrays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
     dx = sp[..., 0] - op[..., 0]
@@ -69,8 +75,9 @@ def relative_pose(sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observ
     return rel, wrap_angle_rad(sh - oh)
 
 
-def geometric_truth(sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                    observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def geometric_truth(
+    sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike, observer_heading_rad: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The unfolded truth: (bearing rad of the sender's reference point in the observer's
     frame, distance m between reference points, relative heading rad), all broadcast
     over leading axes. Positions (..., 2) m, headings (...) rad."""
@@ -100,8 +107,14 @@ class ArrayGeometry:
     sound_speed_true_mps v; ranges must lie in (min_range_m, max_range_m], where
     min_range_m = (l + d)/2 keeps a projector outside the hydrophones' circle."""
 
-    def __init__(self, hydrophone_base_m: float, projector_spacing_m: float, sample_rate_hz: float,
-                 sound_speed_true_mps: float, max_range_m: float) -> None:
+    def __init__(
+        self,
+        hydrophone_base_m: float,
+        projector_spacing_m: float,
+        sample_rate_hz: float,
+        sound_speed_true_mps: float,
+        max_range_m: float,
+    ) -> None:
         self.d = hydrophone_base_m
         self.l = projector_spacing_m
         self.fs = sample_rate_hz
@@ -116,25 +129,37 @@ class ArrayGeometry:
             bad = float(np.min(rng_m))
             raise ValueError(
                 f"sender_pos_m/observer_pos_m: range {bad:.3f} m is shorter than the array geometry allows "
-                f"((projector_spacing_m + hydrophone_base_m)/2 = {self.min_range_m:.3f} m)")
+                f"((projector_spacing_m + hydrophone_base_m)/2 = {self.min_range_m:.3f} m)"
+            )
         if max_check and np.any(rng_m > self.max_range_m):
             bad = float(np.max(rng_m))
-            raise ValueError(f"sender_pos_m/observer_pos_m: range {bad:.3f} m exceeds max_range_m = "
-                             f"{self.max_range_m} m")
+            raise ValueError(
+                f"sender_pos_m/observer_pos_m: range {bad:.3f} m exceeds max_range_m = {self.max_range_m} m"
+            )
         return rng_m
 
-    def path_lengths(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                     observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def path_lengths(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Direct path lengths r_ij (..., 2, 2) m, and the relative pose."""
         rel, alpha = relative_pose(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         self.check_range(rel)
-        P = projector_positions(rel, alpha, self.l)                          # (..., 2, 2)
-        Hy = hydrophone_positions(self.d)                                    # (2, 2)
-        diff = P[..., :, None, :] - Hy[None, :, :]                           # (..., i, j, xy)
+        P = projector_positions(rel, alpha, self.l)  # (..., 2, 2)
+        Hy = hydrophone_positions(self.d)  # (2, 2)
+        diff = P[..., :, None, :] - Hy[None, :, :]  # (..., i, j, xy)
         return np.hypot(diff[..., 0], diff[..., 1]), rel, alpha, P
 
-    def true_delays(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                    observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    def true_delays(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Noise-free delays in samples at the true sound speed: (tdoa (..., 2), toa (..., 2, 2))."""
         r_ij = self.path_lengths(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)[0]
         toa = r_ij * self.fs / self.sound_speed_true_mps
@@ -142,11 +167,19 @@ class ArrayGeometry:
 
 
 # --------------------------------------------------------------------------- error bounds, statistics
-def mls_error_bounds(sub_azimuths_rad: ArrayLike, sub_ranges_m: ArrayLike, range_m: ArrayLike, *,
-                     hydrophone_base_m: float, projector_spacing_m: float,
-                     sound_speed_mps: float, sample_rate_hz: float, tdoa_std_samples: ArrayLike,
-                     toa_std_samples: ArrayLike | None = None,
-                     as_printed: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def mls_error_bounds(
+    sub_azimuths_rad: ArrayLike,
+    sub_ranges_m: ArrayLike,
+    range_m: ArrayLike,
+    *,
+    hydrophone_base_m: float,
+    projector_spacing_m: float,
+    sound_speed_mps: float,
+    sample_rate_hz: float,
+    tdoa_std_samples: ArrayLike,
+    toa_std_samples: ArrayLike | None = None,
+    as_printed: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Theoretical error bounds (11)-(13): one-sigma errors of azimuth (rad), range (m)
     and heading (rad) for a timing error Delta-tau (samples), by first-order error
     propagation through eqs. (5), (9) and (10).
@@ -167,16 +200,16 @@ def mls_error_bounds(sub_azimuths_rad: ArrayLike, sub_ranges_m: ArrayLike, range
     r = np.asarray(range_m, dtype=float)
     d = float(hydrophone_base_m)
     l = float(projector_spacing_m)
-    k = np.asarray(sound_speed_mps, dtype=float) / float(sample_rate_hz)   # m per sample
+    k = np.asarray(sound_speed_mps, dtype=float) / float(sample_rate_hz)  # m per sample
     c1, c2 = np.cos(th[..., 0]), np.cos(th[..., 1])
     r1, r2 = ri[..., 0], ri[..., 1]
     dtau = np.broadcast_to(np.asarray(tdoa_std_samples, dtype=float), th.shape)
     if as_printed:
         dt = dtau[..., 0]
-        d_theta = k * dt / (2.0 * d) * np.sqrt(1.0 / c1 ** 2 + 1.0 / c2 ** 2)                   # (11)
-        d_r = k * dt / r * np.sqrt(4.0 * r * r + l * l + d * d)                                # (12)
-        X = 4.0 * (r1 ** 2 + r2 ** 2) + d * d / (r1 ** 2 * r2 ** 2) * (r1 ** 4 + r2 ** 4)      # (14)
-        Y = (l * l - r2 ** 2) ** 2 / c1 ** 2 + (l * l - r1 ** 2) ** 2 / c2 ** 2               # (14)
+        d_theta = k * dt / (2.0 * d) * np.sqrt(1.0 / c1**2 + 1.0 / c2**2)  # (11)
+        d_r = k * dt / r * np.sqrt(4.0 * r * r + l * l + d * d)  # (12)
+        X = 4.0 * (r1**2 + r2**2) + d * d / (r1**2 * r2**2) * (r1**4 + r2**4)  # (14)
+        Y = (l * l - r2**2) ** 2 / c1**2 + (l * l - r1**2) ** 2 / c2**2  # (14)
         d_alpha = k * dt / (l * l) * np.sqrt(np.sin(th[..., 0] - th[..., 1]) ** 2 / 2.0 * X + Y / (d * d))  # (13)
         return d_theta, d_r, d_alpha
     if toa_std_samples is None:
@@ -186,26 +219,27 @@ def mls_error_bounds(sub_azimuths_rad: ArrayLike, sub_ranges_m: ArrayLike, range
     d_th1 = k * dtau[..., 0] / (d * c1)
     d_th2 = k * dtau[..., 1] / (d * c2)
     # (11): theta = (theta_1 + theta_2) / 2
-    d_theta = 0.5 * np.sqrt(d_th1 ** 2 + d_th2 ** 2)
+    d_theta = 0.5 * np.sqrt(d_th1**2 + d_th2**2)
     # TOA distances r_ij from eq. (8) inverted: r_i1^2, r_i2^2 = r_i^2 + d^2/4 -+ r_i d sin theta_i
     s = np.stack([np.sin(th[..., 0]), np.sin(th[..., 1])], axis=-1)
-    rij2 = np.stack([ri ** 2 + 0.25 * d * d - ri * d * s, ri ** 2 + 0.25 * d * d + ri * d * s], axis=-1)
-    var_rij = (k[..., None, None] if np.ndim(k) else k) ** 2 * dtoa ** 2
+    rij2 = np.stack([ri**2 + 0.25 * d * d - ri * d * s, ri**2 + 0.25 * d * d + ri * d * s], axis=-1)
+    var_rij = (k[..., None, None] if np.ndim(k) else k) ** 2 * dtoa**2
     # (12) corrected: dr/dr_ij = r_ij / (4 r)
     d_r = np.sqrt(np.sum(rij2 * var_rij, axis=(-2, -1))) / (4.0 * r)
     # sub-range errors: dr_i/dr_ij = r_ij / (2 r_i)
-    var_ri = np.sum(rij2 * var_rij, axis=-1) / (4.0 * ri ** 2)
+    var_ri = np.sum(rij2 * var_rij, axis=-1) / (4.0 * ri**2)
     # (13) corrected: partial derivatives of eq. (10) at the given values,
     # d alpha/d theta_1 = (r1^2 - r1 r2 cos(theta_1 - theta_2)) / l^2 = (l^2 + r1^2 - r2^2) / (2 l^2),
     # d alpha/d r_1 = -r2 sin(theta_1 - theta_2) / l^2 (and symmetrically), with
     # l^2 = |P1 - P2|^2 from (r_i, theta_i) (= projector_spacing_m^2 when they are exact)
     cd = np.cos(th[..., 0] - th[..., 1])
-    l2 = r1 ** 2 + r2 ** 2 - 2.0 * r1 * r2 * cd
-    a1 = r1 ** 2 - r1 * r2 * cd
-    a2 = r2 ** 2 - r1 * r2 * cd
+    l2 = r1**2 + r2**2 - 2.0 * r1 * r2 * cd
+    a1 = r1**2 - r1 * r2 * cd
+    a2 = r2**2 - r1 * r2 * cd
     sd = np.sin(th[..., 0] - th[..., 1])
-    var_alpha = ((a1 * d_th1) ** 2 + (a2 * d_th2) ** 2
-                 + sd ** 2 * (r2 ** 2 * var_ri[..., 0] + r1 ** 2 * var_ri[..., 1])) / l2 ** 2
+    var_alpha = (
+        (a1 * d_th1) ** 2 + (a2 * d_th2) ** 2 + sd**2 * (r2**2 * var_ri[..., 0] + r1**2 * var_ri[..., 1])
+    ) / l2**2
     return d_theta, d_r, np.sqrt(var_alpha)
 
 
@@ -217,8 +251,8 @@ def error_statistics(errors: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndar
     the mean of the unbiased root squared errors |error - mu|, eqs. 18-19), in the
     unit of ``errors``."""
     e = np.asarray(errors, dtype=float)
-    mu = e.mean(axis=-1)                                       # eq. (16)
+    mu = e.mean(axis=-1)  # eq. (16)
     dev = e - mu[..., None]
-    sigma = np.sqrt(np.mean(dev * dev, axis=-1))               # eq. (17)
-    rse = np.sqrt(dev * dev)                                   # eq. (18)
-    return mu, sigma, rse.mean(axis=-1)                        # eq. (19)
+    sigma = np.sqrt(np.mean(dev * dev, axis=-1))  # eq. (17)
+    rse = np.sqrt(dev * dev)  # eq. (18)
+    return mu, sigma, rse.mean(axis=-1)  # eq. (19)

@@ -61,8 +61,10 @@ class MLSSensor:
         self.analytic = AnalyticModel(self.signal, self._estimate, self.sound_speed_assumed_mps)
 
     # the parts' numbers a caller reads
-    min_range_m = property(lambda self: self.geometry.min_range_m,
-                           doc="shortest range (m) the arrays allow: (projector_spacing_m + hydrophone_base_m)/2")
+    min_range_m = property(
+        lambda self: self.geometry.min_range_m,
+        doc="shortest range (m) the arrays allow: (projector_spacing_m + hydrophone_base_m)/2",
+    )
     n_chips = property(lambda self: self.signal.n_chips, doc="MLS length (chips = samples)")
     nfft = property(lambda self: self.signal.nfft, doc="samples per channel (the receive window)")
     toa_max_lag = property(lambda self: self.signal.toa_max_lag, doc="largest TOA searched (samples)")
@@ -71,13 +73,23 @@ class MLSSensor:
     noise_sigma = property(lambda self: self.signal.noise_sigma, doc="std of the white noise per sample")
 
     # ------------------------------------------------------------------ geometry
-    def true_delays(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                    observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    def true_delays(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Noise-free delays in samples at the true sound speed: (tdoa (..., 2), toa (..., 2, 2))."""
         return self.geometry.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
 
-    def ideal_measurement(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                          observer_heading_rad: ArrayLike) -> MLSMeasurement:
+    def ideal_measurement(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+    ) -> MLSMeasurement:
         """What the noise-free sensor reports: the estimator on the exact delays (with the
         receiver's assumed sound speed). Folded to the front half-plane (see the
         package docstring); the measurement model for a filter."""
@@ -85,17 +97,29 @@ class MLSSensor:
         return self._estimate(tdoa, toa)
 
     def _estimate(self, tdoa, toa):
-        return estimate_from_delays(tdoa, toa, hydrophone_base_m=self.d, projector_spacing_m=self.l,
-                                    sound_speed_mps=self.sound_speed_assumed_mps, sample_rate_hz=self.fs,
-                                    estimator=self.config.estimator)
+        return estimate_from_delays(
+            tdoa,
+            toa,
+            hydrophone_base_m=self.d,
+            projector_spacing_m=self.l,
+            sound_speed_mps=self.sound_speed_assumed_mps,
+            sample_rate_hz=self.fs,
+            estimator=self.config.estimator,
+        )
 
     def _paths(self, sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad):
         """Delays (samples) and amplitudes of every path, shape (2 chirps, 2 hydrophones, n_paths)."""
         return self.signal.paths(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
 
     # ------------------------------------------------------------------ signal level
-    def synthesize(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                   observer_heading_rad: ArrayLike, rng: np.random.Generator) -> np.ndarray:
+    def synthesize(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+        rng: np.random.Generator,
+    ) -> np.ndarray:
         """The four received channels of one sending event, shape (2 chirps: bow, stern;
         2 hydrophones: H1 port, H2 starboard; nfft samples from each chirp's emission).
 
@@ -112,9 +136,15 @@ class MLSSensor:
         tdoa, toa = self.signal.measure_delays(channels, tracker)
         return self._estimate(tdoa, toa)
 
-    def measure_signal(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                       observer_heading_rad: ArrayLike, rng: np.random.Generator | int | None,
-                       tracker: PeakTracker | None = None) -> MLSMeasurement:
+    def measure_signal(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+        rng: np.random.Generator | int | None,
+        tracker: PeakTracker | None = None,
+    ) -> MLSMeasurement:
         """One sending event at signal level: synthesise, then process. rng: numpy Generator
         (or an int seed); tracker: this link's ``PeakTracker`` (None: no tracking)."""
         rng = np.random.default_rng(rng) if not isinstance(rng, np.random.Generator) else rng
@@ -128,8 +158,9 @@ class MLSSensor:
         sub-sample interpolation, a function of the delay's fractional part."""
         return self.analytic.interpolation_bias_samples(delays_samples)
 
-    def timing_std_samples(self, toa_samples: ArrayLike, tdoa_samples: ArrayLike | None = None,
-                           interpolation: str = "spline") -> tuple[np.ndarray, np.ndarray]:
+    def timing_std_samples(
+        self, toa_samples: ArrayLike, tdoa_samples: ArrayLike | None = None, interpolation: str = "spline"
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Small-error std (samples) of the measured delays at the true TOAs (..., 2, 2)
         (samples; TDOAs derived from them unless given, (..., 2)).
 
@@ -141,10 +172,16 @@ class MLSSensor:
         (..., 2, 2)); the sync jitter is not included."""
         return self.analytic.timing_std_samples(toa_samples, tdoa_samples, interpolation)
 
-    def measure_analytic(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                         observer_heading_rad: ArrayLike,
-                         rng: np.random.Generator | None = None, normals: ArrayLike | None = None,
-                         interpolation_bias: bool = True) -> MLSMeasurement:
+    def measure_analytic(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+        rng: np.random.Generator | None = None,
+        normals: ArrayLike | None = None,
+        interpolation_bias: bool = True,
+    ) -> MLSMeasurement:
         """The analytic mode over a batch: the true delays with the errors the signal
         mode's estimator realises at this SNR, through the same eqs. (1)-(10).
 
@@ -162,24 +199,37 @@ class MLSSensor:
         tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         return self.analytic.measure_from_delays(tdoa, toa, rng, normals, interpolation_bias)
 
-    def error_bounds(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                     observer_heading_rad: ArrayLike,
-                     as_printed: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def error_bounds(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+        as_printed: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Bounds (11)-(13) at these poses with the SNR-dependent Delta-tau of
         ``timing_std_samples`` (see ``mls_error_bounds``): (azimuth rad, range m, heading rad).
         as_printed uses the paper's formulas with Delta-tau = the larger TDOA std."""
         tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         return self.analytic.bounds_from_delays(tdoa, toa, as_printed)
 
-    def measure_analytic_with_bounds(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike,
-                                     observer_pos_m: ArrayLike, observer_heading_rad: ArrayLike,
-                                     rng: np.random.Generator | None = None, normals: ArrayLike | None = None,
-                                     interpolation_bias: bool = True) -> tuple[MLSMeasurement, tuple[np.ndarray, ...]]:
+    def measure_analytic_with_bounds(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+        rng: np.random.Generator | None = None,
+        normals: ArrayLike | None = None,
+        interpolation_bias: bool = True,
+    ) -> tuple[MLSMeasurement, tuple[np.ndarray, ...]]:
         """``measure_analytic`` and ``error_bounds`` of the same poses, the geometry and
         true delays computed once: (``MLSMeasurement``, (azimuth rad, range m, heading
         rad) bounds), each identical to what the two methods return separately. What a
         simulator's sending event needs: the measurement and its noise model."""
         check_noise_source(rng, normals)
         tdoa, toa = self.true_delays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
-        return (self.analytic.measure_from_delays(tdoa, toa, rng, normals, interpolation_bias),
-                self.analytic.bounds_from_delays(tdoa, toa))
+        return (
+            self.analytic.measure_from_delays(tdoa, toa, rng, normals, interpolation_bias),
+            self.analytic.bounds_from_delays(tdoa, toa),
+        )

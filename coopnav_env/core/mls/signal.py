@@ -35,6 +35,7 @@ class PeakTracker:
     (samples) of the two cross-correlations and the four matched filters; NaN until
     bootstrapped from the absolute maximum. Keep one per link; ``reset()`` after a
     long silence."""
+
     tdoa: np.ndarray = field(default_factory=lambda: np.full(2, np.nan))
     toa: np.ndarray = field(default_factory=lambda: np.full((2, 2), np.nan))
 
@@ -56,7 +57,7 @@ class SignalChain:
         self.geometry = geometry
         self.fs = geometry.fs
         # MLS chips (+-1), one per sample
-        self.n_chips = 2 ** cfg.mls_order - 1
+        self.n_chips = 2**cfg.mls_order - 1
         chips = max_len_seq(cfg.mls_order)[0].astype(float) * 2.0 - 1.0
         # receive window per chirp: the sequence, the longest direct path from the
         # farthest projector to the farthest hydrophone (+ an image path), a guard
@@ -70,7 +71,7 @@ class SignalChain:
         M = self.nfft
         nb = M // 2 + 1
         f_hz = np.arange(nb) * self.fs / M
-        self.omega = _TWO_PI * np.arange(nb) / M                    # rad per sample
+        self.omega = _TWO_PI * np.arange(nb) / M  # rad per sample
         # transducer/receiver response: raised-cosine band pass; Nyquist bin zeroed
         # (a fractional delay has no real-valued Nyquist component)
         H = np.ones(nb)
@@ -88,32 +89,37 @@ class SignalChain:
         if M % 2 == 0:
             H[-1] = 0.0
         self.H = H
-        self.mls_spec = sfft.rfft(chips, n=M)                       # emitted chips on the M-grid
-        self.R = H * self.mls_spec                                  # the (recorded) replica's spectrum
+        self.mls_spec = sfft.rfft(chips, n=M)  # emitted chips on the M-grid
+        self.R = H * self.mls_spec  # the (recorded) replica's spectrum
         self.R_conj = np.conj(self.R)
         self.replica = sfft.irfft(self.R, n=M)
 
         # noise: white N(0, sigma_w^2) per sample, band-passed by H; sigma_w from the
         # in-band SNR of the direct path at 1 m (unit amplitude at 1 m)
-        p_signal = float(np.sum(self.replica ** 2)) / self.n_chips
-        h_energy = float(np.sum(sfft.irfft(H, n=M) ** 2))           # in-band noise power / sigma_w^2
+        p_signal = float(np.sum(self.replica**2)) / self.n_chips
+        h_energy = float(np.sum(sfft.irfft(H, n=M) ** 2))  # in-band noise power / sigma_w^2
         snr = 10.0 ** (cfg.snr_db_at_1m / 10.0)
         self.noise_sigma = 0.0 if math.isinf(snr) else math.sqrt(p_signal / (snr * h_energy))
 
     # ------------------------------------------------------------------ propagation
-    def paths(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-              observer_heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    def paths(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Delays (samples) and amplitudes of every path, shape (2 chirps, 2 hydrophones, n_paths)."""
         sp, sh, op, oh = pose_arrays(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         if sp.shape != (2,) or op.shape != (2,) or sh.shape != () or oh.shape != ():
             raise ValueError("measure_signal takes one pose pair: positions of shape (2,), scalar headings")
         r_ij, _rel, _alpha, P = self.geometry.path_lengths(sp, sh, op, oh)
         lengths = [r_ij]
-        amps = [1.0 / r_ij]                                         # spherical spreading, 1 at 1 m
+        amps = [1.0 / r_ij]  # spherical spreading, 1 at 1 m
         refl = self.config.reflection
         if refl is not None:
             if refl.kind == "surface":
-                r_img = np.sqrt(r_ij ** 2 + (2.0 * self.config.depth_m) ** 2)
+                r_img = np.sqrt(r_ij**2 + (2.0 * self.config.depth_m) ** 2)
             else:
                 # mirror the projectors across the wall (world frame), then to the observer frame
                 n = np.asarray(refl.wall_normal, float)
@@ -132,13 +138,19 @@ class SignalChain:
         return lengths_m * self.fs / self.geometry.sound_speed_true_mps, np.stack(amps, axis=-1)
 
     # ------------------------------------------------------------------ synthesis
-    def synthesize(self, sender_pos_m: ArrayLike, sender_heading_rad: ArrayLike, observer_pos_m: ArrayLike,
-                   observer_heading_rad: ArrayLike, rng: np.random.Generator) -> np.ndarray:
+    def synthesize(
+        self,
+        sender_pos_m: ArrayLike,
+        sender_heading_rad: ArrayLike,
+        observer_pos_m: ArrayLike,
+        observer_heading_rad: ArrayLike,
+        rng: np.random.Generator,
+    ) -> np.ndarray:
         """The four received channels of one sending event (see ``MLSSensor.synthesize``)."""
         delays, amps = self.paths(sender_pos_m, sender_heading_rad, observer_pos_m, observer_heading_rad)
         if self.config.sync_jitter_s > 0.0:
             delays = delays + rng.standard_normal() * self.config.sync_jitter_s * self.fs
-        phase = np.exp(-1j * self.omega[None, None, None, :] * delays[..., None])       # (2, 2, P, nb)
+        phase = np.exp(-1j * self.omega[None, None, None, :] * delays[..., None])  # (2, 2, P, nb)
         spec = self.mls_spec * np.einsum("ijp,ijpk->ijk", amps, phase)
         if self.noise_sigma > 0.0:
             noise = rng.standard_normal((2, 2, self.nfft)) * self.noise_sigma
@@ -156,8 +168,8 @@ class SignalChain:
         M = self.nfft
         X = sfft.rfft(x, axis=-1, workers=1)
         # matched filtering against the replica (TOAs) and the two channels' cross-correlation
-        mf = sfft.irfft(X * self.R_conj, n=M, axis=-1, workers=1)                      # (2, 2, M)
-        xc = sfft.irfft(X[:, 0, :] * np.conj(X[:, 1, :]), n=M, axis=-1, workers=1)      # (2, M)
+        mf = sfft.irfft(X * self.R_conj, n=M, axis=-1, workers=1)  # (2, 2, M)
+        xc = sfft.irfft(X[:, 0, :] * np.conj(X[:, 1, :]), n=M, axis=-1, workers=1)  # (2, M)
         if tracker is None:
             tracker = PeakTracker()
         K = self.config.spline_halfwidth_samples
@@ -166,15 +178,17 @@ class SignalChain:
         rows = np.empty((2 * K + 1, 6))
         # cross-correlations: lags -tdoa_max_lag .. +tdoa_max_lag (the physically possible ones)
         for i in range(2):
-            p = track_peak(xc[i], -self.tdoa_max_lag, self.tdoa_max_lag, tracker.tdoa[i],
-                           self.config.tdoa_track_halfwidth_samples)
+            p = track_peak(
+                xc[i], -self.tdoa_max_lag, self.tdoa_max_lag, tracker.tdoa[i], self.config.tdoa_track_halfwidth_samples
+            )
             peaks[i] = p
             rows[:, i] = xc[i, (p + offs) % M]
         # matched filters: lags 0 .. toa_max_lag
         for i in range(2):
             for j in range(2):
-                p = track_peak(mf[i, j], 0, self.toa_max_lag, tracker.toa[i, j],
-                               self.config.toa_track_halfwidth_samples)
+                p = track_peak(
+                    mf[i, j], 0, self.toa_max_lag, tracker.toa[i, j], self.config.toa_track_halfwidth_samples
+                )
                 n = 2 + 2 * i + j
                 peaks[n] = p
                 rows[:, n] = mf[i, j, (p + offs) % M]
@@ -204,7 +218,7 @@ def track_peak(seq: np.ndarray, lag_lo: int, lag_hi: int, prev: float, halfwidth
         lo = max(c - halfwidth, lag_lo)
         hi = min(c + halfwidth, lag_hi)
         if lo <= hi:
-            w = vals[lo - lag_lo: hi - lag_lo + 1]
+            w = vals[lo - lag_lo : hi - lag_lo + 1]
             k = int(np.argmax(w))
             p = lo + k
             at_edge = (k == 0 and p > lag_lo) or (k == len(w) - 1 and p < lag_hi)

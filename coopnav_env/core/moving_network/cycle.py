@@ -26,8 +26,16 @@ from .terms import cycle_terms
 from .tracking import track
 
 
-def _cycle(vehicle: Vehicle, f: Filter, boats: Boats, tracker: Tracker, draws: CycleDraws, p: CycleParams,
-           out: np.ndarray, counts: np.ndarray) -> None:
+def _cycle(
+    vehicle: Vehicle,
+    f: Filter,
+    boats: Boats,
+    tracker: Tracker,
+    draws: CycleDraws,
+    p: CycleParams,
+    out: np.ndarray,
+    counts: np.ndarray,
+) -> None:
     """Steps 3-5 for every environment, in place: ``state.Vehicle`` vehicle, ``state.Filter``
     f, ``state.Boats`` boats, ``state.Tracker`` tracker, ``state.CycleDraws`` draws,
     ``state.CycleParams`` p, each as a plain tuple (``state.packed``) or the record; out (B,)
@@ -45,15 +53,20 @@ def _cycle(vehicle: Vehicle, f: Filter, boats: Boats, tracker: Tracker, draws: C
         ex, cn, sigma_det = run_exchange(b, vehicle, boats, draws, p, err, lost, work)
         dz = vehicle.pos[b, 0, 2] + p.depth_noise_m * draws.depth[b, 0]  # depth cell; boats at the surface
         sigma_r2 = ranging_variance_m2(sigma_det, True)  # var(d1) = var(d2) = (c sigma_t)^2 / 2
-        n_fused, rejected = fuse_ranges(E, P, ex, dz, vehicle.speed_meas_mps[b], vehicle.heading_meas_rad[b],
-                                        sigma_r2, p, w)
+        n_fused, rejected = fuse_ranges(
+            E, P, ex, dz, vehicle.speed_meas_mps[b], vehicle.heading_meas_rad[b], sigma_r2, p, w
+        )
         restarted = recover(E, P, f.rejected_cycles, b, rejected, ex, dz, sigma_r2)
         o.det[1] = det2_of(P[0, 0], P[0, 1], P[1, 0], P[1, 1])
         track(tracker, b, ex, boats, cn, p)
         cycle_terms(o, b, vehicle, boats, f, p, n_fused)
         c = counts[b]
-        c.ranges_fused, c.outliers_rejected, c.packets_lost, c.filter_restarts = (n_fused, rejected, ex.lost_count,
-                                                                                  restarted)
+        c.ranges_fused, c.outliers_rejected, c.packets_lost, c.filter_restarts = (
+            n_fused,
+            rejected,
+            ex.lost_count,
+            restarted,
+        )
         c.range_ok = n_fused > 0
 
 

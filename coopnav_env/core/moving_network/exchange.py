@@ -28,8 +28,17 @@ def _dist3(a: np.ndarray, b: np.ndarray) -> float:
 
 
 @njit(cache=True)
-def _detections(b: int, v3: np.ndarray, boats: Boats, draws: CycleDraws, p: CycleParams, jitter_scale: float,
-                c_true: float, err: np.ndarray, lost: np.ndarray) -> None:
+def _detections(
+    b: int,
+    v3: np.ndarray,
+    boats: Boats,
+    draws: CycleDraws,
+    p: CycleParams,
+    jitter_scale: float,
+    c_true: float,
+    err: np.ndarray,
+    lost: np.ndarray,
+) -> None:
     """Environment b's detection errors err (7,) (jitter plus multipath excess, seconds)
     and losses lost (7,), in ``lbl.DETECTIONS`` order, in place."""
     d_b1 = _dist3(boats.pos[b, 0], v3)
@@ -44,8 +53,16 @@ def _detections(b: int, v3: np.ndarray, boats: Boats, draws: CycleDraws, p: Cycl
 
 
 @njit(cache=True)
-def run_exchange(b: int, vehicle: Vehicle, boats: Boats, draws: CycleDraws, p: CycleParams, err: np.ndarray,
-                 lost: np.ndarray, work: np.ndarray) -> tuple:
+def run_exchange(
+    b: int,
+    vehicle: Vehicle,
+    boats: Boats,
+    draws: CycleDraws,
+    p: CycleParams,
+    err: np.ndarray,
+    lost: np.ndarray,
+    work: np.ndarray,
+) -> tuple:
     """Environment b's exchange (``state.Vehicle`` vehicle, ``state.Boats`` boats,
     ``state.CycleDraws`` draws, ``state.CycleParams`` p; scratch err, lost (7,), work
     (2,3)). Returns (``lbl.ExchangeResult``, the assumed sound speed cn, the
@@ -59,7 +76,6 @@ def run_exchange(b: int, vehicle: Vehicle, boats: Boats, draws: CycleDraws, p: C
     sigma_det = p.range_noise_std_m * draws.noise_scale[b]
     _detections(b, v3, boats, draws, p, sigma_det / cn, c_true, err, lost)
     timeout = 2.0 * p.max_range_m / cn + 2.0 * p.turnaround_s
-    movers = lbl.Movers(v3, vehicle.vel_true[b, 0], boats.pos[b, 0], boats.vel[b, 0], boats.pos[b, 1],
-                        boats.vel[b, 1])
+    movers = lbl.Movers(v3, vehicle.vel_true[b, 0], boats.pos[b, 0], boats.vel[b, 0], boats.pos[b, 1], boats.vel[b, 1])
     ex = lbl.exchange_of(movers, c_true, cn, err, lost, p.turnaround_s, p.turnaround_s, timeout, work)
     return ex, cn, sigma_det

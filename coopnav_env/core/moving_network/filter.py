@@ -64,8 +64,16 @@ def filter_work() -> FilterWork:
 
 
 @njit(cache=True)
-def update_d1(E: np.ndarray, P: np.ndarray, ex: ExchangeResult, dz: float, velocity: tuple, sigma_r2: float,
-              gate: float, w: FilterWork) -> bool:
+def update_d1(
+    E: np.ndarray,
+    P: np.ndarray,
+    ex: ExchangeResult,
+    dz: float,
+    velocity: tuple,
+    sigma_r2: float,
+    gate: float,
+    w: FilterWork,
+) -> bool:
     """Fuse d1 into one filter (E (6,), P (6,6)), in place: the legs are S1 leaving (t = 0)
     and S2 arriving (t3); dz the depth below the boats, velocity the frame-relative
     (v_x, v_y). Returns whether it passed the gate."""
@@ -79,8 +87,17 @@ def update_d1(E: np.ndarray, P: np.ndarray, ex: ExchangeResult, dz: float, veloc
 
 
 @njit(cache=True)
-def update_d2_l(E: np.ndarray, P: np.ndarray, ex: ExchangeResult, dz: float, velocity: tuple, sigma_r2: float,
-                gate1: float, gate2: float, w: FilterWork) -> tuple:
+def update_d2_l(
+    E: np.ndarray,
+    P: np.ndarray,
+    ex: ExchangeResult,
+    dz: float,
+    velocity: tuple,
+    sigma_r2: float,
+    gate1: float,
+    gate2: float,
+    w: FilterWork,
+) -> tuple:
     """Fuse d2 (legs: S4 leaving at t3s, S5 arriving at t6) with l when it is there (one
     joint update, R = sigma_r2 ``EXCHANGE_COVARIANCE[1:, 1:]``), else d2 alone, in place.
     Returns (fused, fused jointly with l)."""
@@ -96,15 +113,28 @@ def update_d2_l(E: np.ndarray, P: np.ndarray, ex: ExchangeResult, dz: float, vel
     w.y[1] = ex.l - E[5]
     H[1, :] = 0.0
     H[1, 5] = 1.0
-    R[0, 0], R[0, 1], R[1, 0], R[1, 1] = (sigma_r2 * C[1, 1], sigma_r2 * C[1, 2], sigma_r2 * C[2, 1],
-                                          sigma_r2 * C[2, 2])
+    R[0, 0], R[0, 1], R[1, 0], R[1, 1] = (
+        sigma_r2 * C[1, 1],
+        sigma_r2 * C[1, 2],
+        sigma_r2 * C[2, 1],
+        sigma_r2 * C[2, 2],
+    )
     _, status = joseph_update_vector(E, P, w.y, H, R, gate2, w.joseph)
     return status == 1, status == 1
 
 
 @njit(cache=True)
-def fuse_ranges(E: np.ndarray, P: np.ndarray, ex: ExchangeResult, dz: float, speed_meas: float, heading_meas: float,
-                sigma_r2: float, p: CycleParams, w: FilterWork) -> tuple:
+def fuse_ranges(
+    E: np.ndarray,
+    P: np.ndarray,
+    ex: ExchangeResult,
+    dz: float,
+    speed_meas: float,
+    heading_meas: float,
+    sigma_r2: float,
+    p: CycleParams,
+    w: FilterWork,
+) -> tuple:
     """The cycle's updates of one filter (E (6,), P (6,6)) with the exchange ``ex``
     (``lbl.ExchangeResult``), in place: d1, then (d2, l) or d2 alone, each gated
     (``state.CycleParams`` p: gate1, gate2); sigma_r2 the variance of a two-way range
@@ -117,8 +147,9 @@ def fuse_ranges(E: np.ndarray, P: np.ndarray, ex: ExchangeResult, dz: float, spe
     fused1, both = False, False
     alone = ex.ok_d2 and not ex.ok_l
     if ex.ok_l or alone:
-        fused1, both = update_d2_l(E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1,
-                                   p.gate2, w)
+        fused1, both = update_d2_l(
+            E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, p.gate2, w
+        )
     n_fused = int(fused0) + int(fused1) + int(both)
     rejected = int(ex.ok_d1 and not fused0) + int(ex.ok_l and not both) + int(alone and not fused1)
     return n_fused, rejected

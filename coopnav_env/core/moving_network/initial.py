@@ -18,6 +18,8 @@ errors.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from .. import lbl, river, rng
@@ -25,8 +27,15 @@ from ..dynamics import bearing_to_unit
 from .observe import frame_waypoints
 from .state import RIVER_LEAD_BASELINES, FrameState
 
+if TYPE_CHECKING:
+    from ...scenarios.base import ScenarioConfig
 
-def boats_start(sim, u: np.ndarray) -> tuple:
+# sim: the MovingNetworkSimulator; typed Any since importing it here, even for type checking
+# only, makes an import cycle (simulator imports this module; tests/test_contract.py)
+_Simulator = Any
+
+
+def boats_start(sim: _Simulator, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The boats' positions (B,2,3) and the frame's bearing phi0 (B,) at the start."""
     c = sim.config
     B, L = u.shape[0], c.baseline_target_m
@@ -36,8 +45,7 @@ def boats_start(sim, u: np.ndarray) -> tuple:
         # the river, B1 on the left of the mission direction (river.cross_section_at)
         pts, cum, direction = sim._river_pts, sim._river_cum, sim._mission_dir
         s0 = float(river.arc_length_of(sim._waypoints[0, :2], pts, cum))
-        b1_en, b2_en, phi_w = river.cross_section_at(s0 + direction * RIVER_LEAD_BASELINES * L, pts, cum,
-                                                     direction, L)
+        b1_en, b2_en, phi_w = river.cross_section_at(s0 + direction * RIVER_LEAD_BASELINES * L, pts, cum, direction, L)
         phi0 = np.full(B, phi_w)
         b_pos[:, 0, :2], b_pos[:, 1, :2] = b1_en, b2_en
     else:
@@ -47,7 +55,7 @@ def boats_start(sim, u: np.ndarray) -> tuple:
     return b_pos, phi0
 
 
-def boats_motion(config, phi0: np.ndarray) -> tuple:
+def boats_motion(config: ScenarioConfig, phi0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The boats' headings (B,2) complex and velocities (B,2,3): the transit speed along y."""
     B = phi0.shape[0]
     y_axis = bearing_to_unit(phi0 + np.pi / 2)
@@ -58,7 +66,7 @@ def boats_motion(config, phi0: np.ndarray) -> tuple:
     return b_heading, b_vel
 
 
-def vehicle_start(sim, b_pos: np.ndarray, phi0: np.ndarray, gps_err: np.ndarray) -> tuple:
+def vehicle_start(sim: _Simulator, b_pos: np.ndarray, phi0: np.ndarray, gps_err: np.ndarray) -> tuple:
     """The vehicle's start: (east, north) (B,2), depth, frame (x0, y0), its mission in the
     frame (B,1,W,3) and its first heading (B,) complex."""
     B, wps = phi0.shape[0], sim._waypoints
@@ -78,21 +86,41 @@ def vehicle_start(sim, b_pos: np.ndarray, phi0: np.ndarray, gps_err: np.ndarray)
     return start, z0, x0, y0, wp, heading
 
 
-def filter_prior(config, x0, y0, phi0: np.ndarray, n: np.ndarray) -> tuple:
+def filter_prior(
+    config: ScenarioConfig, x0: float | np.ndarray, y0: float | np.ndarray, phi0: np.ndarray, n: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The filter's start E (B,6) and P (B,6,6) around the vehicle's start (x0, y0)."""
     c, B = config, phi0.shape[0]
     sigma0 = c.initial_position_std_m
     sphi = np.radians(c.initial_frame_orientation_std_deg)
-    E = np.stack([x0 + sigma0 * n[:, 0], y0 + sigma0 * n[:, 1],
-                  phi0 + np.radians(c.initial_frame_orientation_error_deg) + sphi * n[:, 2],
-                  np.zeros(B), np.zeros(B),  # the vehicle knows neither the current nor the boats' speed
-                  c.baseline_target_m + c.initial_baseline_std_m * n[:, 5]], -1)
-    P = np.broadcast_to(np.diag([sigma0 ** 2, sigma0 ** 2, sphi ** 2, c.initial_current_std_mps ** 2,
-                                 c.initial_current_std_mps ** 2, c.initial_baseline_std_m ** 2]), (B, 6, 6)).copy()
+    E = np.stack(
+        [
+            x0 + sigma0 * n[:, 0],
+            y0 + sigma0 * n[:, 1],
+            phi0 + np.radians(c.initial_frame_orientation_error_deg) + sphi * n[:, 2],
+            np.zeros(B),
+            np.zeros(B),  # the vehicle knows neither the current nor the boats' speed
+            c.baseline_target_m + c.initial_baseline_std_m * n[:, 5],
+        ],
+        -1,
+    )
+    P = np.broadcast_to(
+        np.diag(
+            [
+                sigma0**2,
+                sigma0**2,
+                sphi**2,
+                c.initial_current_std_mps**2,
+                c.initial_current_std_mps**2,
+                c.initial_baseline_std_m**2,
+            ]
+        ),
+        (B, 6, 6),
+    ).copy()
     return E, P
 
 
-def current_mean_of(sim, u: np.ndarray) -> np.ndarray:
+def current_mean_of(sim: _Simulator, u: np.ndarray) -> np.ndarray:
     """The episode's mean current (B,) complex; a river's flows along the river
     (``MovingNetworkSimulator._river_currents``): current_mean holds its speed."""
     c = sim.config
@@ -101,7 +129,7 @@ def current_mean_of(sim, u: np.ndarray) -> np.ndarray:
     return cur_speed + 0j if sim._world else cur_speed * bearing_to_unit(cur_dir)
 
 
-def initial_state(sim, seeds) -> FrameState:
+def initial_state(sim: _Simulator, seeds: np.ndarray) -> FrameState:
     """The state of new episodes for ``seeds`` (``MovingNetworkSimulator._initial_state``)."""
     c = sim.config
     B = len(seeds)
@@ -119,17 +147,35 @@ def initial_state(sim, seeds) -> FrameState:
     dr = s_pos.copy()
     dr[:, 0, :2] += c.initial_position_std_m * n[:, 6:8]
     return FrameState(
-        t_s=np.zeros(B), cycle=np.zeros(B, dtype=np.int64), keys=keys, ep_variant=np.zeros(B, dtype=np.int64),
-        ep_noise_scale=np.ones(B), ep_phi0_rad=phi0,
-        s_pos=s_pos, s_heading=heading, s_vel_true=np.zeros((B, 1, 3)),
+        t_s=np.zeros(B),
+        cycle=np.zeros(B, dtype=np.int64),
+        keys=keys,
+        ep_variant=np.zeros(B, dtype=np.int64),
+        ep_noise_scale=np.ones(B),
+        ep_phi0_rad=phi0,
+        s_pos=s_pos,
+        s_heading=heading,
+        s_vel_true=np.zeros((B, 1, 3)),
         s_speed_scale=1.0 + c.survey_speed_scale_error_std * n[:, 8],
         s_compass_bias_rad=np.radians(c.compass_bias_std_deg) * n[:, 9],
-        s_heading_meas_rad=np.arctan2(heading.real, heading.imag), s_speed_meas_mps=np.zeros(B),
-        s_waypoints=wp, s_n_waypoints=np.full((B, 1), len(sim._waypoints), dtype=np.int64),
-        s_wp_index=np.ones((B, 1), dtype=np.int64), s_done=np.zeros((B, 1), dtype=bool), s_dr=dr,
-        f_E=E, f_P=P, f_rejected_cycles=np.zeros(B, dtype=np.int64), b_pos=b_pos, b_heading=b_heading, b_vel=b_vel,
+        s_heading_meas_rad=np.arctan2(heading.real, heading.imag),
+        s_speed_meas_mps=np.zeros(B),
+        s_waypoints=wp,
+        s_n_waypoints=np.full((B, 1), len(sim._waypoints), dtype=np.int64),
+        s_wp_index=np.ones((B, 1), dtype=np.int64),
+        s_done=np.zeros((B, 1), dtype=bool),
+        s_dr=dr,
+        f_E=E,
+        f_P=P,
+        f_rejected_cycles=np.zeros(B, dtype=np.int64),
+        b_pos=b_pos,
+        b_heading=b_heading,
+        b_vel=b_vel,
         b_gps_err=gps_err,
-        k_pos=start.copy(), k_vel=np.zeros((B, 2)), k_age_s=np.zeros(B), k_has_fix=np.zeros(B, dtype=bool),
+        k_pos=start.copy(),
+        k_vel=np.zeros((B, 2)),
+        k_age_s=np.zeros(B),
+        k_has_fix=np.zeros(B, dtype=bool),
         temperature_c=c.water_temperature_c + c.temperature_uncertainty_c * n[:, 14],
         current_mean=current_mean_of(sim, u),
         current_gm=c.current_gm_std_mps * (n[:, 15] + 1j * n[:, 16]),

@@ -34,8 +34,9 @@ def gps_frame_of(b_pos: np.ndarray, gps_err: np.ndarray) -> tuple:
 
 
 @njit(cache=True)
-def command_velocity(actions: np.ndarray, b_pos: np.ndarray, gps_err: np.ndarray, max_speed: np.ndarray, mode: int,
-                     out: np.ndarray) -> None:
+def command_velocity(
+    actions: np.ndarray, b_pos: np.ndarray, gps_err: np.ndarray, max_speed: np.ndarray, mode: int, out: np.ndarray
+) -> None:
     """Actions (B,2,2) -> commanded ground velocity, complex (B,2) (``MovingNetworkSimulator.command_velocity``);
     mode 0 "velocity", 1 "frame_velocity", 2 "heading_speed"."""
     for b in range(actions.shape[0]):
@@ -68,8 +69,15 @@ def _clip_obs(v: float) -> float:
     return v
 
 
-def _observe_boats(b_pos: np.ndarray, gps_err: np.ndarray, b_vel: np.ndarray, k: Tracker, cycle: np.ndarray,
-                   p: ObserveParams, out: np.ndarray) -> None:
+def _observe_boats(
+    b_pos: np.ndarray,
+    gps_err: np.ndarray,
+    b_vel: np.ndarray,
+    k: Tracker,
+    cycle: np.ndarray,
+    p: ObserveParams,
+    out: np.ndarray,
+) -> None:
     """Every boat's observation (``MovingNetworkSimulator.observe``), out (B, 2, OBS_DIM)
     float32; k: ``state.Tracker``, cycle (B,), p: ``state.ObserveParams`` (records or
     ``state.packed``)."""
@@ -82,27 +90,40 @@ def _observe_boats(b_pos: np.ndarray, gps_err: np.ndarray, b_vel: np.ndarray, k:
         for i in range(2):
             o = out[b, i]
             ge, gn = (g1e, g1n) if i == 0 else (g2e, g2n)
-            vals = (1.0 - 2.0 * i,
-                    (b_vel[b, i, 0] * xa.real + b_vel[b, i, 1] * xa.imag) / p.boat_max_speed_mps,
-                    (b_vel[b, i, 0] * ya.real + b_vel[b, i, 1] * ya.imag) / p.boat_max_speed_mps,
-                    (length - L) / L,
-                    ((te - g1e) * xa.real + (tn - g1n) * xa.imag) / L,
-                    ((te - g1e) * ya.real + (tn - g1n) * ya.imag) / L,
-                    (k.vel[b, 0] * xa.real + k.vel[b, 1] * xa.imag) / p.survey_speed_mps,
-                    (k.vel[b, 0] * ya.real + k.vel[b, 1] * ya.imag) / p.survey_speed_mps,
-                    k.age_s[b] / p.age_scale_s,
-                    1.0 if k.has_fix[b] else 0.0,
-                    xa.real, xa.imag,
-                    ((ge - te) * xa.real + (gn - tn) * xa.imag) / L,
-                    ((ge - te) * ya.real + (gn - tn) * ya.imag) / L,
-                    cycle[b] / p.max_cycles)
+            vals = (
+                1.0 - 2.0 * i,
+                (b_vel[b, i, 0] * xa.real + b_vel[b, i, 1] * xa.imag) / p.boat_max_speed_mps,
+                (b_vel[b, i, 0] * ya.real + b_vel[b, i, 1] * ya.imag) / p.boat_max_speed_mps,
+                (length - L) / L,
+                ((te - g1e) * xa.real + (tn - g1n) * xa.imag) / L,
+                ((te - g1e) * ya.real + (tn - g1n) * ya.imag) / L,
+                (k.vel[b, 0] * xa.real + k.vel[b, 1] * xa.imag) / p.survey_speed_mps,
+                (k.vel[b, 0] * ya.real + k.vel[b, 1] * ya.imag) / p.survey_speed_mps,
+                k.age_s[b] / p.age_scale_s,
+                1.0 if k.has_fix[b] else 0.0,
+                xa.real,
+                xa.imag,
+                ((ge - te) * xa.real + (gn - tn) * xa.imag) / L,
+                ((ge - te) * ya.real + (gn - tn) * ya.imag) / L,
+                cycle[b] / p.max_cycles,
+            )
             for j in range(OBS_DIM):
                 o[j] = _clip_obs(vals[j])
 
 
 @njit(cache=True)
-def observe_river(b_pos: np.ndarray, gps_err: np.ndarray, k: Tracker, pts: np.ndarray, cum: np.ndarray,
-                  direction: float, lead_m: float, L: float, half_width_m: float, out: np.ndarray) -> None:
+def observe_river(
+    b_pos: np.ndarray,
+    gps_err: np.ndarray,
+    k: Tracker,
+    pts: np.ndarray,
+    cum: np.ndarray,
+    direction: float,
+    lead_m: float,
+    L: float,
+    half_width_m: float,
+    out: np.ndarray,
+) -> None:
     """The river part of every boat's observation (``RIVER_OBS_FIELDS``), out (B, 2,
     RIVER_OBS_DIM) float32, vectors in the boats' GPS frame as in ``observe_boats``: the
     boat's offset from the centerline (GPS position; + right of the mission direction)
@@ -122,10 +143,13 @@ def observe_river(b_pos: np.ndarray, gps_err: np.ndarray, k: Tracker, pts: np.nd
         for i in range(2):
             ge, gn = (g1e, g1n) if i == 0 else (g2e, g2n)
             off = river.project(ge, gn, pts, cum)[1]
-            vals = (direction * off / half_width_m,
-                    de * xa.real + dn * xa.imag, de * ya.real + dn * ya.imag,
-                    ((pe - ge) * xa.real + (pn - gn) * xa.imag) / L,
-                    ((pe - ge) * ya.real + (pn - gn) * ya.imag) / L)
+            vals = (
+                direction * off / half_width_m,
+                de * xa.real + dn * xa.imag,
+                de * ya.real + dn * ya.imag,
+                ((pe - ge) * xa.real + (pn - gn) * xa.imag) / L,
+                ((pe - ge) * ya.real + (pn - gn) * ya.imag) / L,
+            )
             for j in range(RIVER_OBS_DIM):
                 out[b, i, j] = _clip_obs(vals[j])
 

@@ -25,8 +25,16 @@ from .state import REINIT_AFTER_CYCLES
 
 
 @njit(cache=True)
-def recover(E: np.ndarray, P: np.ndarray, rejected_cycles: np.ndarray, b: int, rejected: int, ex: ExchangeResult,
-            dz: float, sigma_r2: float) -> int:
+def recover(
+    E: np.ndarray,
+    P: np.ndarray,
+    rejected_cycles: np.ndarray,
+    b: int,
+    rejected: int,
+    ex: ExchangeResult,
+    dz: float,
+    sigma_r2: float,
+) -> int:
     """Count filter b's cycles with a rejection (rejected_cycles (B,), in place) and restart
     it (E (6,), P (6,6), in place) from the fix of ``ex`` (``lbl.ExchangeResult``) after
     ``REINIT_AFTER_CYCLES`` of them; dz: the depth below the boats, sigma_r2: a two-way

@@ -13,21 +13,40 @@ results into the structured arrays ``CYCLE_OUT`` (floats) and ``CYCLE_COUNTS``.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, TypeVar, cast
 
 import numpy as np
 
 from ..sim import INFO_KEYS
 from ..state import BatchArrays
 
+if TYPE_CHECKING:
+    from ...scenarios.base import ScenarioConfig
+
 # ellipse_major_m / ellipse_minor_m: ELLIPSE_N_SIGMA (2-sigma) semi-axes of the filter's (x, y)
 # covariance, as in the observations, evaluate.py's steps and the plots
-FRAME_INFO_KEYS = INFO_KEYS + ("error_x_m", "error_y_m", "phi_error_deg", "baseline_error_m", "ellipse_major_m",
-                               "ellipse_minor_m", "vehicle_y_m")
+FRAME_INFO_KEYS = INFO_KEYS + (
+    "error_x_m",
+    "error_y_m",
+    "phi_error_deg",
+    "baseline_error_m",
+    "ellipse_major_m",
+    "ellipse_minor_m",
+    "vehicle_y_m",
+)
 # one boat's observation, in this order (see MovingNetworkSimulator.observe)
-OBS_FIELDS = (("role", 1), ("own_velocity_xy", 2), ("baseline_error", 1), ("tracked_xy", 2),
-              ("tracked_velocity_xy", 2), ("fix_age", 1), ("has_fix", 1), ("frame_bearing", 2),
-              ("own_from_tracked_xy", 2), ("elapsed", 1))
+OBS_FIELDS = (
+    ("role", 1),
+    ("own_velocity_xy", 2),
+    ("baseline_error", 1),
+    ("tracked_xy", 2),
+    ("tracked_velocity_xy", 2),
+    ("fix_age", 1),
+    ("has_fix", 1),
+    ("frame_bearing", 2),
+    ("own_from_tracked_xy", 2),
+    ("elapsed", 1),
+)
 OBS_DIM = sum(n for _, n in OBS_FIELDS)
 TRACKER_ALPHA, TRACKER_BETA = 0.5, 0.2  # the boats' alpha-beta tracker on the fixes [U]
 REINIT_AFTER_CYCLES = 3  # the vehicle restarts its position from an LBL fix after this many gated-out cycles
@@ -39,13 +58,13 @@ RIVER_LEAD_BASELINES = 0.5  # the river point the boats observe (and start at) l
 RIVER_STATE_DIM = 2  # global_state's extra values for a world mission: the boats' offsets from the centerline
 
 
-def obs_fields(config) -> tuple:
+def obs_fields(config: ScenarioConfig) -> tuple[tuple[str, int], ...]:
     """One boat's observation fields for ``config``: ``OBS_FIELDS``, and ``RIVER_OBS_FIELDS``
     after them for a mission in the world."""
     return OBS_FIELDS + (RIVER_OBS_FIELDS if config.mission_frame == "world" else ())
 
 
-def obs_dim_of(config) -> int:
+def obs_dim_of(config: ScenarioConfig) -> int:
     """The length of one boat's observation for ``config``."""
     return sum(n for _, n in obs_fields(config))
 
@@ -159,18 +178,33 @@ class CycleDraws(NamedTuple):
     log_u: np.ndarray
 
 
-def packed(record: tuple) -> tuple:
+_Record = TypeVar("_Record", bound=tuple)
+
+
+def packed(record: _Record) -> _Record:
     """A record as the plain tuple a kernel's entry point takes from Python, which names it
     again (``Vehicle(*v)``): numba types the arrays of a plain tuple in C, a NamedTuple's in
     Python (about half a microsecond an array, every call), so passing the records as
     NamedTuples cost a batch of one ~20% of its step. Inside the kernels they are named."""
-    return tuple(record)
+    return cast(_Record, tuple(record))  # typed as the record: the kernel names it again
 
 
 def vehicle_of(st: FrameState) -> Vehicle:
     """The vehicle's record of views of ``st``."""
-    return Vehicle(st.s_pos, st.s_heading, st.s_vel_true, st.s_wp_index, st.s_done, st.s_waypoints, st.s_n_waypoints,
-                   st.s_speed_scale, st.s_compass_bias_rad, st.s_dr, st.s_heading_meas_rad, st.s_speed_meas_mps)
+    return Vehicle(
+        st.s_pos,
+        st.s_heading,
+        st.s_vel_true,
+        st.s_wp_index,
+        st.s_done,
+        st.s_waypoints,
+        st.s_n_waypoints,
+        st.s_speed_scale,
+        st.s_compass_bias_rad,
+        st.s_dr,
+        st.s_heading_meas_rad,
+        st.s_speed_meas_mps,
+    )
 
 
 def filter_of(st: FrameState) -> Filter:
@@ -207,7 +241,7 @@ class CycleParams(NamedTuple):
     min_baseline_distance_m: float
 
 
-def cycle_params(config, gate1: float, gate2: float) -> CycleParams:
+def cycle_params(config: ScenarioConfig, gate1: float, gate2: float) -> CycleParams:
     """``CycleParams`` of a scenario, with its gates."""
     named = {"gate1": gate1, "gate2": gate2}
     return CycleParams(*(float(named[k] if k in named else getattr(config, k)) for k in CycleParams._fields))
@@ -239,14 +273,32 @@ class ObserveParams(NamedTuple):
 # --- what the per-cycle kernel writes, per environment ---------------------------------------
 # floats, in the columns the kernel wrote before these were named (numpy reads the fields
 # as views with the same strides, so its transcendental functions take the same paths)
-CYCLE_OUT = np.dtype([
-    ("det", "f8", (2,)),  # det of the filter's (x, y) covariance before and after the updates
-    ("survey_error", "f8"), ("dr_error", "f8"), ("error_x", "f8"), ("error_y", "f8"), ("baseline_error", "f8"),
-    ("major", "f8"), ("minor", "f8"), ("vehicle_y", "f8"),
-    # reward terms (unweighted, 0/1): safety per boat, then the team's contact, baseline, approach
-    ("safety", "f8", (2,)), ("contact", "f8"),
-    ("phi_err_sin", "f8"), ("phi_err_cos", "f8"),  # the frame-orientation error, wrapped by numpy
-    ("baseline_off", "f8"), ("approach", "f8"),
-])
-CYCLE_COUNTS = np.dtype([("ranges_fused", "i8"), ("outliers_rejected", "i8"), ("packets_lost", "i8"),
-                         ("filter_restarts", "i8"), ("range_ok", "?")])
+CYCLE_OUT = np.dtype(
+    [
+        ("det", "f8", (2,)),  # det of the filter's (x, y) covariance before and after the updates
+        ("survey_error", "f8"),
+        ("dr_error", "f8"),
+        ("error_x", "f8"),
+        ("error_y", "f8"),
+        ("baseline_error", "f8"),
+        ("major", "f8"),
+        ("minor", "f8"),
+        ("vehicle_y", "f8"),
+        # reward terms (unweighted, 0/1): safety per boat, then the team's contact, baseline, approach
+        ("safety", "f8", (2,)),
+        ("contact", "f8"),
+        ("phi_err_sin", "f8"),
+        ("phi_err_cos", "f8"),  # the frame-orientation error, wrapped by numpy
+        ("baseline_off", "f8"),
+        ("approach", "f8"),
+    ]
+)
+CYCLE_COUNTS = np.dtype(
+    [
+        ("ranges_fused", "i8"),
+        ("outliers_rejected", "i8"),
+        ("packets_lost", "i8"),
+        ("filter_restarts", "i8"),
+        ("range_ok", "?"),
+    ]
+)

@@ -76,9 +76,11 @@ def step_info(out: np.ndarray, counts: np.ndarray, logdet: np.ndarray, P: np.nda
         "filter_restarts": count("filter_restarts"),
         "survey_error_en_m": np.stack([col("error_x"), col("error_y")], -1),
         "survey_cov_en_m2": P[:, None, :2, :2].copy(),
-        "error_x_m": col("error_x"), "error_y_m": col("error_y"),
+        "error_x_m": col("error_x"),
+        "error_y_m": col("error_y"),
         "phi_error_deg": np.degrees(np.arctan2(out["phi_err_sin"], out["phi_err_cos"]))[:, None],
         "baseline_error_m": col("baseline_error"),
-        "ellipse_major_m": col("major"), "ellipse_minor_m": col("minor"),
+        "ellipse_major_m": col("major"),
+        "ellipse_minor_m": col("minor"),
         "vehicle_y_m": col("vehicle_y"),
     }

@@ -20,10 +20,12 @@ def track(k: Tracker, b: int, ex: lbl.ExchangeResult, boats: Boats, cn: float, p
     """Update environment b's tracker (``state.Tracker`` k, in place) with the external fix
     from the exchange ``ex`` (``lbl.ExchangeResult``) in the GPS frame of ``boats``
     (``state.Boats``); cn: the assumed sound speed; p: ``state.CycleParams``."""
-    frame = lbl.FrameGeometry(boats.gps[b, 0, 0], boats.gps[b, 0, 1], np.sin(boats.phi_gps[b]),
-                              np.cos(boats.phi_gps[b]), boats.length_gps[b])
-    fix_e, fix_n, ok = lbl.track_fix_of(ex.t_s1_b1, ex.t_s1_b2, ex.t_s4_b2, ex.ok_track, frame, p.depth_m, cn,
-                                        p.turnaround_s, p.turnaround_s)
+    frame = lbl.FrameGeometry(
+        boats.gps[b, 0, 0], boats.gps[b, 0, 1], np.sin(boats.phi_gps[b]), np.cos(boats.phi_gps[b]), boats.length_gps[b]
+    )
+    fix_e, fix_n, ok = lbl.track_fix_of(
+        ex.t_s1_b1, ex.t_s1_b2, ex.t_s4_b2, ex.ok_track, frame, p.depth_m, cn, p.turnaround_s, p.turnaround_s
+    )
     age = k.age_s[b] + p.ping_interval_s
     pred_e, pred_n = k.pos[b, 0] + k.vel[b, 0] * age, k.pos[b, 1] + k.vel[b, 1] * age
     res_e, res_n = fix_e - pred_e, fix_n - pred_n

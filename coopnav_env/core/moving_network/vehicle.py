@@ -55,8 +55,9 @@ def _guide(v: Vehicle, b: int, E: np.ndarray, p: VehicleParams) -> float:
 
 
 @njit(cache=True)
-def integrate_vehicle(v: Vehicle, f: Filter, compass_noise: np.ndarray, speed_noise: np.ndarray, current: np.ndarray,
-                      p: VehicleParams) -> None:
+def integrate_vehicle(
+    v: Vehicle, f: Filter, compass_noise: np.ndarray, speed_noise: np.ndarray, current: np.ndarray, p: VehicleParams
+) -> None:
     """K sub-steps of every vehicle of the batch, in place: guidance on the frame estimate
     (``_guide``), true motion, dead reckoning and the filter's prediction
     (``frame_predict``). v: ``state.Vehicle``; f: ``state.Filter``; compass_noise,
@@ -80,8 +81,16 @@ def integrate_vehicle(v: Vehicle, f: Filter, compass_noise: np.ndarray, speed_no
 
 
 @njit(cache=True)
-def disturb_boats(pos: np.ndarray, heading: np.ndarray, vel: np.ndarray, surge: np.ndarray, steer: np.ndarray,
-                  current: np.ndarray, response: float, T: float) -> None:
+def disturb_boats(
+    pos: np.ndarray,
+    heading: np.ndarray,
+    vel: np.ndarray,
+    surge: np.ndarray,
+    steer: np.ndarray,
+    current: np.ndarray,
+    response: float,
+    T: float,
+) -> None:
     """The boats' imperfect execution of their commands over one cycle, in place: after
     ``integrate_beacons`` moved each boat at its commanded ground velocity v (vel (B,2,3),
     its last sub-step), the boat actually made good (v + s h) exp(-1j delta) + r c: its
