@@ -493,18 +493,50 @@ def test_survey_kernel_dead_reckons_along_eq5_forward_axis():
     waypoints = np.array([[[[0.0, 0.0, depth], [1000.0, 0.0, depth]]]])
     u, thrust = 1.2, 1.2**2 * 6.0  # cruising: thrust = k u^2 with k = 6
     bias, compass_noise, pitch_noise = np.radians(2.0), np.radians(0.7), np.radians(1.5)
-    sv = SurveyView(pos=pos, est=est, P=np.zeros((1, 1, 3, 3)), dr=dr, heading=np.array([[1.0 + 0.0j]]),  # due east
-                    wp_index=np.array([[1]]), done=np.array([[False]]), vel_true=np.zeros((1, 1, 3)),
-                    vel_est=np.zeros((1, 1, 3)), speed_model=np.array([[u]]), waypoints=waypoints,
-                    n_waypoints=np.array([[2]]), hover=np.array([[False]]), thrust_n=np.array([[thrust]]),
-                    speed_scale=np.array([[1.0]]), compass_bias_rad=np.array([[bias]]),
-                    current_est=np.array([[0.0j]]), last_range_t_s=np.zeros((1, 1)),
-                    rejected_streak=np.zeros((1, 1), dtype=np.int64))
-    prm = SurveyParams(substep_s=1.0, ping_interval_s=1.0, drag_k=6.0, mass_kg=45.0, los_alpha=0.5, acceptance_m=3.0,
-                       turn_cos=np.cos(0.2), turn_sin=np.sin(0.2), max_pitch_rad=np.radians(20.0),
-                       depth_gain_per_m=0.2, depth_noise_m=0.0, gps_noise_m=0.0, gps_max_depth_m=0.0,
-                       nan_probability=0.0, loss_near=0.0, loss_far=0.0, max_range_m=1.0, position_scale_m=1.0,
-                       observed_waypoints=1, beacon_max_speed=np.ones(1), fence_center=np.zeros(2))
+    sv = SurveyView(
+        pos=pos,
+        est=est,
+        P=np.zeros((1, 1, 3, 3)),
+        dr=dr,
+        heading=np.array([[1.0 + 0.0j]]),  # due east
+        wp_index=np.array([[1]]),
+        done=np.array([[False]]),
+        vel_true=np.zeros((1, 1, 3)),
+        vel_est=np.zeros((1, 1, 3)),
+        speed_model=np.array([[u]]),
+        waypoints=waypoints,
+        n_waypoints=np.array([[2]]),
+        hover=np.array([[False]]),
+        thrust_n=np.array([[thrust]]),
+        speed_scale=np.array([[1.0]]),
+        compass_bias_rad=np.array([[bias]]),
+        current_est=np.array([[0.0j]]),
+        last_range_t_s=np.zeros((1, 1)),
+        rejected_streak=np.zeros((1, 1), dtype=np.int64),
+    )
+    prm = SurveyParams(
+        substep_s=1.0,
+        ping_interval_s=1.0,
+        drag_k=6.0,
+        mass_kg=45.0,
+        los_alpha=0.5,
+        acceptance_m=3.0,
+        turn_cos=np.cos(0.2),
+        turn_sin=np.sin(0.2),
+        max_pitch_rad=np.radians(20.0),
+        depth_gain_per_m=0.2,
+        depth_noise_m=0.0,
+        gps_noise_m=0.0,
+        gps_max_depth_m=0.0,
+        nan_probability=0.0,
+        loss_near=0.0,
+        loss_far=0.0,
+        max_range_m=1.0,
+        position_scale_m=1.0,
+        observed_waypoints=1,
+        beacon_max_speed=np.ones(1),
+        fence_center=np.zeros(2),
+    )
     integrate_survey(sv, np.array([[[compass_noise]]]), np.array([[[pitch_noise]]]), np.array([0.0j]), prm)
     expected = u * 1.0 * dynamics.forward_axis(np.pi / 2 + bias + compass_noise, pitch_noise)
     np.testing.assert_allclose(dr[0, 0] - [0.0, 0.0, depth], expected, atol=1e-12)

@@ -28,8 +28,7 @@ PENDING_FILES = {
     "coopnav_env/core/measurements/",
 }
 # added on other branches (absent here until the merge), annotated after it; not required to exist
-PENDING_NEW_FILES = {
-}
+PENDING_NEW_FILES: set[str] = set()
 PENDING_FILES |= PENDING_NEW_FILES
 
 

@@ -249,8 +249,16 @@ class Channel:
         them, through the channel's masks."""
         st = self.sim.state
         assert st is not None, "the simulator is reset before its channel is used"
-        self._k_exchange(survey_view(st), beacon_view(st), knowledge_view(st), st.t_s, draws["message_u"], reply_ok,
-                         peer_ok, self.sim.params)
+        self._k_exchange(
+            survey_view(st),
+            beacon_view(st),
+            knowledge_view(st),
+            st.t_s,
+            draws["message_u"],
+            reply_ok,
+            peer_ok,
+            self.sim.params,
+        )
 
 
 # ------------------------------------------------------------------------------------

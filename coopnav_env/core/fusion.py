@@ -45,7 +45,7 @@ def _fuse_depth_gps(sv, sensor_n, sensor_u, nan_count, prm):
                     if np.isfinite(z):
                         H[:] = 0.0
                         H[axis] = 1.0
-                        joseph_update(est[b, s], P[b, s], z, est[b, s, axis], H, gps_noise_m ** 2)
+                        joseph_update(est[b, s], P[b, s], z, est[b, s, axis], H, gps_noise_m**2)
                     else:
                         nan_count[b, s] += 1
 
@@ -93,8 +93,9 @@ def _exchange_messages(sv, bv, kv, t_s, message_u, reply_ok, peer_ok, prm):
                     kv.age_s[b, n, s] += T
                     kv.range_age_s[b, n, s] += T
             for m in range(N):  # its own position, or a peer's if it arrives
-                if m == n or (peer_ok[b, n, m]
-                              and _arrives(_distance(bv.pos[b, m], bv.pos[b, n]), message_u[b, n, S + m], prm)):
+                if m == n or (
+                    peer_ok[b, n, m] and _arrives(_distance(bv.pos[b, m], bv.pos[b, n]), message_u[b, n, S + m], prm)
+                ):
                     kv.peer[b, n, m, :] = bv.est[b, m]
 
 

@@ -105,10 +105,27 @@ class KnowledgeView(NamedTuple):
 
 def survey_view(st: SimState) -> SurveyView:
     """The survey vehicles' arrays of ``st`` (references, not copies)."""
-    return SurveyView(st.s_pos, st.s_est, st.s_P, st.s_dr, st.s_heading, st.s_wp_index, st.s_done, st.s_vel_true,
-                      st.s_vel_est, st.s_speed_model_mps, st.s_waypoints, st.s_n_waypoints, st.s_hover, st.s_thrust_n,
-                      st.s_speed_scale, st.s_compass_bias_rad, st.s_current_est, st.s_last_range_t_s,
-                      st.s_rejected_streak)
+    return SurveyView(
+        st.s_pos,
+        st.s_est,
+        st.s_P,
+        st.s_dr,
+        st.s_heading,
+        st.s_wp_index,
+        st.s_done,
+        st.s_vel_true,
+        st.s_vel_est,
+        st.s_speed_model_mps,
+        st.s_waypoints,
+        st.s_n_waypoints,
+        st.s_hover,
+        st.s_thrust_n,
+        st.s_speed_scale,
+        st.s_compass_bias_rad,
+        st.s_current_est,
+        st.s_last_range_t_s,
+        st.s_rejected_streak,
+    )
 
 
 def beacon_view(st: SimState) -> BeaconView:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .information import ELLIPSE_N_SIGMA, ellipse_of  # noqa: F401  (ELLIPSE_N_SIGMA: part of the layout)
+from .information import ELLIPSE_N_SIGMA, ellipse_of
 
 OWN_DIM = 6
 PER_SURVEY_FIXED = 9

@@ -33,14 +33,24 @@ from .contract import BatchSimulator, Snapshot, StepResult
 from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps, unit_to_bearing
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
-from .navigation import gate_threshold, predict
 from .kernel_records import SurveyParams, beacon_view, knowledge_view, survey_view
+from .navigation import gate_threshold, predict
 from .reward import TermContext, collect_terms, term_weights, terms_for, weighted_reward
 from .state import SimState
 
-INFO_KEYS = ("survey_error_m", "dr_error_m", "cov_logdet", "range_ok", "ranges_fused",
-             "outliers_rejected", "nan_rejected", "packets_lost", "filter_restarts", "survey_error_en_m",
-             "survey_cov_en_m2")
+INFO_KEYS = (
+    "survey_error_m",
+    "dr_error_m",
+    "cov_logdet",
+    "range_ok",
+    "ranges_fused",
+    "outliers_rejected",
+    "nan_rejected",
+    "packets_lost",
+    "filter_restarts",
+    "survey_error_en_m",
+    "survey_cov_en_m2",
+)
 BEACON_INFO_KEYS = ("beacon_error_m",)  # and the channel model's (core.channel registry)
 
 
@@ -74,14 +84,18 @@ class Simulator(BatchSimulator):
         is_asv = np.array([k == "asv" for k in c.beacon_kinds])
         self._beacon_is_asv = is_asv
         self._beacon_max_speed = np.array(c.beacon_max_speeds_mps)
-        beacon_turn = np.radians(np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
+        beacon_turn = (
+            np.radians(np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
+        )
         self._beacon_turn_cos, self._beacon_turn_sin = np.cos(beacon_turn), np.sin(beacon_turn)
         self._beacon_depth = np.where(is_asv, 0.0, c.beacon_auv_depth_m)
         self._build_paths()
         self.gate = gate_threshold(c.range_gate_probability)  # the chi-square gate of every acoustic update
         self.sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
-        self._Q_cycle = np.diag([c.process_noise_horizontal_m2ps, c.process_noise_horizontal_m2ps,
-                                 c.process_noise_vertical_m2ps]) * c.ping_interval_s
+        self._Q_cycle = (
+            np.diag([c.process_noise_horizontal_m2ps, c.process_noise_horizontal_m2ps, c.process_noise_vertical_m2ps])
+            * c.ping_interval_s
+        )
         self.params = self._survey_params()  # the kernels' constants, one record
         self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
         par = "_parallel" if self._parallel else ""
@@ -96,15 +110,21 @@ class Simulator(BatchSimulator):
         # every random number of one cycle comes from one hash call, laid out by purpose;
         # a new purpose goes at the end so the others keep their numbers
         S_, N_, K_ = self.S, self.N, self.K
-        self._draws = rng.DrawLayout([
-            ("current", "normal", (2,)),
-            ("sensor_n", "normal", (S_, 3)), ("sensor_u", "uniform", (S_, 3)),
-            ("substep", "normal", (K_, 2, S_)),
-            ("beacon_nav_n", "normal", (N_, 4)), ("beacon_nav_u", "uniform", (N_,)),
-            ("acoustic_n", "normal", (N_, S_, 2)), ("acoustic_u", "uniform", (N_, S_, 4)),
-            ("message_u", "uniform", (N_, S_ + N_)),
-            *measurements.draw_layout(c.acoustic_sensor, S_, N_, K_),  # the sensor's own draws (its registration)
-        ], self.batch_size)
+        self._draws = rng.DrawLayout(
+            [
+                ("current", "normal", (2,)),
+                ("sensor_n", "normal", (S_, 3)),
+                ("sensor_u", "uniform", (S_, 3)),
+                ("substep", "normal", (K_, 2, S_)),
+                ("beacon_nav_n", "normal", (N_, 4)),
+                ("beacon_nav_u", "uniform", (N_,)),
+                ("acoustic_n", "normal", (N_, S_, 2)),
+                ("acoustic_u", "uniform", (N_, S_, 4)),
+                ("message_u", "uniform", (N_, S_ + N_)),
+                *measurements.draw_layout(c.acoustic_sensor, S_, N_, K_),  # the sensor's own draws (its registration)
+            ],
+            self.batch_size,
+        )
         # the survey vehicles' acoustic sensor: one measurement model (core/measurements/)
         self.sensor = measurements.build(c.acoustic_sensor, self)
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
@@ -125,10 +145,15 @@ class Simulator(BatchSimulator):
         randomization choices (just the scenario's own path without randomization), padded
         to W waypoints (V, S, W, 3); and the beacons' start distance per variant (V, N)."""
         c = self.config
-        self.variants = [(kind, depth) for kind in (c.randomize_survey_path or (c.survey_path,))
-                         for depth in (c.randomize_depth_m or (c.depth_m,))]
-        built = [[build_path(c.replace(survey_path=kind, depth_m=depth), s) for s in range(self.S)]
-                 for kind, depth in self.variants]
+        self.variants = [
+            (kind, depth)
+            for kind in (c.randomize_survey_path or (c.survey_path,))
+            for depth in (c.randomize_depth_m or (c.depth_m,))
+        ]
+        built = [
+            [build_path(c.replace(survey_path=kind, depth_m=depth), s) for s in range(self.S)]
+            for kind, depth in self.variants
+        ]
         W = max(len(wp) for paths in built for wp, _ in paths)
         V = len(self.variants)
         self._paths = np.zeros((V, self.S, W, 3))
@@ -136,17 +161,23 @@ class Simulator(BatchSimulator):
         self._hover = np.zeros((V, self.S), dtype=bool)
         for v, paths in enumerate(built):
             for s, (wp, hover) in enumerate(paths):
-                self._paths[v, s, :len(wp)] = wp
-                self._paths[v, s, len(wp):] = wp[-1]
+                self._paths[v, s, : len(wp)] = wp
+                self._paths[v, s, len(wp) :] = wp[-1]
                 self._n_wp[v, s], self._hover[v, s] = len(wp), hover
         if c.beacon_start_distance_m > 0:
             self._beacon_start_distance_m = np.full((V, self.N), c.beacon_start_distance_m)
         else:  # 0: start where the first two ranges inform most (Sousa et al., Fig. 11)
             from .information import optimal_start_distance_m
 
-            self._beacon_start_distance_m = np.array([[
-                optimal_start_distance_m(depth - d, v * c.ping_interval_s)
-                for d, v in zip(self._beacon_depth, self._beacon_max_speed)] for _, depth in self.variants])
+            self._beacon_start_distance_m = np.array(
+                [
+                    [
+                        optimal_start_distance_m(depth - d, v * c.ping_interval_s)
+                        for d, v in zip(self._beacon_depth, self._beacon_max_speed)
+                    ]
+                    for _, depth in self.variants
+                ]
+            )
 
     def _survey_params(self) -> SurveyParams:
         """The scenario's constants the kernels read, gathered once (``kernel_records.SurveyParams``)."""
@@ -154,17 +185,28 @@ class Simulator(BatchSimulator):
         survey_turn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s
         fence = c.geofence_m
         return SurveyParams(
-            substep_s=float(c.substep_s), ping_interval_s=float(c.ping_interval_s),
+            substep_s=float(c.substep_s),
+            ping_interval_s=float(c.ping_interval_s),
             drag_k=float(drag_constant(c.survey_drag_coefficient, c.water_density_kgpm3, c.survey_cross_section_m2)),
-            mass_kg=float(c.survey_mass_kg), los_alpha=float(c.los_alpha), acceptance_m=float(c.waypoint_acceptance_m),
-            turn_cos=float(np.cos(survey_turn)), turn_sin=float(np.sin(survey_turn)),
-            max_pitch_rad=float(np.radians(c.survey_max_pitch_deg)), depth_gain_per_m=float(c.survey_depth_gain_per_m),
-            depth_noise_m=float(c.depth_noise_m), gps_noise_m=float(c.gps_noise_m),
-            gps_max_depth_m=float(c.gps_max_depth_m), nan_probability=float(c.sensor_nan_probability),
-            loss_near=float(c.packet_loss_near), loss_far=float(c.packet_loss_far), max_range_m=float(c.max_range_m),
-            position_scale_m=float(c.position_scale_m), observed_waypoints=int(c.observed_waypoints),
+            mass_kg=float(c.survey_mass_kg),
+            los_alpha=float(c.los_alpha),
+            acceptance_m=float(c.waypoint_acceptance_m),
+            turn_cos=float(np.cos(survey_turn)),
+            turn_sin=float(np.sin(survey_turn)),
+            max_pitch_rad=float(np.radians(c.survey_max_pitch_deg)),
+            depth_gain_per_m=float(c.survey_depth_gain_per_m),
+            depth_noise_m=float(c.depth_noise_m),
+            gps_noise_m=float(c.gps_noise_m),
+            gps_max_depth_m=float(c.gps_max_depth_m),
+            nan_probability=float(c.sensor_nan_probability),
+            loss_near=float(c.packet_loss_near),
+            loss_far=float(c.packet_loss_far),
+            max_range_m=float(c.max_range_m),
+            position_scale_m=float(c.position_scale_m),
+            observed_waypoints=int(c.observed_waypoints),
             beacon_max_speed=np.asarray(self._beacon_max_speed, dtype=float),
-            fence_center=np.array([(fence[0] + fence[2]) / 2, (fence[1] + fence[3]) / 2]))
+            fence_center=np.array([(fence[0] + fence[2]) / 2, (fence[1] + fence[3]) / 2]),
+        )
 
     # ------------------------------------------------------------------------------
     def _initial_state(self, seeds) -> SimState:
@@ -174,9 +216,17 @@ class Simulator(BatchSimulator):
         ep = self._episode_draws(keys)
         survey = self._survey_start(ep)
         beacons = self._beacon_start(ep, survey["s_pos"])
-        return SimState(t_s=np.zeros(B), cycle=np.zeros(B, dtype=np.int64), keys=keys, ep_variant=ep.variant,
-                        ep_noise_scale=ep.noise_scale, **survey, **beacons, **self._water_and_clocks(ep),
-                        **self._knowledge_start(survey, beacons))
+        return SimState(
+            t_s=np.zeros(B),
+            cycle=np.zeros(B, dtype=np.int64),
+            keys=keys,
+            ep_variant=ep.variant,
+            ep_noise_scale=ep.noise_scale,
+            **survey,
+            **beacons,
+            **self._water_and_clocks(ep),
+            **self._knowledge_start(survey, beacons),
+        )
 
     def _episode_draws(self, keys: np.ndarray) -> EpisodeDraws:
         """The episode's random numbers for environments with ``keys`` (B,)."""
@@ -192,11 +242,18 @@ class Simulator(BatchSimulator):
         variant = np.minimum((u_dr[:, 0] * len(self.variants)).astype(np.int64), len(self.variants) - 1)
         lo, hi = c.randomize_noise_scale or (1.0, 1.0)
         return EpisodeDraws(
-            ns=n_ep[:, :S * 4].reshape(B, S, 4), nb=n_ep[:, S * 4:S * 4 + N * 4].reshape(B, N, 4),
-            n_clock=n_ep[:, S * 4 + N * 4:S * 4 + N * 4 + S * N].reshape(B, S, N), nw=n_ep[:, -3:], n_dvl=n_dvl,
-            u_bearing=u_ep[:, :N], u_current=u_ep[:, N:N + 2], u_clock=u_ep[:, N + 2:].reshape(B, S, N),
+            ns=n_ep[:, : S * 4].reshape(B, S, 4),
+            nb=n_ep[:, S * 4 : S * 4 + N * 4].reshape(B, N, 4),
+            n_clock=n_ep[:, S * 4 + N * 4 : S * 4 + N * 4 + S * N].reshape(B, S, N),
+            nw=n_ep[:, -3:],
+            n_dvl=n_dvl,
+            u_bearing=u_ep[:, :N],
+            u_current=u_ep[:, N : N + 2],
+            u_clock=u_ep[:, N + 2 :].reshape(B, S, N),
             u_dvl_phase=rng.uniform(keys, rng.STREAM_EPISODE + 301, zero, (N,)),
-            variant=variant, noise_scale=lo + (hi - lo) * u_dr[:, 1])
+            variant=variant,
+            noise_scale=lo + (hi - lo) * u_dr[:, 1],
+        )
 
     def _survey_start(self, ep: EpisodeDraws) -> dict:
         """The survey vehicles' fields of the initial state (``SimState.s_*``): at their
@@ -208,27 +265,39 @@ class Simulator(BatchSimulator):
         hover = self._hover[ep.variant]
         start = wp[:, :, 0]
         first_leg = wp[:, :, 1, :2] - wp[:, :, 0, :2]
-        heading = np.where(np.abs(first_leg[..., 0] + 1j * first_leg[..., 1]) > 0,
-                           first_leg[..., 0] + 1j * first_leg[..., 1], 1j)
+        heading = np.where(
+            np.abs(first_leg[..., 0] + 1j * first_leg[..., 1]) > 0, first_leg[..., 0] + 1j * first_leg[..., 1], 1j
+        )
         heading = heading / np.abs(heading)
         thrust = np.where(hover, 0.0, c.survey_thrust_percent / 100.0 * c.max_thrust_n)
         sigma0 = c.initial_position_std_m
         est = start.copy()
         est[..., :2] += sigma0 * ep.ns[..., :2]
         P0 = np.zeros((B, S, 3, 3))
-        P0[..., 0, 0] = P0[..., 1, 1] = sigma0 ** 2
+        P0[..., 0, 0] = P0[..., 1, 1] = sigma0**2
         P0[..., 2, 2] = max(c.depth_noise_m, 0.01) ** 2
         scale = ep.noise_scale[:, None]
         return {
-            "s_pos": start.copy(), "s_heading": heading,
+            "s_pos": start.copy(),
+            "s_heading": heading,
             "s_speed_model_mps": terminal_speed_mps(thrust, self.params.drag_k),
             "s_speed_scale": 1.0 + c.survey_speed_scale_error_std * scale * ep.ns[..., 2],
-            "s_thrust_n": thrust, "s_compass_bias_rad": np.radians(c.compass_bias_std_deg) * scale * ep.ns[..., 3],
-            "s_vel_true": np.zeros((B, S, 3)), "s_vel_est": np.zeros((B, S, 3)),
-            "s_waypoints": wp, "s_n_waypoints": self._n_wp[ep.variant], "s_wp_index": np.ones((B, S), dtype=np.int64),
-            "s_hover": hover, "s_done": np.zeros((B, S), dtype=bool),
-            "s_est": est, "s_P": P0, "s_dr": est.copy(), "s_last_range_t_s": np.zeros((B, S)),
-            "s_rejected_streak": np.zeros((B, S), dtype=np.int64), "s_current_est": np.zeros((B, S), dtype=complex)}
+            "s_thrust_n": thrust,
+            "s_compass_bias_rad": np.radians(c.compass_bias_std_deg) * scale * ep.ns[..., 3],
+            "s_vel_true": np.zeros((B, S, 3)),
+            "s_vel_est": np.zeros((B, S, 3)),
+            "s_waypoints": wp,
+            "s_n_waypoints": self._n_wp[ep.variant],
+            "s_wp_index": np.ones((B, S), dtype=np.int64),
+            "s_hover": hover,
+            "s_done": np.zeros((B, S), dtype=bool),
+            "s_est": est,
+            "s_P": P0,
+            "s_dr": est.copy(),
+            "s_last_range_t_s": np.zeros((B, S)),
+            "s_rejected_streak": np.zeros((B, S), dtype=np.int64),
+            "s_current_est": np.zeros((B, S), dtype=complex),
+        }
 
     def _beacon_start(self, ep: EpisodeDraws, start: np.ndarray) -> dict:
         """The beacons' fields of the initial state (``SimState.b_*``): around the survey's
@@ -236,30 +305,43 @@ class Simulator(BatchSimulator):
         DVL error model drawn."""
         c = self.config
         B, N = len(ep.variant), self.N
-        bearing = (np.radians(c.beacon_start_bearing_deg)
-                   + np.radians(c.beacon_start_bearing_spread_deg) * (2 * ep.u_bearing - 1)
-                   + 2 * np.pi * np.arange(N) / N)
+        bearing = (
+            np.radians(c.beacon_start_bearing_deg)
+            + np.radians(c.beacon_start_bearing_spread_deg) * (2 * ep.u_bearing - 1)
+            + 2 * np.pi * np.arange(N) / N
+        )
         b_pos = np.zeros((B, N, 3))
-        b_h = (start[:, :1, 0] + 1j * start[:, :1, 1]
-               + self._beacon_start_distance_m[ep.variant] * bearing_to_unit(bearing))
+        b_h = (
+            start[:, :1, 0]
+            + 1j * start[:, :1, 1]
+            + self._beacon_start_distance_m[ep.variant] * bearing_to_unit(bearing)
+        )
         b_pos[..., 0], b_pos[..., 1], b_pos[..., 2] = b_h.real, b_h.imag, self._beacon_depth
         to_survey = (start[:, :1, 0] + 1j * start[:, :1, 1]) - b_h
         b_std0 = np.where(self._beacon_is_asv, c.gps_noise_m, 1.0)
         b_err = np.zeros((B, N, 3))
         b_err[..., :2] = b_std0[:, None] * ep.nb[..., :2]
         return {
-            "b_pos": b_pos, "b_heading": to_survey / np.maximum(np.abs(to_survey), 1e-9), "b_vel": np.zeros((B, N, 3)),
-            "b_nav_err": b_err, "b_nav_var_m2": np.broadcast_to(b_std0 ** 2, (B, N)).copy(),
-            "b_walk_var_m2": np.broadcast_to(b_std0 ** 2, (B, N)).copy(), "b_unlocked_s": np.zeros((B, N)),
+            "b_pos": b_pos,
+            "b_heading": to_survey / np.maximum(np.abs(to_survey), 1e-9),
+            "b_vel": np.zeros((B, N, 3)),
+            "b_nav_err": b_err,
+            "b_nav_var_m2": np.broadcast_to(b_std0**2, (B, N)).copy(),
+            "b_walk_var_m2": np.broadcast_to(b_std0**2, (B, N)).copy(),
+            "b_unlocked_s": np.zeros((B, N)),
             "b_dvl_lock": np.ones((B, N), dtype=bool),
             "b_current_err": c.beacon_current_estimate_error_mps * (ep.nb[..., 2] + 1j * ep.nb[..., 3]),
             "b_dvl_scale_error": c.beacon_dvl_scale_error_std * ep.n_dvl[..., 0],
             "b_dvl_heading_bias_rad": np.radians(c.beacon_dvl_heading_bias_std_deg) * ep.n_dvl[..., 1],
-            "b_dvl_heading_phase_rad": 2.0 * np.pi * ep.u_dvl_phase, "b_travelled_m": np.zeros((B, N)),
+            "b_dvl_heading_phase_rad": 2.0 * np.pi * ep.u_dvl_phase,
+            "b_travelled_m": np.zeros((B, N)),
             "b_fix_est": (b_pos[..., 0] + b_err[..., 0]) + 1j * (b_pos[..., 1] + b_err[..., 1]),
-            "b_since_fix_s": np.zeros((B, N)), "b_surfacings": np.zeros((B, N), dtype=np.int64),
-            "b_pings": np.zeros((B, N), dtype=np.int64), "b_collisions": np.zeros((B, N), dtype=np.int64),
-            "b_energy_j": np.zeros((B, N))}
+            "b_since_fix_s": np.zeros((B, N)),
+            "b_surfacings": np.zeros((B, N), dtype=np.int64),
+            "b_pings": np.zeros((B, N), dtype=np.int64),
+            "b_collisions": np.zeros((B, N), dtype=np.int64),
+            "b_energy_j": np.zeros((B, N)),
+        }
 
     def _water_and_clocks(self, ep: EpisodeDraws) -> dict:
         """The episode's water (temperature, current) and the OWTT clocks of the initial state."""
@@ -271,7 +353,8 @@ class Simulator(BatchSimulator):
             "clock_drift": c.clock_drift_ppm * 1e-6 * (2 * ep.u_clock - 1),
             "temperature_c": c.water_temperature_c + c.temperature_uncertainty_c * ep.nw[:, 0],
             "current_mean": cur_speed * bearing_to_unit(cur_dir),
-            "current_gm": c.current_gm_std_mps * (ep.nw[:, 1] + 1j * ep.nw[:, 2])}
+            "current_gm": c.current_gm_std_mps * (ep.nw[:, 1] + 1j * ep.nw[:, 2]),
+        }
 
     def _knowledge_start(self, survey: dict, beacons: dict) -> dict:
         """What each beacon knows at the start (``SimState.k_*``): every survey vehicle's
@@ -281,9 +364,11 @@ class Simulator(BatchSimulator):
         return {
             "k_est": np.broadcast_to(est[:, None], (B, N, S, 3)).copy(),
             "k_P": np.broadcast_to(P0[:, None, :, :2, :2], (B, N, S, 2, 2)).copy(),
-            "k_wp_index": np.ones((B, N, S), dtype=np.int64), "k_age_s": np.zeros((B, N, S)),
+            "k_wp_index": np.ones((B, N, S), dtype=np.int64),
+            "k_age_s": np.zeros((B, N, S)),
             "k_range_age_s": np.zeros((B, N, S)),
-            "k_peer": np.broadcast_to((beacons["b_pos"] + beacons["b_nav_err"])[:, None], (B, N, N, 3)).copy()}
+            "k_peer": np.broadcast_to((beacons["b_pos"] + beacons["b_nav_err"])[:, None], (B, N, N, 3)).copy(),
+        }
 
     def _cycle_draws(self, cycle) -> dict:
         """This cycle's random numbers for every environment, by purpose: name -> (B, *shape)."""
@@ -328,16 +413,31 @@ class Simulator(BatchSimulator):
         # 6. reward terms, ends, infos
         reward, terms = self._reward(out, transmit, (logdet_before - logdet_after).sum(-1))
         terminated, truncated = self._ends()
-        return StepResult(self.observe(), reward, terminated, truncated, self._step_info(out, logdet_after), terms,
-                          self._beacon_info())
+        return StepResult(
+            self.observe(),
+            reward,
+            terminated,
+            truncated,
+            self._step_info(out, logdet_after),
+            terms,
+            self._beacon_info(),
+        )
 
     def _move_beacons(self, actions: np.ndarray) -> np.ndarray:
         """Step 1: the beacons follow their commanded velocity through the sub-steps;
         returns their true horizontal displacement over the cycle, complex (B, N)."""
         st = self.state
         b_start = st.b_pos[..., 0] + 1j * st.b_pos[..., 1]
-        self._k_beacons(st.b_pos, st.b_heading, st.b_vel, self.command_velocity(actions), self._beacon_turn_cos,
-                        self._beacon_turn_sin, self.K, self.config.substep_s)
+        self._k_beacons(
+            st.b_pos,
+            st.b_heading,
+            st.b_vel,
+            self.command_velocity(actions),
+            self._beacon_turn_cos,
+            self._beacon_turn_sin,
+            self.K,
+            self.config.substep_s,
+        )
         return st.b_pos[..., 0] + 1j * st.b_pos[..., 1] - b_start
 
     def _advance_water_and_clock(self, draws: dict) -> None:
@@ -345,8 +445,9 @@ class Simulator(BatchSimulator):
         c, st = self.config, self.state
         T = c.ping_interval_s
         n_cur = draws["current"]
-        st.current_gm = gauss_markov_step(st.current_gm, T, c.current_gm_time_constant_s, c.current_gm_std_mps,
-                                          n_cur[:, 0] + 1j * n_cur[:, 1])
+        st.current_gm = gauss_markov_step(
+            st.current_gm, T, c.current_gm_time_constant_s, c.current_gm_std_mps, n_cur[:, 0] + 1j * n_cur[:, 1]
+        )
         st.t_s = st.t_s + T
         st.cycle = st.cycle + 1
 
@@ -358,9 +459,13 @@ class Simulator(BatchSimulator):
         B, N, S = self.batch_size, self.N, self.S
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
         fused = np.zeros((B, N, S), dtype=bool)
-        out = measurements.FusionOutputs(fused=fused, rejected=np.zeros_like(fused), lost=np.zeros_like(fused),
-                                         nan_count=np.zeros((B, S), dtype=np.int64),
-                                         restarts=np.zeros((B, S), dtype=np.int64))
+        out = measurements.FusionOutputs(
+            fused=fused,
+            rejected=np.zeros_like(fused),
+            lost=np.zeros_like(fused),
+            nan_count=np.zeros((B, S), dtype=np.int64),
+            restarts=np.zeros((B, S), dtype=np.int64),
+        )
         self._k_depth_gps(survey_view(st), draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params)
         return out
 
@@ -389,7 +494,7 @@ class Simulator(BatchSimulator):
         reply_ok, peer_ok, _ = self.channel.replies(transmit, replied)
         self.channel.exchange(draws, reply_ok, peer_ok)
         st.b_pings = transmit.astype(np.int64)
-        st.b_collisions = ping_slot[2][:, :self.N, self.N:].sum(-1).astype(np.int64)
+        st.b_collisions = ping_slot[2][:, : self.N, self.N :].sum(-1).astype(np.int64)
         st.b_energy_j = transmit * self.channel.ping_energy_j
 
     # ---- reward terms: assembled here only; core/reward.py weighs them -------------
@@ -400,21 +505,36 @@ class Simulator(BatchSimulator):
         B, N = self.batch_size, self.N
         dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
         fe0, fn0, fe1, fn1 = c.geofence_m
-        outside = (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
+        outside = (
+            (st.b_pos[..., 0] < fe0) | (st.b_pos[..., 0] > fe1) | (st.b_pos[..., 1] < fn0) | (st.b_pos[..., 1] > fn1)
+        )
         no_contact = ~out.fused.any(-1)  # (B,N): none of this beacon's ranges fused
         heard = self.sensor.heard_mask(st.cycle - 1) if transmit is None else transmit  # who could be heard
         if heard is not None:  # only this cycle's senders can be heard
             no_contact &= heard
         # the reward terms (core.reward registry): the arrays computed here by name, then
         # every registered term's compute(ctx) hook, in self.reward_terms' order
-        arrays = {"info_gain": np.broadcast_to(info_gain[:, None], (B, N)),
-                  "safety": (dist < c.safety_distance_m).any(-1).astype(float),
-                  "geofence": outside.astype(float), "contact": no_contact.astype(float)}
+        arrays = {
+            "info_gain": np.broadcast_to(info_gain[:, None], (B, N)),
+            "safety": (dist < c.safety_distance_m).any(-1).astype(float),
+            "geofence": outside.astype(float),
+            "contact": no_contact.astype(float),
+        }
         if self.channel is not None:
             arrays["ping"] = transmit.astype(float)
-        ctx = TermContext(sim=self, config=c, state=st, arrays={
-            "fused": out.fused, "rejected": out.rejected, "lost": out.lost, "transmit": transmit, "dist": dist,
-            "info_gain": info_gain})
+        ctx = TermContext(
+            sim=self,
+            config=c,
+            state=st,
+            arrays={
+                "fused": out.fused,
+                "rejected": out.rejected,
+                "lost": out.lost,
+                "transmit": transmit,
+                "dist": dist,
+                "info_gain": info_gain,
+            },
+        )
         terms = collect_terms(self.reward_terms, arrays, ctx, (B, N))
         return weighted_reward(terms, self.reward_weights), terms
 
@@ -450,7 +570,8 @@ class Simulator(BatchSimulator):
             "survey_error_m": np.linalg.norm(error_en, axis=-1),
             "dr_error_m": np.linalg.norm(st.s_dr[..., :2] - st.s_pos[..., :2], axis=-1),
             "cov_logdet": logdet_horizontal(st.s_P) if logdet is None else logdet,
-            "survey_error_en_m": error_en, "survey_cov_en_m2": st.s_P[..., :2, :2].copy(),
+            "survey_error_en_m": error_en,
+            "survey_cov_en_m2": st.s_P[..., :2, :2].copy(),
         }
 
     def _beacon_info(self) -> dict:
@@ -467,10 +588,17 @@ class Simulator(BatchSimulator):
     def snapshot(self) -> Snapshot:
         """Positions, covariance and planned paths of every environment (copies)."""
         st = self.state
-        return Snapshot(t_s=st.t_s.copy(), survey_true_m=st.s_pos.copy(), survey_est_m=st.s_est.copy(),
-                        survey_dr_m=st.s_dr.copy(), survey_cov_en_m2=st.s_P[..., :2, :2].copy(),
-                        beacon_true_m=st.b_pos.copy(), beacon_est_m=st.b_pos + st.b_nav_err,
-                        waypoints_m=st.s_waypoints.copy(), n_waypoints=st.s_n_waypoints.copy())
+        return Snapshot(
+            t_s=st.t_s.copy(),
+            survey_true_m=st.s_pos.copy(),
+            survey_est_m=st.s_est.copy(),
+            survey_dr_m=st.s_dr.copy(),
+            survey_cov_en_m2=st.s_P[..., :2, :2].copy(),
+            beacon_true_m=st.b_pos.copy(),
+            beacon_est_m=st.b_pos + st.b_nav_err,
+            waypoints_m=st.s_waypoints.copy(),
+            n_waypoints=st.s_n_waypoints.copy(),
+        )
 
     # ------------------------------------------------------------------------------
     def _integrate_survey(self, draws: dict) -> None:
@@ -478,8 +606,13 @@ class Simulator(BatchSimulator):
         guidance, eq. (1), the true motion and the dead reckoning of eq. (4)."""
         c, st = self.config, self.state
         noise = draws["substep"] * st.ep_noise_scale[:, None, None, None]  # (B,K,2,S): compass, pitch
-        self._k_survey(survey_view(st), np.radians(c.compass_noise_deg) * noise[:, :, 0],
-                       np.radians(c.attitude_noise_deg) * noise[:, :, 1], st.current_mean + st.current_gm, self.params)
+        self._k_survey(
+            survey_view(st),
+            np.radians(c.compass_noise_deg) * noise[:, :, 0],
+            np.radians(c.attitude_noise_deg) * noise[:, :, 1],
+            st.current_mean + st.current_gm,
+            self.params,
+        )
 
     def _beacon_navigation(self, draws, moved):
         """The beacons' own navigation over the cycle; ``moved`` (B,N) complex: their true
@@ -502,32 +635,39 @@ class Simulator(BatchSimulator):
         walk_std = c.dvl_velocity_noise_mps * dt * np.sqrt(K)
         drift = np.where(st.b_dvl_lock, 0.0, st.b_current_err * T)  # without lock: thrust model + current estimate
         heading_err = st.b_dvl_heading_bias_rad + np.radians(c.beacon_dvl_heading_cycle_deg) * np.sin(
-            unit_to_bearing(moved) + st.b_dvl_heading_phase_rad)
+            unit_to_bearing(moved) + st.b_dvl_heading_phase_rad
+        )
         bias = ((1.0 + st.b_dvl_scale_error) * np.exp(-1j * heading_err) - 1.0) * moved
-        err_h = ((st.b_nav_err[..., 0] + 1j * st.b_nav_err[..., 1]) + drift + bias
-                 + walk_std * (n[..., 0] + 1j * n[..., 1]))
+        err_h = (
+            (st.b_nav_err[..., 0] + 1j * st.b_nav_err[..., 1]) + drift + bias + walk_std * (n[..., 0] + 1j * n[..., 1])
+        )
         # the variance it carries: the random walk adds up linearly; the current-estimate
         # error is a bias, so its part grows with the square of the time spent without lock;
         # the constant heading and scale errors' part grows with the square of the displacement
         # D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2) |D|^2; the one-cycle
         # part, which does not cancel on a lawnmower's alternating legs, at most with the square
         # of the distance s travelled, (b1^2 / 2) s^2; half of each per axis
-        st.b_walk_var_m2 = st.b_walk_var_m2 + walk_std ** 2
+        st.b_walk_var_m2 = st.b_walk_var_m2 + walk_std**2
         st.b_unlocked_s = st.b_unlocked_s + np.where(st.b_dvl_lock, 0.0, T)
         st.b_since_fix_s = st.b_since_fix_s + T
         est_h = st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h
-        sigma2 = c.beacon_dvl_scale_error_std ** 2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2
+        sigma2 = c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2
         st.b_travelled_m = st.b_travelled_m + np.abs(moved)
-        var = (st.b_walk_var_m2 + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
-               + 0.5 * sigma2 * np.abs(est_h - st.b_fix_est) ** 2
-               + 0.25 * np.radians(c.beacon_dvl_heading_cycle_deg) ** 2 * st.b_travelled_m ** 2)
+        var = (
+            st.b_walk_var_m2
+            + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
+            + 0.5 * sigma2 * np.abs(est_h - st.b_fix_est) ** 2
+            + 0.25 * np.radians(c.beacon_dvl_heading_cycle_deg) ** 2 * st.b_travelled_m**2
+        )
         # a GPS fix: every cycle for ASVs; at the surface when due for AUVs
         gps_h = c.gps_noise_m * (n[..., 2] + 1j * n[..., 3])
-        surface = auv & (((c.beacon_surface_every_s > 0) & (st.b_since_fix_s >= c.beacon_surface_every_s - 1e-9))
-                         | ((c.beacon_surface_above_std_m > 0) & (var > c.beacon_surface_above_std_m ** 2)))
+        surface = auv & (
+            ((c.beacon_surface_every_s > 0) & (st.b_since_fix_s >= c.beacon_surface_every_s - 1e-9))
+            | ((c.beacon_surface_above_std_m > 0) & (var > c.beacon_surface_above_std_m**2))
+        )
         fix = ~auv | surface
         err_h = np.where(fix, gps_h, err_h)
-        gps_var = c.gps_noise_m ** 2
+        gps_var = c.gps_noise_m**2
         st.b_nav_var_m2 = np.where(fix, gps_var, var)
         st.b_walk_var_m2 = np.where(surface, gps_var, st.b_walk_var_m2)
         st.b_unlocked_s = np.where(surface, 0.0, st.b_unlocked_s)
@@ -540,8 +680,16 @@ class Simulator(BatchSimulator):
     def _exchange_messages(self, draws: dict) -> None:
         """Step 5 on the fixed clock: replies and positions, lost only at random."""
         st = self.state
-        self._k_messages(survey_view(st), beacon_view(st), knowledge_view(st), st.t_s, draws["message_u"],
-                         self._all_replies, self._all_peers, self.params)
+        self._k_messages(
+            survey_view(st),
+            beacon_view(st),
+            knowledge_view(st),
+            st.t_s,
+            draws["message_u"],
+            self._all_replies,
+            self._all_peers,
+            self.params,
+        )
 
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
@@ -558,15 +706,26 @@ class Simulator(BatchSimulator):
         L = c.position_scale_m
         major, minor, bearing = error_ellipse(st.s_P)
         fc = np.append(self.params.fence_center, 0.0)
-        survey = np.concatenate([
-            (st.s_pos - fc) / L, (st.s_est - fc) / L,
-            major[..., None] / 50.0, minor[..., None] / 50.0,
-            np.cos(2 * bearing)[..., None], np.sin(2 * bearing)[..., None],
-        ], -1).reshape(B, -1)
-        beacons = np.concatenate([
-            (st.b_pos - fc) / L, st.b_nav_err[..., :2] / 10.0,
-            st.b_heading.real[..., None], st.b_heading.imag[..., None],
-        ], -1).reshape(B, -1)
+        survey = np.concatenate(
+            [
+                (st.s_pos - fc) / L,
+                (st.s_est - fc) / L,
+                major[..., None] / 50.0,
+                minor[..., None] / 50.0,
+                np.cos(2 * bearing)[..., None],
+                np.sin(2 * bearing)[..., None],
+            ],
+            -1,
+        ).reshape(B, -1)
+        beacons = np.concatenate(
+            [
+                (st.b_pos - fc) / L,
+                st.b_nav_err[..., :2] / 10.0,
+                st.b_heading.real[..., None],
+                st.b_heading.imag[..., None],
+            ],
+            -1,
+        ).reshape(B, -1)
         cur = st.current_mean + st.current_gm
         glob = np.stack([cur.real, cur.imag, st.cycle / c.max_cycles], -1)
         return np.clip(np.concatenate([survey, beacons, glob], -1), -10.0, 10.0).astype(np.float32)

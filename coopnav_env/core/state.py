@@ -34,7 +34,7 @@ class BatchArrays:
 
     def row(self: _Rows, index: int) -> _Rows:
         """A batch-of-one copy of row ``index``."""
-        return type(self)(**{f.name: getattr(self, f.name)[index:index + 1].copy() for f in dataclasses.fields(self)})
+        return type(self)(**{f.name: getattr(self, f.name)[index : index + 1].copy() for f in dataclasses.fields(self)})
 
 
 @dataclass

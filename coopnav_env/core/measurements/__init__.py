@@ -74,8 +74,15 @@ class Sensor:
 _SENSORS: dict[str, Sensor] = {}
 
 
-def register_sensor(name: str, build: Callable[[Any], Any] | str, *, draws=(), networks: tuple = ("survey_beacons",),
-                    validate: Callable[[Any], None] | None = None, doc: str = "") -> Sensor:
+def register_sensor(
+    name: str,
+    build: Callable[[Any], Any] | str,
+    *,
+    draws=(),
+    networks: tuple = ("survey_beacons",),
+    validate: Callable[[Any], None] | None = None,
+    doc: str = "",
+) -> Sensor:
     """Register the sensor ``name`` (a scenario's ``acoustic_sensor``) and return it.
 
     ``build``: ``build(sim)`` -> the model, or a module path whose ``build`` it is;
@@ -89,8 +96,9 @@ def register_sensor(name: str, build: Callable[[Any], Any] | str, *, draws=(), n
         raise ValueError(f"acoustic sensor {name!r} is registered twice")
     for spec in draws:
         if len(spec) != 3 or spec[1] not in ("normal", "uniform") or not callable(spec[2]):
-            raise ValueError(f"sensor {name!r}: a draw is (purpose, 'normal' | 'uniform', shape_fn(S, N, K)), "
-                             f"got {spec!r}")
+            raise ValueError(
+                f"sensor {name!r}: a draw is (purpose, 'normal' | 'uniform', shape_fn(S, N, K)), got {spec!r}"
+            )
     sensor = Sensor(name, build, tuple(draws), tuple(networks), validate, doc)
     _SENSORS[name] = sensor
     return sensor
@@ -135,7 +143,15 @@ def build(name: str, sim: Any) -> Any:
 # the built-in sensors (their modules are imported when a simulator builds them). The
 # modem's random numbers are the simulator's shared acoustic_n / acoustic_u (the channel
 # reads them too); the MLS array's 13 normals and a compass reading come after them.
-register_sensor("modem", "coopnav_env.core.measurements.modem", networks=("survey_beacons", "moving_lbl"),
-                doc="acoustic-modem ranges, one-way or two-way travel time, with lock-out recovery")
-register_sensor("mls", "coopnav_env.core.measurements.mls_array", draws=[("mls_n", "normal", lambda S, N, K: (S, 14))],
-                doc="Kottege & Zimmer's MLS array: range and bearing from one sender per cycle")
+register_sensor(
+    "modem",
+    "coopnav_env.core.measurements.modem",
+    networks=("survey_beacons", "moving_lbl"),
+    doc="acoustic-modem ranges, one-way or two-way travel time, with lock-out recovery",
+)
+register_sensor(
+    "mls",
+    "coopnav_env.core.measurements.mls_array",
+    draws=[("mls_n", "normal", lambda S, N, K: (S, 14))],
+    doc="Kottege & Zimmer's MLS array: range and bearing from one sender per cycle",
+)

@@ -79,8 +79,9 @@ def _fuse(sv, bv, m, t_s, gate, out):
                     out.lost[b, j, s] = True
                     continue
                 h, Hr = range_prediction(sv.est[b, s], sv.vel_est[b, s], delays, bv.est[b, j])
-                if gated_update(sv.est[b, s], sv.P[b, s], m.range_m[b, j, s], h, Hr,
-                                m.range_var[b, j, s] + bv.nav_var[b, j], gate):
+                if gated_update(
+                    sv.est[b, s], sv.P[b, s], m.range_m[b, j, s], h, Hr, m.range_var[b, j, s] + bv.nav_var[b, j], gate
+                ):
                     out.fused[b, j, s] = True
                     any_fused = True
                 else:
@@ -106,9 +107,15 @@ class MLSArray:
 
         c = sim.config
         self.sim = sim
-        self.sensor = MLSSensor(MLSConfig(snr_db_at_1m=c.mls_snr_db_at_1m, max_range_m=c.mls_max_range_m,
-                                          water_temperature_c=c.water_temperature_c, salinity_psu=c.salinity_psu,
-                                          depth_m=c.depth_m))
+        self.sensor = MLSSensor(
+            MLSConfig(
+                snr_db_at_1m=c.mls_snr_db_at_1m,
+                max_range_m=c.mls_max_range_m,
+                water_temperature_c=c.water_temperature_c,
+                salinity_psu=c.salinity_psu,
+                depth_m=c.depth_m,
+            )
+        )
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
 
     def heard_mask(self, cycle: np.ndarray) -> np.ndarray:
@@ -139,7 +146,8 @@ class MLSArray:
         var_az = np.ones((B, S))
         if heard.any():
             m, (b_az, b_r, _) = self.sensor.measure_analytic_with_bounds(
-                sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard], normals=n[heard][:, :13])
+                sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard], normals=n[heard][:, :13]
+            )
             az[heard], rng_m[heard] = m.azimuth_rad, m.range_m
             var_r[heard], var_az[heard] = np.square(b_r), np.square(b_az)
         # the compass: bearing (clockwise from north) = pi/2 - heading angle (anticlockwise from east)
@@ -152,8 +160,8 @@ class MLSArray:
         az = np.where(np.abs(predicted_az) > np.pi / 2, np.where(az >= 0, np.pi - az, -np.pi - az), az)
         bearing = compass - az  # a sender to port (positive azimuth) has a smaller bearing
         state = np.where(sends[..., None], np.where(heard, HEARD, NOT_HEARD)[:, None, :], NOT_SENT).astype(np.int8)
-        bcast = lambda a: np.broadcast_to(a[:, None, :], shape).copy()  # noqa: E731
-        return MLSMeasurement(state, bcast(rng_m), bcast(bearing), bcast(var_r), bcast(var_az + compass_std ** 2))
+        bcast = lambda a: np.broadcast_to(a[:, None, :], shape).copy()
+        return MLSMeasurement(state, bcast(rng_m), bcast(bearing), bcast(var_r), bcast(var_az + compass_std**2))
 
     def fuse(self, draws: dict, out: FusionOutputs) -> None:
         """Measure this cycle's sender and fuse its range and bearing (``_fuse``)."""

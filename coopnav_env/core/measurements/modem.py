@@ -26,9 +26,20 @@ from . import FusionOutputs
 
 
 @njit(cache=True)
-def modem_range(s_pos: np.ndarray, s_vel_true: np.ndarray, b_pos: np.ndarray, b_vel: np.ndarray, c_true: float,
-                c_assumed: float, jitter_s: float, n: float, two_way: bool, turnaround_s: float, clock_s: float,
-                delays: np.ndarray) -> float:
+def modem_range(
+    s_pos: np.ndarray,
+    s_vel_true: np.ndarray,
+    b_pos: np.ndarray,
+    b_vel: np.ndarray,
+    c_true: float,
+    c_assumed: float,
+    jitter_s: float,
+    n: float,
+    two_way: bool,
+    turnaround_s: float,
+    clock_s: float,
+    delays: np.ndarray,
+) -> float:
     """The range a modem measures between a beacon and a survey vehicle (m), from the
     time of flight between the moving vehicles at the true sound speed, turned back
     into a range with the assumed one; ``delays`` gets the legs' times for the
@@ -57,8 +68,9 @@ def modem_range(s_pos: np.ndarray, s_vel_true: np.ndarray, b_pos: np.ndarray, b_
 
 
 @njit(cache=True)
-def modem_range_variance(detection_std_m: float, two_way: bool, beacon_var_m2: float, predicted_range_m: float,
-                         sound_speed_rel_std: float) -> float:
+def modem_range_variance(
+    detection_std_m: float, two_way: bool, beacon_var_m2: float, predicted_range_m: float, sound_speed_rel_std: float
+) -> float:
     """R of a modem range (m^2): the ranging noise (``acoustics.ranging_variance_m2``),
     the beacon's own horizontal position variance (below Gao & Chitre eq. 7), and the
     sound speed's relative uncertainty as a scale error of the predicted range."""
@@ -112,11 +124,22 @@ def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
     dx = sv.pos[b, s, 0] - bv.pos[b, j, 0]
     dy = sv.pos[b, s, 1] - bv.pos[b, j, 1]
     dz = sv.pos[b, s, 2] - bv.pos[b, j, 2]
-    p_lost = packet_loss_probability(np.sqrt(dx * dx + dy * dy + dz * dz), prm.loss_near, prm.loss_far,
-                                     prm.max_range_m)
+    p_lost = packet_loss_probability(np.sqrt(dx * dx + dy * dy + dz * dz), prm.loss_near, prm.loss_far, prm.max_range_m)
     clock = cyc.clock_offset_s[b, s, j] + cyc.clock_drift[b, s, j] * cyc.t_s[b]
-    r = modem_range(sv.pos[b, s], sv.vel_true[b, s], bv.pos[b, j], bv.vel[b, j], c_true, c_assumed, jitter_s,
-                    cyc.acoustic_n[b, j, s, 0], prm.two_way, prm.turnaround_s, clock, delays)
+    r = modem_range(
+        sv.pos[b, s],
+        sv.vel_true[b, s],
+        bv.pos[b, j],
+        bv.vel[b, j],
+        c_true,
+        c_assumed,
+        jitter_s,
+        cyc.acoustic_n[b, j, s, 0],
+        prm.two_way,
+        prm.turnaround_s,
+        clock,
+        delays,
+    )
     if prm.two_way:
         p_lost = 1.0 - (1.0 - p_lost) ** 2  # both legs must arrive
     return r, p_lost, prm.temperature_uncertainty_c * dc_dT / c_assumed
@@ -131,8 +154,7 @@ def _count_rejection(sv, out, b, s, r, h, H, R, prm):
     sign = 1 if r > h else -1
     streak = sv.rejected_streak[b, s]
     sv.rejected_streak[b, s] = streak + sign if streak * sign >= 0 else sign
-    if (0 < prm.reinit_after <= abs(sv.rejected_streak[b, s])
-            and reinit_on_range(sv.est[b, s], sv.P[b, s], r, h, H, R)):
+    if 0 < prm.reinit_after <= abs(sv.rejected_streak[b, s]) and reinit_on_range(sv.est[b, s], sv.P[b, s], r, h, H, R):
         sv.rejected_streak[b, s] = 0  # locked out: restarted from this range
         out.restarts[b, s] += 1
 
@@ -189,9 +211,20 @@ fuse_kernel = njit(cache=True)(_fuse)
 fuse_kernel_parallel = njit(cache=True, parallel=True)(_fuse)
 
 # ModemParams' scenario fields in order, by their config names
-CONFIG_FIELDS = ("reinit_after_rejected_ranges", "ranging_mode", "turnaround_s", "max_range_m", "packet_loss_near",
-                 "packet_loss_far", "outlier_probability", "outlier_mean_excess_m", "sensor_nan_probability",
-                 "water_temperature_c", "salinity_psu", "temperature_uncertainty_c")
+CONFIG_FIELDS = (
+    "reinit_after_rejected_ranges",
+    "ranging_mode",
+    "turnaround_s",
+    "max_range_m",
+    "packet_loss_near",
+    "packet_loss_far",
+    "outlier_probability",
+    "outlier_mean_excess_m",
+    "sensor_nan_probability",
+    "water_temperature_c",
+    "salinity_psu",
+    "temperature_uncertainty_c",
+)
 
 
 class ModemRanging:
@@ -200,8 +233,13 @@ class ModemRanging:
     def __init__(self, sim: BatchSimulator):
         c = sim.config
         scalars = [getattr(c, k) for k in CONFIG_FIELDS]
-        self.params = ModemParams(int(scalars[0]), c.ranging_mode == "twtt", *(float(v) for v in scalars[2:]),
-                                  float(sim.gate), np.asarray(sim.sends_current, dtype=bool))
+        self.params = ModemParams(
+            int(scalars[0]),
+            c.ranging_mode == "twtt",
+            *(float(v) for v in scalars[2:]),
+            float(sim.gate),
+            np.asarray(sim.sends_current, dtype=bool),
+        )
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
         self.sim = sim
         self._all_heard = None
@@ -220,10 +258,17 @@ class ModemRanging:
                 self._all_heard = np.ones((sim.batch_size, sim.N, sim.S), dtype=bool)
             heard = self._all_heard
         c, st = sim.config, sim.state
-        cyc = ModemCycle(st.t_s, st.temperature_c, st.clock_offset_s, st.clock_drift,
-                         c.range_noise_std_m * st.ep_noise_scale,
-                         st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err,
-                         draws["acoustic_n"], draws["acoustic_u"], heard)
+        cyc = ModemCycle(
+            st.t_s,
+            st.temperature_c,
+            st.clock_offset_s,
+            st.clock_drift,
+            c.range_noise_std_m * st.ep_noise_scale,
+            st.current_mean[:, None] + st.current_gm[:, None] + st.b_current_err,
+            draws["acoustic_n"],
+            draws["acoustic_u"],
+            heard,
+        )
         self.kernel(survey_view(st), beacon_view(st), cyc, self.params, out)
 
 
