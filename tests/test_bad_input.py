@@ -116,9 +116,10 @@ def test_non_positive_ping_interval(value):
         coopnav_env.parallel_env("gao_lawnmower", ping_interval_s=value)
 
 
-@pytest.mark.parametrize("value", [-1.0, 0.0])
-def test_non_positive_substep(value):
-    with pytest.raises(ValueError, match=r"substep_s must be in \(0, 60\], got"):
+@pytest.mark.parametrize("value", [-1.0, 0.0, 5e-324, 9e-4])
+def test_non_positive_or_subnormal_substep(value):
+    """Below 1 ms the step count per cycle overflows (5e-324 s gave an OverflowError)."""
+    with pytest.raises(ValueError, match=r"substep_s must be in \[0.001, 60\], got"):
         coopnav_env.parallel_env("gao_lawnmower", substep_s=value)
 
 

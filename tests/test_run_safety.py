@@ -702,15 +702,14 @@ def test_enospc_during_train_is_one_line_and_nothing_half_written(run, tmp_path)
 
 # ------------------------------------------------------------------------------------
 # scenario parameters: fixed on the config branch (coopnav_env/scenarios/base.py)
-SCENARIO_XFAIL = pytest.mark.xfail(strict=True, reason="scenario validation: fixed on the config branch")
 
 
 @pytest.mark.parametrize(
     "scenario,key,value",
     [
-        pytest.param("sousa_asv", "substep_s", 5e-324, marks=SCENARIO_XFAIL),
-        pytest.param("sousa_asv", "depth_m", 10**400, marks=SCENARIO_XFAIL),
-        pytest.param("matos_river", "river_width_m", 5e-324, marks=SCENARIO_XFAIL),
+        ("sousa_asv", "substep_s", 5e-324),
+        ("sousa_asv", "depth_m", 10**400),
+        ("matos_river", "river_width_m", 5e-324),
         ("sousa_asv", "depth_m", 1e400),
     ],
 )
@@ -727,7 +726,7 @@ def test_make_config_refuses_out_of_range_values_in_one_line(scenario, key, valu
     [
         ("sousa_asv", "substep_s=5e-324"),
         ("sousa_asv", "depth_m=" + "1" + "0" * 400),
-        pytest.param("matos_river", "river_width_m=5e-324", marks=SCENARIO_XFAIL),
+        ("matos_river", "river_width_m=5e-324"),
     ],
 )
 def test_evaluate_set_refuses_out_of_range_values_in_one_line(tmp_path, scenario, setting, capsys):

@@ -73,6 +73,12 @@ def in_range(field: dataclasses.Field, value: float) -> bool:
     return (value > m["low"] if m["open_low"] else value >= m["low"]) and value <= m["high"]
 
 
+def shown(v: Any, limit: int = 40) -> str:
+    """``repr(v)`` cut to ``limit`` characters (a 400-digit number stays one short line)."""
+    text = repr(v)
+    return text if len(text) <= limit else f"{text[: limit - 12]}... ({len(text)} chars)"
+
+
 def check(cond: bool, message: str) -> None:
     """Raise ``ValueError(message)`` unless ``cond``."""
     if not cond:
@@ -108,25 +114,25 @@ def check_field(field: dataclasses.Field, v: Any) -> None:
     if kind is int:
         check(
             isinstance(v, numbers.Integral) and not isinstance(v, bool),
-            f"scenario parameter {name} must be an integer, got {v!r}",
+            f"scenario parameter {name} must be an integer, got {shown(v)}",
         )
     elif kind is float:
         check(
             isinstance(v, numbers.Real) and not isinstance(v, bool),
-            f"scenario parameter {name} must be a number, got {v!r}",
+            f"scenario parameter {name} must be a number, got {shown(v)}",
         )
-        check(finite(v), f"scenario parameter {name} must be finite, got {v!r}")
+        check(finite(v), f"scenario parameter {name} must be finite, got {shown(v)}")
     elif kind is str:
-        check(isinstance(v, str), f"scenario parameter {name} must be a string, got {v!r}")
+        check(isinstance(v, str), f"scenario parameter {name} must be a string, got {shown(v)}")
         choices = field.metadata.get("choices")
         if choices:
             check(v in choices, f"unknown {name} {v!r}; valid: {', '.join(choices)}")
     elif kind is bool:
-        check(isinstance(v, bool), f"scenario parameter {name} must be True or False, got {v!r}")
+        check(isinstance(v, bool), f"scenario parameter {name} must be True or False, got {shown(v)}")
     elif kind is tuple:
-        check(isinstance(v, tuple), f"scenario parameter {name} must be a tuple (or list), got {v!r}")
+        check(isinstance(v, tuple), f"scenario parameter {name} must be a tuple (or list), got {shown(v)}")
     if kind in (int, float):
-        check(in_range(field, v), f"scenario parameter {name} must be in {range_text(field)}, got {v!r}")
+        check(in_range(field, v), f"scenario parameter {name} must be in {range_text(field)}, got {shown(v)}")
 
 
 def coerce(field: dataclasses.Field, v: Any) -> Any:
@@ -136,7 +142,10 @@ def coerce(field: dataclasses.Field, v: Any) -> Any:
     if kind is int and isinstance(v, numbers.Integral) and not isinstance(v, bool):
         return int(v)
     if kind is float and isinstance(v, numbers.Real) and not isinstance(v, bool):
-        return float(v)
+        try:
+            return float(v)
+        except OverflowError:  # an int beyond a float (10**400): check_field refuses it as not finite
+            return v
     if kind is tuple and isinstance(v, list):
         return tuple(tuple(x) if isinstance(x, list) else x for x in v)
     return v

@@ -39,7 +39,9 @@ class Timing(Section):
         open_low=True,
         doc="one decision step = one acoustic cycle (Gao & Chitre: 20 s)",
     )
-    substep_s: float = param(1.0, unit="s", low=0, high=60.0, open_low=True, doc="integration step inside a cycle")
+    substep_s: float = param(
+        1.0, unit="s", low=1e-3, high=60.0, doc="integration step inside a cycle (>= 1 ms: finer steps overflow the step count)"
+    )
     max_cycles: int = param(400, low=1, high=100000, doc="truncation")
     mission_duration_s: float = param(
         0.0, unit="s", low=0.0, high=1000000.0, doc="> 0: the survey's mission also ends after this time"
@@ -99,7 +101,7 @@ class SurveyPath(Section):
     )
     survey_origin_m: tuple = param((0.0, 0.0), unit="m", doc="south-west corner of the survey area")
     survey_area_m: tuple = param((130.0, 100.0), unit="m", doc="east extent, north extent")
-    lawnmower_spacing_m: float = param(25.0, unit="m", low=0, high=10000.0, open_low=True, doc="track spacing")
+    lawnmower_spacing_m: float = param(25.0, unit="m", low=0.1, high=10000.0, doc="track spacing")
     depth_m: float = param(5.0, unit="m", low=0.0, high=6000.0, doc="mission depth (start depth of a spiral)")
     spiral_end_depth_m: float = param(
         0.0, unit="m", low=0.0, high=6000.0, doc="spiral: depth at the end; <= depth_m means depth_m + 20"
@@ -162,18 +164,16 @@ class SurveyVehicle(Section):
     )
     survey_drag_coefficient: float = param(
         0.42,
-        low=0,
+        low=1e-3,
         high=10.0,
-        open_low=True,
         source="reference-values.md §1",
         doc="Allen et al. 2000, ref-values section 1",
     )
     survey_cross_section_m2: float = param(
         0.0284,
         unit="m²",
-        low=0,
+        low=1e-4,
         high=100.0,
-        open_low=True,
         source="reference-values.md §1",
         doc="REMUS frontal area, ref-values section 1",
     )
@@ -741,9 +741,8 @@ class River(Section):
     river_width_m: float = param(
         150.0,
         unit="m",
-        low=0,
+        low=1.0,
         high=10000.0,
-        open_low=True,
         source="assumption [U]",
         doc=(
             'mission_frame="world": bank to bank; a boat farther than half of it from the centerline is on the bank [U]'
