@@ -140,6 +140,13 @@ class Simulator(BatchSimulator):
         self.reward_weights = term_weights(c, self.reward_terms)
         self.state: SimState | None = None
 
+    @property
+    def _live(self) -> SimState:
+        """The state, after ``reset`` (``state`` is None before the first one)."""
+        st = self.state
+        assert st is not None, "Simulator: call reset() before stepping or observing"
+        return st
+
     def _build_paths(self) -> None:
         """The path library: one (survey_path, depth_m) variant per combination of the
         randomization choices (just the scenario's own path without randomization), padded
@@ -372,7 +379,7 @@ class Simulator(BatchSimulator):
 
     def _cycle_draws(self, cycle) -> dict:
         """This cycle's random numbers for every environment, by purpose: name -> (B, *shape)."""
-        return self._draws.draw(self.state.keys, cycle)
+        return self._draws.draw(self._live.keys, cycle)
 
     # ------------------------------------------------------------------------------
     def command_velocity(self, actions: np.ndarray) -> np.ndarray:
@@ -393,7 +400,7 @@ class Simulator(BatchSimulator):
         ``channel_mode="decide"`` (B, N, 3), the third component > 0 to transmit this
         slot (a (B, N, 2) action transmits every slot, the fixed clock). The numbered
         steps are the module docstring's."""
-        st = self.state
+        st = self._live
         draws = self._cycle_draws(st.cycle)
         transmit = self.channel.transmit_mask(actions, st.cycle) if self.channel is not None else None
         # 1. beacon motion over the cycle
@@ -426,7 +433,7 @@ class Simulator(BatchSimulator):
     def _move_beacons(self, actions: np.ndarray) -> np.ndarray:
         """Step 1: the beacons follow their commanded velocity through the sub-steps;
         returns their true horizontal displacement over the cycle, complex (B, N)."""
-        st = self.state
+        st = self._live
         b_start = st.b_pos[..., 0] + 1j * st.b_pos[..., 1]
         self._k_beacons(
             st.b_pos,
@@ -442,7 +449,7 @@ class Simulator(BatchSimulator):
 
     def _advance_water_and_clock(self, draws: dict) -> None:
         """Step 2's end: the current's slowly varying part, exact over the cycle; the clock."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         T = c.ping_interval_s
         n_cur = draws["current"]
         st.current_gm = gauss_markov_step(
@@ -455,7 +462,7 @@ class Simulator(BatchSimulator):
         """Step 3: every survey EKF predicted over the cycle (eq. 6, F = I, Q accumulated),
         then depth and (at the surface) GPS fused. Returns the cycle's fusion outputs,
         NaN readings counted so far."""
-        st = self.state
+        st = self._live
         B, N, S = self.batch_size, self.N, self.S
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
         fused = np.zeros((B, N, S), dtype=bool)
@@ -485,7 +492,7 @@ class Simulator(BatchSimulator):
         (or are lost); on the shared channel a survey vehicle replies once per slot if it
         decoded a ping (core/channel.py), and the beacons' pings, collisions and energy
         are counted."""
-        st = self.state
+        st = self._live
         if self.channel is None:
             self._exchange_messages(draws)
             return
@@ -501,7 +508,7 @@ class Simulator(BatchSimulator):
     def _reward(self, out: measurements.FusionOutputs, transmit, info_gain: np.ndarray):
         """Step 6: the named reward terms (B, N) and their weighted sum. ``info_gain`` (B,):
         the drop of the survey filters' log det over the acoustic updates."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         B, N = self.batch_size, self.N
         dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
         fe0, fn0, fe1, fn1 = c.geofence_m
@@ -541,7 +548,7 @@ class Simulator(BatchSimulator):
     def _ends(self):
         """Step 6: terminated (every survey path finished, or the mission time is up) and
         truncated (the cycle limit), (B,) each."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         terminated = st.s_done.all(-1)
         if c.mission_duration_s > 0:
             terminated |= st.t_s >= c.mission_duration_s - 1e-9
@@ -564,7 +571,7 @@ class Simulator(BatchSimulator):
     def _state_info(self, logdet=None) -> dict:
         """The infos that follow from the state: true horizontal errors of the filter and
         of dead reckoning (m), log det of the horizontal covariance (B, S)."""
-        st = self.state
+        st = self._live
         error_en = st.s_est[..., :2] - st.s_pos[..., :2]
         return {
             "survey_error_m": np.linalg.norm(error_en, axis=-1),
@@ -579,7 +586,7 @@ class Simulator(BatchSimulator):
         ``channel_mode="decide"`` also this cycle's ``pings`` (0 or 1), ``collisions``
         (survey vehicles at which its ping collided with another packet) and
         ``energy_J`` (transmit energy, J)."""
-        st = self.state
+        st = self._live
         info = {"beacon_error_m": np.hypot(st.b_nav_err[..., 0], st.b_nav_err[..., 1])}
         if self.channel is not None:
             info.update(pings=st.b_pings.copy(), collisions=st.b_collisions.copy(), energy_J=st.b_energy_j.copy())
@@ -587,7 +594,7 @@ class Simulator(BatchSimulator):
 
     def snapshot(self) -> Snapshot:
         """Positions, covariance and planned paths of every environment (copies)."""
-        st = self.state
+        st = self._live
         return Snapshot(
             t_s=st.t_s.copy(),
             survey_true_m=st.s_pos.copy(),
@@ -604,7 +611,7 @@ class Simulator(BatchSimulator):
     def _integrate_survey(self, draws: dict) -> None:
         """Step 2: the survey vehicles through the sub-steps (``substeps.integrate_survey``):
         guidance, eq. (1), the true motion and the dead reckoning of eq. (4)."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         noise = draws["substep"] * st.ep_noise_scale[:, None, None, None]  # (B,K,2,S): compass, pitch
         self._k_survey(
             survey_view(st),
@@ -625,7 +632,7 @@ class Simulator(BatchSimulator):
         ``beacon_surface_every_s``, or when the own std exceeds ``beacon_surface_above_std_m``).
         ASVs: a fresh GPS fix every cycle. The variance each carries (what enters the
         survey filters' R) is the beacon's own error model, not its actual error."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         T, K, dt = c.ping_interval_s, self.K, c.substep_s
         n, u = draws["beacon_nav_n"], draws["beacon_nav_u"]
         auv = ~self._beacon_is_asv
@@ -679,7 +686,7 @@ class Simulator(BatchSimulator):
 
     def _exchange_messages(self, draws: dict) -> None:
         """Step 5 on the fixed clock: replies and positions, lost only at random."""
-        st = self.state
+        st = self._live
         self._k_messages(
             survey_view(st),
             beacon_view(st),
@@ -694,14 +701,14 @@ class Simulator(BatchSimulator):
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
         """What each beacon could know, normalized: (B, N, obs_dim). Layout: core/observation.py."""
-        st = self.state
+        st = self._live
         out = np.empty((self.batch_size, self.N, self.obs_dim))
         self._k_observe(beacon_view(st), knowledge_view(st), survey_view(st), self.params, out)
         return out.astype(np.float32)
 
     def global_state(self) -> np.ndarray:
         """The true global state for a centralized critic: (B, state_dim), normalized."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         B = self.batch_size
         L = c.position_scale_m
         major, minor, bearing = error_ellipse(st.s_P)
