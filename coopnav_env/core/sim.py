@@ -75,7 +75,7 @@ class EpisodeDraws(NamedTuple):
 class Simulator(BatchSimulator):
     """The batched coopnav core: B independent environments of one scenario."""
 
-    def __init__(self, config: ScenarioConfig, batch_size: int = 1):
+    def __init__(self, config: ScenarioConfig, batch_size: int = 1) -> None:
         if int(batch_size) < 1:
             raise ValueError(f"batch_size must be >= 1, got {batch_size!r}")
         self.config = c = config

@@ -102,7 +102,7 @@ fuse_kernel_parallel = njit(cache=True, parallel=True)(_fuse)
 class MLSArray:
     """The MLS model of one simulator: the sensor (built once, ~0.2 s) and the kernel."""
 
-    def __init__(self, sim: SensorHost):
+    def __init__(self, sim: SensorHost) -> None:
         from ..mls import MLSConfig, MLSSensor
 
         c = sim.config

@@ -230,7 +230,7 @@ CONFIG_FIELDS = (
 class ModemRanging:
     """The modem model of one simulator (its scalars gathered once)."""
 
-    def __init__(self, sim: SensorHost):
+    def __init__(self, sim: SensorHost) -> None:
         c = sim.config
         scalars = [getattr(c, k) for k in CONFIG_FIELDS]
         # _make: the fields by position, which mypy cannot count through the starred floats
@@ -252,7 +252,7 @@ class ModemRanging:
         ``channel_mode="decide"`` the simulator masks by the beacons' transmit decisions."""
         return None
 
-    def fuse(self, draws: dict, out: FusionOutputs, heard: np.ndarray | None = None):
+    def fuse(self, draws: dict, out: FusionOutputs, heard: np.ndarray | None = None) -> None:
         """Fuse this cycle's ranges; ``heard`` (B, N, S): the pings the channel delivered
         (None: every ping, the fixed clock)."""
         sim = self.sim
