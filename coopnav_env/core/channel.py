@@ -56,7 +56,7 @@ from .kernel_records import beacon_view, knowledge_view, survey_view
 
 if TYPE_CHECKING:
     from ..scenarios.base import ScenarioConfig
-    from .contract import BatchedSimulator  # not .sim: sim imports this module
+    from .contract import SensorHost  # not .sim: sim imports this module
 
 
 def packet_duration_s(bits: float | np.ndarray, bit_rate_bps: float | np.ndarray) -> float | np.ndarray:
@@ -179,7 +179,7 @@ class Channel:
     durations, reply time and energy per ping gathered once; ``pings`` and ``replies``
     resolve a slot in two passes (the replies depend on which pings were decoded)."""
 
-    def __init__(self, sim: BatchedSimulator) -> None:
+    def __init__(self, sim: SensorHost) -> None:
         c = sim.config
         self.sim = sim
         self.N, self.S = sim.N, sim.S

@@ -34,6 +34,9 @@ from numpy.typing import ArrayLike
 
 from ..scenarios.base import ScenarioConfig
 
+if TYPE_CHECKING:
+    from .kernel_records import SurveyParams  # kernel_records imports only state: no cycle
+
 
 @dataclass
 class StepResult:
@@ -122,6 +125,37 @@ class BatchedSimulator(Protocol):
     def snapshot(self) -> Snapshot: ...
 
     def episode_variants(self) -> np.ndarray: ...
+
+
+class SensorHost(Protocol):
+    """What the survey network's acoustic sensors (``core.measurements``) and shared channel
+    (``core.channel``) read of their simulator, ``core.sim.Simulator``: declared here because
+    those modules must not import ``core.sim`` (it imports them). Read-only properties, so
+    that a simulator's narrower attribute types (``state: SimState | None``) conform."""
+
+    @property
+    def config(self) -> ScenarioConfig: ...
+
+    @property
+    def batch_size(self) -> int: ...
+
+    @property
+    def N(self) -> int: ...
+
+    @property
+    def S(self) -> int: ...
+
+    @property
+    def state(self) -> Any: ...  # SimState after the first reset, else None
+
+    @property
+    def gate(self) -> float: ...  # the chi-square gate of every acoustic update
+
+    @property
+    def sends_current(self) -> np.ndarray: ...  # (N,) bool: beacons that send their current estimate
+
+    @property
+    def params(self) -> SurveyParams: ...  # the kernels' constants
 
 
 class BatchSimulator:

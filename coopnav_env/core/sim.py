@@ -23,14 +23,12 @@ Nothing here knows PettingZoo or Gymnasium; views live in coopnav_env/*.py.
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
 from ..scenarios.base import ScenarioConfig
-from . import channel, fusion, measurements, observation, rng, substeps
+from . import channel, episode_start, fusion, measurements, observation, rng, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
-from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, terminal_speed_mps, unit_to_bearing
+from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, unit_to_bearing
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
 from .kernel_records import SurveyParams, beacon_view, knowledge_view, survey_view
@@ -54,28 +52,10 @@ INFO_KEYS = (
 BEACON_INFO_KEYS = ("beacon_error_m",)  # and the channel model's (core.channel registry)
 
 
-class EpisodeDraws(NamedTuple):
-    """An episode's random numbers at reset, by purpose, (B, ...): the episode stream
-    ``rng.STREAM_EPISODE`` and the streams added after it (each its own, so scenarios
-    without them keep their numbers)."""
-
-    ns: np.ndarray  # (B,S,4) normals: survey estimate east/north, speed scale, compass bias
-    nb: np.ndarray  # (B,N,4) normals: beacon nav error east/north, current error east/north
-    n_clock: np.ndarray  # (B,S,N) normals: OWTT clock offsets
-    nw: np.ndarray  # (B,3) normals: temperature, Gauss-Markov current east/north
-    n_dvl: np.ndarray  # (B,N,2) normals: the beacons' DVL scale error and heading bias
-    u_bearing: np.ndarray  # (B,N) uniforms: the beacons' start bearings
-    u_current: np.ndarray  # (B,2) uniforms: the current's speed and direction
-    u_clock: np.ndarray  # (B,S,N) uniforms: clock drifts
-    u_dvl_phase: np.ndarray  # (B,N) uniforms: phase of the DVL heading error's one-cycle part
-    variant: np.ndarray  # (B,) int: index into Simulator.variants (domain randomization)
-    noise_scale: np.ndarray  # (B,) factor on the sensor and range noise levels
-
-
 class Simulator(BatchSimulator):
     """The batched coopnav core: B independent environments of one scenario."""
 
-    def __init__(self, config: ScenarioConfig, batch_size: int = 1):
+    def __init__(self, config: ScenarioConfig, batch_size: int = 1) -> None:
         if int(batch_size) < 1:
             raise ValueError(f"batch_size must be >= 1, got {batch_size!r}")
         self.config = c = config
@@ -139,6 +119,13 @@ class Simulator(BatchSimulator):
         self.reward_terms = terms_for(c, "survey_beacons")  # this network's registered terms (core.reward)
         self.reward_weights = term_weights(c, self.reward_terms)
         self.state: SimState | None = None
+
+    @property
+    def _live(self) -> SimState:
+        """The state, after ``reset`` (``state`` is None before the first one)."""
+        st = self.state
+        assert st is not None, "Simulator: call reset() before stepping or observing"
+        return st
 
     def _build_paths(self) -> None:
         """The path library: one (survey_path, depth_m) variant per combination of the
@@ -213,9 +200,9 @@ class Simulator(BatchSimulator):
         """Every environment's state at the start of an episode seeded with ``seeds`` (B,)."""
         B = len(seeds)
         keys = rng.env_keys(seeds)
-        ep = self._episode_draws(keys)
-        survey = self._survey_start(ep)
-        beacons = self._beacon_start(ep, survey["s_pos"])
+        ep = episode_start.episode_draws(self, keys)
+        survey = episode_start.survey_start(self, ep)
+        beacons = episode_start.beacon_start(self, ep, survey["s_pos"])
         return SimState(
             t_s=np.zeros(B),
             cycle=np.zeros(B, dtype=np.int64),
@@ -224,155 +211,13 @@ class Simulator(BatchSimulator):
             ep_noise_scale=ep.noise_scale,
             **survey,
             **beacons,
-            **self._water_and_clocks(ep),
-            **self._knowledge_start(survey, beacons),
+            **episode_start.water_and_clocks(self, ep),
+            **episode_start.knowledge_start(self, survey, beacons),
         )
-
-    def _episode_draws(self, keys: np.ndarray) -> EpisodeDraws:
-        """The episode's random numbers for environments with ``keys`` (B,)."""
-        c, S, N = self.config, self.S, self.N
-        B = len(keys)
-        zero = np.zeros(B, dtype=np.int64)
-        n_ep = rng.normal(keys, rng.STREAM_EPISODE, zero, (S * 4 + N * 4 + S * N + 3,))
-        u_ep = rng.uniform(keys, rng.STREAM_EPISODE + 100, zero, (N + 2 + S * N,))
-        # the beacons' DVL heading bias and scale error: their own stream (added later)
-        n_dvl = rng.normal(keys, rng.STREAM_EPISODE + 300, zero, (2 * N,)).reshape(B, N, 2)
-        # domain randomization: its own stream, so scenarios without it keep their numbers
-        u_dr = rng.uniform(keys, rng.STREAM_EPISODE + 200, zero, (2,))
-        variant = np.minimum((u_dr[:, 0] * len(self.variants)).astype(np.int64), len(self.variants) - 1)
-        lo, hi = c.randomize_noise_scale or (1.0, 1.0)
-        return EpisodeDraws(
-            ns=n_ep[:, : S * 4].reshape(B, S, 4),
-            nb=n_ep[:, S * 4 : S * 4 + N * 4].reshape(B, N, 4),
-            n_clock=n_ep[:, S * 4 + N * 4 : S * 4 + N * 4 + S * N].reshape(B, S, N),
-            nw=n_ep[:, -3:],
-            n_dvl=n_dvl,
-            u_bearing=u_ep[:, :N],
-            u_current=u_ep[:, N : N + 2],
-            u_clock=u_ep[:, N + 2 :].reshape(B, S, N),
-            u_dvl_phase=rng.uniform(keys, rng.STREAM_EPISODE + 301, zero, (N,)),
-            variant=variant,
-            noise_scale=lo + (hi - lo) * u_dr[:, 1],
-        )
-
-    def _survey_start(self, ep: EpisodeDraws) -> dict:
-        """The survey vehicles' fields of the initial state (``SimState.s_*``): at their
-        path's first waypoint, heading along the first leg at the terminal speed of eq. (1),
-        the EKF started from an estimate off by ``initial_position_std_m``."""
-        c = self.config
-        B, S = len(ep.variant), self.S
-        wp = self._paths[ep.variant].copy()
-        hover = self._hover[ep.variant]
-        start = wp[:, :, 0]
-        first_leg = wp[:, :, 1, :2] - wp[:, :, 0, :2]
-        heading = np.where(
-            np.abs(first_leg[..., 0] + 1j * first_leg[..., 1]) > 0, first_leg[..., 0] + 1j * first_leg[..., 1], 1j
-        )
-        heading = heading / np.abs(heading)
-        thrust = np.where(hover, 0.0, c.survey_thrust_percent / 100.0 * c.max_thrust_n)
-        sigma0 = c.initial_position_std_m
-        est = start.copy()
-        est[..., :2] += sigma0 * ep.ns[..., :2]
-        P0 = np.zeros((B, S, 3, 3))
-        P0[..., 0, 0] = P0[..., 1, 1] = sigma0**2
-        P0[..., 2, 2] = max(c.depth_noise_m, 0.01) ** 2
-        scale = ep.noise_scale[:, None]
-        return {
-            "s_pos": start.copy(),
-            "s_heading": heading,
-            "s_speed_model_mps": terminal_speed_mps(thrust, self.params.drag_k),
-            "s_speed_scale": 1.0 + c.survey_speed_scale_error_std * scale * ep.ns[..., 2],
-            "s_thrust_n": thrust,
-            "s_compass_bias_rad": np.radians(c.compass_bias_std_deg) * scale * ep.ns[..., 3],
-            "s_vel_true": np.zeros((B, S, 3)),
-            "s_vel_est": np.zeros((B, S, 3)),
-            "s_waypoints": wp,
-            "s_n_waypoints": self._n_wp[ep.variant],
-            "s_wp_index": np.ones((B, S), dtype=np.int64),
-            "s_hover": hover,
-            "s_done": np.zeros((B, S), dtype=bool),
-            "s_est": est,
-            "s_P": P0,
-            "s_dr": est.copy(),
-            "s_last_range_t_s": np.zeros((B, S)),
-            "s_rejected_streak": np.zeros((B, S), dtype=np.int64),
-            "s_current_est": np.zeros((B, S), dtype=complex),
-        }
-
-    def _beacon_start(self, ep: EpisodeDraws, start: np.ndarray) -> dict:
-        """The beacons' fields of the initial state (``SimState.b_*``): around the survey's
-        start point ``start`` (B, S, 3), facing it, with their own navigation error and its
-        DVL error model drawn."""
-        c = self.config
-        B, N = len(ep.variant), self.N
-        bearing = (
-            np.radians(c.beacon_start_bearing_deg)
-            + np.radians(c.beacon_start_bearing_spread_deg) * (2 * ep.u_bearing - 1)
-            + 2 * np.pi * np.arange(N) / N
-        )
-        b_pos = np.zeros((B, N, 3))
-        b_h = (
-            start[:, :1, 0]
-            + 1j * start[:, :1, 1]
-            + self._beacon_start_distance_m[ep.variant] * bearing_to_unit(bearing)
-        )
-        b_pos[..., 0], b_pos[..., 1], b_pos[..., 2] = b_h.real, b_h.imag, self._beacon_depth
-        to_survey = (start[:, :1, 0] + 1j * start[:, :1, 1]) - b_h
-        b_std0 = np.where(self._beacon_is_asv, c.gps_noise_m, 1.0)
-        b_err = np.zeros((B, N, 3))
-        b_err[..., :2] = b_std0[:, None] * ep.nb[..., :2]
-        return {
-            "b_pos": b_pos,
-            "b_heading": to_survey / np.maximum(np.abs(to_survey), 1e-9),
-            "b_vel": np.zeros((B, N, 3)),
-            "b_nav_err": b_err,
-            "b_nav_var_m2": np.broadcast_to(b_std0**2, (B, N)).copy(),
-            "b_walk_var_m2": np.broadcast_to(b_std0**2, (B, N)).copy(),
-            "b_unlocked_s": np.zeros((B, N)),
-            "b_dvl_lock": np.ones((B, N), dtype=bool),
-            "b_current_err": c.beacon_current_estimate_error_mps * (ep.nb[..., 2] + 1j * ep.nb[..., 3]),
-            "b_dvl_scale_error": c.beacon_dvl_scale_error_std * ep.n_dvl[..., 0],
-            "b_dvl_heading_bias_rad": np.radians(c.beacon_dvl_heading_bias_std_deg) * ep.n_dvl[..., 1],
-            "b_dvl_heading_phase_rad": 2.0 * np.pi * ep.u_dvl_phase,
-            "b_travelled_m": np.zeros((B, N)),
-            "b_fix_est": (b_pos[..., 0] + b_err[..., 0]) + 1j * (b_pos[..., 1] + b_err[..., 1]),
-            "b_since_fix_s": np.zeros((B, N)),
-            "b_surfacings": np.zeros((B, N), dtype=np.int64),
-            "b_pings": np.zeros((B, N), dtype=np.int64),
-            "b_collisions": np.zeros((B, N), dtype=np.int64),
-            "b_energy_j": np.zeros((B, N)),
-        }
-
-    def _water_and_clocks(self, ep: EpisodeDraws) -> dict:
-        """The episode's water (temperature, current) and the OWTT clocks of the initial state."""
-        c = self.config
-        cur_speed = np.maximum(c.current_speed_mps + c.current_speed_spread_mps * (2 * ep.u_current[:, 0] - 1), 0.0)
-        cur_dir = np.radians(c.current_direction_deg + c.current_direction_spread_deg * (2 * ep.u_current[:, 1] - 1))
-        return {
-            "clock_offset_s": c.clock_offset_std_s * ep.n_clock,
-            "clock_drift": c.clock_drift_ppm * 1e-6 * (2 * ep.u_clock - 1),
-            "temperature_c": c.water_temperature_c + c.temperature_uncertainty_c * ep.nw[:, 0],
-            "current_mean": cur_speed * bearing_to_unit(cur_dir),
-            "current_gm": c.current_gm_std_mps * (ep.nw[:, 1] + 1j * ep.nw[:, 2]),
-        }
-
-    def _knowledge_start(self, survey: dict, beacons: dict) -> dict:
-        """What each beacon knows at the start (``SimState.k_*``): every survey vehicle's
-        initial estimate and covariance, every peer's initial position estimate."""
-        est, P0 = survey["s_est"], survey["s_P"]
-        B, N, S = est.shape[0], self.N, self.S
-        return {
-            "k_est": np.broadcast_to(est[:, None], (B, N, S, 3)).copy(),
-            "k_P": np.broadcast_to(P0[:, None, :, :2, :2], (B, N, S, 2, 2)).copy(),
-            "k_wp_index": np.ones((B, N, S), dtype=np.int64),
-            "k_age_s": np.zeros((B, N, S)),
-            "k_range_age_s": np.zeros((B, N, S)),
-            "k_peer": np.broadcast_to((beacons["b_pos"] + beacons["b_nav_err"])[:, None], (B, N, N, 3)).copy(),
-        }
 
     def _cycle_draws(self, cycle) -> dict:
         """This cycle's random numbers for every environment, by purpose: name -> (B, *shape)."""
-        return self._draws.draw(self.state.keys, cycle)
+        return self._draws.draw(self._live.keys, cycle)
 
     # ------------------------------------------------------------------------------
     def command_velocity(self, actions: np.ndarray) -> np.ndarray:
@@ -393,7 +238,7 @@ class Simulator(BatchSimulator):
         ``channel_mode="decide"`` (B, N, 3), the third component > 0 to transmit this
         slot (a (B, N, 2) action transmits every slot, the fixed clock). The numbered
         steps are the module docstring's."""
-        st = self.state
+        st = self._live
         draws = self._cycle_draws(st.cycle)
         transmit = self.channel.transmit_mask(actions, st.cycle) if self.channel is not None else None
         # 1. beacon motion over the cycle
@@ -426,7 +271,7 @@ class Simulator(BatchSimulator):
     def _move_beacons(self, actions: np.ndarray) -> np.ndarray:
         """Step 1: the beacons follow their commanded velocity through the sub-steps;
         returns their true horizontal displacement over the cycle, complex (B, N)."""
-        st = self.state
+        st = self._live
         b_start = st.b_pos[..., 0] + 1j * st.b_pos[..., 1]
         self._k_beacons(
             st.b_pos,
@@ -442,7 +287,7 @@ class Simulator(BatchSimulator):
 
     def _advance_water_and_clock(self, draws: dict) -> None:
         """Step 2's end: the current's slowly varying part, exact over the cycle; the clock."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         T = c.ping_interval_s
         n_cur = draws["current"]
         st.current_gm = gauss_markov_step(
@@ -455,7 +300,7 @@ class Simulator(BatchSimulator):
         """Step 3: every survey EKF predicted over the cycle (eq. 6, F = I, Q accumulated),
         then depth and (at the surface) GPS fused. Returns the cycle's fusion outputs,
         NaN readings counted so far."""
-        st = self.state
+        st = self._live
         B, N, S = self.batch_size, self.N, self.S
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
         fused = np.zeros((B, N, S), dtype=bool)
@@ -485,7 +330,7 @@ class Simulator(BatchSimulator):
         (or are lost); on the shared channel a survey vehicle replies once per slot if it
         decoded a ping (core/channel.py), and the beacons' pings, collisions and energy
         are counted."""
-        st = self.state
+        st = self._live
         if self.channel is None:
             self._exchange_messages(draws)
             return
@@ -501,7 +346,7 @@ class Simulator(BatchSimulator):
     def _reward(self, out: measurements.FusionOutputs, transmit, info_gain: np.ndarray):
         """Step 6: the named reward terms (B, N) and their weighted sum. ``info_gain`` (B,):
         the drop of the survey filters' log det over the acoustic updates."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         B, N = self.batch_size, self.N
         dist = np.linalg.norm(st.s_pos[:, None, :, :] - st.b_pos[:, :, None, :], axis=-1)  # (B,N,S)
         fe0, fn0, fe1, fn1 = c.geofence_m
@@ -541,7 +386,7 @@ class Simulator(BatchSimulator):
     def _ends(self):
         """Step 6: terminated (every survey path finished, or the mission time is up) and
         truncated (the cycle limit), (B,) each."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         terminated = st.s_done.all(-1)
         if c.mission_duration_s > 0:
             terminated |= st.t_s >= c.mission_duration_s - 1e-9
@@ -564,7 +409,7 @@ class Simulator(BatchSimulator):
     def _state_info(self, logdet=None) -> dict:
         """The infos that follow from the state: true horizontal errors of the filter and
         of dead reckoning (m), log det of the horizontal covariance (B, S)."""
-        st = self.state
+        st = self._live
         error_en = st.s_est[..., :2] - st.s_pos[..., :2]
         return {
             "survey_error_m": np.linalg.norm(error_en, axis=-1),
@@ -579,7 +424,7 @@ class Simulator(BatchSimulator):
         ``channel_mode="decide"`` also this cycle's ``pings`` (0 or 1), ``collisions``
         (survey vehicles at which its ping collided with another packet) and
         ``energy_J`` (transmit energy, J)."""
-        st = self.state
+        st = self._live
         info = {"beacon_error_m": np.hypot(st.b_nav_err[..., 0], st.b_nav_err[..., 1])}
         if self.channel is not None:
             info.update(pings=st.b_pings.copy(), collisions=st.b_collisions.copy(), energy_J=st.b_energy_j.copy())
@@ -587,7 +432,7 @@ class Simulator(BatchSimulator):
 
     def snapshot(self) -> Snapshot:
         """Positions, covariance and planned paths of every environment (copies)."""
-        st = self.state
+        st = self._live
         return Snapshot(
             t_s=st.t_s.copy(),
             survey_true_m=st.s_pos.copy(),
@@ -604,7 +449,7 @@ class Simulator(BatchSimulator):
     def _integrate_survey(self, draws: dict) -> None:
         """Step 2: the survey vehicles through the sub-steps (``substeps.integrate_survey``):
         guidance, eq. (1), the true motion and the dead reckoning of eq. (4)."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         noise = draws["substep"] * st.ep_noise_scale[:, None, None, None]  # (B,K,2,S): compass, pitch
         self._k_survey(
             survey_view(st),
@@ -625,7 +470,7 @@ class Simulator(BatchSimulator):
         ``beacon_surface_every_s``, or when the own std exceeds ``beacon_surface_above_std_m``).
         ASVs: a fresh GPS fix every cycle. The variance each carries (what enters the
         survey filters' R) is the beacon's own error model, not its actual error."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         T, K, dt = c.ping_interval_s, self.K, c.substep_s
         n, u = draws["beacon_nav_n"], draws["beacon_nav_u"]
         auv = ~self._beacon_is_asv
@@ -679,7 +524,7 @@ class Simulator(BatchSimulator):
 
     def _exchange_messages(self, draws: dict) -> None:
         """Step 5 on the fixed clock: replies and positions, lost only at random."""
-        st = self.state
+        st = self._live
         self._k_messages(
             survey_view(st),
             beacon_view(st),
@@ -694,14 +539,14 @@ class Simulator(BatchSimulator):
     # ------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
         """What each beacon could know, normalized: (B, N, obs_dim). Layout: core/observation.py."""
-        st = self.state
+        st = self._live
         out = np.empty((self.batch_size, self.N, self.obs_dim))
         self._k_observe(beacon_view(st), knowledge_view(st), survey_view(st), self.params, out)
         return out.astype(np.float32)
 
     def global_state(self) -> np.ndarray:
         """The true global state for a centralized critic: (B, state_dim), normalized."""
-        c, st = self.config, self.state
+        c, st = self.config, self._live
         B = self.batch_size
         L = c.position_scale_m
         major, minor, bearing = error_ellipse(st.s_P)

@@ -32,7 +32,7 @@ as ``draws[purpose]`` (B, *shape). The scenario's validation reads the registry
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -78,7 +78,7 @@ def register_sensor(
     name: str,
     build: Callable[[Any], Any] | str,
     *,
-    draws=(),
+    draws: Sequence[tuple] = (),
     networks: tuple = ("survey_beacons",),
     validate: Callable[[Any], None] | None = None,
     doc: str = "",

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from ..contract import BatchSimulator
+from ..contract import SensorHost
 from ..kernel_records import beacon_view, survey_view
 from ..navigation import gated_update, gated_update_residual, range_prediction
 from . import FusionOutputs
@@ -102,7 +102,7 @@ fuse_kernel_parallel = njit(cache=True, parallel=True)(_fuse)
 class MLSArray:
     """The MLS model of one simulator: the sensor (built once, ~0.2 s) and the kernel."""
 
-    def __init__(self, sim: BatchSimulator):
+    def __init__(self, sim: SensorHost) -> None:
         from ..mls import MLSConfig, MLSSensor
 
         c = sim.config
@@ -169,6 +169,6 @@ class MLSArray:
         self.kernel(survey_view(st), beacon_view(st), self.measure(draws), st.t_s, self.sim.gate, out)
 
 
-def build(sim: BatchSimulator) -> MLSArray:
+def build(sim: SensorHost) -> MLSArray:
     """The MLS model of simulator ``sim`` (``measurements.build``)."""
     return MLSArray(sim)

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
-from ..contract import BatchSimulator
+from ..contract import SensorHost
 from ..kernel_records import beacon_view, survey_view
 from ..navigation import gated_update, range_prediction, reinit_on_range
 from . import FusionOutputs
@@ -230,33 +230,37 @@ CONFIG_FIELDS = (
 class ModemRanging:
     """The modem model of one simulator (its scalars gathered once)."""
 
-    def __init__(self, sim: BatchSimulator):
+    def __init__(self, sim: SensorHost) -> None:
         c = sim.config
         scalars = [getattr(c, k) for k in CONFIG_FIELDS]
-        self.params = ModemParams(
-            int(scalars[0]),
-            c.ranging_mode == "twtt",
-            *(float(v) for v in scalars[2:]),
-            float(sim.gate),
-            np.asarray(sim.sends_current, dtype=bool),
+        # _make: the fields by position, which mypy cannot count through the starred floats
+        self.params = ModemParams._make(
+            [
+                int(scalars[0]),
+                c.ranging_mode == "twtt",
+                *(float(v) for v in scalars[2:]),
+                float(sim.gate),
+                np.asarray(sim.sends_current, dtype=bool),
+            ]
         )
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
         self.sim = sim
-        self._all_heard = None
+        self._all_heard: np.ndarray | None = None  # (B, N, S) all True, kept across cycles
 
     def heard_mask(self, cycle: np.ndarray) -> np.ndarray | None:
         """(B, N): beacons that ping this cycle: all of them (None). With
         ``channel_mode="decide"`` the simulator masks by the beacons' transmit decisions."""
         return None
 
-    def fuse(self, draws: dict, out: FusionOutputs, heard: np.ndarray | None = None):
+    def fuse(self, draws: dict, out: FusionOutputs, heard: np.ndarray | None = None) -> None:
         """Fuse this cycle's ranges; ``heard`` (B, N, S): the pings the channel delivered
         (None: every ping, the fixed clock)."""
         sim = self.sim
         if heard is None:
-            if self._all_heard is None or self._all_heard.shape[0] != sim.batch_size:
-                self._all_heard = np.ones((sim.batch_size, sim.N, sim.S), dtype=bool)
-            heard = self._all_heard
+            all_heard = self._all_heard
+            if all_heard is None or all_heard.shape[0] != sim.batch_size:
+                all_heard = self._all_heard = np.ones((sim.batch_size, sim.N, sim.S), dtype=bool)
+            heard = all_heard
         c, st = sim.config, sim.state
         cyc = ModemCycle(
             st.t_s,
@@ -272,6 +276,6 @@ class ModemRanging:
         self.kernel(survey_view(st), beacon_view(st), cyc, self.params, out)
 
 
-def build(sim: BatchSimulator) -> ModemRanging:
+def build(sim: SensorHost) -> ModemRanging:
     """The modem model of simulator ``sim`` (``measurements.build``)."""
     return ModemRanging(sim)
