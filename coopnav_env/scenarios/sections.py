@@ -40,7 +40,7 @@ class Timing(Section):
         doc="one decision step = one acoustic cycle (Gao & Chitre: 20 s)",
     )
     substep_s: float = param(
-        1.0, unit="s", low=1e-3, high=60.0, doc="integration step inside a cycle (>= 1 ms: finer steps overflow the step count)"
+        1.0, unit="s", low=1e-3, high=60.0, doc="integration step inside a cycle (>= 1 ms: finer steps overflow)"
     )
     max_cycles: int = param(400, low=1, high=100000, doc="truncation")
     mission_duration_s: float = param(
