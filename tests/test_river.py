@@ -107,7 +107,7 @@ def test_observation_of_the_frame_mission_is_unchanged_and_the_river_adds_five()
         (dict(mission_frame="earth"), "mission_frame 'earth'; valid: frame, world"),
         (dict(river_centerline_m=()), "river_centerline_m must hold 2 to"),
         (dict(river_centerline_m=((0.0, 0.0), (0.0, 0.0))), "river_centerline_m must not repeat"),
-        (dict(river_width_m=0.0), "river_width_m must be in (0, 10000]"),
+        (dict(river_width_m=0.0), "river_width_m must be in [1, 10000]"),
     ],
 )
 def test_river_parameters_are_validated(override, message):
