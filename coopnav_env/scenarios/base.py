@@ -30,13 +30,12 @@ from .sections import (
     AREA_LIMIT_M,
     BEACON_KINDS,
     CHANNEL_MODES,
-    MAX_RIVER_POINTS,
     MAX_WAYPOINTS,
-    MISSION_FRAMES,
     NETWORKS,
     RANGING_MODES,
     SURVEY_PATHS,
 )
+from .sections_moving import MAX_RIVER_POINTS, MISSION_FRAMES
 from .validate import SLOWEST_SOUND_SPEED_MPS, waypoint_count
 
 

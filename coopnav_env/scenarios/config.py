@@ -22,6 +22,8 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 from . import sections as S
+from . import sections_link as L
+from . import sections_moving as M
 from .params import check
 from .validate import validate
 
@@ -48,14 +50,14 @@ SECTIONS = (
     SectionSpec("asv", S.ASV, SURVEY),
     SectionSpec("beacon_start", S.BeaconStart, SURVEY),
     SectionSpec("acoustics", S.Acoustics),
-    SectionSpec("modem", S.Modem),
-    SectionSpec("mls", S.MLSSensor, (("acoustic_sensor", "mls"),)),
-    SectionSpec("channel", S.Channel, (("channel_mode", "decide"),)),
+    SectionSpec("modem", L.Modem),
+    SectionSpec("mls", L.MLSSensor, (("acoustic_sensor", "mls"),)),
+    SectionSpec("channel", L.Channel, (("channel_mode", "decide"),)),
     SectionSpec("current", S.Current),
     SectionSpec("reward", S.Reward),
-    SectionSpec("boat", S.Boat, MOVING),
-    SectionSpec("moving", S.MovingNetwork, MOVING),
-    SectionSpec("river", S.River, MOVING + (("mission_frame", "world"),)),
+    SectionSpec("boat", M.Boat, MOVING),
+    SectionSpec("moving", M.MovingNetwork, MOVING),
+    SectionSpec("river", M.River, MOVING + (("mission_frame", "world"),)),
     SectionSpec("randomization", S.Randomization, SURVEY),
     SectionSpec("observation", S.Observation),
 )
@@ -95,14 +97,14 @@ class ScenarioConfig:
     asv: S.ASV | None = None
     beacon_start: S.BeaconStart | None = None
     acoustics: S.Acoustics | None = None
-    modem: S.Modem | None = None
-    mls: S.MLSSensor | None = None
-    channel: S.Channel | None = None
+    modem: L.Modem | None = None
+    mls: L.MLSSensor | None = None
+    channel: L.Channel | None = None
     current: S.Current | None = None
     reward: S.Reward | None = None
-    boat: S.Boat | None = None
-    moving: S.MovingNetwork | None = None
-    river: S.River | None = None
+    boat: M.Boat | None = None
+    moving: M.MovingNetwork | None = None
+    river: M.River | None = None
     randomization: S.Randomization | None = None
     observation: S.Observation | None = None
 
