@@ -232,6 +232,12 @@ def penalties(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> 
     return out
 
 
+def has_hooks(names: Iterable[str]) -> bool:
+    """Whether any of the terms ``names`` is computed by a ``compute`` hook (a simulator
+    builds the hooks' ``TermContext`` only then: the built-in terms need none)."""
+    return any(_TERMS[name].compute is not None for name in names)
+
+
 def collect_terms(
     names: Iterable[str], arrays: Mapping[str, np.ndarray], ctx: TermContext, shape: tuple
 ) -> dict[str, np.ndarray]:

@@ -33,7 +33,7 @@ from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
 from .kernel_records import SurveyParams, beacon_view, knowledge_view, survey_view
 from .navigation import gate_threshold, predict
-from .reward import TermContext, collect_terms, term_weights, terms_for, weighted_reward
+from .reward import TermContext, collect_terms, has_hooks, term_weights, terms_for, weighted_reward
 from .state import SimState
 
 INFO_KEYS = (
@@ -117,6 +117,7 @@ class Simulator(BatchSimulator):
         self.action_dim = model.action_dim
         self.beacon_info_keys = BEACON_INFO_KEYS + model.beacon_info_keys
         self.reward_terms = terms_for(c, "survey_beacons")  # this network's registered terms (core.reward)
+        self._term_hooks = has_hooks(self.reward_terms)  # a plug-in term computed in Python: build its context
         self.reward_weights = term_weights(c, self.reward_terms)
         self.state: SimState | None = None
 
@@ -367,18 +368,22 @@ class Simulator(BatchSimulator):
         }
         if self.channel is not None:
             arrays["ping"] = transmit.astype(float)
-        ctx = TermContext(
-            sim=self,
-            config=c,
-            state=st,
-            arrays={
-                "fused": out.fused,
-                "rejected": out.rejected,
-                "lost": out.lost,
-                "transmit": transmit,
-                "dist": dist,
-                "info_gain": info_gain,
-            },
+        ctx = (
+            TermContext()
+            if not self._term_hooks
+            else TermContext(
+                sim=self,
+                config=c,
+                state=st,
+                arrays={
+                    "fused": out.fused,
+                    "rejected": out.rejected,
+                    "lost": out.lost,
+                    "transmit": transmit,
+                    "dist": dist,
+                    "info_gain": info_gain,
+                },
+            )
         )
         terms = collect_terms(self.reward_terms, arrays, ctx, (B, N))
         return weighted_reward(terms, self.reward_weights), terms

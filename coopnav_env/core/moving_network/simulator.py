@@ -25,7 +25,7 @@ from ..observation import (  # the survey network's age scale and bound
     AGE_SCALE_PINGS,
     OBS_BOUND,
 )
-from ..reward import TermContext, collect_terms, term_weights, terms_for, weighted_reward
+from ..reward import TermContext, collect_terms, has_hooks, term_weights, terms_for, weighted_reward
 from ..sim import BEACON_INFO_KEYS
 from .cycle import cycle, cycle_parallel
 from .initial import initial_state
@@ -79,6 +79,7 @@ class MovingNetworkSimulator(BatchSimulator):
         self.beacon_info_keys = BEACON_INFO_KEYS
         self._world = c.mission_frame == "world"
         self.reward_terms = terms_for(c, "moving_lbl")  # this network's registered terms (core.reward)
+        self._term_hooks = has_hooks(self.reward_terms)  # a plug-in term computed in Python: build its context
         self.reward_weights = term_weights(c, self.reward_terms)
         wp, _ = build_path(c, 0)
         self._waypoints = wp  # frame (x, y, depth), or (east, north, depth) for a world mission
@@ -286,8 +287,12 @@ class MovingNetworkSimulator(BatchSimulator):
             "contact": team("contact"),
             "bank": bank,
         }
-        ctx = TermContext(
-            sim=self, config=c, state=st, arrays={"out": out, "counts": counts, "logdet": logdet, "turned": turned}
+        ctx = (
+            TermContext()
+            if not self._term_hooks
+            else TermContext(
+                sim=self, config=c, state=st, arrays={"out": out, "counts": counts, "logdet": logdet, "turned": turned}
+            )
         )
         terms = collect_terms(self.reward_terms, arrays, ctx, (B, 2))  # registered terms, in their order
         reward = weighted_reward(terms, self.reward_weights)
