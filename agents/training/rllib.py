@@ -10,10 +10,12 @@
 From Python: ``agents.training.rllib.train(RLlibConfig(...), out)``. Ray is imported
 only inside the functions here, so importing this module is cheap.
 
-Read ``train`` top to bottom: the job (configs/rllib/<scenario>.yml, else
-default.yml, as an ``RLlibConfig``) -> the RLlib ``PPOConfig`` -> Ray (a small local
-instance, or ``ray_address``) -> either one training run or a Tune grid ->
-evaluation on fixed seeds -> files.
+The parts: ``rllib_algo`` (the RLlib ``PPOConfig`` from the job),
+``rllib_checkpoints`` (the run's files), ``rllib_tune`` (a Tune grid). Read ``train``
+top to bottom: the job (configs/rllib/<scenario>.yml, else default.yml, as an
+``RLlibConfig``) -> the RLlib ``PPOConfig`` -> Ray (a small local instance, or
+``ray_address``) -> either one training run or a Tune grid -> evaluation on fixed
+seeds -> files.
 
 **The algorithm.** RLlib's PPO on the new API stack (RLModule + Learner,
 ``config.env_runners(...)``, ``config.learners(...)``), the environment the
@@ -74,19 +76,14 @@ survey error, the evaluation's survey error, the checkpoint) are written atomica
 
 from __future__ import annotations
 
-import enum
-import inspect
 import json
 import os
-import shutil
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from coopnav_env.records import atomic_append_line, atomic_write_text, read_json
+from coopnav_env.records import atomic_append_line
 
 from . import runlock
 from .common import (
@@ -101,20 +98,21 @@ from .common import (
     stop_on_signals,
     write_run_record,
 )
-from .config import ConfigError, RLlibConfig, parse_value, unknown_key_message
-from .scoring import baselines_on_eval_seeds, evaluate
+from .config import ConfigError, RLlibConfig
+from .rllib_algo import build_config, config_record, cpus_per_trial
+from .rllib_checkpoints import (
+    _last_json_line,
+    drop_lost_iterations,
+    evaluate_checkpoint,
+    metrics,
+    resumable_checkpoint,
+    save_checkpoint,
+)
+from .rllib_tune import check_tune, parse_tune, run_tune
+from .scoring import baselines_on_eval_seeds
 
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no usage reports from training runs
 
-SUMMARY_COLUMNS = [
-    "trial",
-    "env_steps",
-    "iterations",
-    "episode_return_mean",
-    "train_survey_error_m",
-    "eval_survey_error_m",
-    "checkpoint",
-]
 RAY_MISSING = '--backend rllib needs Ray RLlib, which is not installed: pip install -e ".[rllib]"'
 
 __all__ = ["build_config", "metrics", "parse_tune", "require_ray", "resume", "save_checkpoint", "train"]
@@ -253,167 +251,7 @@ def require_ray() -> None:
 
 
 # ----------------------------------------------------------------------------------
-# 1. the Tune grid
-# ----------------------------------------------------------------------------------
-def training_keywords() -> set:
-    """The keywords PPOConfig.training accepts (its own and AlgorithmConfig's)."""
-    from ray.rllib.algorithms.algorithm_config import AlgorithmConfig
-    from ray.rllib.algorithms.ppo import PPOConfig
-
-    names = set()
-    for fn in (PPOConfig.training, AlgorithmConfig.training):
-        names |= {
-            n
-            for n, p in inspect.signature(fn).parameters.items()
-            if n != "self" and p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)
-        }
-    return names
-
-
-def parse_tune(items: list) -> dict:
-    """``["lr=1e-4,3e-4", "seed=0,1,2"]`` -> ``{"lr": [1e-4, 3e-4], "seed": [0, 1, 2]}``
-    (values: numbers, or YAML such as ``[64,64],[128,128]``); checked by ``check_tune``."""
-    grid = {}
-    for item in items:
-        if "=" not in item:
-            raise ConfigError(f"--tune expects KEY=V1,V2,..., got {item!r}")
-        key, values = (s.strip() for s in item.split("=", 1))
-        if key in grid:
-            raise ConfigError(f"--tune {key} given twice")
-        grid[key] = split_values(key, values)
-    return grid
-
-
-def split_values(key: str, text: str) -> list:
-    """'1e-4,3e-4' -> [0.0001, 0.0003]; '[64,64],[128,128]' -> two lists (a YAML flow
-    sequence, its strings then read as numbers where they are)."""
-    import yaml
-
-    try:
-        items = yaml.safe_load(f"[{text}]")
-    except yaml.YAMLError:
-        raise ConfigError(f"--tune {key}: cannot read {text!r} as values") from None
-    if not text.strip() or text.strip().startswith(",") or text.strip().endswith(",") or ",," in text.replace(" ", ""):
-        raise ConfigError(f"--tune {key}: empty value in {text!r}")
-    return [parse_value(v) if isinstance(v, str) else v for v in items]
-
-
-def check_tune(grid: dict) -> dict:
-    """A grid's keys (seed or PPOConfig.training keywords) and values (none empty or
-    repeated; integer seeds), or a ``ConfigError``."""
-    if not grid:
-        return {}
-    valid = training_keywords()
-    for key, values in grid.items():
-        if key != "seed" and key not in valid:
-            raise ConfigError(
-                f"--tune {key}: not seed or a PPOConfig.training keyword (lr, gamma, lambda_, "
-                "entropy_coeff, clip_param, num_epochs, minibatch_size, ...)"
-            )
-        if not values or any(v is None or v == "" for v in values):
-            raise ConfigError(f"--tune {key}: empty value in {values!r}")
-        if len(set(map(repr, values))) != len(values):
-            raise ConfigError(f"--tune {key} repeats a value")
-        if key == "seed" and not all(isinstance(v, int) and not isinstance(v, bool) for v in values):
-            raise ConfigError(f"--tune seed takes integers, got {values!r}")
-    return {k: list(v) for k, v in grid.items()}
-
-
-# ----------------------------------------------------------------------------------
-# 2. the RLlib config
-# ----------------------------------------------------------------------------------
-def env_config(config: RLlibConfig, seed: int) -> dict:
-    from coopnav_env.vector import check_reward_terms
-
-    return {
-        "scenario": config.scenario,
-        "overrides": dict(config.env.overrides),
-        "seed": int(seed),
-        "reward_terms": check_reward_terms(config.reward),
-        "num_envs_per_env_runner": int(config.env_runners.get("num_envs_per_env_runner", 1) or 1),
-    }
-
-
-def build_config(config: RLlibConfig, seed: int | None = None) -> Any:
-    """(PPOConfig, beacon -> module map) of a job: the adapter env, one module per
-    beacon kind, the config's ``ppo``/``model``/``env_runners``/``learners`` sections.
-    ``seed``: the run's (default ``config.seed``). Bad sections are a ``ConfigError``."""
-    from ray.rllib.algorithms.ppo import PPOConfig
-    from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
-    from ray.rllib.core.rl_module.rl_module import RLModuleSpec
-
-    from coopnav_env.rllib_env import (
-        CoopNavRLlibEnv,
-        KindMapping,
-        SurveyErrorMetrics,
-        mean_std_filter,
-        module_ids,
-        module_map,
-    )
-
-    seed = config.seed if seed is None else int(seed)
-    valid = training_keywords()
-    for key in config.ppo:
-        if key not in valid:
-            raise ConfigError(unknown_key_message(key, valid, "ppo key (PPOConfig.training keyword)"))
-    env_cfg = env_config(config, seed)
-    mapping = module_map(config.scenario, env_cfg["overrides"])
-    runners = {"num_env_runners": 0, **config.env_runners}
-    if config.normalize_obs:
-        runners["env_to_module_connector"] = mean_std_filter
-    try:
-        algo_config = (
-            PPOConfig()
-            .environment(CoopNavRLlibEnv, env_config=env_cfg, disable_env_checking=True)
-            .env_runners(**runners)
-            .learners(**config.learners)
-            .training(**config.ppo)
-            .multi_agent(
-                policies=set(module_ids(mapping)),
-                policy_mapping_fn=KindMapping(mapping),
-                policies_to_train=module_ids(mapping),
-            )
-            .rl_module(
-                rl_module_spec=MultiRLModuleSpec(
-                    rl_module_specs={m: RLModuleSpec(model_config=dict(config.model)) for m in module_ids(mapping)}
-                )
-            )
-            .callbacks(SurveyErrorMetrics)
-            .debugging(seed=seed, log_level="ERROR")
-            .reporting(metrics_num_episodes_for_smoothing=100)
-        )
-        algo_config.validate()
-    except (TypeError, ValueError, KeyError, AssertionError) as err:
-        raise ConfigError(
-            f"bad RLlib hyperparameters: {' '.join(str(err).split())[:300] or type(err).__name__}"
-        ) from None
-    return algo_config, mapping
-
-
-def config_record(algo_config: Any) -> dict:
-    """The AlgorithmConfig as plain YAML-able values (callables and classes by name)."""
-
-    def clean(v):
-        if isinstance(v, enum.Enum):
-            return clean(v.value)
-        if isinstance(v, dict):
-            return {str(k): clean(x) for k, x in v.items()}
-        if isinstance(v, (list, tuple, set)):
-            return [clean(x) for x in v]
-        if v is None or isinstance(v, (bool, int, float, str)):
-            return v
-        if isinstance(v, (np.integer, np.floating)):
-            return v.item()
-        if isinstance(v, type) or callable(v):
-            return f"{getattr(v, '__module__', '?')}.{getattr(v, '__qualname__', type(v).__name__)}"
-        return repr(v)
-
-    d = algo_config.to_dict()
-    return clean({k: v for k, v in d.items() if not k.startswith("_") or k in ("_rl_module_spec",)})
-
-
-# ----------------------------------------------------------------------------------
-# 3. Ray
+# Ray
 # ----------------------------------------------------------------------------------
 def init_ray(address: str | None, config: RLlibConfig, cpus_needed: int) -> bool:
     """A small local Ray instance (the config's ``ray:``; no dashboard, no worker logs on
@@ -449,112 +287,8 @@ def init_ray(address: str | None, config: RLlibConfig, cpus_needed: int) -> bool
     return True
 
 
-def cpus_per_trial(algo_config: Any) -> int:
-    runners = int(algo_config.num_env_runners or 0)
-    return int(np.ceil(runners * float(algo_config.num_cpus_per_env_runner or 1))) + 1
-
-
 # ----------------------------------------------------------------------------------
-# 4. files
-# ----------------------------------------------------------------------------------
-def save_checkpoint(algo: Any, out: Path, meta: dict) -> Path:
-    """The Algorithm checkpoint in ``out/checkpoint``, replaced whole: written to a
-    temporary directory beside it, then renamed into place."""
-    final = out / "checkpoint"
-    tmp = out / f".checkpoint.tmp{os.getpid()}"
-    old = out / f".checkpoint.old{os.getpid()}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    algo.save_to_path(str(tmp.resolve()))
-    from agents.rllib_policy import export
-
-    export(tmp)  # policy_export/: the modules and filters as data, what agents.load reads (no pickle)
-    atomic_write_text(tmp / "coopnav.json", json.dumps(meta))
-    if final.exists():
-        os.replace(final, old)
-    os.replace(tmp, final)
-    shutil.rmtree(old, ignore_errors=True)
-    return final
-
-
-def resumable_checkpoint(out: Path) -> dict | None:
-    """The ``coopnav.json`` of ``out/checkpoint`` (None: nothing to resume from), after
-    tidying what a killed ``save_checkpoint`` may have left: if the process died between
-    its two renames (no ``checkpoint/``), the newest complete checkpoint beside it
-    (``.checkpoint.tmp*`` holds ``coopnav.json`` only once complete; ``.checkpoint.old*``
-    is a former ``checkpoint/``) is put back; the other leftovers are removed."""
-    from agents.rllib_policy import CHECKPOINT_MARKER
-
-    final = out / "checkpoint"
-    meta = read_json(final / "coopnav.json")
-    spares = [d for d in out.glob(".checkpoint.*") if d.is_dir()]
-    if meta is None and not final.exists():
-        complete = [(read_json(d / "coopnav.json"), d) for d in spares if (d / CHECKPOINT_MARKER).is_file()]
-        complete = [(m, d) for m, d in complete if m is not None]
-        if complete:
-            meta, best = max(complete, key=lambda md: int(md[0].get("iteration", 0)))
-            os.replace(best, final)
-            print(f"note: restored {final} from {best.name} (the last save was cut short)", file=sys.stderr)
-    for d in spares:
-        shutil.rmtree(d, ignore_errors=True)
-    if meta is None or "env_steps" not in meta or "iteration" not in meta:
-        return None
-    return meta
-
-
-def drop_lost_iterations(out: Path, iteration: int) -> None:
-    """Keep the lines of ``progress.jsonl`` up to ``iteration`` (the checkpoint a resumed
-    run continues from): a run killed without a last checkpoint logged iterations whose
-    training the checkpoint does not hold, and the resumed run trains them again."""
-    path = out / "progress.jsonl"
-    if not path.is_file():
-        return
-    lines = path.read_text().splitlines()
-
-    def kept(line):
-        try:
-            return int(json.loads(line)["iteration"]) <= iteration
-        except (ValueError, KeyError, TypeError):  # a line cut short by the kill
-            return False
-
-    keep = [line for line in lines if kept(line)]
-    if len(keep) != len(lines):
-        atomic_write_text(path, "".join(line + "\n" for line in keep))
-
-
-def metrics(result: dict) -> dict:
-    """The few numbers of an RLlib result that a run records."""
-    er = result.get("env_runners", {}) or {}
-
-    def num(v):
-        try:
-            v = float(v)
-        except (TypeError, ValueError):
-            return None
-        return v if np.isfinite(v) else None
-
-    steps = result.get("num_env_steps_sampled_lifetime", er.get("num_env_steps_sampled_lifetime", 0))
-    return {
-        "iteration": int(result.get("training_iteration", 0)),
-        "env_steps": int(num(steps) or 0),
-        "episode_return_mean": num(er.get("episode_return_mean")),
-        "survey_error_m": num(er.get("survey_error_m")),
-        "episodes": int(num(er.get("num_episodes_lifetime")) or 0),
-        "time_s": num(result.get("time_total_s")),
-    }
-
-
-def evaluate_checkpoint(path: str | Path, config: RLlibConfig, job: Job) -> dict | None:
-    """The deterministic policy of checkpoint ``path`` on the fixed evaluation seeds
-    (``scoring.evaluate``); None with ``eval.episodes`` 0."""
-    if config.eval.episodes <= 0:
-        return None
-    from agents.rllib_policy import batch_actor
-
-    return evaluate(batch_actor(path, job.scenario_config), job.cells, config.eval.episodes, config.eval.seed)
-
-
-# ----------------------------------------------------------------------------------
-# 5. one training run
+# one training run
 # ----------------------------------------------------------------------------------
 def run_training(algo_config: Any, out: Path, config: RLlibConfig, job: Job, restore: dict | None = None) -> int:
     """Train until ``config.timesteps`` env steps (RLlib's lifetime count), checkpointing
@@ -641,129 +375,5 @@ def finish(out: Path, m: dict, config: RLlibConfig, job: Job) -> None:
     )
 
 
-def _last_json_line(path: Path) -> dict | None:
-    try:
-        lines = path.read_text().splitlines()
-    except FileNotFoundError:
-        return None
-    for line in reversed(lines):
-        try:
-            return json.loads(line)
-        except ValueError:  # a line cut short
-            continue
-    return None
-
-
 def _metres(v) -> str:
     return "n/a" if v is None else f"{v:.3f}"
-
-
-# ----------------------------------------------------------------------------------
-# 6. a Tune grid
-# ----------------------------------------------------------------------------------
-def run_tune(algo_config: Any, grid: dict, out: Path, config: RLlibConfig, job: Job) -> int:
-    from ray import tune
-
-    param_space = algo_config.to_dict()
-    for key, values in grid.items():
-        name = "lambda" if key == "lambda_" else key
-        param_space[name] = tune.grid_search(values)
-    if "seed" in grid:  # every trial's environments from its own seed
-        base_env_config = env_config(config, config.seed)
-        # Tune calls it with the trial's spec (an object with .config), though sample_from's stub says dict
-        param_space["env_config"] = tune.sample_from(
-            lambda spec: {**base_env_config, "seed": int(spec.config["seed"])}  # type: ignore[attr-defined]
-        )
-    tuner = tune.Tuner(
-        algo_config.algo_class,
-        param_space=param_space,  # the class: the name "PPO" makes Tune import every algorithm
-        tune_config=tune.TuneConfig(
-            max_concurrent_trials=config.ray.max_concurrent_trials,
-            reuse_actors=False,
-            trial_name_creator=_trial_name,
-            trial_dirname_creator=_trial_name,
-        ),
-        run_config=tune.RunConfig(
-            name="tune",
-            storage_path=str(out.resolve()),
-            verbose=0,
-            stop={"num_env_steps_sampled_lifetime": config.timesteps},
-            checkpoint_config=tune.CheckpointConfig(checkpoint_at_end=True, num_to_keep=1),
-        ),
-    )
-    t0 = time.perf_counter()
-    results = tuner.fit()
-    print(f"tune: {len(results)} trial(s) in {time.perf_counter() - t0:.0f} s", flush=True)
-    rows = []
-    for r in sorted((results[i] for i in range(len(results))), key=lambda r: r.path):  # a ResultGrid indexes
-        trial_cfg = r.config or {}
-        row: dict[str, Any] = {"trial": Path(r.path).name}
-        for key in grid:
-            row[key] = trial_cfg.get("lambda" if key == "lambda_" else key)
-        if r.error is not None:
-            row.update(
-                {
-                    "env_steps": None,
-                    "iterations": None,
-                    "episode_return_mean": None,
-                    "train_survey_error_m": None,
-                    "eval_survey_error_m": None,
-                    "checkpoint": f"error: {' '.join(str(r.error).split())[:120]}",
-                }
-            )
-            rows.append(row)
-            continue
-        m = metrics(r.metrics or {})
-        ckpt = Path(r.checkpoint.path) if r.checkpoint is not None else None
-        if ckpt is not None:  # the trial's own checkpoint: its safe export, what agents.load reads
-            from agents.rllib_policy import export
-
-            export(ckpt)
-        evaluation = evaluate_checkpoint(ckpt, config, job) if ckpt else None
-        row.update(
-            {
-                "env_steps": m["env_steps"],
-                "iterations": m["iteration"],
-                "episode_return_mean": m["episode_return_mean"],
-                "train_survey_error_m": m["survey_error_m"],
-                "eval_survey_error_m": evaluation["survey_error_m"] if evaluation else None,
-                "checkpoint": str(ckpt.relative_to(out.resolve())) if ckpt else None,
-            }
-        )
-        rows.append(row)
-    columns = ["trial", *grid, *SUMMARY_COLUMNS[1:]]
-    write_summary(out, columns, rows)
-    print((out / "summary.md").read_text())
-    failed = [r for r in rows if str(r.get("checkpoint") or "").startswith("error")]
-    if failed:
-        print(f"{len(failed)} trial(s) failed; see {out / 'tune'}", file=sys.stderr)
-        return 1
-    return 0
-
-
-def _trial_name(trial) -> str:
-    """``trial_<index>_<grid values>`` from Tune's experiment tag, without commas (the
-    evaluation's ``--policies`` separator) or '=': ``trial_1_lr-0.0003_seed-0``."""
-    tag = str(trial.experiment_tag).replace(",", "_").replace("=", "-").replace("/", "_").replace(" ", "")
-    return f"trial_{tag}"[:120]
-
-
-def write_summary(out: Path, columns: list, rows: list) -> None:
-    """summary.csv and summary.md (the same table), each written atomically."""
-    import csv
-    import io
-
-    def cell(v):
-        if isinstance(v, float):
-            return f"{v:.6g}"
-        return "" if v is None else str(v)
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(columns)
-    for r in rows:
-        w.writerow([cell(r.get(c)) for c in columns])
-    atomic_write_text(out / "summary.csv", buf.getvalue())
-    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    lines += ["| " + " | ".join(cell(r.get(c)) for c in columns) + " |" for r in rows]
-    atomic_write_text(out / "summary.md", "\n".join(lines) + "\n")
