@@ -52,6 +52,7 @@ from numba import njit, prange
 from ..scenarios.base import SLOWEST_SOUND_SPEED_MPS
 from . import fusion
 from .acoustics import mackenzie_sound_speed, travel_time
+from .jit import parallel_twin
 from .kernel_records import beacon_view, knowledge_view, survey_view
 
 if TYPE_CHECKING:
@@ -140,7 +141,7 @@ def _resolve_slot(
 
 
 resolve_slot_kernel = njit(cache=True)(_resolve_slot)
-resolve_slot_kernel_parallel = njit(cache=True, parallel=True)(_resolve_slot)
+resolve_slot_kernel_parallel = parallel_twin(_resolve_slot)
 
 
 def resolve_slot(

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit, prange
 
 from .acoustics import packet_loss_probability
+from .jit import parallel_twin
 from .navigation import joseph_update
 
 
@@ -52,7 +53,7 @@ def _fuse_depth_gps(sv, sensor_n, sensor_u, nan_count, prm):
 
 # each kernel compiled twice from one source: plain, and threaded for large batches
 fuse_depth_gps = njit(cache=True)(_fuse_depth_gps)
-fuse_depth_gps_parallel = njit(cache=True, parallel=True)(_fuse_depth_gps)
+fuse_depth_gps_parallel = parallel_twin(_fuse_depth_gps)
 
 
 @njit(cache=True, inline="always")
@@ -100,4 +101,4 @@ def _exchange_messages(sv, bv, kv, t_s, message_u, reply_ok, peer_ok, prm):
 
 
 exchange_messages = njit(cache=True)(_exchange_messages)
-exchange_messages_parallel = njit(cache=True, parallel=True)(_exchange_messages)
+exchange_messages_parallel = parallel_twin(_exchange_messages)

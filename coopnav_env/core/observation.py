@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit, prange
 
 from .information import ELLIPSE_N_SIGMA, ellipse_of
+from .jit import parallel_twin
 
 OWN_DIM = 6
 PER_SURVEY_FIXED = 9
@@ -101,4 +102,4 @@ def _observe(bv, kv, sv, prm, out):
 
 
 observe = njit(cache=True)(_observe)
-observe_parallel = njit(cache=True, parallel=True)(_observe)
+observe_parallel = parallel_twin(_observe)

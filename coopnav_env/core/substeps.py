@@ -17,6 +17,7 @@ from numba import njit, prange
 
 from .dynamics import thrust_speed, turn_toward
 from .guidance import los_point
+from .jit import parallel_twin
 
 
 @njit(cache=True, inline="always")
@@ -150,6 +151,6 @@ def _integrate_beacons(pos, heading, vel, command, cos_max_turn, sin_max_turn, n
 # each kernel compiled twice from one source: plain, and threaded for large batches
 # (starting threads costs more than a batch of one takes)
 integrate_survey = njit(cache=True)(_integrate_survey)
-integrate_survey_parallel = njit(cache=True, parallel=True)(_integrate_survey)
+integrate_survey_parallel = parallel_twin(_integrate_survey)
 integrate_beacons = njit(cache=True)(_integrate_beacons)
-integrate_beacons_parallel = njit(cache=True, parallel=True)(_integrate_beacons)
+integrate_beacons_parallel = parallel_twin(_integrate_beacons)

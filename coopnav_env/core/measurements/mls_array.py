@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..contract import SensorHost
+from ..jit import parallel_twin
 from ..kernel_records import beacon_view, survey_view
 from ..navigation import gated_update, gated_update_residual, range_prediction
 from . import FusionOutputs
@@ -96,7 +97,7 @@ def _fuse(sv, bv, m, t_s, gate, out):
 
 
 fuse_kernel = njit(cache=True)(_fuse)
-fuse_kernel_parallel = njit(cache=True, parallel=True)(_fuse)
+fuse_kernel_parallel = parallel_twin(_fuse)
 
 
 class MLSArray:

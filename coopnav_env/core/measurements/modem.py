@@ -20,6 +20,7 @@ from numba import njit, prange
 
 from ..acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
 from ..contract import SensorHost
+from ..jit import parallel_twin
 from ..kernel_records import beacon_view, survey_view
 from ..navigation import gated_update, range_prediction, reinit_on_range
 from . import FusionOutputs
@@ -208,7 +209,7 @@ def _fuse(sv, bv, cyc, prm, out):
 
 
 fuse_kernel = njit(cache=True)(_fuse)
-fuse_kernel_parallel = njit(cache=True, parallel=True)(_fuse)
+fuse_kernel_parallel = parallel_twin(_fuse)
 
 # ModemParams' scenario fields in order, by their config names
 CONFIG_FIELDS = (

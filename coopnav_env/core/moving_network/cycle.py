@@ -18,6 +18,7 @@ from numba import njit, prange
 
 from ..acoustics import ranging_variance_m2
 from ..information import det2_of
+from ..jit import parallel_twin
 from .exchange import run_exchange
 from .filter import filter_work, fuse_ranges
 from .recovery import recover
@@ -71,4 +72,4 @@ def _cycle(
 
 
 cycle = njit(cache=True)(_cycle)
-cycle_parallel = njit(cache=True, parallel=True)(_cycle)
+cycle_parallel = parallel_twin(_cycle)

@@ -16,6 +16,7 @@ from numba import njit, prange
 
 from .. import lbl, river
 from ..dynamics import bearing_to_unit
+from ..jit import parallel_twin
 from ..numerics import complex_abs, complex_div_real
 from ..observation import OBS_BOUND  # the survey network's bound
 from .state import OBS_DIM, RIVER_OBS_DIM, ObserveParams, Tracker
@@ -166,4 +167,4 @@ def frame_waypoints(b_pos: np.ndarray, gps_err: np.ndarray, world_waypoints: np.
 
 # compiled twice from one source: plain, and threaded for large batches
 observe_boats = njit(cache=True)(_observe_boats)
-observe_boats_parallel = njit(cache=True, parallel=True)(_observe_boats)
+observe_boats_parallel = parallel_twin(_observe_boats)
