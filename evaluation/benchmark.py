@@ -30,6 +30,9 @@ Per task ``wins`` lists the policies that won; per task set ``summary`` counts e
 policy's wins, ties, losses and n/a. A run with other than the benchmark's episode
 count, or with ``--set``, says in both files that it is not a benchmark result.
 
+The statistics are ``evaluation.benchmark_stats`` (pure), the tables and files
+``evaluation.benchmark_report``; this module plans, runs and is the command line.
+
 From Python (no lock on the output directory):
 
     from evaluation.benchmark import build_results, plan_benchmark, run_benchmark, write_results
@@ -50,18 +53,19 @@ import os
 import shlex
 import signal
 import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from coopnav_env.records import atomic_write_text, plain, strict_json, version_record
+from coopnav_env.records import plain, version_record
 from coopnav_env.seeds import TEST_SEED, TEST_SEED_COUNT, TEST_SEEDS
 
+from .benchmark_report import RESULT_FILES, render_markdown, write_results
+from .benchmark_stats import compare_task, summarize_task_set
 from .errors import UsageError
 from .tasks import BENCHMARK_VERSION, TASK_SETS, get_task_set
 
-RESULT_FILES = ("results.json", "results.md")
 VERDICTS = ("win", "tie", "loss")
 
 __all__ = [
@@ -80,78 +84,6 @@ __all__ = [
 
 # ------------------------------------------------------------------------------------
 # statistics (pure: arrays in, dicts out)
-
-
-def compare_task(
-    episode_errors: dict,
-    planners: Iterable[str],
-    ranges_fused: dict | None = None,
-    skipped: dict | None = None,
-    confidence: float = 0.95,
-) -> dict:
-    """One task's statistics from ``episode_errors`` (policy -> per-episode mean errors,
-    episode ``i`` of every policy on the same seed; None: the policy cannot drive the
-    task, for the reason in ``skipped``), ``planners`` (the names the best planner is
-    chosen from) and ``ranges_fused`` (policy -> ranges fused per episode). Returns
-    ``{"best_planner", "policies": {name: stats}, "wins"}`` (see the module docstring)."""
-    from .paired import t_interval
-
-    ranges_fused, skipped = ranges_fused or {}, skipped or {}
-    runs = {p: np.asarray(v, dtype=float) for p, v in episode_errors.items() if v is not None}
-    lengths = {len(v) for v in runs.values()}
-    if len(lengths) > 1:
-        raise ValueError(f"policies played different numbers of episodes: {sorted(lengths)}")
-    candidates = [p for p in planners if p in runs]
-    if not candidates:
-        raise ValueError("no planner ran on this task")
-    best = min(candidates, key=lambda p: (float(runs[p].mean()), candidates.index(p)))
-    out, wins = {}, []
-    for p, v in episode_errors.items():
-        if v is None:
-            out[p] = {"skipped": skipped.get(p, "cannot drive this task")}
-            continue
-        x = runs[p]
-        mean, lo, hi = t_interval(x, confidence)
-        stats = {
-            "episodes": int(x.size),
-            "mean_error_m": mean,
-            "ci95_error_m": [lo, hi],
-            "episode_mean_error_m": x.tolist(),
-        }
-        rf = ranges_fused.get(p)
-        if rf is not None:
-            rf = np.asarray(rf, dtype=float)
-            stats["ranges_fused"] = float(rf.mean())
-            stats["episode_ranges_fused"] = rf.tolist()
-        if p == best:
-            stats["paired"] = {"vs": best, "mean_m": 0.0, "ci95_m": [0.0, 0.0], "verdict": "best"}
-        else:
-            d_mean, d_lo, d_hi = t_interval(x - runs[best], confidence)
-            verdict = "win" if d_hi < 0 else "loss" if d_lo > 0 else "tie"
-            stats["paired"] = {"vs": best, "mean_m": d_mean, "ci95_m": [d_lo, d_hi], "verdict": verdict}
-            if verdict == "win":
-                wins.append(p)
-        out[p] = stats
-    return {"best_planner": best, "policies": out, "wins": wins}
-
-
-def summarize_task_set(tasks: dict, policies: Iterable[str]) -> dict:
-    """Per policy the count of each verdict over ``tasks`` (task -> ``compare_task``'s
-    result): ``{policy: {"win", "tie", "loss", "best", "n/a", "tasks_won"}}``."""
-    out = {}
-    for p in policies:
-        counts: dict[str, Any] = {"win": 0, "tie": 0, "loss": 0, "best": 0, "n/a": 0, "tasks_won": []}
-        for name, task in tasks.items():
-            stats = task["policies"].get(p)
-            if stats is None or "skipped" in stats:
-                counts["n/a"] += 1
-                continue
-            verdict = stats["paired"]["verdict"]
-            counts[verdict] += 1
-            if verdict == "win":
-                counts["tasks_won"].append(name)
-        out[p] = counts
-    return out
 
 
 # ------------------------------------------------------------------------------------
@@ -444,140 +376,6 @@ def _not_official(plan: BenchmarkPlan) -> list:
 
 # ------------------------------------------------------------------------------------
 # results.md
-
-
-def _cells(task: dict, cols: list, cell) -> list:
-    """One table row's cells: ``cell(policy, stats, task)`` for each policy, "n/a" where skipped."""
-    return ["n/a" if "skipped" in task["policies"][p] else cell(p, task["policies"][p], task) for p in cols]
-
-
-def _mean_cell(policy, st, task) -> str:
-    text = f"{_num(st['mean_error_m'])} [{_num(st['ci95_error_m'][0])}, {_num(st['ci95_error_m'][1])}]"
-    return f"**{text}**" if policy == task["best_planner"] else text
-
-
-def _paired_cell(policy, st, task) -> str:
-    d = st["paired"]
-    if d["verdict"] == "best":
-        return "best"
-    return f"{_num(d['mean_m'], 3)} [{_num(d['ci95_m'][0], 3)}, {_num(d['ci95_m'][1], 3)}] {d['verdict']}"
-
-
-def _num(x: float, digits: int = 3) -> str:
-    return f"{x:.{digits}f}"
-
-
-def _ranges(stats: dict) -> str:
-    if "skipped" in stats:
-        return "n/a"
-    return f"{stats['ranges_fused']:.1f}" if "ranges_fused" in stats else "-"
-
-
-def render_markdown(results: dict) -> str:
-    """results.md: per task set the errors, the paired differences to the best planner,
-    the ranges fused and the wins."""
-    v = results["versions"]
-    commit = (v.get("git_commit") or "unknown")[:12] + (" (modified)" if v.get("git_dirty") else "")
-    lines = [f"# coopnav benchmark v{results['benchmark_version']}", ""]
-    if not results["official"]:
-        lines += [f"**Not a benchmark result**: {'; '.join(results['not_official_because'])}.", ""]
-    lines += [
-        f"Commit {commit}, coopnav {v.get('coopnav', '?')}; {results['episodes']} episodes per task and "
-        f"policy on the test seeds {results['seeds']['first']} + i (i < {results['episodes']}), the same "
-        "for every policy.",
-        "",
-    ]
-    if results.get("command"):
-        lines += [f"Command: `{results['command']}`", ""]
-    for name, s in results["task_sets"].items():
-        cols = s["columns"]
-        lines += [
-            f"## {name} ({s['scenario']})",
-            "",
-            s["about"] + ".",
-            "",
-            f"Planners: {', '.join(s['planners'])}; floors: {', '.join(s['floors'])}; challengers: "
-            f"{', '.join(s['challengers']) or 'none'}.",
-            "",
-        ]
-        trained = {p: t for p, t in s["trained_policies"].items() if t}
-        for p, t in trained.items():
-            lines.append(f"- `{p}`: {t.get('shipped') or 'run directory'}, model `{t['model']}`")
-        if trained:
-            lines.append("")
-        lines += [
-            "### Mean survey error (m), 95 % t interval",
-            "",
-            "Mean over episodes of each episode's mean error; **bold**: the task's best planner.",
-            "",
-            "| task | " + " | ".join(cols) + " |",
-            "|---|" + "---|" * len(cols),
-        ]
-        for task, t in s["tasks"].items():
-            lines.append(f"| {task} | " + " | ".join(_cells(t, cols, _mean_cell)) + " |")
-        lines += [
-            "",
-            "### Paired difference to the best planner (m), 95 % t interval",
-            "",
-            "Per episode, policy minus the task's best planner on the same seed; negative: lower error. "
-            "win: the interval lies below 0; loss: above 0; tie: it holds 0.",
-            "",
-            "| task | best planner | " + " | ".join(cols) + " | wins |",
-            "|---|---|" + "---|" * len(cols) + "---|",
-        ]
-        for task, t in s["tasks"].items():
-            cells = _cells(t, cols, _paired_cell)
-            wins = ", ".join(t["wins"]) or "-"
-            lines.append(f"| {task} | {t['best_planner']} | " + " | ".join(cells) + f" | {wins} |")
-        lines += [
-            "",
-            "### Ranges fused per episode (pings used)",
-            "",
-            "| task | " + " | ".join(cols) + " |",
-            "|---|" + "---|" * len(cols),
-        ]
-        for task, t in s["tasks"].items():
-            cells = [_ranges(t["policies"][p]) for p in cols]
-            lines.append(f"| {task} | " + " | ".join(cells) + " |")
-        n = len(s["tasks"])
-        lines += [
-            "",
-            f"### Wins over {n} tasks",
-            "",
-            "| policy | wins | ties | losses | best planner | n/a | tasks won |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        for p in cols:
-            c = s["summary"][p]
-            lines.append(
-                f"| {p} | {c['win']} | {c['tie']} | {c['loss']} | {c['best']} | {c['n/a']} | "
-                f"{', '.join(c['tasks_won']) or '-'} |"
-            )
-        skipped = sorted(
-            {(p, st["skipped"]) for t in s["tasks"].values() for p, st in t["policies"].items() if "skipped" in st}
-        )
-        if skipped:
-            lines += ["", "n/a: " + "; ".join(f"`{p}`: {why}" for p, why in skipped)]
-        lines.append("")
-    return "\n".join(lines)
-
-
-def write_results(out: str, results: dict, figures: bool = True) -> list:
-    """Write results.json (strict JSON) and results.md atomically, and with ``figures``
-    one ``benchmark_<set>.png`` per task set (``evaluation.figures.draw_benchmark``);
-    returns their names. A non-finite value raises ValueError naming it, before
-    anything is written."""
-    text = strict_json(results)
-    md = render_markdown(results)
-    os.makedirs(out, exist_ok=True)
-    atomic_write_text(os.path.join(out, "results.json"), text)
-    atomic_write_text(os.path.join(out, "results.md"), md)
-    names = list(RESULT_FILES)
-    if figures:
-        from .figures import draw_benchmark
-
-        names += draw_benchmark(out, results)
-    return names
 
 
 # ------------------------------------------------------------------------------------
