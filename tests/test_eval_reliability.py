@@ -18,6 +18,7 @@ import sys
 import time
 
 import pytest
+from cli_runs import FAST_EVALUATION
 
 from coopnav_env.seeds import MAX_SEED
 from evaluation import cli
@@ -25,20 +26,7 @@ from evaluation import cli
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 EVALUATE = [sys.executable, os.path.join(ROOT, "evaluate.py")]
 
-# a fast run (one batch per episode, so several batch files are written)
-FAST = [
-    "--scenario",
-    "gao_lawnmower",
-    "--set",
-    "max_cycles=12",
-    "--policies",
-    "static,fim_a",
-    "--episodes",
-    "3",
-    "--batch-size",
-    "1",
-    "--no-figures",
-]
+FAST = FAST_EVALUATION
 # a run of a few seconds (episodes of ~240 steps), to be killed, interrupted or locked out
 LONG = [
     "--scenario",

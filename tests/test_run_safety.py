@@ -23,6 +23,8 @@ import yaml
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("safetensors")
 
+from cli_runs import FAST_EVALUATION, tiny_training
+
 import agents
 from agents import convert
 from agents.training import cli as train_cli
@@ -31,19 +33,7 @@ from evaluation import cli as eval_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = ROOT / "agents" / "policies" / "ppo_gao_sea"
-FAST = [
-    "--scenario",
-    "gao_lawnmower",
-    "--set",
-    "max_cycles=12",
-    "--policies",
-    "static,fim_a",
-    "--episodes",
-    "3",
-    "--batch-size",
-    "1",
-    "--no-figures",
-]
+FAST = FAST_EVALUATION
 BOMB = 'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n' + "".join(
     f"{chr(98 + i)}: &{chr(98 + i)} [" + ",".join([f"*{chr(97 + i)}"] * 9) + "]\n" for i in range(8)
 )
@@ -510,26 +500,8 @@ def test_a_resumed_run_gets_its_final_evaluation_back(tmp_path, capsys):
         "env": {"overrides": {"max_cycles": 10, "mission_duration_s": 200.0}},
         "eval": {"every_steps": 256, "episodes": 1, "seed": 1000000, "baselines": []},
     }
-    (tmp_path / "tiny.yml").write_text(yaml.safe_dump(config))
     out = tmp_path / "run"
-    assert (
-        train_cli.main(
-            [
-                "--scenario",
-                "sousa_asv",
-                "--timesteps",
-                "512",
-                "--seed",
-                "3",
-                "--out",
-                str(out),
-                "--config",
-                str(tmp_path / "tiny.yml"),
-                "--no-progress",
-            ]
-        )
-        == 0
-    )
+    assert tiny_training(out, config) == 0
     lines = (out / "evaluations.jsonl").read_text().splitlines()
     assert [json.loads(x)["num_timesteps"] for x in lines] == [256, 512]
     (out / "evaluations.jsonl").write_text(lines[0] + "\n")  # stopped before the final evaluation

@@ -26,6 +26,8 @@ for _k, _v in {
 }.items():
     os.environ.setdefault(_k, _v)
 
+from cli_runs import tiny_training  # noqa: E402
+
 import agents  # noqa: E402
 from agents import convert, formats  # noqa: E402
 from agents.training import cli as train_cli  # noqa: E402
@@ -71,26 +73,8 @@ def _evil(marker) -> bytes:
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
     base = tmp_path_factory.mktemp("tiny")
-    (base / "tiny.yml").write_text(yaml.safe_dump(TINY))
     out = base / "run"
-    assert (
-        train_cli.main(
-            [
-                "--scenario",
-                "sousa_asv",
-                "--timesteps",
-                "512",
-                "--seed",
-                "3",
-                "--out",
-                str(out),
-                "--config",
-                str(base / "tiny.yml"),
-                "--no-progress",
-            ]
-        )
-        == 0
-    )
+    assert tiny_training(out, TINY) == 0
     return out
 
 
