@@ -91,6 +91,38 @@ def test_carried_variance_matches_the_monte_carlo_error_on_a_straight_run():
     assert mse == pytest.approx(carried, rel=0.08)
 
 
+def _drive_orbit(cycles, B, degrees_per_cycle=30.0, **overrides):
+    """The beacon on a polygonal orbit: its commanded velocity turns by ``degrees_per_cycle``
+    every cycle (full speed); returns the simulator and the error grown since the start."""
+    c = coopnav_env.make_config("gao_sea", **{**QUIET, **overrides})
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B))
+    err0 = sim.state.b_nav_err[:, 0, :2].copy()
+    for k in range(cycles):
+        a = np.radians(degrees_per_cycle * k)
+        sim.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (B, 1, 2)))
+    return sim, sim.state.b_nav_err[:, 0, :2] - err0
+
+
+@pytest.mark.parametrize("degrees_per_cycle", [30.0, 0.0])
+def test_carried_variance_matches_the_monte_carlo_error_on_an_orbit(degrees_per_cycle):
+    """Two whole orbits of 12 cycles (and, for contrast, the straight run): over episodes
+    (each its own phase of the one-cycle compass error b1 = 1 deg, the only error here) the
+    mean squared error is b1^2 (s^2 + |G|^2) / 4 with G = sum |d_k| e^{-2i theta_k}: about
+    b1^2 s^2 / 4 on the orbit, where G nearly vanishes, twice that on the straight run. The
+    straight-run formula (b1^2 s^2 / 2 whatever the path) was 2x the Monte Carlo on the orbit."""
+    sim, err = _drive_orbit(24, 2000, degrees_per_cycle, beacon_dvl_heading_cycle_deg=1.0)
+    st = sim.state
+    mse = float((err**2).sum(-1).mean())
+    carried = float(2 * (st.b_nav_var_m2[:, 0] - 1.0).mean())  # minus the start fix's variance
+    s = float(st.b_travelled_m[:, 0].mean())
+    b1 = np.radians(1.0)
+    assert s > 500.0
+    expected_total = b1**2 * s**2 / (4.0 if degrees_per_cycle else 2.0)
+    assert mse == pytest.approx(expected_total, rel=0.1)  # the hand formula's two limits
+    assert mse == pytest.approx(carried, rel=0.05)
+
+
 def test_surfacing_on_a_clock_resets_to_a_gps_fix():
     overrides = dict(beacon_dvl_heading_bias_std_deg=2.0, beacon_surface_every_s=100.0)
     c = coopnav_env.make_config("gao_sea", **{**QUIET, **overrides})

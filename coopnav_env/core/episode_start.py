@@ -142,6 +142,7 @@ def beacon_start(sim: Any, ep: EpisodeDraws, start: np.ndarray) -> dict:
         "b_dvl_heading_bias_rad": np.radians(c.beacon_dvl_heading_bias_std_deg) * ep.n_dvl[..., 1],
         "b_dvl_heading_phase_rad": 2.0 * np.pi * ep.u_dvl_phase,
         "b_travelled_m": np.zeros((B, N)),
+        "b_turn_sum_m": np.zeros((B, N), dtype=complex),
         "b_fix_est": (b_pos[..., 0] + b_err[..., 0]) + 1j * (b_pos[..., 1] + b_err[..., 1]),
         "b_since_fix_s": np.zeros((B, N)),
         "b_surfacings": np.zeros((B, N), dtype=np.int64),

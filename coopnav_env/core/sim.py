@@ -494,20 +494,27 @@ class Simulator(BatchSimulator):
         # the variance it carries: the random walk adds up linearly; the current-estimate
         # error is a bias, so its part grows with the square of the time spent without lock;
         # the constant heading and scale errors' part grows with the square of the displacement
-        # D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2) |D|^2; the one-cycle
-        # part, which does not cancel on a lawnmower's alternating legs, at most with the square
-        # of the distance s travelled, (b1^2 / 2) s^2; half of each per axis
+        # D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2) |D|^2; half of
+        # each per axis. The one-cycle part is exact for any path: with the cycles' displacements
+        # d_k = i |d_k| e^{-i theta_k} (theta a bearing), its error -i b1 sum_k sin(theta_k + phi) d_k
+        # is -i b1 (e^{i phi} s - e^{-i phi} G) / 2, s = sum |d_k| (the distance travelled),
+        # G = sum |d_k| e^{-2i theta_k}; over the unknown phase E|.|^2 = b1^2 (s^2 + |G|^2) / 4:
+        # b1^2 s^2 / 2 on a straight run (|G| = s), b1^2 s^2 / 4 on whole orbits (G = 0)
         st.b_walk_var_m2 = st.b_walk_var_m2 + walk_std**2
         st.b_unlocked_s = st.b_unlocked_s + np.where(st.b_dvl_lock, 0.0, T)
         st.b_since_fix_s = st.b_since_fix_s + T
         est_h = st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h
         sigma2 = c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2
-        st.b_travelled_m = st.b_travelled_m + np.abs(moved)
+        step_m = np.abs(moved)
+        st.b_travelled_m = st.b_travelled_m + step_m
+        st.b_turn_sum_m = st.b_turn_sum_m - moved * moved / np.maximum(step_m, 1e-300)  # |d| e^{-2i theta}
         var = (
             st.b_walk_var_m2
             + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
             + 0.5 * sigma2 * np.abs(est_h - st.b_fix_est) ** 2
-            + 0.25 * np.radians(c.beacon_dvl_heading_cycle_deg) ** 2 * st.b_travelled_m**2
+            + 0.125
+            * np.radians(c.beacon_dvl_heading_cycle_deg) ** 2
+            * (st.b_travelled_m**2 + np.abs(st.b_turn_sum_m) ** 2)
         )
         # a GPS fix: every cycle for ASVs; at the surface when due for AUVs
         gps_h = c.gps_noise_m * (n[..., 2] + 1j * n[..., 3])
@@ -523,6 +530,7 @@ class Simulator(BatchSimulator):
         st.b_unlocked_s = np.where(surface, 0.0, st.b_unlocked_s)
         st.b_since_fix_s = np.where(fix, 0.0, st.b_since_fix_s)
         st.b_travelled_m = np.where(fix, 0.0, st.b_travelled_m)
+        st.b_turn_sum_m = np.where(fix, 0.0, st.b_turn_sum_m)
         st.b_fix_est = np.where(fix, st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h, st.b_fix_est)
         st.b_surfacings = surface.astype(np.int64)
         st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag

@@ -80,6 +80,7 @@ class SimState(BatchArrays):
     b_dvl_heading_bias_rad: np.ndarray  # this episode's constant compass error of the DVL dead reckoning (B,N)
     b_dvl_heading_phase_rad: np.ndarray  # the phase of its one-cycle (heading-dependent) part (B,N)
     b_travelled_m: np.ndarray  # distance travelled since the last fix (B,N)
+    b_turn_sum_m: np.ndarray  # sum of |d| e^{-2i heading} over the cycles since the last fix, complex (B,N)
     b_fix_est: np.ndarray  # own position estimate at the last GPS fix (start or surfacing), complex (B,N)
     b_since_fix_s: np.ndarray  # time since that fix (B,N)
     b_surfacings: np.ndarray  # GPS fixes taken at the surface this cycle (B,N) int
