@@ -84,6 +84,12 @@ class SimState(BatchArrays):
     b_fix_est: np.ndarray  # own position estimate at the last GPS fix (start or surfacing), complex (B,N)
     b_since_fix_s: np.ndarray  # time since that fix (B,N)
     b_surfacings: np.ndarray  # GPS fixes taken at the surface this cycle (B,N) int
+    b_surfacing: np.ndarray  # on a surfacing (ascent, dwell, descent) (B,N) bool
+    b_excursion_s: np.ndarray  # time since that surfacing's ascent began (B,N)
+    b_away_s: np.ndarray  # time of this cycle it spent above the ranging depth on a surfacing (B,N)
+    b_away: np.ndarray  # above the ranging depth on a surfacing now: no ping, no reply (B,N) bool
+    b_surge: np.ndarray  # ASV: its ground-speed error along its heading, Gauss-Markov, m/s (B,N)
+    b_steer: np.ndarray  # ASV: its course error, Gauss-Markov, rad (B,N)
     b_pings: np.ndarray  # packets it transmitted this cycle (channel_mode="decide"; else 0) (B,N) int
     b_collisions: np.ndarray  # its pings lost to a collision at a survey vehicle this cycle (B,N) int
     b_energy_j: np.ndarray  # transmit energy it spent this cycle, J (B,N)
