@@ -312,3 +312,23 @@ def test_asv_errors_are_the_boats_gauss_markov_processes():
     assert s.std() == pytest.approx(0.15, rel=0.05)
     rho = np.mean(s[1:] * s[:-1]) / np.mean(s**2)
     assert rho == pytest.approx(np.exp(-20.0 / 30.0), abs=0.03)
+
+
+def test_a_beacon_away_sends_no_mls_ping_either():
+    """swarm_mls's beacon at 5 m, 2 s cycles, a fix due every 10 s: the ascent begins at
+    the end of cycle 5; above 1 m from 8 s to 42 s into it (fix at 40 s), so away at the
+    ends of cycles 10 to 25, when nothing is fused from it."""
+    B = 4
+    c = coopnav_env.make_config("swarm_mls", beacon_surface_every_s=10.0)
+    assert c.ping_interval_s == 2.0 and c.beacon_auv_depth_m == 5.0
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B))
+    fused, away = [], []
+    for _ in range(27):
+        res = sim.step(np.zeros((B, c.n_beacons, 2)))
+        fused.append(res.info["ranges_fused"].sum(-1))
+        away.append(sim.state.b_away[:, 0].copy())
+    fused, away = np.array(fused), np.array(away)
+    np.testing.assert_array_equal(away.all(1), np.isin(np.arange(1, 28), np.arange(10, 26)))
+    assert (fused[9:25] == 0).all()
+    assert fused[:8].sum() > 0

@@ -330,7 +330,7 @@ class Simulator(BatchSimulator):
         With the shared channel only the pings it delivers are measured; returns the
         channel's ping resolution (delivered (B, N, S), the whole slot) or None."""
         if self.channel is None:
-            masks = beacon_nav.away_masks(self._live, self.S) if self.config.acoustic_sensor == "modem" else None
+            masks = beacon_nav.away_masks(self._live, self.S)  # a beacon away on a surfacing sends none
             self.sensor.fuse(draws, out) if masks is None else self.sensor.fuse(draws, out, heard=masks[0])
             return None
         ping_ok, ping_slot = self.channel.pings(transmit)
