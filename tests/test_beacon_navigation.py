@@ -1,6 +1,8 @@
 """The beacon AUV's own navigation: DVL dead reckoning that drifts with distance
 travelled (compass error b0 + b1 sin(heading + phase), velocity scale error), the
-variance it carries into the survey filters' R, and GPS fixes at the surface."""
+variance it carries into the survey filters' R, GPS fixes at the surface and what a
+surfacing costs (ascent, dwell, descent, away from the survey), bottom lock from the
+altitude; the ASVs' command-following errors."""
 
 from __future__ import annotations
 
@@ -91,8 +93,40 @@ def test_carried_variance_matches_the_monte_carlo_error_on_a_straight_run():
     assert mse == pytest.approx(carried, rel=0.08)
 
 
+def _drive_orbit(cycles, B, degrees_per_cycle=30.0, **overrides):
+    """The beacon on a polygonal orbit: its commanded velocity turns by ``degrees_per_cycle``
+    every cycle (full speed); returns the simulator and the error grown since the start."""
+    c = coopnav_env.make_config("gao_sea", **{**QUIET, **overrides})
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B))
+    err0 = sim.state.b_nav_err[:, 0, :2].copy()
+    for k in range(cycles):
+        a = np.radians(degrees_per_cycle * k)
+        sim.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (B, 1, 2)))
+    return sim, sim.state.b_nav_err[:, 0, :2] - err0
+
+
+@pytest.mark.parametrize("degrees_per_cycle", [30.0, 0.0])
+def test_carried_variance_matches_the_monte_carlo_error_on_an_orbit(degrees_per_cycle):
+    """Two whole orbits of 12 cycles (and, for contrast, the straight run): over episodes
+    (each its own phase of the one-cycle compass error b1 = 1 deg, the only error here) the
+    mean squared error is b1^2 (s^2 + |G|^2) / 4 with G = sum |d_k| e^{-2i theta_k}: about
+    b1^2 s^2 / 4 on the orbit, where G nearly vanishes, twice that on the straight run. The
+    straight-run formula (b1^2 s^2 / 2 whatever the path) was 2x the Monte Carlo on the orbit."""
+    sim, err = _drive_orbit(24, 2000, degrees_per_cycle, beacon_dvl_heading_cycle_deg=1.0)
+    st = sim.state
+    mse = float((err**2).sum(-1).mean())
+    carried = float(2 * (st.b_nav_var_m2[:, 0] - 1.0).mean())  # minus the start fix's variance
+    s = float(st.b_travelled_m[:, 0].mean())
+    b1 = np.radians(1.0)
+    assert s > 500.0
+    expected_total = b1**2 * s**2 / (4.0 if degrees_per_cycle else 2.0)
+    assert mse == pytest.approx(expected_total, rel=0.1)  # the hand formula's two limits
+    assert mse == pytest.approx(carried, rel=0.05)
+
+
 def test_surfacing_on_a_clock_resets_to_a_gps_fix():
-    overrides = dict(beacon_dvl_heading_bias_std_deg=2.0, beacon_surface_every_s=100.0)
+    overrides = dict(beacon_dvl_heading_bias_std_deg=2.0, beacon_surface_every_s=100.0, beacon_surfacing="instant")
     c = coopnav_env.make_config("gao_sea", **{**QUIET, **overrides})
     sim = make_simulator(c, 64)
     sim.reset(np.arange(64))
@@ -110,7 +144,7 @@ def test_surfacing_on_a_clock_resets_to_a_gps_fix():
 
 
 def test_surfacing_when_the_own_std_exceeds_the_threshold():
-    overrides = dict(beacon_dvl_heading_bias_std_deg=2.0, beacon_surface_above_std_m=4.0)
+    overrides = dict(beacon_dvl_heading_bias_std_deg=2.0, beacon_surface_above_std_m=4.0, beacon_surfacing="instant")
     c = coopnav_env.make_config("gao_sea", **{**QUIET, **overrides})
     sim = make_simulator(c, 8)
     sim.reset(np.arange(8))
@@ -129,3 +163,172 @@ def test_the_lake_trial_beacon_has_gps_every_cycle():
     sim.reset(np.arange(4))
     sim.step(np.zeros((4, 1, 2)))
     np.testing.assert_allclose(sim.state.b_nav_var_m2, c.gps_noise_m**2)
+
+
+# ----------------------------------------------------------------------------------
+# What surfacing costs (core/beacon_nav.py)
+# ----------------------------------------------------------------------------------
+def test_a_timed_surfacing_hand_timeline():
+    """Beacon at 2 m, 0.5 m/s up and down, 30 s dwell, no ranging above 1 m, a fix due
+    every 100 s, 20 s cycles. Due at the end of cycle 5 (100 s since the start fix): the
+    ascent begins. From there: at the surface at 4 s, fix at 34 s, back at 2 m at 38 s;
+    above 1 m from 2 s to 36 s. Cycle 6 covers 0-20 s: away 18 s, at the surface at its
+    end (no ping, no reply); cycle 7 covers 20-40 s: away 16 s, the fix, back at depth.
+    The next fix is due 100 s after it (cycle 12), taken at cycle 14: a fix every 140 s
+    (25.7 an hour) where the instant model took one every 100 s (36 an hour)."""
+    B = 16
+    c = coopnav_env.make_config(
+        "gao_sea",
+        **{
+            **QUIET,
+            "beacon_dvl_heading_bias_std_deg": 2.0,
+            "beacon_surface_every_s": 100.0,
+            "beacon_auv_depth_m": 2.0,
+            "beacon_vertical_speed_mps": 0.5,
+            "beacon_surface_dwell_s": 30.0,
+            "beacon_ranging_min_depth_m": 1.0,
+            "beacon_start_distance_m": 30.0,
+            "packet_loss_near": 0.0,
+            "packet_loss_far": 0.0,
+        },
+    )
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B))
+    away, fixes, depth, fused, age = [], [], [], [], []  # fused: ranges fused or gated out
+    for _ in range(15):
+        res = sim.step(np.zeros((B, 1, 2)))  # holds station near the survey start
+        st = sim.state
+        away.append(res.beacon_info["beacon_away_s"][:, 0].copy())
+        fixes.append(st.b_surfacings[:, 0].copy())
+        depth.append(st.b_pos[:, 0, 2].copy())
+        fused.append(res.info["ranges_fused"].sum(-1) + res.info["outliers_rejected"].sum(-1))
+        age.append(st.k_age_s[:, 0, 0].copy())
+    away, fixes, depth, fused, age = map(np.array, (away, fixes, depth, fused, age))  # (cycle, B)
+    expect_away = np.zeros(15)
+    expect_away[[5, 12]] = 18.0  # cycles 6 and 13 (index = cycle - 1)
+    expect_away[[6, 13]] = 16.0
+    np.testing.assert_allclose(away, np.repeat(expect_away[:, None], B, 1), atol=1e-9)
+    np.testing.assert_array_equal(fixes.sum(1) > 0, np.isin(np.arange(1, 16), [7, 14]))
+    assert (fixes[[6, 13]] == 1).all()
+    np.testing.assert_allclose(depth[[5, 12]], 0.0)
+    np.testing.assert_allclose(np.delete(depth, [5, 12], 0), 2.0)
+    assert (fused[[5, 12]] == 0).all()  # away: its pings are not sent
+    assert (fused[[4, 6, 11, 13]] > 0).all()  # at depth, without losses: every ping arrives
+    assert (age[5] == age[4] + c.ping_interval_s).all()  # away: no reply heard
+
+
+def test_an_instant_surfacing_keeps_the_old_model():
+    c = coopnav_env.make_config("gao_sea", **{**QUIET, "beacon_surface_every_s": 100.0, "beacon_surfacing": "instant"})
+    sim = make_simulator(c, 2)
+    sim.reset(np.arange(2))
+    for k in range(1, 11):
+        res = sim.step(np.zeros((2, 1, 2)))
+        assert (sim.state.b_surfacings[:, 0] == (k % 5 == 0)).all()
+        assert (res.beacon_info["beacon_away_s"] == 0).all()
+        np.testing.assert_allclose(sim.state.b_pos[:, 0, 2], c.beacon_auv_depth_m)
+
+
+def test_dvl_lock_probabilities_from_the_altitude_hand_values():
+    """a_max 20 m, the last 20 % (4 m) fading: at 18 m altitude the ramp is (18 - 16) / 4
+    = 0.5, p_loss = 0.02 + 0.98 x 0.5 = 0.51, p_regain = 0.5 x 0.5 = 0.25; at 10 m the
+    base 0.02 and 0.5; above 20 m or below 0.05 m no lock (1, 0)."""
+    from coopnav_env.core.beacon_nav import dvl_lock_probabilities
+
+    loss, regain = dvl_lock_probabilities(np.array([18.0, 10.0, 16.0, 20.0, 25.0, 0.01]), 0.05, 20.0, 0.2, 0.02, 0.5)
+    np.testing.assert_allclose(loss, [0.51, 0.02, 0.02, 1.0, 1.0, 1.0])
+    np.testing.assert_allclose(regain, [0.25, 0.5, 0.5, 0.0, 0.0, 0.0])
+
+
+def test_bottom_lock_is_lost_near_the_dvls_range_limit():
+    """The simulator's lock after one cycle from lock at 18 m altitude (20 m water, beacon
+    at 2 m, a 20 m DVL): lost with probability 0.51 (hand value above); with 1000 m of
+    water (out of range) always; with the old fixed model 0.02 whatever the altitude."""
+    B = 4000
+
+    def lost_fraction(**overrides):
+        c = coopnav_env.make_config("gao_sea", **{**QUIET, "dvl_lock_loss_probability": 0.02, **overrides})
+        sim = make_simulator(c, B)
+        sim.reset(np.arange(B))
+        sim.step(np.zeros((B, 1, 2)))
+        return 1.0 - sim.state.b_dvl_lock.mean()
+
+    sd = np.sqrt(0.25 / B)
+    near = dict(water_depth_m=20.0, beacon_auv_depth_m=2.0, dvl_max_altitude_m=20.0, dvl_lock_fade_fraction=0.2)
+    assert abs(lost_fraction(**near) - 0.51) < 4 * sd
+    assert lost_fraction(water_depth_m=1000.0) == 1.0
+    assert abs(lost_fraction(water_depth_m=1000.0, dvl_lock_model="fixed") - 0.02) < 4 * np.sqrt(0.02 * 0.98 / B)
+
+
+# ----------------------------------------------------------------------------------
+# The ASVs follow their commands as the boats do (dynamics.disturb_boats)
+# ----------------------------------------------------------------------------------
+def _asv_cycle(B=1, **overrides):
+    c = coopnav_env.make_config("sousa_asv", **overrides)
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B))
+    return c, sim
+
+
+def test_asv_surge_and_course_errors_hand_values():
+    """Commanded due east at full speed v = 2 m/s from a standstill: with only the surge
+    error s0 (its start value) the ASV makes good an extra s0 h T along its heading h over
+    the 20 s cycle; with only a course error delta it makes good v e^{-i delta}, i.e.
+    v (e^{-i delta} - 1) T off the commanded track."""
+    east = np.array([[[1.0, 0.0]]])
+    quiet = dict(current_speed_mps=0.0, current_speed_spread_mps=0.0, current_gm_std_mps=0.0)
+    c, ref = _asv_cycle(**quiet, asv_surge_noise_mps=0.0, asv_steering_noise_deg=0.0)
+    p0 = ref.state.b_pos[0, 0, :2].copy()
+    ref.step(east)
+    commanded = ref.state.b_pos[0, 0, :2] - p0
+    h = ref.state.b_heading[0, 0]
+    T = c.ping_interval_s
+
+    _, sim = _asv_cycle(**quiet, asv_surge_noise_mps=0.3, asv_steering_noise_deg=0.0)
+    s0 = sim.state.b_surge[0, 0]
+    assert s0 != 0.0
+    sim.step(east)
+    got = sim.state.b_pos[0, 0, :2] - p0
+    np.testing.assert_allclose(got - commanded, [s0 * h.real * T, s0 * h.imag * T], atol=1e-9)
+
+    _, sim = _asv_cycle(**quiet, asv_surge_noise_mps=0.0, asv_steering_noise_deg=5.0)
+    d0 = sim.state.b_steer[0, 0]
+    sim.step(east)
+    got = sim.state.b_pos[0, 0, :2] - p0
+    v = ref.state.b_vel[0, 0, 0] + 1j * ref.state.b_vel[0, 0, 1]
+    off = v * (np.exp(-1j * d0) - 1.0) * T
+    np.testing.assert_allclose(got - commanded, [off.real, off.imag], atol=1e-9)
+
+
+def test_asv_errors_are_the_boats_gauss_markov_processes():
+    """Over many ASVs and cycles the surge error's std is asv_surge_noise_mps and its
+    one-cycle correlation exp(-T / tau) = exp(-20 / 30) = 0.513 (20 s cycles here)."""
+    B = 2000
+    _, sim = _asv_cycle(B, ping_interval_s=20.0)
+    s = []
+    for _ in range(6):
+        sim.step(np.zeros((B, 1, 2)))
+        s.append(sim.state.b_surge[:, 0].copy())
+    s = np.array(s)
+    assert s.std() == pytest.approx(0.15, rel=0.05)
+    rho = np.mean(s[1:] * s[:-1]) / np.mean(s**2)
+    assert rho == pytest.approx(np.exp(-20.0 / 30.0), abs=0.03)
+
+
+def test_a_beacon_away_sends_no_mls_ping_either():
+    """swarm_mls's beacon at 5 m, 2 s cycles, a fix due every 10 s: the ascent begins at
+    the end of cycle 5; above 1 m from 8 s to 42 s into it (fix at 40 s), so away at the
+    ends of cycles 10 to 25, when nothing is fused from it."""
+    B = 4
+    c = coopnav_env.make_config("swarm_mls", beacon_surface_every_s=10.0)
+    assert c.ping_interval_s == 2.0 and c.beacon_auv_depth_m == 5.0
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B))
+    fused, away = [], []
+    for _ in range(27):
+        res = sim.step(np.zeros((B, c.n_beacons, 2)))
+        fused.append(res.info["ranges_fused"].sum(-1))
+        away.append(sim.state.b_away[:, 0].copy())
+    fused, away = np.array(fused), np.array(away)
+    np.testing.assert_array_equal(away.all(1), np.isin(np.arange(1, 28), np.arange(10, 26)))
+    assert (fused[9:25] == 0).all()
+    assert fused[:8].sum() > 0

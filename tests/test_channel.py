@@ -248,7 +248,7 @@ def test_sousa_ping_runs_through_the_protocol():
     assert (
         tuple(sim.reset_beacon_info())
         == tuple(sim.beacon_info_keys)
-        == ("beacon_error_m", "pings", "collisions", "energy_J")
+        == ("beacon_error_m", "beacon_away_s", "pings", "collisions", "energy_J")
     )
     # the protocol checks of every scenario (shapes, the reward as the weighted sum of
     # indicator terms, infos) run on sousa_ping in tests/test_contract.py; here what the

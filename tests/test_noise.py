@@ -30,7 +30,7 @@ def test_modem_range_variance_matches_the_simulated_ranges(two_way):
     rng = np.random.default_rng(3 + two_way)
     survey, beacon = np.array([30.0, 40.0, 20.0]), np.array([0.0, 0.0, 2.0])
     zero = np.zeros(3)
-    delays = np.zeros(2)
+    delays = np.zeros((2, 2))
     true = np.linalg.norm(survey - beacon)
     r = np.array(
         [

@@ -542,3 +542,75 @@ def test_survey_kernel_dead_reckons_along_eq5_forward_axis():
     np.testing.assert_allclose(dr[0, 0] - [0.0, 0.0, depth], expected, atol=1e-12)
     np.testing.assert_allclose(est[0, 0], dr[0, 0], atol=1e-12)  # no current told: EKF and DR move alike
     np.testing.assert_allclose(pos[0, 0, :2], [u, 0.0], atol=1e-12)  # the truth goes straight east
+
+
+# ----------------------------------------------------------------------------------
+# Two-way ranging to a moving beacon: each leg from its own geometry (issue 21 bug)
+# ----------------------------------------------------------------------------------
+# Survey still at the origin, beacon 1500 m east moving east at 2 m/s, c = 1500 m/s,
+# turnaround TAT = 0.015 s. The interrogation reaches the beacon at tau1 with
+# 1500 tau1 = 1500 + 2 tau1, tau1 = 1500 / 1498 = 1.0013351 s; the reply leaves it at
+# 1500 + 2 (tau1 + TAT) = 1502.0327 m, so 1500 tau2 = 1502.0327 and
+# r = 1500 (tau1 + tau2) / 2 = (1502.0027 + 1502.0327) / 2 = 1502.0177 m. A prediction
+# with the beacon at its t = 0 position for both legs says 1500 m: 2.02 m (4 sigma of a
+# 0.5 m range) too short.
+TWTT_TAU1 = 1500.0 / 1498.0
+TWTT_RANGE = 0.5 * (1500.0 * TWTT_TAU1 + 1500.0 + 2.0 * (TWTT_TAU1 + 0.015))
+
+
+def test_two_way_range_and_its_prediction_follow_each_legs_geometry():
+    from coopnav_env.core.measurements.modem import modem_range
+    from coopnav_env.core.navigation import moving_range_prediction
+
+    survey, beacon, zero = np.zeros(3), np.array([1500.0, 0.0, 0.0]), np.zeros(3)
+    u = np.array([2.0, 0.0, 0.0])
+    delays = np.zeros((2, 2))
+    r = modem_range(survey, zero, beacon, u, 1500.0, 1500.0, 0.0, 0.0, True, 0.015, 0.0, delays)
+    assert r == pytest.approx(TWTT_RANGE, abs=1e-6)
+    assert r - 1500.0 == pytest.approx(2.0177, abs=1e-4)
+    h, H = moving_range_prediction(survey, zero, beacon, u, delays)
+    assert h == pytest.approx(TWTT_RANGE, abs=1e-4)  # the legs' times estimated as (t_rt - TAT) / 2
+    np.testing.assert_allclose(H, [-1.0, 0.0, 0.0], atol=1e-12)
+    # one-way: the beacon sends at t = 0 from where it is then; the survey hears it at tau
+    delays1 = np.zeros((2, 1))
+    r1 = modem_range(survey, zero, beacon, u, 1500.0, 1500.0, 0.0, 0.0, False, 0.0, 0.0, delays1)
+    assert r1 == pytest.approx(1500.0, abs=1e-9)
+    assert moving_range_prediction(survey, zero, beacon, u, delays1)[0] == pytest.approx(1500.0, abs=1e-9)
+
+
+def test_two_way_range_from_a_moving_beacon_is_fused_without_bias():
+    """The simulator's modem model end to end: the survey filter sits on the truth; a
+    noiseless two-way range from the beacon of the hand case above must not move it
+    (the old prediction, both legs from the beacon's t = 0 position, pushed it away
+    from the beacon by K y, y = 2.02 m: 1.99 m on /work/main)."""
+    from coopnav_env.core import make_simulator
+
+    c = make_config(
+        "gao_sea",
+        ranging_mode="twtt",
+        turnaround_s=0.015,
+        max_range_m=5000.0,
+        water_temperature_c=20.0,
+        temperature_uncertainty_c=0.0,
+        range_noise_std_m=0.5,
+    )
+    sim = make_simulator(c, 1)
+    sim.reset(np.array([0]))
+    st = sim.state
+    st.s_pos[0, 0] = [0.0, 0.0, st.s_pos[0, 0, 2]]
+    st.s_est[0, 0] = st.s_pos[0, 0]
+    st.s_vel_true[:] = st.s_vel_est[:] = 0.0
+    st.s_P[0, 0] = np.diag([4.0, 4.0, 0.01])
+    st.b_pos[0, 0] = [1500.0, 0.0, st.s_pos[0, 0, 2]]  # same depth: the hand case's horizontal line
+    st.b_vel[0, 0] = [2.0, 0.0, 0.0]
+    st.b_nav_err[:] = 0.0
+    st.b_nav_var_m2[:] = 0.0
+    st.temperature_c[:] = c.water_temperature_c
+    draws = sim._cycle_draws(st.cycle)
+    draws["acoustic_n"][:] = 0.0
+    draws["acoustic_u"][:] = 1.0  # not lost, not an outlier, not NaN
+    out = sim._predict_depth_gps(draws)
+    st.s_est[0, 0] = st.s_pos[0, 0]  # the prediction step moved nothing but P; keep it exact
+    sim.sensor.fuse(draws, out)
+    assert out.fused[0, 0, 0]
+    assert abs(st.s_est[0, 0, 0] - st.s_pos[0, 0, 0]) < 0.01  # 1.99 m off with the t = 0 geometry (/work/main)

@@ -136,3 +136,46 @@ def gauss_markov_step(
     """
     a = np.exp(-dt_s / time_constant_s)
     return a * v + np.sqrt(1.0 - a * a) * std * noise
+
+
+# --- surface craft following commands: the boats of the moving network, the ASVs -------
+@njit(cache=True)
+def disturb_boats(
+    pos: np.ndarray,
+    heading: np.ndarray,
+    vel: np.ndarray,
+    surge: np.ndarray,
+    steer: np.ndarray,
+    current: np.ndarray,
+    response: float,
+    T: float,
+) -> None:
+    """The boats' (and the ASVs') imperfect execution of their commands over one cycle, in
+    place: after
+    ``integrate_beacons`` moved each boat at its commanded ground velocity v (vel (B,2,3),
+    its last sub-step), the boat actually made good (v + s h) exp(-1j delta) + r c: its
+    speed along its heading h off by the surge fluctuation s (surge (B,2), m/s), its course
+    off by delta (steer (B,2), rad, clockwise: bearing + delta is the factor exp(-1j delta)),
+    and the part r (``boat_current_response``) of the water current c where the boat is
+    (current (B,2) complex: the same for both in uniform water, each its own in a river)
+    that its ground-speed control does not cancel. s and delta are held over the cycle
+    (the Gauss-Markov states are stepped exactly at the cycle's period, see ``step``); the
+    difference from the commanded motion is added to pos over the cycle T and to vel."""
+    for b in range(pos.shape[0]):
+        for n in range(pos.shape[1]):
+            drift = response * current[b, n]
+            v = complex(vel[b, n, 0], vel[b, n, 1])
+            d = steer[b, n]
+            made_good = (v + surge[b, n] * heading[b, n]) * complex(np.cos(d), -np.sin(d)) + drift
+            w = made_good - v
+            pos[b, n, 0] += w.real * T
+            pos[b, n, 1] += w.imag * T
+            vel[b, n, 0], vel[b, n, 1] = made_good.real, made_good.imag
+
+
+def boat_noise_step(x: np.ndarray, T: float, time_constant_s: float, std: float, noise: np.ndarray) -> np.ndarray:
+    """One cycle of a boat's Gauss-Markov fluctuation (``gauss_markov_step``; white per cycle
+    when the time constant is 0)."""
+    if time_constant_s <= 0.0:
+        return std * noise
+    return gauss_markov_step(x, T, time_constant_s, std, noise)

@@ -33,6 +33,7 @@ class EpisodeDraws(NamedTuple):
     u_current: np.ndarray  # (B,2) uniforms: the current's speed and direction
     u_clock: np.ndarray  # (B,S,N) uniforms: clock drifts
     u_dvl_phase: np.ndarray  # (B,N) uniforms: phase of the DVL heading error's one-cycle part
+    n_asv: np.ndarray  # (B,N,2) normals: the ASVs' surge and course errors at the start
     variant: np.ndarray  # (B,) int: index into Simulator.variants (domain randomization)
     noise_scale: np.ndarray  # (B,) factor on the sensor and range noise levels
 
@@ -60,6 +61,7 @@ def episode_draws(sim: Any, keys: np.ndarray) -> EpisodeDraws:
         u_current=u_ep[:, N : N + 2],
         u_clock=u_ep[:, N + 2 :].reshape(B, S, N),
         u_dvl_phase=rng.uniform(keys, rng.STREAM_EPISODE + 301, zero, (N,)),
+        n_asv=rng.normal(keys, rng.STREAM_EPISODE + 302, zero, (2 * N,)).reshape(B, N, 2),  # its own stream
         variant=variant,
         noise_scale=lo + (hi - lo) * u_dr[:, 1],
     )
@@ -142,9 +144,17 @@ def beacon_start(sim: Any, ep: EpisodeDraws, start: np.ndarray) -> dict:
         "b_dvl_heading_bias_rad": np.radians(c.beacon_dvl_heading_bias_std_deg) * ep.n_dvl[..., 1],
         "b_dvl_heading_phase_rad": 2.0 * np.pi * ep.u_dvl_phase,
         "b_travelled_m": np.zeros((B, N)),
+        "b_turn_sum_m": np.zeros((B, N), dtype=complex),
         "b_fix_est": (b_pos[..., 0] + b_err[..., 0]) + 1j * (b_pos[..., 1] + b_err[..., 1]),
         "b_since_fix_s": np.zeros((B, N)),
         "b_surfacings": np.zeros((B, N), dtype=np.int64),
+        "b_surfacing": np.zeros((B, N), dtype=bool),
+        "b_excursion_s": np.zeros((B, N)),
+        "b_away_s": np.zeros((B, N)),
+        "b_away": np.zeros((B, N), dtype=bool),
+        # the ASVs' command-following errors start stationary (the boats' model, core.dynamics)
+        "b_surge": np.where(sim._beacon_is_asv, c.asv_surge_noise_mps * ep.n_asv[..., 0], 0.0),
+        "b_steer": np.where(sim._beacon_is_asv, np.radians(c.asv_steering_noise_deg) * ep.n_asv[..., 1], 0.0),
         "b_pings": np.zeros((B, N), dtype=np.int64),
         "b_collisions": np.zeros((B, N), dtype=np.int64),
         "b_energy_j": np.zeros((B, N)),

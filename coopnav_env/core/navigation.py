@@ -30,31 +30,61 @@ def predict(x: np.ndarray, P: np.ndarray, dx: np.ndarray | float, Q: np.ndarray)
     return x + dx, P + Q
 
 
+@njit(cache=True, inline="always")
+def _add_leg(x, velocity, d_s, beacon, beacon_velocity, e_s, weight, H):
+    """One leg of a range, eqs. (7)-(8): the distance from the vehicle at x + v d to the
+    beacon at b + u e, times ``weight``, its unit vector (times ``weight``) added to H."""
+    r0 = x[0] + velocity[0] * d_s - beacon[0] - beacon_velocity[0] * e_s
+    r1 = x[1] + velocity[1] * d_s - beacon[1] - beacon_velocity[1] * e_s
+    r2 = x[2] + velocity[2] * d_s - beacon[2] - beacon_velocity[2] * e_s
+    dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    inv = weight / max(dist, 1e-9)
+    H[0] += r0 * inv
+    H[1] += r1 * inv
+    H[2] += r2 * inv
+    return dist * weight
+
+
 @njit(cache=True)
 def range_prediction(
     x: np.ndarray, velocity: np.ndarray, delays_s: np.ndarray, beacon: np.ndarray
 ) -> tuple[float, np.ndarray]:
     """Predicted range and its Jacobian (eqs. 7-8) for one filter, with the motion
-    of the vehicle while sound travels.
+    of the vehicle while sound travels, to a beacon that holds still.
 
     The state is the position at the cycle's reference time; leg l of a measured
     range ends at x + velocity * delays_s[l]: h = mean_l |x + v d_l - b| and
     H = mean_l of the unit vectors. With one leg of zero delay this is exactly
     eq. (7)-(8). x, velocity, beacon: (3,); delays_s: (L,). Returns (h, H (3,)).
+    A moving beacon: ``moving_range_prediction``.
     """
     L = delays_s.shape[0]
     h = 0.0
     H = np.zeros(3)
     for leg in range(L):
-        r0 = x[0] + velocity[0] * delays_s[leg] - beacon[0]
-        r1 = x[1] + velocity[1] * delays_s[leg] - beacon[1]
-        r2 = x[2] + velocity[2] * delays_s[leg] - beacon[2]
-        dist = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-        inv = 1.0 / max(dist, 1e-9)
-        h += dist / L
-        H[0] += r0 * inv / L
-        H[1] += r1 * inv / L
-        H[2] += r2 * inv / L
+        h += _add_leg(x, velocity, delays_s[leg], beacon, velocity, 0.0, 1.0 / L, H)
+    return h, H
+
+
+@njit(cache=True)
+def moving_range_prediction(
+    x: np.ndarray, velocity: np.ndarray, beacon: np.ndarray, beacon_velocity: np.ndarray, legs_s: np.ndarray
+) -> tuple[float, np.ndarray]:
+    """``range_prediction`` to a beacon that moves too: each leg from its own geometry.
+
+    legs_s (2, L): row 0 the times at which leg l reaches or leaves the vehicle (as
+    ``delays_s``), row 1 the times at which it leaves or reaches the beacon, which is at
+    b + u e_l then (b, u: the beacon's position at the reference time and its velocity,
+    both sent in its message). A two-way range is the mean of the interrogation's leg,
+    from x to the beacon where it hears it, and the reply's, from the beacon where it
+    replies (``turnaround_s`` later) back to the vehicle: h = mean_l |x + v d_l - b - u e_l|
+    (``measurements.modem.modem_range`` fills legs_s). Returns (h, H (3,)).
+    """
+    L = legs_s.shape[1]
+    h = 0.0
+    H = np.zeros(3)
+    for leg in range(L):
+        h += _add_leg(x, velocity, legs_s[0, leg], beacon, beacon_velocity, legs_s[1, leg], 1.0 / L, H)
     return h, H
 
 

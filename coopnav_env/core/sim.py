@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scenarios.base import ScenarioConfig
-from . import channel, episode_start, fusion, measurements, observation, rng, substeps
+from . import beacon_nav, channel, episode_start, fusion, measurements, observation, rng, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
 from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, unit_to_bearing
 from .guidance import build_path
@@ -50,6 +50,7 @@ INFO_KEYS = (
     "survey_cov_en_m2",
 )
 BEACON_INFO_KEYS = ("beacon_error_m",)  # and the channel model's (core.channel registry)
+SURVEY_BEACON_INFO_KEYS = ("beacon_away_s",)  # the survey network's: time away on a surfacing
 
 
 class Simulator(BatchSimulator):
@@ -69,6 +70,9 @@ class Simulator(BatchSimulator):
         )
         self._beacon_turn_cos, self._beacon_turn_sin = np.cos(beacon_turn), np.sin(beacon_turn)
         self._beacon_depth = np.where(is_asv, 0.0, c.beacon_auv_depth_m)
+        self._surfacing_times = beacon_nav.surfacing_times(
+            self._beacon_depth, c.beacon_vertical_speed_mps, c.beacon_surface_dwell_s, c.beacon_ranging_min_depth_m
+        )
         self._build_paths()
         self.gate = gate_threshold(c.range_gate_probability)  # the chi-square gate of every acoustic update
         self.sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
@@ -102,6 +106,7 @@ class Simulator(BatchSimulator):
                 ("acoustic_u", "uniform", (N_, S_, 4)),
                 ("message_u", "uniform", (N_, S_ + N_)),
                 *measurements.draw_layout(c.acoustic_sensor, S_, N_, K_),  # the sensor's own draws (its registration)
+                ("asv_n", "normal", (N_, 2)),  # the ASVs' surge and course errors
             ],
             self.batch_size,
         )
@@ -115,7 +120,7 @@ class Simulator(BatchSimulator):
         model = channel.channel_model(c.channel_mode)
         self.channel = model.build(self)
         self.action_dim = model.action_dim
-        self.beacon_info_keys = BEACON_INFO_KEYS + model.beacon_info_keys
+        self.beacon_info_keys = BEACON_INFO_KEYS + SURVEY_BEACON_INFO_KEYS + model.beacon_info_keys
         self.reward_terms = terms_for(c, "survey_beacons")  # this network's registered terms (core.reward)
         self._term_hooks = has_hooks(self.reward_terms)  # a plug-in term computed in Python: build its context
         self.reward_weights = term_weights(c, self.reward_terms)
@@ -243,10 +248,12 @@ class Simulator(BatchSimulator):
         draws = self._cycle_draws(st.cycle)
         transmit = self.channel.transmit_mask(actions, st.cycle) if self.channel is not None else None
         # 1. beacon motion over the cycle
-        moved = self._move_beacons(actions)
+        moved = self._move_beacons(actions, draws)
         # 2. survey sub-steps; the beacons' own navigation; the current; the clock
         self._integrate_survey(draws)
         self._beacon_navigation(draws, moved)
+        if transmit is not None and st.b_away.any():  # away on a surfacing: no ping
+            transmit = transmit & ~st.b_away
         self._advance_water_and_clock(draws)
         # 3. EKF prediction (eq. 6), depth and GPS
         out = self._predict_depth_gps(draws)
@@ -269,9 +276,10 @@ class Simulator(BatchSimulator):
             self._beacon_info(),
         )
 
-    def _move_beacons(self, actions: np.ndarray) -> np.ndarray:
-        """Step 1: the beacons follow their commanded velocity through the sub-steps;
-        returns their true horizontal displacement over the cycle, complex (B, N)."""
+    def _move_beacons(self, actions: np.ndarray, draws: dict) -> np.ndarray:
+        """Step 1: the beacons follow their commanded velocity through the sub-steps, the
+        ASVs with the boats' errors (``beacon_nav.disturb_asvs``); returns their true
+        horizontal displacement over the cycle, complex (B, N)."""
         st = self._live
         b_start = st.b_pos[..., 0] + 1j * st.b_pos[..., 1]
         self._k_beacons(
@@ -284,6 +292,8 @@ class Simulator(BatchSimulator):
             self.K,
             self.config.substep_s,
         )
+        if self._beacon_is_asv.any():
+            beacon_nav.disturb_asvs(st, self.config, self._beacon_is_asv, draws["asv_n"])
         return st.b_pos[..., 0] + 1j * st.b_pos[..., 1] - b_start
 
     def _advance_water_and_clock(self, draws: dict) -> None:
@@ -320,7 +330,8 @@ class Simulator(BatchSimulator):
         With the shared channel only the pings it delivers are measured; returns the
         channel's ping resolution (delivered (B, N, S), the whole slot) or None."""
         if self.channel is None:
-            self.sensor.fuse(draws, out)
+            masks = beacon_nav.away_masks(self._live, self.S)  # a beacon away on a surfacing sends none
+            self.sensor.fuse(draws, out) if masks is None else self.sensor.fuse(draws, out, heard=masks[0])
             return None
         ping_ok, ping_slot = self.channel.pings(transmit)
         self.sensor.fuse(draws, out, heard=ping_ok)
@@ -425,12 +436,16 @@ class Simulator(BatchSimulator):
         }
 
     def _beacon_info(self) -> dict:
-        """Per beacon (B, N): the true horizontal error of its own navigation (m); with
+        """Per beacon (B, N): the true horizontal error of its own navigation (m), the time
+        of this cycle it spent away on a surfacing (``beacon_away_s``, s); with
         ``channel_mode="decide"`` also this cycle's ``pings`` (0 or 1), ``collisions``
         (survey vehicles at which its ping collided with another packet) and
         ``energy_J`` (transmit energy, J)."""
         st = self._live
-        info = {"beacon_error_m": np.hypot(st.b_nav_err[..., 0], st.b_nav_err[..., 1])}
+        info = {
+            "beacon_error_m": np.hypot(st.b_nav_err[..., 0], st.b_nav_err[..., 1]),
+            "beacon_away_s": st.b_away_s.copy(),
+        }
         if self.channel is not None:
             info.update(pings=st.b_pings.copy(), collisions=st.b_collisions.copy(), energy_J=st.b_energy_j.copy())
         return info
@@ -479,8 +494,9 @@ class Simulator(BatchSimulator):
         T, K, dt = c.ping_interval_s, self.K, c.substep_s
         n, u = draws["beacon_nav_n"], draws["beacon_nav_u"]
         auv = ~self._beacon_is_asv
-        # bottom lock is lost and regained at random (per cycle)
-        st.b_dvl_lock = np.where(st.b_dvl_lock, u >= c.dvl_lock_loss_probability, u < c.dvl_lock_regain_probability)
+        # bottom lock is lost and regained at random (per cycle), from the altitude (core/beacon_nav.py)
+        p_loss, p_regain = beacon_nav.lock_probabilities(c, st.b_pos[..., 2])
+        st.b_dvl_lock = np.where(st.b_dvl_lock, u >= p_loss, u < p_regain)
         # DVL: the white velocity noise integrated over the cycle (a random walk)
         walk_std = c.dvl_velocity_noise_mps * dt * np.sqrt(K)
         drift = np.where(st.b_dvl_lock, 0.0, st.b_current_err * T)  # without lock: thrust model + current estimate
@@ -494,20 +510,19 @@ class Simulator(BatchSimulator):
         # the variance it carries: the random walk adds up linearly; the current-estimate
         # error is a bias, so its part grows with the square of the time spent without lock;
         # the constant heading and scale errors' part grows with the square of the displacement
-        # D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2) |D|^2; the one-cycle
-        # part, which does not cancel on a lawnmower's alternating legs, at most with the square
-        # of the distance s travelled, (b1^2 / 2) s^2; half of each per axis
+        # D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2) |D|^2; half of
+        # each per axis; the one-cycle part exact for any path (beacon_nav.heading_cycle_variance_m2)
         st.b_walk_var_m2 = st.b_walk_var_m2 + walk_std**2
         st.b_unlocked_s = st.b_unlocked_s + np.where(st.b_dvl_lock, 0.0, T)
         st.b_since_fix_s = st.b_since_fix_s + T
         est_h = st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h
         sigma2 = c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2
-        st.b_travelled_m = st.b_travelled_m + np.abs(moved)
+        st.b_travelled_m, st.b_turn_sum_m = beacon_nav.add_displacement(st.b_travelled_m, st.b_turn_sum_m, moved)
         var = (
             st.b_walk_var_m2
             + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
             + 0.5 * sigma2 * np.abs(est_h - st.b_fix_est) ** 2
-            + 0.25 * np.radians(c.beacon_dvl_heading_cycle_deg) ** 2 * st.b_travelled_m**2
+            + beacon_nav.heading_cycle_variance_m2(c.beacon_dvl_heading_cycle_deg, st.b_travelled_m, st.b_turn_sum_m)
         )
         # a GPS fix: every cycle for ASVs; at the surface when due for AUVs
         gps_h = c.gps_noise_m * (n[..., 2] + 1j * n[..., 3])
@@ -515,6 +530,8 @@ class Simulator(BatchSimulator):
             ((c.beacon_surface_every_s > 0) & (st.b_since_fix_s >= c.beacon_surface_every_s - 1e-9))
             | ((c.beacon_surface_above_std_m > 0) & (var > c.beacon_surface_above_std_m**2))
         )
+        if c.beacon_surfacing == "timed":  # due: it ascends, dwells, descends (core/beacon_nav.py)
+            surface = beacon_nav.advance_surfacing(st, c, self._surfacing_times, self._beacon_depth, surface)
         fix = ~auv | surface
         err_h = np.where(fix, gps_h, err_h)
         gps_var = c.gps_noise_m**2
@@ -523,6 +540,7 @@ class Simulator(BatchSimulator):
         st.b_unlocked_s = np.where(surface, 0.0, st.b_unlocked_s)
         st.b_since_fix_s = np.where(fix, 0.0, st.b_since_fix_s)
         st.b_travelled_m = np.where(fix, 0.0, st.b_travelled_m)
+        st.b_turn_sum_m = np.where(fix, 0.0, st.b_turn_sum_m)
         st.b_fix_est = np.where(fix, st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h, st.b_fix_est)
         st.b_surfacings = surface.astype(np.int64)
         st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag
@@ -530,14 +548,15 @@ class Simulator(BatchSimulator):
     def _exchange_messages(self, draws: dict) -> None:
         """Step 5 on the fixed clock: replies and positions, lost only at random."""
         st = self._live
+        masks = beacon_nav.away_masks(st, self.S) or (self._all_replies, self._all_peers)  # away: none heard
         self._k_messages(
             survey_view(st),
             beacon_view(st),
             knowledge_view(st),
             st.t_s,
             draws["message_u"],
-            self._all_replies,
-            self._all_peers,
+            masks[0],
+            masks[1],
             self.params,
         )
 

@@ -80,9 +80,16 @@ class SimState(BatchArrays):
     b_dvl_heading_bias_rad: np.ndarray  # this episode's constant compass error of the DVL dead reckoning (B,N)
     b_dvl_heading_phase_rad: np.ndarray  # the phase of its one-cycle (heading-dependent) part (B,N)
     b_travelled_m: np.ndarray  # distance travelled since the last fix (B,N)
+    b_turn_sum_m: np.ndarray  # sum of |d| e^{-2i heading} over the cycles since the last fix, complex (B,N)
     b_fix_est: np.ndarray  # own position estimate at the last GPS fix (start or surfacing), complex (B,N)
     b_since_fix_s: np.ndarray  # time since that fix (B,N)
     b_surfacings: np.ndarray  # GPS fixes taken at the surface this cycle (B,N) int
+    b_surfacing: np.ndarray  # on a surfacing (ascent, dwell, descent) (B,N) bool
+    b_excursion_s: np.ndarray  # time since that surfacing's ascent began (B,N)
+    b_away_s: np.ndarray  # time of this cycle it spent above the ranging depth on a surfacing (B,N)
+    b_away: np.ndarray  # above the ranging depth on a surfacing now: no ping, no reply (B,N) bool
+    b_surge: np.ndarray  # ASV: its ground-speed error along its heading, Gauss-Markov, m/s (B,N)
+    b_steer: np.ndarray  # ASV: its course error, Gauss-Markov, rad (B,N)
     b_pings: np.ndarray  # packets it transmitted this cycle (channel_mode="decide"; else 0) (B,N) int
     b_collisions: np.ndarray  # its pings lost to a collision at a survey vehicle this cycle (B,N) int
     b_energy_j: np.ndarray  # transmit energy it spent this cycle, J (B,N)

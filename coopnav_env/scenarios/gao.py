@@ -36,6 +36,7 @@ GAO_LAWNMOWER = ScenarioConfig(
     current_direction_spread_deg=180.0,
     max_cycles=150,
     beacon_surface_every_s=20.0,  # lake trial: ranges from GPS positions at the surface (sec. IV-A)
+    beacon_surfacing="instant",  # ... where the beacon stays: a fix every cycle, no time away
     # Q tuned so that the filter's average NEES lies in its chi-square band (tests/test_ekf.py)
     process_noise_horizontal_m2ps=0.35,
 )

@@ -15,6 +15,8 @@ from .params import Section, check, check_coordinates, finite, param, section
 
 BEACON_KINDS = ("beacon_auv", "asv", "boat")
 NETWORKS = ("survey_beacons", "moving_lbl")
+SURFACING_MODES = ("timed", "instant")  # beacon_surfacing
+DVL_LOCK_MODELS = ("altitude", "fixed")  # dvl_lock_model
 SURVEY_PATHS = ("stationary", "lawnmower", "circle", "spiral", "line", "waypoints")
 RANGING_MODES = ("owtt", "twtt")
 # ACOUSTIC_SENSORS: the registered sensors' names (core.measurements), read when asked (__getattr__ below)
@@ -295,8 +297,52 @@ class BeaconAUV(Section):
         source="reference-values.md §2",
         doc="HoloOcean DVL default, ref-values section 2",
     )
-    dvl_lock_loss_probability: float = param(0.02, low=0.0, high=1.0, source="assumption [U]", doc="per cycle [U]")
-    dvl_lock_regain_probability: float = param(0.5, low=0.0, high=1.0, source="assumption [U]", doc="per cycle [U]")
+    dvl_lock_model: str = param(
+        "altitude",
+        choices=DVL_LOCK_MODELS,
+        doc=(
+            '"altitude": bottom lock from the altitude water_depth_m - depth against the DVL\'s range (core/'
+            'beacon_nav.py); "fixed": lost with dvl_lock_loss_probability per cycle whatever the altitude'
+        ),
+    )
+    dvl_lock_loss_probability: float = param(
+        0.02,
+        low=0.0,
+        high=1.0,
+        source="assumption [U]",
+        doc="per cycle, well inside the DVL's range (altitude model) or always (fixed) [U]",
+    )
+    dvl_lock_regain_probability: float = param(
+        0.5, low=0.0, high=1.0, source="assumption [U]", doc="per cycle, well inside the DVL's range [U]"
+    )
+    water_depth_m: float = param(
+        20.0,
+        unit="m",
+        low=0,
+        high=11000.0,
+        open_low=True,
+        source="assumption [U]",
+        doc="the water's depth under the beacon AUV, a flat bottom (the Gao trials do not say; coastal [U])",
+    )
+    dvl_min_altitude_m: float = param(
+        0.05, unit="m", low=0.0, high=1000.0, source="reference-values.md §2", doc="DVL A50: 0.05-50 m altitude"
+    )
+    dvl_max_altitude_m: float = param(
+        50.0,
+        unit="m",
+        low=0,
+        high=10000.0,
+        open_low=True,
+        source="reference-values.md §2",
+        doc="DVL A50: bottom track to 50 m altitude (A125 to 125 m, Nortek ~75 m)",
+    )
+    dvl_lock_fade_fraction: float = param(
+        0.2,
+        low=0.0,
+        high=1.0,
+        source="assumption [U]",
+        doc="the loss probability rises linearly to 1 over this last fraction of the DVL's range [U]",
+    )
     beacon_current_estimate_error_mps: float = param(
         0.05,
         unit="m/s",
@@ -346,6 +392,39 @@ class BeaconAUV(Section):
     beacon_surface_above_std_m: float = param(
         0.0, unit="m", low=0.0, high=10000.0, doc="> 0: ... and whenever its own position std exceeds this (0: never)"
     )
+    beacon_surfacing: str = param(
+        "timed",
+        choices=SURFACING_MODES,
+        doc=(
+            '"timed": ascent, a dwell for the fix and descent, away from the survey meanwhile (core/beacon_nav.py); '
+            '"instant": a fix the cycle it is due (the lake trial\'s beacon at the surface)'
+        ),
+    )
+    beacon_vertical_speed_mps: float = param(
+        0.5,
+        unit="m/s",
+        low=0,
+        high=10.0,
+        open_low=True,
+        source="assumption [U]",
+        doc="ascent and descent rate of a surfacing (~1.5 m/s at 15-20 deg pitch) [U]",
+    )
+    beacon_surface_dwell_s: float = param(
+        30.0,
+        unit="s",
+        low=0.0,
+        high=100000.0,
+        source="assumption [U]",
+        doc="time at the surface before the GPS fix is taken (acquisition and a settled solution) [U]",
+    )
+    beacon_ranging_min_depth_m: float = param(
+        1.0,
+        unit="m",
+        low=0.0,
+        high=6000.0,
+        source="assumption [U]",
+        doc="on a surfacing the beacon neither pings nor hears replies above this depth (the wave zone) [U]",
+    )
 
 
 @section
@@ -355,6 +434,37 @@ class ASV(Section):
     asv_max_speed_mps: float = param(2.0, unit="m/s", low=0, high=20.0, open_low=True, doc="Sousa et al.")
     asv_max_turn_rate_dps: float = param(
         30.0, unit="deg/s", low=0, high=360.0, open_low=True, source="assumption [U]", doc="[U]"
+    )
+    asv_surge_noise_mps: float = param(
+        0.15,
+        unit="m/s",
+        low=0.0,
+        high=5.0,
+        source="assumption [U]",
+        doc="stationary std of the ASV's ground-speed error along its heading, Gauss-Markov (the boats' value) [U]",
+    )
+    asv_steering_noise_deg: float = param(
+        5.0,
+        unit="deg",
+        low=0.0,
+        high=90.0,
+        source="assumption [U]",
+        doc="stationary std of the ASV's course-over-ground error, Gauss-Markov (the boats' value) [U]",
+    )
+    asv_noise_time_constant_s: float = param(
+        30.0,
+        unit="s",
+        low=0.0,
+        high=100000.0,
+        source="assumption [U]",
+        doc="correlation time of the ASV's surge and course errors (0: white per cycle; the boats' value) [U]",
+    )
+    asv_current_response: float = param(
+        0.2,
+        low=0.0,
+        high=1.0,
+        source="assumption [U]",
+        doc="fraction of the water current the ASV's ground-speed control does not cancel (the boats' value) [U]",
     )
 
 

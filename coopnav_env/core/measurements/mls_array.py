@@ -164,10 +164,14 @@ class MLSArray:
         bcast = lambda a: np.broadcast_to(a[:, None, :], shape).copy()
         return MLSMeasurement(state, bcast(rng_m), bcast(bearing), bcast(var_r), bcast(var_az + compass_std**2))
 
-    def fuse(self, draws: dict, out: FusionOutputs) -> None:
-        """Measure this cycle's sender and fuse its range and bearing (``_fuse``)."""
+    def fuse(self, draws: dict, out: FusionOutputs, heard: np.ndarray | None = None) -> None:
+        """Measure this cycle's sender and fuse its range and bearing (``_fuse``); ``heard``
+        (B, N, S): False where a sender's ping is not sent (its beacon away on a surfacing)."""
         st = self.sim.state
-        self.kernel(survey_view(st), beacon_view(st), self.measure(draws), st.t_s, self.sim.gate, out)
+        m = self.measure(draws)
+        if heard is not None:
+            m.state[~heard] = NOT_SENT
+        self.kernel(survey_view(st), beacon_view(st), m, st.t_s, self.sim.gate, out)
 
 
 def build(sim: SensorHost) -> MLSArray:

@@ -22,7 +22,7 @@ from ..acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_
 from ..contract import SensorHost
 from ..jit import parallel_twin
 from ..kernel_records import beacon_view, survey_view
-from ..navigation import gated_update, range_prediction, reinit_on_range
+from ..navigation import gated_update, moving_range_prediction, reinit_on_range
 from . import FusionOutputs
 
 
@@ -43,28 +43,36 @@ def modem_range(
 ) -> float:
     """The range a modem measures between a beacon and a survey vehicle (m), from the
     time of flight between the moving vehicles at the true sound speed, turned back
-    into a range with the assumed one; ``delays`` gets the legs' times for the
-    filter's prediction. ``jitter_s`` is sigma_t, one detection's timing jitter; ``n``
-    a standard normal.
+    into a range with the assumed one; ``delays`` (2, L) gets the legs' times for the
+    filter's prediction (``navigation.moving_range_prediction``: row 0 at the survey
+    vehicle, row 1 at the beacon). ``jitter_s`` is sigma_t, one detection's timing
+    jitter; ``n`` a standard normal.
 
     One-way: the beacon transmits at t = 0; one detection at the survey, whose clock
     is off by ``clock_s``: r = c_assumed (tau + clock + sigma_t n).
-    Two-way: the survey interrogates, the beacon replies after ``turnaround_s``; the
-    beacon's and the survey's detections each add a jitter, so the round trip is late
-    by sqrt(2) sigma_t n and r = c_assumed (t_rt - TAT) / 2 has variance
-    (c sigma_t)^2 / 2 (``acoustics.ranging_variance_m2``).
+    Two-way: the survey interrogates at t = 0, the beacon hears it at tau1 where it is
+    then, replies after ``turnaround_s`` from where it is then, and the reply reaches
+    the survey at t_rt: each leg from its own geometry. The beacon's and the survey's
+    detections each add a jitter, so the round trip is late by sqrt(2) sigma_t n and
+    r = c_assumed (t_rt - TAT) / 2 has variance (c sigma_t)^2 / 2
+    (``acoustics.ranging_variance_m2``). The filter knows t_rt and TAT, not tau1: it
+    places the beacon's legs at e1 = (t_rt - TAT) / 2 and e2 = e1 + TAT (the legs
+    differ by |v| tau / c, millimetres).
     """
     if two_way:
         tau1 = travel_time(s_pos, b_pos, b_vel, c_true)
         lag = tau1 + turnaround_s
         tau2 = travel_time(b_pos + b_vel * lag, s_pos + s_vel_true * lag, s_vel_true, c_true)
         t_rt = lag + tau2 + jitter_s * np.sqrt(2.0) * n
-        delays[0] = 0.0
-        delays[1] = t_rt
+        delays[0, 0] = 0.0
+        delays[0, 1] = t_rt
+        delays[1, 0] = 0.5 * (t_rt - turnaround_s)
+        delays[1, 1] = delays[1, 0] + turnaround_s
         return 0.5 * c_assumed * (t_rt - turnaround_s)
     tau = travel_time(b_pos, s_pos, s_vel_true, c_true)
     r = c_assumed * (tau + clock_s + jitter_s * n)
-    delays[0] = r / c_assumed
+    delays[0, 0] = r / c_assumed
+    delays[1, 0] = 0.0
     return r
 
 
@@ -178,7 +186,7 @@ def _fuse_ping(sv, bv, cyc, prm, out, b, s, j, delays):
     if not np.isfinite(r):
         out.nan_count[b, s] += 1
         return False
-    h, H = range_prediction(sv.est[b, s], sv.vel_est[b, s], delays, bv.est[b, j])
+    h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
     R = modem_range_variance(cyc.range_noise_std_m[b], prm.two_way, bv.nav_var[b, j], h, sound_speed_rel_std)
     if not gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R, prm.gate):
         out.rejected[b, j, s] = True
@@ -198,7 +206,7 @@ def _fuse(sv, bv, cyc, prm, out):
     neither measured nor counted lost; prm: ``ModemParams``."""
     B, N, S = bv.pos.shape[0], bv.pos.shape[1], sv.est.shape[1]
     for b in prange(B):
-        delays = np.zeros(2 if prm.two_way else 1)
+        delays = np.zeros((2, 2 if prm.two_way else 1))
         for s in range(S):
             any_fused = False
             for j in range(N):

@@ -72,6 +72,7 @@ unchanged.
 
 from __future__ import annotations
 
+from ..dynamics import boat_noise_step, disturb_boats
 from .cycle import cycle, cycle_parallel
 from .filter import EXCHANGE_COVARIANCE, exchange_covariance_m2
 from .observe import (
@@ -108,7 +109,7 @@ from .state import (
     obs_dim_of,
     obs_fields,
 )
-from .vehicle import boat_noise_step, disturb_boats, integrate_vehicle
+from .vehicle import integrate_vehicle
 
 __all__ = [
     "CYCLE_COUNTS",

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import lbl, river, rng, substeps
 from ..contract import BatchSimulator, Snapshot, StepResult
-from ..dynamics import bearing_to_unit, gauss_markov_step
+from ..dynamics import bearing_to_unit, boat_noise_step, disturb_boats, gauss_markov_step
 from ..guidance import build_path
 from ..information import error_ellipse, floored_log
 from ..navigation import gate_threshold
@@ -57,7 +57,7 @@ from .state import (
     vehicle_of,
 )
 from .terms import step_info
-from .vehicle import boat_noise_step, disturb_boats, integrate_vehicle
+from .vehicle import integrate_vehicle
 
 if TYPE_CHECKING:
     from ...scenarios.base import ScenarioConfig
