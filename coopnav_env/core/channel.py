@@ -195,9 +195,8 @@ class Channel:
         self._k_exchange = fusion.exchange_messages_parallel if self.parallel else fusion.exchange_messages
         self._exchange_params = sim.params
         if self.sonar:  # the link decides every loss: the modem's and the messages' range loss off
-            off = {"loss_near": 0.0, "loss_far": 0.0, "max_range_m": math.inf}
-            sim.sensor.params = sim.sensor.params._replace(**off)  # type: ignore[attr-defined]
-            self._exchange_params = sim.params._replace(**off)
+            sim.sensor.params = sim.sensor.params._replace(loss_near=0.0, loss_far=0.0, max_range_m=math.inf)  # type: ignore[attr-defined]
+            self._exchange_params = sim.params._replace(loss_near=0.0, loss_far=0.0, max_range_m=math.inf)
 
     def transmit_mask(self, actions: np.ndarray, cycle: np.ndarray) -> np.ndarray:
         """(B, N) bool: who transmits this slot. The third action component > 0; a
@@ -238,7 +237,12 @@ class Channel:
         )
         V = self.N + self.S
         tx = SlotTransmissions(
-            pos, vel, start, np.broadcast_to(self.tx_dur, (B, V)), self.link.source_level_db, self.tx_bits
+            pos,
+            vel,
+            start,
+            np.broadcast_to(self.tx_dur, (B, V)),
+            np.full((B, V), self.link.source_level_db),
+            self.tx_bits,
         )
         return slot_timeline(tx, c_pair, self.link, self.noise_db, self.parallel)
 

@@ -514,11 +514,8 @@ def slot_timeline(
     nl = band_noise_db(params.band, params.noise) if noise_db is None else noise_db
     nl = np.ascontiguousarray(np.broadcast_to(np.asarray(nl, float), (B,)))
     shape = (B, V, V)
-    out = SlotOutcome(
-        *(np.full(shape, x) for x in (np.nan, np.nan, np.nan, -np.inf, -np.inf, np.inf)),
-        *(np.zeros(shape, dtype=np.bool_) for _ in range(3)),
-        np.zeros(shape),
-    )
+    empty = [np.full(shape, x) for x in (np.nan, np.nan, np.nan, -np.inf, -np.inf, np.inf)]
+    out = SlotOutcome._make([*empty, *(np.zeros(shape, dtype=np.bool_) for _ in range(3)), np.zeros(shape)])
     kernel = slot_kernel_parallel if parallel else slot_kernel
     kernel(
         pos,
