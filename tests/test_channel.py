@@ -18,9 +18,11 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 import coopnav_env
 from coopnav_env.core import make_simulator
 from coopnav_env.core.acoustics import mackenzie_sound_speed, travel_time
-from coopnav_env.core.channel import link_params, ping_energy_j, slot_timing
+from coopnav_env.core.channel import link_params, ping_energy_j
 from coopnav_env.core.link import SlotTransmissions, slot_timeline
+from coopnav_env.core.link_framing import slot_timing
 from coopnav_env.core.reward import TERM_WEIGHTS, weighted_reward
+from coopnav_env.scenarios.validate import SLOWEST_SOUND_SPEED_MPS
 from coopnav_env.views import action_space, check_action
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -48,7 +50,7 @@ def timeline(positions, starts, durations, velocities=None, max_range_m=1500.0):
 
 def test_range_link_packets_last_bits_over_bit_rate():
     c = coopnav_env.make_config("sousa_ping", link_model="range", ping_offsets="zero", ping_interval_s=5.0)
-    t = slot_timing(c)
+    t = slot_timing(c, SLOWEST_SOUND_SPEED_MPS)
     assert (t.ping_s, t.reply_s, t.last_offset_s) == (0.8, 1.6, 0.0)
     assert t.reply_at_s == pytest.approx(0.8 + 1500.0 / 1400.0 + 0.015)
     assert t.need_s == pytest.approx(0.8 + 1.6 + 2 * 1500.0 / 1400.0 + 0.015)  # 4.557 s
@@ -333,7 +335,9 @@ def test_energy_per_ping_from_source_level_and_efficiency():
 
 def test_the_slot_must_hold_the_exchange_and_the_validator_names_the_minimum():
     # staggered: 6.0714 (B's offset) + 5 + 1.0714 + 0.015 + 5 + 1.0714 = 18.229 s
-    assert slot_timing(coopnav_env.make_config("sousa_ping")).need_s == pytest.approx(18.229, abs=1e-3)
+    assert slot_timing(coopnav_env.make_config("sousa_ping"), SLOWEST_SOUND_SPEED_MPS).need_s == pytest.approx(
+        18.229, abs=1e-3
+    )
     with pytest.raises(ValueError, match=r"minimum is 18\.229 s"):
         coopnav_env.make_config("sousa_ping", ping_interval_s=18.0)
     assert coopnav_env.make_config("sousa_ping", ping_interval_s=19.0).ping_interval_s == 19.0

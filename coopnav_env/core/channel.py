@@ -6,7 +6,7 @@ on a free channel.
 
 One decision slot of ``ping_interval_s``, times relative to the slot's ping instant
 (the end of the vehicles' motion over the slot, when the modem model measures its
-ranges); ``slot_timing`` gathers the numbers, the scenario's validation checks that
+ranges); ``link_framing.slot_timing`` gathers the numbers, the scenario's validation checks that
 the slot holds them (``scenarios.validate``):
 
 1. **Pings.** Every beacon that decided to transmit starts its ping at its offset in
@@ -66,7 +66,6 @@ from .kernel_records import beacon_view, knowledge_view, survey_view
 from .link import (
     Band,
     LinkParams,
-    MicroModemFraming,
     NoiseConditions,
     PowerModel,
     SlotOutcome,
@@ -75,54 +74,11 @@ from .link import (
     slot_timeline,
     transmit_energy_j,
 )
-from .link_framing import message_bits, message_duration_s
+from .link_framing import framing, message_bits, slot_timing
 
 if TYPE_CHECKING:
     from ..scenarios.base import ScenarioConfig
     from .contract import SensorHost  # not .sim: sim imports this module
-
-
-class SlotTiming(NamedTuple):
-    """A decision slot's packet timing (s): the ping's and reply's durations, the
-    stagger between beacons' pings, the last ping's latest start, the reply time and
-    the slot the whole exchange needs (``need_s`` <= ``ping_interval_s``)."""
-
-    ping_s: float
-    reply_s: float
-    step_s: float
-    last_offset_s: float
-    reply_at_s: float
-    need_s: float
-
-
-def framing(config: ScenarioConfig) -> MicroModemFraming:
-    """The Micro-Modem framing at the scenario's bit rate (rate 0's 32-byte frame [U]
-    at other rates)."""
-    return MicroModemFraming(bit_rate_bps=float(config.modem_bit_rate_bps))
-
-
-def packet_durations_s(config: ScenarioConfig) -> tuple[float, float]:
-    """(ping, reply) durations (s): Micro-Modem framing (``link_model="sonar"``) or
-    bits / bit rate (``"range"``)."""
-    c = config
-    if c.link_model == "sonar":
-        f = framing(c)
-        return message_duration_s(f, c.ping_packet_bits), message_duration_s(f, c.reply_packet_bits)
-    return c.ping_packet_bits / c.modem_bit_rate_bps, c.reply_packet_bits / c.modem_bit_rate_bps
-
-
-def slot_timing(config: ScenarioConfig) -> SlotTiming:
-    """The slot's timing (``SlotTiming``) for ``config``'s packets, beacons and offsets:
-    the pings staggered by D_ping + max_range_m / 1400 m/s (or drawn over that span,
-    or all at 0), the reply after the last ping's flight and the turn-around, the
-    slot until the reply has flown ``max_range_m``."""
-    c = config
-    ping_s, reply_s = packet_durations_s(c)
-    flight_s = c.max_range_m / SLOWEST_SOUND_SPEED_MPS
-    step_s = ping_s + flight_s
-    last_s = 0.0 if c.ping_offsets == "zero" else (c.n_beacons - 1) * step_s
-    reply_at_s = last_s + ping_s + flight_s + c.turnaround_s
-    return SlotTiming(ping_s, reply_s, step_s, last_s, reply_at_s, reply_at_s + reply_s + flight_s)
 
 
 def ping_energy_j(config: ScenarioConfig) -> float:
@@ -132,7 +88,7 @@ def ping_energy_j(config: ScenarioConfig) -> float:
     c = config
     if c.channel_mode == "decide" and c.link_model == "sonar":
         power = PowerModel(efficiency=float(c.transmit_efficiency))
-        return float(transmit_energy_j(c.source_level_db, slot_timing(c).ping_s, power))
+        return float(transmit_energy_j(c.source_level_db, slot_timing(c, SLOWEST_SOUND_SPEED_MPS).ping_s, power))
     return float(c.transmit_power_w * c.ping_packet_bits / c.modem_bit_rate_bps)
 
 
@@ -178,7 +134,7 @@ class Channel:
         self.sim = sim
         self.N, self.S = sim.N, sim.S
         self.sonar = c.link_model == "sonar"
-        self.timing = slot_timing(c)
+        self.timing = slot_timing(c, SLOWEST_SOUND_SPEED_MPS)
         self.ping_s, self.reply_s, self.reply_at_s = self.timing.ping_s, self.timing.reply_s, self.timing.reply_at_s
         self.ping_energy_j = ping_energy_j(c)
         self.link = link_params(c)

@@ -5,7 +5,7 @@ the core readable in one sitting (``tests/test_kernel_shape.py``)."""
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -108,3 +108,51 @@ def staggered_offsets_s(
     every receiver within ``max_range_m`` before the next starts (a TDMA slot plan;
     1400 m/s is slower than any sea water, ``scenarios.base.SLOWEST_SOUND_SPEED_MPS``)."""
     return np.arange(n_senders) * (packet_s + max_range_m / sound_speed_mps + guard_s)
+
+
+# ------------------------------------------------------------------ a channel's slot
+
+
+class SlotTiming(NamedTuple):
+    """A decision slot's packet timing (s): the ping's and reply's durations, the
+    stagger between beacons' pings, the last ping's latest start, the reply time and
+    the slot the whole exchange needs (``need_s`` <= ``ping_interval_s``)."""
+
+    ping_s: float
+    reply_s: float
+    step_s: float
+    last_offset_s: float
+    reply_at_s: float
+    need_s: float
+
+
+def framing(config: Any) -> MicroModemFraming:
+    """The Micro-Modem framing at the scenario's bit rate (rate 0's 32-byte frame [U]
+    at other rates)."""
+    return MicroModemFraming(bit_rate_bps=float(config.modem_bit_rate_bps))
+
+
+def packet_durations_s(config: Any) -> tuple[float, float]:
+    """(ping, reply) durations (s): Micro-Modem framing (``link_model="sonar"``) or
+    bits / bit rate (``"range"``)."""
+    c = config
+    if c.link_model == "sonar":
+        f = framing(c)
+        return message_duration_s(f, c.ping_packet_bits), message_duration_s(f, c.reply_packet_bits)
+    return c.ping_packet_bits / c.modem_bit_rate_bps, c.reply_packet_bits / c.modem_bit_rate_bps
+
+
+def slot_timing(config: Any, slowest_sound_speed_mps: float) -> SlotTiming:
+    """The slot's timing (``SlotTiming``) for ``config``'s packets, beacons and offsets:
+    the pings staggered by D_ping + max_range_m / 1400 m/s (or drawn over that span,
+    or all at 0), the reply after the last ping's flight and the turn-around, the
+    slot until the reply has flown ``max_range_m``; flights at
+    ``slowest_sound_speed_mps`` (``scenarios.validate.SLOWEST_SOUND_SPEED_MPS``, passed
+    in: the scenarios' validation calls this)."""
+    c = config
+    ping_s, reply_s = packet_durations_s(c)
+    flight_s = c.max_range_m / slowest_sound_speed_mps
+    step_s = ping_s + flight_s
+    last_s = 0.0 if c.ping_offsets == "zero" else (c.n_beacons - 1) * step_s
+    reply_at_s = last_s + ping_s + flight_s + c.turnaround_s
+    return SlotTiming(ping_s, reply_s, step_s, last_s, reply_at_s, reply_at_s + reply_s + flight_s)

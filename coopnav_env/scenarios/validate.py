@@ -80,9 +80,9 @@ def _check_decision_slot(c: Any) -> None:
         "channel_mode='decide' needs network='survey_beacons', acoustic_sensor='modem' and ranging_mode='owtt' "
         "(a beacon's ping is the one-way range)",
     )
-    from ..core.channel import slot_timing
+    from ..core.link_framing import slot_timing
 
-    t = slot_timing(c)
+    t = slot_timing(c, SLOWEST_SOUND_SPEED_MPS)
     check(
         t.need_s <= c.ping_interval_s,
         f"channel_mode='decide': a slot of ping_interval_s={c.ping_interval_s:g} s cannot hold the exchange; "
