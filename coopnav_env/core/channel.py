@@ -111,7 +111,8 @@ def link_params(config: ScenarioConfig) -> LinkParams:
 
 class SlotResult(NamedTuple):
     """One slot at every receiver, (B, V, V) [sender, receiver], V = N beacons then S
-    survey vehicles: ``arrival`` (NaN: not sent or not heard), ``delivered`` (decoded),
+    survey vehicles: ``arrival`` (NaN: not sent or not heard), ``delivered`` (the pings
+    at the survey vehicles decoded; elsewhere reached intact, before the message's draw),
     ``collided`` (overlapped and not captured), ``deaf`` (the receiver was
     transmitting), ``lost`` (reached the receiver intact but not decoded: the sonar
     link's SNR draw), and the whole ``link.SlotOutcome``."""
@@ -203,8 +204,10 @@ class Channel:
         return slot_timeline(tx, c_pair, self.link, self.noise_db, self.parallel)
 
     def _decode(self, o: SlotOutcome, u: np.ndarray, sl: tuple) -> tuple[np.ndarray, np.ndarray]:
-        """The receptions ``sl`` of the slot (a (sender, receiver) block): (decoded, lost),
-        [receiver-major as ``u``] ... see ``pings`` and ``replies``."""
+        """The block ``sl`` of the slot's receptions, indexed as ``u`` (its uniforms):
+        (decoded, lost). Reached: captured and not deaf; on the sonar link decoded if
+        u >= 1 - P (lost if u < 1 - P, the modem kernel's convention), on the range
+        link every reached one (the kernels draw their own range loss)."""
         reach = (o.captured & ~o.deaf)[sl]
         if not self.sonar:
             return reach, np.zeros_like(reach)

@@ -1,8 +1,8 @@
 """The acoustic link from the sonar equation (issue 21), used by the simulator's channel.
 
 What a packet from vehicle v is worth at vehicle w, from physics instead of the
-quadratic-in-range loss of ``acoustics.packet_loss_probability`` and the hard 1500 m
-interference cut of ``channel``:
+quadratic-in-range loss of ``acoustics.packet_loss_probability`` and the hard
+``max_range_m`` interference cut of the channel's ``link_model="range"``:
 
 1. **Transmission loss** (Urick's spreading plus Thorp's absorption, as written in
    Stojanovic 2007, path loss): TL(r, f) = k 10 log10(r / 1 m) + a(f) r / 1000,
