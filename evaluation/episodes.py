@@ -116,12 +116,10 @@ def _channel_use(res, config) -> dict:
     simulate the channel), and each ping costs the scenario's modem energy."""
     if "pings" in res.beacon_info:
         return {k: res.beacon_info[k].sum(-1) for k in ("pings", "collisions", "energy_J")}
-    from coopnav_env.core.channel import packet_duration_s, transmit_energy_j
+    from coopnav_env.core.channel import ping_energy_j
 
     pings = np.full(res.reward.shape[0], float(config.n_beacons))
-    joules = transmit_energy_j(
-        config.transmit_power_w, packet_duration_s(config.ping_packet_bits, config.modem_bit_rate_bps)
-    )
+    joules = ping_energy_j(config)
     return {"pings": pings, "collisions": np.zeros_like(pings), "energy_J": pings * joules}
 
 

@@ -1,11 +1,14 @@
 """The acoustic channel as a shared resource (channel_mode="decide", core/channel.py):
-its physics against hand-computed timelines, the energy bookkeeping, the default
-scenarios unchanged bit for bit, and the new scenario through the API contracts."""
+the wired link (sonar equation, capture, half duplex, offsets, energy) against
+hand-computed cases through the simulator's channel, the range link's timelines,
+the range link reproducing the earlier channel bit for bit, and the scenario through
+the API contracts."""
 
 from __future__ import annotations
 
 import functools
 import importlib.util
+import math
 from pathlib import Path
 
 import numpy as np
@@ -15,37 +18,45 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 import coopnav_env
 from coopnav_env.core import make_simulator
 from coopnav_env.core.acoustics import mackenzie_sound_speed, travel_time
-from coopnav_env.core.channel import packet_duration_s, reply_time_s, resolve_slot, transmit_energy_j
+from coopnav_env.core.channel import link_params, ping_energy_j
+from coopnav_env.core.link import SlotTransmissions, slot_timeline
+from coopnav_env.core.link_framing import slot_timing
 from coopnav_env.core.reward import TERM_WEIGHTS, weighted_reward
+from coopnav_env.scenarios.validate import SLOWEST_SOUND_SPEED_MPS
 from coopnav_env.views import action_space, check_action
 
 DATA = Path(__file__).resolve().parent / "data"
 T_C, SAL = 10.0, 35.0
 C0 = float(mackenzie_sound_speed(T_C, SAL, 0.0))  # every vehicle at the surface: one sound speed
+RANGE_LINK = link_params(coopnav_env.make_config("sousa_ping", link_model="range"))
 
 
 def timeline(positions, starts, durations, velocities=None, max_range_m=1500.0):
-    """One environment's slot: vehicles on the surface at ``positions`` (east, north)."""
+    """One environment's slot on the range link (``link_model="range"``): vehicles on
+    the surface at ``positions`` (east, north). (arrival, delivered, collided, deaf)."""
     V = len(positions)
     pos = np.zeros((1, V, 3))
     pos[0, :, :2] = positions
     vel = np.zeros((1, V, 3)) if velocities is None else np.asarray(velocities, float).reshape(1, V, 3)
     start = np.array([np.nan if s is None else s for s in starts], float)[None]
-    return resolve_slot(pos, vel, start, np.asarray(durations, float)[None], np.array([T_C]), SAL, max_range_m)
+    tx = SlotTransmissions(pos, vel, start, np.asarray(durations, float)[None], 185.0, 256)
+    o = slot_timeline(tx, C0, RANGE_LINK._replace(hearing_range_m=max_range_m))
+    return o.arrival_s, o.captured & ~o.deaf, o.overlapped & ~o.captured, o.deaf
 
 
 # --------------------------------------------------------------------------------------
-# physics against hand-computed timelines
+# the range link's timelines against hand-computed ones (the earlier channel's physics)
 
 
-def test_packet_duration_is_bits_over_bit_rate():
-    assert packet_duration_s(64, 80.0) == 0.8
-    assert packet_duration_s(128, 80.0) == 1.6
-    assert packet_duration_s(256, 5400.0) == pytest.approx(256 / 5400)
-    sim = make_simulator(coopnav_env.make_config("sousa_ping", modem_bit_rate_bps=160.0, ping_packet_bits=40), 1)
-    assert sim.channel.ping_s == 0.25 and sim.channel.reply_s == 0.8
-    c = sim.config
-    assert reply_time_s(c) == pytest.approx(0.25 + c.max_range_m / 1400.0 + c.turnaround_s)
+def test_range_link_packets_last_bits_over_bit_rate():
+    c = coopnav_env.make_config("sousa_ping", link_model="range", ping_offsets="zero", ping_interval_s=5.0)
+    t = slot_timing(c, SLOWEST_SOUND_SPEED_MPS)
+    assert (t.ping_s, t.reply_s, t.last_offset_s) == (0.8, 1.6, 0.0)
+    assert t.reply_at_s == pytest.approx(0.8 + 1500.0 / 1400.0 + 0.015)
+    assert t.need_s == pytest.approx(0.8 + 1.6 + 2 * 1500.0 / 1400.0 + 0.015)  # 4.557 s
+    assert ping_energy_j(c) == pytest.approx(40.0 * 0.8)  # transmit_power_w x duration
+    sim = make_simulator(c.replace(modem_bit_rate_bps=160.0), 1)
+    assert sim.channel.ping_s == 0.4 and sim.channel.reply_s == 0.8
 
 
 def test_two_pings_that_overlap_at_the_receiver_are_both_lost():
@@ -121,20 +132,179 @@ def _actions(B, transmit):
     return a
 
 
-def test_both_beacons_pinging_collide_at_the_survey_vehicle():
-    sim = _decide_sim()
-    res = sim.step(_actions(2, [True, True]))
-    assert (res.beacon_info["pings"] == 1).all() and (res.beacon_info["collisions"] == 1).all()
-    assert (res.info["ranges_fused"] == 0).all() and (res.info["packets_lost"] == 0).all()  # not random losses
-    assert (res.terms["contact"] == 1.0).all() and (res.terms["ping"] == 1.0).all()
-    assert (sim.state.k_age_s > 0).all()  # nothing decoded: no reply
-    # one beacon alone: no collision; the survey vehicle replies
+def _place(sim, beacons_m, survey_m, depth_m=5.0):
+    """Every environment's vehicles at rest at (east, north) ``beacons_m`` and
+    ``survey_m``, all at ``depth_m`` (so a path is the horizontal distance)."""
+    st = sim.state
+    for pos, xy in ((st.b_pos, beacons_m), (st.s_pos, survey_m)):
+        pos[:] = depth_m
+        pos[..., :2] = np.asarray(xy, float)
+    st.b_vel[:] = 0.0
+    st.s_vel_true[:] = 0.0
+
+
+def _draws(sim, acoustic_u0=None, message_u=None):
+    """This cycle's draws, with the ping's and the messages' uniforms set if given."""
+    d = dict(sim._cycle_draws(sim.state.cycle))
+    if acoustic_u0 is not None:
+        d["acoustic_u"] = d["acoustic_u"].copy()
+        d["acoustic_u"][..., 0] = acoustic_u0
+    if message_u is not None:
+        d["message_u"] = np.full_like(d["message_u"], message_u)
+    return d
+
+
+def _tx(B, transmit):
+    return np.broadcast_to(np.asarray(transmit, bool), (B, len(transmit))).copy()
+
+
+def snr_by_hand(r_m, noise_db):
+    """185 dB - (20 log10 r + 6.1048051 r / 1000) - noise: spherical spreading, Thorp at 25 kHz."""
+    return 185.0 - (20.0 * math.log10(r_m) + 6.1048051 * r_m / 1000.0) - noise_db
+
+
+def p_success_by_hand(snr_db, bits=256):
+    """exp(-thr / SNR) (Rayleigh, thr 3 dB) x (1 - PER), BER = exp(-Eb/N0 / 2) / 2, Eb/N0 = SNR 4000 / 80."""
+    ber = 0.5 * math.exp(-0.5 * 10.0 ** (snr_db / 10.0) * 4000.0 / 80.0)
+    return math.exp(-(10.0 ** ((3.0 - snr_db) / 10.0))) * (1.0 - ber) ** bits
+
+
+def test_snr_and_loss_against_range_through_the_wired_channel():
+    ranges = np.array([500.0, 1000.0, 3000.0, 5000.0, 6000.0, 8000.0])
+    B = len(ranges)
+    sim = _decide_sim(B=B)
+    # beacon 0 at range r east of the survey vehicle, beacon 1 silent far away
+    _place(sim, np.stack([np.c_[ranges, np.zeros(B)], np.full((B, 2), 1e5)], 1), np.zeros((B, 1, 2)))
+    noise_db = sim.channel.noise_db
+    # the band noise: NL(25 kHz) = 38.549 dB re 1 uPa^2/Hz (tests/test_link.py) + 10 log10(4000) = 74.570 flat
+    assert noise_db == pytest.approx(38.549 + 36.0206, abs=0.05)
+    _, slot = sim.channel.pings(_tx(B, [True, False]), _draws(sim))
+    o = slot.outcome
+    np.testing.assert_allclose(o.range_m[:, 0, 2], ranges, rtol=1e-9)
+    snr = [snr_by_hand(r, noise_db) for r in ranges]
+    np.testing.assert_allclose(o.snr_db[:, 0, 2], snr, atol=1e-6)
+    # 1 km: SNR = 185 - 66.1048 - 74.57 = 44.3 dB, P = 0.9999; 5 km: 185 - 104.5034 - 74.57 = 5.93 dB,
+    # P = exp(-10^-0.293) = 0.60 (40 % lost); 8 km: SNR -8.9 dB, P = exp(-15.6) ~ 0
+    p = o.p_success[:, 0, 2]
+    np.testing.assert_allclose(p, [p_success_by_hand(x) for x in snr], atol=1e-9)
+    assert p[1] == pytest.approx(0.9999, abs=1e-4) and p[3] == pytest.approx(0.60, abs=0.01) and p[5] < 1e-6
+    assert np.all(np.diff(p) < 0)  # loss grows with range
+    assert not slot.collided.any() and not slot.deaf[:, 0, 2].any()
+
+
+def test_the_link_loses_pings_with_the_modems_own_uniform_and_counts_them():
+    sim = _decide_sim(B=2)
+    _place(sim, [[1000.0, 0.0], [1e5, 0.0]], [[0.0, 0.0]])
+    p = 1.0 - sim.channel.pings(_tx(2, [True, False]), _draws(sim))[1].outcome.p_success[0, 0, 2]
+    # lost if u < 1 - P (P = 0.99993 at 1 km): u = 0 loses it, u = 1 - P/2 keeps it
+    ok, slot = sim.channel.pings(_tx(2, [True, False]), _draws(sim, acoustic_u0=[[[0.0]], [[1.0 - p / 2]]]))
+    assert ok[:, 0, 0].tolist() == [False, True] and slot.lost[:, 0, 2].tolist() == [True, False]
+    # through a step: the lost ping is counted in packets_lost, not measured
+    orig = sim._cycle_draws
+
+    def lossy(cycle):
+        d = dict(orig(cycle))
+        d["acoustic_u"] = d["acoustic_u"].copy()
+        d["acoustic_u"][..., 0] = 0.0
+        return d
+
+    sim._cycle_draws = lossy
     res = sim.step(_actions(2, [True, False]))
-    assert (res.beacon_info["collisions"] == 0).all()
-    assert res.beacon_info["pings"].tolist() == [[1, 0], [1, 0]]
-    assert (res.terms["contact"][:, 1] == 0.0).all()  # a silent beacon is not blamed for no contact
-    heard = res.info["ranges_fused"][:, 0] + res.info["packets_lost"][:, 0] + res.info["outliers_rejected"][:, 0]
-    assert (heard == 1).all()
+    assert (res.info["packets_lost"][:, 0] == 1).all() and (res.info["ranges_fused"] == 0).all()
+
+
+def test_monte_carlo_delivery_matches_the_success_probability():
+    B = 1000
+    sim = _decide_sim(B=B)
+    _place(sim, np.broadcast_to([[5000.0, 0.0], [1e5, 0.0]], (B, 2, 2)), np.zeros((B, 1, 2)))
+    ok, slot = sim.channel.pings(_tx(B, [True, False]), _draws(sim))
+    p = slot.outcome.p_success[0, 0, 2]
+    assert p == pytest.approx(0.60, abs=0.01)
+    # binomial: std sqrt(0.6 x 0.4 / 1000) = 0.0155; 4 sigma
+    assert abs(ok[:, 0, 0].mean() - p) < 4 * math.sqrt(p * (1 - p) / B)
+
+
+def test_capture_a_near_ping_survives_a_far_one_in_the_wired_channel():
+    # beacons 100 m and 1000 m from the survey vehicle, both at t = 0 (ping_offsets="zero"), 5 s packets:
+    # [0.067, 5.067) and [0.67, 5.67) overlap; SIR = TL(1000) - TL(100) = 20 + 6.1048 x 0.9 = +25.49 dB
+    sim = _decide_sim(B=1, ping_offsets="zero")
+    _place(sim, [[100.0, 0.0], [-1000.0, 0.0]], [[0.0, 0.0]])
+    ok, slot = sim.channel.pings(_tx(1, [True, True]), _draws(sim, acoustic_u0=0.5))
+    o = slot.outcome
+    assert o.overlapped[0, 0, 2] and o.overlapped[0, 1, 2]
+    assert o.sir_db[0, 0, 2] == pytest.approx(25.4943, abs=1e-3)
+    assert o.sir_db[0, 1, 2] == pytest.approx(-25.4943, abs=1e-3)
+    assert ok[0, :, 0].tolist() == [True, False]  # the near one captured, the far one collided
+    assert slot.collided[0, :2, 2].tolist() == [False, True]
+    # the range link (the earlier channel): any overlap loses both, the near ping too
+    sim = _decide_sim(B=1, link_model="range", ping_offsets="zero", ping_interval_s=5.0)
+    _place(sim, [[100.0, 0.0], [-1000.0, 0.0]], [[0.0, 0.0]])
+    ok, slot = sim.channel.pings(_tx(1, [True, True]), _draws(sim))
+    assert ok[0, :, 0].tolist() == [False, False] and slot.collided[0, :2, 2].all()
+
+
+def test_near_far_a_near_interferer_drowns_a_far_ping_unless_staggered():
+    # beacon 0 at 1.4 km, beacon 1 at 200 m: at the same start, SIR of the far ping
+    # -(20 log10(7) + 6.1048 x 1.2) = -(16.902 + 7.326) = -24.23 dB: lost; staggered (6.07 s
+    # apart: the far ping has ended at 5 + 0.94 s when the near one arrives at 6.07 + 0.13 s)
+    # both decoded
+    for offsets, expect in (("zero", [False, True]), ("staggered", [True, True])):
+        sim = _decide_sim(B=1, ping_offsets=offsets)
+        _place(sim, [[1400.0, 0.0], [0.0, 200.0]], [[0.0, 0.0]])
+        ok, slot = sim.channel.pings(_tx(1, [True, True]), _draws(sim, acoustic_u0=0.5))
+        assert ok[0, :, 0].tolist() == expect, offsets
+        if offsets == "zero":
+            assert slot.outcome.sir_db[0, 0, 2] == pytest.approx(-(20.0 * math.log10(7.0) + 6.1048051 * 1.2), abs=1e-3)
+
+
+def test_half_duplex_in_the_wired_channel():
+    # zero offsets: the two beacons (800 m apart) transmit together and each is deaf to the other
+    sim = _decide_sim(B=1, ping_offsets="zero")
+    _place(sim, [[400.0, 0.0], [-400.0, 0.0]], [[0.0, 300.0]])
+    reply_ok, peer_ok, o = sim.channel.replies(_tx(1, [True, True]), np.ones((1, 1), bool), _draws(sim, message_u=0.5))
+    assert o.deaf[0, 0, 1] and o.deaf[0, 1, 0] and not peer_ok[0, 0, 1] and not peer_ok[0, 1, 0]
+    # staggered: B starts at 6.07 s, after A's ping left it (arrival 0.55 s, end 5.55 s), and A has
+    # finished sending when B's reaches it: both hear each other
+    sim = _decide_sim(B=1)
+    _place(sim, [[400.0, 0.0], [-400.0, 0.0]], [[0.0, 300.0]])
+    reply_ok, peer_ok, o = sim.channel.replies(_tx(1, [True, True]), np.ones((1, 1), bool), _draws(sim, message_u=0.5))
+    assert not o.deaf[0].any() and peer_ok[0, 0, 1] and peer_ok[0, 1, 0] and reply_ok.all()
+    # the survey vehicle replies at 6.0714 + 5 + 1.0714 + 0.015 = 12.158 s; B's ping from 2.5 km
+    # arrives at 6.07 + 2500 / c = 7.8 s and lasts until 12.8 s: the replying vehicle is deaf to it
+    t = sim.channel.timing
+    assert t.reply_at_s == pytest.approx(2 * (5.0 + 1500.0 / 1400.0) + 0.015)
+    _place(sim, [[400.0, 0.0], [-2500.0, 0.0]], [[0.0, 0.0]])
+    _, _, o = sim.channel.replies(_tx(1, [True, True]), np.ones((1, 1), bool), _draws(sim))
+    assert o.deaf[0, 1, 2] and not o.deaf[0, 0, 2] and o.p_success[0, 1, 2] == 0.0
+
+
+def test_two_pings_in_one_slot_do_not_collide():
+    """Both beacons ping every slot on sousa_ping's default channel: staggered, neither
+    collides and both are heard (the earlier channel sent both at t = 0: always a collision)."""
+    sim = _decide_sim()
+    for _ in range(3):
+        res = sim.step(_actions(2, [True, True]))
+        assert (res.beacon_info["pings"] == 1).all() and (res.beacon_info["collisions"] == 0).all()
+        heard = res.info["ranges_fused"] + res.info["packets_lost"] + res.info["outliers_rejected"]
+        assert (heard == 2).all()
+    # at the same start (ping_offsets="zero") the two ASVs' pings overlap at the survey vehicle
+    sim = _decide_sim(ping_offsets="zero")
+    res = sim.step(_actions(2, [True, True]))
+    assert (res.beacon_info["collisions"].sum(-1) >= 1).all()
+
+
+def test_random_offsets_are_drawn_over_the_stagger_span():
+    sim = _decide_sim(B=3, ping_offsets="random")
+    t = sim.channel.timing
+    seen = []
+    for _ in range(3):
+        d = sim._cycle_draws(sim.state.cycle)
+        off = sim.channel.offsets_s(d)
+        np.testing.assert_array_equal(off, d["ping_offset_u"] * t.last_offset_s)
+        assert ((off >= 0) & (off < 5.0 + 1500.0 / 1400.0)).all()
+        seen.append(off)
+        sim.step(_actions(3, [True, True]))
+    assert not np.array_equal(seen[0], seen[1])
 
 
 def test_silent_beacons_measure_nothing_and_spend_nothing():
@@ -145,17 +315,56 @@ def test_silent_beacons_measure_nothing_and_spend_nothing():
     assert (res.terms["info_gain"] <= 0).all()  # prediction alone
 
 
-def test_energy_sums_to_pings_times_power_times_duration():
-    sim = _decide_sim(B=3, transmit_power_w=25.0)
+def test_energy_per_ping_from_source_level_and_efficiency():
+    # SL 185 dB: 10^((185 - 170.8) / 10) = 26.30 W acoustic, / 0.25 = 105.2 W, x 5.0 s = 526.05 J
+    sim = _decide_sim(B=3)
+    assert sim.channel.ping_s == pytest.approx(1.0 + 0.5 + 0.2 + 0.1 + 3.2)
+    assert sim.channel.ping_energy_j == pytest.approx(526.05, abs=0.01)
     rng = np.random.default_rng(5)
     pings = energy = 0.0
-    for _ in range(15):
+    for _ in range(6):
         res = sim.step(rng.uniform(-1, 1, (3, 2, 3)))
         pings += res.beacon_info["pings"].sum()
         energy += res.beacon_info["energy_J"].sum()
-    assert pings > 0
-    assert energy == pytest.approx(pings * 25.0 * packet_duration_s(64, 80.0))
-    assert transmit_energy_j(25.0, 0.8, 3) == pytest.approx(60.0)
+    assert pings > 0 and energy == pytest.approx(pings * 526.05, abs=0.01 * pings)
+    # 180 dB at 50 % efficiency: 10^0.92 / 0.5 x 5 = 83.18 J
+    assert ping_energy_j(sim.config.replace(source_level_db=180.0, transmit_efficiency=0.5)) == pytest.approx(
+        83.18, abs=0.01
+    )
+
+
+def test_the_slot_must_hold_the_exchange_and_the_validator_names_the_minimum():
+    # staggered: 6.0714 (B's offset) + 5 + 1.0714 + 0.015 + 5 + 1.0714 = 18.229 s
+    assert slot_timing(coopnav_env.make_config("sousa_ping"), SLOWEST_SOUND_SPEED_MPS).need_s == pytest.approx(
+        18.229, abs=1e-3
+    )
+    with pytest.raises(ValueError, match=r"minimum is 18\.229 s"):
+        coopnav_env.make_config("sousa_ping", ping_interval_s=18.0)
+    assert coopnav_env.make_config("sousa_ping", ping_interval_s=19.0).ping_interval_s == 19.0
+    # all at t = 0: 5 + 1.0714 + 0.015 + 5 + 1.0714 = 12.158 s
+    with pytest.raises(ValueError, match=r"minimum is 12\.158 s"):
+        coopnav_env.make_config("sousa_ping", ping_offsets="zero", ping_interval_s=12.0)
+    # the earlier 5 s slot is refused with real packets, accepted on the range link
+    with pytest.raises(ValueError, match="cannot hold the exchange"):
+        coopnav_env.make_config("sousa_ping", ping_interval_s=5.0)
+    coopnav_env.make_config("sousa_ping", link_model="range", ping_offsets="zero", ping_interval_s=5.0)
+
+
+def test_the_range_link_reproduces_the_earlier_channel_bit_for_bit():
+    """sousa_ping on link_model="range" with every ping at t = 0 and the 5 s slot replays the
+    episodes recorded before the sonar link (tests/data/sousa_ping_range_link.npz, copied
+    from all_scenarios.npz's sousa_ping/default at the commit before): the same channel."""
+    from test_recorded import close_enough
+
+    spec = importlib.util.spec_from_file_location("record_all_scenarios", DATA / "record_all_scenarios.py")
+    rec = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rec)
+    ref = np.load(DATA / "sousa_ping_range_link.npz")
+    earlier = {"link_model": "range", "ping_offsets": "zero", "ping_interval_s": 5.0}
+    for batch, seeds in rec.RUNS:
+        new = rec.record("sousa_ping", batch, seeds, earlier)
+        bad = [k for k, v in new.items() if not close_enough(ref[f"B{batch}/{k}"], v, rec.RTOL)]
+        assert not bad, bad
 
 
 def test_tdma_frame_slots_gates_the_transmit_decision():
@@ -179,7 +388,7 @@ def test_the_ping_price_enters_the_reward():
 def test_decide_mode_is_refused_where_it_cannot_work():
     with pytest.raises(ValueError, match="ranging_mode='owtt'"):
         coopnav_env.make_config("sousa_ping", ranging_mode="twtt")
-    with pytest.raises(ValueError, match="cannot hold a ping and a reply"):
+    with pytest.raises(ValueError, match="cannot hold the exchange"):
         coopnav_env.make_config("sousa_ping", ping_interval_s=2.0, substep_s=1.0)
     with pytest.raises(ValueError, match="unknown channel_mode"):
         coopnav_env.make_config("sousa_asv", channel_mode="aloha")
@@ -289,7 +498,7 @@ def test_vecenv_takes_three_component_actions():
     assert venv.action_space.shape == (3,)
     venv.reset()
     _, reward, _, infos = venv.step(np.tile([0.0, 0.0, 1.0], (4, 1)))
-    assert reward.shape == (4,) and infos[0]["pings"] == 1.0 and infos[0]["collisions"] == 1.0
+    assert reward.shape == (4,) and infos[0]["pings"] == 1.0 and infos[0]["collisions"] == 0.0  # staggered
     with pytest.raises(ValueError, match=r"shape \(4, 3\)"):
         venv.step(np.zeros((4, 4)))
 
@@ -316,9 +525,9 @@ def _episode(name, seed=3, cycles=24):
 
 
 def test_schedules_combine_with_the_planners():
-    assert _episode("fim_a+clock") == (48, 48)  # the fixed clock: two beacons always collide
+    assert _episode("fim_a+clock") == (48, 0)  # the fixed clock: both beacons every slot, staggered
     assert _episode("fim_b+tdma") == (24, 0)  # turns: one ping a slot, no collision
-    assert _episode("circle+clock") == (48, 48)
+    assert _episode("circle+clock") == (48, 0)
     p, c = _episode("fim_a+event_tdma")
     assert c == 0 and 0 < p <= 24
     assert _episode("fim_a") == (24, 0)  # a plain planner gets the default schedule, tdma
@@ -346,7 +555,7 @@ def test_event_gain_by_hand():
     view.cov_m2 = np.array([[[4.0, 0.0], [0.0, 1.0]]])
     view.reply_age_s = np.array([5.0])
     view.own_std_m = np.float64(0.5)
-    q = config.process_noise_horizontal_m2ps * (5.0 + 5.0)
+    q = config.process_noise_horizontal_m2ps * (5.0 + config.ping_interval_s)  # the reply's age + one slot
     h = np.array([0.6, 0.8])
     expected = np.log1p(h @ (np.diag([4.0, 1.0]) + q * np.eye(2)) @ h / (config.range_noise_std_m**2 + 0.25))
     assert predicted_gain_nats(view, config) == pytest.approx(expected)

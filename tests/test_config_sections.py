@@ -65,7 +65,7 @@ def test_a_parameter_of_an_absent_section_is_one_clear_error():
         make_config("gao_sea").river_width_m  # noqa: B018 - the attribute access is what must raise
     assert not hasattr(make_config("gao_sea"), "mls_max_range_m")
     # the switch and the section's parameters together are fine
-    c = make_config("sousa_asv", channel_mode="decide", tdma_frame_slots=2)
+    c = make_config("sousa_asv", channel_mode="decide", tdma_frame_slots=2, ping_interval_s=20.0)  # real packets
     assert c.tdma_frame_slots == 2
     # switching a section off drops it (its values came from the base scenario, not the caller)
     assert make_config("sousa_ping").replace(channel_mode="clock").channel is None

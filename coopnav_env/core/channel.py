@@ -6,191 +6,154 @@ on a free channel.
 
 One decision slot of ``ping_interval_s``, times relative to the slot's ping instant
 (the end of the vehicles' motion over the slot, when the modem model measures its
-ranges):
+ranges); ``link_framing.slot_timing`` gathers the numbers, the scenario's validation checks that
+the slot holds them (``scenarios.validate``):
 
-1. **Pings.** Every beacon that decided to transmit starts its ping at t = 0; it
-   lasts ``D_ping = ping_packet_bits / modem_bit_rate_bps`` (a packet's duration is
-   its bits over the bit rate). The ping is the one-way range (the survey vehicle
-   timestamps its arrival) and tells the other beacons the sender's position.
+1. **Pings.** Every beacon that decided to transmit starts its ping at its offset in
+   the slot (``ping_offsets``): "staggered", beacon j at j x (D_ping + max_range_m /
+   1400 m/s), so that every ping has left every receiver within ``max_range_m``
+   before the next starts; "random", uniform over the same span, drawn each slot
+   (``ping_offset_u``, the last of the cycle's draws); "zero", all at t = 0. The
+   ping is the one-way range (the survey vehicle timestamps its arrival) and tells
+   the other beacons the sender's position.
 2. **Replies.** Every survey vehicle that decoded at least one ping replies once per
-   slot, with one broadcast packet of ``D_reply = reply_packet_bits /
-   modem_bit_rate_bps`` (its estimate, covariance, waypoint index, range age), at the
-   fixed time ``t_reply = D_ping + max_range_m / SLOWEST_SOUND_SPEED_MPS +
-   turnaround_s``: when every ping from within acoustic range has arrived, plus the
-   modem's turn-around. A fixed reply time keeps the reply out of the way of the
-   pings it answers; the scenario's validation makes the slot long enough to hold
-   it and its flight (``scenarios.base._validate``).
-3. **Propagation.** A packet sent at t by vehicle v reaches vehicle w at t + tau,
-   tau the time of flight from v's position at t to w moving at constant velocity
-   (``acoustics.travel_time``, the modem's time of flight, at the true sound speed
-   of the pair's mean depth). It occupies w's receiver over [t + tau, t + tau + D].
-4. **Losses.** A packet from beyond ``max_range_m`` is not heard (and too weak to
-   disturb others). A packet is lost at w if (a) another heard packet's arrival
-   overlaps it at w: a collision, both are lost; (b) w transmits during any part of
-   it: half-duplex, a modem cannot hear while it sends. Intervals that only touch
-   do not overlap. What survives still meets the range-dependent random loss
-   (``acoustics.packet_loss_probability``) with the draws the fixed clock uses:
-   ``acoustic_u[..., 0]`` for the ping at a survey vehicle (inside the modem
-   model), ``message_u`` for replies and for pings heard by other beacons.
-5. **Energy.** A transmission costs ``transmit_power_w x D`` joules.
+   slot with one broadcast packet (its estimate, covariance, waypoint index, range
+   age) at ``t_reply`` = the last ping offset + D_ping + max_range_m / 1400 m/s +
+   ``turnaround_s``: when every ping from within ``max_range_m`` has arrived.
+3. **Propagation** (``link.slot_timeline``, the one home of the slot's physics): a
+   packet sent at t by vehicle v reaches w at t + tau, tau the time of flight from
+   v's position at t to w moving at constant velocity (``acoustics.travel_time``) at
+   the true sound speed of the pair's mean depth (Mackenzie 1981). It occupies w's
+   receiver over [t + tau, t + tau + D].
+4. **Losses**, by ``link_model``:
 
-The timeline is resolved by :func:`resolve_slot` over all V = N + S vehicles of
-each environment (beacons first, then survey vehicles), with at most one packet per
-vehicle per slot, which is exactly the slot above. ``tests/test_channel.py`` checks
-it against hand-computed timelines.
+   - ``"sonar"`` (the default): packets last what the WHOI Micro-Modem's framing
+     makes them (``link_framing.message_duration_s``: cycle-init, probe, frames; 5 s
+     at 80 bps); every sender is heard everywhere at RL = SL - TL (spherical spreading
+     + Thorp absorption at the band); a reception overlapped by others survives if
+     its SIR over their power sum reaches ``capture_threshold_db`` (capture); a
+     receiver that transmits during it loses it (half duplex); what survives is
+     decoded with P = P(detect | SNR) x (1 - PER), SNR = RL - NL over the band
+     (Wenz/Coates noise), drawn on the modem's own uniform (``acoustic_u[..., 0]``
+     for a ping at a survey vehicle, counted in ``packets_lost`` when it fails) and
+     the messages' (``message_u``) for replies and pings at other beacons: lost if
+     u < 1 - P. The modem's and messages' range loss is then off.
+   - ``"range"`` (the earlier model, kept for reproductions): packets last bits /
+     bit rate; a sender beyond ``max_range_m`` (straight line at its start) is
+     neither heard nor interferes; any overlap loses both packets (capture off);
+     half duplex; what survives meets the quadratic range loss
+     (``acoustics.packet_loss_probability``) inside the modem and message kernels.
+5. **Energy.** A ping costs its electrical energy: ``"sonar"``, 10^((SL - 170.8) /
+   10) W / ``transmit_efficiency`` x D_ping (Urick 1983; 526 J at 185 dB, 25 %,
+   5 s); ``"range"``, ``transmit_power_w`` x D_ping.
+
+``tests/test_channel.py`` checks the wired channel against hand-computed cases.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
-from numba import njit, prange
 
 from ..scenarios.base import SLOWEST_SOUND_SPEED_MPS
 from . import fusion
-from .acoustics import mackenzie_sound_speed, travel_time
-from .jit import parallel_twin
+from .acoustics import mackenzie_sound_speed
 from .kernel_records import beacon_view, knowledge_view, survey_view
+from .link import (
+    Band,
+    LinkParams,
+    NoiseConditions,
+    PowerModel,
+    SlotOutcome,
+    SlotTransmissions,
+    band_noise_db,
+    slot_timeline,
+    transmit_energy_j,
+)
+from .link_framing import framing, message_bits, slot_timing
 
 if TYPE_CHECKING:
     from ..scenarios.base import ScenarioConfig
     from .contract import SensorHost  # not .sim: sim imports this module
 
 
-def packet_duration_s(bits: float | np.ndarray, bit_rate_bps: float | np.ndarray) -> float | np.ndarray:
-    """How long a packet of ``bits`` occupies the channel at ``bit_rate_bps`` (s): bits / bit rate."""
-    d = np.asarray(bits, dtype=float) / np.asarray(bit_rate_bps, dtype=float)
-    return float(d) if d.ndim == 0 else d
-
-
-def transmit_energy_j(
-    power_w: float | np.ndarray, duration_s: float | np.ndarray, packets: int | np.ndarray = 1
-) -> float | np.ndarray:
-    """Electrical energy of ``packets`` transmissions of ``duration_s`` each at ``power_w`` (J)."""
-    return packets * power_w * duration_s
-
-
-def reply_time_s(config: ScenarioConfig) -> float:
-    """When a survey vehicle's reply starts, after the slot's ping instant (s): the ping's
-    duration, the longest flight from within acoustic range and the turn-around."""
+def ping_energy_j(config: ScenarioConfig) -> float:
+    """Electrical energy of one ping (J): from the source level and efficiency on the
+    sonar link (Urick 1983), else (the range link, the fixed clock) transmit power x
+    bits / bit rate."""
     c = config
-    return (
-        packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps)
-        + c.max_range_m / SLOWEST_SOUND_SPEED_MPS
-        + c.turnaround_s
+    if c.channel_mode == "decide" and c.link_model == "sonar":
+        power = PowerModel(efficiency=float(c.transmit_efficiency))
+        return float(transmit_energy_j(c.source_level_db, slot_timing(c, SLOWEST_SOUND_SPEED_MPS).ping_s, power))
+    return float(c.transmit_power_w * c.ping_packet_bits / c.modem_bit_rate_bps)
+
+
+def link_params(config: ScenarioConfig) -> LinkParams:
+    """The link budget of ``config``: its band, noise, thresholds and bit rate; the
+    range link hears nothing beyond ``max_range_m`` and has no capture."""
+    c = config
+    p = LinkParams(
+        band=Band(float(c.band_center_khz), float(c.band_width_hz)),
+        noise=NoiseConditions(float(c.noise_shipping), float(c.noise_wind_mps)),
+        source_level_db=float(c.source_level_db),
+        detection_threshold_db=float(c.detection_threshold_db),
+        capture_threshold_db=float(c.capture_threshold_db),
+        bit_rate_bps=float(c.modem_bit_rate_bps),
     )
+    if c.link_model == "range":
+        p = p._replace(capture_threshold_db=math.inf, hearing_range_m=float(c.max_range_m))
+    return p
 
 
-def _resolve_slot(
-    pos, vel, tx_start, tx_dur, temperature_c, salinity_psu, max_range_m, arrival, delivered, collided, deaf
-):
-    """One slot's packets at every receiver, in place.
+class SlotResult(NamedTuple):
+    """One slot at every receiver, (B, V, V) [sender, receiver], V = N beacons then S
+    survey vehicles: ``arrival`` (NaN: not sent or not heard), ``delivered`` (the pings
+    at the survey vehicles decoded; elsewhere reached intact, before the message's draw),
+    ``collided`` (overlapped and not captured), ``deaf`` (the receiver was
+    transmitting), ``lost`` (reached the receiver intact but not decoded: the sonar
+    link's SNR draw), and the whole ``link.SlotOutcome``."""
 
-    pos, vel (B, V, 3): positions at t = 0 and constant velocities; tx_start (B, V):
-    when each vehicle starts its one packet (NaN: silent); tx_dur (B, V) its duration;
-    temperature_c (B,): the true water temperature (sound speed, Mackenzie 1981).
-    Outputs (B, V, V), [sender, receiver]: ``arrival`` start of the packet at the
-    receiver (NaN: not sent or out of range), ``delivered`` (heard, no collision, the
-    receiver not transmitting), ``collided`` (another heard arrival overlaps it),
-    ``deaf`` (the receiver transmits while it arrives).
-    """
-    B, V = pos.shape[0], pos.shape[1]
-    for b in prange(B):
-        src = np.empty(3)
-        rcv = np.empty(3)
-        for v in range(V):
-            for w in range(V):
-                arrival[b, v, w] = np.nan
-                delivered[b, v, w] = False
-                collided[b, v, w] = False
-                deaf[b, v, w] = False
-        for v in range(V):
-            t0 = tx_start[b, v]
-            if not np.isfinite(t0):
-                continue
-            for w in range(V):
-                if w == v:
-                    continue
-                for k in range(3):
-                    src[k] = pos[b, v, k] + vel[b, v, k] * t0
-                    rcv[k] = pos[b, w, k] + vel[b, w, k] * t0
-                d = np.sqrt((rcv[0] - src[0]) ** 2 + (rcv[1] - src[1]) ** 2 + (rcv[2] - src[2]) ** 2)
-                if d > max_range_m:
-                    continue
-                c = mackenzie_sound_speed(temperature_c[b], salinity_psu, 0.5 * (src[2] + rcv[2]))
-                arrival[b, v, w] = t0 + travel_time(src, rcv, vel[b, w], c)
-        for w in range(V):
-            for v in range(V):
-                a = arrival[b, v, w]
-                if not np.isfinite(a):
-                    continue
-                e = a + tx_dur[b, v]
-                # half-duplex: the receiver's own transmission overlaps the arrival
-                t_own = tx_start[b, w]
-                if np.isfinite(t_own) and t_own < e and a < t_own + tx_dur[b, w]:
-                    deaf[b, v, w] = True
-                for u in range(V):
-                    a2 = arrival[b, u, w]
-                    if u != v and np.isfinite(a2) and a2 < e and a < a2 + tx_dur[b, u]:
-                        collided[b, v, w] = True
-                        break
-                delivered[b, v, w] = not (deaf[b, v, w] or collided[b, v, w])
-
-
-resolve_slot_kernel = njit(cache=True)(_resolve_slot)
-resolve_slot_kernel_parallel = parallel_twin(_resolve_slot)
-
-
-def resolve_slot(
-    pos: np.ndarray,
-    vel: np.ndarray,
-    tx_start: np.ndarray,
-    tx_dur: np.ndarray,
-    temperature_c: np.ndarray,
-    salinity_psu: float,
-    max_range_m: float,
-    parallel: bool = False,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_resolve_slot` on fresh output arrays: (arrival, delivered, collided, deaf), each (B, V, V)."""
-    pos, vel = np.ascontiguousarray(pos, float), np.ascontiguousarray(vel, float)
-    tx_start, tx_dur = np.ascontiguousarray(tx_start, float), np.ascontiguousarray(tx_dur, float)
-    B, V = pos.shape[:2]
-    arrival = np.empty((B, V, V))
-    flags = [np.empty((B, V, V), dtype=bool) for _ in range(3)]
-    kernel = resolve_slot_kernel_parallel if parallel else resolve_slot_kernel
-    kernel(
-        pos,
-        vel,
-        tx_start,
-        tx_dur,
-        np.ascontiguousarray(temperature_c, float),
-        float(salinity_psu),
-        float(max_range_m),
-        arrival,
-        *flags,
-    )
-    return arrival, flags[0], flags[1], flags[2]
+    arrival: np.ndarray
+    delivered: np.ndarray
+    collided: np.ndarray
+    deaf: np.ndarray
+    lost: np.ndarray
+    outcome: SlotOutcome
 
 
 class Channel:
     """The channel of one simulator in ``channel_mode="decide"``: the scenario's packet
-    durations, reply time and energy per ping gathered once; ``pings`` and ``replies``
+    timing, link budget and energy per ping gathered once; ``pings`` and ``replies``
     resolve a slot in two passes (the replies depend on which pings were decoded)."""
 
     def __init__(self, sim: SensorHost) -> None:
         c = sim.config
         self.sim = sim
         self.N, self.S = sim.N, sim.S
-        self.ping_s = packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps)
-        self.reply_s = packet_duration_s(c.reply_packet_bits, c.modem_bit_rate_bps)
-        self.reply_at_s = reply_time_s(c)
-        self.ping_energy_j = transmit_energy_j(c.transmit_power_w, self.ping_s)
+        self.sonar = c.link_model == "sonar"
+        self.timing = slot_timing(c, SLOWEST_SOUND_SPEED_MPS)
+        self.ping_s, self.reply_s, self.reply_at_s = self.timing.ping_s, self.timing.reply_s, self.timing.reply_at_s
+        self.ping_energy_j = ping_energy_j(c)
+        self.link = link_params(c)
+        self.noise_db = band_noise_db(self.link.band, self.link.noise)
         self.tx_dur = np.concatenate([np.full(self.N, self.ping_s), np.full(self.S, self.reply_s)])
+        f = framing(c)  # the PER counts the frames' bits (a frame is sent whole)
+        self.tx_bits = np.concatenate(
+            [
+                np.full(self.N, message_bits(f, c.ping_packet_bits)),
+                np.full(self.S, message_bits(f, c.reply_packet_bits)),
+            ]
+        )
         self.parallel = sim.batch_size >= 256
         self._k_exchange = fusion.exchange_messages_parallel if self.parallel else fusion.exchange_messages
+        self._exchange_params = sim.params
+        if self.sonar:  # the link decides every loss: the modem's and the messages' range loss off
+            sim.sensor.params = sim.sensor.params._replace(loss_near=0.0, loss_far=0.0, max_range_m=math.inf)  # type: ignore[attr-defined]
+            self._exchange_params = sim.params._replace(loss_near=0.0, loss_far=0.0, max_range_m=math.inf)
 
     def transmit_mask(self, actions: np.ndarray, cycle: np.ndarray) -> np.ndarray:
         """(B, N) bool: who transmits this slot. The third action component > 0; a
@@ -204,50 +167,87 @@ class Channel:
             tx = tx & ((np.asarray(cycle)[:, None] % F) == (np.arange(N)[None, :] % F))
         return tx
 
-    def _timeline(
-        self, beacon_tx: np.ndarray, survey_tx: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def offsets_s(self, draws: dict[str, np.ndarray]) -> np.ndarray:
+        """(B, N) each beacon's ping start in this slot (``ping_offsets``)."""
+        mode, t = self.sim.config.ping_offsets, self.timing
+        B = draws["ping_offset_u"].shape[0]
+        if mode == "random":
+            return draws["ping_offset_u"] * t.last_offset_s
+        step = 0.0 if mode == "zero" else t.step_s
+        return np.broadcast_to(np.arange(self.N) * step, (B, self.N))
+
+    def _timeline(self, beacon_tx: np.ndarray, survey_tx: np.ndarray, draws: dict[str, np.ndarray]) -> SlotOutcome:
+        """The slot through ``link.slot_timeline``: the pings at their offsets, the replies
+        at the reply time, the sound speed of each pair at its mean depth at the send."""
         st, c = self.sim.state, self.sim.config
         assert st is not None, "the simulator is reset before its channel is used"
         B = st.b_pos.shape[0]
         pos = np.concatenate([st.b_pos, st.s_pos], 1)
         vel = np.concatenate([st.b_vel, st.s_vel_true], 1)
-        start = np.concatenate([np.where(beacon_tx, 0.0, np.nan), np.where(survey_tx, self.reply_at_s, np.nan)], 1)
-        return resolve_slot(
+        start = np.concatenate(
+            [np.where(beacon_tx, self.offsets_s(draws), np.nan), np.where(survey_tx, self.reply_at_s, np.nan)], 1
+        )
+        src_z = pos[..., 2] + vel[..., 2] * start  # (B, V): the sender's depth at its start
+        rcv_z = pos[:, None, :, 2] + vel[:, None, :, 2] * start[:, :, None]  # (B, V, V): each receiver's then
+        c_pair = mackenzie_sound_speed(
+            st.temperature_c[:, None, None], c.salinity_psu, 0.5 * (src_z[:, :, None] + rcv_z)
+        )
+        V = self.N + self.S
+        tx = SlotTransmissions(
             pos,
             vel,
             start,
-            np.broadcast_to(self.tx_dur, (B, self.N + self.S)),
-            st.temperature_c,
-            c.salinity_psu,
-            c.max_range_m,
-            self.parallel,
+            np.broadcast_to(self.tx_dur, (B, V)),
+            np.full((B, V), self.link.source_level_db),
+            self.tx_bits,
         )
+        return slot_timeline(tx, c_pair, self.link, self.noise_db, self.parallel)
 
-    def pings(self, beacon_tx: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-        """The pings alone: (B, N, S) delivered at the survey vehicles (before the random
-        loss), and the whole resolution (arrival, delivered, collided, deaf)."""
+    def _decode(self, o: SlotOutcome, u: np.ndarray, sl: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """The block ``sl`` of the slot's receptions, indexed as ``u`` (its uniforms):
+        (decoded, lost). Reached: captured and not deaf; on the sonar link decoded if
+        u >= 1 - P (lost if u < 1 - P, the modem kernel's convention), on the range
+        link every reached one (the kernels draw their own range loss)."""
+        reach = (o.captured & ~o.deaf)[sl]
+        if not self.sonar:
+            return reach, np.zeros_like(reach)
+        ok = reach & (u >= 1.0 - o.p_success[sl])  # lost if u < 1 - P, the modem's convention
+        return ok, reach & ~ok
+
+    def pings(self, beacon_tx: np.ndarray, draws: dict[str, np.ndarray]) -> tuple[np.ndarray, SlotResult]:
+        """The pings alone: (B, N, S) decoded at the survey vehicles, and the slot
+        (``SlotResult``; its ``lost`` the pings the sonar link's SNR draw lost)."""
         N = self.N
-        out = self._timeline(beacon_tx, np.zeros((beacon_tx.shape[0], self.S), dtype=bool))
-        return out[1][:, :N, N:], out
+        o = self._timeline(beacon_tx, np.zeros((beacon_tx.shape[0], self.S), dtype=bool), draws)
+        ok, lost = self._decode(o, draws["acoustic_u"][..., 0], (slice(None), slice(None, N), slice(N, None)))
+        return ok, self._result(o, ok, lost)
+
+    def _result(self, o: SlotOutcome, ok: np.ndarray, lost: np.ndarray) -> SlotResult:
+        N = self.N
+        delivered = o.captured & ~o.deaf
+        delivered[:, :N, N:] = ok
+        full_lost = np.zeros_like(delivered)
+        full_lost[:, :N, N:] = lost
+        return SlotResult(o.arrival_s, delivered, o.overlapped & ~o.captured, o.deaf, full_lost, o)
 
     def replies(
-        self, beacon_tx: np.ndarray, survey_tx: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        self, beacon_tx: np.ndarray, survey_tx: np.ndarray, draws: dict[str, np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray, SlotOutcome]:
         """The whole slot with the replies of ``survey_tx`` (B, S): (reply_ok (B, N, S),
-        peer_ok (B, N, N) [receiver, sender], resolution)."""
-        N = self.N
-        out = self._timeline(beacon_tx, survey_tx)
-        delivered = out[1]
-        return (
-            np.ascontiguousarray(np.swapaxes(delivered[:, N:, :N], 1, 2)),
-            np.ascontiguousarray(np.swapaxes(delivered[:, :N, :N], 1, 2)),
-            out,
-        )
+        peer_ok (B, N, N) [receiver, sender], the slot's ``link.SlotOutcome``)."""
+        N, S = self.N, self.S
+        o = self._timeline(beacon_tx, survey_tx, draws)
+        # [receiver, sender] as the message kernel reads them
+        o_rs = o._replace(captured=np.swapaxes(o.captured, 1, 2), deaf=np.swapaxes(o.deaf, 1, 2))
+        o_rs = o_rs._replace(p_success=np.swapaxes(o.p_success, 1, 2))
+        u = draws["message_u"]
+        reply_ok, _ = self._decode(o_rs, u[..., :S], (slice(None), slice(None, N), slice(N, None)))
+        peer_ok, _ = self._decode(o_rs, u[..., S:], (slice(None), slice(None, N), slice(None, N)))
+        return np.ascontiguousarray(reply_ok), np.ascontiguousarray(peer_ok), o
 
     def exchange(self, draws: dict[str, np.ndarray], reply_ok: np.ndarray, peer_ok: np.ndarray) -> None:
         """The replies and the peers' positions as ``Simulator._exchange_messages`` does
-        them, through the channel's masks."""
+        them, through the channel's masks (on the sonar link the kernel's own loss is off)."""
         st = self.sim.state
         assert st is not None, "the simulator is reset before its channel is used"
         self._k_exchange(
@@ -258,7 +258,7 @@ class Channel:
             draws["message_u"],
             reply_ok,
             peer_ok,
-            self.sim.params,
+            self._exchange_params,
         )
 
 

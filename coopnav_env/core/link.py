@@ -1,8 +1,8 @@
-"""The acoustic link from the sonar equation (issue 21): building blocks, not yet wired.
+"""The acoustic link from the sonar equation (issue 21), used by the simulator's channel.
 
 What a packet from vehicle v is worth at vehicle w, from physics instead of the
-quadratic-in-range loss of ``acoustics.packet_loss_probability`` and the hard 1500 m
-interference cut of ``channel``:
+quadratic-in-range loss of ``acoustics.packet_loss_probability`` and the hard
+``max_range_m`` interference cut of the channel's ``link_model="range"``:
 
 1. **Transmission loss** (Urick's spreading plus Thorp's absorption, as written in
    Stojanovic 2007, path loss): TL(r, f) = k 10 log10(r / 1 m) + a(f) r / 1000,
@@ -52,8 +52,10 @@ Sources (cited again where each constant is defined):
 [U] marks a value that is a guess (the project's convention). Units are in every
 name: _db (dB), _hz/_khz, _m, _s, _w, _j, _mps.
 
-Not yet wired into the simulator (see issue 21): ``core/channel.py`` will call
-``slot_timeline`` in place of ``resolve_slot`` after the channel refactor merges.
+Wired: ``core/channel.py`` (``channel_mode="decide"``) resolves every slot with
+``slot_timeline``; its ``link_model="sonar"`` (the default) takes the success
+probability from here, ``"range"`` keeps the earlier range-only loss with the same
+timeline (``hearing_range_m`` finite, capture off).
 """
 
 from __future__ import annotations
@@ -62,10 +64,13 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, vectorize
+from numba import njit, prange, vectorize
 from numpy.typing import ArrayLike
 
 from .acoustics import travel_time
+
+# the packets on the water (framing, offsets in a slot) live in link_framing, re-exported here
+from .jit import parallel_twin
 
 # the modem's electrical side (PowerModel, energy per packet) lives in link_energy, re-exported here
 from .link_energy import (  # noqa: F401
@@ -77,6 +82,16 @@ from .link_energy import (  # noqa: F401
     receive_energy_j,
     source_level_from_power_db,
     transmit_energy_j,
+)
+from .link_framing import (  # noqa: F401
+    DEFAULT_FRAMING,
+    MicroModemFraming,
+    frames_needed,
+    message_bits,
+    message_duration_s,
+    packet_duration_s,
+    random_offsets_s,
+    staggered_offsets_s,
 )
 
 # --------------------------------------------------------------------------- records
@@ -122,6 +137,10 @@ class LinkParams(NamedTuple):
       one, 10 dB [U].
     - ``bit_rate_bps``: the data rate in the packet error rate, 80 bps (Micro-Modem
       rate 0, acomms.whoi.edu).
+    - ``hearing_range_m``: inf (the sonar link: every sender interferes everywhere,
+      its level falling with TL). Finite only for the channel's ``link_model="range"``
+      (the earlier model): a sender farther than this (straight line at its start) is
+      neither heard nor heard interfering.
     """
 
     band: Band = Band()
@@ -134,40 +153,7 @@ class LinkParams(NamedTuple):
     logistic_width_db: float = 2.0
     capture_threshold_db: float = 10.0
     bit_rate_bps: float = 80.0
-
-
-class MicroModemFraming(NamedTuple):
-    """Timing constants of one WHOI Micro-Modem packet (default: FH-FSK rate 0).
-
-    A packet on the water is: [cycle-init packet + gap] + probe + null + frames, with
-    ``inter_frame_gap_s`` between frames.
-
-    - ``bit_rate_bps`` 80: FH-FSK rate 0 (acomms.whoi.edu "80-5400 bps"; Freitag et
-      al. 2005).
-    - ``frame_bytes`` 32 and ``max_frames`` 1: rate 0's frame size and frame count
-      (goby-acomms ``MMDriver::PACKET_SIZE[0]``, ``PACKET_FRAME_COUNT[0]``). A frame
-      is sent whole (padded), so it lasts 8 x 32 / 80 = 3.2 s (derived).
-    - ``probe_s`` 0.2 and ``probe_gap_s`` 0.1: their sum, 0.30 s, is the probe + null
-      of acomms.whoi.edu's packet table (rate 6: 3.25 s signal, 2.95 s packet,
-      derived); the split between them is [U], and that FSK packets have the same
-      probe as PSK ones is [U].
-    - ``cycle_init_s`` 1.0 and ``cycle_init_gap_s`` 0.5: the cycle-init packet that
-      precedes data (issue 21; Singh et al. 2006) and the pause after it; durations
-      [U].
-    - ``inter_frame_gap_s`` 0.0 [U]: immaterial for rate 0 (one frame).
-    - ``with_cycle_init`` True: a cycle-init precedes the data (a modem that sends a
-      data packet without one, as a mini-packet ping might, sets False).
-    """
-
-    bit_rate_bps: float = 80.0
-    frame_bytes: int = 32
-    max_frames: int = 1
-    probe_s: float = 0.2
-    probe_gap_s: float = 0.1
-    cycle_init_s: float = 1.0
-    cycle_init_gap_s: float = 0.5
-    inter_frame_gap_s: float = 0.0
-    with_cycle_init: bool = True
+    hearing_range_m: float = math.inf
 
 
 class SlotTransmissions(NamedTuple):
@@ -224,7 +210,6 @@ class SlotOutcome(NamedTuple):
 DEFAULT_BAND = Band()
 DEFAULT_NOISE = NoiseConditions()
 DEFAULT_LINK = LinkParams()
-DEFAULT_FRAMING = MicroModemFraming()
 
 
 class _KernelScalars(NamedTuple):
@@ -238,6 +223,7 @@ class _KernelScalars(NamedTuple):
     logistic_width_db: float  # <= 0: Rayleigh model
     capture_threshold_db: float
     bit_rate_bps: float
+    hearing_range_m: float
 
 
 # --------------------------------------------------------------- propagation and noise
@@ -385,6 +371,7 @@ def _scalars(params: LinkParams) -> _KernelScalars:
         float(width),
         float(params.capture_threshold_db),
         float(params.bit_rate_bps),
+        float(params.hearing_range_m),
     )
 
 
@@ -419,70 +406,17 @@ def captured(
     return sir_db(signal_rl_db, interferer_rl_db) >= capture_threshold_db
 
 
-# ------------------------------------------------------------------ packet timing
-
-
-def frames_needed(framing: MicroModemFraming, payload_bits: int) -> int:
-    """How many frames carry ``payload_bits`` (at least one; a frame is sent whole)."""
-    frame_bits = 8 * framing.frame_bytes
-    n = max(1, -(-int(payload_bits) // frame_bits))
-    if n > framing.max_frames:
-        raise ValueError(
-            f"{payload_bits} bits need {n} frames of {framing.frame_bytes} bytes; this rate carries "
-            f"at most {framing.max_frames}"
-        )
-    return n
-
-
-def packet_duration_s(framing: MicroModemFraming = DEFAULT_FRAMING, payload_bits: int = 256) -> float:
-    """How long one Micro-Modem packet occupies the water (s):
-    [cycle-init + gap] + probe + null + n x frame + (n - 1) x inter-frame gap, with
-    frame = 8 x frame_bytes / bit rate. Default (FH-FSK rate 0, one 32-byte frame):
-    1.0 + 0.5 + 0.2 + 0.1 + 3.2 = 5.0 s."""
-    n = frames_needed(framing, payload_bits)
-    frame_s = 8.0 * framing.frame_bytes / framing.bit_rate_bps
-    head_s = framing.cycle_init_s + framing.cycle_init_gap_s if framing.with_cycle_init else 0.0
-    return head_s + framing.probe_s + framing.probe_gap_s + n * frame_s + (n - 1) * framing.inter_frame_gap_s
-
-
-# ------------------------------------------------------------------ slot offsets
-
-
-def random_offsets_s(rng: np.random.Generator, shape: int | tuple[int, ...], max_offset_s: float) -> np.ndarray:
-    """Transmit starts drawn uniformly in [0, max_offset_s) (an ALOHA-like slot)."""
-    return rng.uniform(0.0, max_offset_s, size=shape)
-
-
-def staggered_offsets_s(
-    n_senders: int, packet_s: float, max_range_m: float, sound_speed_mps: float = 1400.0, guard_s: float = 0.0
-) -> np.ndarray:
-    """Starts k x (packet + max_range / c + guard) for k = 0..n-1: each packet has left
-    every receiver within ``max_range_m`` before the next starts (a TDMA slot plan;
-    1400 m/s is slower than any sea water, ``scenarios.base.SLOWEST_SOUND_SPEED_MPS``)."""
-    return np.arange(n_senders) * (packet_s + max_range_m / sound_speed_mps + guard_s)
-
-
 # ------------------------------------------------------------------ slot timeline
 
 
-@njit(cache=True)
-def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
-    """One slot's receptions at every receiver; see ``slot_timeline``. c (B, V, V),
-    noise_db (B,)."""
+def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s, out):
+    """One slot's receptions at every receiver, into ``out`` (``SlotOutcome``'s arrays,
+    filled with their empty values); see ``slot_timeline``. c (B, V, V), noise_db (B,)."""
+    arrival, end, rng, rl, snr, sir, overlapped, capt, deaf, p = out
     B, V = pos.shape[0], pos.shape[1]
-    arrival = np.full((B, V, V), np.nan)
-    end = np.full((B, V, V), np.nan)
-    rng = np.full((B, V, V), np.nan)
-    rl = np.full((B, V, V), -np.inf)
-    snr = np.full((B, V, V), -np.inf)
-    sir = np.full((B, V, V), np.inf)
-    overlapped = np.zeros((B, V, V), dtype=np.bool_)
-    capt = np.zeros((B, V, V), dtype=np.bool_)
-    deaf = np.zeros((B, V, V), dtype=np.bool_)
-    p = np.zeros((B, V, V))
-    src = np.empty(3)
-    rcv = np.empty(3)
-    for b in range(B):
+    for b in prange(B):
+        src = np.empty(3)
+        rcv = np.empty(3)
         # 1. propagation: arrival interval, path length, received level
         for v in range(V):
             t0 = start[b, v]
@@ -494,6 +428,9 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
                 for k in range(3):
                     src[k] = pos[b, v, k] + vel[b, v, k] * t0
                     rcv[k] = pos[b, w, k] + vel[b, w, k] * t0
+                d = np.sqrt((rcv[0] - src[0]) ** 2 + (rcv[1] - src[1]) ** 2 + (rcv[2] - src[2]) ** 2)
+                if d > s.hearing_range_m:  # link_model="range" only (inf for the sonar link)
+                    continue
                 tau = travel_time(src, rcv, vel[b, w], c[b, v, w])
                 arrival[b, v, w] = t0 + tau
                 end[b, v, w] = t0 + tau + dur[b, v]
@@ -523,7 +460,10 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s):
                 capt[b, v, w] = sir[b, v, w] >= s.capture_threshold_db
                 if capt[b, v, w] and not deaf[b, v, w]:
                     p[b, v, w] = _success_probability(snr[b, v, w], bits[b, v], s)
-    return arrival, end, rng, rl, snr, sir, overlapped, capt, deaf, p
+
+
+slot_kernel = njit(cache=True)(_slot_kernel)
+slot_kernel_parallel = parallel_twin(_slot_kernel)
 
 
 def slot_timeline(
@@ -531,6 +471,7 @@ def slot_timeline(
     sound_speed_mps: ArrayLike,
     params: LinkParams = DEFAULT_LINK,
     noise_db: ArrayLike | None = None,
+    parallel: bool = False,
 ) -> SlotOutcome:
     """Resolve one slot of packets at every receiver with the sonar equation.
 
@@ -554,15 +495,11 @@ def slot_timeline(
     (no partial-overlap weighting), and capture does not depend on which packet the
     receiver locked onto first [U].
 
-    How ``core/channel.py`` uses it (after the channel refactor, issue 21; the full
-    plan is in docs/scenarios/acoustic-link.md): ``Channel._timeline`` builds
-    ``SlotTransmissions`` from the state (beacons then survey vehicles, pings at their
-    offsets, replies at the reply time) and calls this in place of ``resolve_slot``.
-    ``captured & ~deaf`` replaces ``delivered`` as the channel's mask; ``1 -
-    p_success`` replaces ``packet_loss_probability`` where the modem and message
-    kernels draw their loss (``acoustic_u[..., 0]``, ``message_u``), or, without
-    touching those kernels, ``draw_delivered`` on the same uniforms with their own
-    loss set to zero. ``collided`` becomes ``overlapped & ~captured``.
+    ``core/channel.py`` builds the transmissions from the simulator's state (beacons
+    then survey vehicles, pings at their offsets, replies at the reply time), delivers
+    ``captured & ~deaf`` receptions with ``u >= 1 - p_success`` on the modem's and
+    messages' own uniforms (``draw_delivered``) and counts ``overlapped & ~captured``
+    as collisions. ``parallel``: the threaded kernel (large batches).
     """
     pos = np.ascontiguousarray(tx.pos_m, float)
     B, V = pos.shape[:2]
@@ -577,7 +514,11 @@ def slot_timeline(
     c = np.ascontiguousarray(np.broadcast_to(c, (B, V, V)))
     nl = band_noise_db(params.band, params.noise) if noise_db is None else noise_db
     nl = np.ascontiguousarray(np.broadcast_to(np.asarray(nl, float), (B,)))
-    out = _slot_kernel(
+    shape = (B, V, V)
+    empty = [np.full(shape, x) for x in (np.nan, np.nan, np.nan, -np.inf, -np.inf, np.inf)]
+    out = SlotOutcome._make([*empty, *(np.zeros(shape, dtype=np.bool_) for _ in range(3)), np.zeros(shape)])
+    kernel = slot_kernel_parallel if parallel else slot_kernel
+    kernel(
         pos,
         vel,
         bv(tx.tx_start_s),
@@ -587,8 +528,9 @@ def slot_timeline(
         c,
         nl,
         _scalars(params),
+        out,
     )
-    return SlotOutcome(*out)
+    return out
 
 
 def draw_delivered(outcome: SlotOutcome, u: ArrayLike) -> np.ndarray:

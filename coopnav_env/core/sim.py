@@ -107,6 +107,7 @@ class Simulator(BatchSimulator):
                 ("message_u", "uniform", (N_, S_ + N_)),
                 *measurements.draw_layout(c.acoustic_sensor, S_, N_, K_),  # the sensor's own draws (its registration)
                 ("asv_n", "normal", (N_, 2)),  # the ASVs' surge and course errors
+                ("ping_offset_u", "uniform", (N_,)),  # the channel's random ping offsets (core/channel.py)
             ],
             self.batch_size,
         )
@@ -333,8 +334,9 @@ class Simulator(BatchSimulator):
             masks = beacon_nav.away_masks(self._live, self.S)  # a beacon away on a surfacing sends none
             self.sensor.fuse(draws, out) if masks is None else self.sensor.fuse(draws, out, heard=masks[0])
             return None
-        ping_ok, ping_slot = self.channel.pings(transmit)
+        ping_ok, ping_slot = self.channel.pings(transmit, draws)
         self.sensor.fuse(draws, out, heard=ping_ok)
+        out.lost[...] |= ping_slot.lost[:, : self.N, self.N :]  # the pings the link's SNR draw lost
         return ping_ok, ping_slot
 
     def _replies(self, draws: dict, out: measurements.FusionOutputs, transmit, ping) -> None:
@@ -348,7 +350,7 @@ class Simulator(BatchSimulator):
             return
         ping_ok, ping_slot = ping
         replied = (ping_ok & ~out.lost).any(1)
-        reply_ok, peer_ok, _ = self.channel.replies(transmit, replied)
+        reply_ok, peer_ok, _ = self.channel.replies(transmit, replied, draws)
         self.channel.exchange(draws, reply_ok, peer_ok)
         st.b_pings = transmit.astype(np.int64)
         st.b_collisions = ping_slot[2][:, : self.N, self.N :].sum(-1).astype(np.int64)

@@ -80,14 +80,13 @@ def _check_decision_slot(c: Any) -> None:
         "channel_mode='decide' needs network='survey_beacons', acoustic_sensor='modem' and ranging_mode='owtt' "
         "(a beacon's ping is the one-way range)",
     )
-    need = (
-        (c.ping_packet_bits + c.reply_packet_bits) / c.modem_bit_rate_bps
-        + 2.0 * c.max_range_m / SLOWEST_SOUND_SPEED_MPS
-        + c.turnaround_s
-    )
+    from ..core.link_framing import slot_timing
+
+    t = slot_timing(c, SLOWEST_SOUND_SPEED_MPS)
     check(
-        need <= c.ping_interval_s,
-        f"channel_mode='decide': a slot of ping_interval_s={c.ping_interval_s:g} s cannot hold a ping and a reply "
-        f"({need:.3f} s: (ping_packet_bits + reply_packet_bits) / modem_bit_rate_bps + 2 max_range_m / "
-        f"{SLOWEST_SOUND_SPEED_MPS:g} m/s + turnaround_s); raise the bit rate or the slot, or lower max_range_m",
+        t.need_s <= c.ping_interval_s,
+        f"channel_mode='decide': a slot of ping_interval_s={c.ping_interval_s:g} s cannot hold the exchange; "
+        f"the minimum is {t.need_s:.3f} s (link_model={c.link_model!r}: ping {t.ping_s:g} s, last ping offset "
+        f"{t.last_offset_s:g} s ({c.ping_offsets}), max_range_m / {SLOWEST_SOUND_SPEED_MPS:g} m/s, turnaround_s, "
+        f"reply {t.reply_s:g} s and its flight); raise ping_interval_s or the bit rate, or lower max_range_m",
     )
