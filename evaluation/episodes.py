@@ -119,9 +119,7 @@ def _channel_use(res, config) -> dict:
     from coopnav_env.core.channel import packet_duration_s, transmit_energy_j
 
     pings = np.full(res.reward.shape[0], float(config.n_beacons))
-    joules = transmit_energy_j(
-        config.transmit_power_w, packet_duration_s(config.ping_packet_bits, config.modem_bit_rate_bps)
-    )
+    joules = transmit_energy_j(config.transmit_power_w, packet_duration_s(config.ping_bits, config.modem_bit_rate_bps))
     return {"pings": pings, "collisions": np.zeros_like(pings), "energy_J": pings * joules}
 
 

@@ -77,9 +77,7 @@ def reply_time_s(config: ScenarioConfig) -> float:
     duration, the longest flight from within acoustic range and the turn-around."""
     c = config
     return (
-        packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps)
-        + c.max_range_m / SLOWEST_SOUND_SPEED_MPS
-        + c.turnaround_s
+        packet_duration_s(c.ping_bits, c.modem_bit_rate_bps) + c.max_range_m / SLOWEST_SOUND_SPEED_MPS + c.turnaround_s
     )
 
 
@@ -183,7 +181,7 @@ class Channel:
         c = sim.config
         self.sim = sim
         self.N, self.S = sim.N, sim.S
-        self.ping_s = packet_duration_s(c.ping_packet_bits, c.modem_bit_rate_bps)
+        self.ping_s = packet_duration_s(c.ping_bits, c.modem_bit_rate_bps)
         self.reply_s = packet_duration_s(c.reply_packet_bits, c.modem_bit_rate_bps)
         self.reply_at_s = reply_time_s(c)
         self.ping_energy_j = transmit_energy_j(c.transmit_power_w, self.ping_s)

@@ -81,13 +81,14 @@ def _check_decision_slot(c: Any) -> None:
         "(a beacon's ping is the one-way range)",
     )
     need = (
-        (c.ping_packet_bits + c.reply_packet_bits) / c.modem_bit_rate_bps
+        (c.ping_bits + c.reply_packet_bits) / c.modem_bit_rate_bps
         + 2.0 * c.max_range_m / SLOWEST_SOUND_SPEED_MPS
         + c.turnaround_s
     )
     check(
         need <= c.ping_interval_s,
         f"channel_mode='decide': a slot of ping_interval_s={c.ping_interval_s:g} s cannot hold a ping and a reply "
-        f"({need:.3f} s: (ping_packet_bits + reply_packet_bits) / modem_bit_rate_bps + 2 max_range_m / "
+        f"({need:.3f} s: (ping_packet_bits [+20 with beacon_error_fusion='schmidt'] + reply_packet_bits) "
+        f"/ modem_bit_rate_bps + 2 max_range_m / "
         f"{SLOWEST_SOUND_SPEED_MPS:g} m/s + turnaround_s); raise the bit rate or the slot, or lower max_range_m",
     )
