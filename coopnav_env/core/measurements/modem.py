@@ -17,6 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
+from scipy.stats import chi2
 
 from ..acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
 from ..consider import (
@@ -30,7 +31,7 @@ from ..contract import SensorHost
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import blend_update, direct_path_weight
 from ..navigation import gated_update, innovation_variance, range_prediction, reinit_on_range
-from ..recovery import RangeWindow, WindowNoise, window_fix
+from ..recovery import RangeWindow, WindowNoise, window_fix, window_terms
 from . import FusionOutputs
 
 
@@ -111,6 +112,9 @@ class ModemParams(NamedTuple):
     dr_rate_m2ps: float  # the survey's dead-reckoning variance growth per axis (process_noise_horizontal_m2ps)
     gps_tau_s: float  # gps_error_time_constant_s
     mixture: bool  # range_outlier_model == "mixture"
+    window_chi2: np.ndarray  # (7,): the 99 % chi-square point of a window fix's residuals by dof = m - 2
+    dr_scale_std: float  # survey_speed_scale_error_std: the window's shared shift scale error (R2')
+    dr_heading_std_rad: float  # compass_bias_std_deg: its shared rotation (R2')
 
 
 # beacon_error_fusion as the kernel reads it
@@ -215,33 +219,57 @@ def _remember(cv, sv, b, s, j, r, beacon, delays, t_s):
 
 
 @njit(cache=True)
+def _window_of(cv, sv, b, s, j, keep, t_s):
+    """Beacon j's window entries ``keep`` (indices, oldest first) as a ``RangeWindow`` at
+    time t_s: the filter's own motion since each ping is its dead reckoning plus the
+    current it was told."""
+    m = keep.shape[0]
+    shift, age = np.empty((m, 2)), np.empty(m)
+    z, beacon, dz = np.empty(m), np.empty((m, 2)), np.empty(m)
+    cur = (sv.current_est[b, s].real, sv.current_est[b, s].imag)
+    for k in range(m):
+        i = keep[k]
+        age[k] = t_s - cv.win_t[b, s, j, i]
+        z[k], dz[k] = cv.win_z[b, s, j, i], cv.win_dz[b, s, j, i]
+        for a in range(2):
+            beacon[k, a] = cv.win_beacon[b, s, j, i, a]
+            shift[k, a] = sv.dr[b, s, a] - cv.win_dr[b, s, j, i, a] + cur[a] * age[k]
+    return RangeWindow(z, beacon, shift, dz, age)
+
+
+@njit(cache=True)
 def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
     """Lock-out recovery from beacon j's last ranges (``recovery.window_fix``, eqs. R1-R5):
     the horizontal position and covariance re-fixed in place, the depth kept without
     cross terms, every cross-covariance zeroed but the fix's own with beacon j (with
-    ``"schmidt"``). Returns False (nothing changed) with fewer than 3 ranges."""
-    m = min(cv.win_n[b, s, j], prm.window_m)
+    ``"schmidt"``). The window holds rejected ranges too, multipath among them: a fix
+    whose residuals fail their chi-square test (99 %, m - 2 dof) drops its worst range
+    and is redone. Returns False (nothing changed) when no fix of at least 3 ranges passes."""
+    n = cv.win_n[b, s, j]
+    m = min(n, prm.window_m)
     if m < 3:
         return False
-    k0 = cv.win_n[b, s, j] - m
-    shift = np.empty((m, 2))
-    for k in range(m):
-        for a in range(2):  # the filter's own motion since ping k: dead reckoning and the current it was told
-            cur = sv.current_est[b, s].real if a == 0 else sv.current_est[b, s].imag
-            shift[k, a] = sv.dr[b, s, a] - cv.win_dr[b, s, j, k0 + k, a] + cur * (t_s - cv.win_t[b, s, j, k0 + k])
-    win = RangeWindow(
-        cv.win_z[b, s, j, k0:].copy(),
-        cv.win_beacon[b, s, j, k0:].copy(),
-        shift,
-        cv.win_dz[b, s, j, k0:].copy(),
-        t_s - cv.win_t[b, s, j, k0:],
-    )
+    keep = np.arange(n - m, n)
     Pbb = np.zeros((2, 2))
     Pbb[0, 0] = Pbb[1, 1] = beacon_var
-    noise = WindowNoise(R, Pbb, prm.dr_rate_m2ps, prm.prior_std_m)
+    noise = WindowNoise(R, Pbb, prm.dr_rate_m2ps, prm.prior_std_m, prm.dr_scale_std, prm.dr_heading_std_rad)
     x, P, Pxb = np.empty(2), np.empty((2, 2)), np.empty((2, 2))
-    window_fix(win, m, noise, sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy(), x, P, Pxb)
-    if not (np.isfinite(x[0]) and np.isfinite(x[1]) and np.isfinite(P[0, 0]) and np.isfinite(P[1, 1])):
+    while keep.shape[0] >= 3:
+        mk = keep.shape[0]
+        win = _window_of(cv, sv, b, s, j, keep, t_s)
+        window_fix(win, mk, noise, sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy(), x, P, Pxb)
+        if not (np.isfinite(x[0]) and np.isfinite(x[1]) and np.isfinite(P[0, 0]) and np.isfinite(P[1, 1])):
+            return False
+        J, r, Sig = np.empty((mk, 2)), np.empty(mk), np.empty((mk, mk))
+        window_terms(x, win, mk, noise, J, r, Sig)
+        if r @ np.linalg.solve(Sig, r) <= prm.window_chi2[mk - 2]:
+            break
+        worst, k_worst = -1.0, 0
+        for k in range(mk):
+            if abs(r[k]) / np.sqrt(Sig[k, k]) > worst:
+                worst, k_worst = abs(r[k]) / np.sqrt(Sig[k, k]), k
+        keep = np.concatenate((keep[:k_worst], keep[k_worst + 1 :]))
+    if keep.shape[0] < 3:
         return False
     cv.Pxb[b, s] = 0.0  # the old estimate is discarded: so are its correlations
     for i in range(2):
@@ -422,6 +450,9 @@ class ModemRanging:
                 float(c.process_noise_horizontal_m2ps),
                 float(c.gps_error_time_constant_s),
                 c.range_outlier_model == "mixture",
+                chi2.ppf(0.99, np.maximum(np.arange(7), 1)),
+                float(c.survey_speed_scale_error_std),
+                float(np.radians(c.compass_bias_std_deg)),
             ]
         )
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
