@@ -439,6 +439,7 @@ def test_fim_b_against_fim_a_at_the_papers_fig6_regime():
 
     config = coopnav_env.make_config(
         "sousa_asv",
+        **coopnav_env.scenarios.PAPER_FILTER,  # the paper's filter
         survey_path="circle",
         depth_m=20.0,
         ping_interval_s=20.0,

@@ -37,11 +37,13 @@ def test_reinit_refuses_a_steep_line_of_sight():
     np.testing.assert_array_equal(P, np.eye(3))
 
 
-def _episode(seed, reinit, speed_scale=1.18):
+def _episode(seed, reinit, speed_scale=1.18, **overrides):
     """The kind of episode that decided the shallow lawnmower cells: sousa_asv at 1 m on
     the lawnmower with an 18 % speed-scale error (a 3.6-sigma draw at the default
     spread), fim_a driving the ASV."""
-    c = coopnav_env.make_config("sousa_asv", survey_path="lawnmower", depth_m=1.0, reinit_after_rejected_ranges=reinit)
+    c = coopnav_env.make_config(
+        "sousa_asv", survey_path="lawnmower", depth_m=1.0, reinit_after_rejected_ranges=reinit, **overrides
+    )
     sim = make_simulator(c, 1)
     obs = sim.reset([seed])
     sim.state.s_speed_scale[:] = speed_scale
@@ -65,6 +67,28 @@ def test_recovery_on_the_lockout_episodes():
     # every episode ends with a lower mean error, and the mean over them by > 25 %
     assert all(a < b for (a, _), (b, _) in zip(on, off)), (on, off)
     assert np.mean([e for e, _ in on]) < 0.75 * np.mean([e for e, _ in off])
+
+
+def test_window_refix_holds_on_the_lockout_episodes():
+    """Issue 21: 'the lock-out recovery is a single Gaussian at the nearest point of the
+    range circle'. On the lock-out episodes above, the least-squares re-fix from the
+    locked-out beacon's last ranges (``lockout_recovery="window"``, eqs. R1-R5, with its
+    residual test dropping multipath ranges) recovers as the nearest-point restart does:
+    episode means within 1.5 m of it and their mean within 5 % (measured: 3.56 against
+    3.49 m, the largest difference 1.17 m). It does not beat it here: an 18 % speed-scale
+    error re-drifts the filter within a few cycles of any restart, whichever the restart
+    (12-15 restarts an episode). Where it wins is benchmarks/nees_per_cycle.py case 8
+    over 100 held-out runs: worst episode mean 13.0 m against the nearest point's 522 m
+    (docs/scenarios/consider-fusion.md). Before the residual test, a multipath range in
+    the window sent fixes hundreds of metres off and a beacon that follows the estimate
+    after them (168 m episode mean); this test fails on that code."""
+    seeds = range(800000, 800006)
+    window = [_episode(s, 3, lockout_recovery="window") for s in seeds]
+    nearest = [_episode(s, 3, lockout_recovery="nearest_point") for s in seeds]
+    print("window", window, "nearest point", nearest)
+    assert all(r > 0 for _, r in window)
+    assert np.mean([e for e, _ in window]) < 1.05 * np.mean([e for e, _ in nearest]), (window, nearest)
+    assert all(a < b + 1.5 for (a, _), (b, _) in zip(window, nearest)), (window, nearest)
 
 
 def test_no_runaway_when_the_beacon_follows_the_estimate():

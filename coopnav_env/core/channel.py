@@ -89,7 +89,7 @@ def ping_energy_j(config: ScenarioConfig) -> float:
     if c.channel_mode == "decide" and c.link_model == "sonar":
         power = PowerModel(efficiency=float(c.transmit_efficiency))
         return float(transmit_energy_j(c.source_level_db, slot_timing(c, SLOWEST_SOUND_SPEED_MPS).ping_s, power))
-    return float(c.transmit_power_w * c.ping_packet_bits / c.modem_bit_rate_bps)
+    return float(c.transmit_power_w * c.ping_bits / c.modem_bit_rate_bps)
 
 
 def link_params(config: ScenarioConfig) -> LinkParams:
@@ -144,7 +144,7 @@ class Channel:
         f = framing(c)  # the PER counts the frames' bits (a frame is sent whole)
         self.tx_bits = np.concatenate(
             [
-                np.full(self.N, message_bits(f, c.ping_packet_bits)),
+                np.full(self.N, message_bits(f, c.ping_bits)),
                 np.full(self.S, message_bits(f, c.reply_packet_bits)),
             ]
         )

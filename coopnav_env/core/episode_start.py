@@ -158,6 +158,9 @@ def beacon_start(sim: Any, ep: EpisodeDraws, start: np.ndarray) -> dict:
         "b_pings": np.zeros((B, N), dtype=np.int64),
         "b_collisions": np.zeros((B, N), dtype=np.int64),
         "b_energy_j": np.zeros((B, N)),
+        # the GPS receiver's Gauss-Markov error starts stationary (an ASV's is its start error)
+        "b_gps_err": c.gps_noise_m * (ep.nb[..., 0] + 1j * ep.nb[..., 1]),
+        "b_fix_count": np.zeros((B, N), dtype=np.int64),
     }
 
 
@@ -187,4 +190,21 @@ def knowledge_start(sim: Any, survey: dict, beacons: dict) -> dict:
         "k_age_s": np.zeros((B, N, S)),
         "k_range_age_s": np.zeros((B, N, S)),
         "k_peer": np.broadcast_to((beacons["b_pos"] + beacons["b_nav_err"])[:, None], (B, N, N, 3)).copy(),
+    }
+
+
+def consider_start(sim: Any, B: int) -> dict:
+    """The survey filters' consider states (no correlation with any beacon yet) and their
+    empty lock-out windows of ``recovery_window`` ranges per beacon (consider-fusion.md)."""
+    S, N, M = sim.S, sim.N, int(sim.config.recovery_window)
+    return {
+        "s_Pxb": np.zeros((B, S, N, 3, 2)),
+        "s_fix_seen": np.zeros((B, S, N), dtype=np.int64),
+        "s_fix_seen_t_s": np.zeros((B, S, N)),
+        "s_win_n": np.zeros((B, S, N), dtype=np.int64),
+        "s_win_z": np.zeros((B, S, N, M)),
+        "s_win_beacon": np.zeros((B, S, N, M, 2)),
+        "s_win_dr": np.zeros((B, S, N, M, 2)),
+        "s_win_dz": np.zeros((B, S, N, M)),
+        "s_win_t": np.zeros((B, S, N, M)),
     }

@@ -14,28 +14,44 @@ import numpy as np
 from numba import njit, prange
 
 from .acoustics import packet_loss_probability
+from .consider import carry_cross_covariance
 from .jit import parallel_twin
 from .navigation import joseph_update
 
 
-def _fuse_depth_gps(sv, sensor_n, sensor_u, nan_count, prm):
+@njit(cache=True, inline="always")
+def _axis_update(x, P, Pxb, z, axis, R, H, K):
+    """A direct measurement z of state axis ``axis`` (depth: 2, GPS: 0 and 1) with
+    variance R fused into one filter (eqs. 9-13), in place, and every beacon's
+    cross-covariance Pxb (N, 3, 2) carried through it (eq. C6, with K = P H^T / S before
+    the update). H, K: scratch (3,)."""
+    H[:] = 0.0
+    H[axis] = 1.0
+    S = P[axis, axis] + R
+    for i in range(3):
+        K[i] = P[i, axis] / S
+    joseph_update(x, P, z, x[axis], H, R)
+    for j in range(Pxb.shape[0]):
+        carry_cross_covariance(Pxb[j], K, H)
+
+
+def _fuse_depth_gps(sv, Pxb, sensor_n, sensor_u, nan_count, prm):
     """Depth sensor every cycle, GPS (east and north) when at the surface; NaNs rejected
-    and counted. Updates sv.est, sv.P (``kernel_records.SurveyView``) and nan_count (B,S) in
-    place; sensor_n, sensor_u (B,S,3) this cycle's draws; prm: ``kernel_records.SurveyParams``."""
+    and counted. Updates sv.est, sv.P (``kernel_records.SurveyView``), the consider
+    states' cross-covariances Pxb (B,S,N,3,2) and nan_count (B,S) in place; sensor_n,
+    sensor_u (B,S,3) this cycle's draws; prm: ``kernel_records.SurveyParams``."""
     est, P, s_pos = sv.est, sv.P, sv.pos
     depth_noise_m, gps_noise_m, nan_probability = prm.depth_noise_m, prm.gps_noise_m, prm.nan_probability
     B, S = est.shape[0], est.shape[1]
     R_depth = max(depth_noise_m, 1e-3) ** 2
     for b in prange(B):
-        H = np.zeros(3)
+        H, K = np.zeros(3), np.zeros(3)
         for s in range(S):
             z = s_pos[b, s, 2] + depth_noise_m * sensor_n[b, s, 0]
             if sensor_u[b, s, 0] < nan_probability:
                 z = np.nan  # fault injection: a NaN must never enter the filter
             if np.isfinite(z):
-                H[:] = 0.0
-                H[2] = 1.0
-                joseph_update(est[b, s], P[b, s], z, est[b, s, 2], H, R_depth)
+                _axis_update(est[b, s], P[b, s], Pxb[b, s], z, 2, R_depth, H, K)
             else:
                 nan_count[b, s] += 1
             if s_pos[b, s, 2] < prm.gps_max_depth_m:
@@ -44,9 +60,7 @@ def _fuse_depth_gps(sv, sensor_n, sensor_u, nan_count, prm):
                     if sensor_u[b, s, 1 + axis] < nan_probability:
                         z = np.nan
                     if np.isfinite(z):
-                        H[:] = 0.0
-                        H[axis] = 1.0
-                        joseph_update(est[b, s], P[b, s], z, est[b, s, axis], H, gps_noise_m**2)
+                        _axis_update(est[b, s], P[b, s], Pxb[b, s], z, axis, gps_noise_m**2, H, K)
                     else:
                         nan_count[b, s] += 1
 

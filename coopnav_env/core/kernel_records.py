@@ -136,3 +136,36 @@ def beacon_view(st: SimState) -> BeaconView:
 def knowledge_view(st: SimState) -> KnowledgeView:
     """What each beacon last received, from ``st`` (references)."""
     return KnowledgeView(st.k_est, st.k_P, st.k_wp_index, st.k_age_s, st.k_range_age_s, st.k_peer)
+
+
+class ConsiderView(NamedTuple):
+    """The survey filters' consider states and lock-out windows (``SimState.s_Pxb``,
+    ``s_fix_seen``, ``s_win_*``) and the beacons' fix counters (``b_fix_count``):
+    docs/scenarios/consider-fusion.md."""
+
+    Pxb: np.ndarray  # (B,S,N,3,2) cross-covariance of survey error and beacon error
+    fix_seen: np.ndarray  # (B,S,N) int: each beacon's fix counter as last heard
+    fix_seen_t_s: np.ndarray  # (B,S,N): when it last changed, as heard
+    fix_count: np.ndarray  # (B,N) int: the beacons' surfacing fix counters
+    win_n: np.ndarray  # (B,S,N) int: ranges in each window
+    win_z: np.ndarray  # (B,S,N,M)
+    win_beacon: np.ndarray  # (B,S,N,M,2)
+    win_dr: np.ndarray  # (B,S,N,M,2)
+    win_dz: np.ndarray  # (B,S,N,M)
+    win_t: np.ndarray  # (B,S,N,M)
+
+
+def consider_view(st: SimState) -> ConsiderView:
+    """The consider states and windows of ``st`` (references)."""
+    return ConsiderView(
+        st.s_Pxb,
+        st.s_fix_seen,
+        st.s_fix_seen_t_s,
+        st.b_fix_count,
+        st.s_win_n,
+        st.s_win_z,
+        st.s_win_beacon,
+        st.s_win_dr,
+        st.s_win_dz,
+        st.s_win_t,
+    )

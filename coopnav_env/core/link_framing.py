@@ -138,8 +138,8 @@ def packet_durations_s(config: Any) -> tuple[float, float]:
     c = config
     if c.link_model == "sonar":
         f = framing(c)
-        return message_duration_s(f, c.ping_packet_bits), message_duration_s(f, c.reply_packet_bits)
-    return c.ping_packet_bits / c.modem_bit_rate_bps, c.reply_packet_bits / c.modem_bit_rate_bps
+        return message_duration_s(f, c.ping_bits), message_duration_s(f, c.reply_packet_bits)
+    return c.ping_bits / c.modem_bit_rate_bps, c.reply_packet_bits / c.modem_bit_rate_bps
 
 
 def slot_timing(config: Any, slowest_sound_speed_mps: float) -> SlotTiming:

@@ -29,6 +29,9 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
     (R2) J_k = u_k^T = (x - s_k - c_k)^T / z_hat_k, the horizontal Jacobian of (R1);
          the errors of the residuals r_k = z_k - z_hat_k:
          Sigma_ij = R delta_ij + u_i^T Pbb u_j + q min(age_i, age_j) u_i^T u_j.
+   (R2') the dead reckoning's systematic errors (a speed-scale error k and a compass bias
+         beta, shared by every shift: e_k = (k I + beta J) s_k, J the 90-degree rotation) add
+         sigma_k^2 (u_i^T s_i)(u_j^T s_j) + sigma_beta^2 (u_i^T J s_i)(u_j^T J s_j).
     (R3) prior: the locked-out estimate x0 with P0 inflated by s_lock^2 I, s_lock =
          max(prior_std_m, max_k |r_k(x0)|) (the filter has shown it is off by at least
          its largest miss); it only picks the branch (the mirror image of the fix across
@@ -67,6 +70,8 @@ class WindowNoise(NamedTuple):
     Pbb: np.ndarray  # (2, 2) the beacon's horizontal position error covariance (a bias over the window), m^2
     dr_rate_m2ps: float  # q: the survey's dead-reckoning variance growth per axis, m^2/s
     prior_std_m: float  # floor of the lock-out prior's inflation s_lock, m
+    scale_std: float = 0.0  # the survey's speed-scale error std: a shared error k s_k of the shifts (R2')
+    heading_std_rad: float = 0.0  # its compass bias std: a shared error beta J s_k of the shifts (R2')
 
 
 @njit(cache=True)
@@ -90,6 +95,12 @@ def window_terms(
                 noise.Pbb[1, 0] * J[j, 0] + noise.Pbb[1, 1] * J[j, 1]
             )
             Sigma[i, j] = ubu + q * min(win.age_s[i], win.age_s[j]) * uu
+            if noise.scale_std > 0.0 or noise.heading_std_rad > 0.0:  # (R2')
+                us_i = J[i, 0] * win.shift[i, 0] + J[i, 1] * win.shift[i, 1]
+                us_j = J[j, 0] * win.shift[j, 0] + J[j, 1] * win.shift[j, 1]
+                ujs_i = J[i, 1] * win.shift[i, 0] - J[i, 0] * win.shift[i, 1]
+                ujs_j = J[j, 1] * win.shift[j, 0] - J[j, 0] * win.shift[j, 1]
+                Sigma[i, j] += noise.scale_std**2 * us_i * us_j + noise.heading_std_rad**2 * ujs_i * ujs_j
         Sigma[i, i] += noise.range_var_m2
 
 

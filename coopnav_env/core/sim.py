@@ -81,6 +81,12 @@ class Simulator(BatchSimulator):
             * c.ping_interval_s
         )
         self.params = self._survey_params()  # the kernels' constants, one record
+        # eq. (C7)'s phi per beacon: an ASV's error is its GPS receiver's Gauss-Markov error
+        # (white, phi = 0, without a time constant); a DVL beacon's is a bias or random walk
+        # between its surfacings (phi = 1; a surfacing resets it, eq. C8)
+        tau = c.gps_error_time_constant_s
+        phi = np.where(is_asv, np.exp(-c.ping_interval_s / tau) if tau > 0 else 0.0, 1.0)
+        self._consider_phi = phi if c.beacon_error_fusion == "schmidt" and (phi != 1.0).any() else None
         self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
         par = "_parallel" if self._parallel else ""
         self._k_survey = getattr(substeps, "integrate_survey" + par)
@@ -220,6 +226,7 @@ class Simulator(BatchSimulator):
             **beacons,
             **episode_start.water_and_clocks(self, ep),
             **episode_start.knowledge_start(self, survey, beacons),
+            **episode_start.consider_start(self, B),
         )
 
     def _cycle_draws(self, cycle) -> dict:
@@ -323,7 +330,9 @@ class Simulator(BatchSimulator):
             nan_count=np.zeros((B, S), dtype=np.int64),
             restarts=np.zeros((B, S), dtype=np.int64),
         )
-        self._k_depth_gps(survey_view(st), draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params)
+        if self._consider_phi is not None:  # eq. (C7): the beacons' Gauss-Markov errors decorrelate
+            st.s_Pxb *= self._consider_phi[None, None, :, None, None]
+        self._k_depth_gps(survey_view(st), st.s_Pxb, draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params)
         return out
 
     def _acoustic_ranging(self, draws: dict, out: measurements.FusionOutputs, transmit):
@@ -526,8 +535,13 @@ class Simulator(BatchSimulator):
             + 0.5 * sigma2 * np.abs(est_h - st.b_fix_est) ** 2
             + beacon_nav.heading_cycle_variance_m2(c.beacon_dvl_heading_cycle_deg, st.b_travelled_m, st.b_turn_sum_m)
         )
-        # a GPS fix: every cycle for ASVs; at the surface when due for AUVs
-        gps_h = c.gps_noise_m * (n[..., 2] + 1j * n[..., 3])
+        # a GPS fix: every cycle for ASVs; at the surface when due for AUVs. The receiver's
+        # error is first-order Gauss-Markov, exact over the cycle: e <- phi e + sigma
+        # sqrt(1 - phi^2) n, phi = exp(-T / tau) (tau = 0: white, a fresh error each fix)
+        tau = c.gps_error_time_constant_s
+        phi = np.exp(-T / tau) if tau > 0 else 0.0
+        st.b_gps_err = phi * st.b_gps_err + c.gps_noise_m * np.sqrt(1.0 - phi * phi) * (n[..., 2] + 1j * n[..., 3])
+        gps_h = st.b_gps_err
         surface = auv & (
             ((c.beacon_surface_every_s > 0) & (st.b_since_fix_s >= c.beacon_surface_every_s - 1e-9))
             | ((c.beacon_surface_above_std_m > 0) & (var > c.beacon_surface_above_std_m**2))
@@ -535,6 +549,7 @@ class Simulator(BatchSimulator):
         if c.beacon_surfacing == "timed":  # due: it ascends, dwells, descends (core/beacon_nav.py)
             surface = beacon_nav.advance_surfacing(st, c, self._surfacing_times, self._beacon_depth, surface)
         fix = ~auv | surface
+        st.b_fix_count = st.b_fix_count + surface  # sent in the ping: the survey zeroes its Pxb (eq. C8)
         err_h = np.where(fix, gps_h, err_h)
         gps_var = c.gps_noise_m**2
         st.b_nav_var_m2 = np.where(fix, gps_var, var)

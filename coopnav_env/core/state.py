@@ -107,3 +107,16 @@ class SimState(BatchArrays):
     k_age_s: np.ndarray  # time since that reply (B,N,S)
     k_range_age_s: np.ndarray  # time since its last fused range, as reported (B,N,S)
     k_peer: np.ndarray  # peers' last reported positions (B,N,N,3)
+    # the beacons' GPS error and fix counter, the survey filters' consider states and lock-out window
+    # (docs/scenarios/consider-fusion.md; appended last)
+    b_gps_err: np.ndarray  # the GPS receiver's Gauss-Markov error, complex (B,N)
+    b_fix_count: np.ndarray  # surfacing GPS fixes so far, sent modulo 16 (eq. C8) (B,N) int
+    s_Pxb: np.ndarray  # cross-covariance of each survey filter's error with each beacon's (B,S,N,3,2)
+    s_fix_seen: np.ndarray  # each beacon's fix counter as last heard (B,S,N) int
+    s_fix_seen_t_s: np.ndarray  # when that counter last changed, as heard (B,S,N)
+    s_win_n: np.ndarray  # ranges in the lock-out window, per beacon (B,S,N) int
+    s_win_z: np.ndarray  # the window's ranges, oldest first (B,S,N,M)
+    s_win_beacon: np.ndarray  # the beacon's reported horizontal position at each (B,S,N,M,2)
+    s_win_dr: np.ndarray  # the survey's dead-reckoned position when each was received (B,S,N,M,2)
+    s_win_dz: np.ndarray  # survey depth estimate minus the beacon's at each (B,S,N,M)
+    s_win_t: np.ndarray  # time of each (B,S,N,M)

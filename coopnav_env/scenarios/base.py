@@ -32,6 +32,7 @@ from .sections import (
     CHANNEL_MODES,
     MAX_WAYPOINTS,
     NETWORKS,
+    PAPER_FILTER,
     RANGING_MODES,
     SURVEY_PATHS,
 )
@@ -58,6 +59,7 @@ __all__ = [
     "MAX_WAYPOINTS",
     "MISSION_FRAMES",
     "NETWORKS",
+    "PAPER_FILTER",
     "RANGING_MODES",
     "SECTIONS",
     "SLOWEST_SOUND_SPEED_MPS",

@@ -63,6 +63,7 @@ SECTIONS = (
 )
 SECTION_BY_ATTR = {s.attr: s for s in SECTIONS}
 TOP_LEVEL = ("name", "network")
+CONSIDER_PING_EXTRA_BITS = 20  # Pbb 24 bits + fix counter 4 bits - the 8-bit variance (consider-fusion.md)
 # parameter name -> the attribute of its section, and its field
 OWNER = {f.name: s.attr for s in SECTIONS for f in dataclasses.fields(s.cls)}
 FIELD = {f.name: f for s in SECTIONS for f in dataclasses.fields(s.cls)}
@@ -228,6 +229,14 @@ class ScenarioConfig:
         if kind not in speeds:
             raise ValueError(f"unknown beacon kind {kind!r}; valid: {', '.join(speeds)}")
         return float(getattr(self, speeds[kind]))
+
+    @property
+    def ping_bits(self) -> int:
+        """A beacon's ping on the channel, bits: ``ping_packet_bits``, plus the consider
+        states' fields with ``beacon_error_fusion="schmidt"`` (its Pbb in 24 bits and a
+        4-bit GPS fix counter, replacing the 8-bit variance: +20; consider-fusion.md)."""
+        extra = CONSIDER_PING_EXTRA_BITS if self.beacon_error_fusion == "schmidt" else 0
+        return int(self.ping_packet_bits) + extra
 
     @property
     def beacon_max_speeds_mps(self) -> tuple:

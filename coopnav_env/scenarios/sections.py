@@ -22,6 +22,17 @@ RANGING_MODES = ("owtt", "twtt")
 # ACOUSTIC_SENSORS: the registered sensors' names (core.measurements), read when asked (__getattr__ below)
 ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
 CHANNEL_MODES = ("clock", "decide")
+BEACON_ERROR_FUSIONS = ("schmidt", "white", "ci")
+LOCKOUT_RECOVERIES = ("window", "nearest_point")
+RANGE_OUTLIER_MODELS = ("mixture", "gate")
+# the survey filter of the papers (Gao & Chitre 2010; Sousa et al.): the beacon's variance in R,
+# hard gating, a nearest-point restart, white GPS errors. Paper reproductions set these.
+PAPER_FILTER = {
+    "beacon_error_fusion": "white",
+    "range_outlier_model": "gate",
+    "lockout_recovery": "nearest_point",
+    "gps_error_time_constant_s": 0.0,
+}
 AREA_LIMIT_M = 20_000.0  # each side of the survey area
 MAX_WAYPOINTS = 100_000  # a path that needs more is refused before it is built
 
@@ -272,6 +283,46 @@ class SurveyEKF(Section):
         3, low=0, high=1000, doc="survey filter: restart from the range after this many gated out in a row (0: never)"
     )
     survey_uses_beacon_current: bool = param(True, doc="add the current a DVL beacon AUV sends (Gao II-A)")
+    beacon_error_fusion: str = param(
+        "schmidt",
+        choices=BEACON_ERROR_FUSIONS,
+        doc=(
+            "how a modem range's beacon position error enters the survey EKF: 'schmidt', consider states with "
+            "their cross-covariance (docs/scenarios/consider-fusion.md, eqs. C1-C8; the ping grows by 20 bits); "
+            "'white', its variance added to R each ping (Gao & Chitre below eq. 7, the papers' filter); 'ci', "
+            "covariance intersection of each range (Julier & Uhlmann 1997)"
+        ),
+    )
+    lockout_recovery: str = param(
+        "window",
+        choices=LOCKOUT_RECOVERIES,
+        doc=(
+            "after reinit_after_rejected_ranges rejected ranges: 'window', a least-squares fix from the locked-out "
+            "beacon's last recovery_window ranges (eqs. R1-R5; the nearest point when it has fewer than 3); "
+            "'nearest_point', a restart at the nearest point of the last range's circle (the papers' runs)"
+        ),
+    )
+    range_outlier_model: str = param(
+        "mixture",
+        choices=RANGE_OUTLIER_MODELS,
+        doc=(
+            "a modem range that passes the gate: 'mixture', fused with the direct path's posterior probability "
+            "given the multipath model outlier_probability / outlier_mean_excess_m (PDA; core/multipath.py); "
+            "'gate', fused as good (the papers' filter)"
+        ),
+    )
+    recovery_window: int = param(
+        6, low=3, high=6, doc="ranges of one beacon the lock-out window fix uses, at most (eqs. R1-R5)"
+    )
+    recovery_prior_std_m: float = param(
+        50.0,
+        unit="m",
+        low=0,
+        high=100000.0,
+        open_low=True,
+        source="assumption [U]",
+        doc="floor of the lock-out prior's std (eq. R3): it picks the branch, it must not pull the fix [U]",
+    )
 
 
 @section
@@ -465,6 +516,17 @@ class ASV(Section):
         high=1.0,
         source="assumption [U]",
         doc="fraction of the water current the ASV's ground-speed control does not cancel (the boats' value) [U]",
+    )
+    gps_error_time_constant_s: float = param(
+        300.0,
+        unit="s",
+        low=0.0,
+        high=1000000.0,
+        source="assumption [U]: GPS position errors are correlated over minutes (multipath, ionosphere)",
+        doc=(
+            "a beacon's GPS error (an ASV every cycle, a beacon AUV at its surfacing) is first-order Gauss-Markov "
+            "with this time constant and gps_noise_m as its std; 0: white, a fresh error each fix (the papers')"
+        ),
     )
 
 

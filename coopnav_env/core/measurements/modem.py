@@ -17,12 +17,22 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
+from scipy.stats import chi2
 
 from ..acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
+from ..consider import (
+    beacon_reset,
+    carry_cross_covariance,
+    ci_range_update,
+    consider_predict,
+    schmidt_range_update,
+)
 from ..contract import SensorHost
 from ..jit import parallel_twin
-from ..kernel_records import beacon_view, survey_view
-from ..navigation import gated_update, moving_range_prediction, reinit_on_range
+from ..kernel_records import beacon_view, consider_view, survey_view
+from ..multipath import blend_update, direct_path_weight
+from ..navigation import gated_update, innovation_variance, moving_range_prediction, reinit_on_range
+from ..recovery import RangeWindow, WindowNoise, window_fix, window_terms
 from . import FusionOutputs
 
 
@@ -104,6 +114,21 @@ class ModemParams(NamedTuple):
     temperature_uncertainty_c: float
     gate: float  # the chi-square gate (Simulator.gate)
     sends_current: np.ndarray  # (N,) bool: the beacon's ping carries its current estimate
+    fusion: int  # beacon_error_fusion: WHITE, SCHMIDT or CI
+    window: bool  # lockout_recovery == "window"
+    window_m: int  # recovery_window
+    prior_std_m: float  # recovery_prior_std_m
+    dr_rate_m2ps: float  # the survey's dead-reckoning variance growth per axis (process_noise_horizontal_m2ps)
+    gps_tau_s: float  # gps_error_time_constant_s
+    mixture: bool  # range_outlier_model == "mixture"
+    window_chi2: np.ndarray  # (7,): the 99 % chi-square point of a window fix's residuals by dof = m - 2
+    dr_scale_std: float  # survey_speed_scale_error_std: the window's shared shift scale error (R2')
+    dr_heading_std_rad: float  # compass_bias_std_deg: its shared rotation (R2')
+
+
+# beacon_error_fusion as the kernel reads it
+WHITE, SCHMIDT, CI = 0, 1, 2
+FUSIONS = {"white": WHITE, "schmidt": SCHMIDT, "ci": CI}
 
 
 class ModemCycle(NamedTuple):
@@ -155,28 +180,197 @@ def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
 
 
 @njit(cache=True, inline="always")
-def _count_rejection(sv, out, b, s, r, h, H, R, prm):
+def _heard_fix_count(cv, prm, b, s, j, t_s):
+    """The ping's 4-bit GPS fix counter: when it changed, beacon j has re-fixed at the
+    surface since survey s last heard it, and its error is now its GPS receiver's. That
+    error is Gauss-Markov (``gps_error_time_constant_s``), so what the survey's error
+    knew of the beacon's last fix decays over the time dt between the fixes: Pxb <- exp(-dt
+    / tau) Pxb (eq. C7 over dt); with a white GPS error (tau = 0) or fixes far apart this
+    is eq. (C8), Pxb <- 0. dt is measured between the changes the survey heard."""
+    count = cv.fix_count[b, j] % 16
+    if count == cv.fix_seen[b, s, j]:
+        return
+    if prm.gps_tau_s > 0.0:
+        consider_predict(cv.Pxb[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)
+    else:
+        beacon_reset(cv.Pxb[b, s, j])
+    cv.fix_seen[b, s, j] = count
+    cv.fix_seen_t_s[b, s, j] = t_s
+
+
+@njit(cache=True, inline="always")
+def _remember(cv, sv, b, s, j, r, beacon, delays, t_s):
+    """Beacon j's finite range r at survey s enters its lock-out window (oldest first,
+    the oldest dropped when full), with the beacon's reported position, the survey's
+    dead-reckoned position where the sound ended (x + v d, as ``range_prediction``),
+    the depths' difference and the time: eqs. R1's inputs."""
+    M = cv.win_z.shape[3]
+    k = cv.win_n[b, s, j]
+    if k == M:
+        for i in range(M - 1):
+            cv.win_z[b, s, j, i] = cv.win_z[b, s, j, i + 1]
+            cv.win_dz[b, s, j, i] = cv.win_dz[b, s, j, i + 1]
+            cv.win_t[b, s, j, i] = cv.win_t[b, s, j, i + 1]
+            for a in range(2):
+                cv.win_beacon[b, s, j, i, a] = cv.win_beacon[b, s, j, i + 1, a]
+                cv.win_dr[b, s, j, i, a] = cv.win_dr[b, s, j, i + 1, a]
+        k = M - 1
+    d = 0.0
+    for leg in range(delays.shape[1]):  # the survey's times: row 0 (moving_range_prediction)
+        d += delays[0, leg] / delays.shape[1]
+    cv.win_z[b, s, j, k] = r
+    cv.win_dz[b, s, j, k] = sv.est[b, s, 2] - beacon[2]
+    cv.win_t[b, s, j, k] = t_s
+    for a in range(2):
+        cv.win_beacon[b, s, j, k, a] = beacon[a]
+        cv.win_dr[b, s, j, k, a] = sv.dr[b, s, a] + sv.vel_est[b, s, a] * d
+    cv.win_n[b, s, j] = k + 1
+
+
+@njit(cache=True)
+def _window_of(cv, sv, b, s, j, keep, t_s):
+    """Beacon j's window entries ``keep`` (indices, oldest first) as a ``RangeWindow`` at
+    time t_s: the filter's own motion since each ping is its dead reckoning plus the
+    current it was told."""
+    m = keep.shape[0]
+    shift, age = np.empty((m, 2)), np.empty(m)
+    z, beacon, dz = np.empty(m), np.empty((m, 2)), np.empty(m)
+    cur = (sv.current_est[b, s].real, sv.current_est[b, s].imag)
+    for k in range(m):
+        i = keep[k]
+        age[k] = t_s - cv.win_t[b, s, j, i]
+        z[k], dz[k] = cv.win_z[b, s, j, i], cv.win_dz[b, s, j, i]
+        for a in range(2):
+            beacon[k, a] = cv.win_beacon[b, s, j, i, a]
+            shift[k, a] = sv.dr[b, s, a] - cv.win_dr[b, s, j, i, a] + cur[a] * age[k]
+    return RangeWindow(z, beacon, shift, dz, age)
+
+
+@njit(cache=True)
+def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
+    """Lock-out recovery from beacon j's last ranges (``recovery.window_fix``, eqs. R1-R5):
+    the horizontal position and covariance re-fixed in place, the depth kept without
+    cross terms, every cross-covariance zeroed but the fix's own with beacon j (with
+    ``"schmidt"``). The window holds rejected ranges too, multipath among them: a fix
+    whose residuals fail their chi-square test (99 %, m - 2 dof) drops its worst range
+    and is redone. Returns False (nothing changed) when no fix of at least 3 ranges passes."""
+    n = cv.win_n[b, s, j]
+    m = min(n, prm.window_m)
+    if m < 3:
+        return False
+    keep = np.arange(n - m, n)
+    Pbb = np.zeros((2, 2))
+    Pbb[0, 0] = Pbb[1, 1] = beacon_var
+    noise = WindowNoise(R, Pbb, prm.dr_rate_m2ps, prm.prior_std_m, prm.dr_scale_std, prm.dr_heading_std_rad)
+    x, P, Pxb = np.empty(2), np.empty((2, 2)), np.empty((2, 2))
+    while keep.shape[0] >= 3:
+        mk = keep.shape[0]
+        win = _window_of(cv, sv, b, s, j, keep, t_s)
+        window_fix(win, mk, noise, sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy(), x, P, Pxb)
+        if not (np.isfinite(x[0]) and np.isfinite(x[1]) and np.isfinite(P[0, 0]) and np.isfinite(P[1, 1])):
+            return False
+        J, r, Sig = np.empty((mk, 2)), np.empty(mk), np.empty((mk, mk))
+        window_terms(x, win, mk, noise, J, r, Sig)
+        if r @ np.linalg.solve(Sig, r) <= prm.window_chi2[mk - 2]:
+            break
+        worst, k_worst = -1.0, 0
+        for k in range(mk):
+            if abs(r[k]) / np.sqrt(Sig[k, k]) > worst:
+                worst, k_worst = abs(r[k]) / np.sqrt(Sig[k, k]), k
+        keep = np.concatenate((keep[:k_worst], keep[k_worst + 1 :]))
+    if keep.shape[0] < 3:
+        return False
+    cv.Pxb[b, s] = 0.0  # the old estimate is discarded: so are its correlations
+    for i in range(2):
+        sv.est[b, s, i] = x[i]
+        sv.P[b, s, i, 2] = sv.P[b, s, 2, i] = 0.0
+        for a in range(2):
+            sv.P[b, s, i, a] = P[i, a]
+            if prm.fusion == SCHMIDT:
+                cv.Pxb[b, s, j, i, a] = Pxb[i, a]
+    return True
+
+
+@njit(cache=True, inline="always")
+def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     """A range the gate rejected: the streak counts rejected ranges in a row whose
     innovations share a sign (a filter that has drifted sees them all too long or all
     too short; multipath outliers are too long only, between fused ranges): +k or -k.
-    After ``reinit_after`` of them the filter restarts from the range (lock-out)."""
+    After ``reinit_after`` of them the filter restarts (lock-out): from a window of
+    beacon j's ranges (``lockout_recovery="window"``), else from the range at the nearest
+    point of its circle (``navigation.reinit_on_range``, R with the beacon's variance).
+    meas: (r, h, R without the beacon's variance, R with it, the beacon's variance)."""
+    r, h, R, R_white, beacon_var = meas
     sign = 1 if r > h else -1
     streak = sv.rejected_streak[b, s]
     sv.rejected_streak[b, s] = streak + sign if streak * sign >= 0 else sign
-    if 0 < prm.reinit_after <= abs(sv.rejected_streak[b, s]) and reinit_on_range(sv.est[b, s], sv.P[b, s], r, h, H, R):
-        sv.rejected_streak[b, s] = 0  # locked out: restarted from this range
+    if not 0 < prm.reinit_after <= abs(sv.rejected_streak[b, s]):
+        return
+    if prm.window and _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
+        restarted = True
+    else:
+        R_all = R + beacon_var * (H[0] * H[0] + H[1] * H[1]) if prm.fusion == SCHMIDT else R_white
+        restarted = reinit_on_range(sv.est[b, s], sv.P[b, s], r, h, H, R_all)
+        if restarted:
+            cv.Pxb[b, s] = 0.0
+    if restarted:
+        sv.rejected_streak[b, s] = 0  # locked out: restarted
         out.restarts[b, s] += 1
 
 
 @njit(cache=True, inline="always")
-def _fuse_ping(sv, bv, cyc, prm, out, b, s, j, delays):
+def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
+    """The gated update of survey s with beacon j's range (row H; meas as ``_count_rejection``'s):
+    ``"white"`` with the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"``
+    with it as consider states (eqs. C2-C6); ``"ci"`` by covariance intersection
+    (CI3, CI5) with R as white's. Returns (fused, the innovation's variance S)."""
+    r, h, R, R_white, beacon_var = meas
+    K, Pbb = scratch[0], scratch[1]
+    y = r - h
+    if prm.fusion == SCHMIDT:
+        Pbb[0, 0] = Pbb[1, 1] = beacon_var
+        nis, fused = schmidt_range_update(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s, j], Pbb, y, H, R, prm.gate, K)
+        if fused:
+            for j2 in range(cv.Pxb.shape[2]):
+                if j2 != j:
+                    carry_cross_covariance(cv.Pxb[b, s, j2], K, H)  # (C6)
+        return fused, y * y / nis if nis > 0.0 else 0.0
+    S = innovation_variance(sv.P[b, s], H, R_white)
+    if prm.fusion == CI:
+        if y * y / S > prm.gate:
+            return False, S
+        ci_range_update(sv.est[b, s], sv.P[b, s], y, H, R_white, False)
+        return True, S
+    return gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R_white, prm.gate), S
+
+
+@njit(cache=True, inline="always")
+def _update(sv, cv, prm, b, s, j, H, meas, scratch):
+    """``_kalman``; with ``range_outlier_model="mixture"`` a fused range moves the filter
+    only by the direct path's posterior probability (``multipath``, eqs. M1-M3).
+    scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3), Pxb0 (N, 3, 2)). Returns whether fused."""
+    x0, P0, X0 = scratch[2], scratch[3], scratch[4]
+    if prm.mixture:
+        x0[:] = sv.est[b, s]
+        P0[:, :] = sv.P[b, s]
+        X0[:, :, :] = cv.Pxb[b, s]
+    fused, S = _kalman(sv, cv, prm, b, s, j, H, meas, scratch)
+    if fused and prm.mixture and S > 0.0:
+        w = direct_path_weight(meas[0] - meas[1], S, prm.outlier_probability, prm.outlier_mean_excess_m)
+        blend_update(w, x0, P0, X0, sv.est[b, s], sv.P[b, s], cv.Pxb[b, s])
+    return fused
+
+
+@njit(cache=True, inline="always")
+def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     """Beacon j's ping at survey vehicle s of environment b: lost, an outlier or NaN at
-    random, then gated and fused (eqs. 7-13), in place; returns whether it was fused."""
+    random, then gated and fused (eqs. 7-13 or C1-C6), in place; returns whether it was fused."""
     r, p_lost, sound_speed_rel_std = _ping_range(sv, bv, cyc, prm, b, s, j, delays)
     u = cyc.acoustic_u[b, j, s]
     if u[0] < p_lost:
         out.lost[b, j, s] = True
         return False
+    _heard_fix_count(cv, prm, b, s, j, cyc.t_s[b])
     if u[1] < prm.outlier_probability:  # multipath: a longer path arrives
         r += -prm.outlier_mean_excess_m * np.log(u[2])
     if u[3] < prm.nan_probability:
@@ -187,30 +381,38 @@ def _fuse_ping(sv, bv, cyc, prm, out, b, s, j, delays):
         out.nan_count[b, s] += 1
         return False
     h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
-    R = modem_range_variance(cyc.range_noise_std_m[b], prm.two_way, bv.nav_var[b, j], h, sound_speed_rel_std)
-    if not gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R, prm.gate):
+    beacon_var = bv.nav_var[b, j]
+    noise_std = cyc.range_noise_std_m[b]
+    R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
+    R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
+    meas = (r, h, R, R_white, beacon_var)
+    if prm.window:
+        _remember(cv, sv, b, s, j, r, bv.est[b, j], delays, cyc.t_s[b])
+    if not _update(sv, cv, prm, b, s, j, H, meas, scratch):
         out.rejected[b, j, s] = True
-        _count_rejection(sv, out, b, s, r, h, H, R, prm)
+        _count_rejection(sv, cv, out, prm, b, s, j, H, meas, cyc.t_s[b])
         return False
     sv.rejected_streak[b, s] = 0
     out.fused[b, j, s] = True
     return True
 
 
-def _fuse(sv, bv, cyc, prm, out):
+def _fuse(sv, bv, cv, cyc, prm, out):
     """Every beacon j pings every survey vehicle s; what arrives is gated and fused, in
-    place (sv.est, P, current_est, last_range_t_s, rejected_streak; the flags and counts
-    of out, ``FusionOutputs``). sv, bv: ``kernel_records.SurveyView``, ``kernel_records.BeaconView``;
+    place (sv.est, P, current_est, last_range_t_s, rejected_streak; the consider states
+    and windows of cv; the flags and counts of out, ``FusionOutputs``). sv, bv, cv:
+    ``kernel_records.SurveyView``, ``BeaconView``, ``ConsiderView``;
     cyc: ``ModemCycle``, whose ``heard`` (B, N, S) are the pings the channel delivers
     (``core.channel``; all True on the fixed clock's free channel), the others are
     neither measured nor counted lost; prm: ``ModemParams``."""
     B, N, S = bv.pos.shape[0], bv.pos.shape[1], sv.est.shape[1]
     for b in prange(B):
         delays = np.zeros((2, 2 if prm.two_way else 1))
+        scratch = (np.zeros(3), np.zeros((2, 2)), np.zeros(3), np.zeros((3, 3)), np.zeros((N, 3, 2)))
         for s in range(S):
             any_fused = False
             for j in range(N):
-                if cyc.heard[b, j, s] and _fuse_ping(sv, bv, cyc, prm, out, b, s, j, delays):
+                if cyc.heard[b, j, s] and _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
                     any_fused = True
             if any_fused:
                 sv.last_range_t_s[b, s] = cyc.t_s[b]
@@ -250,6 +452,16 @@ class ModemRanging:
                 *(float(v) for v in scalars[2:]),
                 float(sim.gate),
                 np.asarray(sim.sends_current, dtype=bool),
+                FUSIONS[c.beacon_error_fusion],
+                c.lockout_recovery == "window",
+                int(c.recovery_window),
+                float(c.recovery_prior_std_m),
+                float(c.process_noise_horizontal_m2ps),
+                float(c.gps_error_time_constant_s),
+                c.range_outlier_model == "mixture",
+                chi2.ppf(0.99, np.maximum(np.arange(7), 1)),
+                float(c.survey_speed_scale_error_std),
+                float(np.radians(c.compass_bias_std_deg)),
             ]
         )
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
@@ -282,7 +494,7 @@ class ModemRanging:
             draws["acoustic_u"],
             heard,
         )
-        self.kernel(survey_view(st), beacon_view(st), cyc, self.params, out)
+        self.kernel(survey_view(st), beacon_view(st), consider_view(st), cyc, self.params, out)
 
 
 def build(sim: SensorHost) -> ModemRanging:

@@ -1,0 +1,142 @@
+"""The consider states, the fix counter, the multipath weighting and the GPS
+Gauss-Markov error wired into the survey simulator (issue 21;
+docs/scenarios/consider-fusion.md). The building blocks' own tests: test_consider.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import coopnav_env
+from coopnav_env.core import make_simulator
+from coopnav_env.core.multipath import direct_path_weight
+from coopnav_env.scenarios import PAPER_FILTER
+
+STILL = {"packet_loss_near": 0.0, "packet_loss_far": 0.0, "outlier_probability": 0.0}
+
+
+def _run(config, cycles, seed=11, batch=3):
+    sim = make_simulator(config, batch)
+    sim.reset(list(range(seed, seed + batch)))
+    for _ in range(cycles):
+        sim.step(np.full((batch, config.n_beacons, 2), 0.3))
+    return sim.state
+
+
+def test_schmidt_with_an_exact_beacon_is_the_papers_filter():
+    """Pbb = 0 (a beacon whose GPS is exact, fixing every cycle) and Pxb = 0: the wired
+    Schmidt update (eqs. C2-C5 on the 5-state augmented covariance) is Gao & Chitre's
+    eqs. 9-13 to round-off, over 40 cycles with outliers, losses and the gate at work."""
+    base = coopnav_env.make_config(
+        "gao_lawnmower", gps_noise_m=0.0, range_outlier_model="gate", lockout_recovery="nearest_point"
+    )
+    white = _run(base.replace(beacon_error_fusion="white"), 40)
+    schmidt = _run(base.replace(beacon_error_fusion="schmidt"), 40)
+    assert np.all(schmidt.s_Pxb == 0.0)
+    np.testing.assert_allclose(schmidt.s_est, white.s_est, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(schmidt.s_P, white.s_P, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("tau", [0.0, 300.0])
+def test_the_fix_counter_resets_the_cross_covariance(tau):
+    """A DVL beacon surfaces every 100 s. On the cycle of its fix the survey, hearing the
+    new counter in the ping, first decays Pxb by exp(-dt / tau) over the dt since the
+    last fix it heard (eq. C7 over dt; zeroes it, eq. C8, with a white GPS error): the
+    step gives what the same step gives from a state where that was done by hand; a
+    filter that ignored the counter would differ, as a step without a fix shows."""
+    c = coopnav_env.make_config(
+        "gao_sea",
+        beacon_surface_every_s=100.0,
+        beacon_surface_above_std_m=0.0,
+        gps_error_time_constant_s=tau,
+        **STILL,
+    )
+    probe = make_simulator(c, 1)
+    probe.reset([5])
+    fix_cycles = []
+    for k in range(12):
+        probe.step(np.full((1, 1, 2), 0.3))
+        if probe.state.b_surfacings[0, 0]:
+            fix_cycles.append(k)
+    k_fix = fix_cycles[1]  # the second fix: the survey heard the first one 100 s earlier
+    a, b = make_simulator(c, 1), make_simulator(c, 1)
+    for sim in (a, b):
+        sim.reset([5])
+        for _ in range(k_fix):
+            sim.step(np.full((1, 1, 2), 0.3))
+    assert np.abs(a.state.s_Pxb).max() > 1e-3  # the survey has learnt a correlation
+    dt = 100.0
+    b.state.s_Pxb *= np.exp(-dt / tau) if tau > 0 else 0.0
+    b.state.s_fix_seen[:] = (a.state.b_fix_count[0, 0] + 1) % 16  # as if heard already
+    b.state.s_fix_seen_t_s[:] = a.state.t_s[0] + c.ping_interval_s
+    a.step(np.full((1, 1, 2), 0.3))
+    b.step(np.full((1, 1, 2), 0.3))
+    assert a.state.b_surfacings[0, 0] == 1
+    np.testing.assert_allclose(a.state.s_est, b.state.s_est, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(a.state.s_P, b.state.s_P, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(a.state.s_Pxb, b.state.s_Pxb, rtol=0, atol=1e-12)
+    # the counter mattered: without the reset the update differs
+    c2 = make_simulator(c, 1)
+    c2.reset([5])
+    for _ in range(k_fix):
+        c2.step(np.full((1, 1, 2), 0.3))
+    c2.state.s_fix_seen[:] = (c2.state.b_fix_count[0, 0] + 1) % 16
+    c2.state.s_fix_seen_t_s[:] = c2.state.t_s[0] + c.ping_interval_s
+    c2.step(np.full((1, 1, 2), 0.3))
+    assert np.abs(c2.state.s_P - a.state.s_P).max() > 1e-6
+
+
+def test_gps_error_is_gauss_markov_with_its_time_constant():
+    """An ASV's GPS error over 400 cycles of 20 s, 64 runs: its lag-one correlation is
+    exp(-T / tau) (0.936 at tau = 300 s; 0 for the papers' white error) and its std per axis
+    gps_noise_m (a stationary first-order Gauss-Markov process)."""
+    out = {}
+    for tau in (300.0, 0.0):
+        c = coopnav_env.make_config(
+            "sousa_asv", ping_interval_s=20.0, gps_error_time_constant_s=tau, max_cycles=500, mission_duration_s=0.0
+        )
+        sim = make_simulator(c, 64)
+        sim.reset(list(range(64)))
+        errs = []
+        for _ in range(400):
+            sim.step(np.zeros((64, 1, 2)))
+            errs.append(sim.state.b_nav_err[:, 0, 0].copy())
+        e = np.array(errs)  # (cycles, runs)
+        out[tau] = (np.mean(e[1:] * e[:-1]) / np.mean(e * e), e.std())
+    assert out[300.0][0] == pytest.approx(np.exp(-20.0 / 300.0), abs=0.03)
+    assert abs(out[0.0][0]) < 0.03
+    for tau in out:
+        assert out[tau][1] == pytest.approx(0.5, rel=0.05)  # sousa_asv's gps_noise_m
+
+
+def test_direct_path_weight_by_hand():
+    """Eqs. M1-M2 at y = 15 m, S = 36 m^2, p = 3 %, mu = 30 m: g0 = N(15; 0, 36) =
+    exp(-3.125) / (6 sqrt(2 pi)), g1 = exp(0.02 - 0.5) Phi((15 - 1.2) / 6) / 30; and the
+    limits: no multipath (w = 1), a range as much too short (w near 1)."""
+    from math import erf, exp, pi, sqrt
+
+    g0 = exp(-3.125) / (6 * sqrt(2 * pi))
+    g1 = exp(36 / 1800 - 0.5) * 0.5 * (1 + erf((15 - 1.2) / 6 / sqrt(2))) / 30
+    w = 0.97 * g0 / (0.97 * g0 + 0.03 * g1)
+    assert direct_path_weight(15.0, 36.0, 0.03, 30.0) == pytest.approx(w, rel=1e-12)
+    assert direct_path_weight(15.0, 36.0, 0.0, 30.0) == 1.0
+    short = direct_path_weight(-15.0, 36.0, 0.03, 30.0)  # a longer path cannot make a range short
+    assert 0.99 < short < 1.0 and short > direct_path_weight(15.0, 36.0, 0.03, 30.0)
+
+
+def test_ping_grows_by_the_consider_fields_and_switches_are_checked():
+    c = coopnav_env.make_config("sousa_ping")
+    assert c.ping_bits == c.ping_packet_bits + 20
+    assert c.replace(beacon_error_fusion="white").ping_bits == c.ping_packet_bits
+    for key, bad in (
+        ("beacon_error_fusion", "schmit"),
+        ("lockout_recovery", "nearest"),
+        ("range_outlier_model", "pda"),
+    ):
+        with pytest.raises(ValueError, match=f"unknown {key} '{bad}'; valid: "):
+            coopnav_env.make_config("gao_sea", **{key: bad})
+    with pytest.raises(ValueError, match="recovery_window"):
+        coopnav_env.make_config("gao_sea", recovery_window=2)
+    with pytest.raises(ValueError, match="gps_error_time_constant_s"):
+        coopnav_env.make_config("gao_sea", gps_error_time_constant_s=-1.0)
+    assert set(PAPER_FILTER) <= set(coopnav_env.parameter_names())
