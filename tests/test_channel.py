@@ -22,6 +22,7 @@ from coopnav_env.core.channel import link_params, ping_energy_j
 from coopnav_env.core.link import SlotTransmissions, slot_timeline
 from coopnav_env.core.link_framing import slot_timing
 from coopnav_env.core.reward import TERM_WEIGHTS, weighted_reward
+from coopnav_env.scenarios import PAPER_FILTER
 from coopnav_env.scenarios.validate import SLOWEST_SOUND_SPEED_MPS
 from coopnav_env.views import action_space, check_action
 
@@ -49,7 +50,9 @@ def timeline(positions, starts, durations, velocities=None, max_range_m=1500.0):
 
 
 def test_range_link_packets_last_bits_over_bit_rate():
-    c = coopnav_env.make_config("sousa_ping", link_model="range", ping_offsets="zero", ping_interval_s=5.0)
+    c = coopnav_env.make_config(
+        "sousa_ping", link_model="range", ping_offsets="zero", ping_interval_s=5.0, beacon_error_fusion="white"
+    )  # the papers' ping: 64 bits, without the consider states' 20
     t = slot_timing(c, SLOWEST_SOUND_SPEED_MPS)
     assert (t.ping_s, t.reply_s, t.last_offset_s) == (0.8, 1.6, 0.0)
     assert t.reply_at_s == pytest.approx(0.8 + 1500.0 / 1400.0 + 0.015)
@@ -362,6 +365,7 @@ def test_the_range_link_reproduces_the_earlier_channel_bit_for_bit():
     ref = np.load(DATA / "sousa_ping_range_link.npz")
     earlier = {"link_model": "range", "ping_offsets": "zero", "ping_interval_s": 5.0}
     earlier |= {"asv_surge_noise_mps": 0.0, "asv_steering_noise_deg": 0.0}  # the ASVs followed commands exactly
+    earlier |= dict(PAPER_FILTER)  # and the survey filter was the papers'
     for batch, seeds in rec.RUNS:
         new = rec.record("sousa_ping", batch, seeds, earlier)
         recorded = {k.split("/", 1)[1] for k in ref.files if k.startswith(f"B{batch}/")}

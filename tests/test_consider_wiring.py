@@ -48,6 +48,7 @@ def test_the_fix_counter_resets_the_cross_covariance(tau):
         "gao_sea",
         beacon_surface_every_s=100.0,
         beacon_surface_above_std_m=0.0,
+        beacon_surfacing="instant",  # the fix at once, ranging throughout (a timed surfacing has a dwell away)
         gps_error_time_constant_s=tau,
         **STILL,
     )
