@@ -189,6 +189,14 @@ class MovingNetwork(Section):
         1.0, low=0.0, high=1000000.0, doc='reward weight of the "approach" term (the fix degenerates on the baseline)'
     )
 
+    def check(self) -> None:
+        """The recovery needs no more consistent fixes than its window holds."""
+        check(
+            self.frame_restart_min_fixes <= self.frame_restart_window_cycles,
+            f"scenario parameter frame_restart_min_fixes ({self.frame_restart_min_fixes}) must not exceed "
+            f"frame_restart_window_cycles ({self.frame_restart_window_cycles})",
+        )
+
 
 @section
 class River(Section):

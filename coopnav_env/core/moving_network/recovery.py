@@ -169,7 +169,7 @@ def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, in
 def _fit(f: Filter, b: int, inlier: np.ndarray, p: CycleParams, theta: np.ndarray, cov: np.ndarray) -> tuple:
     """Eq. F5: generalized least squares of the inlying fixes on r_k = e - U a_k, theta (4,) =
     (e_x, e_y, U_x, U_y) and cov (4, 4) = N^-1, N = sum A_k^T W_k A_k (W_k the inverse of the
-    fix's noise) plus the prior's information on U (``VELOCITY_ERROR_STD_MPS``), in place. Returns (the mean of their l residuals, its variance)."""
+    fix's noise) plus the prior's information on U (``VELOCITY_ERROR_STD_MPS``), in place. Returns (the mean l residual, its variance)."""
     age, R = f.window_age[b], f.window_r[b]
     N, rhs, S, A = np.zeros((4, 4)), np.zeros(4), np.empty((2, 2)), np.zeros((2, 4))
     u_var = (VELOCITY_ERROR_STD_MPS * p.ping_interval_s) ** 2
@@ -198,8 +198,9 @@ def line_fit(f: Filter, b: int, p: CycleParams, theta: np.ndarray, cov: np.ndarr
     """Eqs. F4-F5 on environment b's window: the largest set of stored fixes on one line of
     eq. F3, then its least-squares fit (``_fit``): theta (4,) = (present error e_x, e_y;
     velocity error per cycle U_x, U_y), cov (4, 4). Returns (inliers, the mean l residual, its
-    variance); 0 inliers when fewer than ``frame_restart_min_fixes`` (the rest then not
-    meaningful)."""
+    variance); 0 inliers when fewer than ``frame_restart_min_fixes``, or fewer than two of them
+    younger than ``REINIT_AFTER_CYCLES`` (the present error then rests on extrapolation; the
+    rest then not meaningful)."""
     W = f.window_age.shape[1]
     inlier, best_set = np.zeros(W, dtype=np.bool_), np.zeros(W, dtype=np.bool_)
     ls = np.array([f.window_r[b, k, 2] for k in range(W) if f.window_age[b, k] >= 0])
@@ -215,7 +216,10 @@ def line_fit(f: Filter, b: int, p: CycleParams, theta: np.ndarray, cov: np.ndarr
             if n > best:
                 best = n
                 best_set[:] = inlier
-    if best < p.frame_restart_min_fixes:
+    recent = 0
+    for k in range(W):
+        recent += best_set[k] and f.window_age[b, k] < REINIT_AFTER_CYCLES
+    if best < p.frame_restart_min_fixes or recent < 2:
         return 0, 0.0, 0.0
     l_mean, var_l = _fit(f, b, best_set, p, theta, cov)
     return best, l_mean, var_l
