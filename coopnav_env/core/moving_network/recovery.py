@@ -49,9 +49,9 @@ from .state import REINIT_AFTER_CYCLES, CycleParams, Filter
 
 _STATES = (0, 1, 5)  # x, y, l in the filter's state E
 MAX_FIX_AGE_CYCLES = 30  # a stored fix older than this is dropped [U]
-# the prior on a locked-out filter's velocity error U / T (eq. F5), and a line of eq. F4 proposing
-# more than three times it is no hypothesis: the boats' speed fluctuation (0.15 m/s) and a river
-# frame's turn (0.35 deg/s at 60 m) are of this size [U]
+# the prior on a locked-out filter's velocity error U / T (eq. F5; a line of eq. F4 proposing ten
+# times it is no hypothesis): the boats' speed fluctuation (0.15 m/s) and a river frame's turn
+# (0.35 deg/s at 60 m) are of this size [U]; 0.5 let more river runs diverge (seeds 800000-800029)
 VELOCITY_ERROR_STD_MPS = 0.3
 
 
@@ -139,13 +139,15 @@ def _noise2(f: Filter, b: int, k: int, p: CycleParams, out: np.ndarray) -> None:
 @njit(cache=True)
 def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, inlier: np.ndarray) -> int:
     """Eq. F4's hypothesis: the line of eq. F3 through fixes j and k (none if its velocity error
-    exceeds 3 ``VELOCITY_ERROR_STD_MPS``); which stored fixes lie on it (chi-square, 2 dof, gate2,
+    exceeds 10 ``VELOCITY_ERROR_STD_MPS``: a pair of outliers); which stored fixes lie on it (chi-square, 2 dof, gate2,
     against twice their noise) with an l residual within the 1-dof gate of the window's median
     l_mid, into inlier (W,) bool. Returns their count (0: no hypothesis, or j or k off it)."""
     age, R = f.window_age[b], f.window_r[b]
     if age[j] == age[k]:
         return 0
-    u_max = 3.0 * VELOCITY_ERROR_STD_MPS * p.ping_interval_s * abs(age[j] - age[k])
+    u_max = (
+        10.0 * VELOCITY_ERROR_STD_MPS
+    )  # beyond any boat or river-frame velocity error * p.ping_interval_s * abs(age[j] - age[k])
     if (R[j, 0] - R[k, 0]) ** 2 + (R[j, 1] - R[k, 1]) ** 2 > u_max * u_max:
         return 0
     S = np.empty((2, 2))
@@ -169,7 +171,8 @@ def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, in
 def _fit(f: Filter, b: int, inlier: np.ndarray, p: CycleParams, theta: np.ndarray, cov: np.ndarray) -> tuple:
     """Eq. F5: generalized least squares of the inlying fixes on r_k = e - U a_k, theta (4,) =
     (e_x, e_y, U_x, U_y) and cov (4, 4) = N^-1, N = sum A_k^T W_k A_k (W_k the inverse of the
-    fix's noise) plus the prior's information on U (``VELOCITY_ERROR_STD_MPS``), in place. Returns (the mean l residual, its variance)."""
+    fix's noise) plus the prior's information on U (``VELOCITY_ERROR_STD_MPS``), in place.
+    Returns (the mean l residual, its variance)."""
     age, R = f.window_age[b], f.window_r[b]
     N, rhs, S, A = np.zeros((4, 4)), np.zeros(4), np.empty((2, 2)), np.zeros((2, 4))
     u_var = (VELOCITY_ERROR_STD_MPS * p.ping_interval_s) ** 2
