@@ -439,7 +439,8 @@ def _nees_runs(B=100, seed0=0, restarts=None, **overrides):
 def test_filter_is_consistent_at_the_default_boat_noise():
     """100 Monte Carlo runs at the boat_* defaults, on the paper's channel (PAPER_SETTINGS): the
     run-average NEES of (x, y) and of all six states lies in the two-sided 95 % chi-square band
-    (N = 100 runs: chi2(100 n) / 100) on average over the mission and at most cycles (Bar-Shalom, Li & Kirubarajan, sec. 5.4)."""
+    (N = 100 runs: chi2(100 n) / 100) on average over the mission and at most cycles
+    (Bar-Shalom, Li & Kirubarajan, sec. 5.4)."""
     from scipy.stats import chi2
 
     B = 100

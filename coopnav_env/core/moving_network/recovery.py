@@ -145,9 +145,8 @@ def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, in
     age, R = f.window_age[b], f.window_r[b]
     if age[j] == age[k]:
         return 0
-    u_max = (
-        10.0 * VELOCITY_ERROR_STD_MPS
-    )  # beyond any boat or river-frame velocity error * p.ping_interval_s * abs(age[j] - age[k])
+    # beyond any boat or river-frame velocity error
+    u_max = 10.0 * VELOCITY_ERROR_STD_MPS * p.ping_interval_s * abs(age[j] - age[k])
     if (R[j, 0] - R[k, 0]) ** 2 + (R[j, 1] - R[k, 1]) ** 2 > u_max * u_max:
         return 0
     S = np.empty((2, 2))
