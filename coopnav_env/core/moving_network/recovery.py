@@ -218,6 +218,10 @@ def line_fit(f: Filter, b: int, p: CycleParams, theta: np.ndarray, cov: np.ndarr
             if n > best:
                 best = n
                 best_set[:] = inlier
+    if best < p.frame_restart_min_fixes:
+        return 0, 0.0, 0.0
+    _fit(f, b, best_set, p, theta, cov)
+    best = _refine(f, b, p, theta, best_set)  # each fix against the fitted line, at its own noise
     recent = 0
     for k in range(W):
         recent += best_set[k] and f.window_age[b, k] < REINIT_AFTER_CYCLES
@@ -225,6 +229,24 @@ def line_fit(f: Filter, b: int, p: CycleParams, theta: np.ndarray, cov: np.ndarr
         return 0, 0.0, 0.0
     l_mean, var_l = _fit(f, b, best_set, p, theta, cov)
     return best, l_mean, var_l
+
+
+@njit(cache=True)
+def _refine(f: Filter, b: int, p: CycleParams, theta: np.ndarray, inlier: np.ndarray) -> int:
+    """The fixes within the 2-dof gate of the fitted line r = e - U a (theta), at their own
+    noise (the hypothesis of two fixes was tested at twice it), into inlier (W,); their count."""
+    S = np.empty((2, 2))
+    n = 0
+    for i in range(inlier.shape[0]):
+        a = f.window_age[b, i]
+        if not inlier[i]:
+            continue
+        _noise2(f, b, i, p, S)
+        d0 = f.window_r[b, i, 0] - (theta[0] - theta[2] * a)
+        d1 = f.window_r[b, i, 1] - (theta[1] - theta[3] * a)
+        inlier[i] = nis2(d0, d1, S) <= p.gate2
+        n += inlier[i]
+    return n
 
 
 @njit(cache=True)
