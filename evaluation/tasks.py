@@ -21,10 +21,13 @@ import dataclasses
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
+from coopnav_env.scenarios.matos import PAPER_SETTINGS
+
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
-BENCHMARK_VERSION = 2  # 2: the gao_team and matos_river task sets
+BENCHMARK_VERSION = 3  # 2: the gao_team and matos_river task sets; 3: the Matos scenarios on the project's channel
+# (outliers and losses), the paper's channel as named tasks
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
 
@@ -168,7 +171,8 @@ _SETS = (
         "matos_moving_lbl",
         "matos_moving_lbl",
         (
-            _task("paper", "Matos & Cruz's moving baseline as published"),
+            _task("channel", "the moving baseline on the project's channel: 3 % outliers, losses 5-50 %"),
+            _task("paper", "Matos & Cruz's moving baseline as published: white range noise only", **PAPER_SETTINGS),
             _task("current_0.3", "a 0.3 m/s current instead of 0.05", current_speed_mps=0.3),
             _task("short_baseline", "a 50 m baseline instead of 100", baseline_target_m=50.0),
             _task("frame_north", "the frame oriented north (0 deg) instead of east", frame_orientation_deg=0.0),
@@ -180,7 +184,10 @@ _SETS = (
         "matos_river",
         "matos_river",
         (
-            _task("river", "down the 1.6 km winding river, as configured"),
+            _task("river", "down the 1.6 km winding river, as configured (3 % outliers, losses 5-50 %)"),
+            _task(
+                "river_paper_channel", "the river with the paper's channel: white range noise only", **PAPER_SETTINGS
+            ),
             _task("current_0.5", "a 0.5 m/s river current instead of 0.3", current_speed_mps=0.5),
             _task("narrow_120m", "a 120 m wide river instead of 150", river_width_m=120.0),
             _task("short_baseline", "a 60 m baseline instead of 100", baseline_target_m=60.0),

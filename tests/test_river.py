@@ -11,6 +11,7 @@ from coopnav_env import make_config
 from coopnav_env.core import lbl, make_simulator, river
 from coopnav_env.core.moving_network import OBS_DIM, RIVER_OBS_DIM, frame_waypoints
 from coopnav_env.obs_layout import decode_boat, obs_dim
+from coopnav_env.scenarios.matos import PAPER_SETTINGS
 
 # perfect boats: they go exactly where they are told (and stay where they are with zero actions)
 STILL_BOATS = dict(boat_surge_noise_mps=0.0, boat_steering_noise_deg=0.0, boat_current_response=0.0)
@@ -187,16 +188,52 @@ def river_nees_runs(B=50, seed0=0, policy="river_escort", **overrides):
 
 
 def test_filter_is_consistent_on_the_river():
-    """50 runs of river_escort boats (~6 s): the run-average (x, y) NEES, over the cycles in
-    which >= 90 % of the runs are alive, averages inside the two-sided 95 % band chi2(2 B) / B
-    and lies in it at most cycles. Measured: 2.22 and 88 % (seeds 0-49), 2.25 and 84 % (1000-1049)."""
+    """50 runs of river_escort boats (~6 s) on the paper's channel (PAPER_SETTINGS): the
+    run-average (x, y) NEES, over the cycles in which >= 90 % of the runs are alive, averages
+    inside the two-sided 95 % band chi2(2 B) / B and lies in it at most cycles. Measured: 2.22
+    and 88 % (seeds 0-49), 2.25 and 84 % (1000-1049)."""
     from scipy.stats import chi2
 
     B = 50
-    n2, err, _ = river_nees_runs(B)
+    n2, err, _ = river_nees_runs(B, **PAPER_SETTINGS)
     full = np.isfinite(n2).sum(1) >= 0.9 * B
     lo, hi = chi2.ppf([0.025, 0.975], 2 * B) / B
     avg = np.nanmean(n2[full], 1)
     assert lo < np.mean(avg) < hi
     assert np.mean((avg > lo) & (avg < hi)) > 0.75
     assert np.nanmean(err) < 2.0
+
+
+def _river_per_cycle(B, seed0):
+    """B river_escort runs at the scenario's defaults (outliers 3 %, losses 5-50 %): the
+    per-cycle figures of benchmarks/nees_per_cycle.py (mean NEES, fraction of run-cycles in the
+    per-cycle 95 % band, fraction above the 99.9 % point, runs whose error ever exceeds 20 m)."""
+    from scipy.stats import chi2
+
+    n2, err, _ = river_nees_runs(B, seed0)
+    v = n2[np.isfinite(n2)]
+    band = chi2.ppf([0.025, 0.975], 2)
+    in_band = np.mean((v >= band[0]) & (v <= band[1]))
+    return v.mean(), in_band, np.mean(v > chi2.ppf(0.999, 2)), int(np.sum(np.nanmax(err, 0) > 20.0))
+
+
+def test_river_per_cycle_nees_on_the_projects_channel():
+    """What holds on the river with outliers and losses (20 runs, seeds 0-19): at least 85 % of
+    run-cycles inside the per-cycle 95 % band and at most half of the runs ever above 20 m.
+    Issue 21's target (the mean in its band, no run above 20 m) is NOT met: the slow test below
+    records it (docs/scenarios/matos-cruz.md#channel)."""
+    _, in_band, _, above_20 = _river_per_cycle(20, 0)
+    assert in_band > 0.85, in_band
+    assert above_20 <= 10, above_20
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(reason="issue 21's river target is not met yet: runs still diverge past 20 m", strict=False)
+def test_river_meets_issue_21s_target_on_the_projects_channel():
+    """100 runs (seeds 1000-1099): the mean (x, y) NEES inside the band of a mean of 100
+    chi2(2) and no run's error above 20 m."""
+    from scipy.stats import chi2
+
+    mean, _, _, above_20 = _river_per_cycle(100, 1000)
+    lo, hi = chi2.ppf([0.025, 0.975], 200) / 100
+    assert lo < mean < hi and above_20 == 0, (mean, above_20)

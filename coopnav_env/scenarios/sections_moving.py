@@ -144,6 +144,26 @@ class MovingNetwork(Section):
         high=10000.0,
         doc="l: a random walk that follows a boat-speed mismatch (tests/test_matos.py)",
     )
+    frame_restart_window_cycles: int = param(
+        8,
+        low=1,
+        high=64,
+        source="assumption [U]",
+        doc=(
+            "the recovery's window: the last this many cycles' spherical fixes, each with its geometry's "
+            "covariance, from which a locked-out filter restarts (core/moving_network/recovery.py) [U]"
+        ),
+    )
+    frame_restart_min_fixes: int = param(
+        4,
+        low=1,
+        high=64,
+        source="assumption [U]",
+        doc=(
+            "the fewest mutually consistent fixes of the window (chi-square, 3 dof) the recovery restarts from "
+            "or checks the filter against [U]"
+        ),
+    )
     baseline_tolerance_m: float = param(
         10.0, unit="m", low=0.0, high=10000.0, doc="reward: |l - target| beyond this costs baseline_penalty"
     )
@@ -168,6 +188,14 @@ class MovingNetwork(Section):
     approach_penalty: float = param(
         1.0, low=0.0, high=1000000.0, doc='reward weight of the "approach" term (the fix degenerates on the baseline)'
     )
+
+    def check(self) -> None:
+        """The recovery needs no more consistent fixes than its window holds."""
+        check(
+            self.frame_restart_min_fixes <= self.frame_restart_window_cycles,
+            f"scenario parameter frame_restart_min_fixes ({self.frame_restart_min_fixes}) must not exceed "
+            f"frame_restart_window_cycles ({self.frame_restart_window_cycles})",
+        )
 
 
 @section

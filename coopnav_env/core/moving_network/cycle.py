@@ -3,7 +3,8 @@
 1. ``exchange.run_exchange``: the sound speeds, the detections' errors and losses,
    the exchange between the moving vehicles (``lbl.exchange_of``);
 2. ``filter.fuse_ranges``: d1, then (d2, l) jointly, each gated (section VII);
-3. ``recovery.recover``: the restart from the spherical fix after gate lockout;
+3. ``recovery.recover``: the window of fixes and, after gate lockout, the restart from their
+   consensus;
 4. ``tracking.track``: the boats' external fix and alpha-beta tracker;
 5. ``terms.cycle_terms``: the reward's terms and the errors, in the true frame.
 
@@ -49,15 +50,18 @@ def _cycle(
         err = np.empty(n_det)
         lost = np.empty(n_det, dtype=np.bool_)
         w = filter_work()
+        status = np.empty((3, 2), dtype=np.bool_)
+        prior = np.empty(3)
         E, P, o = f.E[b], f.P[b], out[b]
         o.det[0] = det2_of(P[0, 0], P[0, 1], P[1, 0], P[1, 1])
         ex, cn, sigma_det = run_exchange(b, vehicle, boats, draws, p, err, lost, work)
         dz = vehicle.pos[b, 0, 2] + p.depth_noise_m * draws.depth[b, 0]  # depth cell; boats at the surface
         sigma_r2 = ranging_variance_m2(sigma_det, True)  # var(d1) = var(d2) = (c sigma_t)^2 / 2
+        prior[0], prior[1], prior[2] = E[0], E[1], E[5]
         n_fused, rejected = fuse_ranges(
-            E, P, ex, dz, vehicle.speed_meas_mps[b], vehicle.heading_meas_rad[b], sigma_r2, p, w
+            E, P, ex, dz, vehicle.speed_meas_mps[b], vehicle.heading_meas_rad[b], sigma_r2, p, w, status
         )
-        restarted = recover(E, P, f.rejected_cycles, b, rejected, ex, dz, sigma_r2)
+        restarted = recover(E, P, f, b, status, prior, ex, dz, sigma_r2, p)
         o.det[1] = det2_of(P[0, 0], P[0, 1], P[1, 0], P[1, 1])
         track(tracker, b, ex, boats, cn, p)
         cycle_terms(o, b, vehicle, boats, f, p, n_fused)

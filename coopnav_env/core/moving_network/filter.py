@@ -97,15 +97,16 @@ def update_d2_l(
     gate1: float,
     gate2: float,
     w: FilterWork,
+    with_l: bool,
 ) -> tuple:
-    """Fuse d2 (legs: S4 leaving at t3s, S5 arriving at t6) with l when it is there (one
+    """Fuse d2 (legs: S4 leaving at t3s, S5 arriving at t6) with l when ``with_l`` (one
     joint update, R = sigma_r2 ``EXCHANGE_COVARIANCE[1:, 1:]``), else d2 alone, in place.
     Returns (fused, fused jointly with l)."""
     vx, vy = velocity
     w.delays[0], w.delays[1] = ex.t3s, ex.t6
     h2 = frame_range_prediction(E, 2, dz, vx, vy, w.delays, w.H[0])
     w.y[0] = ex.d2 - h2
-    if not ex.ok_l:
+    if not with_l:
         w.R[0, 0] = sigma_r2
         _, status = joseph_update_vector(E, P, w.y[:1], w.H[:1], w.R[:1, :1], gate1, w.joseph)
         return status == 1, False
@@ -134,22 +135,37 @@ def fuse_ranges(
     sigma_r2: float,
     p: CycleParams,
     w: FilterWork,
+    status: np.ndarray,
 ) -> tuple:
     """The cycle's updates of one filter (E (6,), P (6,6)) with the exchange ``ex``
-    (``lbl.ExchangeResult``), in place: d1, then (d2, l) or d2 alone, each gated
+    (``lbl.ExchangeResult``), in place: d1, then (d2, l) jointly or d2 alone, each gated
     (``state.CycleParams`` p: gate1, gate2); sigma_r2 the variance of a two-way range
     (``acoustics.ranging_variance_m2``). The frame-relative velocity for the legs is
     the model's (``frame_velocity_of``) with the last encoder and compass readings.
-    Returns (ranges fused (the joint update counts 2), measurements rejected by the gate)."""
-    fused0 = False
+
+    Each range is checked against the others where they share detections: l = m - d1 - d2
+    carries d1's detections (S1@B1, S2@vehicle) with the opposite sign, so a d1 the gate
+    refused makes l suspect, and d2 is then fused alone; a joint (d2, l) update the gate
+    refuses is retried with d2 alone, since a multipath excess on the path m (S2@B2,
+    S3@vehicle) spoils l only. status (3, 2) bool, written: per range (d1, d2, l),
+    (arrived, fused) (``recovery.recover``'s per-range counters). Returns (ranges fused,
+    measurements rejected by the gate or set aside as suspect)."""
+    fused_d1 = False
     if ex.ok_d1:
-        fused0 = update_d1(E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, w)
-    fused1, both = False, False
-    alone = ex.ok_d2 and not ex.ok_l
-    if ex.ok_l or alone:
-        fused1, both = update_d2_l(
-            E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, p.gate2, w
+        fused_d1 = update_d1(E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, w)
+    suspect_l = ex.ok_d1 and not fused_d1
+    fused_d2, fused_l = False, False
+    if ex.ok_l and not suspect_l:
+        fused_d2, fused_l = update_d2_l(
+            E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, p.gate2, w, True
         )
-    n_fused = int(fused0) + int(fused1) + int(both)
-    rejected = int(ex.ok_d1 and not fused0) + int(ex.ok_l and not both) + int(alone and not fused1)
+    if ex.ok_d2 and not fused_d2:
+        fused_d2, _ = update_d2_l(
+            E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, p.gate2, w, False
+        )
+    status[0, 0], status[0, 1] = ex.ok_d1, fused_d1
+    status[1, 0], status[1, 1] = ex.ok_d2, fused_d2
+    status[2, 0], status[2, 1] = ex.ok_l and not suspect_l, fused_l
+    n_fused = int(fused_d1) + int(fused_d2) + int(fused_l)
+    rejected = int(ex.ok_d1 and not fused_d1) + int(ex.ok_d2 and not fused_d2) + int(ex.ok_l and not fused_l)
     return n_fused, rejected

@@ -145,7 +145,10 @@ class MovingNetworkSimulator(BatchSimulator):
             int(self.K),
         )
         self._cycle_params = cycle_params(
-            c, gate_threshold(c.range_gate_probability, 1), gate_threshold(c.range_gate_probability, 2)
+            c,
+            gate_threshold(c.range_gate_probability, 1),
+            gate_threshold(c.range_gate_probability, 2),
+            gate_threshold(c.range_gate_probability, 3),
         )
         self._observe_params = ObserveParams(
             float(c.baseline_target_m),

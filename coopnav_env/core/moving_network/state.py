@@ -49,7 +49,10 @@ OBS_FIELDS = (
 )
 OBS_DIM = sum(n for _, n in OBS_FIELDS)
 TRACKER_ALPHA, TRACKER_BETA = 0.5, 0.2  # the boats' alpha-beta tracker on the fixes [U]
-REINIT_AFTER_CYCLES = 3  # the vehicle restarts its position from an LBL fix after this many gated-out cycles
+# the tracker's gate on a fix's distance from its prediction: a fix's error (~1-3 m) and the
+# vehicle's speed changes over the fix's age [U]
+TRACKER_GATE_M, TRACKER_GATE_SPEED_MPS = 10.0, 1.0
+REINIT_AFTER_CYCLES = 3  # one range gated out this many cycles in a row: the recovery consults its window of fixes
 # appended for a mission in the world (mission_frame="world"; see MovingNetworkSimulator.observe)
 RIVER_OBS_FIELDS = (("bank_offset", 1), ("river_direction_xy", 2), ("river_ahead_from_own_xy", 2))
 RIVER_OBS_DIM = sum(n for _, n in RIVER_OBS_FIELDS)
@@ -95,7 +98,12 @@ class FrameState(BatchArrays):
     s_dr: np.ndarray  # dead reckoning alone, world (B,1,3)
     f_E: np.ndarray  # the moving-frame EKF (B,6): x, y, phi, c_x, c_y, l
     f_P: np.ndarray  # (B,6,6)
-    f_rejected_cycles: np.ndarray  # consecutive cycles whose measurements were all gated out (B,)
+    f_rejected_cycles: np.ndarray  # per range (d1, d2, l): consecutive cycles it arrived and was gated out (B,3)
+    # the window of recent fixes (recovery): residual fix - estimate in (x, y, l) (B,W,3), its
+    # covariance (B,W,3,3), its age in cycles (B,W), -1 an empty slot; W = frame_restart_window_cycles
+    f_window_r: np.ndarray
+    f_window_S: np.ndarray
+    f_window_age: np.ndarray
     # the boats
     b_pos: np.ndarray  # (B,2,3)
     b_heading: np.ndarray  # (B,2) complex unit
@@ -108,6 +116,7 @@ class FrameState(BatchArrays):
     k_vel: np.ndarray  # (B,2)
     k_age_s: np.ndarray  # time since the last fix (B,)
     k_has_fix: np.ndarray  # (B,) bool
+    k_outlier: np.ndarray  # the last fix the gate set aside: east, north, 1 if the last fix was set aside (B,3)
     # water
     temperature_c: np.ndarray
     current_mean: np.ndarray  # complex (B,)
@@ -133,22 +142,28 @@ class Vehicle(NamedTuple):
 
 
 class Filter(NamedTuple):
-    """The moving-frame EKF: E (B,6) = (x, y, phi, c_x, c_y, l), P (B,6,6), and the count of
-    consecutive cycles with a measurement gated out (B,)."""
+    """The moving-frame EKF: E (B,6) = (x, y, phi, c_x, c_y, l), P (B,6,6), per range (d1, d2,
+    l) the count of consecutive cycles it was gated out (B,3), and the window of recent fixes
+    (``recovery``): residuals (B,W,3), covariances (B,W,3,3), ages in cycles (B,W)."""
 
     E: np.ndarray
     P: np.ndarray
     rejected_cycles: np.ndarray
+    window_r: np.ndarray
+    window_S: np.ndarray
+    window_age: np.ndarray
 
 
 class Tracker(NamedTuple):
     """The boats' alpha-beta tracker of the vehicle: (east, north) at the last update and
-    velocity (B,2), time since the last fix and whether there was one (B,)."""
+    velocity (B,2), time since the last fix and whether there was one (B,), the last fix its
+    gate set aside (east, north, flag) (B,3)."""
 
     pos: np.ndarray
     vel: np.ndarray
     age_s: np.ndarray
     has_fix: np.ndarray
+    outlier: np.ndarray
 
 
 class Boats(NamedTuple):
@@ -209,12 +224,12 @@ def vehicle_of(st: FrameState) -> Vehicle:
 
 def filter_of(st: FrameState) -> Filter:
     """The filter's record of views of ``st``."""
-    return Filter(st.f_E, st.f_P, st.f_rejected_cycles)
+    return Filter(st.f_E, st.f_P, st.f_rejected_cycles, st.f_window_r, st.f_window_S, st.f_window_age)
 
 
 def tracker_of(st: FrameState) -> Tracker:
     """The tracker's record of views of ``st``."""
-    return Tracker(st.k_pos, st.k_vel, st.k_age_s, st.k_has_fix)
+    return Tracker(st.k_pos, st.k_vel, st.k_age_s, st.k_has_fix, st.k_outlier)
 
 
 # --- records of the scenario's numbers ----------------------------------------------------
@@ -239,11 +254,16 @@ class CycleParams(NamedTuple):
     baseline_target_m: float
     baseline_tolerance_m: float
     min_baseline_distance_m: float
+    gate3: float  # the recovery's chi-square gate, 3 dof (x, y, l)
+    frame_restart_min_fixes: float
+    frame_q_position_m2ps: float  # the filter's Q, for the dead-reckoned drift of a stored fix
+    frame_q_baseline_m2ps: float
+    survey_speed_mps: float
 
 
-def cycle_params(config: ScenarioConfig, gate1: float, gate2: float) -> CycleParams:
-    """``CycleParams`` of a scenario, with its gates."""
-    named = {"gate1": gate1, "gate2": gate2}
+def cycle_params(config: ScenarioConfig, gate1: float, gate2: float, gate3: float) -> CycleParams:
+    """``CycleParams`` of a scenario, with its gates (1, 2 and 3 dof)."""
+    named = {"gate1": gate1, "gate2": gate2, "gate3": gate3}
     return CycleParams(*(float(named[k] if k in named else getattr(config, k)) for k in CycleParams._fields))
 
 
