@@ -28,7 +28,7 @@ import numpy as np
 from ..scenarios.base import ScenarioConfig
 from . import beacon_nav, channel, episode_start, fusion, measurements, observation, rng, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
-from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, unit_to_bearing
+from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
 from .kernel_records import SurveyParams, beacon_view, knowledge_view, survey_view
@@ -491,76 +491,18 @@ class Simulator(BatchSimulator):
         )
 
     def _beacon_navigation(self, draws, moved):
-        """The beacons' own navigation over the cycle; ``moved`` (B,N) complex: their true
-        ground displacement. AUVs: DVL dead reckoning, whose error grows with the distance
-        travelled (this episode's compass error beta = b0 + b1 sin(heading + phase) and
-        velocity scale error k turn a displacement d into (1 + k) e^{-i beta} d,
-        e^{-i beta} a clockwise rotation) plus
-        the integrated white velocity noise, and with the current estimate's error while
-        bottom lock is lost; optionally a GPS fix at the surface (every
-        ``beacon_surface_every_s``, or when the own std exceeds ``beacon_surface_above_std_m``).
-        ASVs: a fresh GPS fix every cycle. The variance each carries (what enters the
-        survey filters' R) is the beacon's own error model, not its actual error."""
-        c, st = self.config, self._live
-        T, K, dt = c.ping_interval_s, self.K, c.substep_s
-        n, u = draws["beacon_nav_n"], draws["beacon_nav_u"]
-        auv = ~self._beacon_is_asv
-        # bottom lock is lost and regained at random (per cycle), from the altitude (core/beacon_nav.py)
-        p_loss, p_regain = beacon_nav.lock_probabilities(c, st.b_pos[..., 2])
-        st.b_dvl_lock = np.where(st.b_dvl_lock, u >= p_loss, u < p_regain)
-        # DVL: the white velocity noise integrated over the cycle (a random walk)
-        walk_std = c.dvl_velocity_noise_mps * dt * np.sqrt(K)
-        drift = np.where(st.b_dvl_lock, 0.0, st.b_current_err * T)  # without lock: thrust model + current estimate
-        heading_err = st.b_dvl_heading_bias_rad + np.radians(c.beacon_dvl_heading_cycle_deg) * np.sin(
-            unit_to_bearing(moved) + st.b_dvl_heading_phase_rad
+        """The beacons' own navigation over the cycle (``beacon_nav.navigate``); ``moved``
+        (B,N) complex: their true ground displacement."""
+        beacon_nav.navigate(
+            self._live,
+            self.config,
+            draws,
+            moved,
+            self._beacon_is_asv,
+            self.K,
+            self._surfacing_times,
+            self._beacon_depth,
         )
-        bias = ((1.0 + st.b_dvl_scale_error) * np.exp(-1j * heading_err) - 1.0) * moved
-        err_h = (
-            (st.b_nav_err[..., 0] + 1j * st.b_nav_err[..., 1]) + drift + bias + walk_std * (n[..., 0] + 1j * n[..., 1])
-        )
-        # the variance it carries: the random walk adds up linearly; the current-estimate
-        # error is a bias, so its part grows with the square of the time spent without lock;
-        # the constant heading and scale errors' part grows with the square of the displacement
-        # D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2) |D|^2; half of
-        # each per axis; the one-cycle part exact for any path (beacon_nav.heading_cycle_variance_m2)
-        st.b_walk_var_m2 = st.b_walk_var_m2 + walk_std**2
-        st.b_unlocked_s = st.b_unlocked_s + np.where(st.b_dvl_lock, 0.0, T)
-        st.b_since_fix_s = st.b_since_fix_s + T
-        est_h = st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h
-        sigma2 = c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2
-        st.b_travelled_m, st.b_turn_sum_m = beacon_nav.add_displacement(st.b_travelled_m, st.b_turn_sum_m, moved)
-        var = (
-            st.b_walk_var_m2
-            + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
-            + 0.5 * sigma2 * np.abs(est_h - st.b_fix_est) ** 2
-            + beacon_nav.heading_cycle_variance_m2(c.beacon_dvl_heading_cycle_deg, st.b_travelled_m, st.b_turn_sum_m)
-        )
-        # a GPS fix: every cycle for ASVs; at the surface when due for AUVs. The receiver's
-        # error is first-order Gauss-Markov, exact over the cycle: e <- phi e + sigma
-        # sqrt(1 - phi^2) n, phi = exp(-T / tau) (tau = 0: white, a fresh error each fix)
-        tau = c.gps_error_time_constant_s
-        phi = np.exp(-T / tau) if tau > 0 else 0.0
-        st.b_gps_err = phi * st.b_gps_err + c.gps_noise_m * np.sqrt(1.0 - phi * phi) * (n[..., 2] + 1j * n[..., 3])
-        gps_h = st.b_gps_err
-        surface = auv & (
-            ((c.beacon_surface_every_s > 0) & (st.b_since_fix_s >= c.beacon_surface_every_s - 1e-9))
-            | ((c.beacon_surface_above_std_m > 0) & (var > c.beacon_surface_above_std_m**2))
-        )
-        if c.beacon_surfacing == "timed":  # due: it ascends, dwells, descends (core/beacon_nav.py)
-            surface = beacon_nav.advance_surfacing(st, c, self._surfacing_times, self._beacon_depth, surface)
-        fix = ~auv | surface
-        st.b_fix_count = st.b_fix_count + surface  # sent in the ping: the survey zeroes its Pxb (eq. C8)
-        err_h = np.where(fix, gps_h, err_h)
-        gps_var = c.gps_noise_m**2
-        st.b_nav_var_m2 = np.where(fix, gps_var, var)
-        st.b_walk_var_m2 = np.where(surface, gps_var, st.b_walk_var_m2)
-        st.b_unlocked_s = np.where(surface, 0.0, st.b_unlocked_s)
-        st.b_since_fix_s = np.where(fix, 0.0, st.b_since_fix_s)
-        st.b_travelled_m = np.where(fix, 0.0, st.b_travelled_m)
-        st.b_turn_sum_m = np.where(fix, 0.0, st.b_turn_sum_m)
-        st.b_fix_est = np.where(fix, st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h, st.b_fix_est)
-        st.b_surfacings = surface.astype(np.int64)
-        st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag
 
     def _exchange_messages(self, draws: dict) -> None:
         """Step 5 on the fixed clock: replies and positions, lost only at random."""
