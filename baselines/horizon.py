@@ -50,7 +50,9 @@ is that planner for the survey scenarios. At each decision:
    cheapest, refit mean and std, ``iterations`` times. The first iteration also
    scores the previous plan shifted by one ping (its last step repeated: the warm
    start, also the initial mean), a stop, and full speed straight in eight
-   directions. The cheapest sequence seen is the plan; its first step is applied.
+   directions. The cheapest sequence seen is the plan; a pattern search then polishes
+   its first step (``refine_iters`` rounds, the rest of the plan fixed), which is
+   applied.
 
 Random numbers come from the policy's seed (``reset``): the planner is deterministic
 given the seed, so it runs under common random numbers like the other planners.
@@ -145,6 +147,8 @@ def horizon_cost(P: np.ndarray, P_none: np.ndarray, criterion: str = "trace") ->
 # the first iteration's fixed candidates: stop, and full speed straight in eight directions
 _ANGLES = 2 * np.pi * np.arange(8) / 8
 _FIXED = np.concatenate([np.zeros((1, 2)), np.stack([np.sin(_ANGLES), np.cos(_ANGLES)], -1)])
+_G = np.arange(-2, 3)
+_PATTERN = np.stack(np.meshgrid(_G, _G, indexing="ij"), -1).reshape(-1, 2).astype(float)  # (25, 2)
 
 
 @register_policy("horizon")
@@ -153,8 +157,9 @@ class HorizonPolicy(TrackingPolicy):
     velocities, minimising the survey filter's expected accumulated covariance
     (see the module docstring). Constructor arguments: ``horizon`` pings, CEM sizes
     ``n_samples``, ``n_elite``, ``iterations``, the sampling std ``init_std``
-    (fraction of the maximum speed), ``criterion`` ("trace" or "logdet") and
-    ``peers`` (model the other beacons' ranges)."""
+    (fraction of the maximum speed), ``criterion`` ("trace" or "logdet"),
+    ``peers`` (model the other beacons' ranges) and ``refine_iters`` (pattern-search
+    rounds on the applied step)."""
 
     def __init__(
         self,
@@ -168,6 +173,7 @@ class HorizonPolicy(TrackingPolicy):
         init_std: float = 0.5,
         criterion: str = "trace",
         peers: bool = True,
+        refine_iters: int = 8,
     ) -> None:
         if criterion not in CRITERIA:
             raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
@@ -178,7 +184,7 @@ class HorizonPolicy(TrackingPolicy):
             )
         self.horizon, self.n_samples, self.n_elite = int(horizon), int(n_samples), int(n_elite)
         self.iterations, self.init_std = int(iterations), float(init_std)
-        self.criterion, self.peers = criterion, bool(peers)
+        self.criterion, self.peers, self.refine_iters = criterion, bool(peers), int(refine_iters)
         super().__init__(config, agent_index, seed)
 
     def reset(self, seed: int | Sequence[int] | None = None) -> None:
@@ -232,8 +238,27 @@ class HorizonPolicy(TrackingPolicy):
                 best_v, best_cost = v[order[0]], float(cost[order[0]])
             elite = v[order[: self.n_elite]]
             mean, std = elite.mean(0), elite.std(0) + 0.02
-        self.last_cost = best_cost
+        best_v, self.last_cost = self.refine_first_step(view, model, best_v, best_cost)
         return best_v
+
+    def refine_first_step(
+        self, view: ObsView, model: tuple[np.ndarray, ...], v: np.ndarray, cost: float
+    ) -> tuple[np.ndarray, float]:
+        """A pattern search on the first step (the one applied), the rest of the plan
+        fixed: a 5x5 pattern around it, projected into the unit disc, its spacing
+        halved every round from 0.1 of the maximum speed (``refine_iters`` rounds).
+        The CEM's elite mean is coarse where the cost is flat (near an optimum of the
+        trace the cost is quadratic in the heading); this polishes the step it applies."""
+        step = 0.1
+        for _ in range(self.refine_iters):
+            cand = np.repeat(v[None], len(_PATTERN), 0)
+            cand[:, 0] = _disc(v[0] + step * _PATTERN)
+            c = self.cost(view, cand, model)
+            k = int(np.argmin(c))
+            if c[k] < cost:
+                v, cost = cand[k], float(c[k])
+            step *= 0.5
+        return v, cost
 
     def plan(self, view: ObsView) -> np.ndarray:
         self.plan_v = self.optimise(view)
