@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
-BENCHMARK_VERSION = 2  # 2: the gao_team and matos_river task sets
+BENCHMARK_VERSION = 3  # 2: the gao_team and matos_river task sets; 3: the receding-horizon planner `horizon` among the planners
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
 
