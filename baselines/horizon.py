@@ -72,6 +72,7 @@ if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
 CRITERIA = ("trace", "logdet")
+PREDICTORS = ("path", "chord", "stationary")
 
 
 def _disc(v: np.ndarray) -> np.ndarray:
@@ -174,7 +175,11 @@ class HorizonPolicy(TrackingPolicy):
         criterion: str = "trace",
         peers: bool = True,
         refine_iters: int = 8,
+        predictor: str = "path",
     ) -> None:
+        if predictor not in PREDICTORS:
+            raise ValueError(f"predictor must be one of {PREDICTORS}, got {predictor!r}")
+        self.predictor = predictor
         if criterion not in CRITERIA:
             raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
         if not (horizon >= 1 and iterations >= 1 and 1 <= n_elite <= n_samples):
@@ -193,10 +198,18 @@ class HorizonPolicy(TrackingPolicy):
         self.plan_v: np.ndarray | None = None  # (H, 2) the last plan, velocity fractions
         self.last_cost = float("nan")
 
+    def predict(self, view: ObsView, ahead_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The survey vehicles' (east, north) (S, 2) and depth below (S,) ``ahead_s`` after now."""
+        if self.predictor == "path":
+            return self.tracker.predict_along_path(view, ahead_s)
+        if self.predictor == "chord":
+            return self.tracker.predict(view, ahead_s, "chord")
+        return np.asarray(view.survey_en_m, float), np.asarray(view.depth_below_m, float)
+
     def survey_model(self, view: ObsView) -> tuple[np.ndarray, ...]:
         """(survey_en (H, S, 2), survey_dz (H, S), P0 (S, 2, 2), grow (H, S), R) for one decision."""
         c, T, H = self.config, self.ctx.ping_interval_s, self.horizon
-        preds = [self.tracker.predict_along_path(view, (j + 1) * T) for j in range(H)]
+        preds = [self.predict(view, (j + 1) * T) for j in range(H)]
         en = np.stack([e for e, _ in preds])
         dz = np.stack([d for _, d in preds])
         q = c.process_noise_horizontal_m2ps

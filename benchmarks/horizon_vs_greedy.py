@@ -17,6 +17,7 @@ when the interval lies below 0, **loss** above, **tie** otherwise.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from collections.abc import Sequence
@@ -67,6 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="on every task")
     p.add_argument("--markdown", help="also write the table here")
+    p.add_argument("--json", help="write the per-episode errors here as they come (a partial run is usable)")
     args = p.parse_args(argv)
     if args.first_seed is None:
         seeds = [int(s) for s in TEST_SEEDS[: args.episodes]]
@@ -89,6 +91,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             scores[s, t, q] = np.asarray(errs)
             cpu[q] = cpu.get(q, 0.0) + sec
             print(f"{s}/{t} {q}: {np.mean(errs):.3f} m ({sec:.0f} s)", file=sys.stderr, flush=True)
+            if args.json:
+                from coopnav_env.records import atomic_write_text
+
+                dump = {f"{a}/{b}/{x}": v.tolist() for (a, b, x), v in scores.items()}
+                atomic_write_text(args.json, json.dumps({"seeds": seeds, "episode_mean_error_m": dump}) + "\n")
     c = args.challenger
     lines = [
         f"{args.episodes} episodes per task and policy, seeds {seeds[0]}..{seeds[-1]}"
