@@ -60,8 +60,9 @@ given the seed, so it runs under common random numbers like the other planners.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -276,3 +277,45 @@ class HorizonPolicy(TrackingPolicy):
     def plan(self, view: ObsView) -> np.ndarray:
         self.plan_v = self.optimise(view)
         return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[0]
+
+
+@register_policy("oracle")
+class OraclePolicy(HorizonPolicy):
+    """``horizon`` given the truth: a reference for what guidance can achieve, not a
+    policy a user could field.
+
+    Before each decision the evaluation (``evaluation.episodes.run_episodes``: every
+    policy with ``privileged = True``) passes the simulator's snapshot
+    (``observe_truth``): the optimiser then plans from the survey vehicles' true
+    positions and depths (no reply age), the survey filters' covariances now (not the
+    last reply's) and the beacon's true position; the plan is the same as
+    ``horizon``'s otherwise. The noise it will meet is not known to it, nor is the
+    current (the beacon's velocity is commanded through the water, as for every
+    planner). Without a snapshot (the PettingZoo env, a batch without the hook) it is
+    ``horizon``.
+    """
+
+    privileged = True
+
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
+        super().reset(seed)
+        self._truth: dict | None = None
+
+    def observe_truth(self, snapshot: Any, row: int) -> None:
+        """Keep what the snapshot (``coopnav_env.core.contract.Snapshot``) says of batch row ``row``."""
+        own = np.asarray(snapshot.beacon_true_m[row, self.ctx.agent_index], float)
+        survey = np.asarray(snapshot.survey_true_m[row], float)
+        self._truth = {
+            "own_en_m": own[:2].copy(),
+            "survey_en_m": survey[:, :2].copy(),
+            "depth_below_m": survey[:, 2] - own[2],
+            "cov_m2": np.asarray(snapshot.survey_cov_en_m2[row], float).copy(),
+        }
+
+    def plan(self, view: ObsView) -> np.ndarray:
+        if self._truth is None:
+            return super().plan(view)
+        truth = dataclasses.replace(view, reply_age_s=np.zeros_like(view.reply_age_s), **self._truth)
+        self._truth = None
+        self.plan_v = self.optimise(truth)
+        return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[0]  # the same velocity

@@ -24,9 +24,12 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
-BENCHMARK_VERSION = 3  # 2: the gao_team and matos_river task sets; 3: the receding-horizon planner `horizon` among the planners
+BENCHMARK_VERSION = (
+    3  # 2: the gao_team and matos_river task sets; 3: the receding-horizon planner `horizon` among the planners
+)
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
+REFERENCES = ("oracle",)  # given the truth: never a task's best planner (issue 22's headroom reference)
 
 __all__ = ["BENCHMARK_VERSION", "EPISODES", "FLOORS", "TASK_SETS", "Task", "TaskSet", "get_task_set", "list_task_sets"]
 
@@ -64,10 +67,11 @@ class TaskSet:
 
     @property
     def planners(self) -> list:
-        """The planners compared against: those that drive the network, minus the floors."""
+        """The planners compared against: those that drive the network, minus the floors and
+        the references that are given the truth (``REFERENCES``)."""
         from baselines import list_policies
 
-        return [p for p in list_policies(self.network) if p not in FLOORS]
+        return [p for p in list_policies(self.network) if p not in FLOORS and p not in REFERENCES]
 
     @property
     def floors(self) -> list:

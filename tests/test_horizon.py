@@ -181,3 +181,38 @@ def test_deterministic_given_the_seed_and_warm_started():
     assert a.plan_v.shape == (a.horizon, 2)
     with pytest.raises(ValueError, match="criterion"):
         make_policy("horizon", TOY, criterion="volume")
+
+
+def test_oracle_plans_from_the_truth_the_snapshot_gives():
+    """The oracle told the truth (survey vehicle at SURVEY, covariance P) acts as horizon does
+    on an observation that reports exactly that, whatever its own observation says."""
+    from types import SimpleNamespace
+
+    own, P = SURVEY + np.array([0.0, 30.0]), np.diag([60.0, 4.0])
+    truth = SimpleNamespace(
+        beacon_true_m=np.array([[[*own, 0.0]]]),
+        survey_true_m=np.array([[[*SURVEY, 0.0]]]),
+        survey_cov_en_m2=P[None, None],
+    )
+    wrong = encode(TOY, own_en_m=own, survey_rel_m=[[-15.0, -40.0, 0.0]], own_std_m=0.0)
+    oracle = make_policy("oracle", TOY, seed=4)
+    oracle.observe_truth(truth, 0)
+    np.testing.assert_allclose(oracle.act(wrong), make_policy("horizon", TOY, seed=4).act(observe(own, P)), atol=2e-3)
+
+
+def test_oracle_gets_the_truth_in_run_episodes_and_is_never_a_best_planner():
+    from evaluation.episodes import run_episodes
+    from evaluation.tasks import TASK_SETS
+
+    calls = []
+    config = coopnav_env.make_config("gao_lawnmower", max_cycles=3)
+    from baselines.horizon import OraclePolicy
+
+    orig = OraclePolicy.observe_truth
+    try:
+        OraclePolicy.observe_truth = lambda self, snap, row: calls.append(row) or orig(self, snap, row)
+        rows, _ = run_episodes(config, "oracle", [11, 12])
+    finally:
+        OraclePolicy.observe_truth = orig
+    assert len(rows) == 2 and sorted(set(calls)) == [0, 1] and len(calls) == 6
+    assert all("oracle" not in ts.planners for ts in TASK_SETS.values())
