@@ -225,7 +225,7 @@ class HorizonPolicy(TrackingPolicy):
         step = self.ctx.max_speed_mps * self.ctx.ping_interval_s
         beacon = np.asarray(view.own_en_m, float) + step * np.cumsum(v, axis=1)  # (N, H, 2)
         peers = np.asarray(view.peers_en_m, float) if self.peers else None
-        P, P_none = expected_covariances(beacon, en, dz, P0, grow, R, self.ctx, peers)
+        P, P_none = expected_covariances(beacon, en, dz, P0, grow, float(R), self.ctx, peers)
         viol = sum(self.ctx.violation_m(beacon[:, j], en[j], dz[j]) for j in range(self.horizon))
         return horizon_cost(P, P_none, self.criterion) + PENALTY_PER_M * viol / self.horizon
 
