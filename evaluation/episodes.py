@@ -169,9 +169,13 @@ def run_episodes(
 
     actions = np.zeros((B, N, action_dim(sim)))
     credited, k_step, horizon = 0.0, 0, max(int(getattr(config, "max_cycles", 1)), 1)
+    privileged = any(getattr(p, "privileged", False) for row in policies for p in row)
     while not done.all():
+        snap = sim.snapshot() if privileged else None  # the truth, for reference policies (baselines' oracle)
         for b in np.flatnonzero(~done).tolist():
             for j in range(N):
+                if snap is not None and getattr(policies[b][j], "privileged", False):
+                    policies[b][j].observe_truth(snap, b)
                 actions[b, j] = policies[b][j].act(obs[b, j])
         actions[done] = 0.0
         res = sim.step(actions)

@@ -26,10 +26,13 @@ from coopnav_env.scenarios.matos import PAPER_SETTINGS
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
-BENCHMARK_VERSION = 3  # 2: the gao_team and matos_river task sets; 3: the Matos scenarios on the project's channel
-# (outliers and losses), the paper's channel as named tasks
+# 2: the gao_team and matos_river task sets; 3: the receding-horizon planner `horizon` among the planners,
+# the Matos scenarios on the project's channel (outliers and losses) with the paper's channel as named tasks,
+# and issue 21's physics under every task
+BENCHMARK_VERSION = 3
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
+REFERENCES = ("oracle",)  # given the truth: never a task's best planner (issue 22's headroom reference)
 
 __all__ = ["BENCHMARK_VERSION", "EPISODES", "FLOORS", "TASK_SETS", "Task", "TaskSet", "get_task_set", "list_task_sets"]
 
@@ -67,10 +70,11 @@ class TaskSet:
 
     @property
     def planners(self) -> list:
-        """The planners compared against: those that drive the network, minus the floors."""
+        """The planners compared against: those that drive the network, minus the floors and
+        the references that are given the truth (``REFERENCES``)."""
         from baselines import list_policies
 
-        return [p for p in list_policies(self.network) if p not in FLOORS]
+        return [p for p in list_policies(self.network) if p not in FLOORS and p not in REFERENCES]
 
     @property
     def floors(self) -> list:

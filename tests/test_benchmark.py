@@ -198,7 +198,7 @@ def test_a_tiny_run_of_the_command(tmp_path, capsys):
     assert results["official"] is False and len(results["not_official_because"]) == 2
     assert results["seeds"]["first"] == TEST_SEED and results["episodes"] == 2
     s = results["task_sets"]["gao_lawnmower"]
-    assert s["columns"] == ["circle", "ellipse", "fim_a", "fim_b", "static", "random"]
+    assert s["columns"] == ["circle", "ellipse", "fim_a", "fim_b", "horizon", "static", "random"]
     assert list(s["tasks"]) == [t.name for t in TASK_SETS["gao_lawnmower"].tasks]
     for task in s["tasks"].values():
         assert task["best_planner"] in s["planners"]

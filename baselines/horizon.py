@@ -1,0 +1,321 @@
+"""A receding-horizon planner: the cross-entropy method over the next H pings.
+
+The shipped planners look one ping ahead (``fim_a``, ``fim_b``, ``ellipse``). Tan,
+Gao & Chitre (IEEE JOE 2014) plan the beacon's path over a horizon, minimising the
+survey vehicle's accumulated positioning error, with the cross-entropy method. This
+is that planner for the survey scenarios. At each decision:
+
+1. **Prediction of the survey vehicle.** Its positions at the next H pings,
+   s_1..s_H, are those of ``ellipse``: the last reply moved along its observed
+   planned waypoints at its path speed (``SurveyTracker.predict_along_path``,
+   eqs. B1-B3 of ``base.advance_along_waypoints``), the depth with the depth rate of
+   its replies.
+2. **Candidates.** A candidate is a sequence of H velocities v_1..v_H of the beacon,
+   each a fraction of its maximum speed inside the unit disc (heading and speed
+   together; the reaching set of ``fim``/``ellipse`` ping by ping): the beacon pings
+   from b_j = b_{j-1} + v_j v_max T (T the ping interval, b_0 its own estimate).
+   The turn limit (12 deg/s for a beacon AUV, 30 for an ASV) allows >= 150 deg per
+   ping in every survey scenario, so, like the greedy planners, it is not modelled.
+3. **Score: the survey filter's expected covariance.** From the covariance P the
+   last reply reported (rebuilt from its ellipse), each ping j grows it by the
+   filter's process noise, P^- = P + q dt I (Gao & Chitre eq. 6; dt = reply age + T
+   for the first ping, T after), and updates it with the range from b_j to s_j:
+   h the horizontal part of the unit slant vector (the survey vehicle is dz deeper;
+   its depth is known), R = range variance + the beacon's own position variance
+   (as ``ellipse``), and p = the scenario's arrival probability at that distance.
+   The range arrives with probability p, so the expected covariance after the ping
+   is exactly
+
+       E[P^+] = p (P^- - P^- h h^T P^- / (h^T P^- h + R)) + (1 - p) P^-
+              = P^- - p P^- h h^T P^- / (h^T P^- h + R)                        (H1)
+
+   The criterion is the trace, summed over the horizon and the survey vehicles,
+
+       J = sum_j tr E[P_j^+] / sum_j tr P_j^0                                  (H2)
+
+   (P_j^0 the covariance with no range at all, so J is in (0, 1]): the trace is the
+   expected squared position error, and the benchmark scores the error averaged
+   over every step, so the accumulated trace is the quantity it measures (Tan, Gao
+   & Chitre's accumulated positioning error). ``criterion="logdet"`` uses the sum of
+   log det E[P_j^+] - log det P_j^0 instead (the D-optimal criterion of the FIM
+   planners); log det rewards shrinking the minor axis as much as the major one,
+   which the squared error does not. Soft constraints (geofence, safety distance,
+   acoustic range: ``BeaconContext.violation_m`` at every ping, averaged over the
+   horizon) add ``PENALTY_PER_M`` per metre, as in the greedy planners.
+   With other beacons (teams), each is assumed to stay at its last reported
+   position and to range every ping before this one (``peers=True``): the beacons
+   plan one at a time, each around the information the others bring.
+4. **Cross-entropy method.** A Gaussian over the (H, 2) velocity sequence: draw
+   ``n_samples`` sequences (projected into the unit disc), keep the ``n_elite``
+   cheapest, refit mean and std, ``iterations`` times. The first iteration also
+   scores the previous plan shifted by one ping (its last step repeated: the warm
+   start, also the initial mean), a stop, and full speed straight in eight
+   directions. The cheapest sequence seen is the plan; a pattern search then polishes
+   its first step (``refine_iters`` rounds, the rest of the plan fixed), which is
+   applied.
+
+Random numbers come from the policy's seed (``reset``): the planner is deterministic
+given the seed, so it runs under common random numbers like the other planners.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .base import PENALTY_PER_M, BeaconContext, TrackingPolicy, register_policy
+
+if TYPE_CHECKING:
+    from coopnav_env.obs_layout import ObsView
+    from coopnav_env.scenarios import ScenarioConfig
+
+CRITERIA = ("trace", "logdet")
+PREDICTORS = ("path", "chord", "stationary")
+
+
+def _disc(v: np.ndarray) -> np.ndarray:
+    """Project velocity fractions (..., 2) into the unit disc."""
+    norm = np.sqrt((v**2).sum(-1, keepdims=True))
+    return v / np.maximum(norm, 1.0)
+
+
+def expected_covariances(
+    beacon_en: np.ndarray,
+    survey_en: np.ndarray,
+    survey_dz: np.ndarray,
+    P0: np.ndarray,
+    grow_m2: np.ndarray,
+    range_var_m2: float,
+    ctx: BeaconContext,
+    peers_en: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The survey filters' expected covariances after each ping, eq. (H1).
+
+    beacon_en (N, H, 2): each candidate's ping positions; survey_en (H, S, 2) and
+    survey_dz (H, S): the survey vehicles at those pings; P0 (S, 2, 2): the
+    reported covariances; grow_m2 (H, S): the process-noise variance added before
+    each ping (q dt); peers_en (M, 2): other beacons, ranging from there every ping.
+    Returns (P (N, H, S, 3) as (var_east, cov, var_north) after each ping, P_none
+    (H, S, 3) with no range at all).
+    """
+    N, H = beacon_en.shape[:2]
+    S = survey_en.shape[1]
+    rel = survey_en[None] - beacon_en[:, :, None, :]  # (N, H, S, 2)
+    d3 = np.sqrt((rel**2).sum(-1) + survey_dz[None] ** 2)
+    h = rel / np.maximum(d3, 1e-9)[..., None]
+    p = ctx.delivery_probability(d3)  # (N, H, S)
+    if peers_en is not None and len(peers_en):
+        prel = survey_en[:, None] - peers_en[None, :, None, :]  # (H, M, S, 2)
+        pd3 = np.sqrt((prel**2).sum(-1) + survey_dz[:, None] ** 2)
+        ph = prel / np.maximum(pd3, 1e-9)[..., None]
+        pp = ctx.delivery_probability(pd3)
+    a = np.broadcast_to(P0[:, 0, 0], (N, S)).copy()
+    b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
+    c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
+    out = np.empty((N, H, S, 3))
+    none = np.empty((H, S, 3))
+    none_a, none_b, none_c = P0[:, 0, 0].copy(), P0[:, 0, 1].copy(), P0[:, 1, 1].copy()
+    for j in range(H):
+        a, c = a + grow_m2[j], c + grow_m2[j]
+        none_a, none_c = none_a + grow_m2[j], none_c + grow_m2[j]
+        none[j] = np.stack([none_a, none_b, none_c], -1)
+        updates = [(h[:, j], p[:, j])]
+        if peers_en is not None and len(peers_en):
+            updates = [(ph[j, m][None], pp[j, m][None]) for m in range(len(peers_en))] + updates
+        for hj, pj in updates:
+            he, hn = hj[..., 0], hj[..., 1]
+            ue, un = a * he + b * hn, b * he + c * hn  # P h
+            k = pj / (he * ue + hn * un + range_var_m2)  # p / (h'Ph + R), eq. (H1)
+            a, b, c = a - k * ue * ue, b - k * ue * un, c - k * un * un
+        out[:, j, :, 0], out[:, j, :, 1], out[:, j, :, 2] = a, b, c
+    return out, none
+
+
+def horizon_cost(P: np.ndarray, P_none: np.ndarray, criterion: str = "trace") -> np.ndarray:
+    """Eq. (H2) (``"trace"``) or the summed log-det reduction (``"logdet"``) of
+    expected covariances P (N, H, S, 3), P_none (H, S, 3) -> (N,)."""
+    if criterion == "trace":
+        return (P[..., 0] + P[..., 2]).sum((1, 2)) / max(float((P_none[..., 0] + P_none[..., 2]).sum()), 1e-300)
+    if criterion == "logdet":
+        det = np.maximum(P[..., 0] * P[..., 2] - P[..., 1] ** 2, 1e-300)
+        det0 = np.maximum(P_none[..., 0] * P_none[..., 2] - P_none[..., 1] ** 2, 1e-300)
+        return (np.log(det) - np.log(det0)).sum((1, 2))
+    raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
+
+
+# the first iteration's fixed candidates: stop, and full speed straight in eight directions
+_ANGLES = 2 * np.pi * np.arange(8) / 8
+_FIXED = np.concatenate([np.zeros((1, 2)), np.stack([np.sin(_ANGLES), np.cos(_ANGLES)], -1)])
+_G = np.arange(-2, 3)
+_PATTERN = np.stack(np.meshgrid(_G, _G, indexing="ij"), -1).reshape(-1, 2).astype(float)  # (25, 2)
+
+
+@register_policy("horizon")
+class HorizonPolicy(TrackingPolicy):
+    """Receding horizon: the cross-entropy method over the beacon's next ``horizon``
+    velocities, minimising the survey filter's expected accumulated covariance
+    (see the module docstring). Constructor arguments: ``horizon`` pings, CEM sizes
+    ``n_samples``, ``n_elite``, ``iterations``, the sampling std ``init_std``
+    (fraction of the maximum speed), ``criterion`` ("trace" or "logdet"),
+    ``peers`` (model the other beacons' ranges) and ``refine_iters`` (pattern-search
+    rounds on the applied step)."""
+
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        agent_index: int = 0,
+        seed: int | Sequence[int] | None = None,
+        horizon: int = 4,
+        n_samples: int = 64,
+        n_elite: int = 8,
+        iterations: int = 4,
+        init_std: float = 0.5,
+        criterion: str = "trace",
+        peers: bool = True,
+        refine_iters: int = 8,
+        predictor: str = "path",
+    ) -> None:
+        if predictor not in PREDICTORS:
+            raise ValueError(f"predictor must be one of {PREDICTORS}, got {predictor!r}")
+        self.predictor = predictor
+        if criterion not in CRITERIA:
+            raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
+        if not (horizon >= 1 and iterations >= 1 and 1 <= n_elite <= n_samples):
+            raise ValueError(
+                f"need horizon >= 1, iterations >= 1, 1 <= n_elite <= n_samples; got {horizon}, "
+                f"{iterations}, {n_elite}, {n_samples}"
+            )
+        self.horizon, self.n_samples, self.n_elite = int(horizon), int(n_samples), int(n_elite)
+        self.iterations, self.init_std = int(iterations), float(init_std)
+        self.criterion, self.peers, self.refine_iters = criterion, bool(peers), int(refine_iters)
+        super().__init__(config, agent_index, seed)
+
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
+        super().reset(seed)
+        self.rng = np.random.default_rng(self.seed if self.seed is not None else 0)
+        self.plan_v: np.ndarray | None = None  # (H, 2) the last plan, velocity fractions
+        self.last_cost = float("nan")
+
+    def predict(self, view: ObsView, ahead_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The survey vehicles' (east, north) (S, 2) and depth below (S,) ``ahead_s`` after now."""
+        if self.predictor == "path":
+            return self.tracker.predict_along_path(view, ahead_s)
+        if self.predictor == "chord":
+            return self.tracker.predict(view, ahead_s, "chord")
+        return np.asarray(view.survey_en_m, float), np.asarray(view.depth_below_m, float)
+
+    def survey_model(self, view: ObsView) -> tuple[np.ndarray, ...]:
+        """(survey_en (H, S, 2), survey_dz (H, S), P0 (S, 2, 2), grow (H, S), R) for one decision."""
+        c, T, H = self.config, self.ctx.ping_interval_s, self.horizon
+        preds = [self.predict(view, (j + 1) * T) for j in range(H)]
+        en = np.stack([e for e, _ in preds])
+        dz = np.stack([d for _, d in preds])
+        q = c.process_noise_horizontal_m2ps
+        grow = np.full((H,) + dz.shape[1:], q * T)
+        grow[0] = q * (np.asarray(view.reply_age_s, float) + T)
+        R = c.range_noise_std_m**2 + float(view.own_std_m) ** 2
+        return en, dz, np.asarray(view.cov_m2, float), grow, R
+
+    def cost(self, view: ObsView, v: np.ndarray, model: tuple[np.ndarray, ...]) -> np.ndarray:
+        """Cost (N,) of velocity sequences v (N, H, 2): eq. (H2) plus the constraint penalty."""
+        en, dz, P0, grow, R = model
+        step = self.ctx.max_speed_mps * self.ctx.ping_interval_s
+        beacon = np.asarray(view.own_en_m, float) + step * np.cumsum(v, axis=1)  # (N, H, 2)
+        peers = np.asarray(view.peers_en_m, float) if self.peers else None
+        P, P_none = expected_covariances(beacon, en, dz, P0, grow, float(R), self.ctx, peers)
+        viol = sum(self.ctx.violation_m(beacon[:, j], en[j], dz[j]) for j in range(self.horizon))
+        return horizon_cost(P, P_none, self.criterion) + PENALTY_PER_M * viol / self.horizon
+
+    def optimise(self, view: ObsView) -> np.ndarray:
+        """The cross-entropy method; returns the best (H, 2) velocity sequence."""
+        self.tracker.update(self.t_s, view)
+        model = self.survey_model(view)
+        H = self.horizon
+        if self.plan_v is None:
+            mean = np.zeros((H, 2))
+        else:
+            mean = np.concatenate([self.plan_v[1:], self.plan_v[-1:]])  # warm start: the plan shifted
+        std = np.full((H, 2), self.init_std)
+        best_v, best_cost = mean, np.inf
+        for it in range(self.iterations):
+            v = mean + std * self.rng.standard_normal((self.n_samples, H, 2))
+            v[0] = mean
+            if it == 0:
+                v = np.concatenate([v, np.broadcast_to(_FIXED[:, None, :], (len(_FIXED), H, 2))])
+            v = _disc(v)
+            cost = self.cost(view, v, model)
+            order = np.argsort(cost, kind="stable")
+            if cost[order[0]] < best_cost:
+                best_v, best_cost = v[order[0]], float(cost[order[0]])
+            elite = v[order[: self.n_elite]]
+            mean, std = elite.mean(0), elite.std(0) + 0.02
+        best_v, self.last_cost = self.refine_first_step(view, model, best_v, best_cost)
+        return best_v
+
+    def refine_first_step(
+        self, view: ObsView, model: tuple[np.ndarray, ...], v: np.ndarray, cost: float
+    ) -> tuple[np.ndarray, float]:
+        """A pattern search on the first step (the one applied), the rest of the plan
+        fixed: a 5x5 pattern around it, projected into the unit disc, its spacing
+        halved every round from 0.1 of the maximum speed (``refine_iters`` rounds).
+        The CEM's elite mean is coarse where the cost is flat (near an optimum of the
+        trace the cost is quadratic in the heading); this polishes the step it applies."""
+        step = 0.1
+        for _ in range(self.refine_iters):
+            cand = np.repeat(v[None], len(_PATTERN), 0)
+            cand[:, 0] = _disc(v[0] + step * _PATTERN)
+            c = self.cost(view, cand, model)
+            k = int(np.argmin(c))
+            if c[k] < cost:
+                v, cost = cand[k], float(c[k])
+            step *= 0.5
+        return v, cost
+
+    def plan(self, view: ObsView) -> np.ndarray:
+        self.plan_v = self.optimise(view)
+        return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[0]
+
+
+@register_policy("oracle")
+class OraclePolicy(HorizonPolicy):
+    """``horizon`` given the truth: a reference for what guidance can achieve, not a
+    policy a user could field.
+
+    Before each decision the evaluation (``evaluation.episodes.run_episodes``: every
+    policy with ``privileged = True``) passes the simulator's snapshot
+    (``observe_truth``): the optimiser then plans from the survey vehicles' true
+    positions and depths (no reply age), the survey filters' covariances now (not the
+    last reply's) and the beacon's true position; the plan is the same as
+    ``horizon``'s otherwise. The noise it will meet is not known to it, nor is the
+    current (the beacon's velocity is commanded through the water, as for every
+    planner). Without a snapshot (the PettingZoo env, a batch without the hook) it is
+    ``horizon``.
+    """
+
+    privileged = True
+
+    def reset(self, seed: int | Sequence[int] | None = None) -> None:
+        super().reset(seed)
+        self._truth: dict | None = None
+
+    def observe_truth(self, snapshot: Any, row: int) -> None:
+        """Keep what the snapshot (``coopnav_env.core.contract.Snapshot``) says of batch row ``row``."""
+        own = np.asarray(snapshot.beacon_true_m[row, self.ctx.agent_index], float)
+        survey = np.asarray(snapshot.survey_true_m[row], float)
+        self._truth = {
+            "own_en_m": own[:2].copy(),
+            "survey_en_m": survey[:, :2].copy(),
+            "depth_below_m": survey[:, 2] - own[2],
+            "cov_m2": np.asarray(snapshot.survey_cov_en_m2[row], float).copy(),
+        }
+
+    def plan(self, view: ObsView) -> np.ndarray:
+        if self._truth is None:
+            return super().plan(view)
+        truth = dataclasses.replace(view, reply_age_s=np.zeros_like(view.reply_age_s), **self._truth)
+        self._truth = None
+        self.plan_v = self.optimise(truth)
+        return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[0]  # the same velocity

@@ -1,0 +1,131 @@
+"""The receding-horizon planner against the best greedy planner, task by task, paired.
+
+    python benchmarks/horizon_vs_greedy.py --tasks gao_sea,gao_lawnmower,sousa_grid --episodes 50 --workers 2
+
+For every task of the benchmark's task sets (``evaluation.tasks``), every planner that
+drives its network except the floors and the challenger (the greedy ones: ``fim_a``,
+``fim_b``, ``ellipse``, ``circle``) and the challenger (``horizon``) play the same
+episodes: episode ``i`` is seeded ``TEST_SEEDS[i]`` as in the benchmark (common random
+numbers; ``--first-seed`` moves them, e.g. to tune on other seeds). The best greedy
+planner of a task is the one with the lowest mean error there (chosen after the fact,
+which favours it); the table gives its mean, the challenger's, and the paired difference
+(challenger minus best greedy: mean of the per-episode differences of
+``mean_error_m`` with its 95 % t interval, ``evaluation.paired.t_interval``): **win**
+when the interval lies below 0, **loss** above, **tie** otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+from evaluation.paired import t_interval
+
+EXCLUDED = ("static", "random", "oracle")
+
+
+def _job(args: tuple) -> tuple:
+    set_name, task_name, policy, seeds, extra = args
+    from evaluation.episodes import run_episodes
+    from evaluation.tasks import get_task_set
+
+    ts = get_task_set(set_name)
+    config = ts.task(task_name).config(ts.scenario, **extra)
+    t0 = time.process_time()
+    rows, _ = run_episodes(config, policy, seeds)
+    return set_name, task_name, policy, [r["mean_error_m"] for r in rows], time.process_time() - t0
+
+
+def _parse_set(items: list) -> dict:
+    from coopnav_env.scenarios.base import check_overrides, default_of
+
+    out = {}
+    for item in items:
+        key, text = item.split("=", 1)
+        check_overrides({key: None})
+        d = default_of(key)
+        out[key] = type(d)(text) if isinstance(d, (int, float)) and not isinstance(d, bool) else text
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from baselines import list_policies
+    from coopnav_env.seeds import TEST_SEEDS
+    from evaluation.tasks import get_task_set
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--tasks", default="gao_sea,gao_lawnmower,sousa_grid", help="comma-separated task sets")
+    p.add_argument("--task", default="", help="only these tasks (comma-separated names)")
+    p.add_argument("--challenger", default="horizon")
+    p.add_argument("--episodes", type=int, default=50)
+    p.add_argument("--first-seed", type=int, default=None, help="episode i uses this + i (default TEST_SEEDS[i])")
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="on every task")
+    p.add_argument("--markdown", help="also write the table here")
+    p.add_argument("--json", help="write the per-episode errors here as they come (a partial run is usable)")
+    args = p.parse_args(argv)
+    if args.first_seed is None:
+        seeds = [int(s) for s in TEST_SEEDS[: args.episodes]]
+    else:
+        seeds = list(range(args.first_seed, args.first_seed + args.episodes))
+    extra = _parse_set(args.set)
+    only = set(filter(None, args.task.split(",")))
+    jobs, order = [], []
+    for set_name in args.tasks.split(","):
+        ts = get_task_set(set_name)
+        greedy = [q for q in list_policies(ts.network) if q not in EXCLUDED and q != args.challenger]
+        for task in ts.tasks:
+            if only and task.name not in only:
+                continue
+            order.append((set_name, task.name, greedy))
+            jobs += [(set_name, task.name, q, seeds, extra) for q in [args.challenger, *greedy]]
+    scores, cpu = {}, {}
+    with ProcessPoolExecutor(max(args.workers, 1)) as pool:
+        for s, t, q, errs, sec in pool.map(_job, jobs):
+            scores[s, t, q] = np.asarray(errs)
+            cpu[q] = cpu.get(q, 0.0) + sec
+            print(f"{s}/{t} {q}: {np.mean(errs):.3f} m ({sec:.0f} s)", file=sys.stderr, flush=True)
+            if args.json:
+                from coopnav_env.records import atomic_write_text
+
+                dump = {f"{a}/{b}/{x}": v.tolist() for (a, b, x), v in scores.items()}
+                atomic_write_text(args.json, json.dumps({"seeds": seeds, "episode_mean_error_m": dump}) + "\n")
+    c = args.challenger
+    lines = [
+        f"{args.episodes} episodes per task and policy, seeds {seeds[0]}..{seeds[-1]}"
+        + (f", --set {' '.join(args.set)}" if args.set else "")
+        + f"; {c} minus the task's best greedy planner, mean survey_error_m (m), paired 95 % t interval.",
+        "",
+        f"| task set | task | best greedy | its mean (m) | {c} (m) | difference [95 % interval] | verdict |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    tally: dict = {}
+    for s, t, greedy in order:
+        best = min(greedy, key=lambda q: float(scores[s, t, q].mean()))
+        m, lo, hi = t_interval(scores[s, t, c] - scores[s, t, best])
+        verdict = "win" if hi < 0 else "loss" if lo > 0 else "tie"
+        tally.setdefault(s, {"win": 0, "tie": 0, "loss": 0})[verdict] += 1
+        lines.append(
+            f"| {s} | {t} | {best} | {scores[s, t, best].mean():.2f} | {scores[s, t, c].mean():.2f} | "
+            f"{m:+.2f} [{lo:+.2f}, {hi:+.2f}] | {verdict} |"
+        )
+    lines += ["", "| task set | wins | ties | losses |", "|---|---|---|---|"]
+    lines += [f"| {s} | {v['win']} | {v['tie']} | {v['loss']} |" for s, v in tally.items()]
+    lines += ["", "CPU seconds per policy (all tasks): " + ", ".join(f"{q} {v:.0f}" for q, v in sorted(cpu.items()))]
+    text = "\n".join(lines)
+    print(text)
+    if args.markdown:
+        from coopnav_env.records import atomic_write_text
+
+        atomic_write_text(args.markdown, text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,108 @@
+"""Cost per decision: the median milliseconds of CPU per ``act`` for every planner, one core.
+
+    python benchmarks/planner_cost.py --scenario gao_sea --steps 100
+    python benchmarks/planner_cost.py --scenario sousa_asv --policies ppo --markdown results/cost.md
+
+Every registered planner that drives the scenario's network (``baselines.list_policies``;
+``--policies`` adds others: ``ppo``, a shipped policy or a train.py run directory, loaded
+as evaluate.py does) drives one episode (batch of one, ``--seed``) with one instance
+per beacon. The first ``--warmup`` decisions are not timed (numba compilation, caches,
+a trained policy's first forward pass); then every ``act`` call of ``--steps``
+decisions is timed with the thread's CPU clock (``time.thread_time_ns``: the CPU the
+decision costs, not the wall time, so other processes sharing the machine do not
+inflate it), the episode restarting if it ends. BLAS and OpenMP are held to one
+thread and, with ``--pin`` (default), the process to one CPU. The table gives the
+median and the 90th percentile in ms per act, per beacon decision.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # one core: before numpy is imported
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
+
+
+def time_policy(config: object, name: str, steps: int, warmup: int, seed: int) -> list:
+    """CPU seconds of every timed ``act`` call of policy ``name`` on ``config``."""
+    import numpy as np
+
+    from coopnav_env.core import make_simulator
+    from coopnav_env.views import action_dim
+    from evaluation.episodes import make_policy
+
+    sim = make_simulator(config, batch_size=1)
+    N = config.n_beacons  # type: ignore[attr-defined]
+    obs = sim.reset([seed])
+    policies = [make_policy(name, config, seed=(seed, j), agent=j) for j in range(N)]  # type: ignore[arg-type]
+    actions = np.zeros((1, N, action_dim(sim)))
+    out = []
+    for k in range(warmup + steps):
+        for j in range(N):
+            t0 = time.thread_time_ns()
+            actions[0, j] = policies[j].act(obs[0, j])
+            if k >= warmup:
+                out.append((time.thread_time_ns() - t0) * 1e-9)
+        res = sim.step(actions)
+        obs = res.obs
+        if bool(res.terminated[0] or res.truncated[0]):
+            obs = sim.reset([seed + k + 1])
+            for p in policies:
+                p.reset()
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    import numpy as np
+
+    import coopnav_env
+    from baselines import list_policies
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scenario", default="gao_sea")
+    p.add_argument("--policies", default="", help="comma-separated, besides the planners (e.g. ppo)")
+    p.add_argument("--steps", type=int, default=100, help="timed decisions per policy")
+    p.add_argument("--warmup", type=int, default=5, help="decisions before timing starts")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario parameter")
+    p.add_argument("--no-pin", dest="pin", action="store_false", help="do not pin the process to one CPU")
+    p.add_argument("--markdown", help="also write the table here")
+    args = p.parse_args(argv)
+    if args.pin and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    from coopnav_env.scenarios.base import default_of
+
+    overrides = {}
+    for item in args.set:
+        key, text = item.split("=", 1)
+        d = default_of(key)
+        overrides[key] = type(d)(text) if isinstance(d, (int, float)) and not isinstance(d, bool) else text
+    config = coopnav_env.make_config(args.scenario, **overrides)
+    names = list_policies(config.network) + [q for q in args.policies.split(",") if q]
+    lines = [
+        f"{args.scenario}{' ' + ' '.join(args.set) if args.set else ''}: CPU ms per act (one beacon's decision), "
+        f"{args.steps} decisions after {args.warmup} untimed, one core.",
+        "",
+        "| policy | median (ms) | p90 (ms) | calls |",
+        "|---|---|---|---|",
+    ]
+    for name in names:
+        sec = np.asarray(time_policy(config, name, args.steps, args.warmup, args.seed))
+        lines.append(f"| {name} | {1e3 * np.median(sec):.3f} | {1e3 * np.quantile(sec, 0.9):.3f} | {len(sec)} |")
+        print(lines[-1], file=sys.stderr, flush=True)
+    text = "\n".join(lines)
+    print(text)
+    if args.markdown:
+        from coopnav_env.records import atomic_write_text
+
+        atomic_write_text(args.markdown, text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
