@@ -22,29 +22,14 @@ import numpy as np
 
 def surfacing_figures(scenario: str, planner: str, overrides: dict, runs: int, seed: int) -> dict:
     """Run the case and summarize the beacon AUVs' surfacing."""
-    import coopnav_env
-    from baselines import make_policy
-    from coopnav_env.core import make_simulator
+    from baselines.rollout import planned_steps
 
-    cfg = coopnav_env.make_config(scenario, **overrides)
-    sim = make_simulator(cfg, runs)
-    obs = sim.reset(list(range(seed, seed + runs)))
-    policies = [[make_policy(planner, cfg, seed=seed + b, agent=n) for n in range(cfg.n_beacons)] for b in range(runs)]
-    for row in policies:
-        for p in row:
-            p.reset()
-    auv = np.array([k == "beacon_auv" for k in cfg.beacon_kinds])
-    done = np.zeros(runs, dtype=bool)
     fixes = away = seconds = fused = cycles = 0.0
     err_sum = worst = 0.0
-    for _ in range(cfg.max_cycles):
-        actions = np.zeros((runs, cfg.n_beacons, 2))
-        for b in range(runs):
-            for n in range(cfg.n_beacons):
-                actions[b, n] = policies[b][n].act(obs[b, n])
-        res = sim.step(actions)
-        obs = res.obs
-        live = ~done
+    n_survey = 1
+    for cfg, sim, res, live in planned_steps(scenario, planner, overrides, runs, seed):
+        auv = np.array([k == "beacon_auv" for k in cfg.beacon_kinds])
+        n_survey = cfg.n_survey
         fixes += float(sim.state.b_surfacings[live][:, auv].sum())
         if "beacon_away_s" in res.beacon_info:
             away += float(np.asarray(res.beacon_info["beacon_away_s"])[live][:, auv].sum())
@@ -54,14 +39,11 @@ def surfacing_figures(scenario: str, planner: str, overrides: dict, runs: int, s
         err_sum += float(err.sum())
         worst = max(worst, float(err.max(initial=0.0)))
         cycles += int(live.sum())
-        done = done | np.asarray(res.terminated) | np.asarray(res.truncated)
-        if done.all():
-            break
     hours = seconds / 3600.0
     return {
         "fixes_per_hour": fixes / max(hours, 1e-12),
         "time_away": away / max(seconds, 1e-12),
-        "survey_error_mean_m": err_sum / max(cycles * cfg.n_survey, 1),
+        "survey_error_mean_m": err_sum / max(cycles * n_survey, 1),
         "survey_error_worst_m": worst,
         "ranges_fused_per_cycle": fused / max(cycles, 1),
     }

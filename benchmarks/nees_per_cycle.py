@@ -74,36 +74,19 @@ P999 = chi2.ppf(0.999, 2)
 
 def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: int) -> dict:
     """Horizontal NEES of every run at every cycle of one case, and its summary."""
-    import coopnav_env
-    from baselines import make_policy
-    from coopnav_env.core import make_simulator
+    from baselines.rollout import planned_steps
 
-    cfg = coopnav_env.make_config(scenario, **overrides)
-    sim = make_simulator(cfg, runs)
-    obs = sim.reset(list(range(seed, seed + runs)))
-    policies = [[make_policy(planner, cfg, seed=seed + b, agent=n) for n in range(cfg.n_beacons)] for b in range(runs)]
-    for row in policies:
-        for p in row:
-            p.reset()
-    done = np.zeros(runs, dtype=bool)
     values = []
     worst = np.zeros(runs)  # largest error of each run
     err_sum, n_cycles = np.zeros(runs), np.zeros(runs)
     restarts = 0
     streak, longest = np.zeros(runs, dtype=int), 0
-    for _ in range(cfg.max_cycles):
-        actions = np.zeros((runs, cfg.n_beacons, 2))
-        for b in range(runs):
-            for n in range(cfg.n_beacons):
-                actions[b, n] = policies[b][n].act(obs[b, n])
-        res = sim.step(actions)
-        obs = res.obs
+    for _cfg, _sim, res, live in planned_steps(scenario, planner, overrides, runs, seed):
         e = np.asarray(res.info["survey_error_en_m"])  # (B, S, 2)
         P = np.asarray(res.info["survey_cov_en_m2"])  # (B, S, 2, 2)
         nees = np.einsum("bsi,bsi->bs", e, np.linalg.solve(P, e[..., None])[..., 0])
-        values.append(nees[~done].ravel())
+        values.append(nees[live].ravel())
         err = np.asarray(res.info["survey_error_m"]).max(axis=1)  # (B,) the worst survey vehicle
-        live = ~done
         worst[live] = np.maximum(worst[live], err[live])
         err_sum[live] += err[live]
         n_cycles[live] += 1
@@ -113,9 +96,6 @@ def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: 
         all_rejected = (rejected > 0) & (fused == 0)
         streak = np.where(all_rejected, streak + 1, np.where(fused > 0, 0, streak))
         longest = max(longest, int(streak[live].max(initial=0)))
-        done = done | np.asarray(res.terminated) | np.asarray(res.truncated)
-        if done.all():
-            break
     v = np.concatenate(values)
     per_run_cycles = len(v)
     lo, hi = chi2.ppf([0.025, 0.975], 2 * runs) / runs  # the mean of `runs` chi2(2), per cycle
