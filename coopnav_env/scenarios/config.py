@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 from . import sections as S
+from . import sections_beacons as BS
 from . import sections_link as L
 from . import sections_moving as M
 from .params import check
@@ -46,9 +47,9 @@ SECTIONS = (
     SectionSpec("vehicle", S.SurveyVehicle),
     SectionSpec("sensors", S.SurveySensors),
     SectionSpec("ekf", S.SurveyEKF),
-    SectionSpec("beacon_auv", S.BeaconAUV, SURVEY),
-    SectionSpec("asv", S.ASV, SURVEY),
-    SectionSpec("beacon_start", S.BeaconStart, SURVEY),
+    SectionSpec("beacon_auv", BS.BeaconAUV, SURVEY),
+    SectionSpec("asv", BS.ASV, SURVEY),
+    SectionSpec("beacon_start", BS.BeaconStart, SURVEY),
     SectionSpec("acoustics", S.Acoustics),
     SectionSpec("modem", L.Modem),
     SectionSpec("mls", L.MLSSensor, (("acoustic_sensor", "mls"),)),
@@ -94,9 +95,9 @@ class ScenarioConfig:
     vehicle: S.SurveyVehicle | None = None
     sensors: S.SurveySensors | None = None
     ekf: S.SurveyEKF | None = None
-    beacon_auv: S.BeaconAUV | None = None
-    asv: S.ASV | None = None
-    beacon_start: S.BeaconStart | None = None
+    beacon_auv: BS.BeaconAUV | None = None
+    asv: BS.ASV | None = None
+    beacon_start: BS.BeaconStart | None = None
     acoustics: S.Acoustics | None = None
     modem: L.Modem | None = None
     mls: L.MLSSensor | None = None

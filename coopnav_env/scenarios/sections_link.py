@@ -1,6 +1,6 @@
 """The acoustic link's sections: the modem's packets and power, the MLS array's
 receiver (with ``acoustic_sensor="mls"``) and the shared channel's price and schedule
-(with ``channel_mode="decide"``). ``sections.py`` holds the others; ``config.py``
+(with ``channel_mode="decide"``). ``sections.py`` and ``sections_beacons.py`` hold others; ``config.py``
 assembles them."""
 
 from __future__ import annotations
