@@ -35,6 +35,13 @@ on the survey vehicle's depth below the beacon, as the observation gives it
 (``DepthGatedPolicy``): ``{kind: depth_gate, threshold_m: 12.5, shallow: <dir>,
 deep: <dir>}``, the directories relative to the gate file (and inside its directory).
 
+A run trained on the entity observation (``env.observation: entities``; its network
+has ``agents.entity.EntityExtractor``) loads as an ``agents.entity.EntityPolicy``: bound
+to the scenario given (any team of up to five survey vehicles and three beacons), it
+reads that scenario's flat observations. Whether a policy can drive a scenario is the
+policy's to say (``policy.config_problem(config)``; ``accepts``), not a comparison of
+observation sizes.
+
 A run of ``train.py --backend rllib`` (its directory, its ``checkpoint/``, or any RLlib
 Algorithm checkpoint) loads the same way, through ``agents/rllib_policy.py`` (which
 imports Ray only then): ``agents.load("runs/x_rllib", scenario=...)``; an RLlib
@@ -372,23 +379,27 @@ def load(
             f"{stats_path}: normalization of shape {obs_rms.mean.shape} does not fit the "
             f"network's observations ({policy.obs_dim},)"
         )
+    from .entity import EntityPolicy, is_entity_model
+
+    if is_entity_model(model):  # reads entity observations: bound to a team below (or unbound)
+        policy = EntityPolicy(policy)
     if scenario is not None:
-        from coopnav_env.obs_layout import obs_dim
         from coopnav_env.scenarios import make_config
 
         target = make_config(scenario) if isinstance(scenario, str) else scenario
-        dim = obs_dim(target)
-        if dim != policy.obs_dim:
-            raise ValueError(
-                f"policy {name_or_path!r} takes observations of size {policy.obs_dim}; "
-                f"scenario {target.name!r} gives {dim}"
-            )
+        problem = policy.config_problem(target)  # the policy says which scenarios it takes
+        if problem is not None:
+            raise ValueError(f"policy {name_or_path!r} {problem}")
         if trained_config is not None and trained_config.name != target.name:
             warnings.warn(
                 f"policy {name_or_path!r} was trained on {trained_config.name!r}, used on {target.name!r}", stacklevel=2
             )
+        if isinstance(policy, EntityPolicy):
+            return policy.for_config(target)
         if trained_config is None:
             policy.config = target
+    elif isinstance(policy, EntityPolicy) and trained_config is not None and policy.accepts(trained_config):
+        return policy.for_config(trained_config)
     return policy
 
 
@@ -481,6 +492,10 @@ def make_policy(
     base = _CACHE[key]
     if isinstance(base, DepthGatedPolicy):  # stateless: one instance serves every beacon and episode
         return base
+    from .entity import EntityPolicy
+
+    if isinstance(base, EntityPolicy):  # the beacon's index is its role input
+        return base.for_config(base.config, agent=agent)
     return PPOPolicy(
         base.model,
         base.obs_rms,

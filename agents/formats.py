@@ -17,7 +17,8 @@ A **model file** (``model.safetensors``, ``best_model.safetensors``,
   (``format``, ``version``, ``algo``: PPO, ``policy``: MlpPolicy,
   ``observation_space``/``action_space``: Box shape, dtype, low, high,
   ``use_sde``, ``policy_kwargs``: net_arch, activation_fn by name, log_std_init,
-  ...), ``num_timesteps``, ``n_updates``, ``norm_obs`` (whether it was trained on
+  features_extractor_class by name (only ``EntityExtractor``, ``agents.entity``) with
+  its features_extractor_kwargs (encoder, embed_dim, heads and the entity layout), ...), ``num_timesteps``, ``n_updates``, ``norm_obs`` (whether it was trained on
   normalized observations) and ``optimizer`` (the param_groups' scalars).
 
 A **normalization file** (``vecnormalize.safetensors``, ...) holds VecNormalize's
@@ -156,13 +157,29 @@ def _plain(value, where: str):
     raise PolicyFormatError(f"{where} = {value!r} cannot be saved as plain data")
 
 
+def _extractors() -> dict:
+    """The features extractors a model file may name (``features_extractor_class``): name -> class."""
+    from .entity import EntityExtractor
+
+    return {"EntityExtractor": EntityExtractor}
+
+
 def policy_kwargs_json(kwargs: dict) -> dict:
-    """SB3 ``policy_kwargs`` as JSON: activation_fn by name, the rest plain data."""
+    """SB3 ``policy_kwargs`` as JSON: activation_fn and features_extractor_class by name,
+    the rest plain data."""
     import torch.nn as nn
 
     out = {}
     for key, value in (kwargs or {}).items():
-        if key == "activation_fn":
+        if key == "features_extractor_class":
+            names = {cls: name for name, cls in _extractors().items()}
+            if value not in names:
+                raise PolicyFormatError(
+                    f"policy_kwargs.features_extractor_class {getattr(value, '__name__', value)!r} is not one of "
+                    f"{', '.join(_extractors())}"
+                )
+            out[key] = names[value]
+        elif key == "activation_fn":
             names = {getattr(nn, cls): name for name, cls in ACTIVATIONS.items()}
             if value not in names:
                 raise PolicyFormatError(f"policy_kwargs.activation_fn {value!r} is not one of {', '.join(ACTIVATIONS)}")
@@ -180,6 +197,23 @@ def policy_kwargs_python(kwargs: dict | None, where: str | Path) -> dict:
         if out["activation_fn"] not in ACTIVATIONS:
             raise PolicyFormatError(f"{where}: unknown activation_fn {out['activation_fn']!r}")
         out["activation_fn"] = getattr(nn, ACTIVATIONS[out["activation_fn"]])
+    if "features_extractor_class" in out:  # by name, from a fixed list: a file never names code to run
+        extractors = _extractors()
+        if out["features_extractor_class"] not in extractors:
+            raise PolicyFormatError(
+                f"{where}: unknown features_extractor_class {out['features_extractor_class']!r}; "
+                f"valid: {', '.join(extractors)}"
+            )
+        out["features_extractor_class"] = extractors[out["features_extractor_class"]]
+        extractor_kwargs = out.get("features_extractor_kwargs") or {}
+        if not isinstance(extractor_kwargs, dict):
+            raise PolicyFormatError(f"{where}: features_extractor_kwargs must be a mapping")
+        from .entity import check_encoder_kwargs
+
+        try:
+            check_encoder_kwargs(**extractor_kwargs)
+        except (TypeError, ValueError) as err:
+            raise PolicyFormatError(f"{where}: features_extractor_kwargs: {_first_line(err)}") from None
     return out
 
 
@@ -247,13 +281,18 @@ def save_model(model: Any, path: str | Path, norm_obs: bool | None = None, optim
 
 def vecnormalize_stats(vecnorm: Any) -> dict:
     """The running statistics and settings of a VecNormalize, as plain numbers/arrays."""
-    obs_rms = vecnorm.obs_rms
+    obs_rms = getattr(vecnorm, "obs_rms", None)  # SB3 keeps none with norm_obs=False
     if isinstance(obs_rms, dict):
         raise PolicyFormatError("VecNormalize of a Dict observation space cannot be saved")
+    if obs_rms is None:  # not normalized: the identity's statistics, never used (norm_obs is false)
+        shape = tuple(vecnorm.observation_space.shape)
+        obs_mean, obs_var, obs_count = np.zeros(shape), np.ones(shape), 0.0
+    else:
+        obs_mean, obs_var, obs_count = obs_rms.mean, obs_rms.var, obs_rms.count
     return {
-        "obs_mean": np.asarray(obs_rms.mean, np.float64),
-        "obs_var": np.asarray(obs_rms.var, np.float64),
-        "obs_count": float(obs_rms.count),
+        "obs_mean": np.asarray(obs_mean, np.float64),
+        "obs_var": np.asarray(obs_var, np.float64),
+        "obs_count": float(obs_count),
         "ret_mean": np.asarray(vecnorm.ret_rms.mean, np.float64),
         "ret_var": np.asarray(vecnorm.ret_rms.var, np.float64),
         "ret_count": float(vecnorm.ret_rms.count),
@@ -465,14 +504,17 @@ def read_vecnormalize(path: str | Path) -> dict:
 
 
 def restore_vecnormalize(vecnorm: Any, stats: dict) -> Any:
-    """Put ``stats`` into a VecNormalize (its running statistics; training mode kept)."""
-    if tuple(np.shape(stats["obs_mean"])) != tuple(np.shape(vecnorm.obs_rms.mean)):
+    """Put ``stats`` into a VecNormalize (its running statistics; training mode kept;
+    the observation's only where it normalizes observations)."""
+    shape = tuple(vecnorm.observation_space.shape)
+    if tuple(np.shape(stats["obs_mean"])) != shape:
         raise PolicyFormatError(
             f"normalization statistics of shape {np.shape(stats['obs_mean'])} do not fit "
-            f"observations of shape {np.shape(vecnorm.obs_rms.mean)}"
+            f"observations of shape {shape}"
         )
-    vecnorm.obs_rms.mean, vecnorm.obs_rms.var = stats["obs_mean"].copy(), stats["obs_var"].copy()
-    vecnorm.obs_rms.count = stats["obs_count"]
+    if getattr(vecnorm, "obs_rms", None) is not None:
+        vecnorm.obs_rms.mean, vecnorm.obs_rms.var = stats["obs_mean"].copy(), stats["obs_var"].copy()
+        vecnorm.obs_rms.count = stats["obs_count"]
     for key, name in (("ret_mean", "mean"), ("ret_var", "var")):
         value = stats[key]
         setattr(vecnorm.ret_rms, name, np.float64(value) if np.ndim(value) == 0 else np.array(value, np.float64))

@@ -32,6 +32,21 @@ class BatchPolicy:
     def __call__(self, obs):
         return self.act(obs)
 
+    def config_problem(self, config: Any) -> str | None:
+        """Why this policy cannot drive ``config`` (a ScenarioConfig), or None: it can. A
+        flat-observation policy takes one observation size; entity policies
+        (``agents.entity.EntityPolicy``) say which teams they take."""
+        from coopnav_env.obs_layout import obs_dim
+
+        dim = obs_dim(config)
+        if dim != self.obs_dim:
+            return f"takes observations of size {self.obs_dim}; scenario {config.name!r} gives {dim}"
+        return None
+
+    def accepts(self, config: Any) -> bool:
+        """Whether this policy can drive ``config`` (``config_problem`` is None)."""
+        return self.config_problem(config) is None
+
 
 def _trained_scenario(run_config: dict):
     """The ScenarioConfig a run trained on (its base scenario with the training overrides)."""

@@ -25,6 +25,7 @@ from typing import Any
 from .common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, read_run_record
 from .config import (
     ConfigError,
+    EntitySpec,
     EnvSpec,
     EvalSpec,
     NormalizeSpec,
@@ -40,6 +41,7 @@ __all__ = [
     "EXIT_BAD_INPUT",
     "EXIT_INTERRUPTED",
     "ConfigError",
+    "EntitySpec",
     "EnvSpec",
     "EvalSpec",
     "NormalizeSpec",

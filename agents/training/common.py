@@ -63,12 +63,41 @@ __all__ = [
 
 @dataclasses.dataclass
 class Job:
-    """A config made concrete: the training scenario, its reward terms and the
-    evaluation cells ([(label, ScenarioConfig)])."""
+    """A config made concrete: the training scenario, its reward terms, the
+    evaluation cells ([(label, ScenarioConfig)]) and, for a mixed-team run
+    (``env.teams``), the team overrides ([] else)."""
 
     scenario_config: ScenarioConfig
     reward_terms: dict | None  # None: the environment's reward
     cells: list
+    teams: list = dataclasses.field(default_factory=list)
+
+
+def team_label(team: dict) -> str:
+    """An evaluation cell's label for a team: ``n_survey=2;beacon_kinds=asv+beacon_auv``
+    (``team=scenario`` for {}, the scenario's own team)."""
+    if not team:
+        return "team=scenario"
+    return ";".join(f"{k}={'+'.join(v) if isinstance(v, (list, tuple)) else v}" for k, v in team.items())
+
+
+def team_cells(scenario_config: ScenarioConfig, teams: list, cells: dict | None) -> list:
+    """The evaluation cells of a mixed-team run: ``eval_cells`` of every team, each
+    label prefixed with the team's (``team_label``); a ``ConfigError`` for a team the
+    scenario or the entity view cannot take."""
+    from coopnav_env.entity_obs import check_team
+
+    out = []
+    for i, team in enumerate(teams):
+        t = {k: tuple(v) if isinstance(v, list) else v for k, v in team.items()}
+        try:
+            config = scenario_config.replace(**t)
+            check_team(config)
+        except (TypeError, ValueError) as err:
+            raise ConfigError(f"env.teams[{i}]: {err}") from None
+        for label, cell in eval_cells(config, cells):
+            out.append((team_label(team) + ("" if label == "all" else ";" + label), cell))
+    return out
 
 
 def prepare_job(config: Any) -> Job:
@@ -104,10 +133,21 @@ def prepare_job(config: Any) -> Job:
         reward_terms = check_reward_terms(config.reward)
     except ValueError as err:
         raise ConfigError(f"reward: {err}") from None
+    env = config.env
+    teams = list(getattr(env, "teams", None) or [])
     try:
-        cells = eval_cells(scenario_config, config.eval.cells)
+        if teams:  # a mixed-team run: every team is scored
+            cells = team_cells(scenario_config, teams, config.eval.cells)
+        else:
+            cells = eval_cells(scenario_config, config.eval.cells)
     except (TypeError, ValueError) as err:
         raise ConfigError(str(err)) from None
+    if getattr(env, "observation", "flat") == "entities" and not teams:
+        from coopnav_env.entity_obs import team_problem
+
+        problem = team_problem(scenario_config)
+        if problem is not None:
+            raise ConfigError(f"env.observation: entities: {problem}")
     for name in config.eval.baselines:
         if name not in list_policies():
             from coopnav_env.names import did_you_mean
@@ -116,7 +156,7 @@ def prepare_job(config: Any) -> Job:
                 f"eval.baselines: unknown policy {name!r}{did_you_mean(name, list_policies())} "
                 f"valid: {', '.join(list_policies())}"
             )
-    return Job(scenario_config, reward_terms, cells)
+    return Job(scenario_config, reward_terms, cells, teams)
 
 
 # ----------------------------------------------------------------------------------

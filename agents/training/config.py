@@ -53,6 +53,7 @@ LEGACY = {
 
 __all__ = [
     "ConfigError",
+    "EntitySpec",
     "EnvSpec",
     "EvalSpec",
     "ImitateSpec",
@@ -78,12 +79,37 @@ class ConfigError(ValueError):
 # ----------------------------------------------------------------------------------
 # the sections
 # ----------------------------------------------------------------------------------
+OBSERVATIONS = ("flat", "entities")  # env.observation
+TEAM_KEYS = ("n_survey", "beacon_kinds")  # what an env.teams entry sets (coopnav_env.entity_views)
+MAX_TEAMS = 16  # env.teams entries (coopnav_env.entity_views.MAX_TEAMS)
+
+
 @dataclass
 class EnvSpec:
     """The training scenario: its parameters (``make_config(scenario, **overrides)``),
-    the core's per-episode randomization included (``randomize_depth_m: [..]``, ...)."""
+    the core's per-episode randomization included (``randomize_depth_m: [..]``, ...).
+    ``observation``: ``flat`` (the vector of ``coopnav_env.obs_layout``) or ``entities``
+    (``coopnav_env.entity_obs``: any team, read by ``agents.entity``'s encoder; the SB3
+    trainer only). ``teams`` (with ``entities``): team overrides (``n_survey`` 1-5,
+    ``beacon_kinds`` of 1-3 beacons; {}: the scenario's own team) trained at once, the
+    ``n_envs`` environments dealt to them in turn (``coopnav_env.entity_views.MixedTeamVecEnv``);
+    the evaluation then scores every team; [] trains the scenario's team only."""
 
     overrides: dict = field(default_factory=dict)
+    observation: str = "flat"
+    teams: list = field(default_factory=list)
+
+
+@dataclass
+class EntitySpec:
+    """The entity encoder (``agents.entity.EntityEncoder``) of an ``env.observation:
+    entities`` run: ``encoder`` deepsets or attention, ``embed_dim`` units per entity,
+    ``heads`` attention heads (``embed_dim`` a multiple of it). PPO's ``net_arch``
+    then acts on its features."""
+
+    encoder: str = "attention"
+    embed_dim: int = 64
+    heads: int = 4
 
 
 @dataclass
@@ -198,6 +224,7 @@ class TrainConfig(_Job):
     checkpoint_every_steps: int = 100_000
     init_from: str | None = None
     imitate: ImitateSpec = field(default_factory=ImitateSpec)
+    entity: EntitySpec = field(default_factory=EntitySpec)
 
     def check(self) -> Self:
         import inspect
@@ -230,6 +257,30 @@ class TrainConfig(_Job):
                 raise ConfigError(f"imitate.learning_rate must be positive, got {im.learning_rate}")
             if self.init_from:
                 raise ConfigError("imitate and init_from both set the starting weights: choose one")
+        check_env_observation(self.env)
+        if self.env.observation == "entities":
+            if self.normalize.norm_obs:
+                raise ConfigError(
+                    "env.observation: entities needs normalize.norm_obs: false (the entity view is already "
+                    "scaled, and normalizing would move its masks and one-hot kinds)"
+                )
+            if im.planner is not None:
+                raise ConfigError("imitate.planner needs env.observation: flat (imitation of entity policies: not yet)")
+            if "features_extractor_class" in kwargs or "features_extractor_kwargs" in kwargs:
+                raise ConfigError(
+                    "ppo.policy_kwargs.features_extractor_class/kwargs: with env.observation: entities the "
+                    "trainer sets them from the entity section (encoder, embed_dim, heads)"
+                )
+            from agents.entity import check_encoder_kwargs
+
+            try:
+                check_encoder_kwargs(self.entity.encoder, self.entity.embed_dim, self.entity.heads)
+            except ValueError as err:
+                raise ConfigError(f"entity: {err}") from None
+            if len(self.env.teams) > self.n_envs:
+                raise ConfigError(
+                    f"n_envs ({self.n_envs}) must be at least the number of env.teams ({len(self.env.teams)})"
+                )
         return self
 
 
@@ -248,6 +299,45 @@ class RLlibConfig(_Job):
     eval: EvalSpec = field(default_factory=EvalSpec)
     checkpoint_every_iterations: int = 10
     ray: RaySpec = field(default_factory=RaySpec)
+
+
+    def check(self) -> Self:
+        check_env_observation(self.env)
+        if self.env.observation != "flat":
+            raise ConfigError(
+                f"env.observation: {self.env.observation} is for the SB3 trainer (--backend sb3); RLlib runs "
+                "read the flat observation"
+            )
+        return super().check()
+
+
+def check_env_observation(env: EnvSpec) -> None:
+    """``env.observation`` and ``env.teams`` (a ``ConfigError`` naming the value)."""
+    if env.observation not in OBSERVATIONS:
+        raise ConfigError(unknown_key_message(env.observation, OBSERVATIONS, "env.observation"))
+    if env.teams and env.observation != "entities":
+        raise ConfigError("env.teams needs env.observation: entities (a flat-observation policy takes one team)")
+    if len(env.teams) > MAX_TEAMS:
+        raise ConfigError(f"env.teams: at most {MAX_TEAMS} teams, got {len(env.teams)}")
+    from coopnav_env.entity_obs import MAX_BEACONS, MAX_SURVEY
+
+    for i, team in enumerate(env.teams):
+        where = f"env.teams[{i}]"
+        if team is None:
+            team = env.teams[i] = {}
+        if not isinstance(team, dict):
+            raise ConfigError(f"{where} must be a mapping of {', '.join(TEAM_KEYS)} ({{}}: the scenario's team)")
+        for key in team:
+            if key not in TEAM_KEYS:
+                raise ConfigError(unknown_key_message(key, TEAM_KEYS, f"{where} key"))
+        n = team.get("n_survey", 1)
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_SURVEY:
+            raise ConfigError(f"{where}.n_survey must be an integer in [1, {MAX_SURVEY}], got {n!r}")
+        kinds = team.get("beacon_kinds", ["beacon_auv"])
+        if not isinstance(kinds, (list, tuple)) or not 1 <= len(kinds) <= MAX_BEACONS:
+            raise ConfigError(f"{where}.beacon_kinds must be a list of 1-{MAX_BEACONS} beacon kinds, got {kinds!r}")
+    if len({repr(sorted(t.items())) for t in env.teams}) != len(env.teams):
+        raise ConfigError("env.teams lists a team twice")
 
 
 CONFIG_CLASSES = {"sb3": TrainConfig, "rllib": RLlibConfig}

@@ -132,8 +132,6 @@ def train(
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    from coopnav_env.vector import CoopNavVecEnv
-
     # --- seeding: python, numpy, torch; the environments from the same seed ---------
     start_steps = int(ckpt["num_timesteps"]) if ckpt else 0
     run_seed = resume_seed(config.seed, start_steps) if ckpt else config.seed
@@ -145,9 +143,7 @@ def train(
         f"building {config.n_envs} environments of {config.scenario} (the first run compiles the simulator: "
         "about a minute)"
     )
-    raw_env = CoopNavVecEnv(
-        job.scenario_config, n_envs=config.n_envs, seed=run_seed, step_infos=False, reward_terms=job.reward_terms
-    )
+    raw_env = make_training_env(config, job, run_seed)
     venv = VecMonitor(raw_env)
     ckpt_stats = _read_stats(ckpt["vecnormalize"]) if ckpt else None
     if ckpt and ckpt_stats is not None:  # the checkpoint's statistics and settings, training on
@@ -183,6 +179,8 @@ def train(
         ppo = dict(config.ppo)
         lr = learning_rate(ppo.pop("learning_rate", 3e-4))
         kwargs = policy_kwargs(ppo.pop("policy_kwargs", None))
+        if config.env.observation == "entities":  # the permutation-invariant encoder reads the entities
+            kwargs.update(entity_policy_kwargs(config))
         try:
             model = PPO(
                 config.policy,
@@ -497,6 +495,64 @@ def model_actor(model: Any, vecnorm: Any) -> Callable[[np.ndarray, Any], np.ndar
     return act
 
 
+def entity_actor(model: Any, vecnorm: Any) -> Callable[[np.ndarray, Any], np.ndarray]:
+    """``model_actor`` for an entity policy: the flat rows of an evaluation
+    ``CoopNavVecEnv`` read as entities (row ``e * N + j`` is beacon j) first."""
+    from coopnav_env.entity_obs import entity_observation, row_agents
+
+    def act(obs: np.ndarray, venv: Any) -> np.ndarray:
+        x = entity_observation(obs, venv.config, row_agents(venv.num_envs, venv.n_beacons))
+        return model.predict(vecnorm.normalize_obs(x), deterministic=True)[0]
+
+    return act
+
+
+def entity_policy_kwargs(config: TrainConfig) -> dict:
+    """The ``policy_kwargs`` an entity run adds: ``agents.entity.EntityExtractor`` with the
+    config's ``entity`` section and the entity layout (saved with the model)."""
+    from agents.entity import EntityExtractor
+    from coopnav_env.entity_obs import LAYOUT
+
+    e = config.entity
+    return {
+        "features_extractor_class": EntityExtractor,
+        "features_extractor_kwargs": {
+            "encoder": e.encoder,
+            "embed_dim": int(e.embed_dim),
+            "heads": int(e.heads),
+            "layout": LAYOUT.to_dict(),
+        },
+    }
+
+
+def make_training_env(config: TrainConfig, job: Any, seed: int) -> Any:
+    """The training VecEnv (before VecMonitor and VecNormalize): a ``CoopNavVecEnv`` of
+    the scenario; with ``env.observation: entities`` seen as entities
+    (``coopnav_env.entity_views.EntityVecEnv``), and with ``env.teams`` every team at once
+    (``MixedTeamVecEnv``: the ``n_envs`` environments dealt to the teams, seeds
+    ``seed + g + k * SEED_STRIDE`` for environment g's episode k)."""
+    from coopnav_env.vector import CoopNavVecEnv
+
+    if config.env.observation != "entities":
+        return CoopNavVecEnv(
+            job.scenario_config, n_envs=config.n_envs, seed=seed, step_infos=False, reward_terms=job.reward_terms
+        )
+    from coopnav_env.entity_views import EntityVecEnv, MixedTeamVecEnv
+
+    try:
+        if job.teams:
+            return MixedTeamVecEnv(
+                job.scenario_config, job.teams, config.n_envs, seed=seed, step_infos=False, reward_terms=job.reward_terms
+            )
+        return EntityVecEnv(
+            CoopNavVecEnv(
+                job.scenario_config, n_envs=config.n_envs, seed=seed, step_infos=False, reward_terms=job.reward_terms
+            )
+        )
+    except ValueError as err:
+        raise ConfigError(f"env: {_first_line(err)}") from None
+
+
 def make_callback(
     out: Path, config: TrainConfig, cells: list, vecnorm: Any, baseline_scores: dict, stop: Any, clock: dict
 ) -> Any:
@@ -552,7 +608,8 @@ def make_callback(
         def evaluate(self):
             clock["bar"].stage(f"validating at {self.model.num_timesteps:,} steps")
             t0 = time.perf_counter()
-            result = evaluate(model_actor(self.model, vecnorm), cells, ev.episodes, ev.seed)
+            actor = entity_actor if config.env.observation == "entities" else model_actor
+            result = evaluate(actor(self.model, vecnorm), cells, ev.episodes, ev.seed)
             score = result["survey_error_m"]
             now = time.perf_counter()
             clock["eval_s"] = clock.get("eval_s", 0.0) + (now - t0)
