@@ -23,8 +23,11 @@ written atomically into ``--out``):
   the lowest ``mean_error_m``; negative: better than it), its mean and 95 % t interval
   (``evaluation.paired.t_interval``), and a verdict: ``win`` (the interval lies below
   0), ``loss`` (above 0), ``tie`` (it holds 0), ``best`` (the best planner itself);
-* a policy that cannot drive a task (a trained policy built for another team size, say)
-  is ``n/a`` there, with the reason; it wins nothing there.
+* a policy that cannot drive a task is ``n/a`` there, with the reason; it wins nothing
+  there. The policy says so itself (``episodes.check_policy`` asks its
+  ``config_problem``): a flat-observation policy takes one observation size (one team),
+  an entity policy (``agents.entity``) any team of up to five survey vehicles and three
+  beacons of its action size, on the survey-beacon networks.
 
 Per task ``wins`` lists the policies that won; per task set ``summary`` counts each
 policy's wins, ties, losses and n/a. A run with other than the benchmark's episode

@@ -35,10 +35,13 @@ def make_policy(name: str, config: ScenarioConfig, seed: int | tuple[int, int] |
 
 
 def check_policy(name: str, config: ScenarioConfig, seed: int) -> None:
-    """Check that ``name`` loads and drives ``config``'s scenario: a simulator of one
-    episode (``seed``) is reset, one policy per beacon answers its first observation with
-    a finite action of the scenario's shape (``views.action_dim``: 2, or 3 with a
-    transmit decision). Raises what the policy raises, or ValueError."""
+    """Check that ``name`` loads and drives ``config``'s scenario: the policy is asked
+    whether it takes the scenario (a trained policy's ``config_problem``: its observation
+    size, or for an entity policy the team it can read; loading one asks it too), then a
+    simulator of one episode (``seed``) is reset and one policy per beacon answers its
+    first observation with a finite action of the scenario's shape
+    (``views.action_dim``: 2, or 3 with a transmit decision). Raises what the policy
+    raises, or ValueError with the policy's reason (the benchmark's ``n/a``)."""
     from coopnav_env.core import make_simulator
     from coopnav_env.views import action_dim
 
@@ -46,7 +49,11 @@ def check_policy(name: str, config: ScenarioConfig, seed: int) -> None:
     obs = sim.reset([int(seed)])
     dim = action_dim(sim)
     for j in range(config.n_beacons):
-        action = np.asarray(make_policy(name, config, seed=(int(seed), j), agent=j).act(obs[0, j]), dtype=float)
+        policy = make_policy(name, config, seed=(int(seed), j), agent=j)
+        problem = getattr(policy, "config_problem", None)
+        if callable(problem) and (why := problem(config)) is not None:
+            raise ValueError(f"policy {name!r} {why}")
+        action = np.asarray(policy.act(obs[0, j]), dtype=float)
         if action.shape != (dim,) or not np.isfinite(action).all():
             raise ValueError(f"beacon_{j}'s action is {action!r}, not {dim} finite numbers")
 
