@@ -1,0 +1,364 @@
+"""Entity observations and policies (issue 23): the view's layout against hand-built
+observations, the encoder's permutation and padding invariance, the mixed-team
+VecEnv's seeds, the training config's checks, a tiny training run over randomized
+teams, and an entity policy acting on every team size of every benchmark task."""
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import agents
+from agents import formats
+from agents.entity import ENCODERS, EntityEncoder, EntityPolicy, untrained_policy
+from agents.training import ConfigError, EntitySpec, EnvSpec, NormalizeSpec, PeriodicEvalSpec, TrainConfig
+from coopnav_env import make_config
+from coopnav_env.core import make_simulator
+from coopnav_env.entity_obs import (
+    ENTITY_DIM,
+    KINDS,
+    LAYOUT,
+    MAX_BEACONS,
+    MAX_SURVEY,
+    entities,
+    entity_observation,
+    flatten_entities,
+    unflatten_entities,
+)
+from coopnav_env.obs_layout import encode
+from evaluation.tasks import TASK_SETS
+
+
+def _one_hot(kind):
+    return np.eye(len(KINDS))[KINDS.index(kind)]
+
+
+# --- the view ------------------------------------------------------------------------
+def test_layout_sizes_are_the_documented_table():
+    # own 6 + 4 kinds + 3 indices; survey 9 + 2 waypoints x 2 + 4 kinds; beacon 2 + 4 kinds
+    assert (LAYOUT.own_dim, LAYOUT.survey_dim, LAYOUT.beacon_dim) == (13, 17, 6)
+    assert ENTITY_DIM == 13 + 5 * 17 + 5 + 2 * 6 + 2 == 117
+    assert (MAX_SURVEY, MAX_BEACONS) == (5, 3)
+
+
+def test_entities_of_a_hand_built_observation():
+    """gao_team (an ASV and a beacon AUV, two survey AUVs), seen by beacon 1 (the AUV):
+    every number from the metres given to obs_layout.encode."""
+    config = make_config("gao_team")
+    L, T = config.position_scale_m, config.ping_interval_s
+    own = np.array([120.0, -40.0]) + (np.array(config.geofence_m[:2]) + np.array(config.geofence_m[2:])) / 2
+    rel = np.array([[30.0, -60.0, 5.0], [-90.0, 15.0, 12.0]])
+    peer = own + np.array([50.0, 80.0])
+    wps = own + rel[:, None, :2] + np.array([[[10.0, 0.0], [20.0, 0.0]], [[0.0, -10.0], [0.0, -30.0]]])
+    obs = encode(
+        config, own, rel, major_m=[8.0, 4.0], minor_m=[2.0, 1.0], bearing_rad=[0.25, 1.0],
+        reply_age_s=[40.0, 0.0], range_age_s=[20.0, 60.0], waypoints_en_m=wps, peers_en_m=[peer],
+        speed_fraction=0.5, own_std_m=3.0,
+    )  # fmt: skip
+    e = entities(obs, config, agent=1)
+    np.testing.assert_allclose(e.own[:2], (own - (np.array(config.geofence_m[:2]) + config.geofence_m[2:]) / 2) / L)
+    np.testing.assert_allclose(e.own[4:6], [0.5, 0.3], atol=1e-6)
+    np.testing.assert_array_equal(e.own[6:10], _one_hot("beacon_auv"))  # its kind: the role
+    np.testing.assert_array_equal(e.own[10:13], [0, 1, 0])  # its index in the team
+    np.testing.assert_array_equal(e.survey_mask, [True, True, False, False, False])
+    np.testing.assert_allclose(e.survey[:2, :3], rel / [L, L, 100.0], atol=1e-6)
+    np.testing.assert_allclose(e.survey[:2, 3:5], [[8 / 50, 2 / 50], [4 / 50, 1 / 50]], atol=1e-6)
+    np.testing.assert_allclose(e.survey[0, 5:7], [np.cos(0.5), np.sin(0.5)], atol=1e-6)
+    np.testing.assert_allclose(e.survey[:2, 7:9], [[40 / (10 * T), 20 / (10 * T)], [0, 60 / (10 * T)]], atol=1e-6)
+    np.testing.assert_allclose(e.survey[1, 9:13], np.array([0, -10, 0, -30]) / L, atol=1e-5)
+    np.testing.assert_array_equal(e.survey[:2, 13:], [_one_hot("survey_auv")] * 2)
+    assert not e.survey[2:].any()  # padding: zeros
+    np.testing.assert_array_equal(e.beacon_mask, [True, False])
+    np.testing.assert_allclose(e.beacons[0, :2], [50 / L, 80 / L], atol=1e-6)
+    np.testing.assert_array_equal(e.beacons[0, 2:], _one_hot("asv"))  # the other beacon is the ASV
+    # beacon 0 (the ASV) sees itself as an ASV with index 0 and its peer as the AUV
+    e0 = entities(obs, config, agent=0)
+    np.testing.assert_array_equal(e0.own[6:13], np.r_[_one_hot("asv"), 1, 0, 0])
+    np.testing.assert_array_equal(e0.beacons[0, 2:], _one_hot("beacon_auv"))
+
+
+def test_flatten_round_trip_and_batches():
+    config = make_config("gao_sea", beacon_kinds=("asv", "beacon_auv", "beacon_auv"), n_survey=4)
+    sim = make_simulator(config, 3)
+    obs = sim.reset([11, 12, 13])  # (3, 3, D)
+    agents_ = np.broadcast_to(np.arange(3), (3, 3))
+    x = entity_observation(obs, config, agents_)
+    assert x.shape == (3, 3, ENTITY_DIM) and x.dtype == np.float32
+    back = flatten_entities(unflatten_entities(x))
+    np.testing.assert_array_equal(back, x)
+    one = entity_observation(obs[1, 2], config, 2)  # a single row equals its place in the batch
+    np.testing.assert_array_equal(one, x[1, 2])
+    e = unflatten_entities(x)
+    assert e.survey_mask.sum(-1).tolist() == [[4] * 3] * 3 and e.beacon_mask.all()
+    # beacon 2 (an AUV) lists the ASV then the other AUV; beacon 0 (the ASV) two AUVs
+    np.testing.assert_array_equal(e.beacons[0, 2, :, 2:], [_one_hot("asv"), _one_hot("beacon_auv")])
+    np.testing.assert_array_equal(e.beacons[0, 0, :, 2:], [_one_hot("beacon_auv")] * 2)
+
+
+def test_the_view_refuses_what_it_cannot_read():
+    with pytest.raises(ValueError, match="moving_lbl.*decode_boat"):
+        entities(np.zeros(15), make_config("matos_moving_lbl"))
+    with pytest.raises(ValueError, match="at most MAX_SURVEY=5"):
+        entities(np.zeros(100), make_config("swarm_mls", n_survey=6))
+    with pytest.raises(ValueError, match="at most MAX_BEACONS=3"):
+        entities(np.zeros(100), make_config("gao_sea", beacon_kinds=("beacon_auv",) * 4))
+    with pytest.raises(ValueError, match=r"agent must be beacon indices in \[0, 0\]"):
+        entities(np.zeros(19), make_config("gao_sea"), agent=1)
+
+
+# --- the encoder ---------------------------------------------------------------------
+def _random_entities(rng, n_survey, n_peers, batch=3):
+    x = rng.normal(size=(batch, ENTITY_DIM)).astype(np.float32)
+    e = unflatten_entities(x)
+    e.survey_mask[:] = np.arange(MAX_SURVEY) < n_survey
+    e.beacon_mask[:] = np.arange(MAX_BEACONS - 1) < n_peers
+    e.survey[~e.survey_mask] = 0.0
+    e.beacons[~e.beacon_mask] = 0.0
+    return e
+
+
+def _encode(net, e):
+    with torch.no_grad():
+        return net(torch.as_tensor(flatten_entities(e))).numpy()
+
+
+@pytest.mark.parametrize("encoder", ENCODERS)
+@settings(max_examples=15, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    n_survey=st.integers(1, MAX_SURVEY),
+    n_peers=st.integers(0, MAX_BEACONS - 1),
+    perm=st.permutations(range(MAX_SURVEY)),
+    peer_perm=st.permutations(range(MAX_BEACONS - 1)),
+    garbage=st.floats(-1e3, 1e3),
+)
+def test_encoder_is_permutation_and_padding_invariant(encoder, seed, n_survey, n_peers, perm, peer_perm, garbage):
+    """Permuting the survey vehicles (with their masks, padding slots included) or the
+    other beacons, or filling the padded slots with anything, leaves the features
+    unchanged to 1e-6."""
+    torch.manual_seed(seed % 1000)
+    net = EntityEncoder(encoder, embed_dim=16, heads=4).eval()
+    rng = np.random.default_rng(seed)
+    e = _random_entities(rng, n_survey, n_peers)
+    y = _encode(net, e)
+    p = unflatten_entities(flatten_entities(e))
+    p.survey, p.survey_mask = p.survey[:, perm], p.survey_mask[:, perm]
+    p.beacons, p.beacon_mask = p.beacons[:, peer_perm], p.beacon_mask[:, peer_perm]
+    np.testing.assert_allclose(_encode(net, p), y, atol=1e-6)
+    g = unflatten_entities(flatten_entities(e))
+    g.survey[:, n_survey:] = garbage
+    g.beacons[:, n_peers:] = -garbage
+    np.testing.assert_allclose(_encode(net, g), y, atol=1e-6)
+
+
+@pytest.mark.parametrize("encoder", ENCODERS)
+def test_encoder_sees_the_entities(encoder):
+    """Not a constant: moving one survey vehicle or flipping a beacon's kind changes the features."""
+    torch.manual_seed(0)
+    net = EntityEncoder(encoder, embed_dim=16, heads=4).eval()
+    e = _random_entities(np.random.default_rng(1), 2, 1)
+    y = _encode(net, e)
+    moved = unflatten_entities(flatten_entities(e))
+    moved.survey[:, 1, :2] += 0.5
+    assert np.abs(_encode(net, moved) - y).max() > 1e-4
+    kind = unflatten_entities(flatten_entities(e))
+    kind.beacons[:, 0, 2:] = _one_hot("asv")
+    assert np.abs(_encode(net, kind) - y).max() > 1e-4
+    role = unflatten_entities(flatten_entities(e))
+    role.own[:, 10:13] = [0, 1, 0]  # the index: two symmetric ASVs act differently
+    assert np.abs(_encode(net, role) - y).max() > 1e-4
+
+
+def test_a_model_file_names_only_known_extractors():
+    with pytest.raises(formats.PolicyFormatError, match="unknown features_extractor_class 'os.system'"):
+        formats.policy_kwargs_python({"features_extractor_class": "os.system"}, "model")
+    with pytest.raises(formats.PolicyFormatError, match="embed_dim must be an integer"):
+        formats.policy_kwargs_python(
+            {"features_extractor_class": "EntityExtractor", "features_extractor_kwargs": {"embed_dim": 10**9}}, "m"
+        )
+    with pytest.raises(formats.PolicyFormatError, match="not this code's"):
+        formats.policy_kwargs_python(
+            {"features_extractor_class": "EntityExtractor", "features_extractor_kwargs": {"layout": {"max_survey": 9}}},
+            "m",
+        )
+
+
+# --- the views -----------------------------------------------------------------------
+def test_mixed_team_env_seeds_rows_and_reproducibility():
+    from coopnav_env.entity_views import EntityVecEnv, MixedTeamVecEnv
+    from coopnav_env.vector import SEED_STRIDE, CoopNavVecEnv
+
+    teams = [{}, {"n_survey": 2}, {"beacon_kinds": ["beacon_auv", "beacon_auv"]}]
+    kw = dict(teams=teams, n_envs=4, seed=7, max_cycles=3)
+    a, b = MixedTeamVecEnv("gao_lawnmower", **kw), MixedTeamVecEnv("gao_lawnmower", **kw)
+    assert a.team_envs == [2, 1, 1] and a.num_envs == 2 + 1 + 2  # environments x beacons
+    obs = a.reset()
+    np.testing.assert_array_equal(obs, b.reset())
+    assert a.episode_seeds.tolist() == [7, 8, 9, 10]  # environment g: seed + g
+    # environment 3 (the two-beacon team) is the standalone env of its team, seen as entities
+    alone = EntityVecEnv(CoopNavVecEnv("gao_lawnmower", n_envs=1, seed=10, max_cycles=3, beacon_kinds=teams[2]["beacon_kinds"]))
+    np.testing.assert_array_equal(obs[3:5], alone.reset())
+    actions = np.random.default_rng(0).uniform(-1, 1, (3, a.num_envs, 2))
+    for k in range(3):
+        oa, ra, da, ia = a.step(actions[k])
+        ob, rb, db, _ = b.step(actions[k])
+        np.testing.assert_array_equal(oa, ob)
+        np.testing.assert_array_equal(ra, rb)
+    assert da.all() and ia[4]["terminal_observation"].shape == (ENTITY_DIM,)
+    assert a.episode_seeds.tolist() == [7 + g + SEED_STRIDE for g in range(4)]
+    assert a.get_attr("agent") == ["beacon_0", "beacon_0", "beacon_0", "beacon_0", "beacon_1"]
+    with pytest.raises(ValueError, match=r"teams\[0\]: 'depth_m' is not a team parameter"):
+        MixedTeamVecEnv("gao_lawnmower", teams=[{"depth_m": 3.0}], n_envs=1)
+    with pytest.raises(ValueError, match="at most MAX_SURVEY=5"):
+        MixedTeamVecEnv("gao_lawnmower", teams=[{"n_survey": 6}], n_envs=1)
+
+
+def test_pettingzoo_entity_env_passes_the_api_test():
+    from pettingzoo.test import parallel_api_test
+
+    from coopnav_env.entity_views import entity_parallel_env
+
+    env = entity_parallel_env("gao_team", seed=3, max_cycles=4)
+    parallel_api_test(env, num_cycles=5)
+    obs, _ = env.reset(seed=3)
+    assert {a: o.shape for a, o in obs.items()} == {"beacon_0": (ENTITY_DIM,), "beacon_1": (ENTITY_DIM,)}
+    np.testing.assert_array_equal(unflatten_entities(obs["beacon_1"]).own[6:10], _one_hot("beacon_auv"))
+
+
+# --- the training config -------------------------------------------------------------
+def _entity_config(**changes):
+    base = dict(
+        scenario="gao_lawnmower",
+        timesteps=1000,
+        n_envs=4,
+        env=EnvSpec(observation="entities", teams=[{}, {"n_survey": 2}]),
+        normalize=NormalizeSpec(norm_obs=False),
+    )
+    base.update(changes)
+    return TrainConfig(**base)
+
+
+def test_training_config_checks_the_entity_keys():
+    _entity_config().check()
+    with pytest.raises(ConfigError, match="needs normalize.norm_obs: false"):
+        _entity_config(normalize=NormalizeSpec()).check()
+    with pytest.raises(ConfigError, match="unknown env.observation 'entity'; did you mean 'entities'"):
+        _entity_config(env=EnvSpec(observation="entity")).check()
+    with pytest.raises(ConfigError, match="env.teams needs env.observation: entities"):
+        TrainConfig(scenario="gao_lawnmower", env=EnvSpec(teams=[{"n_survey": 2}])).check()
+    with pytest.raises(ConfigError, match=r"env.teams\[1\].n_survey must be an integer in \[1, 5\], got 6"):
+        _entity_config(env=EnvSpec(observation="entities", teams=[{}, {"n_survey": 6}])).check()
+    with pytest.raises(ConfigError, match=r"unknown env.teams\[0\] key 'n_surveys'; did you mean 'n_survey'"):
+        _entity_config(env=EnvSpec(observation="entities", teams=[{"n_surveys": 2}])).check()
+    with pytest.raises(ConfigError, match="1-3 beacon kinds"):
+        _entity_config(env=EnvSpec(observation="entities", teams=[{"beacon_kinds": ["asv"] * 4}])).check()
+    with pytest.raises(ConfigError, match="lists a team twice"):
+        _entity_config(env=EnvSpec(observation="entities", teams=[{}, {}])).check()
+    with pytest.raises(ConfigError, match=r"n_envs \(1\) must be at least the number of env.teams \(2\)"):
+        _entity_config(n_envs=1).check()
+    with pytest.raises(ConfigError, match="entity: embed_dim .* multiple of heads"):
+        _entity_config(entity=EntitySpec(embed_dim=30, heads=4)).check()
+    with pytest.raises(ConfigError, match="encoder must be one of deepsets, attention"):
+        _entity_config(entity=EntitySpec(encoder="gnn")).check()
+    from agents.training.config import ImitateSpec
+
+    with pytest.raises(ConfigError, match="imitate.planner needs env.observation: flat"):
+        _entity_config(imitate=ImitateSpec(planner="ellipse")).check()
+    from agents.training import RLlibConfig
+
+    with pytest.raises(ConfigError, match="is for the SB3 trainer"):
+        RLlibConfig(scenario="gao_lawnmower", env=EnvSpec(observation="entities")).check()
+    from agents.training.common import prepare_job
+
+    with pytest.raises(ConfigError, match="moving_lbl"):
+        prepare_job(_entity_config(scenario="matos_moving_lbl", env=EnvSpec(observation="entities")))
+    with pytest.raises(ConfigError, match=r"env.teams\[1\]: beacon_kinds: the kind .boat. belongs"):
+        prepare_job(_entity_config(env=EnvSpec(observation="entities", teams=[{}, {"beacon_kinds": ["boat"]}])))
+
+
+# --- a tiny training run, and every task of the benchmark ------------------------------
+def test_tiny_training_over_randomized_teams(tmp_path):
+    """A few thousand steps on three teams at once (<30 s): the run saves and loads through
+    the safe format, validates every team, and the policy then drives teams it never saw."""
+    from agents.training import sb3
+
+    config = _entity_config(
+        timesteps=2000,
+        seed=2,
+        ppo={"n_steps": 64, "batch_size": 160, "n_epochs": 2, "policy_kwargs": {"net_arch": [32]}},
+        env=EnvSpec(
+            overrides={"max_cycles": 8},
+            observation="entities",
+            teams=[{}, {"n_survey": 2}, {"beacon_kinds": ["beacon_auv", "beacon_auv"]}],
+        ),
+        eval=PeriodicEvalSpec(every_steps=1000, episodes=2, baselines=[]),
+        entity=EntitySpec(encoder="deepsets", embed_dim=16),
+        checkpoint_every_steps=1000,
+    )
+    out = tmp_path / "entity_run"
+    assert sb3.train(config, out) == 0
+    import json
+
+    last = json.loads((out / "evaluations.jsonl").read_text().splitlines()[-1])
+    assert set(last["per_cell"]) == {"team=scenario", "n_survey=2", "beacon_kinds=beacon_auv+beacon_auv"}
+    with pytest.warns(UserWarning, match="trained on 'gao_lawnmower', used on 'swarm_mls'"):
+        policy = agents.load(out, scenario="swarm_mls")
+    assert isinstance(policy, EntityPolicy) and policy.config.n_survey == 3
+    team = make_config("gao_lawnmower", n_survey=5, beacon_kinds=("asv", "beacon_auv", "beacon_auv"))
+    third = agents.make_policy(out, team, agent=2)
+    assert third.agent == 2 and third.act(np.zeros(third.obs_dim)).shape == (2,)
+    with pytest.raises(ValueError, match="acts with 2 numbers; scenario 'sousa_ping' takes 3"):
+        agents.load(out, scenario="sousa_ping")
+    reloaded = agents.load(out / "model.safetensors")
+    assert isinstance(reloaded, EntityPolicy) and reloaded.config.max_cycles == 8  # the run's config.yml
+
+
+def _act_on(policy, config, seed=0):
+    sim = make_simulator(config, 1)
+    obs = sim.reset([seed])
+    for j in range(config.n_beacons):
+        action = policy.for_config(config, j).act(obs[0, j])
+        assert action.shape == (policy.action_dim,) and np.isfinite(action).all()
+
+
+def test_an_entity_policy_acts_on_every_team_size_of_every_task():
+    """One untrained entity policy per action size (2; 3 for sousa_ping's transmit
+    decision) acts on every task of every task set on the survey-beacon networks, team
+    tasks included; the moving network's boats are refused with the reason."""
+    policies = {2: untrained_policy(2, seed=1), 3: untrained_policy(3, seed=1)}
+    teams = set()
+    for ts in TASK_SETS.values():
+        for task in ts.tasks:
+            config = task.config(ts.scenario)
+            if config.network == "moving_lbl":
+                assert "decode_boat" in policies[2].config_problem(config)
+                continue
+            from coopnav_env.views import action_dim
+
+            policy = policies[action_dim(config)]
+            assert policy.config_problem(config) is None, (ts.name, task.name)
+            _act_on(policy, config)
+            teams.add((config.n_survey, config.beacon_kinds))
+    assert {(2, ("beacon_auv",)), (5, ("beacon_auv",)), (1, ("beacon_auv", "beacon_auv"))} <= teams
+    assert len(teams) >= 6
+
+
+def test_the_benchmark_plans_no_na_for_an_entity_policy(tmp_path, monkeypatch):
+    """evaluation's n/a comes from the policy (check_policy asks its config_problem): an
+    entity policy is n/a on none of gao_lawnmower's tasks, team tasks included (plan
+    only: no episodes run)."""
+    from evaluation import episodes
+    from evaluation.benchmark import plan_benchmark
+
+    entity = untrained_policy(2, seed=3)
+    real = episodes.make_policy
+
+    def fake(name, config, seed, agent):
+        return entity.for_config(config, agent) if name == "entity" else real(name, config, seed, agent)
+
+    monkeypatch.setattr(episodes, "make_policy", fake)
+    monkeypatch.setattr("evaluation.config.resolve_trained", lambda *a, **k: {"shipped": None, "model": "entity"})
+    plan = plan_benchmark("gao_lawnmower", "entity", out=str(tmp_path / "b"), check_out=False)
+    assert all(not c for c in plan.sets[0].cannot.values())
+    assert "two_beacons" in plan.sets[0].configs and "two_surveys" in plan.sets[0].configs
