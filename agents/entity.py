@@ -126,7 +126,10 @@ class EntityEncoder(nn.Module):
         self.survey_net = _mlp(LAYOUT.survey_dim, E)
         self.beacon_net = _mlp(LAYOUT.beacon_dim, E)
         if encoder == "attention":
-            self.attention = nn.MultiheadAttention(E, self.heads, batch_first=True)
+            self.query = nn.Linear(E, E)
+            self.key = nn.Linear(E, E)
+            self.value = nn.Linear(E, E)
+            self.out = nn.Linear(E, E)
             self.features_dim = 3 * E
         else:
             self.features_dim = 5 * E
@@ -140,12 +143,26 @@ class EntityEncoder(nn.Module):
             pooled = [_masked_mean(s, survey_mask), _masked_max(s, survey_mask)]
             pooled += [_masked_mean(b, beacon_mask), _masked_max(b, beacon_mask)]
             return torch.cat([o, *pooled], -1)
-        keys = torch.cat([s, b], -2)  # (B, M, E): every entity, survey vehicles first
+        entities = torch.cat([s, b], -2)  # (B, M, E): every entity, survey vehicles first
         valid = torch.cat([survey_mask, beacon_mask], -1)
         # a row with no valid entity cannot happen (n_survey >= 1); guard the softmax anyway
         valid = valid | ~valid.any(-1, keepdim=True)
-        attended, _ = self.attention(o.unsqueeze(-2), keys, keys, key_padding_mask=~valid, need_weights=False)
-        return torch.cat([o, attended.squeeze(-2), _masked_mean(s, survey_mask)], -1)
+        return torch.cat([o, self._attend(o, entities, valid), _masked_mean(s, survey_mask)], -1)
+
+    def _attend(self, own: torch.Tensor, entities: torch.Tensor, valid: torch.Tensor) -> torch.Tensor:
+        """Multi-head attention of one query (the own embedding, (B, E)) over the entities
+        (B, M, E), padded slots (valid False) out of the softmax (Vaswani et al. 2017, eq. 1:
+        softmax(q k^T / sqrt(d)) v per head, then the output projection)."""
+        B, M, E = entities.shape
+        H = self.heads
+        d = E // H
+        q = self.query(own).reshape(B, H, 1, d)
+        k = self.key(entities).reshape(B, M, H, d).transpose(1, 2)  # (B, H, M, d)
+        v = self.value(entities).reshape(B, M, H, d).transpose(1, 2)
+        scores = (q @ k.transpose(-1, -2)).squeeze(-2) / d**0.5  # (B, H, M)
+        scores = scores.masked_fill(~valid.unsqueeze(1), float("-inf"))
+        weights = torch.softmax(scores, -1).unsqueeze(-2)  # (B, H, 1, M)
+        return self.out((weights @ v).reshape(B, E))
 
 
 class EntityExtractor(BaseFeaturesExtractor):
