@@ -362,3 +362,22 @@ def test_the_benchmark_plans_no_na_for_an_entity_policy(tmp_path, monkeypatch):
     plan = plan_benchmark("gao_lawnmower", "entity", out=str(tmp_path / "b"), check_out=False)
     assert all(not c for c in plan.sets[0].cannot.values())
     assert "two_beacons" in plan.sets[0].configs and "two_surveys" in plan.sets[0].configs
+
+
+def test_a_run_without_observation_normalization_saves_and_restores(tmp_path):
+    """norm_obs: false (required by entity runs): SB3's VecNormalize then has no obs_rms;
+    its file holds the identity's statistics and restores into such a VecNormalize (this
+    raised AttributeError before)."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from coopnav_env.entity_views import EntityVecEnv
+    from coopnav_env.vector import CoopNavVecEnv
+
+    venv = VecNormalize(EntityVecEnv(CoopNavVecEnv("gao_lawnmower", n_envs=2, seed=5)), norm_obs=False)
+    venv.ret_rms.mean, venv.ret_rms.count = 0.25, 7.0
+    formats.save_vecnormalize(venv, tmp_path / "v.safetensors")
+    stats = formats.read_vecnormalize(tmp_path / "v.safetensors")
+    assert stats["norm_obs"] is False and stats["obs_mean"].shape == (ENTITY_DIM,) and not stats["obs_mean"].any()
+    other = VecNormalize(EntityVecEnv(CoopNavVecEnv("gao_lawnmower", n_envs=2, seed=5)), norm_obs=False)
+    formats.restore_vecnormalize(other, stats)
+    assert (other.ret_rms.mean, other.ret_rms.count) == (0.25, 7.0)
