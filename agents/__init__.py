@@ -69,6 +69,8 @@ from .policy import BatchPolicy, _trained_scenario
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
+    from .entity import EntityPolicy
+
 POLICY_DIR = Path(__file__).resolve().parent / "policies"
 # (model, normalization) of a run directory, in order of preference: the safe format,
 # then the old pickle-based one (refused unless trusted)
@@ -88,6 +90,7 @@ __all__ = [
     "make_policy",
     "resolve",
     "trust_pickle",
+    "untrained_entity_policy",
 ]
 
 
@@ -365,7 +368,7 @@ def load(
         if not isinstance(run_config, dict):
             raise PolicyFormatError(f"{config_path}: expected a mapping (a train.py run record)")
         trained_config = _trained_scenario(run_config)
-    policy = PPOPolicy(
+    policy: BatchPolicy = PPOPolicy(
         model,
         obs_rms,
         clip_obs,
@@ -401,6 +404,46 @@ def load(
     elif isinstance(policy, EntityPolicy) and trained_config is not None and policy.accepts(trained_config):
         return policy.for_config(trained_config)
     return policy
+
+
+def untrained_entity_policy(
+    action_dim: int = 2,
+    encoder: str = "attention",
+    embed_dim: int = 32,
+    heads: int = 4,
+    net_arch: tuple = (64,),
+    seed: int = 0,
+    config: Any = None,
+) -> EntityPolicy:
+    """An entity policy with fresh weights (torch seeded with ``seed``): the network an
+    ``env.observation: entities`` run starts from, built through the safe format's
+    ``formats.build_policy`` (for tests and tools: it drives any team it accepts)."""
+    import torch
+    from gymnasium import spaces
+
+    from coopnav_env.entity_obs import LAYOUT, entity_space
+
+    from .entity import EntityPolicy
+    from .formats import _box, build_policy
+
+    torch.manual_seed(int(seed))
+    spec = {
+        "policy": "MlpPolicy",
+        "observation_space": _box(entity_space()),
+        "action_space": _box(spaces.Box(-1.0, 1.0, shape=(int(action_dim),), dtype=np.float32)),
+        "policy_kwargs": {
+            "net_arch": list(net_arch),
+            "features_extractor_class": "EntityExtractor",
+            "features_extractor_kwargs": {
+                "encoder": encoder,
+                "embed_dim": embed_dim,
+                "heads": heads,
+                "layout": LAYOUT.to_dict(),
+            },
+        },
+    }
+    base = PPOPolicy(LoadedModel(build_policy(spec, where="untrained entity policy")), name="untrained_entity")
+    return EntityPolicy(base, config)
 
 
 class DepthGatedPolicy(BatchPolicy):

@@ -35,11 +35,10 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import torch
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
-
-import numpy as np
 
 from coopnav_env.entity_obs import LAYOUT, EntityLayout, entity_observation, team_problem
 
@@ -57,7 +56,6 @@ __all__ = [
     "check_encoder_kwargs",
     "is_entity_model",
     "split_entities",
-    "untrained_policy",
 ]
 
 
@@ -264,42 +262,3 @@ class EntityPolicy(BatchPolicy):
     def __repr__(self):
         scen = self.config.name if self.config is not None else "unbound"
         return f"EntityPolicy({self.name!r}, scenario={scen!r}, agent={self.agent})"
-
-
-def untrained_policy(
-    action_dim: int = 2,
-    encoder: str = "attention",
-    embed_dim: int = 32,
-    heads: int = 4,
-    net_arch: tuple = (64,),
-    seed: int = 0,
-    config: Any = None,
-) -> EntityPolicy:
-    """An entity policy with fresh weights (torch seeded with ``seed``): the network an
-    ``env.observation: entities`` run starts from, built through the safe format's
-    ``formats.build_policy`` (for tests and tools: it drives any team it accepts)."""
-    from gymnasium import spaces
-
-    from coopnav_env.entity_obs import entity_space
-
-    from . import LoadedModel, PPOPolicy
-    from .formats import _box, build_policy
-
-    torch.manual_seed(int(seed))
-    spec = {
-        "policy": "MlpPolicy",
-        "observation_space": _box(entity_space()),
-        "action_space": _box(spaces.Box(-1.0, 1.0, shape=(int(action_dim),), dtype=np.float32)),
-        "policy_kwargs": {
-            "net_arch": list(net_arch),
-            "features_extractor_class": "EntityExtractor",
-            "features_extractor_kwargs": {
-                "encoder": encoder,
-                "embed_dim": embed_dim,
-                "heads": heads,
-                "layout": LAYOUT.to_dict(),
-            },
-        },
-    }
-    base = PPOPolicy(LoadedModel(build_policy(spec, where="untrained entity policy")), name="untrained_entity")
-    return EntityPolicy(base, config)

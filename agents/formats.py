@@ -18,7 +18,8 @@ A **model file** (``model.safetensors``, ``best_model.safetensors``,
   ``observation_space``/``action_space``: Box shape, dtype, low, high,
   ``use_sde``, ``policy_kwargs``: net_arch, activation_fn by name, log_std_init,
   features_extractor_class by name (only ``EntityExtractor``, ``agents.entity``) with
-  its features_extractor_kwargs (encoder, embed_dim, heads and the entity layout), ...), ``num_timesteps``, ``n_updates``, ``norm_obs`` (whether it was trained on
+  its features_extractor_kwargs (encoder, embed_dim, heads and the entity layout),
+  ...), ``num_timesteps``, ``n_updates``, ``norm_obs`` (whether it was trained on
   normalized observations) and ``optimizer`` (the param_groups' scalars).
 
 A **normalization file** (``vecnormalize.safetensors``, ...) holds VecNormalize's
@@ -509,8 +510,7 @@ def restore_vecnormalize(vecnorm: Any, stats: dict) -> Any:
     shape = tuple(vecnorm.observation_space.shape)
     if tuple(np.shape(stats["obs_mean"])) != shape:
         raise PolicyFormatError(
-            f"normalization statistics of shape {np.shape(stats['obs_mean'])} do not fit "
-            f"observations of shape {shape}"
+            f"normalization statistics of shape {np.shape(stats['obs_mean'])} do not fit observations of shape {shape}"
         )
     if getattr(vecnorm, "obs_rms", None) is not None:
         vecnorm.obs_rms.mean, vecnorm.obs_rms.var = stats["obs_mean"].copy(), stats["obs_var"].copy()

@@ -171,7 +171,7 @@ def check_team(config: ScenarioConfig) -> None:
         raise ValueError(problem)
 
 
-def _one_hot(index: np.ndarray, n: int) -> np.ndarray:
+def _one_hot(index: ArrayLike, n: int) -> np.ndarray:
     return (np.asarray(index)[..., None] == np.arange(n)).astype(np.float64)
 
 

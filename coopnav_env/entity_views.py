@@ -37,7 +37,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvO
 
 from .entity_obs import MAX_BEACONS, MAX_SURVEY, check_team, entity_observation, entity_space, row_agents
 from .scenarios import make_config
-from .vector import SEED_STRIDE, CoopNavVecEnv
+from .vector import CoopNavVecEnv
 
 if TYPE_CHECKING:
     from gymnasium import spaces
@@ -69,7 +69,7 @@ class EntityVecEnv(VecEnvWrapper):
         return entity_observation(obs, self.config, agents)
 
     def reset(self) -> VecEnvObs:
-        return self.convert(self.venv.reset())
+        return self.convert(np.asarray(self.venv.reset()))
 
     def step_wait(self) -> VecEnvStepReturn:
         obs, reward, done, infos = self.venv.step_wait()
@@ -79,7 +79,7 @@ class EntityVecEnv(VecEnvWrapper):
             final = self.convert(np.stack([infos[i]["terminal_observation"] for i in ended]), rows)
             for k, i in enumerate(ended):
                 infos[i]["terminal_observation"] = final[k]
-        return self.convert(obs), reward, done, infos
+        return self.convert(np.asarray(obs)), reward, done, infos
 
 
 def _check_team(team: Any, i: int) -> dict:
@@ -137,7 +137,7 @@ class MixedTeamVecEnv(VecEnv):
             EntityVecEnv(CoopNavVecEnv(c, n_envs=n, seed=0, step_infos=step_infos, reward_terms=reward_terms))
             for c, n in zip(self.configs, counts)
         ]
-        dims = {s.action_space.shape for s in self.subs}
+        dims = {tuple(s.action_space.shape or ()) for s in self.subs}
         if len(dims) > 1:
             raise ValueError(f"the teams' action spaces differ ({sorted(dims)}): one scenario family only")
         self.config = self.configs[0]
@@ -172,7 +172,8 @@ class MixedTeamVecEnv(VecEnv):
     def step_async(self, actions: np.ndarray) -> None:
         a = np.asarray(actions)
         if a.ndim != 2 or a.shape[0] != self.num_envs:
-            raise ValueError(f"actions must have shape ({self.num_envs}, {self.action_space.shape[0]}), got {a.shape}")
+            dim = self.action_space.shape[0] if self.action_space.shape else 0
+            raise ValueError(f"actions must have shape ({self.num_envs}, {dim}), got {a.shape}")
         for sub, lo, hi in zip(self.subs, self.row_offsets[:-1], self.row_offsets[1:]):
             sub.step_async(a[lo:hi])
 

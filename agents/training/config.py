@@ -300,7 +300,6 @@ class RLlibConfig(_Job):
     checkpoint_every_iterations: int = 10
     ray: RaySpec = field(default_factory=RaySpec)
 
-
     def check(self) -> Self:
         check_env_observation(self.env)
         if self.env.observation != "flat":

@@ -542,7 +542,12 @@ def make_training_env(config: TrainConfig, job: Any, seed: int) -> Any:
     try:
         if job.teams:
             return MixedTeamVecEnv(
-                job.scenario_config, job.teams, config.n_envs, seed=seed, step_infos=False, reward_terms=job.reward_terms
+                job.scenario_config,
+                job.teams,
+                config.n_envs,
+                seed=seed,
+                step_infos=False,
+                reward_terms=job.reward_terms,
             )
         return EntityVecEnv(
             CoopNavVecEnv(
