@@ -38,6 +38,12 @@ pickle-based format (``.zip``/``.pkl`` checkpoints) is refused unless
 ``trust_pickle`` (``--trust-pickle``), and so is a ``last_checkpoint.json`` naming a
 file outside ``checkpoints/``.
 
+Entity policies (``env.observation: entities``, ``docs/training/entity.md``): the
+rows are read as entities (``coopnav_env.entity_views``), with ``env.teams`` several
+teams at once (``MixedTeamVecEnv``, built by ``make_training_env``); the network gets
+``agents.entity.EntityExtractor`` (``entity_policy_kwargs``) and the validation reads
+the evaluation environments' rows as entities (``entity_actor``), one cell per team.
+
 Warm start (``init_from``): the network's weights, optimizer state and observation
 normalization from another policy (the learning-rate schedule starts afresh; the
 network's shape must match); a resumed run ignores it (the checkpoint holds the
