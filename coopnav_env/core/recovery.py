@@ -156,7 +156,9 @@ def window_fix(
 
 
 @njit(cache=True)
-def window_bias_cross(x: np.ndarray, win: RangeWindow, m: int, noise: WindowNoise, P: np.ndarray, out: np.ndarray) -> None:
+def window_bias_cross(
+    x: np.ndarray, win: RangeWindow, m: int, noise: WindowNoise, P: np.ndarray, out: np.ndarray
+) -> None:
     """Eq. (R6): the cross-covariance (2, 2) of the fix x (2,) with covariance P (2, 2)
     (``window_fix``'s outputs) with the survey's dead-reckoning biases (k, beta), of
     variances noise.scale_std^2 and noise.heading_std_rad^2, written into out."""

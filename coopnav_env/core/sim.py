@@ -88,7 +88,10 @@ class Simulator(BatchSimulator):
         phi = np.where(is_asv, np.exp(-c.ping_interval_s / tau) if tau > 0 else 0.0, 1.0)
         self._consider_phi = phi if c.beacon_error_fusion == "schmidt" and (phi != 1.0).any() else None
         bias_std = (c.survey_speed_scale_error_std, float(np.radians(c.compass_bias_std_deg)))
-        self._bias_std = bias_std if c.survey_bias_consider and max(bias_std) > 0 else None  # eqs. D1-D4
+        # eqs. D1-D4; the modem sensor carries Pxd through its updates (eq. D3), the MLS sensor's
+        # bearing reads the compass bias itself and does not
+        use_bias = c.survey_bias_consider and c.acoustic_sensor == "modem" and max(bias_std) > 0
+        self._bias_std = bias_std if use_bias else None
         self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
         par = "_parallel" if self._parallel else ""
         self._k_survey = getattr(substeps, "integrate_survey" + par)
@@ -337,7 +340,9 @@ class Simulator(BatchSimulator):
         )
         if self._consider_phi is not None:  # eq. (C7): the beacons' Gauss-Markov errors decorrelate
             st.s_Pxb *= self._consider_phi[None, None, :, None, None]
-        self._k_depth_gps(survey_view(st), st.s_Pxb, st.s_Pxd, draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params)
+        self._k_depth_gps(
+            survey_view(st), st.s_Pxb, st.s_Pxd, draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params
+        )
         return out
 
     def _acoustic_ranging(self, draws: dict, out: measurements.FusionOutputs, transmit):

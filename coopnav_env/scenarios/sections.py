@@ -297,8 +297,8 @@ class SurveyEKF(Section):
         True,
         doc=(
             "carry the survey's own speed-scale error and compass bias (survey_speed_scale_error_std, "
-            "compass_bias_std_deg) as consider states of its EKF (core/dr_bias.py, eqs. D1-D4); False: only the white "
-            "process noise stands for them (the papers' filter)"
+            "compass_bias_std_deg) as consider states of its EKF (core/dr_bias.py, eqs. D1-D4; the modem sensor only); "
+            "False: only the white process noise stands for them (the papers' filter)"
         ),
     )
     lockout_recovery: str = param(
