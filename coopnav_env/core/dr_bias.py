@@ -41,7 +41,19 @@ biases act on (the current the survey is told is not scaled by them).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+
+
+def considered_biases(c: Any) -> tuple[float, float] | None:
+    """(sigma_k, sigma_beta in rad) of scenario config ``c`` when its survey filter carries
+    them (``survey_bias_consider``), else None. Only with the modem sensor: it carries Pxd
+    through its updates (eq. D3); the MLS sensor's bearing reads the compass bias itself (a
+    measurement that is a function of phi) and does not."""
+    std = (float(c.survey_speed_scale_error_std), float(np.radians(c.compass_bias_std_deg)))
+    use = c.survey_bias_consider and c.acoustic_sensor == "modem" and max(std) > 0
+    return std if use else None
 
 
 def bias_variances(scale_std: float, heading_std_rad: float, noise_scale: np.ndarray) -> np.ndarray:

@@ -87,11 +87,7 @@ class Simulator(BatchSimulator):
         tau = c.gps_error_time_constant_s
         phi = np.where(is_asv, np.exp(-c.ping_interval_s / tau) if tau > 0 else 0.0, 1.0)
         self._consider_phi = phi if c.beacon_error_fusion == "schmidt" and (phi != 1.0).any() else None
-        bias_std = (c.survey_speed_scale_error_std, float(np.radians(c.compass_bias_std_deg)))
-        # eqs. D1-D4; the modem sensor carries Pxd through its updates (eq. D3), the MLS sensor's
-        # bearing reads the compass bias itself and does not
-        use_bias = c.survey_bias_consider and c.acoustic_sensor == "modem" and max(bias_std) > 0
-        self._bias_std = bias_std if use_bias else None
+        self._bias_std = dr_bias.considered_biases(c)  # eqs. D1-D4, or None
         self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
         par = "_parallel" if self._parallel else ""
         self._k_survey = getattr(substeps, "integrate_survey" + par)
