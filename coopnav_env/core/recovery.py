@@ -47,7 +47,8 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          (``dr_bias.py``; the true shift is s_k + G_k phi, G_k = [s_k, J s_k], eq. D1):
          the residuals' part from phi is -Uf phi, Uf_k = (u_k^T s_k, u_k^T J s_k), so
          Pxd = E[(x - x_hat) phi^T] = P J^T Sigma^-1 Uf Pff (the prior's share, through
-         P Pp^-1 <= P / s_lock^2, left out).
+         P Pp^-1 <= P / s_lock^2, left out; s_k includes the told current's drift, which the
+         biases do not scale, as R2' does: an overstatement where a beacon sends a current).
 """
 
 from __future__ import annotations
