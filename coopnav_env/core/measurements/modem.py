@@ -328,7 +328,8 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
     """The gated update of survey s with beacon j's range (row H; meas as ``_count_rejection``'s):
     ``"white"`` with the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"``
     with it as consider states (eqs. C2-C6); ``"ci"`` by covariance intersection
-    (CI3, CI5) with R as white's. Returns (fused, the innovation's variance S)."""
+    (CI3, CI5) with R as white's. Each carries the survey's dead-reckoning-bias cross-covariance
+    Pxd through its gain (``dr_bias.py``, eq. D3). Returns (fused, the innovation's variance S)."""
     r, h, R, R_white, beacon_var = meas
     K, Pbb = scratch[0], scratch[1]
     y = r - h
