@@ -207,4 +207,5 @@ def consider_start(sim: Any, B: int) -> dict:
         "s_win_dr": np.zeros((B, S, N, M, 2)),
         "s_win_dz": np.zeros((B, S, N, M)),
         "s_win_t": np.zeros((B, S, N, M)),
+        "s_Pxd": np.zeros((B, S, 3, 2)),
     }

@@ -20,11 +20,12 @@ from .navigation import joseph_update
 
 
 @njit(cache=True, inline="always")
-def _axis_update(x, P, Pxb, z, axis, R, H, K):
+def _axis_update(x, P, Pxb, Pxd, z, axis, R, H, K):
     """A direct measurement z of state axis ``axis`` (depth: 2, GPS: 0 and 1) with
     variance R fused into one filter (eqs. 9-13), in place, and every beacon's
     cross-covariance Pxb (N, 3, 2) carried through it (eq. C6, with K = P H^T / S before
-    the update). H, K: scratch (3,)."""
+    the update), and so is the cross-covariance with the survey's own dead-reckoning biases
+    Pxd (3, 2) (eq. D3). H, K: scratch (3,)."""
     H[:] = 0.0
     H[axis] = 1.0
     S = P[axis, axis] + R
@@ -33,12 +34,13 @@ def _axis_update(x, P, Pxb, z, axis, R, H, K):
     joseph_update(x, P, z, x[axis], H, R)
     for j in range(Pxb.shape[0]):
         carry_cross_covariance(Pxb[j], K, H)
+    carry_cross_covariance(Pxd, K, H)
 
 
-def _fuse_depth_gps(sv, Pxb, sensor_n, sensor_u, nan_count, prm):
+def _fuse_depth_gps(sv, Pxb, Pxd, sensor_n, sensor_u, nan_count, prm):
     """Depth sensor every cycle, GPS (east and north) when at the surface; NaNs rejected
     and counted. Updates sv.est, sv.P (``kernel_records.SurveyView``), the consider
-    states' cross-covariances Pxb (B,S,N,3,2) and nan_count (B,S) in place; sensor_n,
+    states' cross-covariances Pxb (B,S,N,3,2) and Pxd (B,S,3,2) (dr_bias.py) and nan_count (B,S) in place; sensor_n,
     sensor_u (B,S,3) this cycle's draws; prm: ``kernel_records.SurveyParams``."""
     est, P, s_pos = sv.est, sv.P, sv.pos
     depth_noise_m, gps_noise_m, nan_probability = prm.depth_noise_m, prm.gps_noise_m, prm.nan_probability
@@ -51,7 +53,7 @@ def _fuse_depth_gps(sv, Pxb, sensor_n, sensor_u, nan_count, prm):
             if sensor_u[b, s, 0] < nan_probability:
                 z = np.nan  # fault injection: a NaN must never enter the filter
             if np.isfinite(z):
-                _axis_update(est[b, s], P[b, s], Pxb[b, s], z, 2, R_depth, H, K)
+                _axis_update(est[b, s], P[b, s], Pxb[b, s], Pxd[b, s], z, 2, R_depth, H, K)
             else:
                 nan_count[b, s] += 1
             if s_pos[b, s, 2] < prm.gps_max_depth_m:
@@ -60,7 +62,7 @@ def _fuse_depth_gps(sv, Pxb, sensor_n, sensor_u, nan_count, prm):
                     if sensor_u[b, s, 1 + axis] < nan_probability:
                         z = np.nan
                     if np.isfinite(z):
-                        _axis_update(est[b, s], P[b, s], Pxb[b, s], z, axis, gps_noise_m**2, H, K)
+                        _axis_update(est[b, s], P[b, s], Pxb[b, s], Pxd[b, s], z, axis, gps_noise_m**2, H, K)
                     else:
                         nan_count[b, s] += 1
 

@@ -153,6 +153,7 @@ class ConsiderView(NamedTuple):
     win_dr: np.ndarray  # (B,S,N,M,2)
     win_dz: np.ndarray  # (B,S,N,M)
     win_t: np.ndarray  # (B,S,N,M)
+    Pxd: np.ndarray  # (B,S,3,2) cross-covariance with the survey's own dead-reckoning biases (dr_bias.py)
 
 
 def consider_view(st: SimState) -> ConsiderView:
@@ -168,4 +169,5 @@ def consider_view(st: SimState) -> ConsiderView:
         st.s_win_dr,
         st.s_win_dz,
         st.s_win_t,
+        st.s_Pxd,
     )

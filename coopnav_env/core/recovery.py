@@ -43,6 +43,12 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          2001); the cross-covariance with the beacon's error (for ``consider.py``):
          Pxb = P J^T Sigma^-1 J Pbb (the estimate's error is x - x_hat = -P J^T Sigma^-1
          (noise), and the noise's part from b is -U b, U = J).
+    (R6) the cross-covariance with the survey's own dead-reckoning biases phi = (k, beta)
+         (``dr_bias.py``; the true shift is s_k + G_k phi, G_k = [s_k, J s_k], eq. D1):
+         the residuals' part from phi is -Uf phi, Uf_k = (u_k^T s_k, u_k^T J s_k), so
+         Pxd = E[(x - x_hat) phi^T] = P J^T Sigma^-1 Uf Pff (the prior's share, through
+         P Pp^-1 <= P / s_lock^2, left out; s_k includes the told current's drift, which the
+         biases do not scale, as R2' does: an overstatement where a beacon sends a current).
 """
 
 from __future__ import annotations
@@ -148,3 +154,20 @@ def window_fix(
     out_P[:, :] = 0.5 * (P + P.T)
     out_Pxb[:, :] = P @ (J.T @ SiJ) @ noise.Pbb
     return it
+
+
+@njit(cache=True)
+def window_bias_cross(
+    x: np.ndarray, win: RangeWindow, m: int, noise: WindowNoise, P: np.ndarray, out: np.ndarray
+) -> None:
+    """Eq. (R6): the cross-covariance (2, 2) of the fix x (2,) with covariance P (2, 2)
+    (``window_fix``'s outputs) with the survey's dead-reckoning biases (k, beta), of
+    variances noise.scale_std^2 and noise.heading_std_rad^2, written into out."""
+    J, r, Sig = np.empty((m, 2)), np.empty(m), np.empty((m, m))
+    window_terms(x, win, m, noise, J, r, Sig)
+    Uf = np.empty((m, 2))
+    for k in range(m):
+        sx, sy = win.shift[k, 0], win.shift[k, 1]
+        Uf[k, 0] = (J[k, 0] * sx + J[k, 1] * sy) * noise.scale_std**2
+        Uf[k, 1] = (J[k, 1] * sx - J[k, 0] * sy) * noise.heading_std_rad**2  # u^T J s, J s = (-s_y, s_x)
+    out[:, :] = P @ (J.T @ np.linalg.solve(Sig, Uf))

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scenarios.base import ScenarioConfig
-from . import beacon_nav, channel, episode_start, fusion, measurements, observation, rng, substeps
+from . import beacon_nav, channel, dr_bias, episode_start, fusion, measurements, observation, rng, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
 from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step
 from .guidance import build_path
@@ -87,6 +87,7 @@ class Simulator(BatchSimulator):
         tau = c.gps_error_time_constant_s
         phi = np.where(is_asv, np.exp(-c.ping_interval_s / tau) if tau > 0 else 0.0, 1.0)
         self._consider_phi = phi if c.beacon_error_fusion == "schmidt" and (phi != 1.0).any() else None
+        self._bias_std = dr_bias.considered_biases(c)  # eqs. D1-D4, or None
         self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
         par = "_parallel" if self._parallel else ""
         self._k_survey = getattr(substeps, "integrate_survey" + par)
@@ -322,6 +323,9 @@ class Simulator(BatchSimulator):
         st = self._live
         B, N, S = self.batch_size, self.N, self.S
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
+        if self._bias_std is not None:  # eq. (D2): the survey's own dead-reckoning biases
+            var = dr_bias.bias_variances(*self._bias_std, st.ep_noise_scale)
+            dr_bias.bias_predict(st.s_P, st.s_Pxd, st.s_dr[..., :2] - self._dr_before, var)
         fused = np.zeros((B, N, S), dtype=bool)
         out = measurements.FusionOutputs(
             fused=fused,
@@ -332,7 +336,9 @@ class Simulator(BatchSimulator):
         )
         if self._consider_phi is not None:  # eq. (C7): the beacons' Gauss-Markov errors decorrelate
             st.s_Pxb *= self._consider_phi[None, None, :, None, None]
-        self._k_depth_gps(survey_view(st), st.s_Pxb, draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params)
+        self._k_depth_gps(
+            survey_view(st), st.s_Pxb, st.s_Pxd, draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params
+        )
         return out
 
     def _acoustic_ranging(self, draws: dict, out: measurements.FusionOutputs, transmit):
@@ -482,6 +488,7 @@ class Simulator(BatchSimulator):
         guidance, eq. (1), the true motion and the dead reckoning of eq. (4)."""
         c, st = self.config, self._live
         noise = draws["substep"] * st.ep_noise_scale[:, None, None, None]  # (B,K,2,S): compass, pitch
+        self._dr_before = st.s_dr[..., :2].copy()  # the cycle's dead-reckoned displacement: eq. (D1)'s D
         self._k_survey(
             survey_view(st),
             np.radians(c.compass_noise_deg) * noise[:, :, 0],

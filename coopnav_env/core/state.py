@@ -120,3 +120,5 @@ class SimState(BatchArrays):
     s_win_dr: np.ndarray  # the survey's dead-reckoned position when each was received (B,S,N,M,2)
     s_win_dz: np.ndarray  # survey depth estimate minus the beacon's at each (B,S,N,M)
     s_win_t: np.ndarray  # time of each (B,S,N,M)
+    # the survey filters' cross-covariance with their own dead-reckoning biases (core/dr_bias.py; appended last)
+    s_Pxd: np.ndarray  # E[e phi^T], phi = (speed-scale error, compass bias) (B,S,3,2)

@@ -31,6 +31,7 @@ PAPER_FILTER = {
     "range_outlier_model": "gate",
     "lockout_recovery": "nearest_point",
     "gps_error_time_constant_s": 0.0,
+    "survey_bias_consider": False,
 }
 AREA_LIMIT_M = 20_000.0  # each side of the survey area
 MAX_WAYPOINTS = 100_000  # a path that needs more is refused before it is built
@@ -290,6 +291,14 @@ class SurveyEKF(Section):
             "their cross-covariance (docs/scenarios/consider-fusion.md, eqs. C1-C8; the ping grows by 20 bits); "
             "'white', its variance added to R each ping (Gao & Chitre below eq. 7, the papers' filter); 'ci', "
             "covariance intersection of each range (Julier & Uhlmann 1997)"
+        ),
+    )
+    survey_bias_consider: bool = param(
+        True,
+        doc=(
+            "carry the survey's own speed-scale error and compass bias (survey_speed_scale_error_std, "
+            "compass_bias_std_deg) as consider states of its EKF (core/dr_bias.py, eqs. D1-D4; the modem sensor only); "
+            "False: only the white process noise stands for them (the papers' filter)"
         ),
     )
     lockout_recovery: str = param(

@@ -32,7 +32,7 @@ from ..jit import parallel_twin
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import blend_update, direct_path_weight
 from ..navigation import gated_update, innovation_variance, moving_range_prediction, reinit_on_range
-from ..recovery import RangeWindow, WindowNoise, window_fix, window_terms
+from ..recovery import RangeWindow, WindowNoise, window_bias_cross, window_fix, window_terms
 from . import FusionOutputs
 
 
@@ -124,6 +124,7 @@ class ModemParams(NamedTuple):
     window_chi2: np.ndarray  # (7,): the 99 % chi-square point of a window fix's residuals by dof = m - 2
     dr_scale_std: float  # survey_speed_scale_error_std: the window's shared shift scale error (R2')
     dr_heading_std_rad: float  # compass_bias_std_deg: its shared rotation (R2')
+    bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
 
 
 # beacon_error_fusion as the kernel reads it
@@ -281,6 +282,9 @@ def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
     if keep.shape[0] < 3:
         return False
     cv.Pxb[b, s] = 0.0  # the old estimate is discarded: so are its correlations
+    cv.Pxd[b, s] = 0.0
+    if prm.bias_consider:  # (R6, D4)
+        window_bias_cross(x, _window_of(cv, sv, b, s, j, keep, t_s), keep.shape[0], noise, P, cv.Pxd[b, s, :2])
     for i in range(2):
         sv.est[b, s, i] = x[i]
         sv.P[b, s, i, 2] = sv.P[b, s, 2, i] = 0.0
@@ -313,6 +317,7 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
         restarted = reinit_on_range(sv.est[b, s], sv.P[b, s], r, h, H, R_all)
         if restarted:
             cv.Pxb[b, s] = 0.0
+            cv.Pxd[b, s] = 0.0  # (D4)
     if restarted:
         sv.rejected_streak[b, s] = 0  # locked out: restarted
         out.restarts[b, s] += 1
@@ -323,7 +328,8 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
     """The gated update of survey s with beacon j's range (row H; meas as ``_count_rejection``'s):
     ``"white"`` with the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"``
     with it as consider states (eqs. C2-C6); ``"ci"`` by covariance intersection
-    (CI3, CI5) with R as white's. Returns (fused, the innovation's variance S)."""
+    (CI3, CI5) with R as white's. Each carries the survey's dead-reckoning-bias cross-covariance
+    Pxd through its gain (``dr_bias.py``, eq. D3). Returns (fused, the innovation's variance S)."""
     r, h, R, R_white, beacon_var = meas
     K, Pbb = scratch[0], scratch[1]
     y = r - h
@@ -334,30 +340,44 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
             for j2 in range(cv.Pxb.shape[2]):
                 if j2 != j:
                     carry_cross_covariance(cv.Pxb[b, s, j2], K, H)  # (C6)
+            carry_cross_covariance(cv.Pxd[b, s], K, H)  # (D3)
         return fused, y * y / nis if nis > 0.0 else 0.0
     S = innovation_variance(sv.P[b, s], H, R_white)
     if prm.fusion == CI:
         if y * y / S > prm.gate:
             return False, S
+        x0 = sv.est[b, s].copy()
         ci_range_update(sv.est[b, s], sv.P[b, s], y, H, R_white, False)
+        if y != 0.0:  # (D3) with the CI gain K (CI3), recovered from the step it took: x - x0 = K y
+            for i in range(3):
+                K[i] = (sv.est[b, s, i] - x0[i]) / y
+            carry_cross_covariance(cv.Pxd[b, s], K, H)
         return True, S
-    return gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R_white, prm.gate), S
+    K[:] = sv.P[b, s] @ H / S  # the gain of eqs. (12), before the update
+    fused = gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R_white, prm.gate)
+    if fused:
+        carry_cross_covariance(cv.Pxd[b, s], K, H)  # (D3)
+    return fused, S
 
 
 @njit(cache=True, inline="always")
 def _update(sv, cv, prm, b, s, j, H, meas, scratch):
     """``_kalman``; with ``range_outlier_model="mixture"`` a fused range moves the filter
     only by the direct path's posterior probability (``multipath``, eqs. M1-M3).
-    scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3), Pxb0 (N, 3, 2)). Returns whether fused."""
-    x0, P0, X0 = scratch[2], scratch[3], scratch[4]
+    scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3), Pxb0 (N, 3, 2), Pxd0 (3, 2)). Returns whether fused."""
+    x0, P0, X0, D0 = scratch[2], scratch[3], scratch[4], scratch[5]
     if prm.mixture:
         x0[:] = sv.est[b, s]
         P0[:, :] = sv.P[b, s]
         X0[:, :, :] = cv.Pxb[b, s]
+        D0[:, :] = cv.Pxd[b, s]
     fused, S = _kalman(sv, cv, prm, b, s, j, H, meas, scratch)
     if fused and prm.mixture and S > 0.0:
         w = direct_path_weight(meas[0] - meas[1], S, prm.outlier_probability, prm.outlier_mean_excess_m)
         blend_update(w, x0, P0, X0, sv.est[b, s], sv.P[b, s], cv.Pxb[b, s])
+        for i in range(3):  # (M3) for the dead-reckoning biases' cross-covariance
+            for a in range(2):
+                cv.Pxd[b, s, i, a] = w * cv.Pxd[b, s, i, a] + (1.0 - w) * D0[i, a]
     return fused
 
 
@@ -408,7 +428,7 @@ def _fuse(sv, bv, cv, cyc, prm, out):
     B, N, S = bv.pos.shape[0], bv.pos.shape[1], sv.est.shape[1]
     for b in prange(B):
         delays = np.zeros((2, 2 if prm.two_way else 1))
-        scratch = (np.zeros(3), np.zeros((2, 2)), np.zeros(3), np.zeros((3, 3)), np.zeros((N, 3, 2)))
+        scratch = (np.zeros(3), np.zeros((2, 2)), np.zeros(3), np.zeros((3, 3)), np.zeros((N, 3, 2)), np.zeros((3, 2)))
         for s in range(S):
             any_fused = False
             for j in range(N):
@@ -462,6 +482,7 @@ class ModemRanging:
                 chi2.ppf(0.99, np.maximum(np.arange(7), 1)),
                 float(c.survey_speed_scale_error_std),
                 float(np.radians(c.compass_bias_std_deg)),
+                bool(c.survey_bias_consider),
             ]
         )
         self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
