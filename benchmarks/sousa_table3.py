@@ -58,11 +58,12 @@ DEFAULT_SEED = 700_000  # reporting seeds: disjoint from evaluate.py's (0..) and
 
 
 def make_path_config(path: str, args: argparse.Namespace) -> ScenarioConfig:
-    from coopnav_env.scenarios import PAPER_FILTER, make_config
+    from coopnav_env.scenarios import make_config
+    from coopnav_env.scenarios.sousa import SOUSA_PAPER_FILTER
 
     return make_config(
         "sousa_asv",
-        **PAPER_FILTER,  # the paper's filter: its table does not move with issue 21's consider fusion
+        **SOUSA_PAPER_FILTER,  # the paper's filter: its table does not move with issue 21's consider fusion
         survey_path=path,
         depth_m=args.depth,
         ping_interval_s=args.ping_interval,

@@ -434,12 +434,13 @@ def test_fim_b_against_fim_a_at_the_papers_fig6_regime():
     20 m deep, a small circle) ours does not: B - A stays below the paper's +4 m by a
     wide margin with either predictor (benchmarks/sousa_table3.py has the full table)."""
     import coopnav_env
+    from coopnav_env.scenarios.sousa import SOUSA_PAPER_FILTER
     from evaluation.episodes import run_episodes
     from evaluation.paired import t_interval
 
     config = coopnav_env.make_config(
         "sousa_asv",
-        **coopnav_env.scenarios.PAPER_FILTER,  # the paper's filter
+        **SOUSA_PAPER_FILTER,  # the paper's filter (and its white Q)
         survey_path="circle",
         depth_m=20.0,
         ping_interval_s=20.0,

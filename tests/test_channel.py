@@ -22,7 +22,7 @@ from coopnav_env.core.channel import link_params, ping_energy_j
 from coopnav_env.core.link import SlotTransmissions, slot_timeline
 from coopnav_env.core.link_framing import slot_timing
 from coopnav_env.core.reward import TERM_WEIGHTS, weighted_reward
-from coopnav_env.scenarios import PAPER_FILTER
+from coopnav_env.scenarios.sousa import SOUSA_PAPER_FILTER
 from coopnav_env.scenarios.validate import SLOWEST_SOUND_SPEED_MPS
 from coopnav_env.views import action_space, check_action
 
@@ -365,7 +365,7 @@ def test_the_range_link_reproduces_the_earlier_channel_bit_for_bit():
     ref = np.load(DATA / "sousa_ping_range_link.npz")
     earlier = {"link_model": "range", "ping_offsets": "zero", "ping_interval_s": 5.0}
     earlier |= {"asv_surge_noise_mps": 0.0, "asv_steering_noise_deg": 0.0}  # the ASVs followed commands exactly
-    earlier |= dict(PAPER_FILTER)  # and the survey filter was the papers'
+    earlier |= dict(SOUSA_PAPER_FILTER)  # and the survey filter was the papers' (white Q 0.05)
     for batch, seeds in rec.RUNS:
         new = rec.record("sousa_ping", batch, seeds, earlier)
         recorded = {k.split("/", 1)[1] for k in ref.files if k.startswith(f"B{batch}/")}
