@@ -192,7 +192,9 @@ class CoopNavTorchEnv(EnvBase):
             root_obs["info"] = Composite(
                 {k: Unbounded((B, *s), device=dev, dtype=d) for k, (s, d) in root_info.items()}, shape=(B,), device=dev
             )
-        self.observation_spec = Composite({GROUP: Composite(group_obs, shape=(B, N), device=dev), **root_obs}, shape=(B,))
+        self.observation_spec = Composite(
+            {GROUP: Composite(group_obs, shape=(B, N), device=dev), **root_obs}, shape=(B,)
+        )
         action = Bounded(-1.0, 1.0, (B, N, self.action_dim), device=dev, dtype=torch.float32)
         self.action_spec = Composite({GROUP: Composite({"action": action}, shape=(B, N), device=dev)}, shape=(B,))
         reward = Unbounded((B, N, 1), device=dev, dtype=torch.float32)
@@ -222,7 +224,7 @@ class CoopNavTorchEnv(EnvBase):
     # ------------------------------------------------------------------------------
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
         mask = None
-        if tensordict is not None and "_reset" in tensordict.keys():
+        if tensordict is not None and "_reset" in tensordict.keys():  # noqa: SIM118 - TensorDict has no `in`
             mask = tensordict.get("_reset").reshape(self.n_envs).cpu().numpy()
         if not self._started or mask is None or mask.all():
             self.sim.reset(self._next_seeds(np.arange(self.n_envs)))
@@ -265,7 +267,11 @@ class CoopNavTorchEnv(EnvBase):
             raise RuntimeError("step() before reset()")
         actions = self.check_actions(tensordict.get((GROUP, "action")))
         res = self.sim.step(actions)
-        reward = res.reward if self.reward_terms is None else training_reward(self.reward_terms, res, self.sim.reward_weights)
+        reward = (
+            res.reward
+            if self.reward_terms is None
+            else training_reward(self.reward_terms, res, self.sim.reward_weights)
+        )
         term, trunc = np.asarray(res.terminated, dtype=bool), np.asarray(res.truncated, dtype=bool)
         self._done = term | trunc
         B = self.n_envs

@@ -13,7 +13,8 @@ from types import ModuleType
 
 import pytest
 
-EXTRAS = {"ray": "rllib", "torchrl": "marl", "tensordict": "marl", "benchmarl": "marl"}  # top-level module -> the pyproject extra that installs it
+# top-level module -> the pyproject extra that installs it
+EXTRAS = {"ray": "rllib", "torchrl": "marl", "tensordict": "marl", "benchmarl": "marl"}
 
 
 def under_ci() -> bool:

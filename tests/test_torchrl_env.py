@@ -7,6 +7,7 @@ import sys
 
 import numpy as np
 import pytest
+
 from optional import require
 
 require("torchrl")
@@ -39,7 +40,7 @@ def test_check_env_specs_and_shapes(scenario, n_beacons, action_dim):
     assert env.full_action_spec[ACT].shape == (3, n_beacons, action_dim)
     td = env.rollout(6, break_when_any_done=False)  # crosses an auto-reset (max_cycles 4)
     assert td[OBS].shape == (3, 6, n_beacons, env.obs_dim)
-    assert td["next", *REW].shape == (3, 6, n_beacons, 1)
+    assert td[("next", *REW)].shape == (3, 6, n_beacons, 1)
     assert td["state"].shape == (3, 6, env.sim.state_dim + n_beacons * env.obs_dim)
     assert td["next", "done"][:, 3].all() and not td["next", "done"][:, :3].any()
     assert td["next", "truncated"][:, 3].all() and not td["next", "terminated"].any()
@@ -152,8 +153,8 @@ def test_bad_actions_get_the_views_one_line_errors():
     twin = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=0, **TWO_BY_TWO)
     wild = torch.tensor([[[5.0, -7.0], [0.5, 3.0]], [[-2.0, 0.1], [1e9, -1e9]]])
     env.set_seed(0)  # restart the episode count: the same episodes as twin
-    a = env.step(env.reset().set(ACT, wild))["next", *OBS]
-    b = twin.step(twin.reset().set(ACT, wild.clamp(-1, 1)))["next", *OBS]
+    a = env.step(env.reset().set(ACT, wild))[("next", *OBS)]
+    b = twin.step(twin.reset().set(ACT, wild.clamp(-1, 1)))[("next", *OBS)]
     assert torch.equal(a, b)
     fresh = CoopNavTorchEnv("sousa_asv", n_envs=1, seed=0)
     with pytest.raises(RuntimeError, match="reset"):
@@ -188,7 +189,7 @@ def test_transmit_decision_and_the_motion_alone():
 
 
 def test_state_and_training_reward():
-    """"state": the core's global_state then every observation (privileged), or the
+    """ "state": the core's global_state then every observation (privileged), or the
     observations alone; ``reward_terms`` gives the VecEnv's training reward."""
     terms = {"error": 1.0, "penalties": 0.5}
     env = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=3, reward_terms=terms, **TWO_BY_TWO)
@@ -198,11 +199,11 @@ def test_state_and_training_reward():
     gs = env.sim.global_state()
     assert torch.equal(td["state"], torch.cat([torch.from_numpy(gs), td[OBS].reshape(2, -1)], -1))
     a = np.full((2, 2, 2), 0.5, dtype=np.float32)
-    r = env.step(td.set(ACT, torch.from_numpy(a)))["next", *REW]
+    r = env.step(td.set(ACT, torch.from_numpy(a)))[("next", *REW)]
     assert np.array_equal(r.numpy().reshape(-1), venv.step(a.reshape(4, 2))[1])
     plain = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=3, state="observations", infos=False, **TWO_BY_TWO)
     td = plain.reset()
-    assert torch.equal(td["state"], td[OBS].reshape(2, -1)) and "info" not in td.keys()
+    assert torch.equal(td["state"], td[OBS].reshape(2, -1)) and "info" not in td.keys()  # noqa: SIM118 - TensorDict has no `in`
 
 
 def test_importing_coopnav_env_does_not_import_torch():

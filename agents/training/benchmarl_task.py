@@ -38,7 +38,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from benchmarl.environments.common import Task, TaskClass
 from torchrl.data import Composite
@@ -55,6 +55,8 @@ __all__ = [
     "ENV_NAME",
     "CoopNavClass",
     "CoopNavTask",
+    "get_task",
+    "members",
     "register",
     "scenario_config",
     "task_yaml",
@@ -147,17 +149,17 @@ class CoopNavClass(TaskClass):
         """The groups' observations (without the infos and the state)."""
         spec = env.full_observation_spec_unbatched.clone()
         for key in ("state", "info"):
-            if key in spec.keys():
+            if key in spec.keys():  # noqa: SIM118 - a Composite spec: membership through its keys
                 del spec[key]
         for group in self.group_map(env):
-            if "info" in spec[group].keys():
+            if "info" in spec[group].keys():  # noqa: SIM118 - as above
                 del spec[(group, "info")]
         return spec
 
     def info_spec(self, env: EnvBase) -> Composite | None:
         spec = env.full_observation_spec_unbatched
         infos = {group: Composite({"info": spec[group, "info"].clone()}) for group in self.group_map(env)}
-        if not all("info" in spec[g].keys() for g in infos):
+        if not all("info" in spec[g].keys() for g in infos):  # noqa: SIM118 - as above
             return None
         return Composite(infos)
 
@@ -214,12 +216,18 @@ class CoopNavTask(Task):
         return self.get_task(config=config)
 
 
+def members() -> list:
+    """``CoopNavTask``'s members in order (BenchMARL's ``Task`` is untyped: mypy does not
+    see the Enum behind it)."""
+    return list(cast(Any, CoopNavTask))
+
+
 def register() -> None:
     """Add ``coopnav/<task set>`` to BenchMARL's ``task_config_registry`` (for
     ``benchmarl.run`` and ``load_experiment_from_hydra``; idempotent)."""
     from benchmarl.environments import task_config_registry
 
-    for member in CoopNavTask:
+    for member in members():
         task_config_registry[f"{ENV_NAME}/{member.name.lower()}"] = member
 
 
@@ -227,12 +235,14 @@ def get_task(name: str, task: str | None = None, **changes: Any) -> TaskClass:
     """The BenchMARL task of task set ``name`` from its YAML; ``task`` picks a task of the
     set, ``changes`` replace other config keys (``overrides``, ``reward_terms``, ``state``)."""
     try:
-        member = CoopNavTask[name.upper()]
+        member = cast(Any, CoopNavTask)[name.upper()]
     except KeyError:
         from coopnav_env.names import did_you_mean
 
-        names = [m.name.lower() for m in CoopNavTask]
-        raise ValueError(f"unknown coopnav task {name!r}{did_you_mean(name, names)} valid: {', '.join(names)}") from None
+        names = [m.name.lower() for m in members()]
+        raise ValueError(
+            f"unknown coopnav task {name!r}{did_you_mean(name, names)} valid: {', '.join(names)}"
+        ) from None
     out = member.get_from_yaml()
     if task is not None:
         out.config["task"] = task
@@ -284,7 +294,8 @@ def write_task_configs(task_sets: Iterable[Any], directory: str | Path | None = 
     """Write ``task_yaml`` of every task set to ``directory`` (default
     ``configs/benchmarl/task/coopnav``), atomically; returns the paths. Run as
 
-        python -c "from evaluation.tasks import TASK_SETS; from agents.training.benchmarl_task import write_task_configs; write_task_configs(TASK_SETS.values())"
+        python -c "from evaluation.tasks import TASK_SETS; \\
+            from agents.training.benchmarl_task import write_task_configs as w; w(TASK_SETS.values())"
     """
     from coopnav_env.records import atomic_write_text
 

@@ -58,7 +58,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--algorithm", default="mappo", help=f"one of {', '.join(ALGORITHMS)} (default: mappo)")
     p.add_argument("--task", required=True, help="a coopnav task set, optionally /<task> of it (e.g. gao_sea/calm)")
     p.add_argument("--frames", type=int, help="env-steps to train (BenchMARL's max_n_frames; default: the YAML's)")
-    p.add_argument("--out", help="run folder to create, absent or empty (default: runs/marl/<task>-<algorithm>-seed<seed>)")
+    p.add_argument(
+        "--out", help="run folder to create, absent or empty (default: runs/marl/<task>-<algorithm>-seed<seed>)"
+    )
     p.add_argument("--seed", type=int, default=0, help="base seed: row e plays episodes seed + e + k * 1_000_003")
     p.add_argument("--n-envs", type=int, help="environments in the batch (on/off_policy_n_envs_per_worker)")
     p.add_argument("--model", default="mlp", help=f"policy model: {', '.join(MODELS)} (default: mlp)")
@@ -66,9 +68,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--experiment-config", help=f"experiment YAML (default: configs/benchmarl/{EXPERIMENT_YAML})")
     p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help="an experiment setting")
     p.add_argument(
-        "--override", action="append", default=[], metavar="PARAM=VALUE", help="a scenario parameter on top of the task's"
+        "--override",
+        action="append",
+        default=[],
+        metavar="PARAM=VALUE",
+        help="a scenario parameter on top of the task's",
     )
-    p.add_argument("--state", choices=("privileged", "observations"), help="the critics' state (default: the task YAML's)")
+    p.add_argument(
+        "--state", choices=("privileged", "observations"), help="the critics' state (default: the task YAML's)"
+    )
     p.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
     return p
 
@@ -210,16 +218,15 @@ def _quiet_benchmarl_bar() -> None:
     import benchmarl.experiment.experiment as bx
     from tqdm import tqdm
 
-    bx.tqdm = functools.partial(tqdm, disable=True)  # type: ignore[attr-defined]
+    bx.tqdm = functools.partial(tqdm, disable=True)
 
 
 def _save_policy(experiment: Any, path: Path) -> None:
     """The trained policy's weights as safetensors (data, not a pickle), written atomically."""
+    import torch
     from safetensors.torch import save
 
     from coopnav_env.records import atomic_write_bytes
-
-    import torch
 
     state = {
         k: v.detach().cpu().contiguous().clone()
@@ -239,7 +246,10 @@ def run(args: argparse.Namespace, command: str) -> dict:
     _choice(args.model, MODELS, "model")
     _choice(args.critic_model, MODELS, "critic model")
     set_name, _, task_name = args.task.partition("/")
-    refuse_test_seeds(args.seed, 1, what="--seed")
+    try:
+        refuse_test_seeds(args.seed, 1, what="--seed")
+    except ValueError as err:
+        raise ConfigError(str(err)) from None
     out = Path(args.out or f"runs/marl/{args.task.replace('/', '_')}-{algorithm}-seed{args.seed}")
     changes = _parse_assignments(args.set, "--set")
     overrides = _parse_assignments(args.override, "--override")
