@@ -193,18 +193,19 @@ def build_experiment(
     task: Any,
     seed: int,
     config: Any,
-    model: str = "mlp",
-    critic_model: str = "mlp",
+    model: Any = "mlp",
+    critic_model: Any = "mlp",
     callbacks: Sequence[Any] = (),
 ) -> Any:
-    """BenchMARL's ``Experiment`` for a coopnav ``task`` (``benchmarl_task.get_task``)."""
+    """BenchMARL's ``Experiment`` for a coopnav ``task`` (``benchmarl_task.get_task``);
+    ``model`` and ``critic_model``: a name of ``MODELS`` (BenchMARL's YAML) or a ``ModelConfig``."""
     from benchmarl.experiment import Experiment
 
     return Experiment(
         task=task,
         algorithm_config=_algorithm_config(algorithm),
-        model_config=_model_config(model),
-        critic_model_config=_model_config(critic_model),
+        model_config=_model_config(model) if isinstance(model, str) else model,
+        critic_model_config=_model_config(critic_model) if isinstance(critic_model, str) else critic_model,
         seed=seed,
         config=config,
         callbacks=list(callbacks),
