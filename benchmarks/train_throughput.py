@@ -236,6 +236,7 @@ def measure_torchrl(
     net: Sequence[int],
     rollouts: int,
     seed: int,
+    threads: int = 1,
 ) -> dict:
     """Whole-loop env-steps/s of BenchMARL's ``algorithm`` (mappo, ippo) on the batched
     TorchRL env: ``rollouts`` timed iterations (collection + updates) after one untimed."""
@@ -285,6 +286,7 @@ def measure_torchrl(
         return out
 
     clock = _clock_class()()
+    import torch
     from benchmarl.models import MlpConfig
 
     mlp = dataclasses.replace(MlpConfig.get_from_yaml(), num_cells=list(net))  # the policy's and the critic's
@@ -293,6 +295,7 @@ def measure_torchrl(
         with tempfile.TemporaryDirectory() as folder:  # BenchMARL writes its config there, even without loggers
             config.save_folder = folder
             experiment = build_experiment(algorithm, task, seed, config, mlp, mlp, callbacks=[clock])
+            torch.set_num_threads(threads)  # numba's OpenMP start (threaded kernels, >= 256 envs) resets torch's
             experiment.run()
     finally:
         CoopNavTorchEnv._step, CoopNavTorchEnv._reset = step, reset  # type: ignore[method-assign]
@@ -316,6 +319,7 @@ def measure_torchrl(
         "epochs": epochs,
         "steps_per_env": steps,
         "net": list(net),
+        "torch_threads": torch.get_num_threads(),
     }
 
 
@@ -371,26 +375,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     kinds = [args.only] if args.only else ["coopnav", "supersuit"]
     if args.only == "none":
         kinds = []
-    results = [
-        measure(
-            k,
-            args.scenario,
-            config,
-            n_envs,
-            args.rollouts,
-            args.seed,
-            args.supersuit_cpus,
-            args.step_infos,
-            args.training_reward,
+    results = []
+
+    def done(r: dict) -> None:  # each figure on stderr as it comes: a long run killed early keeps them
+        results.append(r)
+        print(f"measured {r['kind']} rows {r['rows']}: {r['steps_per_s']:.0f} env-steps/s", file=sys.stderr, flush=True)
+
+    for k in kinds:
+        done(
+            measure(
+                k,
+                args.scenario,
+                config,
+                n_envs,
+                args.rollouts,
+                args.seed,
+                args.supersuit_cpus,
+                args.step_infos,
+                args.training_reward,
+            )
         )
-        for k in kinds
-    ]
     for algorithm in [a for a in args.torchrl.split(",") if a]:
         if algorithm not in ("mappo", "ippo"):
             print(f"train_throughput.py: error: --torchrl takes mappo and ippo, got {algorithm!r}", file=sys.stderr)
             return 2
         for n in (int(v) for v in args.torchrl_n_envs.split(",")):
-            results.append(
+            done(
                 measure_torchrl(
                     algorithm,
                     args.scenario,
@@ -402,6 +412,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     [int(v) for v in args.torchrl_net.split(",")],
                     args.rollouts,
                     args.seed,
+                    args.threads,
                 )
             )
     meta = {

@@ -113,7 +113,9 @@ def _algorithm_config(name: str) -> Any:
     return getattr(algos, f"{name.capitalize()}Config").get_from_yaml()
 
 
-def experiment_config(path: str | Path | None, n_envs: int | None, frames: int | None, changes: dict, on_policy: bool):
+def experiment_config(
+    path: str | Path | None, n_envs: int | None, frames: int | None, changes: dict, on_policy: bool
+) -> Any:
     """BenchMARL's ``ExperimentConfig``: its defaults, the coopnav YAML's changes, then
     ``n_envs``, ``frames`` and ``changes``. A batch larger than ``frames`` is cut to it
     (rounded to whole steps of the batch), and the evaluation interval to a multiple of it."""
@@ -283,10 +285,10 @@ def run(args: argparse.Namespace, command: str) -> dict:
     config.save_folder = str(partial.resolve())
     import torch
 
-    torch.set_num_threads(max(int(args.threads), 1))
     _quiet_benchmarl_bar()
     progress = ProgressCallback(int(config.get_max_n_frames(algo.on_policy())))
     experiment = build_experiment(algorithm, task, args.seed, config, args.model, args.critic_model, [progress])
+    torch.set_num_threads(max(int(args.threads), 1))  # after the envs: numba's OpenMP start resets torch's count
     t0 = time.perf_counter()
     try:
         experiment.run()
