@@ -109,16 +109,20 @@ def test_bad_command_lines_fail_in_one_line(tmp_path, capsys):
         assert not (tmp_path / "x").exists()  # nothing written before the checks pass
 
 
-@pytest.mark.parametrize("algorithm", ["ippo", pytest.param("masac", marks=pytest.mark.slow)])
-def test_tiny_ippo_and_masac(tmp_path, algorithm):
-    """The other paths on the transmit-decision scenario (two ASVs, 3 action components);
-    MASAC's updates take about 10 s here: slow."""
+@pytest.mark.parametrize(
+    "algorithm, task, extra",
+    [
+        ("ippo", "sousa_ping", []),  # two ASVs, three action components
+        ("mappo", "gao_team", ["--model", "gru"]),  # memory; the critic over the team's state
+        pytest.param("masac", "sousa_ping", ["--set", "off_policy_n_optimizer_steps=4"], marks=pytest.mark.slow),
+    ],
+)
+def test_the_other_paths(tmp_path, algorithm, task, extra):
+    """IPPO, a GRU policy and MASAC (its updates take about 10 s here: slow) on tiny runs."""
     out = tmp_path / algorithm
-    args = ["--algorithm", algorithm, "--task", "sousa_ping", *TINY, "--out", str(out)]
-    if algorithm == "masac":
-        args += ["--set", "off_policy_n_optimizer_steps=4"]
-    assert marl.main(args) == 0
-    assert json.loads((out / "run.json").read_text())["frames"] == 512
+    assert marl.main(["--algorithm", algorithm, "--task", task, *TINY, *extra, "--out", str(out)]) == 0
+    record = json.loads((out / "run.json").read_text())
+    assert record["frames"] == 512 and record["task"] == f"coopnav/{task}"
 
 
 @pytest.mark.slow

@@ -42,7 +42,9 @@ from benchmarl.experiment.callback import Callback
 from .config import ConfigError
 
 ALGORITHMS = ("mappo", "ippo", "masac", "maddpg", "iddpg", "isac")  # BenchMARL's continuous-action algorithms
-MODELS = ("mlp", "gru", "lstm", "deepsets")
+# BenchMARL's models that read the flat observation; its Deep Sets and GNN need set (entity)
+# inputs, which the flat observation is not ("DeepSets found no set inputs")
+MODELS = ("mlp", "gru", "lstm")
 EXPERIMENT_YAML = "experiment/coopnav.yaml"
 
 __all__ = ["ALGORITHMS", "MODELS", "build_experiment", "build_parser", "main"]
@@ -102,9 +104,9 @@ def _choice(value: str, valid: Sequence[str], what: str) -> str:
 
 
 def _model_config(name: str) -> Any:
-    from benchmarl.models import DeepsetsConfig, GruConfig, LstmConfig, MlpConfig
+    from benchmarl.models import GruConfig, LstmConfig, MlpConfig
 
-    return {"mlp": MlpConfig, "gru": GruConfig, "lstm": LstmConfig, "deepsets": DeepsetsConfig}[name].get_from_yaml()
+    return {"mlp": MlpConfig, "gru": GruConfig, "lstm": LstmConfig}[name].get_from_yaml()
 
 
 def _algorithm_config(name: str) -> Any:
