@@ -1,7 +1,9 @@
-"""PPO training throughput: our batched VecEnv against SuperSuit's conversion.
+"""PPO training throughput: our batched VecEnv against SuperSuit's conversion, and the
+batched TorchRL path (BenchMARL's MAPPO/IPPO on ``CoopNavTorchEnv``).
 
     python benchmarks/train_throughput.py                       # sousa_asv, its YAML hyperparameters
     python benchmarks/train_throughput.py --scenario gao_sea --rollouts 3 --json
+    python benchmarks/train_throughput.py --only coopnav --torchrl mappo,ippo --torchrl-n-envs 256,1024
 
 In one run, trains PPO (stable-baselines3, the scenario's configs/ppo YAML:
 n_envs, n_steps, batch size, epochs, network; VecMonitor + VecNormalize as in
@@ -24,8 +26,22 @@ per-episode randomization included, as train.py trains), with the environment's
 own reward (the YAML's training ``reward:`` terms are CoopNavVecEnv's and cost
 about as much as the info dicts they replace; ``--training-reward`` adds them).
 
+(c) ``--torchrl mappo[,ippo]`` (the ``marl`` extra): BenchMARL's ``Experiment`` on
+    ``coopnav_env.torchrl_env.CoopNavTorchEnv`` with ``--torchrl-n-envs`` environments as
+    ONE simulator's batch: its collector (the policy's forward passes, the env, the
+    buffer) and its PPO updates (``--torchrl-epochs`` passes over each batch of
+    ``--torchrl-steps`` steps per environment in minibatches of ``--torchrl-minibatch``),
+    MLPs of ``--torchrl-net``, no logger and no evaluation: the whole training loop. The
+    same overrides as (a) and (b), the environment's reward. The first iteration
+    (compilation, first reset) is untimed; ``--rollouts`` iterations are timed.
+
+Steps are environment-steps: one step of one row. For (a) and (b) a row is a beacon
+of an environment (SB3's rows), for (c) an environment (all its beacons act in one
+row of the batch); with one beacon (sousa_asv, gao_sea) the two are the same.
+
 A first rollout is run untimed as warm-up. Numbers depend on the machine and its
-load (the aim stated by issue 4: ours faster, environment share below 15 %).
+load (the aim stated by issue 4: ours faster, environment share below 15 %; issue 23:
+the TorchRL path 10x SB3's whole-loop figure).
 """
 
 from __future__ import annotations
@@ -35,6 +51,7 @@ import json
 import os
 import platform
 import sys
+import tempfile
 import time
 import warnings
 from collections.abc import Sequence
@@ -179,6 +196,133 @@ def measure(
     }
 
 
+ENV_SECONDS = [0.0]  # time inside CoopNavTorchEnv's _step and _reset (measure_torchrl)
+
+
+def _clock_class() -> type:
+    """A BenchMARL callback marking the end of each iteration's collection and of its
+    updates. BenchMARL pickles its callbacks: the class is made a module global (BenchMARL
+    is imported only when the TorchRL path runs)."""
+    if "_Clock" not in globals():
+        from benchmarl.experiment.callback import Callback
+
+        class _Clock(Callback):
+            def __init__(self) -> None:
+                super().__init__()
+                self.collected: list = []
+                self.trained: list = []
+                self.env_s: list = []
+
+            def on_batch_collected(self, batch: Any) -> None:
+                self.collected.append(time.perf_counter())
+
+            def on_train_end(self, training_td: Any, group: str) -> None:
+                self.trained.append(time.perf_counter())
+                self.env_s.append(ENV_SECONDS[0])
+
+        _Clock.__qualname__ = _Clock.__name__
+        globals()["_Clock"] = _Clock
+    return globals()["_Clock"]
+
+
+def measure_torchrl(
+    algorithm: str,
+    scenario: str,
+    overrides: dict,
+    n_envs: int,
+    steps: int,
+    minibatch: int,
+    epochs: int,
+    net: Sequence[int],
+    rollouts: int,
+    seed: int,
+    threads: int = 1,
+) -> dict:
+    """Whole-loop env-steps/s of BenchMARL's ``algorithm`` (mappo, ippo) on the batched
+    TorchRL env: ``rollouts`` timed iterations (collection + updates) after one untimed."""
+    import dataclasses
+    import logging
+    import warnings
+
+    from agents.training.benchmarl_task import CoopNavClass
+    from agents.training.marl import _quiet_benchmarl_bar, build_experiment, experiment_config
+    from coopnav_env.torchrl_env import CoopNavTorchEnv
+
+    warnings.filterwarnings("ignore", message="SyncDataCollector has been deprecated")
+    warnings.filterwarnings("ignore", message="No episode terminated this iteration")
+    logging.getLogger("torchrl").setLevel(logging.WARNING)
+    _quiet_benchmarl_bar()
+    per_batch = n_envs * steps
+    changes = {
+        "on_policy_n_envs_per_worker": n_envs,
+        "on_policy_collected_frames_per_batch": per_batch,
+        "on_policy_minibatch_size": min(minibatch, per_batch),
+        "on_policy_n_minibatch_iters": epochs,
+        "max_n_frames": (rollouts + 1) * per_batch,
+        "evaluation": False,
+        "loggers": [],
+        "create_json": False,
+        "checkpoint_at_end": False,
+    }
+    config = experiment_config(None, None, None, changes, on_policy=True)
+    task = CoopNavClass(
+        name=scenario.upper(),
+        config={"scenario": scenario, "tasks": {"train": {}}, "task": "train", "overrides": dict(overrides)},
+    )
+
+    ENV_SECONDS[0] = 0.0
+    step, reset = CoopNavTorchEnv._step, CoopNavTorchEnv._reset
+
+    def timed_step(self, td):
+        t = time.perf_counter()
+        out = step(self, td)
+        ENV_SECONDS[0] += time.perf_counter() - t
+        return out
+
+    def timed_reset(self, td=None, **kw):
+        t = time.perf_counter()
+        out = reset(self, td, **kw)
+        ENV_SECONDS[0] += time.perf_counter() - t
+        return out
+
+    clock = _clock_class()()
+    import torch
+    from benchmarl.models import MlpConfig
+
+    mlp = dataclasses.replace(MlpConfig.get_from_yaml(), num_cells=list(net))  # the policy's and the critic's
+    CoopNavTorchEnv._step, CoopNavTorchEnv._reset = timed_step, timed_reset  # type: ignore[method-assign]
+    try:
+        with tempfile.TemporaryDirectory() as folder:  # BenchMARL writes its config there, even without loggers
+            config.save_folder = folder
+            experiment = build_experiment(algorithm, task, seed, config, mlp, mlp, callbacks=[clock])
+            torch.set_num_threads(threads)  # numba's OpenMP start (threaded kernels, >= 256 envs) resets torch's
+            experiment.run()
+    finally:
+        CoopNavTorchEnv._step, CoopNavTorchEnv._reset = step, reset  # type: ignore[method-assign]
+    # timed: from the end of the first iteration's updates to the end of the last one's
+    t0, t1 = clock.trained[0], clock.trained[-1]
+    wall = t1 - t0
+    collect = sum(c - t for c, t in zip(clock.collected[1:], clock.trained[:-1]))
+    env_time = clock.env_s[-1] - clock.env_s[0]
+    frames = rollouts * per_batch
+    return {
+        "kind": f"torchrl-{algorithm}",
+        "rows": n_envs,
+        "steps": frames,
+        "wall_s": wall,
+        "steps_per_s": frames / wall,
+        "env_s": env_time,
+        "env_share": env_time / wall,
+        "rollout_other_share": (collect - env_time) / wall,
+        "update_share": (wall - collect) / wall,
+        "minibatch": min(minibatch, per_batch),
+        "epochs": epochs,
+        "steps_per_env": steps,
+        "net": list(net),
+        "torch_threads": torch.get_num_threads(),
+    }
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     from agents.training.config import ConfigError, TrainConfig, hyperparameter_file, load_config
 
@@ -189,7 +333,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--rollouts", type=int, default=2, help="timed PPO rollouts (+ their updates) per measurement")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--supersuit-cpus", type=int, default=0)
-    p.add_argument("--only", choices=["coopnav", "supersuit"])
+    p.add_argument("--only", choices=["coopnav", "supersuit", "none"], help="SB3 paths to run (none: only --torchrl)")
     p.add_argument(
         "--training-reward",
         action="store_true",
@@ -201,6 +345,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="CoopNavVecEnv builds every row's info dict every step (train.py does not)",
     )
     p.add_argument("--threads", type=int, default=1, help="torch threads (train.py's default: 1)")
+    p.add_argument("--torchrl", default="", help="also BenchMARL on the TorchRL env: mappo, ippo or mappo,ippo")
+    p.add_argument("--torchrl-n-envs", default="1024", help="environments in its batch (comma list: one run each)")
+    p.add_argument("--torchrl-steps", type=int, default=64, help="steps per environment per iteration")
+    p.add_argument("--torchrl-minibatch", type=int, default=8192, help="PPO minibatch (env-steps)")
+    p.add_argument("--torchrl-epochs", type=int, default=4, help="PPO passes over each batch")
+    p.add_argument("--torchrl-net", default="128,128", help="hidden layers of the policy and the critic")
     p.add_argument("--json", action="store_true")
     args = p.parse_args(argv)
     warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")  # SuperSuit's
@@ -223,20 +373,48 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     torch.set_num_threads(args.threads)
     kinds = [args.only] if args.only else ["coopnav", "supersuit"]
-    results = [
-        measure(
-            k,
-            args.scenario,
-            config,
-            n_envs,
-            args.rollouts,
-            args.seed,
-            args.supersuit_cpus,
-            args.step_infos,
-            args.training_reward,
+    if args.only == "none":
+        kinds = []
+    results = []
+
+    def done(r: dict) -> None:  # each figure on stderr as it comes: a long run killed early keeps them
+        results.append(r)
+        print(f"measured {r['kind']} rows {r['rows']}: {r['steps_per_s']:.0f} env-steps/s", file=sys.stderr, flush=True)
+
+    for k in kinds:
+        done(
+            measure(
+                k,
+                args.scenario,
+                config,
+                n_envs,
+                args.rollouts,
+                args.seed,
+                args.supersuit_cpus,
+                args.step_infos,
+                args.training_reward,
+            )
         )
-        for k in kinds
-    ]
+    for algorithm in [a for a in args.torchrl.split(",") if a]:
+        if algorithm not in ("mappo", "ippo"):
+            print(f"train_throughput.py: error: --torchrl takes mappo and ippo, got {algorithm!r}", file=sys.stderr)
+            return 2
+        for n in (int(v) for v in args.torchrl_n_envs.split(",")):
+            done(
+                measure_torchrl(
+                    algorithm,
+                    args.scenario,
+                    dict(config.env.overrides),
+                    n,
+                    args.torchrl_steps,
+                    args.torchrl_minibatch,
+                    args.torchrl_epochs,
+                    [int(v) for v in args.torchrl_net.split(",")],
+                    args.rollouts,
+                    args.seed,
+                    args.threads,
+                )
+            )
     meta = {
         "scenario": args.scenario,
         "n_envs": n_envs,
@@ -256,6 +434,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     by_kind = {r["kind"]: r for r in results}
     if "coopnav" in by_kind and "supersuit" in by_kind:
         meta["speedup"] = by_kind["coopnav"]["steps_per_s"] / by_kind["supersuit"]["steps_per_s"]
+    if "coopnav" in by_kind:
+        for r in results:
+            if r["kind"].startswith("torchrl"):
+                r["vs_sb3"] = r["steps_per_s"] / by_kind["coopnav"]["steps_per_s"]
     if args.json:
         print(json.dumps({"meta": meta, "results": results}, indent=2))
         return 0
@@ -272,6 +454,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             f"{r['kind']:<18}{r['rows']:>6}{r['steps']:>9}{r['wall_s']:>9.1f}{r['steps_per_s']:>10.0f}"
             f"{r['env_share']:>8.1%}{r['rollout_other_share']:>15.1%}{r['update_share']:>9.1%}"
+            + (f"  {r['vs_sb3']:.1f}x SB3" if "vs_sb3" in r else "")
+        )
+    if any(r["kind"].startswith("torchrl") for r in results):
+        print(
+            f"torchrl: BenchMARL, {args.torchrl_steps} steps per env per iteration, "
+            f"minibatch {args.torchrl_minibatch}, {args.torchrl_epochs} epochs, net {args.torchrl_net}; "
+            "timed iterations after one untimed"
         )
     if "speedup" in meta:
         print(f"coopnav VecEnv / SuperSuit: {meta['speedup']:.1f}x")

@@ -1,6 +1,6 @@
 """Optional extras in the tests: skipped where the extra is not installed, a failure under CI.
 
-.ci/run installs every extra the tests use (``[test,rllib,docs]``) and sets ``CI``, so there
+.ci/run installs every extra the tests use (``[test,rllib,marl,docs]``) and sets ``CI``, so there
 a missing module is a broken install, not a reason to skip. (A helper module, not conftest.py:
 import it as ``from optional import require``.)
 """
@@ -13,7 +13,8 @@ from types import ModuleType
 
 import pytest
 
-EXTRAS = {"ray": "rllib"}  # top-level module -> the pyproject extra that installs it
+# top-level module -> the pyproject extra that installs it
+EXTRAS = {"ray": "rllib", "torchrl": "marl", "tensordict": "marl", "benchmarl": "marl"}
 
 
 def under_ci() -> bool:

@@ -1,0 +1,164 @@
+"""coopnav as a BenchMARL task family (agents/training/benchmarl_task.py) and the training
+entry ``python -m agents.training.marl``: the task configs are the benchmark's task sets,
+the specs BenchMARL reads, and a tiny MAPPO experiment end to end."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from optional import require
+
+require("benchmarl")
+import torch  # noqa: E402
+from safetensors.torch import load_file  # noqa: E402
+
+from agents.training import marl  # noqa: E402
+from agents.training.benchmarl_task import (  # noqa: E402
+    CONFIG_DIR,
+    CoopNavTask,
+    get_task,
+    register,
+    scenario_config,
+    task_yaml,
+)
+from evaluation.tasks import TASK_SETS  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+TINY = ["--frames", "512", "--n-envs", "16", "--set", "evaluation=false", "--override", "max_cycles=20"]
+
+
+def test_task_configs_are_the_benchmark_task_sets():
+    """One member per task set, and each YAML is generated from its task set (regenerate
+    with write_task_configs, see its docstring, when a task set changes)."""
+    assert [m.name.lower() for m in CoopNavTask] == list(TASK_SETS)
+    for name, task_set in TASK_SETS.items():
+        path = CONFIG_DIR / "task" / "coopnav" / f"{name}.yaml"
+        assert path.read_text() == task_yaml(task_set), f"{path} differs from evaluation/tasks.py's {name}"
+        member = CoopNavTask[name.upper()].get_from_yaml()
+        for t in task_set.tasks:  # every task's scenario is the benchmark's
+            member.config["task"] = t.name
+            assert scenario_config(member.config) == t.config(task_set.scenario), (name, t.name)
+
+
+def test_task_choice_and_errors():
+    task = get_task("gao_sea", "two_beacons", overrides={"max_cycles": 7})
+    config = scenario_config(task.config)
+    assert config.beacon_kinds == ("beacon_auv", "beacon_auv") and config.max_cycles == 7
+    with pytest.raises(ValueError, match="unknown coopnav task 'gao_se'; did you mean 'gao_sea'"):
+        get_task("gao_se")
+    with pytest.raises(ValueError, match=r"unknown task 'two_beacon' .*did you mean 'two_beacons'"):
+        get_task("gao_sea", "two_beacon")
+    with pytest.raises(ValueError, match="unknown task config key 'overides'"):
+        get_task("gao_sea", overides={})
+    register()
+    from benchmarl.environments import task_config_registry
+
+    assert task_config_registry["coopnav/sousa_ping"] is CoopNavTask.SOUSA_PING
+
+
+def test_the_specs_benchmarl_reads():
+    task = get_task("gao_team", overrides={"max_cycles": 5})
+    env = task.get_env_fun(num_envs=4, continuous_actions=True, seed=3, device="cpu")()
+    assert env.batch_size == (4,) and env.episode_seeds.tolist() == [-1] * 4
+    assert task.group_map(env) == {"beacons": ["beacon_0", "beacon_1"]}
+    obs = task.observation_spec(env)
+    assert set(obs.keys(True, True)) == {("beacons", "observation")}
+    assert obs["beacons", "observation"].shape == (2, env.obs_dim)
+    assert task.state_spec(env)["state"].shape == (env.sim.state_dim + 2 * env.obs_dim,)
+    assert ("beacons", "info", "beacon_error_m") in task.info_spec(env).keys(True, True)
+    assert task.action_spec(env)["beacons", "action"].shape == (2, 2)
+    assert task.max_steps(env) == 5 and not task.supports_discrete_actions()
+    env.reset()
+    assert env.episode_seeds.tolist() == [3, 4, 5, 6]
+    with pytest.raises(ValueError, match="reserved seeds"):
+        task.get_env_fun(num_envs=4, continuous_actions=True, seed=2**61, device="cpu")
+
+
+def test_a_tiny_mappo_experiment(tmp_path, capsys):
+    """MAPPO with MLPs on 512 env-steps: the run folder holds BenchMARL's logs and
+    checkpoint, the policy's weights (safetensors) and run.json; the folder is then refused."""
+    out = tmp_path / "run"
+    assert marl.main(["--algorithm", "mappo", "--task", "gao_sea", *TINY, "--out", str(out)]) == 0
+    record = json.loads((out / "run.json").read_text())
+    assert record["frames"] == 512 and record["task"] == "coopnav/gao_sea" and record["seed"] == 0
+    assert record["experiment_config"]["on_policy_n_envs_per_worker"] == 16
+    assert record["last_batch_survey_error_m"] > 0
+    weights = load_file(str(out / "policy.safetensors"))
+    assert any(w.shape[-1] == 19 for w in weights.values())  # the first layer reads gao_sea's observation
+    assert sorted(p.name for p in out.iterdir()) == ["benchmarl", "policy.safetensors", "run.json"]
+    assert list((out / "benchmarl" / "checkpoints").glob("checkpoint_512.pt"))
+    assert marl.main(["--algorithm", "mappo", "--task", "gao_sea", *TINY, "--out", str(out)]) == 2
+    assert "not empty" in capsys.readouterr().err
+
+
+def test_bad_command_lines_fail_in_one_line(tmp_path, capsys):
+    for args, message in [
+        (["--algorithm", "mapo", "--task", "gao_sea"], "unknown algorithm 'mapo'; did you mean 'mappo'?"),
+        (["--task", "gao_sea/deep"], "unknown task 'deep'"),
+        (["--task", "gao_sea", "--set", "lr_typo=1"], "unknown experiment setting 'lr_typo'"),
+        (["--task", "gao_sea", "--override", "depth=3"], "unknown scenario parameter"),
+        (["--task", "gao_sea", "--seed", str(2**61)], "reserved seeds"),
+    ]:
+        assert marl.main([*args, "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1, err
+        assert not (tmp_path / "x").exists()  # nothing written before the checks pass
+
+
+@pytest.mark.parametrize(
+    "algorithm, task, extra",
+    [
+        ("ippo", "sousa_ping", []),  # two ASVs, three action components
+        ("mappo", "gao_team", ["--model", "gru"]),  # memory; the critic over the team's state
+        pytest.param("masac", "sousa_ping", ["--set", "off_policy_n_optimizer_steps=4"], marks=pytest.mark.slow),
+    ],
+)
+def test_the_other_paths(tmp_path, algorithm, task, extra):
+    """IPPO, a GRU policy and MASAC (its updates take about 10 s here: slow) on tiny runs."""
+    out = tmp_path / algorithm
+    assert marl.main(["--algorithm", algorithm, "--task", task, *TINY, *extra, "--out", str(out)]) == 0
+    record = json.loads((out / "run.json").read_text())
+    assert record["frames"] == 512 and record["task"] == f"coopnav/{task}"
+
+
+@pytest.mark.slow
+def test_benchmarl_run_finds_the_coopnav_tasks(tmp_path):
+    """``python -m benchmarl.run algorithm=mappo task=coopnav/gao_sea``: the Hydra plugin
+    (hydra_plugins/coopnav_benchmarl) adds the configs and registers the tasks."""
+    cmd = [
+        sys.executable,
+        "-m",
+        "benchmarl.run",
+        "algorithm=mappo",
+        "task=coopnav/gao_sea",
+        "experiment=coopnav",
+        "experiment.max_n_frames=512",
+        "experiment.on_policy_n_envs_per_worker=16",
+        "experiment.on_policy_collected_frames_per_batch=512",
+        "experiment.on_policy_minibatch_size=256",
+        "experiment.evaluation=false",
+        "+task.overrides.max_cycles=20",
+    ]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    r = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=600, env=env)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert list(tmp_path.glob("outputs/*/*/mappo_gao_sea_mlp__*"))
+
+
+def test_marl_extra_admits_the_installed_versions():
+    """pyproject's marl extra admits what is installed (and pins BenchMARL)."""
+    import tomllib
+    from packaging.requirements import Requirement
+
+    extra = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]["marl"]
+    import importlib.metadata as md
+
+    for line in extra:
+        req = Requirement(line)
+        assert req.specifier.contains(md.version(req.name), prereleases=True), line
+    assert "torch" not in {Requirement(line).name for line in extra}  # torch stays the project's pin
+    assert torch.__version__.startswith("2.")
