@@ -119,6 +119,18 @@ def _push(f: Filter, b: int, delta: np.ndarray, r: np.ndarray, S: np.ndarray, ha
 
 
 @njit(cache=True)
+def rotate_window(f: Filter, b: int, dphi_rad: float) -> None:
+    """The stored (x, y) residuals of environment b turned into a frame rotated by dphi_rad
+    (``frame_motion`` eq. M1 without its translation: a residual is a difference of two
+    positions, so only the rotation acts on it)."""
+    cs, sn = np.cos(dphi_rad), np.sin(dphi_rad)
+    for k in range(f.window_age.shape[1]):
+        if f.window_age[b, k] >= 0:
+            a, c = f.window_r[b, k, 0], f.window_r[b, k, 1]
+            f.window_r[b, k, 0], f.window_r[b, k, 1] = a * cs + c * sn, -a * sn + c * cs
+
+
+@njit(cache=True)
 def nis2(d0: float, d1: float, S: np.ndarray) -> float:
     """(d0, d1) S^-1 (d0, d1)^T for a symmetric 2 x 2 S; inf if S is singular."""
     det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
