@@ -526,7 +526,7 @@ def test_line_fit_sets_an_outlying_fix_aside_and_recovers_the_error_and_its_velo
     error U = (0.5, 0.2) m per cycle), 1 m of noise each, and the newest one 25 m off (a
     multipath excess, l too): the fit keeps six or seven of the seven, never the outlier, finds
     e within 3 sigma of its covariance and the velocity error within 3 sigma (the fit's prior
-    on it, VELOCITY_ERROR_STD_MPS, pulls it towards 0); the old restart took that newest fix."""
+    on it, frame_restart_velocity_std_mps, pulls it towards 0); the old restart took that newest fix."""
     from coopnav_env.core.moving_network.recovery import line_fit
     from coopnav_env.core.moving_network.state import cycle_params
 

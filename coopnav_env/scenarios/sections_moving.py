@@ -193,6 +193,19 @@ class MovingNetwork(Section):
             "or checks the filter against [U]"
         ),
     )
+    frame_restart_velocity_std_mps: float = param(
+        0.3,
+        unit="m/s",
+        low=0,
+        high=10.0,
+        open_low=True,
+        source="assumption [U]",
+        doc=(
+            "the recovery's prior std on a locked-out filter's frame-relative velocity error; a line through the "
+            "window's fixes proposing ten times it is no hypothesis (core/moving_network/recovery.py, eqs. F4-F5) "
+            "[U: 0.3, the boats' speed fluctuation and a river frame's turn, for the paper's filter]"
+        ),
+    )
     baseline_tolerance_m: float = param(
         10.0, unit="m", low=0.0, high=10000.0, doc="reward: |l - target| beyond this costs baseline_penalty"
     )

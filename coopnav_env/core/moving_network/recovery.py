@@ -50,9 +50,10 @@ from .state import REINIT_AFTER_CYCLES, CycleParams, Filter
 _STATES = (0, 1, 5)  # x, y, l in the filter's state E
 MAX_FIX_AGE_CYCLES = 30  # a stored fix older than this is dropped [U]
 # the prior on a locked-out filter's velocity error U / T (eq. F5; a line of eq. F4 proposing ten
-# times it is no hypothesis): the boats' speed fluctuation (0.15 m/s) and a river frame's turn
-# (0.35 deg/s at 60 m) are of this size [U]; 0.5 let more river runs diverge (seeds 800000-800029)
-VELOCITY_ERROR_STD_MPS = 0.3
+# times it is no hypothesis) is the scenario's frame_restart_velocity_std_mps: for the paper's
+# filter 0.3 m/s, the size of the boats' speed fluctuation (0.15 m/s) and a river frame's turn
+# (0.35 deg/s at 60 m) [U] (0.5 let more river runs diverge, seeds 800000-800029); with the frame's
+# motion telemetered (frame_motion) the velocity is known far better
 
 
 @njit(cache=True)
@@ -151,14 +152,14 @@ def _noise2(f: Filter, b: int, k: int, p: CycleParams, out: np.ndarray) -> None:
 @njit(cache=True)
 def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, inlier: np.ndarray) -> int:
     """Eq. F4's hypothesis: the line of eq. F3 through fixes j and k (none if its velocity error
-    exceeds 10 ``VELOCITY_ERROR_STD_MPS``: a pair of outliers); which stored fixes lie on it (chi-square, 2 dof, gate2,
+    exceeds 10 ``frame_restart_velocity_std_mps``: a pair of outliers); which stored fixes lie on it (chi-square, 2 dof, gate2,
     against twice their noise) with an l residual within the 1-dof gate of the window's median
     l_mid, into inlier (W,) bool. Returns their count (0: no hypothesis, or j or k off it)."""
     age, R = f.window_age[b], f.window_r[b]
     if age[j] == age[k]:
         return 0
     # beyond any boat or river-frame velocity error
-    u_max = 10.0 * VELOCITY_ERROR_STD_MPS * p.ping_interval_s * abs(age[j] - age[k])
+    u_max = 10.0 * p.frame_restart_velocity_std_mps * p.ping_interval_s * abs(age[j] - age[k])
     if (R[j, 0] - R[k, 0]) ** 2 + (R[j, 1] - R[k, 1]) ** 2 > u_max * u_max:
         return 0
     S = np.empty((2, 2))
@@ -179,14 +180,40 @@ def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, in
 
 
 @njit(cache=True)
+def filter_consensus(f: Filter, b: int, P: np.ndarray, p: CycleParams) -> int:
+    """Eq. F4b: the filter's own hypothesis in eq. F4's contest, e = 0 and U = 0 (the fixes'
+    residuals are their noise): the count of stored fixes whose (x, y) residual lies within the
+    2-dof gate of the fix's noise plus the filter's P_xy and whose l residual within the 1-dof
+    gate of the fix's l variance plus P_ll. A line the filter matches in support is no reason to
+    restart: correlated outliers (one multipath excess on the path m moves every fix it spoils
+    along the same direction, d(x, y)/dl) can otherwise outvote a filter that is right."""
+    S = np.empty((2, 2))
+    n = 0
+    for k in range(f.window_age.shape[1]):
+        if f.window_age[b, k] < 0:
+            continue
+        _noise2(f, b, k, p, S)
+        S[0, 0] += P[0, 0]
+        S[0, 1] += P[0, 1]
+        S[1, 0] += P[1, 0]
+        S[1, 1] += P[1, 1]
+        dl = f.window_r[b, k, 2]
+        if nis2(f.window_r[b, k, 0], f.window_r[b, k, 1], S) <= p.gate2 and dl * dl <= p.gate1 * (
+            f.window_S[b, k, 2, 2] + P[5, 5]
+        ):
+            n += 1
+    return n
+
+
+@njit(cache=True)
 def _fit(f: Filter, b: int, inlier: np.ndarray, p: CycleParams, theta: np.ndarray, cov: np.ndarray) -> tuple:
     """Eq. F5: generalized least squares of the inlying fixes on r_k = e - U a_k, theta (4,) =
     (e_x, e_y, U_x, U_y) and cov (4, 4) = N^-1, N = sum A_k^T W_k A_k (W_k the inverse of the
-    fix's noise) plus the prior's information on U (``VELOCITY_ERROR_STD_MPS``), in place.
+    fix's noise) plus the prior's information on U (``frame_restart_velocity_std_mps``), in place.
     Returns (the mean l residual, its variance)."""
     age, R = f.window_age[b], f.window_r[b]
     N, rhs, S, A = np.zeros((4, 4)), np.zeros(4), np.empty((2, 2)), np.zeros((2, 4))
-    u_var = (VELOCITY_ERROR_STD_MPS * p.ping_interval_s) ** 2
+    u_var = (p.frame_restart_velocity_std_mps * p.ping_interval_s) ** 2
     N[2, 2], N[3, 3] = 1.0 / u_var, 1.0 / u_var  # the prior on U
     l_sum, var_l, n = 0.0, 0.0, 0
     for k in range(age.shape[0]):
@@ -338,13 +365,19 @@ def recover(
     if n == 0:
         return 0  # too few consistent fixes yet: the next cycles add to the window
     counts[:] = 0
+    if filter_consensus(f, b, P, p) >= n:
+        return 0  # the filter itself explains as many fixes as the best line: it holds (eq. F4b)
     Pc = np.empty((2, 2))
     for i in range(2):
         for k in range(2):
             Pc[i, k] = P[i, k] + cov[i, k]
     holds_l = l_mean * l_mean <= p.gate1 * (P[5, 5] + var_l)
-    if nis2(theta[0], theta[1], Pc) <= p.gate2 and holds_l:
-        return 0  # the filter agrees with the fixes: the failing range was the channel's
+    # the filter agrees with the fixes and knows (x, y) at least as well as they do: the failing
+    # range was the channel's (eq. F4c; a filter that has refused ranges for cycles has a grown P
+    # that agrees with anything, and then the fit, the sharper, takes over)
+    sharper = cov[0, 0] * cov[1, 1] - cov[0, 1] * cov[1, 0] < P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]
+    if nis2(theta[0], theta[1], Pc) <= p.gate2 and holds_l and not sharper:
+        return 0
     _restart(E, P, f, b, theta, cov, p.ping_interval_s)
     if not holds_l:
         _restart_l(E, P, f, b, l_mean, var_l)

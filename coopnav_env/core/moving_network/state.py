@@ -267,6 +267,7 @@ class CycleParams(NamedTuple):
     gps_noise_m: float  # the boats' GPS error per axis: the telemetered bearing's noise (eq. B1)
     frame_motion_telemetry: float  # 1.0: carry the telemetered frame motion into the filter (frame_motion), 0.0: not
     boat_velocity_noise_mps: float  # the boats' GPS velocity error per axis: the telemetered motion's noise (eq. M3)
+    frame_restart_velocity_std_mps: float  # the recovery's prior on a locked-out filter's velocity error (eq. F5)
 
 
 def cycle_params(config: ScenarioConfig, gate1: float, gate2: float, gate3: float) -> CycleParams:
