@@ -365,19 +365,18 @@ def recover(
     if n == 0:
         return 0  # too few consistent fixes yet: the next cycles add to the window
     counts[:] = 0
-    if filter_consensus(f, b, P, p) >= n:
-        return 0  # the filter itself explains as many fixes as the best line: it holds (eq. F4b)
+    # eq. F4c: does the fit know (x, y) better than the filter (a filter that has refused ranges
+    # for cycles has a grown P that agrees with anything)?
+    sharper = cov[0, 0] * cov[1, 1] - cov[0, 1] * cov[1, 0] < P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]
+    if not sharper and filter_consensus(f, b, P, p) >= n:
+        return 0  # a sharp filter explains as many fixes as the best line: it holds (eq. F4b)
     Pc = np.empty((2, 2))
     for i in range(2):
         for k in range(2):
             Pc[i, k] = P[i, k] + cov[i, k]
     holds_l = l_mean * l_mean <= p.gate1 * (P[5, 5] + var_l)
-    # the filter agrees with the fixes and knows (x, y) at least as well as they do: the failing
-    # range was the channel's (eq. F4c; a filter that has refused ranges for cycles has a grown P
-    # that agrees with anything, and then the fit, the sharper, takes over)
-    sharper = cov[0, 0] * cov[1, 1] - cov[0, 1] * cov[1, 0] < P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]
     if nis2(theta[0], theta[1], Pc) <= p.gate2 and holds_l and not sharper:
-        return 0
+        return 0  # the filter agrees with the fixes and knows (x, y) as well: the range was the channel's
     _restart(E, P, f, b, theta, cov, p.ping_interval_s)
     if not holds_l:
         _restart_l(E, P, f, b, l_mean, var_l)
