@@ -32,6 +32,7 @@ import argparse
 import ast
 import sys
 import time
+from typing import Any
 
 import numpy as np
 from scipy.stats import chi2
@@ -39,7 +40,7 @@ from scipy.stats import chi2
 from coopnav_env.scenarios.matos import PAPER_SETTINGS, RIVER_PAPER_SETTINGS
 
 # (label, scenario, planner, overrides)
-CASES = (
+CASES: tuple[tuple[str, str, str, dict[str, Any]], ...] = (
     ("gao_lawnmower", "gao_lawnmower", "ellipse", {}),
     ("gao_sea", "gao_sea", "ellipse", {}),
     (

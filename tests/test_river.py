@@ -322,10 +322,10 @@ def test_move_frame_follows_the_boats_in_the_world():
     east-north): a point fixed in the world, at its frame coordinates before, lands by eq. M1
     (the motion as the simulator computes it, without GPS velocity error) on its frame
     coordinates after; the frame's bearing and length change as the boats' GPS gives them."""
+    from coopnav_env.core.moving_network import MovingNetworkSimulator
     from coopnav_env.core.moving_network.frame_motion import move_frame
 
-    c = make_config("matos_river", boat_velocity_noise_mps=0.0)
-    sim = make_simulator(c, 1)
+    sim = MovingNetworkSimulator(make_config("matos_river", boat_velocity_noise_mps=0.0), 1)
     sim.reset([0])
     start = np.array([[[0.0, 0.0], [100.0, 0.0]]])
     end = np.array([[[3.0, -1.0], [101.0, -12.0]]])
@@ -343,10 +343,11 @@ def test_telemetered_motion_errors_match_eq_m3():
     """The simulator's telemetered motion (``_frame_motion``) minus the true one, over 20000
     draws of the boats' GPS velocity errors: its covariance is eq. M3's (sigma_v = 0.05 m/s,
     T = 2 s, l = 100 m) within 5 % of the diagonal."""
+    from coopnav_env.core.moving_network import MovingNetworkSimulator
     from coopnav_env.core.moving_network.frame_motion import telemetry_covariance
 
     B = 20000
-    sim = make_simulator(make_config("matos_river"), 1)
+    sim = MovingNetworkSimulator(make_config("matos_river"), 1)
     sim.batch_size = B  # _frame_motion reads only the config and the batch size
     start = np.broadcast_to(np.array([[0.0, 0.0], [0.0, 100.0]]), (B, 2, 2))  # frame x along north
     end = start + np.array([[1.0, 2.0], [1.5, 2.0]])
@@ -364,6 +365,7 @@ def test_paper_settings_keep_the_papers_filter():
     (and restore the Q of the paper's filter on the river); matos_moving_lbl keeps the paper's
     filter. With them, the boats' telemetered motion is zero and the filter's (x, y, c) evolve
     as the paper's (the prediction plus the range updates alone)."""
+    from coopnav_env.core.moving_network import MovingNetworkSimulator
     from coopnav_env.scenarios.matos import PAPER_SETTINGS
 
     c = make_config("matos_river")
@@ -373,7 +375,7 @@ def test_paper_settings_keep_the_papers_filter():
         assert not p.frame_bearing_fusion and not p.frame_motion_telemetry
     assert not make_config("matos_moving_lbl").frame_motion_telemetry
     assert make_config("matos_river", **RIVER_PAPER_SETTINGS).frame_q_position_m2ps == 0.5
-    sim = make_simulator(make_config("matos_river", **RIVER_PAPER_SETTINGS), 1)
+    sim = MovingNetworkSimulator(make_config("matos_river", **RIVER_PAPER_SETTINGS), 1)
     sim.reset([0])
     start = np.array([[[0.0, 0.0], [100.0, 0.0]]])
     moved = sim._frame_motion(start, start + 5.0, {"motion": np.ones((1, 2, 2))})

@@ -31,7 +31,17 @@ l). If e is consistent with the filter (its NIS against P_xy + cov(e) within ``g
 filter holds and the failing range is distrusted: the counters restart, the gate has kept the
 range out. Otherwise the filter restarts (eq. F6): (x, y) += e, (c_x, c_y) += U / T, l +=
 the mean residual, with the fit's covariance, cross-covariances with phi zeroed. Too few
-consistent fixes: nothing yet, the next cycles add to the window. Before this, the restart
+consistent fixes: nothing yet, the next cycles add to the window.
+
+With the frame's motion telemetered (``frame_motion_telemetry``) the decision weighs two more
+things. The filter's own hypothesis, e = 0 and U = 0, enters the contest of eq. F4: if the
+filter explains as many stored fixes as the best line (eq. F4b, ``filter_consensus``) and is at
+least as sharp as the fit, it holds: one multipath excess on the path m moves every fix it
+spoils the same way (along d(x, y)/dl), and two such fixes made a line that restarted a filter
+that was right (issue 21, river seed 11). And a filter the fit agrees with but that knows less
+than the fit (det P_xy > det cov(e), eq. F4c) restarts onto the fit: a filter that has refused
+ranges for cycles has a grown P that agrees with anything (seed 730044: it held for 15 cycles
+and reached 20 m). Before this, the restart
 took the triggering cycle's own fix, unchecked, with P = 4 sigma_r^2: with outliers on, that
 cycle is the likeliest to hold one, and 19 % of the restarts landed more than 5 m off
 (issue 21).
@@ -152,9 +162,10 @@ def _noise2(f: Filter, b: int, k: int, p: CycleParams, out: np.ndarray) -> None:
 @njit(cache=True)
 def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, inlier: np.ndarray) -> int:
     """Eq. F4's hypothesis: the line of eq. F3 through fixes j and k (none if its velocity error
-    exceeds 10 ``frame_restart_velocity_std_mps``: a pair of outliers); which stored fixes lie on it (chi-square, 2 dof, gate2,
-    against twice their noise) with an l residual within the 1-dof gate of the window's median
-    l_mid, into inlier (W,) bool. Returns their count (0: no hypothesis, or j or k off it)."""
+    exceeds 10 ``frame_restart_velocity_std_mps``: a pair of outliers); which stored fixes lie
+    on it (chi-square, 2 dof, gate2, against twice their noise) with an l residual within the
+    1-dof gate of the window's median l_mid, into inlier (W,) bool. Returns their count (0: no
+    hypothesis, or j or k off it)."""
     age, R = f.window_age[b], f.window_r[b]
     if age[j] == age[k]:
         return 0
@@ -366,9 +377,13 @@ def recover(
         return 0  # too few consistent fixes yet: the next cycles add to the window
     counts[:] = 0
     # eq. F4c: does the fit know (x, y) better than the filter (a filter that has refused ranges
-    # for cycles has a grown P that agrees with anything)?
-    sharper = cov[0, 0] * cov[1, 1] - cov[0, 1] * cov[1, 0] < P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]
-    if not sharper and filter_consensus(f, b, P, p) >= n:
+    # for cycles has a grown P that agrees with anything)? Eqs. F4b-F4c only with the frame's
+    # motion telemetered, whose fit has a tight velocity prior; the paper's filter keeps the
+    # decision of before (on the river its frame turns under it, and the sharper fit of a
+    # turning frame restarted one of 50 runs off, seed 40)
+    telemetry = p.frame_motion_telemetry > 0.0
+    sharper = telemetry and (cov[0, 0] * cov[1, 1] - cov[0, 1] * cov[1, 0] < P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0])
+    if telemetry and not sharper and filter_consensus(f, b, P, p) >= n:
         return 0  # a sharp filter explains as many fixes as the best line: it holds (eq. F4b)
     Pc = np.empty((2, 2))
     for i in range(2):

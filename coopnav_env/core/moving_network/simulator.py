@@ -259,8 +259,9 @@ class MovingNetworkSimulator(BatchSimulator):
         """Steps 3-5 (``cycle``): the exchange, the filter's updates and recovery, the boats'
         tracking, the kernel's terms and infos. The frame bearings of the true and the GPS
         positions, the multipath excesses' logarithms and the wrapped frame rotation are
-        numpy's; start (B,2,2) the boats' true (east, north) at the cycle's start. Returns (out (B,) ``CYCLE_OUT``, counts (B,) ``CYCLE_COUNTS``, the frame
-        turned beyond its tolerance (B,) bool)."""
+        numpy's; start (B,2,2) the boats' true (east, north) at the cycle's start. Returns
+        (out (B,) ``CYCLE_OUT``, counts (B,) ``CYCLE_COUNTS``, the frame turned beyond its
+        tolerance (B,) bool)."""
         st, B = self._live, self.batch_size
         en = np.empty((2, B, 2, 2))
         en[0] = st.b_pos[..., :2]
