@@ -37,12 +37,15 @@ import argparse
 import ast
 import sys
 import time
+from typing import Any
 
 import numpy as np
 from scipy.stats import chi2
 
+from coopnav_env.scenarios.matos import PAPER_SETTINGS, RIVER_PAPER_SETTINGS
+
 # (label, scenario, planner, overrides)
-CASES = (
+CASES: tuple[tuple[str, str, str, dict[str, Any]], ...] = (
     ("gao_lawnmower", "gao_lawnmower", "ellipse", {}),
     ("gao_sea", "gao_sea", "ellipse", {}),
     (
@@ -57,14 +60,14 @@ CASES = (
         "matos_moving_lbl, paper settings",
         "matos_moving_lbl",
         "abeam",
-        {"outlier_probability": 0.0, "packet_loss_near": 0.0, "packet_loss_far": 0.0},
+        PAPER_SETTINGS,
     ),
     ("matos_river (outliers 3 %, losses 5-50 %)", "matos_river", "river_escort", {}),
     (
         "matos_river, paper settings",
         "matos_river",
         "river_escort",
-        {"outlier_probability": 0.0, "packet_loss_near": 0.0, "packet_loss_far": 0.0},
+        RIVER_PAPER_SETTINGS,  # the paper's channel and filter, with the Q that filter needs on the river
     ),
     (
         "sousa_asv lawnmower, 5 m, speed-scale std 15 %",

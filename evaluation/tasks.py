@@ -21,7 +21,7 @@ import dataclasses
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
-from coopnav_env.scenarios.matos import PAPER_SETTINGS
+from coopnav_env.scenarios.matos import PAPER_SETTINGS, RIVER_PAPER_SETTINGS
 
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
@@ -190,7 +190,9 @@ _SETS = (
         (
             _task("river", "down the 1.6 km winding river, as configured (3 % outliers, losses 5-50 %)"),
             _task(
-                "river_paper_channel", "the river with the paper's channel: white range noise only", **PAPER_SETTINGS
+                "river_paper_channel",
+                "the river with the paper's channel and filter: white range noise only",
+                **RIVER_PAPER_SETTINGS,
             ),
             _task("current_0.5", "a 0.5 m/s river current instead of 0.3", current_speed_mps=0.5),
             _task("narrow_120m", "a 120 m wide river instead of 150", river_width_m=120.0),

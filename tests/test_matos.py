@@ -526,7 +526,7 @@ def test_line_fit_sets_an_outlying_fix_aside_and_recovers_the_error_and_its_velo
     error U = (0.5, 0.2) m per cycle), 1 m of noise each, and the newest one 25 m off (a
     multipath excess, l too): the fit keeps six or seven of the seven, never the outlier, finds
     e within 3 sigma of its covariance and the velocity error within 3 sigma (the fit's prior
-    on it, VELOCITY_ERROR_STD_MPS, pulls it towards 0); the old restart took that newest fix."""
+    on it, frame_restart_velocity_std_mps, pulls it towards 0); the old restart took that newest fix."""
     from coopnav_env.core.moving_network.recovery import line_fit
     from coopnav_env.core.moving_network.state import cycle_params
 
@@ -561,6 +561,64 @@ def test_too_few_consistent_fixes_do_not_restart():
         f.window_r[0, k, :2] = (20.0, 20.0)
     p = cycle_params(make_config("matos_moving_lbl"), 6.63, 9.21, 11.34)
     assert line_fit(f, 0, p, np.empty(4), np.empty((4, 4)))[0] == 0
+
+
+def test_filter_consensus_by_hand():
+    """Eq. F4b: fixes of covariance I (x, y, l), P_xy = I, P_ll = 1, so each residual is tested
+    against 2 I: (3, 0, 0) has NIS 9 / 2 = 4.5 <= 9.21 (2 dof) and counts; (5, 0, 0) has 12.5
+    and does not; (0, 0, 3.5): l's 12.25 / 2 = 6.1 <= 6.63 (1 dof), counts; (0, 0, 4): 8 > 6.63,
+    does not; empty slots never count. With P = 100 I all four count."""
+    from coopnav_env.core.moving_network.recovery import filter_consensus
+    from coopnav_env.core.moving_network.state import cycle_params
+
+    f = _window()
+    for k, r in enumerate([(3.0, 0.0, 0.0), (5.0, 0.0, 0.0), (0.0, 0.0, 3.5), (0.0, 0.0, 4.0)]):
+        f.window_age[0, k] = 0
+        f.window_S[0, k] = np.eye(3)
+        f.window_r[0, k] = r
+    p = cycle_params(make_config("matos_moving_lbl"), 6.63, 9.21, 11.34)
+    assert filter_consensus(f, 0, np.eye(6), p) == 2
+    assert filter_consensus(f, 0, 100.0 * np.eye(6), p) == 4  # a grown P agrees with anything
+
+
+def _locked_out(P_xy_var, fixes_e):
+    """A filter at E = 0 whose d2 has been gated out REINIT_AFTER_CYCLES - 1 cycles, P_xy =
+    P_xy_var I, and eight stored fixes of noise 0.25 I at the residual fixes_e (x, y) (ages 1-8,
+    no velocity error); ``recover`` then runs for a cycle whose d2 is gated out again (no new
+    fix). Returns (restarted, E)."""
+    from coopnav_env.core.lbl import ExchangeResult
+    from coopnav_env.core.moving_network.recovery import recover
+    from coopnav_env.core.moving_network.state import REINIT_AFTER_CYCLES, cycle_params
+
+    f = _window()
+    f.P[0] = np.eye(6)
+    f.P[0, 0, 0] = f.P[0, 1, 1] = P_xy_var
+    f.rejected_cycles[0, 1] = REINIT_AFTER_CYCLES - 1
+    for k in range(8):
+        f.window_age[0, k] = k
+        f.window_S[0, k] = 0.25 * np.eye(3)
+        f.window_r[0, k, :2] = fixes_e
+    p = cycle_params(make_config("matos_river"), 6.63, 9.21, 11.34)
+    status = np.array([[True, True], [True, False], [False, False]])
+    ex = ExchangeResult(0.0, 0.0, 0.0, 0.0, True, False, True, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, 0)
+    E, P = f.E[0], f.P[0]
+    restarted = recover(E, P, f, 0, status, np.zeros(3), ex, 2.0, 1.0, p)
+    return restarted, E.copy(), P.copy()
+
+
+def test_a_consistent_but_sharper_window_restarts_a_grown_filter_and_not_a_sharp_one():
+    """Eq. F4c: eight fixes 2 m off in x, each 0.5 m std. A filter of P_xy = 9 I (it has refused
+    ranges for cycles) agrees with them (NIS 4 / 9.03 < 9.21) but knows less than they do: it
+    restarts onto them (x += ~2, P_xx < 1). A filter of P_xy = 0.01 I knows more; the fixes then
+    disagree with it (NIS ~ 4 / 0.04 = 100) and its consensus (eq. F4b) is 0, so it restarts too
+    - while fixes at 0.05 m agree with the sharp filter and it holds. Before eq. F4c the grown
+    filter held, and kept refusing the ranges (seed 730044: 20 m)."""
+    restarted, E, P = _locked_out(9.0, (2.0, 0.0))
+    assert restarted == 1 and abs(E[0] - 2.0) < 0.3 and P[0, 0] < 1.0
+    restarted, E, _ = _locked_out(0.01, (2.0, 0.0))
+    assert restarted == 1 and abs(E[0] - 2.0) < 0.3
+    restarted, E, _ = _locked_out(0.01, (0.05, 0.0))
+    assert restarted == 0 and E[0] == 0.0
 
 
 def test_restarts_land_near_the_vehicle_with_an_honest_covariance():

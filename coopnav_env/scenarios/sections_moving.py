@@ -62,6 +62,17 @@ class Boat(Section):
         source="assumption [U]",
         doc="s, correlation time of the surge and course errors (0: white per cycle) [U]",
     )
+    boat_velocity_noise_mps: float = param(
+        0.05,
+        unit="m/s",
+        low=0.0,
+        high=5.0,
+        source="assumption [U]",
+        doc=(
+            "std per axis of each boat's GPS (Doppler) velocity error, held over a cycle: the noise of the frame "
+            "motion the boats telemeter with frame_motion_telemetry [U: 0.05 m/s, a receiver's velocity accuracy]"
+        ),
+    )
     boat_current_response: float = param(
         0.2,
         low=0.0,
@@ -144,6 +155,24 @@ class MovingNetwork(Section):
         high=10000.0,
         doc="l: a random walk that follows a boat-speed mismatch (tests/test_matos.py)",
     )
+    frame_bearing_fusion: bool = param(
+        False,
+        doc=(
+            "the moving-frame EKF also fuses, every cycle, the frame's bearing phi that the boats telemeter with the "
+            "exchange (the bearing of B2's GPS position from B1's), with variance 2 gps_noise_m^2 / l^2 "
+            "(core/moving_network/filter.py, eq. B1); False: the paper's filter, which infers phi from the ranges "
+            "and the compass alone (section VII)"
+        ),
+    )
+    frame_motion_telemetry: bool = param(
+        False,
+        doc=(
+            "the boats also telemeter the frame's motion over each cycle (B1's displacement, the rotation, the "
+            "baseline's change, from their GPS velocities) and the moving-frame EKF carries its estimate with it, so "
+            "c is the water's current alone (core/moving_network/frame_motion.py, eqs. M1-M3); False: the paper's "
+            "filter, in which c and Q absorb the boats' motion (section VII)"
+        ),
+    )
     frame_restart_window_cycles: int = param(
         8,
         low=1,
@@ -162,6 +191,19 @@ class MovingNetwork(Section):
         doc=(
             "the fewest mutually consistent fixes of the window (chi-square, 3 dof) the recovery restarts from "
             "or checks the filter against [U]"
+        ),
+    )
+    frame_restart_velocity_std_mps: float = param(
+        0.3,
+        unit="m/s",
+        low=0,
+        high=10.0,
+        open_low=True,
+        source="assumption [U]",
+        doc=(
+            "the recovery's prior std on a locked-out filter's frame-relative velocity error; a line through the "
+            "window's fixes proposing ten times it is no hypothesis (core/moving_network/recovery.py, eqs. F4-F5) "
+            "[U: 0.3, the boats' speed fluctuation and a river frame's turn, for the paper's filter]"
         ),
     )
     baseline_tolerance_m: float = param(

@@ -12,6 +12,23 @@ detections in ``lbl.DETECTIONS`` order; ``EXCHANGE_COVARIANCE``). So d1 is a sca
 update and (d2, l) one joint update with that R (d2 alone when l is missing);
 treating them as independent, as a naive sequential filter would, overweights l.
 
+**The telemetered bearing** (``frame_bearing_fusion``; not in the paper, whose filter infers
+phi from the ranges and the compass alone). The boats have GPS and already telemeter B1's
+position and the bearing of B2 from it (a world mission needs them to re-express its
+waypoints); fused as a measurement of phi it makes phi observable every cycle rather than
+through the slow coupling of phi into the dead-reckoned velocity, which a river frame that
+turns defeats (issue 21: phi errors of 20-80 deg and velocity errors of 1-3 m/s before the
+river runs diverged). With white GPS errors of std sigma_g per axis at B1 and B2, the
+bearing's error is the component of (e_2 - e_1) across the baseline over l:
+
+    z_phi = phi + n,   var(n) = 2 sigma_g^2 / l^2                                  (eq. B1)
+
+(sigma_g = 2.1 m, l = 100 m: 1.70 deg), H = (0, 0, 1, 0, 0, 0); the innovation z - phi_hat
+is wrapped to (-pi, pi]. Not gated: the GPS fix has no outliers in this model, and a filter
+whose phi has drifted is exactly the one that must take it. The compass bias stays out
+of the model as in the paper's filter: phi_hat now follows the GPS bearing, not the
+compass frame's, and the bias's constant velocity error (v sin b) goes to (c_x, c_y).
+
 Each update is the shared chi-square gate and Joseph update with the model's own
 residual (``navigation.joseph_update_vector``, eqs. 9-13 for an m-vector), on the
 shared range model with the legs' delays (``navigation.frame_range_prediction``).
@@ -61,6 +78,24 @@ class FilterWork(NamedTuple):
 def filter_work() -> FilterWork:
     """A fresh ``FilterWork``."""
     return FilterWork(np.empty(2), np.empty((2, 6)), np.empty(2), np.empty((2, 2)), joseph_work(6, 2))
+
+
+@njit(cache=True)
+def bearing_variance_rad2(gps_noise_m: float, length_m: float) -> float:
+    """Eq. B1: the variance of the bearing of B2's GPS position from B1's, 2 sigma_g^2 / l^2."""
+    return 2.0 * gps_noise_m * gps_noise_m / max(length_m * length_m, 1e-12)
+
+
+@njit(cache=True)
+def update_phi(E: np.ndarray, P: np.ndarray, phi_meas_rad: float, var_rad2: float, w: FilterWork) -> None:
+    """Fuse the telemetered frame bearing into one filter (E (6,), P (6,6)), in place (eq. B1):
+    H = (0, 0, 1, 0, 0, 0), innovation z - phi_hat wrapped to (-pi, pi], R = var_rad2; no gate."""
+    y = phi_meas_rad - E[2]
+    w.y[0] = y - 2.0 * np.pi * np.floor((y + np.pi) / (2.0 * np.pi))
+    w.H[0, :] = 0.0
+    w.H[0, 2] = 1.0
+    w.R[0, 0] = var_rad2
+    joseph_update_vector(E, P, w.y[:1], w.H[:1], w.R[:1, :1], np.inf, w.joseph)
 
 
 @njit(cache=True)
@@ -125,6 +160,13 @@ def update_d2_l(
 
 
 @njit(cache=True)
+def _relative(E: np.ndarray, speed_meas: float, heading_meas: float, b1_velocity: tuple) -> tuple:
+    """The vehicle's velocity relative to B1 in the frame: the model's minus B1's."""
+    vx, vy = frame_velocity_of(E, speed_meas, heading_meas)
+    return vx - b1_velocity[0], vy - b1_velocity[1]
+
+
+@njit(cache=True)
 def fuse_ranges(
     E: np.ndarray,
     P: np.ndarray,
@@ -136,12 +178,15 @@ def fuse_ranges(
     p: CycleParams,
     w: FilterWork,
     status: np.ndarray,
+    b1_velocity: tuple,
 ) -> tuple:
     """The cycle's updates of one filter (E (6,), P (6,6)) with the exchange ``ex``
     (``lbl.ExchangeResult``), in place: d1, then (d2, l) jointly or d2 alone, each gated
     (``state.CycleParams`` p: gate1, gate2); sigma_r2 the variance of a two-way range
     (``acoustics.ranging_variance_m2``). The frame-relative velocity for the legs is
-    the model's (``frame_velocity_of``) with the last encoder and compass readings.
+    the model's (``frame_velocity_of``) with the last encoder and compass readings, minus
+    b1_velocity (v_x, v_y), B1's velocity in the frame: (0, 0) for the paper's filter, whose c
+    holds it; the telemetered one with ``frame_motion_telemetry`` (``frame_motion``).
 
     Each range is checked against the others where they share detections: l = m - d1 - d2
     carries d1's detections (S1@B1, S2@vehicle) with the opposite sign, so a d1 the gate
@@ -152,16 +197,16 @@ def fuse_ranges(
     measurements rejected by the gate or set aside as suspect)."""
     fused_d1 = False
     if ex.ok_d1:
-        fused_d1 = update_d1(E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, w)
+        fused_d1 = update_d1(E, P, ex, dz, _relative(E, speed_meas, heading_meas, b1_velocity), sigma_r2, p.gate1, w)
     suspect_l = ex.ok_d1 and not fused_d1
     fused_d2, fused_l = False, False
     if ex.ok_l and not suspect_l:
         fused_d2, fused_l = update_d2_l(
-            E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, p.gate2, w, True
+            E, P, ex, dz, _relative(E, speed_meas, heading_meas, b1_velocity), sigma_r2, p.gate1, p.gate2, w, True
         )
     if ex.ok_d2 and not fused_d2:
         fused_d2, _ = update_d2_l(
-            E, P, ex, dz, frame_velocity_of(E, speed_meas, heading_meas), sigma_r2, p.gate1, p.gate2, w, False
+            E, P, ex, dz, _relative(E, speed_meas, heading_meas, b1_velocity), sigma_r2, p.gate1, p.gate2, w, False
         )
     status[0, 0], status[0, 1] = ex.ok_d1, fused_d1
     status[1, 0], status[1, 1] = ex.ok_d2, fused_d2

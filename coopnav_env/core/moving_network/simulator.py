@@ -106,6 +106,7 @@ class MovingNetworkSimulator(BatchSimulator):
                 ("acoustic_u", "uniform", (n_det, 3)),
                 ("gps", "normal", (2, 2)),
                 ("boat", "normal", (2, 2)),  # per boat: surge, course (Gauss-Markov driving noise)
+                ("motion", "normal", (2, 2)),  # per boat: GPS velocity error (x, y) of the telemetered frame motion
             ],
             B,
         )
@@ -234,12 +235,33 @@ class MovingNetworkSimulator(BatchSimulator):
         st.b_gps_err = c.gps_noise_m * draws["gps"]
         return bank
 
-    def _run_cycle(self, draws: dict) -> tuple:
+    def _frame_motion(self, start: np.ndarray, end: np.ndarray, draws: dict) -> np.ndarray:
+        """The frame's motion over the cycle as the boats telemeter it (B, 4) (``frame_motion``):
+        B1's displacement in the frame at the cycle's start, the rotation (bearing, wrapped by
+        numpy) and the baseline's change, from the boats' true (east, north) at the start and
+        the end (B,2,2), with the error of GPS velocities of std ``boat_velocity_noise_mps``
+        per axis held over the cycle (eq. M3); zeros without ``frame_motion_telemetry``."""
+        c, B = self.config, self.batch_size
+        motion = np.zeros((B, 4))
+        if not c.frame_motion_telemetry:
+            return motion
+        dx, dy, phi0, l0 = lbl.world_to_frame(start[:, 0], start[:, 1], end[:, 0])
+        phi1, l1 = lbl.baseline(end[:, 0], end[:, 1])
+        T = c.ping_interval_s
+        dv = c.boat_velocity_noise_mps * T * draws["motion"]  # (B, boat, axis) in the frame: isotropic
+        rel = dv[:, 1] - dv[:, 0]
+        motion[:, 0], motion[:, 1] = dx + dv[:, 0, 0], dy + dv[:, 0, 1]
+        motion[:, 2] = np.angle(np.exp(1j * (phi1 - phi0))) + rel[:, 1] / np.maximum(l0, 1e-9)
+        motion[:, 3] = l1 - l0 + rel[:, 0]
+        return motion
+
+    def _run_cycle(self, draws: dict, start: np.ndarray) -> tuple:
         """Steps 3-5 (``cycle``): the exchange, the filter's updates and recovery, the boats'
         tracking, the kernel's terms and infos. The frame bearings of the true and the GPS
         positions, the multipath excesses' logarithms and the wrapped frame rotation are
-        numpy's. Returns (out (B,) ``CYCLE_OUT``, counts (B,) ``CYCLE_COUNTS``, the frame
-        turned beyond its tolerance (B,) bool)."""
+        numpy's; start (B,2,2) the boats' true (east, north) at the cycle's start. Returns
+        (out (B,) ``CYCLE_OUT``, counts (B,) ``CYCLE_COUNTS``, the frame turned beyond its
+        tolerance (B,) bool)."""
         st, B = self._live, self.batch_size
         en = np.empty((2, B, 2, 2))
         en[0] = st.b_pos[..., :2]
@@ -256,7 +278,8 @@ class MovingNetworkSimulator(BatchSimulator):
             draws["acoustic_u"],
             np.log(draws["acoustic_u"][..., 2]),
         )
-        boats = Boats(st.b_pos, st.b_vel, phi[0], length[0], en[1], phi[1], length[1])
+        motion = self._frame_motion(start, en[0], draws)
+        boats = Boats(st.b_pos, st.b_vel, phi[0], length[0], en[1], phi[1], length[1], motion)
         out, counts = np.empty(B, CYCLE_OUT), np.empty(B, CYCLE_COUNTS)
         self._k_cycle(
             packed(vehicle_of(st)),
@@ -274,8 +297,9 @@ class MovingNetworkSimulator(BatchSimulator):
         """One positioning cycle for every environment (the package's docstring)."""
         c, st, B = self.config, self._live, self.batch_size
         draws = self._draws.draw(st.keys, st.cycle)
+        start = st.b_pos[..., :2].copy()  # the boats' true (east, north) at the cycle's start
         bank = self._move(actions, draws)
-        out, counts, turned = self._run_cycle(draws)
+        out, counts, turned = self._run_cycle(draws, start)
         logdet = floored_log(out["det"])
 
         # --- the reward's terms (unweighted; the weights are term_weights') -----------------

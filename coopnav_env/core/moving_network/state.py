@@ -169,7 +169,10 @@ class Tracker(NamedTuple):
 class Boats(NamedTuple):
     """The boats this cycle: true positions and velocities (B,2,3); the true frame
     (bearing phi and baseline length (B,)) and the GPS frame (GPS positions (B,2,2), its
-    bearing and length), phi from numpy's arctan2 (``lbl.baseline``)."""
+    bearing and length), phi from numpy's arctan2 (``lbl.baseline``); the frame's motion over
+    the cycle as the boats telemeter it (B,4): B1's displacement in the frame at the cycle's
+    start, the rotation and the baseline's change (``frame_motion``; zeros without
+    ``frame_motion_telemetry``)."""
 
     pos: np.ndarray
     vel: np.ndarray
@@ -178,6 +181,7 @@ class Boats(NamedTuple):
     gps: np.ndarray
     phi_gps: np.ndarray
     length_gps: np.ndarray
+    motion: np.ndarray
 
 
 class CycleDraws(NamedTuple):
@@ -259,6 +263,11 @@ class CycleParams(NamedTuple):
     frame_q_position_m2ps: float  # the filter's Q, for the dead-reckoned drift of a stored fix
     frame_q_baseline_m2ps: float
     survey_speed_mps: float
+    frame_bearing_fusion: float  # 1.0: fuse the telemetered frame bearing (filter.update_phi), 0.0: the paper's filter
+    gps_noise_m: float  # the boats' GPS error per axis: the telemetered bearing's noise (eq. B1)
+    frame_motion_telemetry: float  # 1.0: carry the telemetered frame motion into the filter (frame_motion), 0.0: not
+    boat_velocity_noise_mps: float  # the boats' GPS velocity error per axis: the telemetered motion's noise (eq. M3)
+    frame_restart_velocity_std_mps: float  # the recovery's prior on a locked-out filter's velocity error (eq. F5)
 
 
 def cycle_params(config: ScenarioConfig, gate1: float, gate2: float, gate3: float) -> CycleParams:
