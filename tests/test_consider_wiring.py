@@ -125,6 +125,21 @@ def test_direct_path_weight_by_hand():
     assert 0.99 < short < 1.0 and short > direct_path_weight(15.0, 36.0, 0.03, 30.0)
 
 
+def test_direct_path_weight_with_a_vanishing_excess():
+    """An excess far below the noise leaves the two paths' likelihoods equal, so w is the prior
+    1 - p; at mu = 1e-308 the old code divided by mu^2 = 0 (found by test_properties)."""
+    assert direct_path_weight(2.0, 36.0, 0.03, 1e-308) == pytest.approx(0.97, rel=1e-12)
+    assert direct_path_weight(2.0, 36.0, 0.03, 1e-5) == pytest.approx(0.97, rel=1e-5)  # the limit, approached
+    assert direct_path_weight(2.0, 36.0, 0.03, 1e-3) == pytest.approx(0.97, rel=1e-3)
+    # the log form and the asymptotic series agree where they meet (z = (y - S / mu) / sd = -30)
+    mu_30 = 36.0 / (2.0 + 30.0 * 6.0)
+    below, above = (
+        direct_path_weight(2.0, 36.0, 0.03, mu_30 * 0.999999),
+        direct_path_weight(2.0, 36.0, 0.03, mu_30 * 1.000001),
+    )
+    assert below == pytest.approx(above, rel=1e-7)
+
+
 def test_ping_grows_by_the_consider_fields_and_switches_are_checked():
     c = coopnav_env.make_config("sousa_ping")
     assert c.ping_bits == c.ping_packet_bits + 20

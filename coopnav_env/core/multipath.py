@@ -45,8 +45,17 @@ def direct_path_weight(y: float, S: float, p: float, mu: float) -> float:
         return 1.0
     sd = math.sqrt(S)
     g0 = math.exp(-0.5 * y * y / S) / (sd * math.sqrt(2.0 * math.pi))
+    if mu < 1e-12 * sd:  # an excess far below the noise: (M1) tends to g0 (and S / mu would overflow)
+        return 1.0 - p
     z = (y - S / mu) / sd
-    log_g1 = S / (2.0 * mu * mu) - y / mu - math.log(mu) + math.log(max(0.5 * math.erfc(-z / math.sqrt(2.0)), 1e-300))
+    if z > -30.0:  # (M1) in logs: exp(S / (2 mu^2)) and Phi(z) alone under/overflow once mu << sd
+        log_g1 = (
+            S / (2.0 * mu * mu) - y / mu - math.log(mu) + math.log(max(0.5 * math.erfc(-z / math.sqrt(2.0)), 1e-300))
+        )
+    else:  # Phi(z)'s asymptotic series (Abramowitz & Stegun 26.2.12); S / (2 mu^2) - y / mu - z^2 / 2 = -y^2 / (2 S)
+        iz2 = 1.0 / (z * z)
+        series = 1.0 - iz2 + 3.0 * iz2 * iz2 - 15.0 * iz2 * iz2 * iz2
+        log_g1 = -0.5 * y * y / S - math.log(mu) - math.log(-z) - 0.5 * math.log(2.0 * math.pi) + math.log(series)
     a = (1.0 - p) * g0
     c = p * math.exp(log_g1)
     return a / (a + c) if a + c > 0.0 else 0.0
