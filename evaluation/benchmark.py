@@ -27,7 +27,17 @@ written atomically into ``--out``):
   is ``n/a`` there, with the reason; it wins nothing there.
 
 Per task ``wins`` lists the policies that won; per task set ``summary`` counts each
-policy's wins, ties, losses and n/a. A run with other than the benchmark's episode
+policy's wins, ties, losses and n/a.
+
+On the survey networks the reference ``oracle`` (``baselines.horizon``: the receding-horizon
+optimiser given the truth; ``evaluation.tasks.REFERENCES``) runs on every task too; it is
+never the best planner. Per task ``headroom`` (``benchmark_stats.headroom_task``) gives the
+best greedy planner (the best of the planners other than ``horizon``), the oracle's mean,
+the headroom (best greedy minus oracle, paired interval) and, for ``horizon`` and each
+challenger, the fraction of it closed, (best greedy - policy) / headroom, n/a where the
+oracle is no better than the best greedy planner; per task set ``headroom`` pools them
+(``benchmark_stats.summarize_headroom``). The win verdict stays against the best planner,
+``horizon`` included. A run with other than the benchmark's episode
 count, or with ``--set``, says in both files that it is not a benchmark result.
 
 The statistics are ``evaluation.benchmark_stats`` (pure), the tables and files
@@ -62,9 +72,9 @@ from coopnav_env.records import plain, version_record
 from coopnav_env.seeds import TEST_SEED, TEST_SEED_COUNT, TEST_SEEDS
 
 from .benchmark_report import RESULT_FILES, render_markdown, write_results
-from .benchmark_stats import compare_task, summarize_task_set
+from .benchmark_stats import compare_task, headroom_task, summarize_headroom, summarize_task_set
 from .errors import UsageError
-from .tasks import BENCHMARK_VERSION, TASK_SETS, get_task_set
+from .tasks import BENCHMARK_VERSION, NON_GREEDY, TASK_SETS, get_task_set
 
 VERDICTS = ("win", "tie", "loss")
 
@@ -96,7 +106,7 @@ class SetPlan:
     cannot drive a task (task -> {policy: the reason})."""
 
     task_set: object
-    columns: list  # planners, floors, then the challengers
+    columns: list  # planners, references, floors, then the challengers
     configs: dict  # task name -> ScenarioConfig
     cannot: dict  # task name -> {policy: reason}
     trained: dict  # policy -> what it resolved to (evaluation.config.resolve_trained)
@@ -226,7 +236,7 @@ def plan_benchmark(
     seed = TEST_SEEDS[0]
     plans, drivable = [], dict.fromkeys(challengers, 0)
     for ts in sets:
-        base = list(ts.planners) + list(ts.floors)
+        base = list(ts.planners) + list(ts.references) + list(ts.floors)
         columns = base + [p for p in challengers if p not in base]
         trained, unresolved = {}, {}
         for p in columns:
@@ -328,25 +338,34 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
     sets = {}
     for sp in plan.sets:
         ts = sp.task_set
-        tasks = {}
+        tasks, headrooms = {}, {}
+        closers = [p for p in ts.planners if p in NON_GREEDY]
+        closers += [p for p in plan.challengers if p not in closers and p not in ts.references]
         for task in ts.tasks:
             per_task = raw[ts.name][task.name]
             errors = {p: None if v is None else v["mean_error_m"] for p, v in per_task.items()}
             ranges = {p: v["ranges_fused"] for p, v in per_task.items() if v is not None}
             result = compare_task(errors, ts.planners, ranges_fused=ranges, skipped=sp.cannot[task.name])
             tasks[task.name] = {"overrides": plain(dict(task.overrides)), "about": task.about, **result}
+            if ts.references:
+                headrooms[task.name] = tasks[task.name]["headroom"] = headroom_task(
+                    tasks[task.name], ts.greedy_planners, closers, oracle=ts.references[0]
+                )
         sets[ts.name] = {
             "scenario": ts.scenario,
             "about": ts.about,
             "episodes": plan.episodes,
             "benchmark_episodes": ts.episodes,
             "planners": list(ts.planners),
+            "greedy_planners": list(ts.greedy_planners),
+            "references": list(ts.references),
             "floors": list(ts.floors),
             "challengers": list(plan.challengers),
             "columns": list(sp.columns),
             "trained_policies": sp.trained,
             "tasks": tasks,
             "summary": summarize_task_set(tasks, sp.columns),
+            "headroom": summarize_headroom(headrooms, closers) if ts.references else None,
         }
     return {
         "benchmark_version": BENCHMARK_VERSION,
