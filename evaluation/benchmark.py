@@ -23,6 +23,10 @@ written atomically into ``--out``):
   the lowest ``mean_error_m``; negative: better than it), its mean and 95 % t interval
   (``evaluation.paired.t_interval``), and a verdict: ``win`` (the interval lies below
   0), ``loss`` (above 0), ``tie`` (it holds 0), ``best`` (the best planner itself);
+* ``ms_per_act``: the cost per decision, the median CPU milliseconds of one ``act`` call
+  (one beacon's decision, the calling thread's CPU clock: one core), measured around
+  every act of the run (``run_episodes(act_seconds=...)``); per task set, ``ms_per_act``
+  per policy is the median over its tasks;
 * a policy that cannot drive a task (a trained policy built for another team size, say)
   is ``n/a`` there, with the reason; it wins nothing there.
 
@@ -321,10 +325,14 @@ def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
                         continue
                     if bar is not None:
                         bar.stage(f"{sp.task_set.name}/{task} {p}")
-                    rows, _ = run_episodes(config, p, plan.seeds, progress=None if bar is None else bar.update)
+                    seconds: list = []
+                    rows, _ = run_episodes(
+                        config, p, plan.seeds, progress=None if bar is None else bar.update, act_seconds=seconds
+                    )
                     per_task[p] = {
                         "mean_error_m": [r["mean_error_m"] for r in rows],
                         "ranges_fused": [r["ranges_fused"] for r in rows],
+                        "ms_per_act": 1e3 * float(np.median(seconds)),
                     }
     finally:
         if bar is not None:
@@ -346,6 +354,9 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
             errors = {p: None if v is None else v["mean_error_m"] for p, v in per_task.items()}
             ranges = {p: v["ranges_fused"] for p, v in per_task.items() if v is not None}
             result = compare_task(errors, ts.planners, ranges_fused=ranges, skipped=sp.cannot[task.name])
+            for p, v in per_task.items():  # cost per decision: median CPU ms per act (run_episodes' act_seconds)
+                if v is not None and "ms_per_act" in v:
+                    result["policies"][p]["ms_per_act"] = v["ms_per_act"]
             tasks[task.name] = {"overrides": plain(dict(task.overrides)), "about": task.about, **result}
             if ts.references:
                 headrooms[task.name] = tasks[task.name]["headroom"] = headroom_task(
@@ -365,6 +376,7 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
             "trained_policies": sp.trained,
             "tasks": tasks,
             "summary": summarize_task_set(tasks, sp.columns),
+            "ms_per_act": _cost_per_decision(tasks, sp.columns),
             "headroom": summarize_headroom(headrooms, closers) if ts.references else None,
         }
     return {
@@ -379,6 +391,15 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
         "task_sets": sets,
         "versions": version_record(),
     }
+
+
+def _cost_per_decision(tasks: dict, columns: list) -> dict:
+    """Per policy the median over the set's tasks of its median CPU ms per act (None where it ran on none)."""
+    out = {}
+    for p in columns:
+        ms = [t["policies"][p]["ms_per_act"] for t in tasks.values() if "ms_per_act" in t["policies"].get(p, {})]
+        out[p] = float(np.median(ms)) if ms else None
+    return out
 
 
 def _not_official(plan: BenchmarkPlan) -> list:

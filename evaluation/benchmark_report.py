@@ -163,14 +163,18 @@ def render_markdown(results: dict) -> str:
             "",
             f"### Wins over {n} tasks",
             "",
-            "| policy | wins | ties | losses | best planner | n/a | tasks won |",
-            "|---|---|---|---|---|---|---|",
+            "ms per act: the cost per decision, the median CPU milliseconds of one beacon's decision (one "
+            "core), median over the tasks.",
+            "",
+            "| policy | wins | ties | losses | best planner | n/a | tasks won | ms per act |",
+            "|---|---|---|---|---|---|---|---|",
         ]
+        cost = s.get("ms_per_act") or {}
         for p in cols:
             c = s["summary"][p]
             lines.append(
                 f"| {p} | {c['win']} | {c['tie']} | {c['loss']} | {c['best']} | {c['n/a']} | "
-                f"{', '.join(c['tasks_won']) or '-'} |"
+                f"{', '.join(c['tasks_won']) or '-'} | {_opt(cost.get(p))} |"
             )
         if s.get("headroom"):
             lines += _headroom_lines(s)

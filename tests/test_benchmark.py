@@ -273,10 +273,13 @@ def test_a_tiny_run_of_the_command(tmp_path, capsys):
             assert st["paired"]["verdict"] in ("best", "win", "tie", "loss")
             lo, hi = st["ci95_error_m"]
             assert lo <= st["mean_error_m"] <= hi
+            assert st["ms_per_act"] > 0  # the cost per decision, measured around the act calls (not timed here)
+    assert set(s["ms_per_act"]) == set(s["columns"]) and all(v > 0 for v in s["ms_per_act"].values())
     assert s["headroom"]["tasks"] + len(s["headroom"]["tasks_without"]) == len(s["tasks"])
     md = (out / "results.md").read_text()
     assert "Not a benchmark result" in md and "## gao_lawnmower" in md and "### Wins over 6 tasks" in md
     assert "### Headroom: best greedy planner minus the oracle" in md and "| closed by horizon |" in md
+    assert "| tasks won | ms per act |" in md
     assert md == render_markdown(results)
     assert not list(out.glob(".*.tmp*"))
     # the same --out again: refused (one line, exit 2), the result kept
