@@ -39,10 +39,13 @@ is that planner for the survey scenarios. At each decision:
    & Chitre's accumulated positioning error). ``criterion="logdet"`` uses the sum of
    log det E[P_j^+] - log det P_j^0 instead (the D-optimal criterion of the FIM
    planners); log det rewards shrinking the minor axis as much as the major one,
-   which the squared error does not. Soft constraints (geofence, safety distance,
+   which the squared error does not; ``criterion="sqrt_trace"`` sums sqrt(tr E[P_j^+])
+   (the scale of the error itself, which the benchmark averages, rather than its
+   square), and ``terminal_weight`` counts the last ping more (the pings after the
+   horizon). Soft constraints (geofence, safety distance,
    acoustic range: ``BeaconContext.violation_m`` at every ping, averaged over the
    horizon) add ``PENALTY_PER_M`` per metre, as in the greedy planners.
-   With other beacons (teams), ``team="joint"`` (the default) optimises every
+   With other beacons (teams), ``team="joint"`` optimises every
    beacon's sequence together: a candidate is M sequences (M, H, 2), beacon m
    starting from its reported position (this one: its own estimate) with its own
    maximum speed and depth, all M ranging at every ping (eq. H1 applied for each
@@ -53,9 +56,10 @@ is that planner for the survey scenarios. At each decision:
    same knowledge every beacon finds the same plan, and each applies its own first
    step; they exchange no plans, so where their knowledge differs (a peer's position
    report a ping old, a reply one of them missed) their plans may differ.
-   ``team="peers"`` plans this beacon's sequence only, the others assumed to stay at
-   their last reported position and to range every ping before this one; ``"alone"``
-   ignores them.
+   ``team="peers"`` (the default: on the team tasks, joint planning was no better,
+   even given the truth; ``docs/baselines/horizon.md``) plans this beacon's sequence
+   only, the others assumed to stay at their last reported position and to range
+   every ping before this one; ``"alone"`` ignores them.
 4. **Cross-entropy method.** A Gaussian over the (H, 2) velocity sequence: draw
    ``n_samples`` sequences (projected into the unit disc), keep the ``n_elite``
    cheapest, refit mean and std, ``iterations`` times. The first iteration also
@@ -84,7 +88,7 @@ if TYPE_CHECKING:
     from coopnav_env.obs_layout import ObsView
     from coopnav_env.scenarios import ScenarioConfig
 
-CRITERIA = ("trace", "logdet")
+CRITERIA = ("trace", "sqrt_trace", "logdet")
 TEAMS = ("joint", "peers", "alone")
 PREDICTORS = ("path", "chord", "stationary")
 
@@ -191,15 +195,26 @@ def expected_covariances(
     return out, none
 
 
-def horizon_cost(P: np.ndarray, P_none: np.ndarray, criterion: str = "trace") -> np.ndarray:
-    """Eq. (H2) (``"trace"``) or the summed log-det reduction (``"logdet"``) of
-    expected covariances P (N, H, S, 3), P_none (H, S, 3) -> (N,)."""
-    if criterion == "trace":
-        return (P[..., 0] + P[..., 2]).sum((1, 2)) / max(float((P_none[..., 0] + P_none[..., 2]).sum()), 1e-300)
+def horizon_cost(
+    P: np.ndarray, P_none: np.ndarray, criterion: str = "trace", terminal_weight: float = 0.0
+) -> np.ndarray:
+    """Eq. (H2) (``"trace"``), the summed root of the trace (``"sqrt_trace"``: the
+    expected error's scale, sum_j sqrt(tr E[P_j^+]) / sum_j sqrt(tr P_j^0)) or the
+    summed log-det reduction (``"logdet"``) of expected covariances P (N, H, S, 3),
+    P_none (H, S, 3) -> (N,). ``terminal_weight`` w counts the last ping's term 1 + w
+    times (the pings after the horizon, as if the covariance stayed there)."""
+    H = P.shape[1]
+    w = np.ones(H)
+    w[-1] += terminal_weight
+    if criterion in ("trace", "sqrt_trace"):
+        tr, tr0 = P[..., 0] + P[..., 2], P_none[..., 0] + P_none[..., 2]
+        if criterion == "sqrt_trace":
+            tr, tr0 = np.sqrt(np.maximum(tr, 0.0)), np.sqrt(np.maximum(tr0, 0.0))
+        return (tr * w[:, None]).sum((1, 2)) / max(float((tr0 * w[:, None]).sum()), 1e-300)
     if criterion == "logdet":
         det = np.maximum(P[..., 0] * P[..., 2] - P[..., 1] ** 2, 1e-300)
         det0 = np.maximum(P_none[..., 0] * P_none[..., 2] - P_none[..., 1] ** 2, 1e-300)
-        return (np.log(det) - np.log(det0)).sum((1, 2))
+        return ((np.log(det) - np.log(det0)) * w[:, None]).sum((1, 2))
     raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
 
 
@@ -218,9 +233,10 @@ class HorizonPolicy(TrackingPolicy):
     ``n_samples``, ``n_elite``, ``iterations``, the sampling std ``init_std``
     (fraction of the maximum speed), ``criterion`` ("trace" or "logdet"),
     ``team`` (with several beacons: "joint" plans every beacon's sequence together,
-    "peers" plans its own around the others held at their reported positions,
+    "peers", the default, plans its own around the others held at their reported positions,
     "alone" ignores them), ``refine_iters`` (pattern-search rounds on the applied
-    step) and ``predictor`` of the survey path ("path", "chord", "stationary")."""
+    step), ``predictor`` of the survey path ("path", "chord", "stationary") and
+    ``terminal_weight`` (``horizon_cost``)."""
 
     def __init__(
         self,
@@ -233,9 +249,10 @@ class HorizonPolicy(TrackingPolicy):
         iterations: int = 4,
         init_std: float = 0.5,
         criterion: str = "trace",
-        team: str = "joint",
+        team: str = "peers",
         refine_iters: int = 8,
         predictor: str = "path",
+        terminal_weight: float = 0.0,
     ) -> None:
         if predictor not in PREDICTORS:
             raise ValueError(f"predictor must be one of {PREDICTORS}, got {predictor!r}")
@@ -252,6 +269,7 @@ class HorizonPolicy(TrackingPolicy):
         self.horizon, self.n_samples, self.n_elite = int(horizon), int(n_samples), int(n_elite)
         self.iterations, self.init_std = int(iterations), float(init_std)
         self.criterion, self.team, self.refine_iters = criterion, team, int(refine_iters)
+        self.terminal_weight = float(terminal_weight)
         super().__init__(config, agent_index, seed)
         joint = team == "joint" and config.n_beacons > 1
         # the beacons this one plans for, in index order, and where it is among them
@@ -330,7 +348,8 @@ class HorizonPolicy(TrackingPolicy):
             for m, bc in enumerate(self.team_ctx)
             for j in range(self.horizon)
         )
-        return horizon_cost(P, P_none, self.criterion) + PENALTY_PER_M * viol / self.horizon
+        cost = horizon_cost(P, P_none, self.criterion, self.terminal_weight)
+        return cost + PENALTY_PER_M * viol / self.horizon
 
     def optimise(self, view: ObsView) -> np.ndarray:
         """The cross-entropy method; returns the best (M, H, 2) velocity sequences."""

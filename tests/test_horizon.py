@@ -249,7 +249,7 @@ def test_joint_team_plan_puts_two_simultaneous_ranges_at_right_angles():
     s = 100.0
     b = [SURVEY + np.array([0.0, 30.0]), SURVEY + np.array([6.0, 30.0])]
     P = s * np.eye(2)
-    joint = [make_policy("horizon", TEAM, seed=(5, j), agent=j, horizon=1) for j in range(2)]
+    joint = [make_policy("horizon", TEAM, seed=(5, j), agent=j, horizon=1, team="joint") for j in range(2)]
     for j, pol in enumerate(joint):
         pol.act(observe_team(b[j], b[1 - j], P))
         assert pol.planned == [0, 1] and pol.me == j and pol.plan_v.shape == (2, 1, 2)
