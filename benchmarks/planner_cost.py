@@ -72,6 +72,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario parameter")
     p.add_argument("--no-pin", dest="pin", action="store_false", help="do not pin the process to one CPU")
     p.add_argument("--markdown", help="also write the table here")
+    p.add_argument(
+        "--variant",
+        action="append",
+        default=[],
+        metavar="NAME:BASE:KEY=VALUE,...",
+        help="also time a planner variant (benchmarks/horizon_vs_greedy.py's), e.g. hj:horizon:team=joint",
+    )
     args = p.parse_args(argv)
     if args.pin and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -84,6 +91,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         overrides[key] = type(d)(text) if isinstance(d, (int, float)) and not isinstance(d, bool) else text
     config = coopnav_env.make_config(args.scenario, **overrides)
     names = list_policies(config.network) + [q for q in args.policies.split(",") if q]
+    if args.variant:
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        from horizon_vs_greedy import register_variants
+
+        names += register_variants(args.variant)
     lines = [
         f"{args.scenario}{' ' + ' '.join(args.set) if args.set else ''}: CPU ms per act (one beacon's decision), "
         f"{args.steps} decisions after {args.warmup} untimed, one core.",
