@@ -263,3 +263,17 @@ def test_joint_team_plan_puts_two_simultaneous_ranges_at_right_angles():
         pol.act(observe_team(b[j], b[1 - j], P))
     apart = angle_between_deg(direction_deg(held[0].last_waypoint), direction_deg(held[1].last_waypoint))
     assert apart < 20.0, apart  # ~11 deg: each turned 90 deg from where the other was
+
+
+def test_horizon_cost_criteria_and_terminal_weight_by_hand():
+    """Two pings, one survey vehicle: traces 8 and 2 with ranges, 18 and 32 without.
+    trace: (8 + 2) / (18 + 32) = 0.2; the last ping counted twice (terminal_weight=1):
+    (8 + 4) / (18 + 64); sqrt_trace: (sqrt 8 + sqrt 2) / (sqrt 18 + sqrt 32) = 3/7."""
+    P = np.array([[[[4.0, 0.0, 4.0]], [[1.0, 0.0, 1.0]]]])  # (N=1, H=2, S=1, 3)
+    P_none = np.array([[[9.0, 0.0, 9.0]], [[16.0, 0.0, 16.0]]])
+    assert horizon_cost(P, P_none)[0] == pytest.approx(0.2)
+    assert horizon_cost(P, P_none, terminal_weight=1.0)[0] == pytest.approx(12.0 / 82.0)
+    assert horizon_cost(P, P_none, "sqrt_trace")[0] == pytest.approx(3.0 / 7.0)
+    assert horizon_cost(P, P_none, "logdet")[0] == pytest.approx(np.log(16 / 81) + np.log(1 / 256))
+    with pytest.raises(ValueError, match="criterion must be one of"):
+        horizon_cost(P, P_none, "volume")
