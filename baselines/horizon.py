@@ -218,6 +218,18 @@ def horizon_cost(
     raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
 
 
+HORIZON_S = 30.0  # the default horizon looks at least this far ahead, in 4 to 6 pings
+
+
+def default_horizon(ping_interval_s: float) -> int:
+    """The default number of pings H: enough to look ``HORIZON_S`` ahead, at least 4 and at
+    most 6, H = min(6, max(4, ceil(30 s / T))): 4 at a 20 s ping (80 s ahead: the Gao
+    scenarios, ``sousa_ping``), 6 at 5 s (``sousa_asv``: 30 s, where 4 pings, 20 s, were
+    short on its spirals and circles) and at 2 s (``swarm_mls``: 12 s). Tuning runs in
+    ``docs/baselines/horizon.md``."""
+    return int(min(6, max(4, np.ceil(HORIZON_S / float(ping_interval_s) - 1e-9))))
+
+
 # the first iteration's fixed candidates: stop, and full speed straight in eight directions
 _ANGLES = 2 * np.pi * np.arange(8) / 8
 _FIXED = np.concatenate([np.zeros((1, 2)), np.stack([np.sin(_ANGLES), np.cos(_ANGLES)], -1)])
@@ -229,7 +241,8 @@ _PATTERN = np.stack(np.meshgrid(_G, _G, indexing="ij"), -1).reshape(-1, 2).astyp
 class HorizonPolicy(TrackingPolicy):
     """Receding horizon: the cross-entropy method over the beacon's next ``horizon``
     velocities, minimising the survey filter's expected accumulated covariance
-    (see the module docstring). Constructor arguments: ``horizon`` pings, CEM sizes
+    (see the module docstring). Constructor arguments: ``horizon`` pings (default
+    ``default_horizon`` of the ping interval), CEM sizes
     ``n_samples``, ``n_elite``, ``iterations``, the sampling std ``init_std``
     (fraction of the maximum speed), ``criterion`` ("trace" or "logdet"),
     ``team`` (with several beacons: "joint" plans every beacon's sequence together,
@@ -243,7 +256,7 @@ class HorizonPolicy(TrackingPolicy):
         config: ScenarioConfig,
         agent_index: int = 0,
         seed: int | Sequence[int] | None = None,
-        horizon: int = 4,
+        horizon: int | None = None,
         n_samples: int = 64,
         n_elite: int = 8,
         iterations: int = 4,
@@ -261,6 +274,8 @@ class HorizonPolicy(TrackingPolicy):
             raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
         if team not in TEAMS:
             raise ValueError(f"team must be one of {TEAMS}, got {team!r}")
+        if horizon is None:
+            horizon = default_horizon(config.ping_interval_s)
         if not (horizon >= 1 and iterations >= 1 and 1 <= n_elite <= n_samples):
             raise ValueError(
                 f"need horizon >= 1, iterations >= 1, 1 <= n_elite <= n_samples; got {horizon}, "
