@@ -277,3 +277,12 @@ def test_horizon_cost_criteria_and_terminal_weight_by_hand():
     assert horizon_cost(P, P_none, "logdet")[0] == pytest.approx(np.log(16 / 81) + np.log(1 / 256))
     with pytest.raises(ValueError, match="criterion must be one of"):
         horizon_cost(P, P_none, "volume")
+
+
+def test_default_horizon_looks_30_s_ahead_in_4_to_6_pings():
+    from baselines.horizon import default_horizon
+
+    assert [default_horizon(t) for t in (20.0, 10.0, 7.5, 5.0, 2.0)] == [4, 4, 4, 6, 6]
+    assert make_policy("horizon", TOY).horizon == 4  # TOY pings every 20 s
+    assert make_policy("horizon", coopnav_env.make_config("sousa_asv")).horizon == 6  # every 5 s
+    assert make_policy("horizon", TOY, horizon=3).horizon == 3
