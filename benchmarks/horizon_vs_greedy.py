@@ -134,7 +134,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 continue
             order.append((set_name, task.name, greedy))
             jobs += [(set_name, task.name, q, seeds, extra, args.variant) for q in [*challengers, *greedy]]
-    scores, cpu = {}, {}
+    scores: dict = {}
+    cpu: dict[str, float] = {}
     with ProcessPoolExecutor(max(args.workers, 1)) as pool:
         for s, t, q, errs, sec in pool.map(_job, jobs):
             scores[s, t, q] = np.asarray(errs)

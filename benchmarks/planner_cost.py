@@ -36,7 +36,7 @@ def time_policy(config: object, name: str, steps: int, warmup: int, seed: int) -
     from coopnav_env.views import action_dim
     from evaluation.episodes import make_policy
 
-    sim = make_simulator(config, batch_size=1)
+    sim = make_simulator(config, batch_size=1)  # type: ignore[arg-type]
     N = config.n_beacons  # type: ignore[attr-defined]
     obs = sim.reset([seed])
     policies = [make_policy(name, config, seed=(seed, j), agent=j) for j in range(N)]  # type: ignore[arg-type]
@@ -93,7 +93,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     names = list_policies(config.network) + [q for q in args.policies.split(",") if q]
     if args.variant:
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-        from horizon_vs_greedy import register_variants
+        from horizon_vs_greedy import register_variants  # type: ignore[import-not-found]
 
         names += register_variants(args.variant)
     lines = [

@@ -122,7 +122,7 @@ def headroom_task(
     if best is None or o is None:
         out["na"] = f"no {'greedy planner' if best is None else oracle} ran on this task"
         return out
-    g = mean(best)
+    g = float(pol[best]["mean_error_m"])
     diff = np.asarray(pol[best]["episode_mean_error_m"], float) - np.asarray(pol[oracle]["episode_mean_error_m"], float)
     _, lo, hi = t_interval(diff, confidence)
     out["headroom_m"], out["headroom_ci95_m"] = g - o, [lo, hi]
