@@ -92,9 +92,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     config = coopnav_env.make_config(args.scenario, **overrides)
     names = list_policies(config.network) + [q for q in args.policies.split(",") if q]
     if args.variant:
-        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-        from horizon_vs_greedy import register_variants  # type: ignore[import-not-found]
+        import importlib.util
 
+        here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "horizon_vs_greedy.py")
+        spec = importlib.util.spec_from_file_location("horizon_vs_greedy", here)
+        module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
+        spec.loader.exec_module(module)  # type: ignore[union-attr]
+        register_variants = module.register_variants
         names += register_variants(args.variant)
     lines = [
         f"{args.scenario}{' ' + ' '.join(args.set) if args.set else ''}: CPU ms per act (one beacon's decision), "
