@@ -328,7 +328,7 @@ class HorizonPolicy(TrackingPolicy):
         en = np.stack([e for e, _ in preds])
         dz_own = np.stack([d for _, d in preds])  # (H, S) below this beacon
         # below beacon m: its nominal depth instead of this one's (an ASV at 0, a beacon AUV at its depth)
-        dz = np.stack([dz_own + self.ctx.depth_m - bc.depth_m for bc in self.team_ctx])
+        dz = np.stack([dz_own + (self.ctx.depth_m - bc.depth_m) for bc in self.team_ctx])  # own: exactly dz_own
         q = c.process_noise_horizontal_m2ps
         grow = np.full(dz_own.shape, q * T)
         grow[0] = q * (np.asarray(view.reply_age_s, float) + T)
