@@ -39,20 +39,36 @@ is that planner for the survey scenarios. At each decision:
    & Chitre's accumulated positioning error). ``criterion="logdet"`` uses the sum of
    log det E[P_j^+] - log det P_j^0 instead (the D-optimal criterion of the FIM
    planners); log det rewards shrinking the minor axis as much as the major one,
-   which the squared error does not. Soft constraints (geofence, safety distance,
+   which the squared error does not; ``criterion="sqrt_trace"`` sums sqrt(tr E[P_j^+])
+   (the scale of the error itself, which the benchmark averages, rather than its
+   square), and ``terminal_weight`` counts the last ping more (the pings after the
+   horizon). Soft constraints (geofence, safety distance,
    acoustic range: ``BeaconContext.violation_m`` at every ping, averaged over the
    horizon) add ``PENALTY_PER_M`` per metre, as in the greedy planners.
-   With other beacons (teams), each is assumed to stay at its last reported
-   position and to range every ping before this one (``peers=True``): the beacons
-   plan one at a time, each around the information the others bring.
+   With other beacons (teams), ``team="joint"`` optimises every
+   beacon's sequence together: a candidate is M sequences (M, H, 2), beacon m
+   starting from its reported position (this one: its own estimate) with its own
+   maximum speed and depth, all M ranging at every ping (eq. H1 applied for each
+   range in index order, ``team_expected_covariances``). This is decentralised
+   joint planning: each beacon computes the joint plan from what it knows (its own
+   estimate, the others' reported positions, the survey vehicles' replies) with the
+   episode's common random numbers (its seed without the beacon index), so with the
+   same knowledge every beacon finds the same plan, and each applies its own first
+   step; they exchange no plans, so where their knowledge differs (a peer's position
+   report a ping old, a reply one of them missed) their plans may differ.
+   ``team="peers"`` (the default: on the team tasks, joint planning was no better,
+   even given the truth; ``docs/baselines/horizon.md``) plans this beacon's sequence
+   only, the others assumed to stay at their last reported position and to range
+   every ping before this one; ``"alone"`` ignores them.
 4. **Cross-entropy method.** A Gaussian over the (H, 2) velocity sequence: draw
    ``n_samples`` sequences (projected into the unit disc), keep the ``n_elite``
    cheapest, refit mean and std, ``iterations`` times. The first iteration also
    scores the previous plan shifted by one ping (its last step repeated: the warm
    start, also the initial mean), a stop, and full speed straight in eight
-   directions. The cheapest sequence seen is the plan; a pattern search then polishes
-   its first step (``refine_iters`` rounds, the rest of the plan fixed), which is
-   applied.
+   directions (jointly: for each beacon in turn, the others at the mean). The
+   cheapest sequence seen is the plan; a pattern search then polishes its first
+   step (``refine_iters`` rounds, the rest of the plan fixed; jointly, every
+   beacon's first step in index order each round), and this beacon's is applied.
 
 Random numbers come from the policy's seed (``reset``): the planner is deterministic
 given the seed, so it runs under common random numbers like the other planners.
@@ -72,7 +88,8 @@ if TYPE_CHECKING:
     from coopnav_env.obs_layout import ObsView
     from coopnav_env.scenarios import ScenarioConfig
 
-CRITERIA = ("trace", "logdet")
+CRITERIA = ("trace", "sqrt_trace", "logdet")
+TEAMS = ("joint", "peers", "alone")
 PREDICTORS = ("path", "chord", "stationary")
 
 
@@ -80,6 +97,50 @@ def _disc(v: np.ndarray) -> np.ndarray:
     """Project velocity fractions (..., 2) into the unit disc."""
     norm = np.sqrt((v**2).sum(-1, keepdims=True))
     return v / np.maximum(norm, 1.0)
+
+
+def team_expected_covariances(
+    beacon_en: np.ndarray,
+    survey_en: np.ndarray,
+    survey_dz: np.ndarray,
+    P0: np.ndarray,
+    grow_m2: np.ndarray,
+    range_var_m2: np.ndarray,
+    ctx: BeaconContext,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. (H1) with M beacons ranging at every ping, in index order.
+
+    beacon_en (N, M, H, 2): each candidate's ping positions of every beacon;
+    survey_en (H, S, 2); survey_dz (M, H, S): the survey vehicles' depth below each
+    beacon; P0 (S, 2, 2); grow_m2 (H, S); range_var_m2 (M,): each beacon's R. The
+    ranges of one ping are independent, each arriving with its own probability
+    p_m, and are applied one after the other (the expectation of each update over
+    its arrival, eq. H1, in turn). Returns (P (N, H, S, 3), P_none (H, S, 3)) as
+    ``expected_covariances``."""
+    N, M, H = beacon_en.shape[:3]
+    S = survey_en.shape[1]
+    rel = survey_en[None, None] - beacon_en[..., None, :]  # (N, M, H, S, 2)
+    d3 = np.sqrt((rel**2).sum(-1) + survey_dz[None] ** 2)
+    h = rel / np.maximum(d3, 1e-9)[..., None]
+    p = ctx.delivery_probability(d3)  # (N, M, H, S)
+    R = np.broadcast_to(np.asarray(range_var_m2, float), (M,))
+    a = np.broadcast_to(P0[:, 0, 0], (N, S)).copy()
+    b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
+    c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
+    out = np.empty((N, H, S, 3))
+    none = np.empty((H, S, 3))
+    none_a, none_b, none_c = P0[:, 0, 0].copy(), P0[:, 0, 1].copy(), P0[:, 1, 1].copy()
+    for j in range(H):
+        a, c = a + grow_m2[j], c + grow_m2[j]
+        none_a, none_c = none_a + grow_m2[j], none_c + grow_m2[j]
+        none[j] = np.stack([none_a, none_b, none_c], -1)
+        for m in range(M):
+            he, hn = h[:, m, j, :, 0], h[:, m, j, :, 1]
+            ue, un = a * he + b * hn, b * he + c * hn  # P h
+            k = p[:, m, j] / (he * ue + hn * un + R[m])  # p / (h'Ph + R), eq. (H1)
+            a, b, c = a - k * ue * ue, b - k * ue * un, c - k * un * un
+        out[:, j, :, 0], out[:, j, :, 1], out[:, j, :, 2] = a, b, c
+    return out, none
 
 
 def expected_covariances(
@@ -134,16 +195,39 @@ def expected_covariances(
     return out, none
 
 
-def horizon_cost(P: np.ndarray, P_none: np.ndarray, criterion: str = "trace") -> np.ndarray:
-    """Eq. (H2) (``"trace"``) or the summed log-det reduction (``"logdet"``) of
-    expected covariances P (N, H, S, 3), P_none (H, S, 3) -> (N,)."""
-    if criterion == "trace":
-        return (P[..., 0] + P[..., 2]).sum((1, 2)) / max(float((P_none[..., 0] + P_none[..., 2]).sum()), 1e-300)
+def horizon_cost(
+    P: np.ndarray, P_none: np.ndarray, criterion: str = "trace", terminal_weight: float = 0.0
+) -> np.ndarray:
+    """Eq. (H2) (``"trace"``), the summed root of the trace (``"sqrt_trace"``: the
+    expected error's scale, sum_j sqrt(tr E[P_j^+]) / sum_j sqrt(tr P_j^0)) or the
+    summed log-det reduction (``"logdet"``) of expected covariances P (N, H, S, 3),
+    P_none (H, S, 3) -> (N,). ``terminal_weight`` w counts the last ping's term 1 + w
+    times (the pings after the horizon, as if the covariance stayed there)."""
+    H = P.shape[1]
+    w = np.ones(H)
+    w[-1] += terminal_weight
+    if criterion in ("trace", "sqrt_trace"):
+        tr, tr0 = P[..., 0] + P[..., 2], P_none[..., 0] + P_none[..., 2]
+        if criterion == "sqrt_trace":
+            tr, tr0 = np.sqrt(np.maximum(tr, 0.0)), np.sqrt(np.maximum(tr0, 0.0))
+        return (tr * w[:, None]).sum((1, 2)) / max(float((tr0 * w[:, None]).sum()), 1e-300)
     if criterion == "logdet":
         det = np.maximum(P[..., 0] * P[..., 2] - P[..., 1] ** 2, 1e-300)
         det0 = np.maximum(P_none[..., 0] * P_none[..., 2] - P_none[..., 1] ** 2, 1e-300)
-        return (np.log(det) - np.log(det0)).sum((1, 2))
+        return ((np.log(det) - np.log(det0)) * w[:, None]).sum((1, 2))
     raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
+
+
+HORIZON_S = 30.0  # the default horizon looks at least this far ahead, in 4 to 6 pings
+
+
+def default_horizon(ping_interval_s: float) -> int:
+    """The default number of pings H: enough to look ``HORIZON_S`` ahead, at least 4 and at
+    most 6, H = min(6, max(4, ceil(30 s / T))): 4 at a 20 s ping (80 s ahead: the Gao
+    scenarios, ``sousa_ping``), 6 at 5 s (``sousa_asv``: 30 s, where 4 pings, 20 s, were
+    short on its spirals and circles) and at 2 s (``swarm_mls``: 12 s). Tuning runs in
+    ``docs/baselines/horizon.md``."""
+    return int(min(6, max(4, np.ceil(HORIZON_S / float(ping_interval_s) - 1e-9))))
 
 
 # the first iteration's fixed candidates: stop, and full speed straight in eight directions
@@ -157,32 +241,41 @@ _PATTERN = np.stack(np.meshgrid(_G, _G, indexing="ij"), -1).reshape(-1, 2).astyp
 class HorizonPolicy(TrackingPolicy):
     """Receding horizon: the cross-entropy method over the beacon's next ``horizon``
     velocities, minimising the survey filter's expected accumulated covariance
-    (see the module docstring). Constructor arguments: ``horizon`` pings, CEM sizes
+    (see the module docstring). Constructor arguments: ``horizon`` pings (default
+    ``default_horizon`` of the ping interval), CEM sizes
     ``n_samples``, ``n_elite``, ``iterations``, the sampling std ``init_std``
     (fraction of the maximum speed), ``criterion`` ("trace" or "logdet"),
-    ``peers`` (model the other beacons' ranges) and ``refine_iters`` (pattern-search
-    rounds on the applied step)."""
+    ``team`` (with several beacons: "joint" plans every beacon's sequence together,
+    "peers", the default, plans its own around the others held at their reported positions,
+    "alone" ignores them), ``refine_iters`` (pattern-search rounds on the applied
+    step), ``predictor`` of the survey path ("path", "chord", "stationary") and
+    ``terminal_weight`` (``horizon_cost``)."""
 
     def __init__(
         self,
         config: ScenarioConfig,
         agent_index: int = 0,
         seed: int | Sequence[int] | None = None,
-        horizon: int = 4,
+        horizon: int | None = None,
         n_samples: int = 64,
         n_elite: int = 8,
         iterations: int = 4,
         init_std: float = 0.5,
         criterion: str = "trace",
-        peers: bool = True,
+        team: str = "peers",
         refine_iters: int = 8,
         predictor: str = "path",
+        terminal_weight: float = 0.0,
     ) -> None:
         if predictor not in PREDICTORS:
             raise ValueError(f"predictor must be one of {PREDICTORS}, got {predictor!r}")
         self.predictor = predictor
         if criterion not in CRITERIA:
             raise ValueError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
+        if team not in TEAMS:
+            raise ValueError(f"team must be one of {TEAMS}, got {team!r}")
+        if horizon is None:
+            horizon = default_horizon(config.ping_interval_s)
         if not (horizon >= 1 and iterations >= 1 and 1 <= n_elite <= n_samples):
             raise ValueError(
                 f"need horizon >= 1, iterations >= 1, 1 <= n_elite <= n_samples; got {horizon}, "
@@ -190,14 +283,30 @@ class HorizonPolicy(TrackingPolicy):
             )
         self.horizon, self.n_samples, self.n_elite = int(horizon), int(n_samples), int(n_elite)
         self.iterations, self.init_std = int(iterations), float(init_std)
-        self.criterion, self.peers, self.refine_iters = criterion, bool(peers), int(refine_iters)
+        self.criterion, self.team, self.refine_iters = criterion, team, int(refine_iters)
+        self.terminal_weight = float(terminal_weight)
         super().__init__(config, agent_index, seed)
+        joint = team == "joint" and config.n_beacons > 1
+        # the beacons this one plans for, in index order, and where it is among them
+        self.planned = list(range(config.n_beacons)) if joint else [agent_index]
+        self.me = agent_index if joint else 0
+        self.team_ctx = [BeaconContext.from_config(config, m) for m in self.planned]
+        self.step_m = np.array([c.max_speed_mps * c.ping_interval_s for c in self.team_ctx])  # (M,)
 
     def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
-        self.rng = np.random.default_rng(self.seed if self.seed is not None else 0)
-        self.plan_v: np.ndarray | None = None  # (H, 2) the last plan, velocity fractions
+        self.rng = np.random.default_rng(self._rng_seed())
+        self.plan_v: np.ndarray | None = None  # (M, H, 2) the last plan, velocity fractions
         self.last_cost = float("nan")
+
+    def _rng_seed(self) -> Any:
+        """The random stream: the policy's seed; planning jointly, the episode's part of it
+        (``(episode, beacon)`` -> episode), so that every beacon draws the same candidates."""
+        seed = self.seed if self.seed is not None else 0
+        joint = self.team == "joint" and self.config.n_beacons > 1
+        if joint and isinstance(seed, Sequence) and not isinstance(seed, str) and len(seed) > 1:
+            return list(seed)[:-1]
+        return seed
 
     def predict(self, view: ObsView, ahead_s: float) -> tuple[np.ndarray, np.ndarray]:
         """The survey vehicles' (east, north) (S, 2) and depth below (S,) ``ahead_s`` after now."""
@@ -207,76 +316,107 @@ class HorizonPolicy(TrackingPolicy):
             return self.tracker.predict(view, ahead_s, "chord")
         return np.asarray(view.survey_en_m, float), np.asarray(view.depth_below_m, float)
 
-    def survey_model(self, view: ObsView) -> tuple[np.ndarray, ...]:
-        """(survey_en (H, S, 2), survey_dz (H, S), P0 (S, 2, 2), grow (H, S), R) for one decision."""
+    def survey_model(self, view: ObsView) -> dict:
+        """What one decision scores against: the survey vehicles at the next H pings
+        (``en`` (H, S, 2), depth below each planned beacon ``dz`` (M, H, S)), the reported
+        covariance ``P0`` (S, 2, 2), the process noise before each ping ``grow`` (H, S),
+        each planned beacon's range variance ``R`` (M,), where the planned beacons start
+        (``start`` (M, 2): its own estimate, the others' reported positions) and the other
+        beacons held fixed (``fixed`` (K, 2), team="peers")."""
         c, T, H = self.config, self.ctx.ping_interval_s, self.horizon
         preds = [self.predict(view, (j + 1) * T) for j in range(H)]
         en = np.stack([e for e, _ in preds])
-        dz = np.stack([d for _, d in preds])
+        dz_own = np.stack([d for _, d in preds])  # (H, S) below this beacon
+        # below beacon m: its nominal depth instead of this one's (an ASV at 0, a beacon AUV at its depth)
+        dz = np.stack([dz_own + (self.ctx.depth_m - bc.depth_m) for bc in self.team_ctx])  # own: exactly dz_own
         q = c.process_noise_horizontal_m2ps
-        grow = np.full((H,) + dz.shape[1:], q * T)
+        grow = np.full(dz_own.shape, q * T)
         grow[0] = q * (np.asarray(view.reply_age_s, float) + T)
-        R = c.range_noise_std_m**2 + float(view.own_std_m) ** 2
-        return en, dz, np.asarray(view.cov_m2, float), grow, R
+        R = np.full(len(self.planned), c.range_noise_std_m**2 + float(view.own_std_m) ** 2)  # peers: as its own
+        own = np.asarray(view.own_en_m, float)
+        peers = np.asarray(view.peers_en_m, float).reshape(-1, 2)
+        start = np.insert(peers, self.me, own, axis=0) if len(self.planned) > 1 else own[None]
+        fixed = peers if self.team == "peers" and len(self.planned) == 1 else np.zeros((0, 2))
+        return {
+            "en": en,
+            "dz": dz,
+            "P0": np.asarray(view.cov_m2, float),
+            "grow": grow,
+            "R": R,
+            "start": start,
+            "fixed": fixed,
+        }
 
-    def cost(self, view: ObsView, v: np.ndarray, model: tuple[np.ndarray, ...]) -> np.ndarray:
-        """Cost (N,) of velocity sequences v (N, H, 2): eq. (H2) plus the constraint penalty."""
-        en, dz, P0, grow, R = model
-        step = self.ctx.max_speed_mps * self.ctx.ping_interval_s
-        beacon = np.asarray(view.own_en_m, float) + step * np.cumsum(v, axis=1)  # (N, H, 2)
-        peers = np.asarray(view.peers_en_m, float) if self.peers else None
-        P, P_none = expected_covariances(beacon, en, dz, P0, grow, float(R), self.ctx, peers)
-        viol = sum(self.ctx.violation_m(beacon[:, j], en[j], dz[j]) for j in range(self.horizon))
-        return horizon_cost(P, P_none, self.criterion) + PENALTY_PER_M * viol / self.horizon
+    def cost(self, v: np.ndarray, model: dict) -> np.ndarray:
+        """Cost (N,) of velocity sequences v (N, M, H, 2): eq. (H2) plus the constraint penalty."""
+        beacon = model["start"][None, :, None, :] + self.step_m[None, :, None, None] * np.cumsum(v, axis=2)
+        en, dz, R = model["en"], model["dz"], model["R"]
+        fixed = model["fixed"]
+        if len(fixed):  # team="peers": the others range from where they were, before this beacon, every ping
+            held = np.broadcast_to(fixed[None, :, None, :], (len(v), len(fixed), self.horizon, 2))
+            beacon = np.concatenate([held, beacon], axis=1)
+            dz = np.concatenate([np.broadcast_to(dz[:1], (len(fixed),) + dz.shape[1:]), dz])
+            R = np.concatenate([np.full(len(fixed), R[0]), R])
+        P, P_none = team_expected_covariances(beacon, en, dz, model["P0"], model["grow"], R, self.ctx)
+        viol = sum(
+            bc.violation_m(beacon[:, len(fixed) + m, j], en[j], model["dz"][m, j])
+            for m, bc in enumerate(self.team_ctx)
+            for j in range(self.horizon)
+        )
+        cost = horizon_cost(P, P_none, self.criterion, self.terminal_weight)
+        return cost + PENALTY_PER_M * viol / self.horizon
 
     def optimise(self, view: ObsView) -> np.ndarray:
-        """The cross-entropy method; returns the best (H, 2) velocity sequence."""
+        """The cross-entropy method; returns the best (M, H, 2) velocity sequences."""
         self.tracker.update(self.t_s, view)
         model = self.survey_model(view)
-        H = self.horizon
+        M, H = len(self.planned), self.horizon
         if self.plan_v is None:
-            mean = np.zeros((H, 2))
+            mean = np.zeros((M, H, 2))
         else:
-            mean = np.concatenate([self.plan_v[1:], self.plan_v[-1:]])  # warm start: the plan shifted
-        std = np.full((H, 2), self.init_std)
+            mean = np.concatenate([self.plan_v[:, 1:], self.plan_v[:, -1:]], axis=1)  # warm start: shifted
+        std = np.full((M, H, 2), self.init_std)
         best_v, best_cost = mean, np.inf
         for it in range(self.iterations):
-            v = mean + std * self.rng.standard_normal((self.n_samples, H, 2))
+            v = mean + std * self.rng.standard_normal((self.n_samples, M, H, 2))
             v[0] = mean
-            if it == 0:
-                v = np.concatenate([v, np.broadcast_to(_FIXED[:, None, :], (len(_FIXED), H, 2))])
+            if it == 0:  # each beacon in turn: a stop and full speed in eight directions, the others at the mean
+                fixed = np.repeat(mean[None], M * len(_FIXED), 0)
+                for m in range(M):
+                    fixed[m * len(_FIXED) : (m + 1) * len(_FIXED), m] = _FIXED[:, None, :]
+                v = np.concatenate([v, fixed])
             v = _disc(v)
-            cost = self.cost(view, v, model)
+            cost = self.cost(v, model)
             order = np.argsort(cost, kind="stable")
             if cost[order[0]] < best_cost:
                 best_v, best_cost = v[order[0]], float(cost[order[0]])
             elite = v[order[: self.n_elite]]
             mean, std = elite.mean(0), elite.std(0) + 0.02
-        best_v, self.last_cost = self.refine_first_step(view, model, best_v, best_cost)
+        best_v, self.last_cost = self.refine_first_step(model, best_v, best_cost)
         return best_v
 
-    def refine_first_step(
-        self, view: ObsView, model: tuple[np.ndarray, ...], v: np.ndarray, cost: float
-    ) -> tuple[np.ndarray, float]:
+    def refine_first_step(self, model: dict, v: np.ndarray, cost: float) -> tuple[np.ndarray, float]:
         """A pattern search on the first step (the one applied), the rest of the plan
         fixed: a 5x5 pattern around it, projected into the unit disc, its spacing
-        halved every round from 0.1 of the maximum speed (``refine_iters`` rounds).
+        halved every round from 0.1 of the maximum speed (``refine_iters`` rounds);
+        planning jointly, on each beacon's first step in index order every round.
         The CEM's elite mean is coarse where the cost is flat (near an optimum of the
         trace the cost is quadratic in the heading); this polishes the step it applies."""
         step = 0.1
         for _ in range(self.refine_iters):
-            cand = np.repeat(v[None], len(_PATTERN), 0)
-            cand[:, 0] = _disc(v[0] + step * _PATTERN)
-            c = self.cost(view, cand, model)
-            k = int(np.argmin(c))
-            if c[k] < cost:
-                v, cost = cand[k], float(c[k])
+            for m in range(len(self.planned)):
+                cand = np.repeat(v[None], len(_PATTERN), 0)
+                cand[:, m, 0] = _disc(v[m, 0] + step * _PATTERN)
+                c = self.cost(cand, model)
+                k = int(np.argmin(c))
+                if c[k] < cost:
+                    v, cost = cand[k], float(c[k])
             step *= 0.5
         return v, cost
 
     def plan(self, view: ObsView) -> np.ndarray:
         self.plan_v = self.optimise(view)
-        return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[0]
+        return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[self.me, 0]
 
 
 @register_policy("oracle")
@@ -305,8 +445,10 @@ class OraclePolicy(HorizonPolicy):
         """Keep what the snapshot (``coopnav_env.core.contract.Snapshot``) says of batch row ``row``."""
         own = np.asarray(snapshot.beacon_true_m[row, self.ctx.agent_index], float)
         survey = np.asarray(snapshot.survey_true_m[row], float)
+        others = [m for m in range(snapshot.beacon_true_m.shape[1]) if m != self.ctx.agent_index]
         self._truth = {
             "own_en_m": own[:2].copy(),
+            "peers_en_m": np.asarray(snapshot.beacon_true_m[row, others, :2], float).reshape(-1, 2),
             "survey_en_m": survey[:, :2].copy(),
             "depth_below_m": survey[:, 2] - own[2],
             "cov_m2": np.asarray(snapshot.survey_cov_en_m2[row], float).copy(),
@@ -318,4 +460,4 @@ class OraclePolicy(HorizonPolicy):
         truth = dataclasses.replace(view, reply_age_s=np.zeros_like(view.reply_age_s), **self._truth)
         self._truth = None
         self.plan_v = self.optimise(truth)
-        return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[0]  # the same velocity
+        return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[self.me, 0]  # the same velocity

@@ -12,6 +12,15 @@ which favours it); the table gives its mean, the challenger's, and the paired di
 (challenger minus best greedy: mean of the per-episode differences of
 ``mean_error_m`` with its 95 % t interval, ``evaluation.paired.t_interval``): **win**
 when the interval lies below 0, **loss** above, **tie** otherwise.
+
+For tuning (on seeds other than the test seeds: ``--first-seed``), ``--variant
+NAME:BASE:KEY=VALUE,...`` registers a planner ``NAME``: ``BASE`` with other constructor
+arguments (e.g. ``--variant h8:horizon:horizon=8,n_samples=128``), usable as
+``--challenger`` or ``--against``; ``--against POLICY`` compares the challenger with that
+policy instead of the best greedy planner (e.g. joint against per-beacon team planning):
+
+    python benchmarks/horizon_vs_greedy.py --tasks gao_team --first-seed 9000 --episodes 8 \
+        --variant hpeers:horizon:team=peers --against hpeers
 """
 
 from __future__ import annotations
@@ -30,8 +39,35 @@ from evaluation.paired import t_interval
 EXCLUDED = ("static", "random", "oracle")
 
 
+def register_variants(variants: Sequence[str]) -> list:
+    """Register each ``NAME:BASE:KEY=VALUE,...`` as the planner NAME (BASE's class with those
+    constructor arguments as defaults); returns the names."""
+    import ast
+    import functools
+
+    from baselines.base import _POLICIES, register_policy
+
+    names = []
+    for text in variants:
+        name, base, args = (text.split(":", 2) + ["", ""])[:3]
+        kwargs = {}
+        for item in filter(None, args.split(",")):
+            key, value = item.split("=", 1)
+            try:
+                kwargs[key] = ast.literal_eval(value)
+            except (ValueError, SyntaxError):
+                kwargs[key] = value
+        cls = _POLICIES[base]
+        variant = type(name, (cls,), {"__init__": functools.partialmethod(cls.__init__, **kwargs)})
+        variant.__module__, variant.__qualname__ = __name__, f"variant_{name}"
+        register_policy(name)(variant)
+        names.append(name)
+    return names
+
+
 def _job(args: tuple) -> tuple:
-    set_name, task_name, policy, seeds, extra = args
+    set_name, task_name, policy, seeds, extra, variants = args
+    register_variants(variants)
     from evaluation.episodes import run_episodes
     from evaluation.tasks import get_task_set
 
@@ -62,7 +98,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--tasks", default="gao_sea,gao_lawnmower,sousa_grid", help="comma-separated task sets")
     p.add_argument("--task", default="", help="only these tasks (comma-separated names)")
-    p.add_argument("--challenger", default="horizon")
+    p.add_argument("--challenger", default="horizon", help="comma-separated: one table row per task and challenger")
+    p.add_argument("--against", default=None, help="compare with this policy, not the best greedy planner")
+    p.add_argument(
+        "--variant", action="append", default=[], metavar="NAME:BASE:KEY=VALUE,...", help="a planner variant"
+    )
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--first-seed", type=int, default=None, help="episode i uses this + i (default TEST_SEEDS[i])")
     p.add_argument("--workers", type=int, default=1)
@@ -75,17 +115,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         seeds = list(range(args.first_seed, args.first_seed + args.episodes))
     extra = _parse_set(args.set)
+    variants = register_variants(args.variant)
     only = set(filter(None, args.task.split(",")))
+    challengers = [q for q in args.challenger.split(",") if q]
     jobs, order = [], []
     for set_name in args.tasks.split(","):
         ts = get_task_set(set_name)
-        greedy = [q for q in list_policies(ts.network) if q not in EXCLUDED and q != args.challenger]
+        if args.against:
+            greedy = [args.against]
+        else:
+            greedy = [
+                q
+                for q in list_policies(ts.network)
+                if q not in EXCLUDED and q not in challengers and q not in variants and q != "horizon"
+            ]
         for task in ts.tasks:
             if only and task.name not in only:
                 continue
             order.append((set_name, task.name, greedy))
-            jobs += [(set_name, task.name, q, seeds, extra) for q in [args.challenger, *greedy]]
-    scores, cpu = {}, {}
+            jobs += [(set_name, task.name, q, seeds, extra, args.variant) for q in [*challengers, *greedy]]
+    scores: dict = {}
+    cpu: dict[str, float] = {}
     with ProcessPoolExecutor(max(args.workers, 1)) as pool:
         for s, t, q, errs, sec in pool.map(_job, jobs):
             scores[s, t, q] = np.asarray(errs)
@@ -96,27 +146,30 @@ def main(argv: Sequence[str] | None = None) -> int:
 
                 dump = {f"{a}/{b}/{x}": v.tolist() for (a, b, x), v in scores.items()}
                 atomic_write_text(args.json, json.dumps({"seeds": seeds, "episode_mean_error_m": dump}) + "\n")
-    c = args.challenger
+    c = ", ".join(challengers)
     lines = [
         f"{args.episodes} episodes per task and policy, seeds {seeds[0]}..{seeds[-1]}"
         + (f", --set {' '.join(args.set)}" if args.set else "")
-        + f"; {c} minus the task's best greedy planner, mean survey_error_m (m), paired 95 % t interval.",
+        + f"; {c} minus {args.against or 'the task' + chr(39) + 's best greedy planner'}, mean survey_error_m (m), "
+        "paired 95 % t interval.",
         "",
-        f"| task set | task | best greedy | its mean (m) | {c} (m) | difference [95 % interval] | verdict |",
-        "|---|---|---|---|---|---|---|",
+        f"| task set | task | {'against' if args.against else 'best greedy'} | its mean (m) | challenger | "
+        "its mean (m) | difference [95 % interval] | verdict |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     tally: dict = {}
     for s, t, greedy in order:
         best = min(greedy, key=lambda q: float(scores[s, t, q].mean()))
-        m, lo, hi = t_interval(scores[s, t, c] - scores[s, t, best])
-        verdict = "win" if hi < 0 else "loss" if lo > 0 else "tie"
-        tally.setdefault(s, {"win": 0, "tie": 0, "loss": 0})[verdict] += 1
-        lines.append(
-            f"| {s} | {t} | {best} | {scores[s, t, best].mean():.2f} | {scores[s, t, c].mean():.2f} | "
-            f"{m:+.2f} [{lo:+.2f}, {hi:+.2f}] | {verdict} |"
-        )
-    lines += ["", "| task set | wins | ties | losses |", "|---|---|---|---|"]
-    lines += [f"| {s} | {v['win']} | {v['tie']} | {v['loss']} |" for s, v in tally.items()]
+        for q in challengers:
+            m, lo, hi = t_interval(scores[s, t, q] - scores[s, t, best])
+            verdict = "win" if hi < 0 else "loss" if lo > 0 else "tie"
+            tally.setdefault((s, q), {"win": 0, "tie": 0, "loss": 0})[verdict] += 1
+            lines.append(
+                f"| {s} | {t} | {best} | {scores[s, t, best].mean():.2f} | {q} | {scores[s, t, q].mean():.2f} | "
+                f"{m:+.2f} [{lo:+.2f}, {hi:+.2f}] | {verdict} |"
+            )
+    lines += ["", "| task set | challenger | wins | ties | losses |", "|---|---|---|---|---|"]
+    lines += [f"| {s} | {q} | {v['win']} | {v['tie']} | {v['loss']} |" for (s, q), v in tally.items()]
     lines += ["", "CPU seconds per policy (all tasks): " + ", ".join(f"{q} {v:.0f}" for q, v in sorted(cpu.items()))]
     text = "\n".join(lines)
     print(text)

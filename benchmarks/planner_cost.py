@@ -36,7 +36,7 @@ def time_policy(config: object, name: str, steps: int, warmup: int, seed: int) -
     from coopnav_env.views import action_dim
     from evaluation.episodes import make_policy
 
-    sim = make_simulator(config, batch_size=1)
+    sim = make_simulator(config, batch_size=1)  # type: ignore[arg-type]
     N = config.n_beacons  # type: ignore[attr-defined]
     obs = sim.reset([seed])
     policies = [make_policy(name, config, seed=(seed, j), agent=j) for j in range(N)]  # type: ignore[arg-type]
@@ -72,6 +72,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario parameter")
     p.add_argument("--no-pin", dest="pin", action="store_false", help="do not pin the process to one CPU")
     p.add_argument("--markdown", help="also write the table here")
+    p.add_argument(
+        "--variant",
+        action="append",
+        default=[],
+        metavar="NAME:BASE:KEY=VALUE,...",
+        help="also time a planner variant (benchmarks/horizon_vs_greedy.py's), e.g. hj:horizon:team=joint",
+    )
     args = p.parse_args(argv)
     if args.pin and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -84,6 +91,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         overrides[key] = type(d)(text) if isinstance(d, (int, float)) and not isinstance(d, bool) else text
     config = coopnav_env.make_config(args.scenario, **overrides)
     names = list_policies(config.network) + [q for q in args.policies.split(",") if q]
+    if args.variant:
+        import importlib.util
+
+        here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "horizon_vs_greedy.py")
+        spec = importlib.util.spec_from_file_location("horizon_vs_greedy", here)
+        module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
+        spec.loader.exec_module(module)  # type: ignore[union-attr]
+        register_variants = module.register_variants
+        names += register_variants(args.variant)
     lines = [
         f"{args.scenario}{' ' + ' '.join(args.set) if args.set else ''}: CPU ms per act (one beacon's decision), "
         f"{args.steps} decisions after {args.warmup} untimed, one core.",

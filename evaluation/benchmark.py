@@ -23,6 +23,10 @@ written atomically into ``--out``):
   the lowest ``mean_error_m``; negative: better than it), its mean and 95 % t interval
   (``evaluation.paired.t_interval``), and a verdict: ``win`` (the interval lies below
   0), ``loss`` (above 0), ``tie`` (it holds 0), ``best`` (the best planner itself);
+* ``ms_per_act``: the cost per decision, the median CPU milliseconds of one ``act`` call
+  (one beacon's decision, the calling thread's CPU clock: one core), measured around
+  every act of the run (``run_episodes(act_seconds=...)``); per task set, ``ms_per_act``
+  per policy is the median over its tasks;
 * a policy that cannot drive a task is ``n/a`` there, with the reason; it wins nothing
   there. The policy says so itself (``episodes.check_policy`` asks its
   ``config_problem``): a flat-observation policy takes one observation size (one team),
@@ -30,7 +34,17 @@ written atomically into ``--out``):
   beacons of its action size, on the survey-beacon networks.
 
 Per task ``wins`` lists the policies that won; per task set ``summary`` counts each
-policy's wins, ties, losses and n/a. A run with other than the benchmark's episode
+policy's wins, ties, losses and n/a.
+
+On the survey networks the reference ``oracle`` (``baselines.horizon``: the receding-horizon
+optimiser given the truth; ``evaluation.tasks.REFERENCES``) runs on every task too; it is
+never the best planner. Per task ``headroom`` (``benchmark_stats.headroom_task``) gives the
+best greedy planner (the best of the planners other than ``horizon``), the oracle's mean,
+the headroom (best greedy minus oracle, paired interval) and, for ``horizon`` and each
+challenger, the fraction of it closed, (best greedy - policy) / headroom, n/a where the
+oracle is no better than the best greedy planner; per task set ``headroom`` pools them
+(``benchmark_stats.summarize_headroom``). The win verdict stays against the best planner,
+``horizon`` included. A run with other than the benchmark's episode
 count, or with ``--set``, says in both files that it is not a benchmark result.
 
 The statistics are ``evaluation.benchmark_stats`` (pure), the tables and files
@@ -65,9 +79,9 @@ from coopnav_env.records import plain, version_record
 from coopnav_env.seeds import TEST_SEED, TEST_SEED_COUNT, TEST_SEEDS
 
 from .benchmark_report import RESULT_FILES, render_markdown, write_results
-from .benchmark_stats import compare_task, summarize_task_set
+from .benchmark_stats import compare_task, headroom_task, summarize_headroom, summarize_task_set
 from .errors import UsageError
-from .tasks import BENCHMARK_VERSION, TASK_SETS, get_task_set
+from .tasks import BENCHMARK_VERSION, NON_GREEDY, TASK_SETS, get_task_set
 
 VERDICTS = ("win", "tie", "loss")
 
@@ -99,7 +113,7 @@ class SetPlan:
     cannot drive a task (task -> {policy: the reason})."""
 
     task_set: object
-    columns: list  # planners, floors, then the challengers
+    columns: list  # planners, references, floors, then the challengers
     configs: dict  # task name -> ScenarioConfig
     cannot: dict  # task name -> {policy: reason}
     trained: dict  # policy -> what it resolved to (evaluation.config.resolve_trained)
@@ -229,7 +243,7 @@ def plan_benchmark(
     seed = TEST_SEEDS[0]
     plans, drivable = [], dict.fromkeys(challengers, 0)
     for ts in sets:
-        base = list(ts.planners) + list(ts.floors)
+        base = list(ts.planners) + list(ts.references) + list(ts.floors)
         columns = base + [p for p in challengers if p not in base]
         trained, unresolved = {}, {}
         for p in columns:
@@ -314,10 +328,14 @@ def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
                         continue
                     if bar is not None:
                         bar.stage(f"{sp.task_set.name}/{task} {p}")
-                    rows, _ = run_episodes(config, p, plan.seeds, progress=None if bar is None else bar.update)
+                    seconds: list = []
+                    rows, _ = run_episodes(
+                        config, p, plan.seeds, progress=None if bar is None else bar.update, act_seconds=seconds
+                    )
                     per_task[p] = {
                         "mean_error_m": [r["mean_error_m"] for r in rows],
                         "ranges_fused": [r["ranges_fused"] for r in rows],
+                        "ms_per_act": 1e3 * float(np.median(seconds)),
                     }
     finally:
         if bar is not None:
@@ -331,25 +349,38 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
     sets = {}
     for sp in plan.sets:
         ts = sp.task_set
-        tasks = {}
+        tasks, headrooms = {}, {}
+        closers = [p for p in ts.planners if p in NON_GREEDY]
+        closers += [p for p in plan.challengers if p not in closers and p not in ts.references]
         for task in ts.tasks:
             per_task = raw[ts.name][task.name]
             errors = {p: None if v is None else v["mean_error_m"] for p, v in per_task.items()}
             ranges = {p: v["ranges_fused"] for p, v in per_task.items() if v is not None}
             result = compare_task(errors, ts.planners, ranges_fused=ranges, skipped=sp.cannot[task.name])
+            for p, v in per_task.items():  # cost per decision: median CPU ms per act (run_episodes' act_seconds)
+                if v is not None and "ms_per_act" in v:
+                    result["policies"][p]["ms_per_act"] = v["ms_per_act"]
             tasks[task.name] = {"overrides": plain(dict(task.overrides)), "about": task.about, **result}
+            if ts.references:
+                headrooms[task.name] = tasks[task.name]["headroom"] = headroom_task(
+                    tasks[task.name], ts.greedy_planners, closers, oracle=ts.references[0]
+                )
         sets[ts.name] = {
             "scenario": ts.scenario,
             "about": ts.about,
             "episodes": plan.episodes,
             "benchmark_episodes": ts.episodes,
             "planners": list(ts.planners),
+            "greedy_planners": list(ts.greedy_planners),
+            "references": list(ts.references),
             "floors": list(ts.floors),
             "challengers": list(plan.challengers),
             "columns": list(sp.columns),
             "trained_policies": sp.trained,
             "tasks": tasks,
             "summary": summarize_task_set(tasks, sp.columns),
+            "ms_per_act": _cost_per_decision(tasks, sp.columns),
+            "headroom": summarize_headroom(headrooms, closers) if ts.references else None,
         }
     return {
         "benchmark_version": BENCHMARK_VERSION,
@@ -363,6 +394,15 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
         "task_sets": sets,
         "versions": version_record(),
     }
+
+
+def _cost_per_decision(tasks: dict, columns: list) -> dict:
+    """Per policy the median over the set's tasks of its median CPU ms per act (None where it ran on none)."""
+    out = {}
+    for p in columns:
+        ms = [t["policies"][p]["ms_per_act"] for t in tasks.values() if "ms_per_act" in t["policies"].get(p, {})]
+        out[p] = float(np.median(ms)) if ms else None
+    return out
 
 
 def _not_official(plan: BenchmarkPlan) -> list:

@@ -39,6 +39,59 @@ def _ranges(stats: dict) -> str:
     return f"{stats['ranges_fused']:.1f}" if "ranges_fused" in stats else "-"
 
 
+def _frac(f) -> str:
+    return "n/a" if f is None else f"{100 * f:.0f} %"
+
+
+def _opt(x, digits: int = 3) -> str:
+    return "n/a" if x is None else _num(x, digits)
+
+
+def _headroom_lines(s: dict) -> list:
+    """The headroom table of a task set: per task the best greedy planner, the oracle, the
+    headroom (best greedy minus oracle, paired interval) and the fraction each challenger
+    closes; a last row pools the tasks with a headroom (``benchmark_stats.summarize_headroom``)."""
+    summary = s["headroom"]
+    closers = list(summary["closed"])
+    oracle = next(iter(s["references"]), "oracle")
+    head = ["task", "best greedy", "its mean (m)"] + [f"{p} (m)" for p in closers] + [f"{oracle} (m)"]
+    head += ["headroom (m), 95 % t interval"] + [f"closed by {p}" for p in closers]
+    lines = [
+        "",
+        "### Headroom: best greedy planner minus the oracle",
+        "",
+        f"The oracle (`{oracle}`: the receding-horizon optimiser given the truth, a reference, never the best "
+        "planner) bounds what guidance can achieve; the headroom is the best greedy planner's mean error minus "
+        "the oracle's (paired interval), and a challenger closes (best greedy - challenger) / headroom of it "
+        "(100 %: as low as the oracle; 0: no better than the best greedy planner). n/a: the oracle was no better "
+        "than the best greedy planner there. The win verdicts above are against the best planner, "
+        "the receding-horizon one included.",
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+    ]
+    for task, t in s["tasks"].items():
+        h = t.get("headroom")
+        if h is None:
+            continue
+        means = [
+            _opt(None if "skipped" in t["policies"].get(p, {"skipped": 1}) else t["policies"][p]["mean_error_m"])
+            for p in closers
+        ]
+        room = (
+            "n/a"
+            if h["headroom_m"] is None
+            else (f"{_num(h['headroom_m'])} [{_num(h['headroom_ci95_m'][0])}, {_num(h['headroom_ci95_m'][1])}]")
+        )
+        row = [task, h["best_greedy"] or "n/a", _opt(h["best_greedy_m"])] + means + [_opt(h["oracle_m"]), room]
+        lines.append("| " + " | ".join(row + [_frac(h["closed"][p]) for p in closers]) + " |")
+    n = summary["tasks"]
+    pooled = [f"pooled ({n} tasks with headroom)", "", _opt(summary["best_greedy_m"])]
+    pooled += [""] * len(closers) + [_opt(summary["oracle_m"]), _opt(summary["headroom_m"])]
+    lines.append("| " + " | ".join(pooled + [_frac(summary["closed"][p]) for p in closers]) + " |")
+    return lines
+
+
 def render_markdown(results: dict) -> str:
     """results.md: per task set the errors, the paired differences to the best planner,
     the ranges fused and the wins."""
@@ -62,8 +115,8 @@ def render_markdown(results: dict) -> str:
             "",
             s["about"] + ".",
             "",
-            f"Planners: {', '.join(s['planners'])}; floors: {', '.join(s['floors'])}; challengers: "
-            f"{', '.join(s['challengers']) or 'none'}.",
+            f"Planners: {', '.join(s['planners'])}; references: {', '.join(s.get('references', [])) or 'none'}; "
+            f"floors: {', '.join(s['floors'])}; challengers: {', '.join(s['challengers']) or 'none'}.",
             "",
         ]
         trained = {p: t for p, t in s["trained_policies"].items() if t}
@@ -110,15 +163,21 @@ def render_markdown(results: dict) -> str:
             "",
             f"### Wins over {n} tasks",
             "",
-            "| policy | wins | ties | losses | best planner | n/a | tasks won |",
-            "|---|---|---|---|---|---|---|",
+            "ms per act: the cost per decision, the median CPU milliseconds of one beacon's decision (one "
+            "core), median over the tasks.",
+            "",
+            "| policy | wins | ties | losses | best planner | n/a | tasks won | ms per act |",
+            "|---|---|---|---|---|---|---|---|",
         ]
+        cost = s.get("ms_per_act") or {}
         for p in cols:
             c = s["summary"][p]
             lines.append(
                 f"| {p} | {c['win']} | {c['tie']} | {c['loss']} | {c['best']} | {c['n/a']} | "
-                f"{', '.join(c['tasks_won']) or '-'} |"
+                f"{', '.join(c['tasks_won']) or '-'} | {_opt(cost.get(p))} |"
             )
+        if s.get("headroom"):
+            lines += _headroom_lines(s)
         skipped = sorted(
             {(p, st["skipped"]) for t in s["tasks"].values() for p, st in t["policies"].items() if "skipped" in st}
         )

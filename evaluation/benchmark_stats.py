@@ -80,3 +80,84 @@ def summarize_task_set(tasks: dict, policies: Iterable[str]) -> dict:
                 counts["tasks_won"].append(name)
         out[p] = counts
     return out
+
+
+def headroom_task(
+    task: dict,
+    greedy: Iterable[str],
+    challengers: Iterable[str],
+    oracle: str = "oracle",
+    confidence: float = 0.95,
+) -> dict:
+    """The headroom of one task (``compare_task``'s result ``task``): how much lower than
+    the best greedy planner's error the reference ``oracle`` (guidance given the truth)
+    gets, and the fraction of that each challenger closes.
+
+    ``best_greedy``: the planner of ``greedy`` with the lowest mean error (g); ``oracle_m``:
+    the oracle's mean error (o); ``headroom_m`` = g - o, with the paired 95 % t interval of
+    the per-episode differences (``headroom_ci95_m``); for each policy p of ``challengers``
+    that ran, with mean error c,
+
+        closed[p] = (g - c) / (g - o)
+
+    (1: as low as the oracle; 0: no better than the best greedy planner; negative: worse
+    than it; above 1: lower than the oracle). With no oracle run, or an oracle no better
+    than the best greedy planner (g - o <= 0: no headroom measured), every fraction is
+    None and ``na`` says why, not a division by zero."""
+    from .paired import t_interval
+
+    pol = task["policies"]
+
+    def mean(p: str) -> float | None:
+        st = pol.get(p)
+        return None if st is None or "skipped" in st else float(st["mean_error_m"])
+
+    ran = [p for p in greedy if mean(p) is not None]
+    best = min(ran, key=lambda p: (mean(p), ran.index(p))) if ran else None
+    out: dict[str, Any] = {"best_greedy": best, "best_greedy_m": None if best is None else mean(best)}
+    challengers = list(challengers)
+    o = mean(oracle)
+    out.update({"oracle": oracle, "oracle_m": o, "headroom_m": None, "headroom_ci95_m": None})
+    out["closed"] = dict.fromkeys(challengers)
+    if best is None or o is None:
+        out["na"] = f"no {'greedy planner' if best is None else oracle} ran on this task"
+        return out
+    g = float(pol[best]["mean_error_m"])
+    diff = np.asarray(pol[best]["episode_mean_error_m"], float) - np.asarray(pol[oracle]["episode_mean_error_m"], float)
+    _, lo, hi = t_interval(diff, confidence)
+    out["headroom_m"], out["headroom_ci95_m"] = g - o, [lo, hi]
+    if not g - o > 0:
+        out["na"] = f"{oracle} no better than the best greedy planner ({best})"
+        return out
+    for p in challengers:
+        c = mean(p)
+        out["closed"][p] = None if c is None else (g - c) / (g - o)
+    return out
+
+
+def summarize_headroom(headrooms: dict, challengers: Iterable[str]) -> dict:
+    """A task set's headroom from its tasks' ``headroom_task`` results (task -> result):
+    over the tasks with a headroom (``closed`` defined), the mean best-greedy and oracle
+    errors, the mean headroom, and per challenger the pooled fraction closed,
+    sum(g - c) / sum(g - o) over the tasks where it ran (so a task with a larger
+    headroom weighs more; None where it ran on none)."""
+    challengers = list(challengers)
+    with_room = {t: h for t, h in headrooms.items() if "na" not in h}
+    out: dict[str, Any] = {"tasks": len(with_room), "tasks_without": sorted(set(headrooms) - set(with_room))}
+    if not with_room:
+        out.update(best_greedy_m=None, oracle_m=None, headroom_m=None, closed=dict.fromkeys(challengers))
+        return out
+    g = np.array([h["best_greedy_m"] for h in with_room.values()])
+    o = np.array([h["oracle_m"] for h in with_room.values()])
+    out.update(best_greedy_m=float(g.mean()), oracle_m=float(o.mean()), headroom_m=float((g - o).mean()))
+    closed: dict[str, float | None] = {}
+    for p in challengers:
+        num = den = 0.0
+        for h in with_room.values():
+            f = h["closed"].get(p)
+            if f is not None:
+                room = h["best_greedy_m"] - h["oracle_m"]
+                num, den = num + f * room, den + room
+        closed[p] = num / den if den > 0 else None
+    out["closed"] = closed
+    return out

@@ -14,6 +14,7 @@ observation only. Everything the evaluation reads of a step comes through
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -153,13 +154,17 @@ def run_episodes(
     policy_name: str,
     seeds: Sequence[int],
     progress: Callable[[float], object] | None = None,
+    act_seconds: list | None = None,
 ) -> tuple[list[dict], list[dict]]:
     """Run ``policy_name`` (one instance per beacon and episode) on episodes ``seeds``
     as one batch. Returns (episode rows, step rows) without the cell/policy/episode
     columns (see ``evaluation.report.EPISODE_COLUMN_DOCS``). ``progress(n)`` is called
     after every step with the episodes' worth of work done in it (fractions: the steps
     taken over ``max_cycles``, so a bar moves while a batch runs; the calls add up to
-    ``len(seeds)`` exactly when the last episode ends)."""
+    ``len(seeds)`` exactly when the last episode ends). ``act_seconds``: a list that
+    receives the CPU seconds of every ``act`` call (the calling thread's clock,
+    ``time.thread_time_ns``: one beacon's decision on one core, what other processes on
+    the machine do not inflate; a privileged policy's ``observe_truth`` not included)."""
     from coopnav_env.core import make_simulator
 
     seeds = [int(s) for s in seeds]
@@ -183,7 +188,12 @@ def run_episodes(
             for j in range(N):
                 if snap is not None and getattr(policies[b][j], "privileged", False):
                     policies[b][j].observe_truth(snap, b)
-                actions[b, j] = policies[b][j].act(obs[b, j])
+                if act_seconds is None:
+                    actions[b, j] = policies[b][j].act(obs[b, j])
+                else:
+                    t0 = time.thread_time_ns()
+                    actions[b, j] = policies[b][j].act(obs[b, j])
+                    act_seconds.append((time.thread_time_ns() - t0) * 1e-9)
         actions[done] = 0.0
         res = sim.step(actions)
         obs = res.obs

@@ -178,7 +178,10 @@ def draw_benchmark(out: str, results: dict) -> list:
             if not xs:
                 continue
             challenger = p in s["challengers"] and p not in s["planners"] + s["floors"]
-            marker = "D" if challenger else ("v" if p in s["floors"] else "o")
+            reference = p in s.get("references", [])
+            kind = " (challenger)" if challenger else " (floor)" if p in s["floors"] else ""
+            kind = " (reference)" if reference and not challenger else kind
+            marker = "D" if challenger else ("v" if p in s["floors"] else "^" if reference else "o")
             ax.errorbar(
                 xs,
                 ys,
@@ -188,7 +191,7 @@ def draw_benchmark(out: str, results: dict) -> list:
                 lw=1,
                 capsize=2,
                 color=f"C{k}",
-                label=p + (" (challenger)" if challenger else " (floor)" if p in s["floors"] else ""),
+                label=p + kind,
             )
             bx = [x for x, b in zip(xs, best) if b]
             by = [y for y, b in zip(ys, best) if b]

@@ -9,7 +9,11 @@ seeds the trainers refuse (``coopnav_env.seeds.refuse_test_seeds``).
 * ``planners``: those of ``baselines.list_policies(network)`` other than the floors;
   per task the one with the lowest mean error is the "best planner" a challenger has
   to beat;
-* ``floors``: ``static`` and ``random``, reported for scale, never the best planner.
+* ``floors``: ``static`` and ``random``, reported for scale, never the best planner;
+* ``references``: ``oracle`` (``baselines.horizon``: the receding-horizon optimiser given
+  the truth), the ceiling of the headroom column, never the best planner;
+* ``greedy_planners``: the planners other than ``NON_GREEDY`` (``horizon``): the best of
+  them is the floor of the headroom, best greedy minus oracle.
 
 Changing a task set changes the benchmark: bump ``BENCHMARK_VERSION`` (results.json
 and results.md carry it, so that results of different versions are not compared).
@@ -28,13 +32,27 @@ if TYPE_CHECKING:
 
 # 2: the gao_team and matos_river task sets; 3: the receding-horizon planner `horizon` among the planners,
 # the Matos scenarios on the project's channel (outliers and losses) with the paper's channel as named tasks,
-# and issue 21's physics under every task
-BENCHMARK_VERSION = 3
+# and issue 21's physics under every task; 4: the reference `oracle` runs on every task it can drive and each
+# task set reports the headroom (best greedy planner minus oracle) and the fraction of it each challenger closes,
+# and the results carry each policy's cost per decision (issue 22)
+BENCHMARK_VERSION = 4
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
 REFERENCES = ("oracle",)  # given the truth: never a task's best planner (issue 22's headroom reference)
+NON_GREEDY = ("horizon",)  # planners that look beyond the next ping: not among the "best greedy planner"'s candidates
 
-__all__ = ["BENCHMARK_VERSION", "EPISODES", "FLOORS", "TASK_SETS", "Task", "TaskSet", "get_task_set", "list_task_sets"]
+__all__ = [
+    "BENCHMARK_VERSION",
+    "EPISODES",
+    "FLOORS",
+    "NON_GREEDY",
+    "REFERENCES",
+    "TASK_SETS",
+    "Task",
+    "TaskSet",
+    "get_task_set",
+    "list_task_sets",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,6 +93,18 @@ class TaskSet:
         from baselines import list_policies
 
         return [p for p in list_policies(self.network) if p not in FLOORS and p not in REFERENCES]
+
+    @property
+    def greedy_planners(self) -> list:
+        """The planners that look one ping ahead or are geometric (``planners`` minus ``NON_GREEDY``)."""
+        return [p for p in self.planners if p not in NON_GREEDY]
+
+    @property
+    def references(self) -> list:
+        """The references (``REFERENCES``) that drive the network: run on every task, never the best planner."""
+        from baselines import list_policies
+
+        return [p for p in REFERENCES if p in list_policies(self.network)]
 
     @property
     def floors(self) -> list:

@@ -25,7 +25,8 @@ from coopnav_env.seeds import (
 from coopnav_env.vector import SEED_STRIDE, CoopNavVecEnv
 from evaluation import benchmark
 from evaluation.benchmark import BenchmarkPlan, compare_task, render_markdown, summarize_task_set
-from evaluation.tasks import FLOORS, TASK_SETS
+from evaluation.benchmark_stats import headroom_task, summarize_headroom
+from evaluation.tasks import FLOORS, NON_GREEDY, REFERENCES, TASK_SETS
 
 # ------------------------------------------------------------------------------------
 # seed separation
@@ -38,6 +39,9 @@ def test_every_task_set_plays_test_seeds_only():
         assert len(plan.seeds) == ts.episodes and all(is_test_seed(s) for s in plan.seeds), name
         assert len({t.name for t in ts.tasks}) == len(ts.tasks), name
         assert ts.planners and not set(ts.planners) & set(FLOORS), name
+        assert not set(ts.planners) & set(REFERENCES) and not set(ts.greedy_planners) & set(NON_GREEDY), name
+        # the survey task sets carry the oracle (the headroom's reference); the moving network has none
+        assert ts.references == ([] if ts.network == "moving_lbl" else ["oracle"]), name
     assert not is_test_seed(TEST_SEED - 1) and not is_test_seed(VALIDATION_SEED) and not is_test_seed(0)
 
 
@@ -175,6 +179,58 @@ def test_paired_difference_and_interval_on_a_known_case():
     assert summary["fim_a"]["best"] == 2 and summary["worse"]["loss"] == 2 and summary["other_team"]["n/a"] == 2
 
 
+def _task_with(means: dict, oracle_noise: float = 0.0) -> dict:
+    """A task whose policies' per-episode errors are ``means`` plus a shared episode offset."""
+    offset = np.array([0.4, -0.4, 0.2, -0.2])
+    errors = {p: m + offset for p, m in means.items()}
+    if "oracle" in errors:
+        errors["oracle"] = errors["oracle"] + oracle_noise * np.array([1.0, -1.0, 1.0, -1.0])
+    return compare_task(errors, [p for p in means if p not in ("oracle", "ppo")])
+
+
+def test_the_headroom_fraction_on_a_hand_computed_case():
+    # best greedy 10 m, oracle 6 m: a headroom of 4 m; horizon at 8 m closes (10 - 8) / 4 = 50 %
+    task = _task_with({"fim_a": 10.0, "circle": 11.0, "horizon": 8.0, "oracle": 6.0, "ppo": 5.0}, oracle_noise=0.5)
+    assert task["best_planner"] == "horizon"  # the win verdict stays against the best planner, horizon included
+    assert task["policies"]["ppo"]["paired"]["vs"] == "horizon"
+    h = headroom_task(task, ["fim_a", "circle"], ["horizon", "ppo"])
+    assert h["best_greedy"] == "fim_a" and h["best_greedy_m"] == pytest.approx(10.0)
+    assert h["oracle_m"] == pytest.approx(6.0) and h["headroom_m"] == pytest.approx(4.0)
+    assert h["closed"]["horizon"] == pytest.approx(0.5)
+    assert h["closed"]["ppo"] == pytest.approx(1.25)  # lower than the oracle: above 100 %
+    # the paired headroom interval: differences 4 -+ 0.5, t(0.975, 3) * 0.5774 / 2 = 0.919
+    half = stats.t.ppf(0.975, 3) * np.std([0.5, -0.5, 0.5, -0.5], ddof=1) / 2
+    assert h["headroom_ci95_m"] == pytest.approx([4.0 - half, 4.0 + half]) and half == pytest.approx(0.9187, abs=1e-4)
+    assert "na" not in h
+
+
+@pytest.mark.parametrize("oracle_m", [10.0, 10.5])
+def test_no_headroom_when_the_oracle_is_no_better_than_the_best_greedy_planner(oracle_m):
+    task = _task_with({"fim_a": 10.0, "horizon": 9.0, "oracle": oracle_m})
+    h = headroom_task(task, ["fim_a"], ["horizon"])  # g - o = 0 or -0.5: n/a, not a division by zero
+    assert h["closed"] == {"horizon": None} and h["headroom_m"] == pytest.approx(10.0 - oracle_m)
+    assert h["na"] == "oracle no better than the best greedy planner (fim_a)"
+
+
+def test_no_headroom_without_an_oracle_and_the_pooled_fraction():
+    no_oracle = headroom_task(_task_with({"fim_a": 10.0, "horizon": 9.0}), ["fim_a"], ["horizon"])
+    assert no_oracle["closed"] == {"horizon": None} and no_oracle["na"] == "no oracle ran on this task"
+    skipped = compare_task({"fim_a": [1.0, 2.0], "ppo": None}, ["fim_a"], skipped={"ppo": "team size"})
+    skipped["policies"]["oracle"] = {"mean_error_m": 0.5, "episode_mean_error_m": [0.4, 0.6]}
+    h = headroom_task(skipped, ["fim_a"], ["ppo"])
+    assert h["headroom_m"] == pytest.approx(1.0) and h["closed"] == {"ppo": None}  # ppo n/a there
+    # pooled over tasks with a headroom: (10 - 8) + (5 - 5) over 4 + 1 = 40 %, the task without one left out
+    tasks = {
+        "a": headroom_task(_task_with({"fim_a": 10.0, "horizon": 8.0, "oracle": 6.0}), ["fim_a"], ["horizon"]),
+        "b": headroom_task(_task_with({"fim_a": 5.0, "horizon": 5.0, "oracle": 4.0}), ["fim_a"], ["horizon"]),
+        "c": headroom_task(_task_with({"fim_a": 5.0, "horizon": 4.0, "oracle": 5.0}), ["fim_a"], ["horizon"]),
+    }
+    pooled = summarize_headroom(tasks, ["horizon"])
+    assert pooled["tasks"] == 2 and pooled["tasks_without"] == ["c"]
+    assert pooled["closed"]["horizon"] == pytest.approx(0.4) and pooled["headroom_m"] == pytest.approx(2.5)
+    assert summarize_headroom({"c": tasks["c"]}, ["horizon"])["closed"] == {"horizon": None}
+
+
 def test_the_best_planner_is_the_lowest_mean_among_planners_only():
     task = compare_task({"fim_a": [3.0, 3.0], "fim_b": [2.0, 2.5], "random": [1.0, 1.0]}, ["fim_a", "fim_b"])
     assert task["best_planner"] == "fim_b"
@@ -198,18 +254,32 @@ def test_a_tiny_run_of_the_command(tmp_path, capsys):
     assert results["official"] is False and len(results["not_official_because"]) == 2
     assert results["seeds"]["first"] == TEST_SEED and results["episodes"] == 2
     s = results["task_sets"]["gao_lawnmower"]
-    assert s["columns"] == ["circle", "ellipse", "fim_a", "fim_b", "horizon", "static", "random"]
+    assert s["columns"] == ["circle", "ellipse", "fim_a", "fim_b", "horizon", "oracle", "static", "random"]
+    assert s["references"] == ["oracle"] and "horizon" not in s["greedy_planners"]
     assert list(s["tasks"]) == [t.name for t in TASK_SETS["gao_lawnmower"].tasks]
     for task in s["tasks"].values():
         assert task["best_planner"] in s["planners"]
+        h = task["headroom"]
+        assert h["best_greedy"] in s["greedy_planners"] and list(h["closed"]) == ["horizon"]
+        assert h["headroom_m"] == pytest.approx(h["best_greedy_m"] - task["policies"]["oracle"]["mean_error_m"])
+        if h["headroom_m"] > 0:
+            g, c = h["best_greedy_m"], task["policies"]["horizon"]["mean_error_m"]
+            assert h["closed"]["horizon"] == pytest.approx((g - c) / h["headroom_m"])
+        else:
+            assert h["closed"]["horizon"] is None and "no better" in h["na"]
         for p in s["columns"]:
             st = task["policies"][p]
             assert len(st["episode_mean_error_m"]) == 2 and st["ranges_fused"] >= 0
             assert st["paired"]["verdict"] in ("best", "win", "tie", "loss")
             lo, hi = st["ci95_error_m"]
             assert lo <= st["mean_error_m"] <= hi
+            assert st["ms_per_act"] > 0  # the cost per decision, measured around the act calls (not timed here)
+    assert set(s["ms_per_act"]) == set(s["columns"]) and all(v > 0 for v in s["ms_per_act"].values())
+    assert s["headroom"]["tasks"] + len(s["headroom"]["tasks_without"]) == len(s["tasks"])
     md = (out / "results.md").read_text()
     assert "Not a benchmark result" in md and "## gao_lawnmower" in md and "### Wins over 6 tasks" in md
+    assert "### Headroom: best greedy planner minus the oracle" in md and "| closed by horizon |" in md
+    assert "| tasks won | ms per act |" in md
     assert md == render_markdown(results)
     assert not list(out.glob(".*.tmp*"))
     # the same --out again: refused (one line, exit 2), the result kept

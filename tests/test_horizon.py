@@ -92,9 +92,8 @@ def angle_between_deg(x, y):
 
 def plan_pings(policy):
     """The planned ping positions (H, 2) of the policy's last decision."""
-    return (
-        policy.last_waypoint - policy.ctx.reach_m * policy.plan_v[0] + policy.ctx.reach_m * np.cumsum(policy.plan_v, 0)
-    )
+    v = policy.plan_v[policy.me]  # (H, 2) this beacon's part of the plan
+    return policy.last_waypoint - policy.ctx.reach_m * v[0] + policy.ctx.reach_m * np.cumsum(v, 0)
 
 
 def brute_force_two_pings(P0, step_deg=0.1, first_deg=None):
@@ -173,12 +172,12 @@ def test_two_ping_plan_matches_the_brute_force_optimum(major_bearing_deg):
 
 
 def test_deterministic_given_the_seed_and_warm_started():
-    """Same seed, same actions; the plan is kept (H, 2) for the next decision's warm start."""
+    """Same seed, same actions; the plan is kept (M = 1 beacon, H, 2) for the next decision's warm start."""
     obs = observe(SURVEY + np.array([0.0, 30.0]), np.diag([50.0, 5.0]))
     a = make_policy("horizon", TOY, seed=7)
     b = make_policy("horizon", TOY, seed=7)
     np.testing.assert_array_equal(a.act(obs), b.act(obs))
-    assert a.plan_v.shape == (a.horizon, 2)
+    assert a.plan_v.shape == (1, a.horizon, 2)
     with pytest.raises(ValueError, match="criterion"):
         make_policy("horizon", TOY, criterion="volume")
 
@@ -216,3 +215,74 @@ def test_oracle_gets_the_truth_in_run_episodes_and_is_never_a_best_planner():
         OraclePolicy.observe_truth = orig
     assert len(rows) == 2 and sorted(set(calls)) == [0, 1] and len(calls) == 6
     assert all("oracle" not in ts.planners for ts in TASK_SETS.values())
+
+
+# two beacons (ASVs, both at the survey vehicle's depth) and the stationary survey vehicle of TOY
+TEAM = TOY.replace(beacon_kinds=("asv", "asv"))
+
+
+def observe_team(own, peer, P):
+    major, minor, bearing = error_ellipse(P)
+    rel = [[*(SURVEY - own), 0.0]]
+    return encode(
+        TEAM,
+        own_en_m=own,
+        survey_rel_m=rel,
+        major_m=major,
+        minor_m=minor,
+        bearing_rad=bearing,
+        own_std_m=0.0,
+        peers_en_m=[peer],
+    )
+
+
+def test_joint_team_plan_puts_two_simultaneous_ranges_at_right_angles():
+    """Two beacons 6 m apart, both 30 m north of the survey vehicle, P0 = 100 I, one ping
+    ahead: the two ranges of the ping give tr P = tr J / det J with
+    det J = 1/s^2 + 2/(sR) + sin^2 t / R^2 (module docstring), smallest at t = 90 deg,
+    where tr P / tr P0 = R / (s + R) = 1/101. The joint plan reaches it (each beacon can
+    move its bearing by 90 deg in one ping); each beacon, planning from its own
+    observation with the episode's common random numbers, applies its own part, and the
+    two applied positions are at right angles. Planning around the other held at its
+    reported position (team="peers"), each moves to be at right angles to where the
+    other WAS: both move, and the geometry they reach is poor."""
+    s = 100.0
+    b = [SURVEY + np.array([0.0, 30.0]), SURVEY + np.array([6.0, 30.0])]
+    P = s * np.eye(2)
+    joint = [make_policy("horizon", TEAM, seed=(5, j), agent=j, horizon=1, team="joint") for j in range(2)]
+    for j, pol in enumerate(joint):
+        pol.act(observe_team(b[j], b[1 - j], P))
+        assert pol.planned == [0, 1] and pol.me == j and pol.plan_v.shape == (2, 1, 2)
+        assert pol.last_cost == pytest.approx(R / (s + R), rel=1e-3)
+        ping = np.stack(b) + pol.step_m[:, None] * pol.plan_v[:, 0]  # the plan's ping positions of both beacons
+        assert angle_between_deg(direction_deg(ping[0]), direction_deg(ping[1])) == pytest.approx(90.0, abs=2.0)
+    applied = [pol.last_waypoint for pol in joint]
+    assert angle_between_deg(direction_deg(applied[0]), direction_deg(applied[1])) == pytest.approx(90.0, abs=0.5)
+    held = [make_policy("horizon", TEAM, seed=(5, j), agent=j, horizon=1, team="peers") for j in range(2)]
+    for j, pol in enumerate(held):
+        pol.act(observe_team(b[j], b[1 - j], P))
+    apart = angle_between_deg(direction_deg(held[0].last_waypoint), direction_deg(held[1].last_waypoint))
+    assert apart < 20.0, apart  # ~11 deg: each turned 90 deg from where the other was
+
+
+def test_horizon_cost_criteria_and_terminal_weight_by_hand():
+    """Two pings, one survey vehicle: traces 8 and 2 with ranges, 18 and 32 without.
+    trace: (8 + 2) / (18 + 32) = 0.2; the last ping counted twice (terminal_weight=1):
+    (8 + 4) / (18 + 64); sqrt_trace: (sqrt 8 + sqrt 2) / (sqrt 18 + sqrt 32) = 3/7."""
+    P = np.array([[[[4.0, 0.0, 4.0]], [[1.0, 0.0, 1.0]]]])  # (N=1, H=2, S=1, 3)
+    P_none = np.array([[[9.0, 0.0, 9.0]], [[16.0, 0.0, 16.0]]])
+    assert horizon_cost(P, P_none)[0] == pytest.approx(0.2)
+    assert horizon_cost(P, P_none, terminal_weight=1.0)[0] == pytest.approx(12.0 / 82.0)
+    assert horizon_cost(P, P_none, "sqrt_trace")[0] == pytest.approx(3.0 / 7.0)
+    assert horizon_cost(P, P_none, "logdet")[0] == pytest.approx(np.log(16 / 81) + np.log(1 / 256))
+    with pytest.raises(ValueError, match="criterion must be one of"):
+        horizon_cost(P, P_none, "volume")
+
+
+def test_default_horizon_looks_30_s_ahead_in_4_to_6_pings():
+    from baselines.horizon import default_horizon
+
+    assert [default_horizon(t) for t in (20.0, 10.0, 7.5, 5.0, 2.0)] == [4, 4, 4, 6, 6]
+    assert make_policy("horizon", TOY).horizon == 4  # TOY pings every 20 s
+    assert make_policy("horizon", coopnav_env.make_config("sousa_asv")).horizon == 6  # every 5 s
+    assert make_policy("horizon", TOY, horizon=3).horizon == 3
