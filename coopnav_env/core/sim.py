@@ -62,6 +62,7 @@ class Simulator(BatchSimulator):
         self.config = c = config
         self.batch_size = int(batch_size)
         self.S, self.N, self.K = c.n_survey, c.n_beacons, c.substeps_per_cycle
+        self._dr_before: np.ndarray | None = None  # the dead reckoning before this cycle's sub-steps (eq. D1's D)
         is_asv = np.array([k == "asv" for k in c.beacon_kinds])
         self._beacon_is_asv = is_asv
         self._beacon_max_speed = np.array(c.beacon_max_speeds_mps)
@@ -325,7 +326,10 @@ class Simulator(BatchSimulator):
         st.s_est, st.s_P = predict(st.s_est, st.s_P, 0.0, self._Q_cycle)
         if self._bias_std is not None:  # eq. (D2): the survey's own dead-reckoning biases
             var = dr_bias.bias_variances(*self._bias_std, st.ep_noise_scale)
-            dr_bias.bias_predict(st.s_P, st.s_Pxd, st.s_dr[..., :2] - self._dr_before, var)
+            before = self._dr_before  # set by this cycle's _integrate_survey; None: no sub-steps ran, D = 0
+            moved = st.s_dr[..., :2] - before if before is not None else np.zeros_like(st.s_dr[..., :2])
+            dr_bias.bias_predict(st.s_P, st.s_Pxd, moved, var)
+        self._dr_before = None  # one cycle's D is used once
         fused = np.zeros((B, N, S), dtype=bool)
         out = measurements.FusionOutputs(
             fused=fused,
