@@ -1,8 +1,22 @@
 """Tests run quiet: no progress bars or stage lines (``coopnav_env.progress``) unless a
 test asks for them (tests/test_progress.py sets COOPNAV_PROGRESS itself), so the
-one-line error messages the tests check stay one line."""
+one-line error messages the tests check stay one line.
+
+Ray reads its settings when it is first imported, and torchrl imports it (tests/test_benchmarl.py
+ran before tests/test_rllib.py and left Ray without token authentication, so every RLlib test
+failed to start its cluster): the loopback settings of test_rllib.py and test_safe_formats.py are
+set here, before any test module is imported."""
+
+import os
 
 import pytest
+
+for _k, _v in {
+    "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0",
+    "RAY_USAGE_STATS_ENABLED": "0",
+    "RAY_AUTH_MODE": "token",
+}.items():
+    os.environ.setdefault(_k, _v)
 
 
 @pytest.fixture(autouse=True)
