@@ -99,6 +99,25 @@ def _disc(v: np.ndarray) -> np.ndarray:
     return v / np.maximum(norm, 1.0)
 
 
+def _h1_update(a, b, c, he, hn, p, R):
+    """Eq. (H1) on (var_east, cov, var_north) = (a, b, c): the expected covariance after one
+    range along the unit horizontal direction (he, hn), arriving with probability p, variance R."""
+    ue, un = a * he + b * hn, b * he + c * hn  # P h
+    k = p / (he * ue + hn * un + R)  # p / (h'Ph + R), eq. (H1)
+    return a - k * ue * ue, b - k * ue * un, c - k * un * un
+
+
+def _no_range(P0: np.ndarray, grow_m2: np.ndarray) -> np.ndarray:
+    """P_none (H, S, 3): the reported covariances P0 (S, 2, 2) grown by grow_m2 (H, S), no range."""
+    H, S = grow_m2.shape[0], P0.shape[0]
+    none = np.empty((H, S, 3))
+    none_a, none_b, none_c = P0[:, 0, 0].copy(), P0[:, 0, 1].copy(), P0[:, 1, 1].copy()
+    for j in range(H):
+        none_a, none_c = none_a + grow_m2[j], none_c + grow_m2[j]
+        none[j] = np.stack([none_a, none_b, none_c], -1)
+    return none
+
+
 def team_expected_covariances(
     beacon_en: np.ndarray,
     survey_en: np.ndarray,
@@ -128,19 +147,12 @@ def team_expected_covariances(
     b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
     c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
     out = np.empty((N, H, S, 3))
-    none = np.empty((H, S, 3))
-    none_a, none_b, none_c = P0[:, 0, 0].copy(), P0[:, 0, 1].copy(), P0[:, 1, 1].copy()
     for j in range(H):
         a, c = a + grow_m2[j], c + grow_m2[j]
-        none_a, none_c = none_a + grow_m2[j], none_c + grow_m2[j]
-        none[j] = np.stack([none_a, none_b, none_c], -1)
         for m in range(M):
-            he, hn = h[:, m, j, :, 0], h[:, m, j, :, 1]
-            ue, un = a * he + b * hn, b * he + c * hn  # P h
-            k = p[:, m, j] / (he * ue + hn * un + R[m])  # p / (h'Ph + R), eq. (H1)
-            a, b, c = a - k * ue * ue, b - k * ue * un, c - k * un * un
+            a, b, c = _h1_update(a, b, c, h[:, m, j, :, 0], h[:, m, j, :, 1], p[:, m, j], R[m])
         out[:, j, :, 0], out[:, j, :, 1], out[:, j, :, 2] = a, b, c
-    return out, none
+    return out, _no_range(P0, grow_m2)
 
 
 def expected_covariances(
@@ -177,22 +189,15 @@ def expected_covariances(
     b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
     c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
     out = np.empty((N, H, S, 3))
-    none = np.empty((H, S, 3))
-    none_a, none_b, none_c = P0[:, 0, 0].copy(), P0[:, 0, 1].copy(), P0[:, 1, 1].copy()
     for j in range(H):
         a, c = a + grow_m2[j], c + grow_m2[j]
-        none_a, none_c = none_a + grow_m2[j], none_c + grow_m2[j]
-        none[j] = np.stack([none_a, none_b, none_c], -1)
         updates = [(h[:, j], p[:, j])]
         if peers_en is not None and len(peers_en):
             updates = [(ph[j, m][None], pp[j, m][None]) for m in range(len(peers_en))] + updates
         for hj, pj in updates:
-            he, hn = hj[..., 0], hj[..., 1]
-            ue, un = a * he + b * hn, b * he + c * hn  # P h
-            k = pj / (he * ue + hn * un + range_var_m2)  # p / (h'Ph + R), eq. (H1)
-            a, b, c = a - k * ue * ue, b - k * ue * un, c - k * un * un
+            a, b, c = _h1_update(a, b, c, hj[..., 0], hj[..., 1], pj, range_var_m2)
         out[:, j, :, 0], out[:, j, :, 1], out[:, j, :, 2] = a, b, c
-    return out, none
+    return out, _no_range(P0, grow_m2)
 
 
 def horizon_cost(

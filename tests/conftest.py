@@ -10,12 +10,9 @@ set here, before any test module is imported."""
 import os
 
 import pytest
+from ray_loopback import LOOPBACK_ENV
 
-for _k, _v in {
-    "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0",
-    "RAY_USAGE_STATS_ENABLED": "0",
-    "RAY_AUTH_MODE": "token",
-}.items():
+for _k, _v in LOOPBACK_ENV.items():
     os.environ.setdefault(_k, _v)
 
 

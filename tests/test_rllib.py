@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from ray_loopback import LOOPBACK_ENV  # conftest.py has applied them already
 
 ROOT = Path(__file__).resolve().parents[1]
-LOOPBACK_ENV = {"RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0", "RAY_USAGE_STATS_ENABLED": "0", "RAY_AUTH_MODE": "token"}
 CYCLES = 10
 TINY = {
     "ppo": {"lr": 3.0e-4, "train_batch_size_per_learner": 2 * CYCLES, "minibatch_size": CYCLES, "num_epochs": 1},
@@ -66,9 +66,7 @@ def test_missing_ray_is_one_line_and_exit_2(tmp_path):
 
 
 # ------------------------------------------------------------------------------------
-# everything below needs Ray
-for _k, _v in LOOPBACK_ENV.items():  # before the first `import ray` (Ray reads them at import)
-    os.environ.setdefault(_k, _v)
+# everything below needs Ray (tests/conftest.py set LOOPBACK_ENV before any import of it)
 
 import agents  # noqa: E402
 import coopnav_env  # noqa: E402

@@ -8,7 +8,6 @@ A malicious pickle here creates a marker file when unpickled; every refusal is c
 by the marker's absence, exit status 2 and one line naming the file and --trust-pickle."""
 
 import json
-import os
 import pickle
 import shutil
 import zipfile
@@ -18,22 +17,15 @@ import numpy as np
 import pytest
 import yaml
 
-# Ray (the RLlib test) on loopback only, as tests/test_rllib.py: read when ray is first imported
-for _k, _v in {
-    "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0",
-    "RAY_USAGE_STATS_ENABLED": "0",
-    "RAY_AUTH_MODE": "token",
-}.items():
-    os.environ.setdefault(_k, _v)
+# Ray on loopback only: tests/conftest.py sets tests/ray_loopback.py's settings before any import
+from cli_runs import tiny_training
 
-from cli_runs import tiny_training  # noqa: E402
+import agents
+from agents import convert, formats
+from agents.training import cli as train_cli
+from evaluation import cli as eval_cli
 
-import agents  # noqa: E402
-from agents import convert, formats  # noqa: E402
-from agents.training import cli as train_cli  # noqa: E402
-from evaluation import cli as eval_cli  # noqa: E402
-
-from optional import require  # noqa: E402
+from optional import require
 
 DATA = Path(__file__).resolve().parent / "data" / "shipped_policy_actions.npz"
 TINY = {
