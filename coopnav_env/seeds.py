@@ -98,3 +98,33 @@ def max_training_seed(seed: int, copies: int, episodes: int) -> int:
     episodes of each of ``copies`` environment copies: ``seed + (copies - 1) +
     (episodes - 1) * SEED_STRIDE``."""
     return int(seed) + int(copies) - 1 + (int(episodes) - 1) * TRAINING_SEED_STRIDE
+
+
+class EpisodeSeeds:
+    """The training views' episode seeds (one home for the schedule above): episode k
+    (0, 1, ...) of environment e is seeded ``base + e + k * TRAINING_SEED_STRIDE``.
+    ``current[e]`` is the seed of environment e's current episode (-1 before its first)."""
+
+    def __init__(self, n_envs: int) -> None:
+        import numpy as np
+
+        self.base = 0
+        self.started = np.zeros(n_envs, dtype=np.int64)  # episodes started per environment
+        self.current = np.full(n_envs, -1, dtype=np.int64)
+
+    def restart(self, seed: int | None) -> int:
+        """Count episodes from 0 again with base ``seed`` (None: a random one); returns the base."""
+        import numpy as np
+
+        if seed is None:
+            seed = int(np.random.SeedSequence().generate_state(1, dtype=np.uint32)[0] >> 1)
+        self.base = check_seed(seed)
+        self.started[:] = 0
+        return self.base
+
+    def next(self, envs: Any) -> Any:
+        """The seeds of the next episodes of environments ``envs`` (int array), counted."""
+        seeds = self.base + envs + self.started[envs] * TRAINING_SEED_STRIDE
+        self.started[envs] += 1
+        self.current[envs] = seeds
+        return seeds

@@ -76,7 +76,7 @@ from torchrl.envs import EnvBase
 from .core import make_simulator
 from .core.reward import check_training_terms, training_reward
 from .scenarios import make_config
-from .seeds import TRAINING_SEED_STRIDE, check_seed
+from .seeds import TRAINING_SEED_STRIDE, EpisodeSeeds
 from .views import OBS_BOUND, action_dim
 
 if TYPE_CHECKING:
@@ -144,9 +144,8 @@ class CoopNavTorchEnv(EnvBase):
         self.infos = bool(infos)
         self.agent_names = [f"beacon_{j}" for j in range(self.n_beacons)]
         self.group_map = {GROUP: list(self.agent_names)}
-        self._base_seed = 0
-        self._episode = np.zeros(n_envs, dtype=np.int64)  # episodes started per environment
-        self.episode_seeds = np.full(n_envs, -1, dtype=np.int64)  # seed of each current episode
+        self._schedule = EpisodeSeeds(n_envs)
+        self.episode_seeds = self._schedule.current  # seed of each current episode
         self._done = np.zeros(n_envs, dtype=bool)
         self._started = False
         self._set_seed(seed)
@@ -205,17 +204,11 @@ class CoopNavTorchEnv(EnvBase):
     # ------------------------------------------------------------------------------
     def _set_seed(self, seed: int | None) -> None:
         """Base seed for the episodes started from the next full ``reset()`` on (None: random)."""
-        if seed is None:
-            seed = int(np.random.SeedSequence().generate_state(1, dtype=np.uint32)[0] >> 1)
-        self._base_seed = check_seed(seed)
-        self._episode[:] = 0
+        self._schedule.restart(seed)
         self._started = False
 
     def _next_seeds(self, envs: np.ndarray) -> np.ndarray:
-        seeds = self._base_seed + envs + self._episode[envs] * SEED_STRIDE
-        self._episode[envs] += 1
-        self.episode_seeds[envs] = seeds
-        return seeds
+        return self._schedule.next(envs)
 
     def episode_cells(self) -> list:
         """(survey_path, depth_m) of each environment's current episode (the core's draw)."""

@@ -64,13 +64,13 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvO
 from .core import make_simulator
 from .core.reward import check_training_terms, training_reward, training_signal_names
 from .scenarios import make_config
-from .seeds import check_seed
+from .seeds import TRAINING_SEED_STRIDE, EpisodeSeeds
 from .views import action_space, observation_space
 
 if TYPE_CHECKING:
     from .scenarios import ScenarioConfig
 
-SEED_STRIDE = 1_000_003  # a prime larger than any batch: episode k of env e -> seed + e + k * SEED_STRIDE
+SEED_STRIDE = TRAINING_SEED_STRIDE  # 1_000_003, a prime larger than any batch: episode k of env e -> seed + e + k * it
 check_reward_terms = check_training_terms  # {signal: weight} validated against the registry
 
 
@@ -118,9 +118,8 @@ class CoopNavVecEnv(VecEnv):
         self.render_mode = None
         self.possible_agents = [f"beacon_{j}" for j in range(self.n_beacons)]
         super().__init__(n_envs * self.n_beacons, observation_space(self.sim), action_space(self.sim))
-        self._base_seed = 0  # set by self.seed() below
-        self._episode = np.zeros(n_envs, dtype=np.int64)  # episodes started per environment
-        self.episode_seeds = np.full(n_envs, -1, dtype=np.int64)  # seed of each current episode
+        self._schedule = EpisodeSeeds(n_envs)  # based by self.seed() below
+        self.episode_seeds = self._schedule.current  # seed of each current episode
         self.step_infos = bool(step_infos)
         self._actions: np.ndarray | None = None
         self._started = False
@@ -135,18 +134,12 @@ class CoopNavVecEnv(VecEnv):
     def seed(self, seed: int | None = None) -> Sequence[int | None]:
         """Base seed for the episodes started from the next ``reset()`` on (None: random).
         Returns the first episode's seed of every row."""
-        if seed is None:
-            seed = int(np.random.SeedSequence().generate_state(1, dtype=np.uint32)[0] >> 1)
-        self._base_seed = check_seed(seed)
-        self._episode[:] = 0
+        base = self._schedule.restart(seed)
         self._started = False
-        return [self._base_seed + e for e in range(self.n_envs) for _ in range(self.n_beacons)]
+        return [base + e for e in range(self.n_envs) for _ in range(self.n_beacons)]
 
     def _next_seeds(self, envs: np.ndarray) -> np.ndarray:
-        seeds = self._base_seed + envs + self._episode[envs] * SEED_STRIDE
-        self._episode[envs] += 1
-        self.episode_seeds[envs] = seeds
-        return seeds
+        return self._schedule.next(envs)
 
     def reset(self) -> VecEnvObs:
         """Start a new episode in every environment; returns (num_envs, obs_dim)."""
