@@ -62,6 +62,7 @@ import numpy as np
 from ..scenarios.base import SLOWEST_SOUND_SPEED_MPS
 from . import fusion
 from .acoustics import mackenzie_sound_speed
+from .jit import threaded
 from .kernel_records import beacon_view, knowledge_view, survey_view
 from .link import (
     Band,
@@ -148,7 +149,7 @@ class Channel:
                 np.full(self.S, message_bits(f, c.reply_packet_bits)),
             ]
         )
-        self.parallel = sim.batch_size >= 256
+        self.parallel = threaded(sim.batch_size)
         self._k_exchange = fusion.exchange_messages_parallel if self.parallel else fusion.exchange_messages
         self._exchange_params = sim.params
         if self.sonar:  # the link decides every loss: the modem's and the messages' range loss off

@@ -31,6 +31,7 @@ from .contract import BatchSimulator, Snapshot, StepResult
 from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
+from .jit import threaded
 from .kernel_records import SurveyParams, beacon_view, knowledge_view, survey_view
 from .navigation import gate_threshold, predict
 from .reward import TermContext, collect_terms, has_hooks, term_weights, terms_for, weighted_reward
@@ -89,7 +90,7 @@ class Simulator(BatchSimulator):
         phi = np.where(is_asv, np.exp(-c.ping_interval_s / tau) if tau > 0 else 0.0, 1.0)
         self._consider_phi = phi if c.beacon_error_fusion == "schmidt" and (phi != 1.0).any() else None
         self._bias_std = dr_bias.considered_biases(c)  # eqs. D1-D4, or None
-        self._parallel = self.batch_size >= 256  # threaded kernels pay off only for large batches
+        self._parallel = threaded(self.batch_size)  # threaded kernels: off (core/jit.py says why)
         par = "_parallel" if self._parallel else ""
         self._k_survey = getattr(substeps, "integrate_survey" + par)
         self._k_beacons = getattr(substeps, "integrate_beacons" + par)

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..contract import SensorHost
-from ..jit import parallel_twin
+from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, survey_view
 from ..navigation import gated_update, gated_update_residual, range_prediction
 from . import FusionOutputs
@@ -117,7 +117,7 @@ class MLSArray:
                 depth_m=c.depth_m,
             )
         )
-        self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
+        self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
 
     def heard_mask(self, cycle: np.ndarray) -> np.ndarray:
         """(B, N): the beacon whose turn it is to send in ``cycle`` (round robin)."""

@@ -28,7 +28,8 @@ from ..consider import (
     schmidt_range_update,
 )
 from ..contract import SensorHost
-from ..jit import parallel_twin
+from ..dr_bias import N_BIASES, told_current_std_mps
+from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import blend_update, direct_path_weight
 from ..navigation import gated_update, innovation_variance, moving_range_prediction, reinit_on_range
@@ -485,7 +486,7 @@ class ModemRanging:
                 bool(c.survey_bias_consider),
             ]
         )
-        self.kernel = fuse_kernel_parallel if sim.batch_size >= 256 else fuse_kernel
+        self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
         self.sim = sim
         self._all_heard: np.ndarray | None = None  # (B, N, S) all True, kept across cycles
 

@@ -20,6 +20,7 @@ from ..contract import BatchSimulator, Snapshot, StepResult
 from ..dynamics import bearing_to_unit, boat_noise_step, disturb_boats, gauss_markov_step
 from ..guidance import build_path
 from ..information import error_ellipse, floored_log
+from ..jit import threaded
 from ..navigation import gate_threshold
 from ..observation import (  # the survey network's age scale and bound
     AGE_SCALE_PINGS,
@@ -89,7 +90,7 @@ class MovingNetworkSimulator(BatchSimulator):
         self._max_speed = np.array(c.beacon_max_speeds_mps)
         turn = np.radians(np.full(2, c.boat_max_turn_rate_dps)) * c.substep_s
         self._boat_turn_cos, self._boat_turn_sin = np.cos(turn), np.sin(turn)
-        par = B >= 256  # threaded kernels pay off only for large batches
+        par = threaded(B)  # threaded kernels: off (core/jit.py says why)
         self._k_beacons = substeps.integrate_beacons_parallel if par else substeps.integrate_beacons
         self._k_cycle = cycle_parallel if par else cycle
         self._k_observe = observe_boats_parallel if par else observe_boats
