@@ -18,14 +18,29 @@ def test_predict_on_an_l_shaped_path_by_hand():
     G2 = [[0, -10], [10, 0]], G2 Pxd^T + Pxd G2^T = [[0, 0.96], [0.96, 0]],
     G2 Pff G2^T = diag(0.04, 1): P = [[1.04, 0.96], [0.96, 1.04]], the same as
     (G1 + G2) Pff (G1 + G2)^T for the whole 10 + 10 m path (a constant bias)."""
-    P, Pxd = np.zeros((1, 1, 3, 3)), np.zeros((1, 1, 3, 2))
-    var = np.array([[0.01, 0.0004]])
+    P, Pxd = np.zeros((1, 1, 3, 3)), np.zeros((1, 1, 3, 4))
+    var = np.array([[0.01, 0.0004, 0.0, 0.0]])
     bias_predict(P, Pxd, np.array([[[10.0, 0.0]]]), var)
     np.testing.assert_allclose(P[0, 0, :2, :2], np.diag([1.0, 0.04]), atol=1e-15)
-    np.testing.assert_allclose(Pxd[0, 0], [[0.1, 0.0], [0.0, 0.004], [0.0, 0.0]], atol=1e-15)
+    np.testing.assert_allclose(Pxd[0, 0, :, :2], [[0.1, 0.0], [0.0, 0.004], [0.0, 0.0]], atol=1e-15)
     bias_predict(P, Pxd, np.array([[[0.0, 10.0]]]), var)
     np.testing.assert_allclose(P[0, 0], [[1.04, 0.96, 0.0], [0.96, 1.04, 0.0], [0.0, 0.0, 0.0]], atol=1e-14)
-    np.testing.assert_allclose(Pxd[0, 0], [[0.1, -0.004], [0.1, 0.004], [0.0, 0.0]], atol=1e-15)
+    np.testing.assert_allclose(Pxd[0, 0, :, :2], [[0.1, -0.004], [0.1, 0.004], [0.0, 0.0]], atol=1e-15)
+    assert not Pxd[0, 0, :, 2:].any()  # sigma_c = 0: the told current's columns stay 0
+
+
+def test_told_current_error_grows_with_the_square_of_time():
+    """Eq. (D1'): a told current off by c (sigma_c = 0.05 m/s per axis), three 20-s cycles
+    with no displacement and no update: the error is 60 c, P = 60^2 sigma_c^2 I = 9 I and
+    Pxd's current columns 60 sigma_c^2 I = 0.15 I. White noise of the same one-cycle
+    variance (1 m^2) would give 3 I: a third."""
+    P, Pxd = np.zeros((1, 1, 3, 3)), np.zeros((1, 1, 3, 4))
+    var = np.array([[0.0, 0.0, 0.0025, 0.0025]])
+    for _ in range(3):
+        bias_predict(P, Pxd, np.zeros((1, 1, 2)), var, 20.0)
+    np.testing.assert_allclose(P[0, 0, :2, :2], 9.0 * np.eye(2), rtol=1e-14)
+    np.testing.assert_allclose(Pxd[0, 0, :2, 2:], 0.15 * np.eye(2), rtol=1e-14)
+    assert P[0, 0, 2, 2] == 0.0 and not Pxd[0, 0, :, :2].any()
 
 
 def test_predict_without_updates_is_the_bias_of_the_whole_path():
@@ -33,14 +48,15 @@ def test_predict_without_updates_is_the_bias_of_the_whole_path():
     P = (sum G_t) Pff (sum G_t)^T and Pxd = (sum G_t) Pff: the error of a constant bias
     over the whole path, not the sum of independent ones (which would be sum G Pff G^T)."""
     rng = np.random.default_rng(3)
-    D = rng.normal(0.0, 5.0, (30, 2, 3, 2))  # 30 cycles, batch (2, 3)
-    var = np.array([[0.0025, 3e-4], [0.01, 1e-4]])
-    P, Pxd = np.zeros((2, 3, 3, 3)), np.zeros((2, 3, 3, 2))
+    D = rng.normal(0.0, 5.0, (30, 2, 3, 2))  # 30 cycles of 20 s, batch (2, 3)
+    var = np.array([[0.0025, 3e-4, 0.0025, 0.0025], [0.01, 1e-4, 1e-4, 1e-4]])
+    P, Pxd = np.zeros((2, 3, 3, 3)), np.zeros((2, 3, 3, 4))
     for d in D:
-        bias_predict(P, Pxd, d, var)
-    Gs = displacement_jacobian(D.sum(0))
-    Pff = np.zeros((2, 1, 2, 2))
-    Pff[:, 0, 0, 0], Pff[:, 0, 1, 1] = var[:, 0], var[:, 1]
+        bias_predict(P, Pxd, d, var, 20.0)
+    Gs = displacement_jacobian(D.sum(0), 20.0 * len(D))
+    Pff = np.zeros((2, 1, 4, 4))
+    for i in range(4):
+        Pff[:, 0, i, i] = var[:, i]
     np.testing.assert_allclose(P, Gs @ Pff @ np.swapaxes(Gs, -1, -2), rtol=1e-10, atol=1e-10)
     np.testing.assert_allclose(Pxd, Gs @ Pff, rtol=1e-10, atol=1e-12)
 
@@ -53,7 +69,7 @@ def test_d1_matches_the_dead_reckoning_of_the_substeps():
     D_dr = 7.0 * np.exp(1j * 0.3) * np.exp(-1j * beta)  # what the dead reckoning adds
     d_true = 7.0 * np.exp(1j * 0.3) * (1.0 + k)
     G = displacement_jacobian(np.array([D_dr.real, D_dr.imag]))
-    lin = G[:2] @ np.array([k, beta])
+    lin = G[:2] @ np.array([k, beta, 0.0, 0.0])
     err = d_true - D_dr
     # the rest is second order, k beta + beta^2 / 2 of |D| (2 % here); a wrong sign would be 100 %
     assert np.hypot(err.real - lin[0], err.imag - lin[1]) < 0.05 * abs(err)
@@ -106,12 +122,12 @@ def _window():
 
 
 def test_window_bias_cross_against_a_linear_reference_and_monte_carlo():
-    """Eq. (R6): the fix's cross-covariance with (k, beta) is P J^T Sigma^-1 Uf Pff (a numpy
+    """Eq. (R6): the fix's cross-covariance with (k, beta, c_e, c_n) is P J^T Sigma^-1 Uf Pff (a numpy
     reference from the Jacobian), and it is what a Monte Carlo of biased shifts gives:
     each draw moves the survey's true track by G_k phi and the fix follows it."""
     win, x_true = _window()
-    noise = WindowNoise(0.25, np.zeros((2, 2)), 0.0, 50.0, 0.05, np.radians(2.0))
-    x, P, Pxb, out = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
+    noise = WindowNoise(0.25, np.zeros((2, 2)), 0.0, 50.0, 0.05, np.radians(2.0), 0.05)
+    x, P, Pxb, out = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 4))
     window_fix(win, 4, noise, x_true + np.array([3.0, -2.0]), np.eye(2), x, P, Pxb)
     window_bias_cross(x, win, 4, noise, P, out)
     # reference: J, Sigma, Uf in numpy
@@ -119,18 +135,18 @@ def test_window_bias_cross_against_a_linear_reference_and_monte_carlo():
     zh = np.sqrt((d**2).sum(1) + win.dz**2)
     J = d / zh[:, None]
     Js = np.stack([-win.shift[:, 1], win.shift[:, 0]], 1)
-    Uf = np.stack([(J * win.shift).sum(1), (J * Js).sum(1)], 1)
-    Pff = np.diag([0.05**2, np.radians(2.0) ** 2])
+    Uf = np.concatenate([np.stack([(J * win.shift).sum(1), (J * Js).sum(1)], 1), win.age_s[:, None] * J], 1)
+    Pff = np.diag([0.05**2, np.radians(2.0) ** 2, 0.05**2, 0.05**2])
     Sigma = 0.25 * np.eye(4) + Uf @ Pff @ Uf.T
     ref = P @ J.T @ np.linalg.solve(Sigma, Uf @ Pff)
     np.testing.assert_allclose(out, ref, rtol=1e-9, atol=1e-12)
     assert np.abs(out).max() > 1e-3  # the shifts are tens of metres: a real correlation
     # Monte Carlo: true shifts s_k + G_k phi, noise-free ranges; E[(x_true - x_hat) phi^T]
     rng = np.random.default_rng(5)
-    phis = rng.multivariate_normal(np.zeros(2), Pff, 4000)
+    phis = rng.multivariate_normal(np.zeros(4), Pff, 4000)
     errs = np.empty((len(phis), 2))
     for i, phi in enumerate(phis):
-        true_shift = win.shift + phi[0] * win.shift + phi[1] * Js
+        true_shift = win.shift + phi[0] * win.shift + phi[1] * Js + win.age_s[:, None] * phi[2:]
         z = np.sqrt(((x_true - true_shift - win.beacon) ** 2).sum(1) + win.dz**2)
         w = RangeWindow(z, win.beacon, win.shift, win.dz, win.age_s)
         window_fix(w, 4, noise, x_true, np.eye(2), x, P, Pxb)
@@ -143,3 +159,33 @@ def test_window_bias_cross_against_a_linear_reference_and_monte_carlo():
 def test_the_papers_filter_leaves_the_biases_out(param):
     assert coopnav_env.scenarios.PAPER_FILTER[param] is False
     assert coopnav_env.make_config("sousa_asv").survey_bias_consider is True
+
+
+def test_told_current_error_is_considered_end_to_end():
+    """gao_lawnmower with uninformative ranges (noise 1 km: the pings still carry the
+    beacon's current, Gao II-A) and only the told current's error as a bias (0.1 m/s per
+    axis; no speed-scale error or compass bias), Q the compass noise's white share: after
+    12 cycles (240 s, an error of about 24 m per axis) the survey's end NEES over 200 runs
+    averages 2 (chi-square(2); the 99 % band of the mean of 200 is [1.67, 2.37]). Before
+    the told current was a consider state (eq. D1') the filter had only Q for it and the
+    mean was in the hundreds."""
+    runs, cycles = 200, 12
+    c = coopnav_env.make_config(
+        "gao_lawnmower",
+        range_noise_std_m=1000.0,
+        outlier_probability=0.0,
+        survey_speed_scale_error_std=0.0,
+        compass_bias_std_deg=0.0,
+        beacon_current_estimate_error_mps=0.1,
+        process_noise_horizontal_m2ps=5e-4,
+        max_cycles=cycles,
+    )
+    sim = make_simulator(c, runs)
+    sim.reset(list(range(731000, 731000 + runs)))
+    for _ in range(cycles):
+        res = sim.step(np.zeros((runs, 1, 2)))
+    e = np.asarray(res.info["survey_error_en_m"])[:, 0]
+    P = np.asarray(res.info["survey_cov_en_m2"])[:, 0]
+    nees = np.einsum("bi,bi->b", e, np.linalg.solve(P, e[..., None])[..., 0])
+    assert np.median(np.hypot(e[:, 0], e[:, 1])) > 10.0  # the current's error dominates
+    assert 1.67 < nees.mean() < 2.37, nees.mean()

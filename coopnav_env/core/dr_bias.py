@@ -17,7 +17,7 @@ three-state filter is what the papers and the beacons' messages assume), but it 
 know they exist: they are consider parameters (Schmidt 1966; the same treatment as the
 beacons' errors in ``consider.py``). phi = (k, beta), zero mean, covariance
 Pff = diag(sigma_k^2, sigma_beta^2), never updated. The survey carries Pxd = E[e phi^T]
-(3, 2), e = x - x_hat its error (true minus estimate, as in ``consider.py``).
+(3, 4) (the told current's two columns below), e = x - x_hat its error (true minus estimate, as in ``consider.py``).
 
     (D1) a cycle's true horizontal displacement is the dead-reckoned one D (2,) scaled and
          rotated: d = (1 + k) R(beta) D ~ D + G phi,  G = [D, J D] (2, 2) (3 x 2 with a zero
@@ -34,9 +34,31 @@ Pff = diag(sigma_k^2, sigma_beta^2), never updated. The survey carries Pxd = E[e
          dependence on phi (``recovery.window_bias_cross``, eq. R6), or 0 after the
          nearest-point restart
 
-With sigma_k = sigma_beta = 0 this is the old filter. D is the change of the
-dead-reckoning-only track over the cycle (``SimState.s_dr``), which is what the
-biases act on (the current the survey is told is not scaled by them).
+The told current's error (issue 21, round 3: gao_lawnmower's 99.9 % exceedances). A
+survey vehicle that dead-reckons through the water adds the current a DVL beacon sends
+it (Gao & Chitre II-A); the beacon's estimate is off by an episode constant
+(``beacon_current_estimate_error_mps`` per axis, ``SimState.b_current_err``), which the
+survey's track integrates as a velocity error: the same linear growth, not a random
+walk. On gao_lawnmower (100 runs each, tuning seeds 710000 and 730000) the runs with
+clustered exceedances were the tail draws of it (seed 730035: 0.21 m/s, the second
+largest of 1000, the north error growing 3.5 m a 20-s cycle), and with the error set
+to 0 the exceedances fell from 1.6x and 1.8x to 0.5x and 0.0x. So phi gains the told
+current's error c = (c_e, c_n), true current minus told, Pff's last two entries
+sigma_c^2 each (``considered_biases``), and
+
+    (D1') G = [D, J D, dt e_x, dt e_y] (3, 4): over a cycle of dt seconds the error is
+          dt c (the cycle's dead reckoning added the told current for all of it)
+
+D2-D4 and R6 are unchanged in form (R6's Uf_k gains age_k u_k for the current; R2'
+adds sigma_c^2 age_i age_j u_i^T u_j to the window's Sigma). The current's slowly
+varying Gauss-Markov part is in what the beacon measures and sends, so it is not an
+error of the told current; before the first ping that carries a current the survey
+adds none, an error this model leaves out (the first 20-s cycle).
+
+With every sigma = 0 this is the old filter. D is the change of the dead-reckoning-only
+track over the cycle (``SimState.s_dr``), which is what k and beta act on (the current
+the survey is told is not scaled by them: an overstatement of their share, small where
+the current is small against the vehicle's speed).
 """
 
 from __future__ import annotations
@@ -45,38 +67,56 @@ from typing import Any
 
 import numpy as np
 
+N_BIASES = 4  # phi = (k, beta, c_e, c_n): the columns of SimState.s_Pxd
 
-def considered_biases(c: Any) -> tuple[float, float] | None:
-    """(sigma_k, sigma_beta in rad) of scenario config ``c`` when its survey filter carries
-    them (``survey_bias_consider``), else None. Only with the modem sensor: it carries Pxd
-    through its updates (eq. D3); the MLS sensor's bearing reads the compass bias itself (a
-    measurement that is a function of phi) and does not."""
-    std = (float(c.survey_speed_scale_error_std), float(np.radians(c.compass_bias_std_deg)))
+
+def told_current_std_mps(c: Any) -> float:
+    """sigma_c of scenario config ``c``: the per-axis error of the current a DVL beacon
+    AUV sends (``beacon_current_estimate_error_mps``) when the survey adds it
+    (``survey_uses_beacon_current``) and a beacon AUV is there to send it, else 0."""
+    sends = c.survey_uses_beacon_current and any(k == "beacon_auv" for k in c.beacon_kinds)
+    return float(c.beacon_current_estimate_error_mps) if sends else 0.0
+
+
+def considered_biases(c: Any) -> tuple[float, float, float] | None:
+    """(sigma_k, sigma_beta in rad, sigma_c in m/s) of scenario config ``c`` when its survey
+    filter carries them (``survey_bias_consider``), else None. Only with the modem sensor:
+    it carries Pxd through its updates (eq. D3); the MLS sensor's bearing reads the compass
+    bias itself (a measurement that is a function of phi) and does not."""
+    std = (float(c.survey_speed_scale_error_std), float(np.radians(c.compass_bias_std_deg)), told_current_std_mps(c))
     use = c.survey_bias_consider and c.acoustic_sensor == "modem" and max(std) > 0
     return std if use else None
 
 
-def bias_variances(scale_std: float, heading_std_rad: float, noise_scale: np.ndarray) -> np.ndarray:
-    """Pff's diagonal per environment (B, 2): (sigma_k^2, sigma_beta^2), the episode's
-    noise scale (domain randomization, ``SimState.ep_noise_scale``) applied as the
-    episode start applies it to the biases."""
+def bias_variances(
+    scale_std: float, heading_std_rad: float, current_std_mps: float, noise_scale: np.ndarray
+) -> np.ndarray:
+    """Pff's diagonal per environment (B, 4): (sigma_k^2, sigma_beta^2, sigma_c^2,
+    sigma_c^2), the episode's noise scale (domain randomization,
+    ``SimState.ep_noise_scale``) applied to k and beta as the episode start applies it
+    (the told current's error is drawn without it)."""
     s2 = np.asarray(noise_scale, dtype=float)[:, None] ** 2
-    return s2 * np.array([scale_std**2, heading_std_rad**2])
+    var = np.empty((s2.shape[0], N_BIASES))
+    var[:, :2] = s2 * np.array([scale_std**2, heading_std_rad**2])
+    var[:, 2:] = current_std_mps**2
+    return var
 
 
-def displacement_jacobian(D: np.ndarray) -> np.ndarray:
-    """Eq. (D1): G (..., 3, 2) = [[D, J D]; [0, 0]] for horizontal displacements D (..., 2)."""
-    G = np.zeros(D.shape[:-1] + (3, 2))
+def displacement_jacobian(D: np.ndarray, dt_s: float | np.ndarray = 0.0) -> np.ndarray:
+    """Eqs. (D1, D1'): G (..., 3, 4) = [[D, J D, dt e_x, dt e_y]; [0, 0, 0, 0]] for
+    horizontal displacements D (..., 2) over dt_s seconds."""
+    G = np.zeros(D.shape[:-1] + (3, N_BIASES))
     G[..., 0, 0], G[..., 1, 0] = D[..., 0], D[..., 1]
     G[..., 0, 1], G[..., 1, 1] = -D[..., 1], D[..., 0]
+    G[..., 0, 2] = G[..., 1, 3] = dt_s
     return G
 
 
-def bias_predict(P: np.ndarray, Pxd: np.ndarray, D: np.ndarray, var: np.ndarray) -> None:
-    """Eq. (D2) without Q, in place, over the batch: P (B, S, 3, 3), Pxd (B, S, 3, 2),
-    D (B, S, 2) the cycle's dead-reckoned horizontal displacements, var (B, 2) Pff's
-    diagonal (``bias_variances``)."""
-    G = displacement_jacobian(D)
+def bias_predict(P: np.ndarray, Pxd: np.ndarray, D: np.ndarray, var: np.ndarray, dt_s: float = 0.0) -> None:
+    """Eq. (D2) without Q, in place, over the batch: P (B, S, 3, 3), Pxd (B, S, 3, 4),
+    D (B, S, 2) the cycle's dead-reckoned horizontal displacements over dt_s seconds,
+    var (B, 4) Pff's diagonal (``bias_variances``)."""
+    G = displacement_jacobian(D, dt_s)
     GPff = G * var[:, None, None, :]  # G Pff, Pff diagonal
     cross = G @ np.swapaxes(Pxd, -1, -2)
     P += cross + np.swapaxes(cross, -1, -2) + GPff @ np.swapaxes(G, -1, -2)

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from . import rng
+from . import dr_bias, rng
 from .dynamics import bearing_to_unit, terminal_speed_mps
 
 
@@ -207,5 +207,5 @@ def consider_start(sim: Any, B: int) -> dict:
         "s_win_dr": np.zeros((B, S, N, M, 2)),
         "s_win_dz": np.zeros((B, S, N, M)),
         "s_win_t": np.zeros((B, S, N, M)),
-        "s_Pxd": np.zeros((B, S, 3, 2)),
+        "s_Pxd": np.zeros((B, S, 3, dr_bias.N_BIASES)),
     }

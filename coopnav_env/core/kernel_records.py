@@ -153,7 +153,7 @@ class ConsiderView(NamedTuple):
     win_dr: np.ndarray  # (B,S,N,M,2)
     win_dz: np.ndarray  # (B,S,N,M)
     win_t: np.ndarray  # (B,S,N,M)
-    Pxd: np.ndarray  # (B,S,3,2) cross-covariance with the survey's own dead-reckoning biases (dr_bias.py)
+    Pxd: np.ndarray  # (B,S,3,4) cross-covariance with the survey's own dead-reckoning biases (dr_bias.py)
 
 
 def consider_view(st: SimState) -> ConsiderView:

@@ -31,7 +31,9 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          Sigma_ij = R delta_ij + u_i^T Pbb u_j + q min(age_i, age_j) u_i^T u_j.
    (R2') the dead reckoning's systematic errors (a speed-scale error k and a compass bias
          beta, shared by every shift: e_k = (k I + beta J) s_k, J the 90-degree rotation) add
-         sigma_k^2 (u_i^T s_i)(u_j^T s_j) + sigma_beta^2 (u_i^T J s_i)(u_j^T J s_j).
+         sigma_k^2 (u_i^T s_i)(u_j^T s_j) + sigma_beta^2 (u_i^T J s_i)(u_j^T J s_j); the told
+         current's error c (``dr_bias.py``, eq. D1'), shared too (e_k = age_k c), adds
+         sigma_c^2 age_i age_j u_i^T u_j.
     (R3) prior: the locked-out estimate x0 with P0 inflated by s_lock^2 I, s_lock =
          max(prior_std_m, max_k |r_k(x0)|) (the filter has shown it is off by at least
          its largest miss); it only picks the branch (the mirror image of the fix across
@@ -43,9 +45,10 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          2001); the cross-covariance with the beacon's error (for ``consider.py``):
          Pxb = P J^T Sigma^-1 J Pbb (the estimate's error is x - x_hat = -P J^T Sigma^-1
          (noise), and the noise's part from b is -U b, U = J).
-    (R6) the cross-covariance with the survey's own dead-reckoning biases phi = (k, beta)
-         (``dr_bias.py``; the true shift is s_k + G_k phi, G_k = [s_k, J s_k], eq. D1):
-         the residuals' part from phi is -Uf phi, Uf_k = (u_k^T s_k, u_k^T J s_k), so
+    (R6) the cross-covariance with the survey's own dead-reckoning biases phi = (k, beta,
+         c_e, c_n) (``dr_bias.py``; the true shift is s_k + G_k phi, G_k = [s_k, J s_k,
+         age_k I], eqs. D1, D1'): the residuals' part from phi is -Uf phi,
+         Uf_k = (u_k^T s_k, u_k^T J s_k, age_k u_k^T), so
          Pxd = E[(x - x_hat) phi^T] = P J^T Sigma^-1 Uf Pff (the prior's share, through
          P Pp^-1 <= P / s_lock^2, left out; s_k includes the told current's drift, which the
          biases do not scale, as R2' does: an overstatement where a beacon sends a current).
@@ -78,6 +81,7 @@ class WindowNoise(NamedTuple):
     prior_std_m: float  # floor of the lock-out prior's inflation s_lock, m
     scale_std: float = 0.0  # the survey's speed-scale error std: a shared error k s_k of the shifts (R2')
     heading_std_rad: float = 0.0  # its compass bias std: a shared error beta J s_k of the shifts (R2')
+    current_std_mps: float = 0.0  # the told current's error std per axis: a shared error age_k c (R2')
 
 
 @njit(cache=True)
@@ -107,6 +111,8 @@ def window_terms(
                 ujs_i = J[i, 1] * win.shift[i, 0] - J[i, 0] * win.shift[i, 1]
                 ujs_j = J[j, 1] * win.shift[j, 0] - J[j, 0] * win.shift[j, 1]
                 Sigma[i, j] += noise.scale_std**2 * us_i * us_j + noise.heading_std_rad**2 * ujs_i * ujs_j
+            if noise.current_std_mps > 0.0:  # (R2'): the told current's error over each ping's age
+                Sigma[i, j] += noise.current_std_mps**2 * win.age_s[i] * win.age_s[j] * uu
         Sigma[i, i] += noise.range_var_m2
 
 
@@ -160,14 +166,17 @@ def window_fix(
 def window_bias_cross(
     x: np.ndarray, win: RangeWindow, m: int, noise: WindowNoise, P: np.ndarray, out: np.ndarray
 ) -> None:
-    """Eq. (R6): the cross-covariance (2, 2) of the fix x (2,) with covariance P (2, 2)
-    (``window_fix``'s outputs) with the survey's dead-reckoning biases (k, beta), of
-    variances noise.scale_std^2 and noise.heading_std_rad^2, written into out."""
+    """Eq. (R6): the cross-covariance (2, 4) of the fix x (2,) with covariance P (2, 2)
+    (``window_fix``'s outputs) with the survey's dead-reckoning biases (k, beta, c_e, c_n),
+    of variances noise.scale_std^2, noise.heading_std_rad^2 and noise.current_std_mps^2
+    (twice), written into out (2, 4)."""
     J, r, Sig = np.empty((m, 2)), np.empty(m), np.empty((m, m))
     window_terms(x, win, m, noise, J, r, Sig)
-    Uf = np.empty((m, 2))
+    Uf = np.empty((m, 4))
     for k in range(m):
         sx, sy = win.shift[k, 0], win.shift[k, 1]
         Uf[k, 0] = (J[k, 0] * sx + J[k, 1] * sy) * noise.scale_std**2
         Uf[k, 1] = (J[k, 1] * sx - J[k, 0] * sy) * noise.heading_std_rad**2  # u^T J s, J s = (-s_y, s_x)
+        Uf[k, 2] = win.age_s[k] * J[k, 0] * noise.current_std_mps**2  # age_k u_k^T, eq. (D1')
+        Uf[k, 3] = win.age_s[k] * J[k, 1] * noise.current_std_mps**2
     out[:, :] = P @ (J.T @ np.linalg.solve(Sig, Uf))

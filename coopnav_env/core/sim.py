@@ -329,7 +329,8 @@ class Simulator(BatchSimulator):
             var = dr_bias.bias_variances(*self._bias_std, st.ep_noise_scale)
             before = self._dr_before  # set by this cycle's _integrate_survey; None: no sub-steps ran, D = 0
             moved = st.s_dr[..., :2] - before if before is not None else np.zeros_like(st.s_dr[..., :2])
-            dr_bias.bias_predict(st.s_P, st.s_Pxd, moved, var)
+            dt_s = self.config.ping_interval_s if before is not None else 0.0  # (D1'): the told current's time
+            dr_bias.bias_predict(st.s_P, st.s_Pxd, moved, var, dt_s)
         self._dr_before = None  # one cycle's D is used once
         fused = np.zeros((B, N, S), dtype=bool)
         out = measurements.FusionOutputs(

@@ -121,4 +121,4 @@ class SimState(BatchArrays):
     s_win_dz: np.ndarray  # survey depth estimate minus the beacon's at each (B,S,N,M)
     s_win_t: np.ndarray  # time of each (B,S,N,M)
     # the survey filters' cross-covariance with their own dead-reckoning biases (core/dr_bias.py; appended last)
-    s_Pxd: np.ndarray  # E[e phi^T], phi = (speed-scale error, compass bias) (B,S,3,2)
+    s_Pxd: np.ndarray  # E[e phi^T], phi = (speed-scale error, compass bias, told current error e, n) (B,S,3,4)

@@ -270,9 +270,10 @@ class SurveyEKF(Section):
         low=0.0,
         high=10000.0,
         doc=(
-            "Q per second, east and north: tuned so that the NEES of gao_lawnmower sits in its chi-square band "
-            "(tests/test_ekf.py); it stands for the biases the filter does not model (speed scale, compass bias, "
-            "current estimate)"
+            "Q per second, east and north: the dead-reckoning error the filter models as white; with "
+            "survey_bias_consider the speed-scale error, compass bias and told current's error are consider states "
+            "(core/dr_bias.py) and Q is what is left (gao_lawnmower 0.05, sousa_asv 0.001); without, Q stands for "
+            "them too"
         ),
     )
     process_noise_vertical_m2ps: float = param(0.002, unit="m²/s", low=0.0, high=10000.0, doc="Q per second, depth")
@@ -297,8 +298,9 @@ class SurveyEKF(Section):
         True,
         doc=(
             "carry the survey's own speed-scale error and compass bias (survey_speed_scale_error_std, "
-            "compass_bias_std_deg) as consider states of its EKF (core/dr_bias.py, eqs. D1-D4; the modem sensor only); "
-            "False: only the white process noise stands for them (the papers' filter)"
+            "compass_bias_std_deg) and the error of the current a beacon AUV tells it "
+            "(beacon_current_estimate_error_mps) as consider states of its EKF (core/dr_bias.py, eqs. D1-D4; the "
+            "modem sensor only); False: only the white process noise stands for them (the papers' filter)"
         ),
     )
     lockout_recovery: str = param(

@@ -125,6 +125,9 @@ class ModemParams(NamedTuple):
     window_chi2: np.ndarray  # (7,): the 99 % chi-square point of a window fix's residuals by dof = m - 2
     dr_scale_std: float  # survey_speed_scale_error_std: the window's shared shift scale error (R2')
     dr_heading_std_rad: float  # compass_bias_std_deg: its shared rotation (R2')
+    dr_current_std_mps: (
+        float  # the told current's error per axis (dr_bias.told_current_std_mps): its shared drift (R2')
+    )
     bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
 
 
@@ -147,7 +150,7 @@ class ModemCycle(NamedTuple):
     heard: np.ndarray  # (B,N,S) bool: the pings the channel delivers
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
     """Beacon j's ping at survey vehicle s of environment b: the measured range (m, by
     ``modem_range``; ``delays`` filled), its loss probability (both legs for two-way)
@@ -181,7 +184,7 @@ def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
     return r, p_lost, prm.temperature_uncertainty_c * dc_dT / c_assumed
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _heard_fix_count(cv, prm, b, s, j, t_s):
     """The ping's 4-bit GPS fix counter: when it changed, beacon j has re-fixed at the
     surface since survey s last heard it, and its error is now its GPS receiver's. That
@@ -200,7 +203,7 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
     cv.fix_seen_t_s[b, s, j] = t_s
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _remember(cv, sv, b, s, j, r, beacon, delays, t_s):
     """Beacon j's finite range r at survey s enters its lock-out window (oldest first,
     the oldest dropped when full), with the beacon's reported position, the survey's
@@ -263,7 +266,9 @@ def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
     keep = np.arange(n - m, n)
     Pbb = np.zeros((2, 2))
     Pbb[0, 0] = Pbb[1, 1] = beacon_var
-    noise = WindowNoise(R, Pbb, prm.dr_rate_m2ps, prm.prior_std_m, prm.dr_scale_std, prm.dr_heading_std_rad)
+    noise = WindowNoise(
+        R, Pbb, prm.dr_rate_m2ps, prm.prior_std_m, prm.dr_scale_std, prm.dr_heading_std_rad, prm.dr_current_std_mps
+    )
     x, P, Pxb = np.empty(2), np.empty((2, 2)), np.empty((2, 2))
     while keep.shape[0] >= 3:
         mk = keep.shape[0]
@@ -296,7 +301,7 @@ def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     """A range the gate rejected: the streak counts rejected ranges in a row whose
     innovations share a sign (a filter that has drifted sees them all too long or all
@@ -324,7 +329,7 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
         out.restarts[b, s] += 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
     """The gated update of survey s with beacon j's range (row H; meas as ``_count_rejection``'s):
     ``"white"`` with the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"``
@@ -361,11 +366,11 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
     return fused, S
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _update(sv, cv, prm, b, s, j, H, meas, scratch):
     """``_kalman``; with ``range_outlier_model="mixture"`` a fused range moves the filter
     only by the direct path's posterior probability (``multipath``, eqs. M1-M3).
-    scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3), Pxb0 (N, 3, 2), Pxd0 (3, 2)). Returns whether fused."""
+    scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3), Pxb0 (N, 3, 2), Pxd0 (3, 4)). Returns whether fused."""
     x0, P0, X0, D0 = scratch[2], scratch[3], scratch[4], scratch[5]
     if prm.mixture:
         x0[:] = sv.est[b, s]
@@ -377,12 +382,12 @@ def _update(sv, cv, prm, b, s, j, H, meas, scratch):
         w = direct_path_weight(meas[0] - meas[1], S, prm.outlier_probability, prm.outlier_mean_excess_m)
         blend_update(w, x0, P0, X0, sv.est[b, s], sv.P[b, s], cv.Pxb[b, s])
         for i in range(3):  # (M3) for the dead-reckoning biases' cross-covariance
-            for a in range(2):
+            for a in range(D0.shape[1]):
                 cv.Pxd[b, s, i, a] = w * cv.Pxd[b, s, i, a] + (1.0 - w) * D0[i, a]
     return fused
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     """Beacon j's ping at survey vehicle s of environment b: lost, an outlier or NaN at
     random, then gated and fused (eqs. 7-13 or C1-C6), in place; returns whether it was fused."""
@@ -429,7 +434,14 @@ def _fuse(sv, bv, cv, cyc, prm, out):
     B, N, S = bv.pos.shape[0], bv.pos.shape[1], sv.est.shape[1]
     for b in prange(B):
         delays = np.zeros((2, 2 if prm.two_way else 1))
-        scratch = (np.zeros(3), np.zeros((2, 2)), np.zeros(3), np.zeros((3, 3)), np.zeros((N, 3, 2)), np.zeros((3, 2)))
+        scratch = (
+            np.zeros(3),
+            np.zeros((2, 2)),
+            np.zeros(3),
+            np.zeros((3, 3)),
+            np.zeros((N, 3, 2)),
+            np.zeros((3, N_BIASES)),
+        )
         for s in range(S):
             any_fused = False
             for j in range(N):
@@ -483,6 +495,7 @@ class ModemRanging:
                 chi2.ppf(0.99, np.maximum(np.arange(7), 1)),
                 float(c.survey_speed_scale_error_std),
                 float(np.radians(c.compass_bias_std_deg)),
+                told_current_std_mps(c),
                 bool(c.survey_bias_consider),
             ]
         )
