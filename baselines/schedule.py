@@ -128,6 +128,15 @@ class ScheduledPolicy(Policy):
         self.name = f"{motion.name}+{type(schedule).__name__.removesuffix('Schedule').lower()}"
         super().__init__(motion.config, motion.ctx.agent_index, motion.seed)
 
+    @property
+    def privileged(self) -> bool:
+        """A reference motion planner (``oracle``) stays one under a schedule."""
+        return bool(getattr(self.motion, "privileged", False))
+
+    def observe_truth(self, snapshot: Any, row: int) -> None:
+        """Pass the evaluation's truth to the motion planner (``oracle``)."""
+        self.motion.observe_truth(snapshot, row)  # type: ignore[attr-defined]  # privileged planners have it
+
     def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
         self.slot = 0

@@ -217,6 +217,28 @@ def test_oracle_gets_the_truth_in_run_episodes_and_is_never_a_best_planner():
     assert all("oracle" not in ts.planners for ts in TASK_SETS.values())
 
 
+def test_oracle_under_a_transmit_schedule_still_gets_the_truth():
+    """On a slotted channel (``sousa_ping``) every planner is wrapped with a transmit
+    schedule (``baselines.schedule.ScheduledPolicy``); the wrapper hid the oracle's
+    ``privileged`` flag, so the benchmark never passed it the truth and its results were
+    horizon's to the digit (benchmark v4, 2026-12-03)."""
+    from baselines.horizon import OraclePolicy
+    from evaluation.episodes import run_episodes
+
+    config = coopnav_env.make_config("sousa_ping", max_cycles=2)
+    policy = make_policy("oracle", config, seed=1)
+    assert type(policy).__name__ == "ScheduledPolicy" and policy.privileged
+    assert not make_policy("horizon", config, seed=1).privileged
+    calls = []
+    orig = OraclePolicy.observe_truth
+    try:
+        OraclePolicy.observe_truth = lambda self, snap, row: calls.append(row) or orig(self, snap, row)
+        run_episodes(config, "oracle", [11])
+    finally:
+        OraclePolicy.observe_truth = orig
+    assert len(calls) == 2 * config.n_beacons  # every decision of every ASV
+
+
 # two beacons (ASVs, both at the survey vehicle's depth) and the stationary survey vehicle of TOY
 TEAM = TOY.replace(beacon_kinds=("asv", "asv"))
 
