@@ -175,29 +175,12 @@ def expected_covariances(
     (H, S, 3) with no range at all).
     """
     N, H = beacon_en.shape[:2]
-    S = survey_en.shape[1]
-    rel = survey_en[None] - beacon_en[:, :, None, :]  # (N, H, S, 2)
-    d3 = np.sqrt((rel**2).sum(-1) + survey_dz[None] ** 2)
-    h = rel / np.maximum(d3, 1e-9)[..., None]
-    p = ctx.delivery_probability(d3)  # (N, H, S)
-    if peers_en is not None and len(peers_en):
-        prel = survey_en[:, None] - peers_en[None, :, None, :]  # (H, M, S, 2)
-        pd3 = np.sqrt((prel**2).sum(-1) + survey_dz[:, None] ** 2)
-        ph = prel / np.maximum(pd3, 1e-9)[..., None]
-        pp = ctx.delivery_probability(pd3)
-    a = np.broadcast_to(P0[:, 0, 0], (N, S)).copy()
-    b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
-    c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
-    out = np.empty((N, H, S, 3))
-    for j in range(H):
-        a, c = a + grow_m2[j], c + grow_m2[j]
-        updates = [(h[:, j], p[:, j])]
-        if peers_en is not None and len(peers_en):
-            updates = [(ph[j, m][None], pp[j, m][None]) for m in range(len(peers_en))] + updates
-        for hj, pj in updates:
-            a, b, c = _h1_update(a, b, c, hj[..., 0], hj[..., 1], pj, range_var_m2)
-        out[:, j, :, 0], out[:, j, :, 1], out[:, j, :, 2] = a, b, c
-    return out, _no_range(P0, grow_m2)
+    peers = np.zeros((0, 2)) if peers_en is None else np.asarray(peers_en, float).reshape(-1, 2)
+    held = np.broadcast_to(peers[None, :, None, :], (N, len(peers), H, 2))  # the peers range first
+    beacons = np.concatenate([held, np.asarray(beacon_en, float)[:, None]], axis=1)  # (N, K + 1, H, 2)
+    dz = np.broadcast_to(survey_dz[None], (len(peers) + 1,) + survey_dz.shape)
+    R = np.full(len(peers) + 1, float(range_var_m2))
+    return team_expected_covariances(beacons, survey_en, dz, P0, grow_m2, R, ctx)
 
 
 def horizon_cost(

@@ -87,13 +87,19 @@ def _dead_reckoning_nees(consider: bool, runs: int = 200, cycles: int = 60) -> n
         survey_bias_consider=consider,
         max_cycles=cycles,
     )
-    sim = make_simulator(c, runs)
-    sim.reset(list(range(730000, 730000 + runs)))
+    return _end_nees(c, runs, cycles, 730000)[0]
+
+
+def _end_nees(config, runs: int, cycles: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Runs ``runs`` episodes of ``config`` (seeds ``seed`` + i, beacons holding still) for
+    ``cycles`` cycles; returns the end horizontal NEES (runs,) and error (runs, 2)."""
+    sim = make_simulator(config, runs)
+    sim.reset(list(range(seed, seed + runs)))
     for _ in range(cycles):
-        res = sim.step(np.zeros((runs, 1, 2)))
+        res = sim.step(np.zeros((runs, config.n_beacons, 2)))
     e = np.asarray(res.info["survey_error_en_m"])[:, 0]
     P = np.asarray(res.info["survey_cov_en_m2"])[:, 0]
-    return np.einsum("bi,bi->b", e, np.linalg.solve(P, e[..., None])[..., 0])
+    return np.einsum("bi,bi->b", e, np.linalg.solve(P, e[..., None])[..., 0]), e
 
 
 def test_dead_reckoning_nees_is_chi_square_with_the_biases_considered():
@@ -180,12 +186,6 @@ def test_told_current_error_is_considered_end_to_end():
         process_noise_horizontal_m2ps=5e-4,
         max_cycles=cycles,
     )
-    sim = make_simulator(c, runs)
-    sim.reset(list(range(731000, 731000 + runs)))
-    for _ in range(cycles):
-        res = sim.step(np.zeros((runs, 1, 2)))
-    e = np.asarray(res.info["survey_error_en_m"])[:, 0]
-    P = np.asarray(res.info["survey_cov_en_m2"])[:, 0]
-    nees = np.einsum("bi,bi->b", e, np.linalg.solve(P, e[..., None])[..., 0])
+    nees, e = _end_nees(c, runs, cycles, 731000)
     assert np.median(np.hypot(e[:, 0], e[:, 1])) > 10.0  # the current's error dominates
     assert 1.67 < nees.mean() < 2.37, nees.mean()

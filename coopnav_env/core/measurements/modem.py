@@ -150,7 +150,7 @@ class ModemCycle(NamedTuple):
     heard: np.ndarray  # (B,N,S) bool: the pings the channel delivers
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
     """Beacon j's ping at survey vehicle s of environment b: the measured range (m, by
     ``modem_range``; ``delays`` filled), its loss probability (both legs for two-way)
@@ -184,7 +184,7 @@ def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
     return r, p_lost, prm.temperature_uncertainty_c * dc_dT / c_assumed
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _heard_fix_count(cv, prm, b, s, j, t_s):
     """The ping's 4-bit GPS fix counter: when it changed, beacon j has re-fixed at the
     surface since survey s last heard it, and its error is now its GPS receiver's. That
@@ -203,7 +203,7 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
     cv.fix_seen_t_s[b, s, j] = t_s
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _remember(cv, sv, b, s, j, r, beacon, delays, t_s):
     """Beacon j's finite range r at survey s enters its lock-out window (oldest first,
     the oldest dropped when full), with the beacon's reported position, the survey's
@@ -301,7 +301,7 @@ def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     """A range the gate rejected: the streak counts rejected ranges in a row whose
     innovations share a sign (a filter that has drifted sees them all too long or all
@@ -329,7 +329,7 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
         out.restarts[b, s] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
     """The gated update of survey s with beacon j's range (row H; meas as ``_count_rejection``'s):
     ``"white"`` with the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"``
@@ -366,7 +366,7 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
     return fused, S
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _update(sv, cv, prm, b, s, j, H, meas, scratch):
     """``_kalman``; with ``range_outlier_model="mixture"`` a fused range moves the filter
     only by the direct path's posterior probability (``multipath``, eqs. M1-M3).
@@ -387,7 +387,7 @@ def _update(sv, cv, prm, b, s, j, H, meas, scratch):
     return fused
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     """Beacon j's ping at survey vehicle s of environment b: lost, an outlier or NaN at
     random, then gated and fused (eqs. 7-13 or C1-C6), in place; returns whether it was fused."""
