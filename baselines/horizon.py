@@ -118,6 +118,62 @@ def _no_range(P0: np.ndarray, grow_m2: np.ndarray) -> np.ndarray:
     return none
 
 
+def _w_update(wa, wb, wc, a, b, c, he, hn, p, R):
+    """Eq. (H3) on the error's second moment W = (wa, wb, wc) (var_east, cov, var_north):
+    the filter, with prior covariance P = (a, b, c), fuses a range along (he, hn) with
+    its gain K = P h / (h'Ph + R), arriving with probability p, variance R:
+
+        A = I - K h^T,  E[W^+] = p (A W A^T + R K K^T) + (1 - p) W            (H3)
+
+    With W = P this is eq. (H1) (the Joseph form at the optimal gain)."""
+    ue, un = a * he + b * hn, b * he + c * hn  # P h
+    s = he * ue + hn * un + R
+    ke, kn = ue / s, un / s  # K
+    a11, a12, a21, a22 = 1.0 - ke * he, -ke * hn, -kn * he, 1.0 - kn * hn  # A
+    m11, m12 = a11 * wa + a12 * wb, a11 * wb + a12 * wc  # A W
+    m21, m22 = a21 * wa + a22 * wb, a21 * wb + a22 * wc
+    q = 1.0 - p
+    return (
+        p * (m11 * a11 + m12 * a12 + R * ke * ke) + q * wa,
+        p * (m11 * a21 + m12 * a22 + R * ke * kn) + q * wb,
+        p * (m21 * a21 + m22 * a22 + R * kn * kn) + q * wc,
+    )
+
+
+def _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx, W0=None):
+    """The loop of ``team_expected_covariances`` (eq. H1) and, given W0 (S, 2, 2),
+    ``team_expected_errors`` (eq. H3 beside it): (P (N, H, S, 3), W (N, H, S, 3) or None)."""
+    N, M, H = beacon_en.shape[:3]
+    S = survey_en.shape[1]
+    rel = survey_en[None, None] - beacon_en[..., None, :]  # (N, M, H, S, 2)
+    d3 = np.sqrt((rel**2).sum(-1) + survey_dz[None] ** 2)
+    h = rel / np.maximum(d3, 1e-9)[..., None]
+    p = ctx.delivery_probability(d3)  # (N, M, H, S)
+    R = np.broadcast_to(np.asarray(range_var_m2, float), (M,))
+    a = np.broadcast_to(P0[:, 0, 0], (N, S)).copy()
+    b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
+    c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
+    out = np.empty((N, H, S, 3))
+    out_w = None if W0 is None else np.empty((N, H, S, 3))
+    if W0 is not None:
+        wa = np.broadcast_to(W0[:, 0, 0], (N, S)).copy()
+        wb = np.broadcast_to(W0[:, 0, 1], (N, S)).copy()
+        wc = np.broadcast_to(W0[:, 1, 1], (N, S)).copy()
+    for j in range(H):
+        a, c = a + grow_m2[j], c + grow_m2[j]
+        if out_w is not None:
+            wa, wc = wa + grow_m2[j], wc + grow_m2[j]
+        for m in range(M):
+            he, hn = h[:, m, j, :, 0], h[:, m, j, :, 1]
+            if out_w is not None:  # (H3) with the filter's prior P of this range
+                wa, wb, wc = _w_update(wa, wb, wc, a, b, c, he, hn, p[:, m, j], R[m])
+            a, b, c = _h1_update(a, b, c, he, hn, p[:, m, j], R[m])
+        out[:, j, :, 0], out[:, j, :, 1], out[:, j, :, 2] = a, b, c
+        if out_w is not None:
+            out_w[:, j, :, 0], out_w[:, j, :, 1], out_w[:, j, :, 2] = wa, wb, wc
+    return out, out_w
+
+
 def team_expected_covariances(
     beacon_en: np.ndarray,
     survey_en: np.ndarray,
@@ -136,23 +192,29 @@ def team_expected_covariances(
     p_m, and are applied one after the other (the expectation of each update over
     its arrival, eq. H1, in turn). Returns (P (N, H, S, 3), P_none (H, S, 3)) as
     ``expected_covariances``."""
-    N, M, H = beacon_en.shape[:3]
-    S = survey_en.shape[1]
-    rel = survey_en[None, None] - beacon_en[..., None, :]  # (N, M, H, S, 2)
-    d3 = np.sqrt((rel**2).sum(-1) + survey_dz[None] ** 2)
-    h = rel / np.maximum(d3, 1e-9)[..., None]
-    p = ctx.delivery_probability(d3)  # (N, M, H, S)
-    R = np.broadcast_to(np.asarray(range_var_m2, float), (M,))
-    a = np.broadcast_to(P0[:, 0, 0], (N, S)).copy()
-    b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
-    c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
-    out = np.empty((N, H, S, 3))
-    for j in range(H):
-        a, c = a + grow_m2[j], c + grow_m2[j]
-        for m in range(M):
-            a, b, c = _h1_update(a, b, c, h[:, m, j, :, 0], h[:, m, j, :, 1], p[:, m, j], R[m])
-        out[:, j, :, 0], out[:, j, :, 1], out[:, j, :, 2] = a, b, c
-    return out, _no_range(P0, grow_m2)
+    P, _ = _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx)
+    return P, _no_range(P0, grow_m2)
+
+
+def team_expected_errors(
+    beacon_en: np.ndarray,
+    survey_en: np.ndarray,
+    survey_dz: np.ndarray,
+    P0: np.ndarray,
+    grow_m2: np.ndarray,
+    range_var_m2: np.ndarray,
+    ctx: BeaconContext,
+    W0: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The survey filters' expected squared errors when their errors now are known
+    (``oracle``): eq. (H3) beside (H1), from W0 (S, 2, 2) = e0 e0^T, e0 the error of
+    each filter now (estimate minus truth). The filter's gains come from its own
+    covariance (H1), the error's second moment W follows them; the noise to come
+    (process noise grow_m2, range variance R) is not known. Arguments and shapes as
+    ``team_expected_covariances``; returns (W (N, H, S, 3), W_none (H, S, 3): no range)."""
+    _, W = _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx, W0)
+    assert W is not None
+    return W, _no_range(np.asarray(W0, float), grow_m2)
 
 
 def expected_covariances(
@@ -345,7 +407,7 @@ class HorizonPolicy(TrackingPolicy):
             beacon = np.concatenate([held, beacon], axis=1)
             dz = np.concatenate([np.broadcast_to(dz[:1], (len(fixed),) + dz.shape[1:]), dz])
             R = np.concatenate([np.full(len(fixed), R[0]), R])
-        P, P_none = team_expected_covariances(beacon, en, dz, model["P0"], model["grow"], R, self.ctx)
+        P, P_none = self.expected(beacon, en, dz, R, model)
         viol = sum(
             bc.violation_m(beacon[:, len(fixed) + m, j], en[j], model["dz"][m, j])
             for m, bc in enumerate(self.team_ctx)
@@ -353,6 +415,12 @@ class HorizonPolicy(TrackingPolicy):
         )
         cost = horizon_cost(P, P_none, self.criterion, self.terminal_weight)
         return cost + PENALTY_PER_M * viol / self.horizon
+
+    def expected(
+        self, beacon: np.ndarray, en: np.ndarray, dz: np.ndarray, R: np.ndarray, model: dict
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """What eq. (H2) sums, per candidate: the survey filters' expected covariances (H1)."""
+        return team_expected_covariances(beacon, en, dz, model["P0"], model["grow"], R, self.ctx)
 
     def optimise(self, view: ObsView) -> np.ndarray:
         """The cross-entropy method; returns the best (M, H, 2) velocity sequences."""
@@ -414,13 +482,31 @@ class OraclePolicy(HorizonPolicy):
 
     Before each decision the evaluation (``evaluation.episodes.run_episodes``: every
     policy with ``privileged = True``) passes the simulator's snapshot
-    (``observe_truth``): the optimiser then plans from the survey vehicles' true
-    positions and depths (no reply age), the survey filters' covariances now (not the
-    last reply's) and the beacon's true position; the plan is the same as
-    ``horizon``'s otherwise. The noise it will meet is not known to it, nor is the
+    (``observe_truth``). The oracle then knows, now and exactly, what ``horizon``
+    knows only from the last reply: each survey filter's estimate and covariance (no
+    reply age) and the other beacons' positions; and what no beacon can know, each
+    filter's error e0 = estimate - truth. The geometry is the filter's (its estimate
+    and the beacons' own estimates: where the filter linearises), and it scores a
+    candidate by
+
+        J = sum_j tr(E[W_j] + E[P_j]) / sum_j tr(W_j^0 + P_j^0)                  (H4)
+
+    E[W_j] the expected squared error after ping j given e0 (eq. H3,
+    ``team_expected_errors``: the error the oracle can foresee, corrected along each
+    range's line of sight by the filter's own gain), E[P_j] the filter's expected
+    covariance (H1): the error to come, which the oracle cannot foresee and a filter
+    with a smaller covariance will correct faster. W alone is myopic: once the known
+    error is corrected, each further range adds its noise (R K K') and the horizon's
+    few pings of process noise cannot repay it, so it steered away from the survey
+    vehicle (135 m against horizon's 43 m on gao_lawnmower) and was 9 % worse than
+    ``horizon``. The noise to come (process, ranges, losses) is not known, nor is the
     current (the beacon's velocity is commanded through the water, as for every
-    planner). Without a snapshot (the PettingZoo env, a batch without the hook) it is
-    ``horizon``.
+    planner). Without a snapshot (the PettingZoo env, a batch without the hook) it
+    is ``horizon``. Validation runs: ``docs/baselines/horizon.md#the-oracle``.
+
+    Until benchmark v4 the oracle planned eq. (H1) with the true positions in place
+    of the estimates: neither the filter's geometry nor its error; it was no better
+    than ``horizon`` on 9 of the 11 Gao tasks.
     """
 
     privileged = True
@@ -428,24 +514,47 @@ class OraclePolicy(HorizonPolicy):
     def reset(self, seed: int | Sequence[int] | None = None) -> None:
         super().reset(seed)
         self._truth: dict | None = None
+        self._W0: np.ndarray | None = None
 
     def observe_truth(self, snapshot: Any, row: int) -> None:
         """Keep what the snapshot (``coopnav_env.core.contract.Snapshot``) says of batch row ``row``."""
-        own = np.asarray(snapshot.beacon_true_m[row, self.ctx.agent_index], float)
-        survey = np.asarray(snapshot.survey_true_m[row], float)
-        others = [m for m in range(snapshot.beacon_true_m.shape[1]) if m != self.ctx.agent_index]
+        me = self.ctx.agent_index
+        own = np.asarray(snapshot.beacon_est_m[row, me], float)
+        est = np.asarray(snapshot.survey_est_m[row], float)
+        true = np.asarray(snapshot.survey_true_m[row], float)
+        others = [m for m in range(snapshot.beacon_est_m.shape[1]) if m != me]
+        e0 = est[:, :2] - true[:, :2]
+        self._W0 = e0[:, :, None] * e0[:, None, :]  # (S, 2, 2)
         self._truth = {
-            "own_en_m": own[:2].copy(),
-            "peers_en_m": np.asarray(snapshot.beacon_true_m[row, others, :2], float).reshape(-1, 2),
-            "survey_en_m": survey[:, :2].copy(),
-            "depth_below_m": survey[:, 2] - own[2],
+            "peers_en_m": np.asarray(snapshot.beacon_est_m[row, others, :2], float).reshape(-1, 2),
+            "survey_en_m": est[:, :2].copy(),
+            "depth_below_m": est[:, 2] - own[2],
             "cov_m2": np.asarray(snapshot.survey_cov_en_m2[row], float).copy(),
         }
 
+    def expected(
+        self, beacon: np.ndarray, en: np.ndarray, dz: np.ndarray, R: np.ndarray, model: dict
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. (H4)'s terms: the expected squared errors (H3) plus the expected covariances
+        (H1), and the same with no range; (H1) alone without a snapshot."""
+        P, P_none = super().expected(beacon, en, dz, R, model)
+        if model.get("W0") is None:
+            return P, P_none
+        W, W_none = team_expected_errors(beacon, en, dz, model["P0"], model["grow"], R, self.ctx, model["W0"])
+        return W + P, W_none + P_none
+
+    def survey_model(self, view: ObsView) -> dict:
+        """``horizon``'s, with the filters' errors now as W0 (S, 2, 2) (None without a snapshot)."""
+        model = super().survey_model(view)
+        model["W0"] = self._W0
+        return model
+
     def plan(self, view: ObsView) -> np.ndarray:
         if self._truth is None:
+            self._W0 = None
             return super().plan(view)
-        truth = dataclasses.replace(view, reply_age_s=np.zeros_like(view.reply_age_s), **self._truth)
+        now = dataclasses.replace(view, reply_age_s=np.zeros_like(view.reply_age_s), **self._truth)
         self._truth = None
-        self.plan_v = self.optimise(truth)
+        self.plan_v = self.optimise(now)
+        self._W0 = None
         return np.asarray(view.own_en_m, float) + self.ctx.reach_m * self.plan_v[self.me, 0]  # the same velocity

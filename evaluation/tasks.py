@@ -34,8 +34,9 @@ if TYPE_CHECKING:
 # the Matos scenarios on the project's channel (outliers and losses) with the paper's channel as named tasks,
 # and issue 21's physics under every task; 4: the reference `oracle` runs on every task it can drive and each
 # task set reports the headroom (best greedy planner minus oracle) and the fraction of it each challenger closes,
-# and the results carry each policy's cost per decision (issue 22)
-BENCHMARK_VERSION = 4
+# and the results carry each policy's cost per decision (issue 22); 5: the oracle plans from the survey filters'
+# estimates and errors (eq. H4 of baselines/horizon.py), not from the true positions with the filters' covariances
+BENCHMARK_VERSION = 5
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
 REFERENCES = ("oracle",)  # given the truth: never a task's best planner (issue 22's headroom reference)

@@ -182,21 +182,73 @@ def test_deterministic_given_the_seed_and_warm_started():
         make_policy("horizon", TOY, criterion="volume")
 
 
-def test_oracle_plans_from_the_truth_the_snapshot_gives():
-    """The oracle told the truth (survey vehicle at SURVEY, covariance P) acts as horizon does
-    on an observation that reports exactly that, whatever its own observation says."""
+def test_expected_errors_with_the_error_unknown_are_eq_h1():
+    """Eq. (H3) with W0 = P0 (the filter's own belief as the error's second moment) is eq.
+    (H1): the Joseph form at the optimal gain, over 3 pings of 2 beacons with 30 % loss."""
+    from baselines.horizon import team_expected_covariances, team_expected_errors
+
+    c = TOY.replace(packet_loss_near=0.3, packet_loss_far=0.3)
+    ctx = BeaconContext.from_config(c)
+    rng = np.random.default_rng(3)
+    beacons = SURVEY + rng.uniform(-60.0, 60.0, (5, 2, 3, 2))  # (N, M, H, 2)
+    survey = np.broadcast_to(SURVEY, (3, 1, 2))
+    P0 = np.array([[[9.0, 2.0], [2.0, 4.0]]])
+    grow, R2, dz = np.full((3, 1), 0.5), np.array([1.0, 4.0]), np.zeros((2, 3, 1))
+    P, P_none = team_expected_covariances(beacons, survey, dz, P0, grow, R2, ctx)
+    W, W_none = team_expected_errors(beacons, survey, dz, P0, grow, R2, ctx, P0)
+    np.testing.assert_allclose(W, P, rtol=1e-12)
+    np.testing.assert_allclose(W_none, P_none)
+
+
+def test_expected_error_of_a_known_error_by_hand():
+    """Eq. (H3), one range with a 30 % loss, the error now e0 known: E[W+] =
+    0.7 (A e0 e0' A' + R K K') + 0.3 e0 e0', K from the filter's covariance P0."""
+    from baselines.horizon import team_expected_errors
+
+    c = TOY.replace(packet_loss_near=0.3, packet_loss_far=0.3)
+    ctx = BeaconContext.from_config(c)
+    P0 = np.array([[9.0, 2.0], [2.0, 4.0]])
+    e0 = np.array([3.0, -1.0])
+    beacon = np.array([[[[SURVEY[0] + 30.0, SURVEY[1] + 40.0]]]])  # (N=1, M=1, H=1, 2)
+    W, _ = team_expected_errors(
+        beacon,
+        SURVEY[None, None],
+        np.zeros((1, 1, 1)),
+        P0[None],
+        np.zeros((1, 1)),
+        np.array([R]),
+        ctx,
+        np.outer(e0, e0)[None],
+    )
+    h = (SURVEY - beacon[0, 0, 0]) / 50.0
+    K = P0 @ h / (h @ P0 @ h + R)
+    A = np.eye(2) - np.outer(K, h)
+    want = 0.7 * (A @ np.outer(e0, e0) @ A.T + R * np.outer(K, K)) + 0.3 * np.outer(e0, e0)
+    np.testing.assert_allclose(W[0, 0, 0], [want[0, 0], want[0, 1], want[1, 1]], rtol=1e-12)
+
+
+@pytest.mark.parametrize("error_en", [(6.0, 0.0), (0.0, 6.0)])
+def test_oracle_ranges_along_the_error_it_is_told(error_en):
+    """An isotropic covariance (25 m^2 each way) gives horizon no preferred bearing; the
+    oracle, told the filter's error e0, ranges along it: |e0 - K h'e0|^2 is least for h
+    parallel to e0 (K = P h / (h'Ph + R) is along h). From 30 m north of the survey
+    vehicle the beacon can reach either axis in one ping."""
     from types import SimpleNamespace
 
-    own, P = SURVEY + np.array([0.0, 30.0]), np.diag([60.0, 4.0])
-    truth = SimpleNamespace(
+    own, P = SURVEY + np.array([0.0, 30.0]), np.diag([25.0, 25.0])
+    est = np.array([*SURVEY, 0.0])
+    snap = SimpleNamespace(
+        beacon_est_m=np.array([[[*own, 0.0]]]),
         beacon_true_m=np.array([[[*own, 0.0]]]),
-        survey_true_m=np.array([[[*SURVEY, 0.0]]]),
+        survey_est_m=est[None, None],
+        survey_true_m=(est - [*error_en, 0.0])[None, None],
         survey_cov_en_m2=P[None, None],
     )
-    wrong = encode(TOY, own_en_m=own, survey_rel_m=[[-15.0, -40.0, 0.0]], own_std_m=0.0)
-    oracle = make_policy("oracle", TOY, seed=4)
-    oracle.observe_truth(truth, 0)
-    np.testing.assert_allclose(oracle.act(wrong), make_policy("horizon", TOY, seed=4).act(observe(own, P)), atol=2e-3)
+    oracle = make_policy("oracle", TOY, seed=4, horizon=1)
+    oracle.observe_truth(snap, 0)
+    oracle.act(observe(own, P))
+    axis = 90.0 if error_en[0] else 0.0  # the error's axis: east-west or north-south
+    assert angle_between_deg(direction_deg(oracle.last_waypoint), axis) < 5.0
 
 
 def test_oracle_gets_the_truth_in_run_episodes_and_is_never_a_best_planner():
