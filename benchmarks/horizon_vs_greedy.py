@@ -136,16 +136,22 @@ def main(argv: Sequence[str] | None = None) -> int:
             jobs += [(set_name, task.name, q, seeds, extra, args.variant) for q in [*challengers, *greedy]]
     scores: dict = {}
     cpu: dict[str, float] = {}
+    from coopnav_env.progress import Progress
+
+    bar = Progress(total=len(jobs), unit="job", desc="task x policy")
+    bar.stage(f"{len(jobs)} jobs (a task and a policy, {len(seeds)} episodes each) on {max(args.workers, 1)} workers")
     with ProcessPoolExecutor(max(args.workers, 1)) as pool:
         for s, t, q, errs, sec in pool.map(_job, jobs):
             scores[s, t, q] = np.asarray(errs)
             cpu[q] = cpu.get(q, 0.0) + sec
-            print(f"{s}/{t} {q}: {np.mean(errs):.3f} m ({sec:.0f} s)", file=sys.stderr, flush=True)
+            bar.update(1)
+            bar.stage(f"{s}/{t} {q}: {np.mean(errs):.3f} m ({sec:.0f} s)")
             if args.json:
                 from coopnav_env.records import atomic_write_text
 
                 dump = {f"{a}/{b}/{x}": v.tolist() for (a, b, x), v in scores.items()}
                 atomic_write_text(args.json, json.dumps({"seeds": seeds, "episode_mean_error_m": dump}) + "\n")
+    bar.close()
     c = ", ".join(challengers)
     lines = [
         f"{args.episodes} episodes per task and policy, seeds {seeds[0]}..{seeds[-1]}"

@@ -183,8 +183,12 @@ def main(argv: list[str] | None = None) -> int:
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     print("\n".join(lines), flush=True)
+    from coopnav_env.progress import Progress
+
+    bar = Progress(total=len(chosen), unit="case", desc="NEES per cycle")
     for i in chosen:
         label, scenario, planner, overrides = CASES[i]
+        bar.stage(f"{label}: {args.runs} runs of {scenario} with {planner}")
         t0 = time.perf_counter()
         r = nees_of_case(scenario, planner, {**overrides, **extra}, args.runs, args.seed)
         lo, hi = r["mean_band"]
@@ -195,11 +199,13 @@ def main(argv: list[str] | None = None) -> int:
             f"{r['restarts']} | {r['longest_rejected_streak']} |"
         )
         lines.append(line)
-        print(line, f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
+        bar.write(f"{line}   ({time.perf_counter() - t0:.0f} s)", sys.stdout)
         if args.per_run:
             ex = r["exceed_by_run"]
             worst = [f"seed {args.seed + int(b)}: {int(ex[b])}" for b in np.argsort(-ex, kind="stable") if ex[b] > 0]
-            print(f"  runs above 13.8 ({len(worst)} of {args.runs}):", ", ".join(worst) or "none", flush=True)
+            bar.write(f"  runs above 13.8 ({len(worst)} of {args.runs}): " + (", ".join(worst) or "none"), sys.stdout)
+        bar.update(1)
+    bar.close()
     if args.markdown:
         from coopnav_env.records import atomic_write_text
 

@@ -231,3 +231,19 @@ def test_time_to_beat_shows_progress(tmp_path, tty):
     )
     _check(rc, text, first, tty)
     assert "seed 0: validation at" in text
+
+
+@pytest.mark.parametrize("tty", [True, False], ids=["terminal", "pipe"])
+def test_nees_per_cycle_shows_progress(tty):
+    rc, text, first = _run(["benchmarks/nees_per_cycle.py", "--runs", "2", "--cases", "0,1"], tty)
+    _check(rc, text, first, tty)
+    assert "| gao_lawnmower | ellipse |" in text and "| gao_sea | ellipse |" in text
+
+
+@pytest.mark.parametrize("tty", [True, False], ids=["terminal", "pipe"])
+def test_horizon_vs_greedy_shows_progress(tty):
+    rc, text, first = _run(
+        ["benchmarks/horizon_vs_greedy.py", "--tasks", "gao_lawnmower", "--task", "lake", "--episodes", "2"], tty
+    )
+    _check(rc, text, first, tty)
+    assert "| gao_lawnmower | lake |" in text
