@@ -150,7 +150,8 @@ def load_state(model: Any, path: Path, device: str, what: str, restore_steps: bo
         model._n_updates = int(spec.get("n_updates", 0))
 
 
-def read_stats(path) -> dict | None:
+def read_stats(path: str | Path) -> dict | None:
+    """A VecNormalize statistics file's contents (``agents.load_stats``); a ``ConfigError`` if unreadable."""
     import agents
 
     try:
@@ -159,7 +160,8 @@ def read_stats(path) -> dict | None:
         raise ConfigError(str(err)) from None
 
 
-def restore_stats(vecnorm, stats: dict, path):
+def restore_stats(vecnorm: Any, stats: dict, path: str | Path) -> None:
+    """Put ``stats`` (read from ``path``) into ``vecnorm``; a ``ConfigError`` naming ``path`` if they do not fit."""
     try:
         formats.restore_vecnormalize(vecnorm, stats)
     except PolicyFormatError as err:
