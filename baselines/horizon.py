@@ -537,11 +537,13 @@ class OraclePolicy(HorizonPolicy):
     ) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (H4)'s terms: the expected squared errors (H3) plus the expected covariances
         (H1), and the same with no range; (H1) alone without a snapshot."""
-        P, P_none = super().expected(beacon, en, dz, R, model)
         if model.get("W0") is None:
-            return P, P_none
-        W, W_none = team_expected_errors(beacon, en, dz, model["P0"], model["grow"], R, self.ctx, model["W0"])
-        return W + P, W_none + P_none
+            return super().expected(beacon, en, dz, R, model)
+        # one pass of the loop gives both (H1) and (H3): the filter's gains are computed once
+        P, W = _team_loop(beacon, en, dz, model["P0"], model["grow"], R, self.ctx, model["W0"])
+        assert W is not None
+        none = _no_range(model["P0"], model["grow"]) + _no_range(np.asarray(model["W0"], float), model["grow"])
+        return W + P, none
 
     def survey_model(self, view: ObsView) -> dict:
         """``horizon``'s, with the filters' errors now as W0 (S, 2, 2) (None without a snapshot)."""
