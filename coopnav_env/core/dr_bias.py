@@ -112,12 +112,25 @@ def displacement_jacobian(D: np.ndarray, dt_s: float | np.ndarray = 0.0) -> np.n
     return G
 
 
-def bias_predict(P: np.ndarray, Pxd: np.ndarray, D: np.ndarray, var: np.ndarray, dt_s: float = 0.0) -> None:
+def bias_predict(
+    P: np.ndarray,
+    Pxd: np.ndarray,
+    D: np.ndarray,
+    var: np.ndarray,
+    dt_s: float = 0.0,
+    held: tuple[np.ndarray, np.ndarray] | None = None,
+) -> None:
     """Eq. (D2) without Q, in place, over the batch: P (B, S, 3, 3), Pxd (B, S, 3, 4),
     D (B, S, 2) the cycle's dead-reckoned horizontal displacements over dt_s seconds,
-    var (B, 4) Pff's diagonal (``bias_variances``)."""
+    var (B, 4) Pff's diagonal (``bias_variances``). ``held``: the multipath hypotheses'
+    differences (dP (B, S, 3, 3), dD (B, S, 3, 4); ``multipath``, eq. M5), which (D2)
+    moves by G dD' + dD G' (dD itself does not change)."""
     G = displacement_jacobian(D, dt_s)
     GPff = G * var[:, None, None, :]  # G Pff, Pff diagonal
     cross = G @ np.swapaxes(Pxd, -1, -2)
     P += cross + np.swapaxes(cross, -1, -2) + GPff @ np.swapaxes(G, -1, -2)
     Pxd += GPff
+    if held is not None:
+        dP, dD = held
+        cross = G @ np.swapaxes(dD, -1, -2)
+        dP += cross + np.swapaxes(cross, -1, -2)

@@ -194,8 +194,9 @@ def knowledge_start(sim: Any, survey: dict, beacons: dict) -> dict:
 
 
 def consider_start(sim: Any, B: int) -> dict:
-    """The survey filters' consider states (no correlation with any beacon yet) and their
-    empty lock-out windows of ``recovery_window`` ranges per beacon (consider-fusion.md)."""
+    """The survey filters' consider states (no correlation with any beacon yet), their
+    empty lock-out windows of ``recovery_window`` ranges per beacon (consider-fusion.md)
+    and no multipath hypotheses held (``multipath``, eq. M5)."""
     S, N, M = sim.S, sim.N, int(sim.config.recovery_window)
     return {
         "s_Pxb": np.zeros((B, S, N, 3, 2)),
@@ -208,4 +209,9 @@ def consider_start(sim: Any, B: int) -> dict:
         "s_win_dz": np.zeros((B, S, N, M)),
         "s_win_t": np.zeros((B, S, N, M)),
         "s_Pxd": np.zeros((B, S, 3, dr_bias.N_BIASES)),
+        "s_hyp_w": np.ones((B, S)),
+        "s_hyp_d": np.zeros((B, S, 3)),
+        "s_hyp_dP": np.zeros((B, S, 3, 3)),
+        "s_hyp_dX": np.zeros((B, S, N, 3, 2)),
+        "s_hyp_dD": np.zeros((B, S, 3, dr_bias.N_BIASES)),
     }

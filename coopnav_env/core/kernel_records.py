@@ -154,6 +154,11 @@ class ConsiderView(NamedTuple):
     win_dz: np.ndarray  # (B,S,N,M)
     win_t: np.ndarray  # (B,S,N,M)
     Pxd: np.ndarray  # (B,S,3,4) cross-covariance with the survey's own dead-reckoning biases (dr_bias.py)
+    hyp_w: np.ndarray  # (B,S) the multipath hypotheses held since the last range (multipath.py, M5): weight
+    hyp_d: np.ndarray  # (B,S,3) the direct path's step
+    hyp_dP: np.ndarray  # (B,S,3,3) covariance difference
+    hyp_dX: np.ndarray  # (B,S,N,3,2) Pxb difference
+    hyp_dD: np.ndarray  # (B,S,3,4) Pxd difference
 
 
 def consider_view(st: SimState) -> ConsiderView:
@@ -170,4 +175,9 @@ def consider_view(st: SimState) -> ConsiderView:
         st.s_win_dz,
         st.s_win_t,
         st.s_Pxd,
+        st.s_hyp_w,
+        st.s_hyp_d,
+        st.s_hyp_dP,
+        st.s_hyp_dX,
+        st.s_hyp_dD,
     )

@@ -330,7 +330,7 @@ class Simulator(BatchSimulator):
             before = self._dr_before  # set by this cycle's _integrate_survey; None: no sub-steps ran, D = 0
             moved = st.s_dr[..., :2] - before if before is not None else np.zeros_like(st.s_dr[..., :2])
             dt_s = self.config.ping_interval_s if before is not None else 0.0  # (D1'): the told current's time
-            dr_bias.bias_predict(st.s_P, st.s_Pxd, moved, var, dt_s)
+            dr_bias.bias_predict(st.s_P, st.s_Pxd, moved, var, dt_s, held=(st.s_hyp_dP, st.s_hyp_dD))
         self._dr_before = None  # one cycle's D is used once
         fused = np.zeros((B, N, S), dtype=bool)
         out = measurements.FusionOutputs(
@@ -342,9 +342,11 @@ class Simulator(BatchSimulator):
         )
         if self._consider_phi is not None:  # eq. (C7): the beacons' Gauss-Markov errors decorrelate
             st.s_Pxb *= self._consider_phi[None, None, :, None, None]
+            st.s_hyp_dX *= self._consider_phi[None, None, :, None, None]  # the held hypotheses' too (M5)
         self._k_depth_gps(
             survey_view(st), st.s_Pxb, st.s_Pxd, draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params
         )
+        st.s_hyp_w[st.s_pos[..., 2] < self.params.gps_max_depth_m] = 1.0  # a GPS fix settles them (M5)
         return out
 
     def _acoustic_ranging(self, draws: dict, out: measurements.FusionOutputs, transmit):

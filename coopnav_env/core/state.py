@@ -122,3 +122,10 @@ class SimState(BatchArrays):
     s_win_t: np.ndarray  # time of each (B,S,N,M)
     # the survey filters' cross-covariance with their own dead-reckoning biases (core/dr_bias.py; appended last)
     s_Pxd: np.ndarray  # E[e phi^T], phi = (speed-scale error, compass bias, told current error e, n) (B,S,3,4)
+    # the multipath hypotheses each survey filter merged at its last range, held until the next one
+    # (core/multipath.py, eqs. M5-M7; appended last)
+    s_hyp_w: np.ndarray  # the direct path's weight w of that range; 1.0: nothing held (B,S)
+    s_hyp_d: np.ndarray  # the direct path's step x1 - x0 (B,S,3)
+    s_hyp_dP: np.ndarray  # P0 - P1: the multipath hypothesis' covariance minus the direct path's (B,S,3,3)
+    s_hyp_dX: np.ndarray  # the same for the beacons' cross-covariances Pxb (B,S,N,3,2)
+    s_hyp_dD: np.ndarray  # and for the dead-reckoning biases' Pxd (B,S,3,4)

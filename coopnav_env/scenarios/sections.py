@@ -23,7 +23,7 @@ ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
 CHANNEL_MODES = ("clock", "decide")
 BEACON_ERROR_FUSIONS = ("schmidt", "white", "ci")
 LOCKOUT_RECOVERIES = ("window", "nearest_point")
-RANGE_OUTLIER_MODELS = ("mixture", "gate")
+RANGE_OUTLIER_MODELS = ("mixture", "hold", "gate")
 # the survey filter of the papers (Gao & Chitre 2010; Sousa et al.): the beacon's variance in R,
 # hard gating, a nearest-point restart, white GPS errors. Paper reproductions set these.
 PAPER_FILTER = {
@@ -317,7 +317,8 @@ class SurveyEKF(Section):
         choices=RANGE_OUTLIER_MODELS,
         doc=(
             "a modem range that passes the gate: 'mixture', fused with the direct path's posterior probability "
-            "given the multipath model outlier_probability / outlier_mean_excess_m (PDA; core/multipath.py); "
+            "given the multipath model outlier_probability / outlier_mean_excess_m (PDA; core/multipath.py, "
+            "M1-M3); 'hold', the same with both hypotheses held until the next range re-weighs them (M4-M7); "
             "'gate', fused as good (the papers' filter)"
         ),
     )

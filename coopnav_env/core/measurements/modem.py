@@ -31,7 +31,7 @@ from ..contract import SensorHost
 from ..dr_bias import N_BIASES, told_current_std_mps
 from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, consider_view, survey_view
-from ..multipath import blend_update, direct_path_weight
+from ..multipath import Held, Moments, blend_update, direct_path_weight, hold_hypotheses, reweigh_hypotheses
 from ..navigation import gated_update, innovation_variance, moving_range_prediction, reinit_on_range
 from ..recovery import RangeWindow, WindowNoise, window_bias_cross, window_fix, window_terms
 from . import FusionOutputs
@@ -121,7 +121,8 @@ class ModemParams(NamedTuple):
     prior_std_m: float  # recovery_prior_std_m
     dr_rate_m2ps: float  # the survey's dead-reckoning variance growth per axis (process_noise_horizontal_m2ps)
     gps_tau_s: float  # gps_error_time_constant_s
-    mixture: bool  # range_outlier_model == "mixture"
+    mixture: bool  # range_outlier_model in ("mixture", "hold"): eqs. M1-M3
+    hold: bool  # range_outlier_model == "hold": the hypotheses held for the next range (M4-M7)
     window_chi2: np.ndarray  # (7,): the 99 % chi-square point of a window fix's residuals by dof = m - 2
     dr_scale_std: float  # survey_speed_scale_error_std: the window's shared shift scale error (R2')
     dr_heading_std_rad: float  # compass_bias_std_deg: its shared rotation (R2')
@@ -197,8 +198,10 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
         return
     if prm.gps_tau_s > 0.0:
         consider_predict(cv.Pxb[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)
+        consider_predict(cv.hyp_dX[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)  # held (M5)
     else:
         beacon_reset(cv.Pxb[b, s, j])
+        beacon_reset(cv.hyp_dX[b, s, j])
     cv.fix_seen[b, s, j] = count
     cv.fix_seen_t_s[b, s, j] = t_s
 
@@ -367,9 +370,16 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
 
 
 @njit(cache=True, inline="always")
+def _held(cv, b, s):
+    """Survey s's held multipath hypotheses (``multipath.Held``, eq. M5), views."""
+    return Held(cv.hyp_d[b, s], cv.hyp_dP[b, s], cv.hyp_dX[b, s], cv.hyp_dD[b, s])
+
+
+@njit(cache=True, inline="always")
 def _update(sv, cv, prm, b, s, j, H, meas, scratch):
     """``_kalman``; with ``range_outlier_model="mixture"`` a fused range moves the filter
-    only by the direct path's posterior probability (``multipath``, eqs. M1-M3).
+    only by the direct path's posterior probability (``multipath``, eqs. M1-M3); with
+    ``"hold"`` the two hypotheses it merged are held for the next range to re-weigh (M5).
     scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3), Pxb0 (N, 3, 2), Pxd0 (3, 4)). Returns whether fused."""
     x0, P0, X0, D0 = scratch[2], scratch[3], scratch[4], scratch[5]
     if prm.mixture:
@@ -380,6 +390,12 @@ def _update(sv, cv, prm, b, s, j, H, meas, scratch):
     fused, S = _kalman(sv, cv, prm, b, s, j, H, meas, scratch)
     if fused and prm.mixture and S > 0.0:
         w = direct_path_weight(meas[0] - meas[1], S, prm.outlier_probability, prm.outlier_mean_excess_m)
+        cv.hyp_w[b, s] = hold_hypotheses(  # (M5): both hypotheses kept until the next range
+            w if prm.hold else 1.0,
+            Moments(x0, P0, X0, D0),
+            Moments(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s], cv.Pxd[b, s]),
+            _held(cv, b, s),
+        )
         blend_update(w, x0, P0, X0, sv.est[b, s], sv.P[b, s], cv.Pxb[b, s])
         for i in range(3):  # (M3) for the dead-reckoning biases' cross-covariance
             for a in range(D0.shape[1]):
@@ -409,8 +425,26 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
     beacon_var = bv.nav_var[b, j]
     noise_std = cyc.range_noise_std_m[b]
-    R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
     R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
+    if cv.hyp_w[b, s] < 1.0:  # (M6, M7): this range re-weighs the last one's hypotheses, then they merge
+        reweigh_hypotheses(
+            cv.hyp_w[b, s],
+            _held(cv, b, s),
+            Moments(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s], cv.Pxd[b, s]),
+            H,
+            r - h,
+            modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
+            if prm.fusion == SCHMIDT
+            else R_white,
+            prm.outlier_probability,
+            prm.outlier_mean_excess_m,
+            j if prm.fusion == SCHMIDT else -1,
+            beacon_var,
+        )
+        cv.hyp_w[b, s] = 1.0
+        h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
+        R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
+    R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
     meas = (r, h, R, R_white, beacon_var)
     if prm.window:
         _remember(cv, sv, b, s, j, r, bv.est[b, j], delays, cyc.t_s[b])
@@ -491,7 +525,8 @@ class ModemRanging:
                 float(c.recovery_prior_std_m),
                 float(c.process_noise_horizontal_m2ps),
                 float(c.gps_error_time_constant_s),
-                c.range_outlier_model == "mixture",
+                c.range_outlier_model in ("mixture", "hold"),
+                c.range_outlier_model == "hold",
                 chi2.ppf(0.99, np.maximum(np.arange(7), 1)),
                 float(c.survey_speed_scale_error_std),
                 float(np.radians(c.compass_bias_std_deg)),
