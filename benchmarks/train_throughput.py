@@ -237,9 +237,11 @@ def measure_torchrl(
     rollouts: int,
     seed: int,
     threads: int = 1,
+    activation: str = "tanh",
 ) -> dict:
     """Whole-loop env-steps/s of BenchMARL's ``algorithm`` (mappo, ippo) on the batched
-    TorchRL env: ``rollouts`` timed iterations (collection + updates) after one untimed."""
+    TorchRL env: ``rollouts`` timed iterations (collection + updates) after one untimed;
+    ``activation``: the MLPs' (``tanh``, BenchMARL's default, or ``relu``)."""
     import dataclasses
     import logging
     import warnings
@@ -289,7 +291,11 @@ def measure_torchrl(
     import torch
     from benchmarl.models import MlpConfig
 
-    mlp = dataclasses.replace(MlpConfig.get_from_yaml(), num_cells=list(net))  # the policy's and the critic's
+    mlp = dataclasses.replace(  # the policy's and the critic's
+        MlpConfig.get_from_yaml(),
+        num_cells=list(net),
+        activation_class={"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[activation],
+    )
     CoopNavTorchEnv._step, CoopNavTorchEnv._reset = timed_step, timed_reset  # type: ignore[method-assign]
     try:
         with tempfile.TemporaryDirectory() as folder:  # BenchMARL writes its config there, even without loggers
@@ -351,6 +357,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--torchrl-minibatch", type=int, default=8192, help="PPO minibatch (env-steps)")
     p.add_argument("--torchrl-epochs", type=int, default=4, help="PPO passes over each batch")
     p.add_argument("--torchrl-net", default="128,128", help="hidden layers of the policy and the critic")
+    p.add_argument(
+        "--torchrl-activation", choices=["tanh", "relu"], default="tanh", help="the MLPs' activation (BenchMARL: tanh)"
+    )
     p.add_argument("--json", action="store_true")
     args = p.parse_args(argv)
     warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")  # SuperSuit's
@@ -413,6 +422,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     args.rollouts,
                     args.seed,
                     args.threads,
+                    args.torchrl_activation,
                 )
             )
     meta = {
@@ -459,7 +469,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if any(r["kind"].startswith("torchrl") for r in results):
         print(
             f"torchrl: BenchMARL, {args.torchrl_steps} steps per env per iteration, "
-            f"minibatch {args.torchrl_minibatch}, {args.torchrl_epochs} epochs, net {args.torchrl_net}; "
+            f"minibatch {args.torchrl_minibatch}, {args.torchrl_epochs} epochs, net {args.torchrl_net} "
+            f"({args.torchrl_activation}); "
             "timed iterations after one untimed"
         )
     if "speedup" in meta:
