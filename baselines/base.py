@@ -74,12 +74,24 @@ class BeaconContext:
         )
         d3 = slant_distance(cand, survey_en, depth_below)  # (..., M, S)
         v = v + np.maximum(c.safety_distance_m + SAFETY_MARGIN_M - d3, 0).sum(-1)
-        v = v + np.maximum(d3 - c.max_range_m, 0).sum(-1)
+        v = v + np.maximum(d3 - self.acoustic_range_m, 0).sum(-1)
         return v
 
-    def delivery_probability(self, distance_m: ArrayLike) -> np.ndarray:
-        """Probability that a ping over ``distance_m`` arrives (the scenario's loss model)."""
+    @property
+    def acoustic_range_m(self) -> float:
+        """The farthest a ping is received: the modem's ``max_range_m``, or the MLS array's
+        window ``mls_max_range_m`` (``acoustic_sensor="mls"``)."""
         c = self.config
+        return float(c.mls_max_range_m if c.acoustic_sensor == "mls" else c.max_range_m)
+
+    def delivery_probability(self, distance_m: ArrayLike) -> np.ndarray:
+        """Probability that a ping over ``distance_m`` arrives: the modem's loss model, or
+        for the MLS array 1 inside its window and 0 beyond (it hears every sender within
+        ``mls_max_range_m`` and none farther, ``core/measurements/mls_array.py``; its
+        minimum range, 0.4 m, lies inside every scenario's safety distance)."""
+        c = self.config
+        if c.acoustic_sensor == "mls":
+            return (np.asarray(distance_m, float) <= c.mls_max_range_m).astype(float)
         return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
 
 

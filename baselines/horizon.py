@@ -140,15 +140,21 @@ def _w_update(wa, wb, wc, a, b, c, he, hn, p, R):
     )
 
 
-def _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx, W0=None):
+def _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx, W0=None, channel_shift=None):
     """The loop of ``team_expected_covariances`` (eq. H1) and, given W0 (S, 2, 2),
-    ``team_expected_errors`` (eq. H3 beside it): (P (N, H, S, 3), W (N, H, S, 3) or None)."""
+    ``team_expected_errors`` (eq. H3 beside it): (P (N, H, S, 3), W (N, H, S, 3) or None).
+    ``channel_shift`` (S, 2): where the survey vehicles truly are relative to the
+    positions given (the oracle's -e0): the channel (delivery) at the true distance,
+    the filter's update at its own geometry."""
     N, M, H = beacon_en.shape[:3]
     S = survey_en.shape[1]
     rel = survey_en[None, None] - beacon_en[..., None, :]  # (N, M, H, S, 2)
     d3 = np.sqrt((rel**2).sum(-1) + survey_dz[None] ** 2)
     h = rel / np.maximum(d3, 1e-9)[..., None]
-    p = ctx.delivery_probability(d3)  # (N, M, H, S)
+    if channel_shift is None:
+        p = ctx.delivery_probability(d3)  # (N, M, H, S)
+    else:
+        p = ctx.delivery_probability(np.sqrt(((rel + channel_shift) ** 2).sum(-1) + survey_dz[None] ** 2))
     R = np.broadcast_to(np.asarray(range_var_m2, float), (M,))
     a = np.broadcast_to(P0[:, 0, 0], (N, S)).copy()
     b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
@@ -515,6 +521,7 @@ class OraclePolicy(HorizonPolicy):
         super().reset(seed)
         self._truth: dict | None = None
         self._W0: np.ndarray | None = None
+        self._shift: np.ndarray | None = None
 
     def observe_truth(self, snapshot: Any, row: int) -> None:
         """Keep what the snapshot (``coopnav_env.core.contract.Snapshot``) says of batch row ``row``."""
@@ -525,6 +532,7 @@ class OraclePolicy(HorizonPolicy):
         others = [m for m in range(snapshot.beacon_est_m.shape[1]) if m != me]
         e0 = est[:, :2] - true[:, :2]
         self._W0 = e0[:, :, None] * e0[:, None, :]  # (S, 2, 2)
+        self._shift = -e0  # the channel at the true distance
         self._truth = {
             "peers_en_m": np.asarray(snapshot.beacon_est_m[row, others, :2], float).reshape(-1, 2),
             "survey_en_m": est[:, :2].copy(),
@@ -540,7 +548,9 @@ class OraclePolicy(HorizonPolicy):
         if model.get("W0") is None:
             return super().expected(beacon, en, dz, R, model)
         # one pass of the loop gives both (H1) and (H3): the filter's gains are computed once
-        P, W = _team_loop(beacon, en, dz, model["P0"], model["grow"], R, self.ctx, model["W0"])
+        P, W = _team_loop(
+            beacon, en, dz, model["P0"], model["grow"], R, self.ctx, model["W0"], model.get("channel_shift")
+        )
         assert W is not None
         none = _no_range(model["P0"], model["grow"]) + _no_range(np.asarray(model["W0"], float), model["grow"])
         return W + P, none
@@ -549,6 +559,7 @@ class OraclePolicy(HorizonPolicy):
         """``horizon``'s, with the filters' errors now as W0 (S, 2, 2) (None without a snapshot)."""
         model = super().survey_model(view)
         model["W0"] = self._W0
+        model["channel_shift"] = self._shift if self._W0 is not None else None
         return model
 
     def plan(self, view: ObsView) -> np.ndarray:

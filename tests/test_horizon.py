@@ -360,3 +360,27 @@ def test_default_horizon_looks_30_s_ahead_in_4_to_6_pings():
     assert make_policy("horizon", TOY).horizon == 4  # TOY pings every 20 s
     assert make_policy("horizon", coopnav_env.make_config("sousa_asv")).horizon == 6  # every 5 s
     assert make_policy("horizon", TOY, horizon=3).horizon == 3
+
+
+def test_mls_window_in_the_planners_channel_and_the_oracle_hears_at_the_true_distance():
+    """The MLS array hears every sender within ``mls_max_range_m`` and none beyond, so the
+    planners' delivery probability is that window (before, the modem's loss curve over
+    1500 m: on ``swarm_mls`` at 0.3 m/s the oracle sat 130 m away, ellipse 71 m). The
+    oracle's channel is at the true distance, its update at the filter's geometry: a
+    survey estimate 50 m from the beacon whose truth is 70 m away gets no range."""
+    from baselines.horizon import _team_loop
+
+    mls = BeaconContext.from_config(coopnav_env.make_config("swarm_mls"))
+    assert mls.acoustic_range_m == 60.0
+    np.testing.assert_array_equal(mls.delivery_probability(np.array([5.0, 60.0, 60.01, 200.0])), [1, 1, 0, 0])
+    modem = BeaconContext.from_config(coopnav_env.make_config("gao_sea"))
+    assert modem.acoustic_range_m == coopnav_env.make_config("gao_sea").max_range_m
+    assert 0.4 < float(modem.delivery_probability(np.array([200.0]))[0]) < 1.0
+    beacon = np.zeros((1, 1, 1, 2))
+    survey = np.array([[[50.0, 0.0]]])  # (H, S, 2): the estimate, 50 m east
+    P0 = np.diag([25.0, 25.0])[None]
+    args = (beacon, survey, np.zeros((1, 1, 1)), P0, np.zeros((1, 1)), np.array([1.0]), mls)
+    heard, _ = _team_loop(*args)
+    assert heard[0, 0, 0, 0] < 2.0  # east variance 25 -> ~0.96 after one range along east
+    unheard, _ = _team_loop(*args, channel_shift=np.array([[20.0, 0.0]]))  # truly 70 m away
+    np.testing.assert_allclose(unheard[0, 0, 0], [25.0, 0.0, 25.0])
