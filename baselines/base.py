@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from coopnav_env.core import acoustics
+from coopnav_env.core import measurements
 from coopnav_env.obs_layout import ObsView, decode
 from coopnav_env.scenarios import ScenarioConfig, resolve_config
 
@@ -79,20 +79,15 @@ class BeaconContext:
 
     @property
     def acoustic_range_m(self) -> float:
-        """The farthest a ping is received: the modem's ``max_range_m``, or the MLS array's
-        window ``mls_max_range_m`` (``acoustic_sensor="mls"``)."""
-        c = self.config
-        return float(c.mls_max_range_m if c.acoustic_sensor == "mls" else c.max_range_m)
+        """The farthest a ping is received with the scenario's sensor (``measurements.reach_m``:
+        the modem's ``max_range_m``, the MLS array's ``mls_max_range_m``)."""
+        return measurements.reach_m(self.config)
 
     def delivery_probability(self, distance_m: ArrayLike) -> np.ndarray:
-        """Probability that a ping over ``distance_m`` arrives: the modem's loss model, or
-        for the MLS array 1 inside its window and 0 beyond (it hears every sender within
-        ``mls_max_range_m`` and none farther, ``core/measurements/mls_array.py``; its
-        minimum range, 0.4 m, lies inside every scenario's safety distance)."""
-        c = self.config
-        if c.acoustic_sensor == "mls":
-            return (np.asarray(distance_m, float) <= c.mls_max_range_m).astype(float)
-        return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
+        """Probability that a ping over ``distance_m`` arrives, as the scenario's sensor
+        receives it (``measurements.arrival_probability``: the modem's loss model, the MLS
+        array's all-or-nothing window)."""
+        return measurements.arrival_probability(self.config, distance_m)
 
 
 def slant_distance(cand: np.ndarray, survey_en: np.ndarray, depth_below: ArrayLike) -> np.ndarray:

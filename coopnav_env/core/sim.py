@@ -90,6 +90,7 @@ class Simulator(BatchSimulator):
         phi = np.where(is_asv, np.exp(-c.ping_interval_s / tau) if tau > 0 else 0.0, 1.0)
         self._consider_phi = phi if c.beacon_error_fusion == "schmidt" and (phi != 1.0).any() else None
         self._bias_std = dr_bias.considered_biases(c)  # eqs. D1-D4, or None
+        self._holds_hypotheses = c.range_outlier_model == "hold"  # multipath.py, M5-M7: else s_hyp_* stay unused
         self._parallel = threaded(self.batch_size)  # threaded kernels: off (core/jit.py says why)
         par = "_parallel" if self._parallel else ""
         self._k_survey = getattr(substeps, "integrate_survey" + par)
@@ -330,7 +331,8 @@ class Simulator(BatchSimulator):
             before = self._dr_before  # set by this cycle's _integrate_survey; None: no sub-steps ran, D = 0
             moved = st.s_dr[..., :2] - before if before is not None else np.zeros_like(st.s_dr[..., :2])
             dt_s = self.config.ping_interval_s if before is not None else 0.0  # (D1'): the told current's time
-            dr_bias.bias_predict(st.s_P, st.s_Pxd, moved, var, dt_s, held=(st.s_hyp_dP, st.s_hyp_dD))
+            held = (st.s_hyp_dP, st.s_hyp_dD) if self._holds_hypotheses else None  # (M5)
+            dr_bias.bias_predict(st.s_P, st.s_Pxd, moved, var, dt_s, held=held)
         self._dr_before = None  # one cycle's D is used once
         fused = np.zeros((B, N, S), dtype=bool)
         out = measurements.FusionOutputs(
@@ -342,11 +344,13 @@ class Simulator(BatchSimulator):
         )
         if self._consider_phi is not None:  # eq. (C7): the beacons' Gauss-Markov errors decorrelate
             st.s_Pxb *= self._consider_phi[None, None, :, None, None]
-            st.s_hyp_dX *= self._consider_phi[None, None, :, None, None]  # the held hypotheses' too (M5)
+            if self._holds_hypotheses:
+                st.s_hyp_dX *= self._consider_phi[None, None, :, None, None]  # the held hypotheses' too (M5)
         self._k_depth_gps(
             survey_view(st), st.s_Pxb, st.s_Pxd, draws["sensor_n"], draws["sensor_u"], out.nan_count, self.params
         )
-        st.s_hyp_w[st.s_pos[..., 2] < self.params.gps_max_depth_m] = 1.0  # a GPS fix settles them (M5)
+        if self._holds_hypotheses:
+            st.s_hyp_w[st.s_pos[..., 2] < self.params.gps_max_depth_m] = 1.0  # a GPS fix settles them (M5)
         return out
 
     def _acoustic_ranging(self, draws: dict, out: measurements.FusionOutputs, transmit):

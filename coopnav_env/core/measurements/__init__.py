@@ -64,6 +64,8 @@ class Sensor:
     networks: tuple = ("survey_beacons",)
     validate: Callable[[Any], None] | None = None
     doc: str = ""
+    arrival: Callable[[Any, Any], np.ndarray] | None = None  # (config, distance_m) -> P(a ping is received)
+    reach: Callable[[Any], float] | None = None  # config -> the farthest a ping is received, m
 
     def make(self, sim: Any) -> Any:
         """The sensor's model for simulator ``sim`` (a module path's ``build`` imported now)."""
@@ -82,13 +84,18 @@ def register_sensor(
     networks: tuple = ("survey_beacons",),
     validate: Callable[[Any], None] | None = None,
     doc: str = "",
+    arrival: Callable[[Any, Any], np.ndarray] | None = None,
+    reach: Callable[[Any], float] | None = None,
 ) -> Sensor:
     """Register the sensor ``name`` (a scenario's ``acoustic_sensor``) and return it.
 
     ``build``: ``build(sim)`` -> the model, or a module path whose ``build`` it is;
     ``draws``: its random numbers per cycle, ``(purpose, kind, shape_fn(S, N, K))``;
     ``networks``: the ``ScenarioConfig.network`` values it works with;
-    ``validate(config)``: raises ``ValueError`` on a scenario the sensor cannot simulate.
+    ``validate(config)``: raises ``ValueError`` on a scenario the sensor cannot simulate;
+    ``arrival(config, distance_m)``: the probability that a ping over that distance is
+    received, and ``reach(config)``: the farthest one is (what the planners model;
+    default: the modem's loss curve and ``max_range_m``).
     """
     if not isinstance(name, str) or not name:
         raise ValueError(f"sensor name must be a non-empty string, got {name!r}")
@@ -99,7 +106,7 @@ def register_sensor(
             raise ValueError(
                 f"sensor {name!r}: a draw is (purpose, 'normal' | 'uniform', shape_fn(S, N, K)), got {spec!r}"
             )
-    sensor = Sensor(name, build, tuple(draws), tuple(networks), validate, doc)
+    sensor = Sensor(name, build, tuple(draws), tuple(networks), validate, doc, arrival, reach)
     _SENSORS[name] = sensor
     return sensor
 
@@ -130,6 +137,34 @@ def check_sensor(config: Any) -> None:
         sensor.validate(config)
 
 
+def _modem_arrival(config: Any, distance_m: Any) -> np.ndarray:
+    """The modem's: 1 - the loss probability, ``packet_loss_near`` to ``packet_loss_far`` over ``max_range_m``."""
+    from .. import acoustics
+
+    c = config
+    return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
+
+
+def arrival_probability(config: Any, distance_m: Any) -> np.ndarray:
+    """The probability that a ping over ``distance_m`` reaches a survey vehicle with the
+    scenario's ``acoustic_sensor`` (its ``arrival`` hook; the modem's loss curve by default)."""
+    arrival = get_sensor(config.acoustic_sensor).arrival or _modem_arrival
+    return np.asarray(arrival(config, distance_m), float)
+
+
+def reach_m(config: Any) -> float:
+    """The farthest a ping reaches a survey vehicle with the scenario's sensor (its
+    ``reach`` hook; ``max_range_m`` by default)."""
+    reach = get_sensor(config.acoustic_sensor).reach
+    return float(reach(config) if reach is not None else config.max_range_m)
+
+
+def _mls_arrival(config: Any, distance_m: Any) -> np.ndarray:
+    """The MLS array's window: it hears every sender within ``mls_max_range_m`` and none
+    farther (its minimum range, 0.4 m, lies inside every scenario's safety distance)."""
+    return (np.asarray(distance_m, float) <= config.mls_max_range_m).astype(float)
+
+
 def draw_layout(name: str, S: int, N: int, K: int) -> list[tuple[str, str, tuple]]:
     """The sensor's entries of the simulator's ``rng.DrawLayout``: (purpose, kind, shape)."""
     return [(purpose, kind, tuple(shape_fn(S, N, K))) for purpose, kind, shape_fn in get_sensor(name).draws]
@@ -154,4 +189,6 @@ register_sensor(
     "coopnav_env.core.measurements.mls_array",
     draws=[("mls_n", "normal", lambda S, N, K: (S, 14))],
     doc="Kottege & Zimmer's MLS array: range and bearing from one sender per cycle",
+    arrival=_mls_arrival,
+    reach=lambda config: float(config.mls_max_range_m),
 )

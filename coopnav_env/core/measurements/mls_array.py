@@ -23,7 +23,7 @@ from ..contract import SensorHost
 from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, survey_view
 from ..navigation import gated_update, gated_update_residual, range_prediction
-from . import FusionOutputs
+from . import FusionOutputs, arrival_probability
 
 NOT_SENT, NOT_HEARD, HEARD = 0, 1, 2
 
@@ -139,7 +139,7 @@ class MLSArray:
         sender_h = np.angle(st.b_heading[rows, j])[:, None].repeat(S, 1)
         obs_en, obs_h = st.s_pos[..., :2], np.angle(st.s_heading)
         dist = np.linalg.norm(sender_en - obs_en, axis=-1)
-        heard = (dist > self.sensor.min_range_m) & (dist <= self.sensor.config.max_range_m)
+        heard = (dist > self.sensor.min_range_m) & (arrival_probability(c, dist) > 0.0)  # the window
         n = draws["mls_n"]  # (B,S,14)
         az = np.zeros((B, S))
         rng_m = np.zeros((B, S))

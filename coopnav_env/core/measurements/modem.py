@@ -198,10 +198,12 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
         return
     if prm.gps_tau_s > 0.0:
         consider_predict(cv.Pxb[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)
-        consider_predict(cv.hyp_dX[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)  # held (M5)
+        if prm.hold:  # the held hypotheses' difference too (M5)
+            consider_predict(cv.hyp_dX[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)
     else:
         beacon_reset(cv.Pxb[b, s, j])
-        beacon_reset(cv.hyp_dX[b, s, j])
+        if prm.hold:
+            beacon_reset(cv.hyp_dX[b, s, j])
     cv.fix_seen[b, s, j] = count
     cv.fix_seen_t_s[b, s, j] = t_s
 
@@ -425,6 +427,7 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
     beacon_var = bv.nav_var[b, j]
     noise_std = cyc.range_noise_std_m[b]
+    R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
     R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
     if cv.hyp_w[b, s] < 1.0:  # (M6, M7): this range re-weighs the last one's hypotheses, then they merge
         reweigh_hypotheses(
@@ -433,9 +436,7 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
             Moments(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s], cv.Pxd[b, s]),
             H,
             r - h,
-            modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
-            if prm.fusion == SCHMIDT
-            else R_white,
+            R if prm.fusion == SCHMIDT else R_white,
             prm.outlier_probability,
             prm.outlier_mean_excess_m,
             j if prm.fusion == SCHMIDT else -1,
@@ -443,8 +444,8 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
         )
         cv.hyp_w[b, s] = 1.0
         h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
+        R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
         R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
-    R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
     meas = (r, h, R, R_white, beacon_var)
     if prm.window:
         _remember(cv, sv, b, s, j, r, bv.est[b, j], delays, cyc.t_s[b])
