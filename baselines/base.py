@@ -303,10 +303,21 @@ class Policy:
                 f"network={config.network!r} ({config.name}); policies for it: "
                 f"{', '.join(list_policies(config.network))}"
             )
+        reason = self.unsupported(config)
+        if reason:
+            raise ValueError(
+                f"policy {self.name!r} cannot drive {config.name}: {reason}; policies for it: "
+                f"{', '.join(list_policies(config=config))}"
+            )
         self.config = config
         self.ctx = BeaconContext.from_config(config, agent_index)
         self.seed = seed
         self.reset(seed)
+
+    @classmethod
+    def unsupported(cls, config: ScenarioConfig) -> str | None:
+        """Why this policy cannot drive ``config`` although it drives its network (None: it can)."""
+        return None
 
     def reset(self, seed: int | Sequence[int] | None = None) -> None:
         if seed is not None:
@@ -344,22 +355,31 @@ class TrackingPolicy(Policy):
 
 
 # ------------------------------------------------------------------------------------
-_POLICIES: dict = {}
+_POLICIES: dict = {}  # name -> the class registered first under it
+_BY_NETWORK: dict = {}  # (name, network) -> the class that drives that network under the name
 
 
 def register_policy(name: str) -> Callable[[type[Policy]], type[Policy]]:
     """Class decorator: register a ``Policy`` subclass as the planner ``name``
-    (``make_policy(name, ...)``, ``list_policies()``, evaluate.py's policy names). A name
-    is registered once; re-importing the same class (a module reload) is allowed."""
+    (``make_policy(name, ...)``, ``list_policies()``, evaluate.py's policy names) for the
+    networks it drives (``cls.networks``). One name may have one class per network: the
+    receding-horizon planner ``horizon`` is ``baselines.horizon`` on the survey networks and
+    ``baselines.boat_horizon`` on the moving network. A (name, network) is registered once;
+    re-importing the same class (a module reload) is allowed."""
 
     def deco(cls: type[Policy]) -> type[Policy]:
-        old = _POLICIES.get(name)
-        if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
-            raise ValueError(
-                f"policy {name!r} is registered twice ({old.__module__}.{old.__qualname__} and "
-                f"{cls.__module__}.{cls.__qualname__})"
-            )
-        _POLICIES[name] = cls
+        for net in cls.networks:
+            old = _BY_NETWORK.get((name, net))
+            if old is not None and (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
+                raise ValueError(
+                    f"policy {name!r} is registered twice for network {net!r} ({old.__module__}."
+                    f"{old.__qualname__} and {cls.__module__}.{cls.__qualname__})"
+                )
+        for net in cls.networks:
+            _BY_NETWORK[(name, net)] = cls
+        first = _POLICIES.get(name)
+        if first is None or (first.__module__, first.__qualname__) == (cls.__module__, cls.__qualname__):
+            _POLICIES[name] = cls
         cls.name = name
         return cls
 
@@ -367,14 +387,30 @@ def register_policy(name: str) -> Callable[[type[Policy]], type[Policy]]:
 
 
 def unregister_policy(name: str) -> None:
-    """Remove a registered planner (tests, plug-ins that clean up after themselves)."""
+    """Remove a registered planner, on every network (tests, plug-ins that clean up after themselves)."""
     _POLICIES.pop(name, None)
+    for key in [k for k in _BY_NETWORK if k[0] == name]:
+        del _BY_NETWORK[key]
 
 
-def list_policies(network: str | None = None) -> list:
-    """Names of the baseline policies (those that can drive ``network``, if given).
-    The planner modules register themselves when ``baselines`` is imported."""
-    return sorted(n for n, cls in _POLICIES.items() if network is None or network in cls.networks)
+def policy_class(name: str, network: str) -> type[Policy]:
+    """The class registered as ``name`` for ``network`` (the one registered first under the name
+    if none drives that network: its constructor then says which policies do)."""
+    return _BY_NETWORK.get((name, network)) or _POLICIES[name]
+
+
+def list_policies(network: str | None = None, config: ScenarioConfig | None = None) -> list:
+    """Names of the baseline policies: those that can drive ``network``, if given, or the
+    scenario ``config`` (its network, and not refused by ``Policy.unsupported``). The planner
+    modules register themselves when ``baselines`` is imported."""
+    if config is not None:
+        network = config.network
+    if network is None:
+        return sorted(_POLICIES)
+    names = {n for n, net in _BY_NETWORK if net == network}
+    if config is not None:
+        names = {n for n in names if not _BY_NETWORK[(n, network)].unsupported(config)}
+    return sorted(names)
 
 
 _SCHEDULER = None  # baselines.schedule.make_scheduled, set when that module is imported
@@ -410,5 +446,5 @@ def make_policy(
     if schedule or config.channel_mode == "decide":
         if _SCHEDULER is None:
             raise ValueError(f"{name!r}: transmit schedules need baselines.schedule imported (import baselines)")
-        return _SCHEDULER(_POLICIES[motion], schedule, config, int(agent), seed, **kwargs)
-    return _POLICIES[motion](config, agent_index=int(agent), seed=seed, **kwargs)
+        return _SCHEDULER(policy_class(motion, config.network), schedule, config, int(agent), seed, **kwargs)
+    return policy_class(motion, config.network)(config, agent_index=int(agent), seed=seed, **kwargs)

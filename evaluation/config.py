@@ -454,8 +454,8 @@ def prepare(config: EvalConfig) -> Plan:
         policies = list(previous["policies"]) + [p for p in given or [] if p not in previous["policies"]]
         episodes = previous["episodes"] if config.episodes is None else max(previous["episodes"], config.episodes)
     else:
-        if given is None:  # every planner that drives this scenario's network
-            given = list_policies(coopnav_env.make_config(config.scenario).network)
+        if given is None:  # every planner that drives this scenario
+            given = list_policies(config=coopnav_env.make_config(config.scenario))
         policies = given
         episodes = 10 if config.episodes is None else config.episodes
     if not policies:

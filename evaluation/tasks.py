@@ -35,8 +35,10 @@ if TYPE_CHECKING:
 # and issue 21's physics under every task; 4: the reference `oracle` runs on every task it can drive and each
 # task set reports the headroom (best greedy planner minus oracle) and the fraction of it each challenger closes,
 # and the results carry each policy's cost per decision (issue 22); 5: the oracle plans from the survey filters'
-# estimates and errors (eq. H4 of baselines/horizon.py), not from the true positions with the filters' covariances
-BENCHMARK_VERSION = 5
+# estimates and errors (eq. H4 of baselines/horizon.py), not from the true positions with the filters' covariances;
+# 6: matos_river gains `horizon` and the `oracle` for the boats (baselines/boat_horizon.py), so its task set has a
+# headroom (the other task sets run the same policies as in 5, with the same results)
+BENCHMARK_VERSION = 6
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
 REFERENCES = ("oracle",)  # given the truth: never a task's best planner (issue 22's headroom reference)
@@ -82,10 +84,15 @@ class TaskSet:
     about: str = ""
 
     @property
-    def network(self) -> str:
+    def config(self) -> ScenarioConfig:
+        """The scenario's config (the tasks' overrides aside)."""
         from coopnav_env import make_config
 
-        return make_config(self.scenario).network
+        return make_config(self.scenario)
+
+    @property
+    def network(self) -> str:
+        return self.config.network
 
     @property
     def planners(self) -> list:
@@ -93,7 +100,7 @@ class TaskSet:
         the references that are given the truth (``REFERENCES``)."""
         from baselines import list_policies
 
-        return [p for p in list_policies(self.network) if p not in FLOORS and p not in REFERENCES]
+        return [p for p in list_policies(config=self.config) if p not in FLOORS and p not in REFERENCES]
 
     @property
     def greedy_planners(self) -> list:
@@ -105,13 +112,13 @@ class TaskSet:
         """The references (``REFERENCES``) that drive the network: run on every task, never the best planner."""
         from baselines import list_policies
 
-        return [p for p in REFERENCES if p in list_policies(self.network)]
+        return [p for p in REFERENCES if p in list_policies(config=self.config)]
 
     @property
     def floors(self) -> list:
         from baselines import list_policies
 
-        return [p for p in FLOORS if p in list_policies(self.network)]
+        return [p for p in FLOORS if p in list_policies(config=self.config)]
 
     def task(self, name: str) -> Task:
         for t in self.tasks:
