@@ -301,23 +301,12 @@ class Policy:
             raise ValueError(
                 f"policy {self.name!r} drives {' / '.join(self.networks)} scenarios, not "
                 f"network={config.network!r} ({config.name}); policies for it: "
-                f"{', '.join(list_policies(config.network))}"
-            )
-        reason = self.unsupported(config)
-        if reason:
-            raise ValueError(
-                f"policy {self.name!r} cannot drive {config.name}: {reason}; policies for it: "
                 f"{', '.join(list_policies(config=config))}"
             )
         self.config = config
         self.ctx = BeaconContext.from_config(config, agent_index)
         self.seed = seed
         self.reset(seed)
-
-    @classmethod
-    def unsupported(cls, config: ScenarioConfig) -> str | None:
-        """Why this policy cannot drive ``config`` although it drives its network (None: it can)."""
-        return None
 
     def reset(self, seed: int | Sequence[int] | None = None) -> None:
         if seed is not None:
@@ -400,17 +389,14 @@ def policy_class(name: str, network: str) -> type[Policy]:
 
 
 def list_policies(network: str | None = None, config: ScenarioConfig | None = None) -> list:
-    """Names of the baseline policies: those that can drive ``network``, if given, or the
-    scenario ``config`` (its network, and not refused by ``Policy.unsupported``). The planner
-    modules register themselves when ``baselines`` is imported."""
+    """Names of the baseline policies: those that can drive ``network``, if given (or the
+    network of the scenario ``config``). The planner modules register themselves when
+    ``baselines`` is imported."""
     if config is not None:
         network = config.network
     if network is None:
         return sorted(_POLICIES)
-    names = {n for n, net in _BY_NETWORK if net == network}
-    if config is not None:
-        names = {n for n in names if not _BY_NETWORK[(n, network)].unsupported(config)}
-    return sorted(names)
+    return sorted({n for n, net in _BY_NETWORK if net == network})
 
 
 _SCHEDULER = None  # baselines.schedule.make_scheduled, set when that module is imported

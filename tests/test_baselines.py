@@ -277,8 +277,17 @@ def test_make_policy_rejects_unknown_names():
     with pytest.raises(ValueError, match="valid policies"):
         make_policy("nope", ASV)
     assert {"fim_a", "fim_b", "ellipse", "static", "circle", "random"} <= set(list_policies())
-    assert set(list_policies("moving_lbl")) == {"perpendicular", "abeam", "river_escort", "static", "random"}
-    with pytest.raises(ValueError, match="policies for it: abeam, perpendicular"):
+    assert set(list_policies("moving_lbl")) == {
+        "perpendicular",
+        "abeam",
+        "river_escort",
+        "static",
+        "random",
+        "horizon",
+        "oracle",
+    }
+    assert list_policies(config=coopnav_env.make_config("matos_river")) == list_policies("moving_lbl")
+    with pytest.raises(ValueError, match="policies for it: abeam, horizon, oracle, perpendicular"):
         make_policy("fim_a", "matos_moving_lbl")
 
 
@@ -292,7 +301,7 @@ def test_make_policy_rejects_unknown_names():
 )
 def test_every_policy_drives_the_pettingzoo_env(scenario, kw):
     env = coopnav_env.parallel_env(scenario, seed=0, max_cycles=3, **kw)
-    for name in list_policies(env.config.network):
+    for name in list_policies(config=env.config):
         obs, _ = env.reset(seed=1)
         pols = {a: make_policy(name, env, seed=0, agent=a) for a in env.agents}
         while env.agents:
