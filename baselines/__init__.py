@@ -2,7 +2,10 @@
 
 ``fim_a`` and ``fim_b``: Sousa, Ferreira & Cruz's FIM guidance (approaches A and B);
 ``ellipse``: Gao & Chitre's range along the major axis of the error ellipse;
-``perpendicular``, ``abeam``: the moving network's scripted boats (Matos & Cruz);
+``perpendicular``, ``abeam``, ``river_escort``: the moving network's scripted boats (Matos & Cruz);
+``horizon``: a receding-horizon planner (the cross-entropy method over the next pings), and
+``oracle``, the same given the truth (the benchmark's reference): ``baselines.horizon`` for the
+survey networks, ``baselines.boat_horizon`` for the boats;
 ``static``, ``circle``, ``random``: floors.
 With ``channel_mode="decide"`` (scenario ``sousa_ping``) each combines with a
 transmit schedule, ``make_policy("fim_a+tdma", env)`` (``baselines.schedule``:
