@@ -37,7 +37,8 @@ if TYPE_CHECKING:
 # and the results carry each policy's cost per decision (issue 22); 5: the oracle plans from the survey filters'
 # estimates and errors (eq. H4 of baselines/horizon.py), not from the true positions with the filters' covariances;
 # 6: the moving network's task sets gain `horizon` and the `oracle` for the boats (baselines/boat_horizon.py), so
-# every task set has a headroom row (the survey task sets run the same policies as in 5, with the same results)
+# every task set has a headroom row (the survey task sets run the same policies as in 5, with the same results),
+# and a task's headroom is measured only where its paired interval lies above 0 (benchmark_stats.headroom_task)
 BENCHMARK_VERSION = 6
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
