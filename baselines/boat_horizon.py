@@ -102,11 +102,11 @@ if TYPE_CHECKING:
 class BoatModel(NamedTuple):
     """What one decision scores against (frame axes, origin at the vehicle now; metres,
     seconds). ``limits`` = (safety distance + margin, target baseline, half its tolerance,
-    minimum baseline distance + margin, the river's half width - the bank margin);
+    minimum baseline distance + margin, the river's half width - the bank margin (< 0: no banks));
     ``loss`` = (packet_loss_near, packet_loss_far, max_range_m)."""
 
     start: np.ndarray  # (2, 2) B1, B2 now
-    vehicle_v: np.ndarray  # (2,) the vehicle's (tracked) velocity
+    vehicle_v: np.ndarray  # (2,) the vehicle's tracked velocity (in the frame: minus this boat's own)
     dz: float  # the vehicle's depth below the boats
     P0: np.ndarray  # (2, 2) the filter's covariance now (horizon: its own prediction)
     W0: np.ndarray  # (2, 2) the known error's second moment e0 e0' (oracle), else zeros
