@@ -10,7 +10,9 @@ checkout (``ci`` from a fresh ``git clone`` of it, as CI does), timed by the wal
 The 1-minute load average before and after is recorded beside each time: the table's
 numbers are for two *idle* cores, and a loaded machine shows up there (say so when you
 copy a number). Appends one JSON object per item to ``OUT/times.jsonl`` and prints a
-Markdown table of what it measured.
+Markdown table of what it measured. Each item's output goes to ``OUT/<item>.log``; a
+benchmark task set writes a line there per task and policy (``tail -f`` it to follow a
+run of an hour).
 """
 
 from __future__ import annotations
@@ -91,7 +93,6 @@ def _items(out: Path) -> dict:
             "--out",
             str(out / "benchmark_task"),
             "--overwrite",
-            "--no-progress",
         ],
         ROOT,
     )
@@ -109,7 +110,6 @@ def _items(out: Path) -> dict:
                 "--out",
                 str(out / f"benchmark_{name}"),
                 "--overwrite",
-                "--no-progress",
             ],
             ROOT,
         )
