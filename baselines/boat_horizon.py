@@ -91,7 +91,7 @@ from numba import njit
 from coopnav_env.core.acoustics import packet_loss_probability, ranging_variance_m2
 
 from .base import PENALTY_PER_M, SAFETY_MARGIN_M, register_policy
-from .horizon import _FIXED, _PATTERN, _disc
+from .horizon import _FIXED, _disc, cross_entropy, each_alone, pattern_search
 from .moving_lbl import AbeamPolicy, RiverEscortPolicy
 
 if TYPE_CHECKING:
@@ -347,35 +347,18 @@ class BoatHorizonPolicy(RiverEscortPolicy):
             mean = np.repeat(model.v_now[:, None] / self.config.boat_max_speed_mps, Hb, 1)
         else:
             mean = self.plan_v
-        std = np.full((2, Hb, 2), self.init_std)
-        best_v, best_cost = mean, np.inf
-        for it in range(self.iterations):
-            v = mean + std * self.rng.standard_normal((self.n_samples, 2, Hb, 2))
-            v[0] = mean
-            if it == 0:  # each boat in turn, then both: a stop and full speed in eight directions
-                fixed = np.repeat(mean[None], 3 * len(_FIXED), 0)
-                for k in range(2):
-                    fixed[k * len(_FIXED) : (k + 1) * len(_FIXED), k] = _FIXED[:, None, :]
-                fixed[2 * len(_FIXED) :] = _FIXED[:, None, None, :]
-                v = np.concatenate([v, fixed])
-            v = self.project(v, model)
-            cost = self.cost(v, model)
-            order = np.argsort(cost, kind="stable")
-            if cost[order[0]] < best_cost:
-                best_v, best_cost = v[order[0]], float(cost[order[0]])
-            elite = v[order[: self.n_elite]]
-            mean, std = elite.mean(0), elite.std(0) + 0.02
-        step = 0.1
-        for _ in range(self.refine_iters):
-            for k in range(2):
-                cand = np.repeat(best_v[None], len(_PATTERN), 0)
-                cand[:, k, 0] = best_v[k, 0] + step * _PATTERN
-                cand = self.project(cand, model)
-                cost = self.cost(cand, model)
-                i = int(np.argmin(cost))
-                if cost[i] < best_cost:
-                    best_v, best_cost = cand[i], float(cost[i])
-            step *= 0.5
+        both = np.broadcast_to(_FIXED[:, None, None, :], (len(_FIXED),) + mean.shape)  # both boats together
+        best_v, best_cost = cross_entropy(
+            lambda v: self.cost(v, model),
+            mean,
+            self.rng,
+            (self.n_samples, self.n_elite, self.iterations, self.init_std),
+            np.concatenate([each_alone(mean), both]),
+            lambda v: self.project(v, model),
+        )
+        best_v, best_cost = pattern_search(
+            lambda c: self.cost(c, model), best_v, best_cost, self.refine_iters, lambda c, k: self.project(c, model)
+        )
         self.last_cost = best_cost
         return best_v
 

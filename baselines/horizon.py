@@ -77,7 +77,7 @@ given the seed, so it runs under common random numbers like the other planners.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -293,6 +293,68 @@ _G = np.arange(-2, 3)
 _PATTERN = np.stack(np.meshgrid(_G, _G, indexing="ij"), -1).reshape(-1, 2).astype(float)  # (25, 2)
 
 
+def each_alone(mean: np.ndarray) -> np.ndarray:
+    """The first iteration's fixed candidates for plans mean (M, H, 2): each member in turn
+    stops or goes full speed straight in eight directions, the others at the mean."""
+    M = mean.shape[0]
+    fixed = np.repeat(mean[None], M * len(_FIXED), 0)
+    for m in range(M):
+        fixed[m * len(_FIXED) : (m + 1) * len(_FIXED), m] = _FIXED[:, None, :]
+    return fixed
+
+
+def cross_entropy(
+    cost: Callable, mean: np.ndarray, rng: np.random.Generator, sizes: tuple, extra: np.ndarray, project: Callable
+) -> tuple[np.ndarray, float]:
+    """The cross-entropy method (step 4 of the module docstring) over plans shaped like mean
+    (M, H, 2): ``sizes`` = (n_samples, n_elite, iterations, init_std); each iteration draws
+    n_samples plans around the mean (the first is the mean), the first adds ``extra``, all go
+    through ``project`` (into the unit disc), and the n_elite cheapest (``cost``: (N, M, H, 2)
+    -> (N,)) refit the mean and std. Returns the cheapest plan seen and its cost."""
+    n_samples, n_elite, iterations, init_std = sizes
+    std = np.full(mean.shape, init_std)
+    best_v, best_cost = mean, np.inf
+    for it in range(iterations):
+        v = mean + std * rng.standard_normal((n_samples,) + mean.shape)
+        v[0] = mean
+        if it == 0:
+            v = np.concatenate([v, extra])
+        v = project(v)
+        c = cost(v)
+        order = np.argsort(c, kind="stable")
+        if c[order[0]] < best_cost:
+            best_v, best_cost = v[order[0]], float(c[order[0]])
+        elite = v[order[:n_elite]]
+        mean, std = elite.mean(0), elite.std(0) + 0.02
+    return best_v, best_cost
+
+
+def pattern_search(
+    cost: Callable, v: np.ndarray, best_cost: float, rounds: int, project_step: Callable
+) -> tuple[np.ndarray, float]:
+    """A pattern search on the first step of every member of plan v (M, H, 2), the rest fixed:
+    a 5x5 pattern around it, ``project_step(candidates, m)`` after member m's step is moved,
+    its spacing halved every round from 0.1 of the maximum speed, members in index order."""
+    step = 0.1
+    for _ in range(rounds):
+        for m in range(v.shape[0]):
+            cand = np.repeat(v[None], len(_PATTERN), 0)
+            cand[:, m, 0] = v[m, 0] + step * _PATTERN
+            cand = project_step(cand, m)
+            c = cost(cand)
+            k = int(np.argmin(c))
+            if c[k] < best_cost:
+                v, best_cost = cand[k], float(c[k])
+        step *= 0.5
+    return v, best_cost
+
+
+def _disc_step(cand: np.ndarray, m: int) -> np.ndarray:
+    """``pattern_search``'s projection for free plans: member m's moved first step into the disc."""
+    cand[:, m, 0] = _disc(cand[:, m, 0])
+    return cand
+
+
 @register_policy("horizon")
 class HorizonPolicy(TrackingPolicy):
     """Receding horizon: the cross-entropy method over the beacon's next ``horizon``
@@ -437,23 +499,14 @@ class HorizonPolicy(TrackingPolicy):
             mean = np.zeros((M, H, 2))
         else:
             mean = np.concatenate([self.plan_v[:, 1:], self.plan_v[:, -1:]], axis=1)  # warm start: shifted
-        std = np.full((M, H, 2), self.init_std)
-        best_v, best_cost = mean, np.inf
-        for it in range(self.iterations):
-            v = mean + std * self.rng.standard_normal((self.n_samples, M, H, 2))
-            v[0] = mean
-            if it == 0:  # each beacon in turn: a stop and full speed in eight directions, the others at the mean
-                fixed = np.repeat(mean[None], M * len(_FIXED), 0)
-                for m in range(M):
-                    fixed[m * len(_FIXED) : (m + 1) * len(_FIXED), m] = _FIXED[:, None, :]
-                v = np.concatenate([v, fixed])
-            v = _disc(v)
-            cost = self.cost(v, model)
-            order = np.argsort(cost, kind="stable")
-            if cost[order[0]] < best_cost:
-                best_v, best_cost = v[order[0]], float(cost[order[0]])
-            elite = v[order[: self.n_elite]]
-            mean, std = elite.mean(0), elite.std(0) + 0.02
+        best_v, best_cost = cross_entropy(
+            lambda v: self.cost(v, model),
+            mean,
+            self.rng,
+            (self.n_samples, self.n_elite, self.iterations, self.init_std),
+            each_alone(mean),
+            _disc,
+        )
         best_v, self.last_cost = self.refine_first_step(model, best_v, best_cost)
         return best_v
 
@@ -464,17 +517,7 @@ class HorizonPolicy(TrackingPolicy):
         planning jointly, on each beacon's first step in index order every round.
         The CEM's elite mean is coarse where the cost is flat (near an optimum of the
         trace the cost is quadratic in the heading); this polishes the step it applies."""
-        step = 0.1
-        for _ in range(self.refine_iters):
-            for m in range(len(self.planned)):
-                cand = np.repeat(v[None], len(_PATTERN), 0)
-                cand[:, m, 0] = _disc(v[m, 0] + step * _PATTERN)
-                c = self.cost(cand, model)
-                k = int(np.argmin(c))
-                if c[k] < cost:
-                    v, cost = cand[k], float(c[k])
-            step *= 0.5
-        return v, cost
+        return pattern_search(lambda c: self.cost(c, model), v, cost, self.refine_iters, _disc_step)
 
     def plan(self, view: ObsView) -> np.ndarray:
         self.plan_v = self.optimise(view)

@@ -70,7 +70,7 @@ import os
 import shlex
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -350,9 +350,8 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
     sets = {}
     for sp in plan.sets:
         ts = sp.task_set
-        tasks, headrooms = {}, {}
-        closers = [p for p in ts.planners if p in NON_GREEDY]
-        closers += [p for p in plan.challengers if p not in closers and p not in ts.references]
+        tasks = {}
+        closers = _closers(ts.planners, plan.challengers, ts.references)
         for task in ts.tasks:
             per_task = raw[ts.name][task.name]
             errors = {p: None if v is None else v["mean_error_m"] for p, v in per_task.items()}
@@ -362,10 +361,7 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
                 if v is not None and "ms_per_act" in v:
                     result["policies"][p]["ms_per_act"] = v["ms_per_act"]
             tasks[task.name] = {"overrides": plain(dict(task.overrides)), "about": task.about, **result}
-            if ts.references:
-                headrooms[task.name] = tasks[task.name]["headroom"] = headroom_task(
-                    tasks[task.name], ts.greedy_planners, closers, oracle=ts.references[0]
-                )
+        headroom = _add_headrooms(tasks, ts.greedy_planners, closers, ts.references)
         sets[ts.name] = {
             "scenario": ts.scenario,
             "about": ts.about,
@@ -381,7 +377,7 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
             "tasks": tasks,
             "summary": summarize_task_set(tasks, sp.columns),
             "ms_per_act": _cost_per_decision(tasks, sp.columns),
-            "headroom": summarize_headroom(headrooms, closers) if ts.references else None,
+            "headroom": headroom,
         }
     return {
         "benchmark_version": BENCHMARK_VERSION,
@@ -397,29 +393,35 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
     }
 
 
+def _closers(planners: Iterable[str], challengers: Iterable[str], references: Iterable[str]) -> list:
+    """Whose share of the headroom a task set reports: its non-greedy planners, then the challengers."""
+    closers = [p for p in planners if p in NON_GREEDY]
+    return closers + [p for p in challengers if p not in closers and p not in references]
+
+
+def _add_headrooms(tasks: dict, greedy: list, closers: list, references: list) -> dict | None:
+    """Each task's ``headroom`` (``headroom_task``, set in place in ``tasks``) and the task set's
+    pooled one (``summarize_headroom``); None without a reference."""
+    if not references:
+        return None
+    for task in tasks.values():
+        task["headroom"] = headroom_task(task, greedy, closers, oracle=references[0])
+    return summarize_headroom({name: task["headroom"] for name, task in tasks.items()}, closers)
+
+
 def resummarize(results: dict) -> dict:
     """``results`` (a results.json's content) with every headroom recomputed by this code's
     rules (``headroom_task``, ``summarize_headroom``) from the per-episode errors it holds:
     a table of an earlier run under a changed rule, without running it again. The rest is
     kept; ``resummarized`` records the benchmark version whose rules were applied."""
-    out = dict(results)
     sets = {}
     for name, ts in results["task_sets"].items():
-        ts = dict(ts)
+        ts = dict(ts, tasks={t: dict(task) for t, task in ts["tasks"].items()})
         if ts.get("references"):
-            closers = [p for p in ts["planners"] if p in NON_GREEDY]
-            closers += [p for p in ts["challengers"] if p not in closers and p not in ts["references"]]
-            tasks, headrooms = {}, {}
-            for task_name, task in ts["tasks"].items():
-                task = dict(task)
-                task["headroom"] = headrooms[task_name] = headroom_task(
-                    task, ts["greedy_planners"], closers, oracle=ts["references"][0]
-                )
-                tasks[task_name] = task
-            ts["tasks"], ts["headroom"] = tasks, summarize_headroom(headrooms, closers)
+            closers = _closers(ts["planners"], ts["challengers"], ts["references"])
+            ts["headroom"] = _add_headrooms(ts["tasks"], ts["greedy_planners"], closers, ts["references"])
         sets[name] = ts
-    out["task_sets"], out["resummarized"] = sets, {"rules_of_benchmark_version": BENCHMARK_VERSION}
-    return out
+    return dict(results, task_sets=sets, resummarized={"rules_of_benchmark_version": BENCHMARK_VERSION})
 
 
 def _cost_per_decision(tasks: dict, columns: list) -> dict:
