@@ -162,3 +162,90 @@ def test_marl_extra_admits_the_installed_versions():
         assert req.specifier.contains(md.version(req.name), prereleases=True), line
     assert "torch" not in {Requirement(line).name for line in extra}  # torch stays the project's pin
     assert torch.__version__.startswith("2.")
+
+
+def _untrained_run(tmp_path, algorithm, task_set, model="mlp"):
+    """A run folder (policy.safetensors + run.json, as ``marl.run`` writes them) of an
+    untrained experiment whose weights are shaken off BenchMARL's initialisation, and
+    the experiment itself."""
+    import torch
+
+    from agents.benchmarl_policy import policy_record
+    from coopnav_env.records import atomic_write_text
+
+    task = get_task(task_set, None, overrides={"max_cycles": 20})
+    config = marl.experiment_config(
+        None, 2, 64, {"evaluation": False, "loggers": [], "save_folder": str(tmp_path)}, True
+    )
+    experiment = marl.build_experiment(algorithm, task, 0, config, model)
+    torch.manual_seed(3)
+    with torch.no_grad():
+        for p in experiment.policy.parameters():
+            p.add_(0.3 * torch.randn_like(p))
+    out = tmp_path / "run"
+    out.mkdir()
+    marl._save_policy(experiment, out / "policy.safetensors")
+    record = {**policy_record(experiment, algorithm, model), "task": f"coopnav/{task_set}", "task_config": task.config}
+    atomic_write_text(out / "run.json", json.dumps(record))
+    return out, experiment, task
+
+
+@pytest.mark.parametrize(
+    "algorithm, task_set, model",
+    [("mappo", "gao_team", "mlp"), ("ippo", "sousa_ping", "mlp"), ("mappo", "gao_team", "gru")],
+)
+def test_a_run_acts_as_benchmarl_acts(tmp_path, algorithm, task_set, model):
+    """``agents.make_policy(run, config, agent=j)`` gives, step after step, the action
+    BenchMARL's own policy takes in its deterministic rollout, for every beacon; a GRU
+    carries its memory from step to step in the policy object (and ``reset`` clears it)."""
+    import numpy as np
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    import agents
+    from agents.benchmarl_policy import BenchMARLPolicy
+
+    out, experiment, task = _untrained_run(tmp_path, algorithm, task_set, model)
+    with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
+        td = experiment.test_env.rollout(8, policy=experiment.policy, auto_reset=True)
+    obs = td.get(("beacons", "observation"))[0].numpy()  # (8, N, D), environment 0
+    want = td.get(("beacons", "action"))[0].numpy()
+    assert float(np.abs(want).max()) > 0.05  # the weights were shaken: the check is not on zeros
+    config = scenario_config(task.config)
+    for j in range(config.n_beacons):
+        policy = agents.make_policy(str(out), config, agent=j)
+        assert isinstance(policy, BenchMARLPolicy) and policy.obs_dim == obs.shape[-1]
+        got = np.stack([policy.act(obs[t, j]) for t in range(8)])
+        np.testing.assert_allclose(got, want[:, j], atol=1e-5)
+        if model == "gru":  # memory: the same observation answered differently after a history
+            policy.reset()
+            first = policy.act(obs[3, j])
+            policy.reset()
+            for t in range(4):
+                last = policy.act(obs[t, j])
+            assert np.abs(first - last).max() > 1e-4
+
+
+def test_a_run_in_evaluate_and_its_refusals(tmp_path):
+    """A BenchMARL run plays episodes through evaluate's path (``run_episodes``) and
+    resolves to its files; another team's scenario and a damaged file get one line."""
+    import agents
+    from agents.benchmarl_policy import load
+    from agents.formats import PolicyFormatError
+    from coopnav_env import make_config
+    from evaluation.episodes import run_episodes
+
+    out, _, _ = _untrained_run(tmp_path, "mappo", "gao_team")
+    config = make_config("gao_team", max_cycles=6)
+    episodes, _ = run_episodes(config, str(out), [11, 12])
+    assert [e["steps"] for e in episodes] == [6, 6] and all(e["mean_error_m"] > 0 for e in episodes)
+    assert agents.resolve(str(out))[0].name == "policy.safetensors"
+    assert load(out).config.name == "gao_team"  # bound to what it trained on
+    with pytest.raises(ValueError, match="takes observations of size 34; scenario 'gao_sea' gives 19"):
+        agents.load(str(out), scenario="gao_sea")
+    record = json.loads((out / "run.json").read_text())
+    (out / "run.json").write_text(json.dumps({**record, "model_config": {"activation_class": "os.system"}}))
+    with pytest.raises(PolicyFormatError, match=r"is not a torch\.nn class"):
+        load(out)
+    (out / "run.json").write_text(json.dumps({**record, "algorithm": "maddpg"}))
+    with pytest.raises(PolicyFormatError, match="a maddpg run cannot be loaded"):
+        load(out)

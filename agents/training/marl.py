@@ -301,13 +301,14 @@ def run(args: argparse.Namespace, command: str) -> dict:
     partial.rmdir()
     _save_policy(experiment, out / "policy.safetensors")
     frames = int(experiment.total_frames)
+    from ..benchmarl_policy import policy_record
+
     record = {
         "command": command,
-        "algorithm": algorithm,
+        **policy_record(experiment, algorithm, args.model),  # what agents.load rebuilds the actor from
         "task": f"coopnav/{set_name}",
         "task_config": task.config,
         "scenario": scenario.name,
-        "model": args.model,
         "critic_model": args.critic_model,
         "seed": args.seed,
         "experiment_config": {k: v for k, v in vars(config).items() if _jsonable(v)},

@@ -1,0 +1,197 @@
+"""Trained policies against planners on a benchmark task set, on seeds you name (not the
+test seeds): the table issue 23 asks for each learning lever that was tried.
+
+    python benchmarks/lever_table.py --tasks gao_team --episodes 30 --seed 700000 \\
+        --policies ellipse,ppo,mappo=runs/gao_team_mappo,ippo=runs/gao_team_ippo \\
+        --out results/levers_gao_team.json --markdown results/levers_gao_team.md
+
+Every policy plays the task set's tasks (``evaluation.tasks``: the benchmark's overrides)
+through the benchmark's own episode loop (``evaluation.episodes.run_episodes``: one
+policy object per beacon and episode), episode ``i`` of every task and policy seeded
+``--seed + i`` (common random numbers). ``label=spec`` names a policy; a spec is a
+planner, ``ppo`` (the shipped policy), a train.py run or a BenchMARL run
+(``python -m agents.training.marl``).
+
+The table: each task's mean error per policy (95 % t interval); for each policy that is
+not a planner, its paired difference per task and pooled (per seed, the mean over the
+tasks) against the best planner of the task among those given (lowest mean), and
+against the first non-planner (the baseline policy, e.g. the shipped ``ppo``).
+
+Seeds: the benchmark's test seeds are refused; the default 700000 is neither a trainer's
+validation range (500000 + e) nor a training seed of a run seeded below 1000
+(``seed + e + k * 1_000_003``, e < 1000 environments).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from evaluation.paired import t_interval
+
+
+def _parse_policies(text: str) -> list:
+    out = []
+    for item in [s.strip() for s in text.split(",") if s.strip()]:
+        label, _, spec = item.rpartition("=")
+        out.append((label or spec, spec))
+    labels = [label for label, _ in out]
+    if len(set(labels)) != len(labels):
+        raise ValueError(f"policy labels must differ, got {labels}")
+    return out
+
+
+def run(task_set: str, policies: list, episodes: int, seed: int, progress=print) -> dict:
+    """{"tasks": [...], "policies": [...], "errors": {label: {task: [per-episode mean error]}}, ...}."""
+    from baselines import list_policies
+    from evaluation.episodes import run_episodes
+    from evaluation.tasks import get_task_set
+
+    ts = get_task_set(task_set)
+    seeds = list(range(seed, seed + episodes))
+    planners = set(list_policies())
+    errors: dict = {label: {} for label, _ in policies}
+    seconds: dict = {label: 0.0 for label, _ in policies}
+    for task in ts.tasks:
+        config = task.config(ts.scenario)
+        for label, spec in policies:
+            t0 = time.perf_counter()
+            rows, _ = run_episodes(config, spec, seeds)
+            errors[label][task.name] = [float(r["mean_error_m"]) for r in rows]
+            seconds[label] += time.perf_counter() - t0
+            progress(
+                f"{task_set}/{task.name} {label}: {np.mean(errors[label][task.name]):.3f} m "
+                f"({time.perf_counter() - t0:.0f} s)"
+            )
+    return {
+        "task_set": task_set,
+        "tasks": [t.name for t in ts.tasks],
+        "policies": [{"label": label, "spec": spec, "planner": spec in planners} for label, spec in policies],
+        "seeds": [seed, seed + episodes - 1],
+        "episodes": episodes,
+        "errors": errors,
+        "seconds": seconds,
+    }
+
+
+def _paired(a: dict, b: dict, tasks: list) -> tuple:
+    d = np.mean([np.asarray(a[t]) - np.asarray(b[t]) for t in tasks], axis=0)
+    return t_interval(d)
+
+
+def _verdict(lo: float, hi: float) -> str:
+    return "win" if hi < 0 else "loss" if lo > 0 else "tie"
+
+
+def markdown(result: dict) -> str:
+    tasks, errs = result["tasks"], result["errors"]
+    pols = result["policies"]
+    planners = [p["label"] for p in pols if p["planner"]]
+    learned = [p["label"] for p in pols if not p["planner"]]
+    lines = [
+        f"Task set `{result['task_set']}`, {result['episodes']} episodes per task, seeds "
+        f"{result['seeds'][0]}-{result['seeds'][1]}: mean survey error (m), 95 % t interval.",
+        "",
+        "| task | " + " | ".join(p["label"] for p in pols) + " |",
+        "|---|" + "---|" * len(pols),
+    ]
+    for t in tasks:
+        cells = []
+        for p in pols:
+            m, lo, hi = t_interval(errs[p["label"]][t])
+            cells.append(f"{m:.3f} [{lo:.3f}, {hi:.3f}]")
+        lines.append(f"| {t} | " + " | ".join(cells) + " |")
+    if not learned:
+        return "\n".join(lines) + "\n"
+    best = {t: min(planners, key=lambda p: np.mean(errs[p][t])) for t in tasks} if planners else {}
+    base = learned[0]
+    lines += [
+        "",
+        "Paired against each task's best planner given"
+        + (f" and against `{base}`" if len(learned) > 1 else "")
+        + " (per seed; pooled: the mean over the tasks); relative: mean over tasks against the best planners'.",
+        "",
+        "| policy | mean (m) | relative to best planner | paired vs best planner (m) | wins / ties / losses"
+        + (f" | paired vs `{base}` (m) |" if len(learned) > 1 else " |"),
+        "|---|---|---|---|---|" + ("---|" if len(learned) > 1 else ""),
+    ]
+    for label in learned:
+        mean = float(np.mean([np.mean(errs[label][t]) for t in tasks]))
+        row = [f"`{label}`", f"{mean:.3f}"]
+        if best:
+            ref = float(np.mean([np.mean(errs[best[t]][t]) for t in tasks]))
+            diffs = {t: np.asarray(errs[label][t]) - np.asarray(errs[best[t]][t]) for t in tasks}
+            m, lo, hi = t_interval(np.mean(list(diffs.values()), axis=0))
+            verdicts = [_verdict(*t_interval(d)[1:]) for d in diffs.values()]
+            row += [
+                f"{100 * (mean - ref) / ref:+.1f} %",
+                f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}]",
+                f"{verdicts.count('win')} / {verdicts.count('tie')} / {verdicts.count('loss')}",
+            ]
+        else:
+            row += ["", "", ""]
+        if len(learned) > 1:
+            if label == base:
+                row.append("")
+            else:
+                m, lo, hi = _paired(errs[label], errs[base], tasks)
+                row.append(f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}] {_verdict(lo, hi)}")
+        lines.append("| " + " | ".join(row) + " |")
+    if best:
+        lines += ["", "Best planner per task: " + ", ".join(f"{t} `{best[t]}`" for t in tasks) + "."]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--tasks", required=True, help="a benchmark task set (python -m evaluation.benchmark --list)")
+    p.add_argument("--policies", required=True, help="comma-separated [label=]spec: planners, ppo, run folders")
+    p.add_argument("--episodes", type=int, default=30)
+    p.add_argument("--seed", type=int, default=700_000, help="episode i of every task and policy uses SEED + i")
+    p.add_argument("--out", help="write the per-episode errors as JSON here")
+    p.add_argument("--markdown", help="write the table as Markdown here")
+    args = p.parse_args(argv)
+    from coopnav_env.records import atomic_write_text
+    from coopnav_env.seeds import check_seed, refuse_test_seeds
+    from evaluation.tasks import get_task_set
+
+    try:
+        get_task_set(args.tasks)
+        policies = _parse_policies(args.policies)
+        if args.episodes < 2:
+            raise ValueError(f"--episodes must be >= 2 (a t interval), got {args.episodes}")
+        check_seed(args.seed, "--seed")
+        refuse_test_seeds(args.seed, args.episodes, what="--seed")
+        from evaluation.episodes import check_policy
+
+        ts = get_task_set(args.tasks)
+        for label, spec in policies:  # one observation each: a policy that cannot drive the set fails here
+            for task in ts.tasks:
+                try:
+                    check_policy(spec, task.config(ts.scenario), args.seed)
+                except Exception as err:
+                    first = (str(err).strip().splitlines() or [type(err).__name__])[0]
+                    where = f"{args.tasks}/{task.name}"
+                    raise ValueError(f"policy {label!r} ({spec}) cannot drive {where}: {first}") from None
+    except (KeyError, ValueError) as err:
+        message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
+        print(f"error: {message}", file=sys.stderr)
+        return 2
+    result = run(args.tasks, policies, args.episodes, args.seed, progress=lambda s: print(s, flush=True))
+    result["command"] = " ".join(["python", "benchmarks/lever_table.py", *(argv or sys.argv[1:])])
+    table = markdown(result)
+    print(table)
+    if args.out:
+        atomic_write_text(args.out, json.dumps(result, indent=1))
+    if args.markdown:
+        atomic_write_text(args.markdown, table)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,51 @@
+"""benchmarks/lever_table.py: the paired arithmetic of its table on numbers known by
+construction, and its one-line refusals."""
+
+import numpy as np
+import pytest
+
+from benchmarks import lever_table
+
+
+def _result():
+    rng = np.random.default_rng(0)
+    seeds = 10
+    a = {t: (4.0 + rng.normal(0, 0.5, seeds)).tolist() for t in ("x", "y")}
+    b = {"x": (np.asarray(a["x"]) + 1.0).tolist(), "y": (np.asarray(a["y"]) - 2.0).tolist()}  # best on y only
+    learned = {t: (np.minimum(np.asarray(a[t]), np.asarray(b[t])) - 0.5).tolist() for t in ("x", "y")}
+    other = {t: (np.asarray(learned[t]) + 0.25).tolist() for t in ("x", "y")}
+    return {
+        "task_set": "demo",
+        "tasks": ["x", "y"],
+        "policies": [
+            {"label": "a", "spec": "a", "planner": True},
+            {"label": "b", "spec": "b", "planner": True},
+            {"label": "mappo", "spec": "runs/m", "planner": False},
+            {"label": "ippo", "spec": "runs/i", "planner": False},
+        ],
+        "seeds": [700000, 700009],
+        "episodes": seeds,
+        "errors": {"a": a, "b": b, "mappo": learned, "ippo": other},
+    }
+
+
+def test_the_table_pairs_each_task_with_its_best_planner():
+    """The learned policy is 0.5 m below the better planner of each task (a on x, b on y) on
+    every seed: paired -0.500 with a zero-width interval, two wins; ippo is 0.25 above it."""
+    table = lever_table.markdown(_result())
+    row = next(line for line in table.splitlines() if line.startswith("| `mappo`"))
+    assert "-0.500 [-0.500, -0.500]" in row and "| 2 / 0 / 0 |" in row
+    ippo = next(line for line in table.splitlines() if line.startswith("| `ippo`"))
+    assert "-0.250 [-0.250, -0.250]" in ippo and "+0.250 [+0.250, +0.250] loss" in ippo
+    assert "x `a`, y `b`" in table
+
+
+def test_bad_input_is_one_line(capsys):
+    assert lever_table.main(["--tasks", "gao_tem", "--policies", "ellipse"]) == 2
+    assert "did you mean 'gao_team'" in capsys.readouterr().err
+    assert lever_table.main(["--tasks", "gao_team", "--policies", "ellipse", "--seed", str(2**62 - 10)]) == 2
+    assert "reserved" in capsys.readouterr().err
+    assert lever_table.main(["--tasks", "gao_team", "--policies", "a=ellipse,a=circle"]) == 2
+    assert "labels must differ" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        lever_table.main(["--tasks", "gao_team"])
