@@ -35,10 +35,18 @@ import numpy as np
 from evaluation.paired import t_interval
 
 
-def _parse_policies(text: str) -> list:
+def _parse_policies(text: str, task_set: str | None = None) -> list:
+    """[(label, spec)] of ``[label=]spec,...``; ``greedy`` and ``planners`` stand for the task
+    set's greedy planners and all its planners (``evaluation.tasks.TaskSet``)."""
     out = []
     for item in [s.strip() for s in text.split(",") if s.strip()]:
         label, _, spec = item.rpartition("=")
+        if spec in ("greedy", "planners") and not label and task_set is not None:
+            from evaluation.tasks import get_task_set
+
+            ts = get_task_set(task_set)
+            out += [(p, p) for p in (ts.greedy_planners if spec == "greedy" else ts.planners)]
+            continue
         out.append((label or spec, spec))
     labels = [label for label, _ in out]
     if len(set(labels)) != len(labels):
@@ -88,6 +96,16 @@ def _verdict(lo: float, hi: float) -> str:
     return "win" if hi < 0 else "loss" if lo > 0 else "tie"
 
 
+def lost_episodes(errs: dict, label: str, planners: list, tasks: list, factor: float = 10.0) -> int:
+    """Episodes (over the tasks) where ``label`` loses the survey vehicle while a planner keeps
+    it: its error above ``factor`` times the lowest planner error of the same seed."""
+    n = 0
+    for t in tasks:
+        best = np.min([np.asarray(errs[p][t]) for p in planners], axis=0)
+        n += int(np.sum(np.asarray(errs[label][t]) > factor * best))
+    return n
+
+
 def markdown(result: dict) -> str:
     tasks, errs = result["tasks"], result["errors"]
     pols = result["policies"]
@@ -117,8 +135,8 @@ def markdown(result: dict) -> str:
         + " (per seed; pooled: the mean over the tasks); relative: mean over tasks against the best planners'.",
         "",
         "| policy | mean (m) | relative to best planner | paired vs best planner (m) | wins / ties / losses"
-        + (f" | paired vs `{base}` (m) |" if len(learned) > 1 else " |"),
-        "|---|---|---|---|---|" + ("---|" if len(learned) > 1 else ""),
+        " | worst task vs its best planner | lost" + (f" | paired vs `{base}` (m) |" if len(learned) > 1 else " |"),
+        "|---|---|---|---|---|---|---|" + ("---|" if len(learned) > 1 else ""),
     ]
     for label in learned:
         mean = float(np.mean([np.mean(errs[label][t]) for t in tasks]))
@@ -128,13 +146,17 @@ def markdown(result: dict) -> str:
             diffs = {t: np.asarray(errs[label][t]) - np.asarray(errs[best[t]][t]) for t in tasks}
             m, lo, hi = t_interval(np.mean(list(diffs.values()), axis=0))
             verdicts = [_verdict(*t_interval(d)[1:]) for d in diffs.values()]
+            rel = {t: np.mean(errs[label][t]) / np.mean(errs[best[t]][t]) - 1.0 for t in tasks}
+            worst = max(tasks, key=lambda t: rel[t])
             row += [
                 f"{100 * (mean - ref) / ref:+.1f} %",
                 f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}]",
                 f"{verdicts.count('win')} / {verdicts.count('tie')} / {verdicts.count('loss')}",
+                f"{worst} {100 * rel[worst]:+.1f} %",
+                str(lost_episodes(errs, label, planners, tasks)),
             ]
         else:
-            row += ["", "", ""]
+            row += ["", "", "", "", ""]
         if len(learned) > 1:
             if label == base:
                 row.append("")
@@ -143,14 +165,23 @@ def markdown(result: dict) -> str:
                 row.append(f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}] {_verdict(lo, hi)}")
         lines.append("| " + " | ".join(row) + " |")
     if best:
-        lines += ["", "Best planner per task: " + ", ".join(f"{t} `{best[t]}`" for t in tasks) + "."]
+        lines += [
+            "",
+            "Best planner per task: " + ", ".join(f"{t} `{best[t]}`" for t in tasks) + ". *lost*: episodes "
+            "where the policy's error is above 10x the lowest planner error of the same seed.",
+        ]
     return "\n".join(lines) + "\n"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--tasks", required=True, help="a benchmark task set (python -m evaluation.benchmark --list)")
-    p.add_argument("--policies", required=True, help="comma-separated [label=]spec: planners, ppo, run folders")
+    p.add_argument(
+        "--policies",
+        required=True,
+        help="comma-separated [label=]spec: a planner, greedy (the set's greedy planners), planners (all "
+        "of them), ppo, a run folder",
+    )
     p.add_argument("--episodes", type=int, default=30)
     p.add_argument("--seed", type=int, default=700_000, help="episode i of every task and policy uses SEED + i")
     p.add_argument("--out", help="write the per-episode errors as JSON here")
@@ -162,7 +193,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         get_task_set(args.tasks)
-        policies = _parse_policies(args.policies)
+        policies = _parse_policies(args.policies, args.tasks)
         if args.episodes < 2:
             raise ValueError(f"--episodes must be >= 2 (a t interval), got {args.episodes}")
         check_seed(args.seed, "--seed")

@@ -39,6 +39,7 @@ if TYPE_CHECKING:
 # 6: the moving network's task sets gain `horizon` and the `oracle` for the boats (baselines/boat_horizon.py), so
 # every task set has a headroom row (the survey task sets run the same policies as in 5, with the same results),
 # and a task's headroom is measured only where its paired interval lies above 0 (benchmark_stats.headroom_task)
+# (the shift task sets shifts_<scenario> were added under 6: new sets, the eight others unchanged)
 BENCHMARK_VERSION = 6
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
@@ -242,6 +243,59 @@ _SETS = (
         "must escort it",
     ),
 )
+
+
+# Issue 23's shifts: what a user will try on any scenario. Each scenario gets a task set
+# "shifts_<scenario>" of these, minus the ones equal to its own settings; a policy that loses
+# the survey vehicle on one where a planner keeps it is a defect, not a tie.
+_SHIFTS = (
+    ("still", "no current", {"current_speed_mps": 0.0, "current_speed_spread_mps": 0.0}),
+    ("current_0.5", "a 0.5 m/s current", {"current_speed_mps": 0.5}),
+    # the fixed-clock channel's range loss (5 % near, 50 % at the range limit by default)
+    (
+        "lossy",
+        "a lossier channel: 20 % of the packets lost near, 80 % at the range limit",
+        {"packet_loss_near": 0.2, "packet_loss_far": 0.8},
+    ),
+    ("ping_10s", "a ping every 10 s", {"ping_interval_s": 10.0}),
+    ("shallow_1m", "the survey at 1 m", {"depth_m": 1.0}),
+    ("deep_50m", "the survey at 50 m", {"depth_m": 50.0}),
+)
+# the shared channel (channel_mode="decide", sousa_ping) has no range-loss parameter (the sonar link
+# sets its losses) and cannot fit its exchange in a 10 s slot: a weaker link and a slower clock instead
+_DECIDE_SHIFTS = {
+    # a loud sea alone loses nothing at sousa_ping's few hundred metres with a 185 dB modem
+    # (3 tuning episodes: 0 of 180 packets); with a 130 dB source about a third are lost
+    "lossy": (
+        "weak_link",
+        "a weak source (130 dB instead of 185) in a loud sea (15 m/s wind, heavy shipping)",
+        {"source_level_db": 130.0, "noise_wind_mps": 15.0, "noise_shipping": 1.0},
+    ),
+    "ping_10s": ("ping_30s", "a slot every 30 s (10 s cannot hold the exchange)", {"ping_interval_s": 30.0}),
+}
+
+
+def _shift_set(scenario: str) -> TaskSet:
+    from coopnav_env import make_config
+
+    base = make_config(scenario)
+    tasks = []
+    for name, about, overrides in _SHIFTS:
+        if base.channel_mode == "decide" and name in _DECIDE_SHIFTS:
+            name, about, overrides = _DECIDE_SHIFTS[name]
+        if all(getattr(base, k) == v for k, v in overrides.items()):
+            continue  # the scenario's own setting: no shift
+        tasks.append(_task(name, about, **overrides))
+    return TaskSet(
+        f"shifts_{scenario}",
+        scenario,
+        tuple(tasks),
+        about=f"issue 23's shifts on {scenario}: currents 0-0.5 m/s, a lossier channel, another ping interval, "
+        "shallower and deeper water",
+    )
+
+
+_SETS = _SETS + tuple(_shift_set(name) for name in dict.fromkeys(s.scenario for s in _SETS))
 
 TASK_SETS = MappingProxyType({s.name: s for s in _SETS})
 

@@ -34,10 +34,22 @@ def test_the_table_pairs_each_task_with_its_best_planner():
     every seed: paired -0.500 with a zero-width interval, two wins; ippo is 0.25 above it."""
     table = lever_table.markdown(_result())
     row = next(line for line in table.splitlines() if line.startswith("| `mappo`"))
-    assert "-0.500 [-0.500, -0.500]" in row and "| 2 / 0 / 0 |" in row
+    assert "-0.500 [-0.500, -0.500]" in row and "| 2 / 0 / 0 |" in row and row.endswith("| 0 |  |")
     ippo = next(line for line in table.splitlines() if line.startswith("| `ippo`"))
     assert "-0.250 [-0.250, -0.250]" in ippo and "+0.250 [+0.250, +0.250] loss" in ippo
     assert "x `a`, y `b`" in table
+
+
+def test_a_lost_episode_is_ten_times_the_best_planner_of_its_seed():
+    result = _result()
+    errs = result["errors"]
+    errs["mappo"]["y"][3] = 10.0 * min(errs["a"]["y"][3], errs["b"]["y"][3]) + 0.01
+    errs["mappo"]["x"][4] = 9.9 * min(errs["a"]["x"][4], errs["b"]["x"][4])
+    assert lever_table.lost_episodes(errs, "mappo", ["a", "b"], ["x", "y"]) == 1
+    row = next(line for line in lever_table.markdown(result).splitlines() if line.startswith("| `mappo`"))
+    rel = {t: np.mean(errs["mappo"][t]) / np.mean(errs["a" if t == "x" else "b"][t]) - 1 for t in ("x", "y")}
+    worst = max(rel, key=rel.get)
+    assert "| 1 |" in row and f"| {worst} {100 * rel[worst]:+.1f} % |" in row and rel[worst] > 0
 
 
 def test_bad_input_is_one_line(capsys):

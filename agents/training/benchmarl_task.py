@@ -200,6 +200,14 @@ class CoopNavTask(Task):
     SOUSA_PING = None
     MATOS_MOVING_LBL = None
     MATOS_RIVER = None
+    SHIFTS_SOUSA_ASV = None  # issue 23's shifts, one set per scenario (evaluation.tasks._SHIFTS)
+    SHIFTS_GAO_LAWNMOWER = None
+    SHIFTS_GAO_SEA = None
+    SHIFTS_GAO_TEAM = None
+    SHIFTS_SWARM_MLS = None
+    SHIFTS_SOUSA_PING = None
+    SHIFTS_MATOS_MOVING_LBL = None
+    SHIFTS_MATOS_RIVER = None
 
     @staticmethod
     def associated_class() -> type[TaskClass]:
