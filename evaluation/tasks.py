@@ -142,7 +142,7 @@ def _sousa_grid() -> tuple:
     )
 
 
-_SETS = (
+_SETS: tuple[TaskSet, ...] = (
     TaskSet(
         "sousa_grid",
         "sousa_asv",
