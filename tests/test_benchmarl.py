@@ -174,8 +174,9 @@ def _untrained_run(tmp_path, algorithm, task_set, model="mlp"):
     from coopnav_env.records import atomic_write_text
 
     task = get_task(task_set, None, overrides={"max_cycles": 20})
+    on_policy = marl._algorithm_config(algorithm).on_policy()
     config = marl.experiment_config(
-        None, 2, 64, {"evaluation": False, "loggers": [], "save_folder": str(tmp_path)}, True
+        None, 2, 64, {"evaluation": False, "loggers": [], "save_folder": str(tmp_path)}, on_policy
     )
     experiment = marl.build_experiment(algorithm, task, 0, config, model)
     torch.manual_seed(3)
@@ -192,7 +193,13 @@ def _untrained_run(tmp_path, algorithm, task_set, model="mlp"):
 
 @pytest.mark.parametrize(
     "algorithm, task_set, model",
-    [("mappo", "gao_team", "mlp"), ("ippo", "sousa_ping", "mlp"), ("mappo", "gao_team", "gru")],
+    [
+        ("mappo", "gao_team", "mlp"),
+        ("ippo", "sousa_ping", "mlp"),
+        ("mappo", "gao_team", "gru"),
+        ("masac", "gao_team", "mlp"),
+        ("isac", "gao_sea", "mlp"),
+    ],
 )
 def test_a_run_acts_as_benchmarl_acts(tmp_path, algorithm, task_set, model):
     """``agents.make_policy(run, config, agent=j)`` gives, step after step, the action
