@@ -54,8 +54,10 @@ def _parse_policies(text: str, task_set: str | None = None) -> list:
     return out
 
 
-def run(task_set: str, policies: list, episodes: int, seed: int, progress=print) -> dict:
-    """{"tasks": [...], "policies": [...], "errors": {label: {task: [per-episode mean error]}}, ...}."""
+def run(task_set: str, policies: list, episodes: int, seed: int, progress=print, reuse: dict | None = None) -> dict:
+    """{"tasks": [...], "policies": [...], "errors": {label: {task: [per-episode mean error]}}, ...}.
+    ``reuse``: an earlier result of the same task set and seeds; its policies (same label
+    and spec) are taken from it instead of run again."""
     from baselines import list_policies
     from evaluation.episodes import run_episodes
     from evaluation.tasks import get_task_set
@@ -65,9 +67,20 @@ def run(task_set: str, policies: list, episodes: int, seed: int, progress=print)
     planners = set(list_policies())
     errors: dict = {label: {} for label, _ in policies}
     seconds: dict = {label: 0.0 for label, _ in policies}
+    done = set()
+    if reuse is not None:
+        if reuse["task_set"] != task_set or reuse["seeds"] != [seed, seed + episodes - 1]:
+            raise ValueError(f"--reuse holds {reuse['task_set']} on seeds {reuse['seeds']}, not this run's")
+        for p in reuse["policies"]:
+            if (p["label"], p["spec"]) in policies:
+                errors[p["label"]] = reuse["errors"][p["label"]]
+                seconds[p["label"]] = reuse.get("seconds", {}).get(p["label"], 0.0)
+                done.add(p["label"])
     for task in ts.tasks:
         config = task.config(ts.scenario)
         for label, spec in policies:
+            if label in done:
+                continue
             t0 = time.perf_counter()
             rows, _ = run_episodes(config, spec, seeds)
             errors[label][task.name] = [float(r["mean_error_m"]) for r in rows]
@@ -184,6 +197,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--episodes", type=int, default=30)
     p.add_argument("--seed", type=int, default=700_000, help="episode i of every task and policy uses SEED + i")
+    p.add_argument("--reuse", help="an earlier --out of the same task set and seeds: its policies are not run again")
     p.add_argument("--out", help="write the per-episode errors as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
     args = p.parse_args(argv)
@@ -213,7 +227,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
         print(f"error: {message}", file=sys.stderr)
         return 2
-    result = run(args.tasks, policies, args.episodes, args.seed, progress=lambda s: print(s, flush=True))
+    reuse = None
+    if args.reuse:
+        from coopnav_env.safe_load import read_json
+
+        reuse = read_json(args.reuse)
+    try:
+        result = run(args.tasks, policies, args.episodes, args.seed, lambda s: print(s, flush=True), reuse)
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     result["command"] = " ".join(["python", "benchmarks/lever_table.py", *(argv or sys.argv[1:])])
     table = markdown(result)
     print(table)

@@ -61,3 +61,21 @@ def test_bad_input_is_one_line(capsys):
     assert "labels must differ" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         lever_table.main(["--tasks", "gao_team"])
+
+
+def test_reuse_takes_the_policies_of_an_earlier_run_and_refuses_other_seeds():
+    """Policies of --reuse (same task set and seeds) are not run again; other seeds: refused."""
+    from evaluation.tasks import get_task_set
+
+    tasks = [t.name for t in get_task_set("gao_team").tasks]
+    earlier = {
+        "task_set": "gao_team",
+        "seeds": [700000, 700001],
+        "policies": [{"label": "e", "spec": "ellipse", "planner": True}],
+        "errors": {"e": {t: [1.0, 2.0] for t in tasks}},
+        "seconds": {"e": 5.0},
+    }
+    out = lever_table.run("gao_team", [("e", "ellipse")], 2, 700000, progress=None, reuse=earlier)
+    assert out["errors"]["e"] == earlier["errors"]["e"] and out["seconds"]["e"] == 5.0
+    with pytest.raises(ValueError, match="not this run's"):
+        lever_table.run("gao_team", [("e", "ellipse")], 2, 700001, progress=None, reuse=earlier)
