@@ -17,6 +17,10 @@ not a planner, its paired difference per task and pooled (per seed, the mean ove
 tasks) against the best planner of the task among those given (lowest mean), and
 against the first non-planner (the baseline policy, e.g. the shipped ``ppo``).
 
+``python benchmarks/lever_table.py summarize [--policy ppo] A.json B.json ...``: one row per
+task set for a policy (relative to the best planners, the worst task, lost episodes, and
+whether the shift criteria hold: no task more than 5 % worse, no episode lost).
+
 Seeds: the benchmark's test seeds are refused; the default 700000 is neither a trainer's
 validation range (500000 + e) nor a training seed of a run seeded below 1000
 (``seed + e + k * 1_000_003``, e < 1000 environments).
@@ -186,6 +190,34 @@ def markdown(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def summary(results: list, label: str = "ppo", within: float = 0.05) -> str:
+    """One row per result (task set) for policy ``label``: its mean against the best
+    planners', the worst task, the lost episodes, and whether the shift criteria hold (no
+    task worse than its best planner by more than ``within``, no episode lost)."""
+    lines = [
+        f"| task set | episodes | `{label}` (m) | best planners (m) | relative | worst task vs its best planner "
+        f"| lost | within {100 * within:g} % and none lost |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in results:
+        tasks, errs = r["tasks"], r["errors"]
+        planners = [p["label"] for p in r["policies"] if p["planner"]]
+        if label not in errs or not planners:
+            continue
+        best = {t: min(planners, key=lambda p: np.mean(errs[p][t])) for t in tasks}
+        mean = float(np.mean([np.mean(errs[label][t]) for t in tasks]))
+        ref = float(np.mean([np.mean(errs[best[t]][t]) for t in tasks]))
+        rel = {t: np.mean(errs[label][t]) / np.mean(errs[best[t]][t]) - 1.0 for t in tasks}
+        worst = max(tasks, key=lambda t: rel[t])
+        lost = lost_episodes(errs, label, planners, tasks)
+        ok = rel[worst] <= within and lost == 0
+        lines.append(
+            f"| `{r['task_set']}` | {r['episodes']} | {mean:.3f} | {ref:.3f} | {100 * (mean - ref) / ref:+.1f} % "
+            f"| {worst} ({best[worst]}) {100 * rel[worst]:+.1f} % | {lost} | {'yes' if ok else '**no**'} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--tasks", required=True, help="a benchmark task set (python -m evaluation.benchmark --list)")
@@ -200,6 +232,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--reuse", help="an earlier --out of the same task set and seeds: its policies are not run again")
     p.add_argument("--out", help="write the per-episode errors as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
+    if argv is None:
+        argv = sys.argv[1:]
+    if argv and argv[0] == "summarize":  # lever_table.py summarize [--policy ppo] A.json B.json ...
+        q = argparse.ArgumentParser(prog="lever_table.py summarize")
+        q.add_argument("files", nargs="+")
+        q.add_argument("--policy", default="ppo")
+        sargs = q.parse_args(argv[1:])
+        from coopnav_env.safe_load import read_json
+
+        print(summary([read_json(f) for f in sargs.files], sargs.policy), end="")
+        return 0
     args = p.parse_args(argv)
     from coopnav_env.records import atomic_write_text
     from coopnav_env.seeds import check_seed, refuse_test_seeds
@@ -237,7 +280,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    result["command"] = " ".join(["python", "benchmarks/lever_table.py", *(argv or sys.argv[1:])])
+    result["command"] = " ".join(["python", "benchmarks/lever_table.py", *argv])
     table = markdown(result)
     print(table)
     if args.out:

@@ -79,3 +79,13 @@ def test_reuse_takes_the_policies_of_an_earlier_run_and_refuses_other_seeds():
     assert out["errors"]["e"] == earlier["errors"]["e"] and out["seconds"]["e"] == 5.0
     with pytest.raises(ValueError, match="not this run's"):
         lever_table.run("gao_team", [("e", "ellipse")], 2, 700001, progress=None, reuse=earlier)
+
+
+def test_the_summary_applies_the_shift_criteria():
+    """ippo is 0.25 m below the best planner everywhere (yes); mappo with one episode at 10x
+    the best planner is lost there (no)."""
+    result = _result()
+    assert "| yes |" in lever_table.summary([result], "ippo")
+    result["errors"]["mappo"]["y"][3] = 100.0
+    row = lever_table.summary([result], "mappo").splitlines()[-1]
+    assert row.startswith("| `demo` | 10 |") and row.endswith("| 1 | **no** |")
