@@ -42,6 +42,11 @@ reads that scenario's flat observations. Whether a policy can drive a scenario i
 policy's to say (``policy.config_problem(config)``; ``accepts``), not a comparison of
 observation sizes.
 
+A BenchMARL run (``python -m agents.training.marl``: ``run.json`` beside
+``policy.safetensors``) loads as an ``agents.benchmarl_policy.BenchMARLPolicy``, one per
+beacon (``make_policy(run, config, agent=j)``), the actor rebuilt with BenchMARL's classes
+(the ``marl`` extra).
+
 A run of ``train.py --backend rllib`` (its directory, its ``checkpoint/``, or any RLlib
 Algorithm checkpoint) loads the same way, through ``agents/rllib_policy.py`` (which
 imports Ray only then): ``agents.load("runs/x_rllib", scenario=...)``; an RLlib
@@ -181,8 +186,8 @@ def resolve(
     name_or_path: str | Path, scenario: str | ScenarioConfig | None = None, trust_pickle: bool = False
 ) -> tuple:
     """(model file, normalization file or None, config.yml or None) for a name or path
-    (for an RLlib run: (checkpoint directory, None, config.yml or None); for a gated
-    policy: (gate.yml, None, None)). Refuses (``PolicyFormatError``) pickle-based files
+    (for an RLlib run: (checkpoint directory, None, config.yml or None); for a BenchMARL
+    run: (policy.safetensors, None, run.json); for a gated policy: (gate.yml, None, None)). Refuses (``PolicyFormatError``) pickle-based files
     unless ``trust_pickle``, a missing normalization file of a normalized run, and
     checkpoint records pointing outside the run directory."""
     from . import benchmarl_policy, rllib_policy
