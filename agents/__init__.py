@@ -187,9 +187,10 @@ def resolve(
 ) -> tuple:
     """(model file, normalization file or None, config.yml or None) for a name or path
     (for an RLlib run: (checkpoint directory, None, config.yml or None); for a BenchMARL
-    run: (policy.safetensors, None, run.json); for a gated policy: (gate.yml, None, None)). Refuses (``PolicyFormatError``) pickle-based files
-    unless ``trust_pickle``, a missing normalization file of a normalized run, and
-    checkpoint records pointing outside the run directory."""
+    run: (policy.safetensors, None, run.json); for a gated policy: (gate.yml, None, None)).
+    Refuses (``PolicyFormatError``) pickle-based files unless ``trust_pickle``, a missing
+    normalization file of a normalized run, and checkpoint records pointing outside the
+    run directory."""
     from . import benchmarl_policy, rllib_policy
 
     if rllib_policy.is_rllib_path(name_or_path):

@@ -91,6 +91,10 @@ def test_a_tiny_mappo_experiment(tmp_path, capsys):
     assert any(w.shape[-1] == 19 for w in weights.values())  # the first layer reads gao_sea's observation
     assert sorted(p.name for p in out.iterdir()) == ["benchmarl", "policy.safetensors", "run.json"]
     assert list((out / "benchmarl" / "checkpoints").glob("checkpoint_512.pt"))
+    from benchmarks.marl_curves import curve  # the learning curve from BenchMARL's CSV log
+
+    frames, errors = curve(out, "collection_info_survey_error_m")
+    assert frames.tolist() == [512.0] and 0 < errors[0] < 1000
     assert marl.main(["--algorithm", "mappo", "--task", "gao_sea", *TINY, "--out", str(out)]) == 2
     assert "not empty" in capsys.readouterr().err
 

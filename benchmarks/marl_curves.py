@@ -1,0 +1,77 @@
+"""Learning curves of BenchMARL runs (``python -m agents.training.marl``) side by side.
+
+    python benchmarks/marl_curves.py mappo=runs/gao_team_mappo ippo=runs/gao_team_ippo \\
+        --out docs/figures/levers_gao_team.png
+
+Reads each run's BenchMARL CSV log (``<run>/benchmarl/*/scalars/<metric>.csv``: one row per
+collected batch) and plots it against the env-steps collected (BenchMARL's
+``counters_total_frames``), smoothed over ``--smooth`` batches. The default metric is the training
+batch's mean true survey error (``collection_info_survey_error_m``: every step of every
+environment in the batch, exploration noise included; a learning curve, not a score).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+
+def curve(run: Path, metric: str) -> tuple:
+    """(env-steps, values) of ``metric`` in the run folder ``run`` (the env-steps from
+    BenchMARL's own frame counter, logged beside it)."""
+    logs = sorted((run / "benchmarl").glob("*/scalars"))
+    if not logs or not (logs[0] / f"{metric}.csv").is_file():
+        raise ValueError(f"{run} has no BenchMARL log of {metric!r} (benchmarl/*/scalars/{metric}.csv)")
+    data = np.loadtxt(logs[0] / f"{metric}.csv", delimiter=",", ndmin=2)
+    frames = dict(np.loadtxt(logs[0] / "counters_total_frames.csv", delimiter=",", ndmin=2).tolist())
+    keep = [i for i, step in enumerate(data[:, 0]) if step in frames]
+    return np.array([frames[data[i, 0]] for i in keep]), data[keep, 1]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("runs", nargs="+", help="label=run_folder")
+    p.add_argument("--metric", default="collection_info_survey_error_m")
+    p.add_argument("--smooth", type=int, default=5, help="moving average over this many batches")
+    p.add_argument("--title", default="")
+    p.add_argument("--out", required=True, help="PNG to write")
+    args = p.parse_args(argv)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from coopnav_env.records import atomic_write_bytes
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    try:
+        for item in args.runs:
+            label, _, path = item.rpartition("=")
+            x, y = curve(Path(path), args.metric)
+            k = max(int(args.smooth), 1)
+            ys = np.convolve(y, np.ones(k) / k, mode="valid")
+            ax.plot(x[k - 1 :], ys, label=label or Path(path).name)
+    except (OSError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    ax.set_xlabel("env-steps collected")
+    ax.set_ylabel("batch mean survey error (m)" if args.metric == "collection_info_survey_error_m" else args.metric)
+    ax.set_title(args.title)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    atomic_write_bytes(args.out, buf.getvalue())
+    print(args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
