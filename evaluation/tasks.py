@@ -275,6 +275,17 @@ _DECIDE_SHIFTS = {
 }
 
 
+# the MLS array (acoustic_sensor="mls", swarm_mls) ignores the modem's packet loss (2 tuning
+# episodes: the same 1 loss in 357 with lossy's settings): a weaker signal instead
+_MLS_SHIFTS = {
+    "lossy": (
+        "weak_signal",
+        "the MLS signal 10 dB weaker (20 dB SNR at 1 m instead of 30)",
+        {"mls_snr_db_at_1m": 20.0},
+    ),
+}
+
+
 def _shift_set(scenario: str) -> TaskSet:
     from coopnav_env import make_config
 
@@ -283,6 +294,8 @@ def _shift_set(scenario: str) -> TaskSet:
     for name, about, overrides in _SHIFTS:
         if base.channel_mode == "decide" and name in _DECIDE_SHIFTS:
             name, about, overrides = _DECIDE_SHIFTS[name]
+        elif base.acoustic_sensor == "mls" and name in _MLS_SHIFTS:
+            name, about, overrides = _MLS_SHIFTS[name]
         if all(getattr(base, k) == v for k, v in overrides.items()):
             continue  # the scenario's own setting: no shift
         tasks.append(_task(name, about, **overrides))
