@@ -106,6 +106,8 @@ def test_bad_command_lines_fail_in_one_line(tmp_path, capsys):
         (["--task", "gao_sea", "--set", "lr_typo=1"], "unknown experiment setting 'lr_typo'"),
         (["--task", "gao_sea", "--override", "depth=3"], "unknown scenario parameter"),
         (["--task", "gao_sea", "--seed", str(2**61)], "reserved seeds"),
+        (["--task", "gao_sea", "--reward-term", "sdt=1"], "unknown reward term 'sdt'"),
+        (["--task", "gao_sea", "--reward-term", "std=x"], "weight must be a number"),
     ]:
         assert marl.main([*args, "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
@@ -117,7 +119,7 @@ def test_bad_command_lines_fail_in_one_line(tmp_path, capsys):
     "algorithm, task, extra",
     [
         ("ippo", "sousa_ping", []),  # two ASVs, three action components
-        ("mappo", "gao_team", ["--model", "gru"]),  # memory; the critic over the team's state
+        ("mappo", "gao_team", ["--model", "gru", "--reward-term", "std=1", "--reward-term", "penalties=1"]),
         pytest.param("masac", "sousa_ping", ["--set", "off_policy_n_optimizer_steps=4"], marks=pytest.mark.slow),
     ],
 )
@@ -127,6 +129,8 @@ def test_the_other_paths(tmp_path, algorithm, task, extra):
     assert marl.main(["--algorithm", algorithm, "--task", task, *TINY, *extra, "--out", str(out)]) == 0
     record = json.loads((out / "run.json").read_text())
     assert record["frames"] == 512 and record["task"] == f"coopnav/{task}"
+    if "--reward-term" in extra:  # the training reward the run was given
+        assert record["task_config"]["reward_terms"] == {"std": 1.0, "penalties": 1.0}
 
 
 @pytest.mark.slow

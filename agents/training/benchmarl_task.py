@@ -89,6 +89,12 @@ def _check_task_config(name: str, config: dict) -> dict:
             f"coopnav/{name}: unknown task {config['task']!r} of task set "
             f"{config.get('task_set', name)!r}{did_you_mean(str(config['task']), tasks)} valid: {', '.join(tasks)}"
         )
+    from coopnav_env.core.reward import check_training_terms
+
+    try:
+        check_training_terms(config.get("reward_terms"))
+    except ValueError as err:
+        raise ValueError(f"coopnav/{name}: {err}") from None
     return config
 
 

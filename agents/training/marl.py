@@ -79,6 +79,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--state", choices=("privileged", "observations"), help="the critics' state (default: the task YAML's)"
     )
+    p.add_argument(
+        "--reward-term",
+        action="append",
+        default=[],
+        metavar="SIGNAL=WEIGHT",
+        help="the training reward as weighted terms (coopnav_env.vector.REWARD_TERMS; repeat; default: the "
+        "task YAML's reward_terms, else the env's reward)",
+    )
     p.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
     return p
 
@@ -270,6 +278,8 @@ def run(args: argparse.Namespace, command: str) -> dict:
             task_changes["overrides"] = overrides
         if args.state:
             task_changes["state"] = args.state
+        if args.reward_term:
+            task_changes["reward_terms"] = _parse_assignments(args.reward_term, "--reward-term")
         task = get_task(set_name, task_name or None, **task_changes)
         from .benchmarl_task import scenario_config
 
