@@ -70,6 +70,7 @@ def run(task_set: str, policies: list, episodes: int, seed: int, progress=print,
     seeds = list(range(seed, seed + episodes))
     planners = set(list_policies())
     errors: dict = {label: {} for label, _ in policies}
+    pings: dict = {label: {} for label, _ in policies}  # acoustic pings sent per episode
     seconds: dict = {label: 0.0 for label, _ in policies}
     done = set()
     if reuse is not None:
@@ -78,6 +79,7 @@ def run(task_set: str, policies: list, episodes: int, seed: int, progress=print,
         for p in reuse["policies"]:
             if (p["label"], p["spec"]) in policies:
                 errors[p["label"]] = reuse["errors"][p["label"]]
+                pings[p["label"]] = reuse.get("pings", {}).get(p["label"], {})
                 seconds[p["label"]] = reuse.get("seconds", {}).get(p["label"], 0.0)
                 done.add(p["label"])
     for task in ts.tasks:
@@ -88,6 +90,7 @@ def run(task_set: str, policies: list, episodes: int, seed: int, progress=print,
             t0 = time.perf_counter()
             rows, _ = run_episodes(config, spec, seeds)
             errors[label][task.name] = [float(r["mean_error_m"]) for r in rows]
+            pings[label][task.name] = [int(r["pings"]) for r in rows]
             seconds[label] += time.perf_counter() - t0
             progress(
                 f"{task_set}/{task.name} {label}: {np.mean(errors[label][task.name]):.3f} m "
@@ -100,6 +103,7 @@ def run(task_set: str, policies: list, episodes: int, seed: int, progress=print,
         "seeds": [seed, seed + episodes - 1],
         "episodes": episodes,
         "errors": errors,
+        "pings": pings,
         "seconds": seconds,
     }
 
@@ -141,6 +145,15 @@ def markdown(result: dict) -> str:
             m, lo, hi = t_interval(errs[p["label"]][t])
             cells.append(f"{m:.3f} [{lo:.3f}, {hi:.3f}]")
         lines.append(f"| {t} | " + " | ".join(cells) + " |")
+    pings = result.get("pings") or {}
+    if any(pings.get(p["label"]) for p in pols):  # pings per episode, where recorded
+        lines += ["", "Pings per episode (mean over the tasks' episodes):", ""]
+        lines += ["| " + " | ".join(p["label"] for p in pols) + " |", "|" + "---|" * len(pols)]
+        cells = []
+        for p in pols:
+            per = pings.get(p["label"]) or {}
+            cells.append(f"{np.mean([np.mean(per[t]) for t in tasks]):.1f}" if all(t in per for t in tasks) else "")
+        lines.append("| " + " | ".join(cells) + " |")
     if not learned:
         return "\n".join(lines) + "\n"
     best = {t: min(planners, key=lambda p: np.mean(errs[p][t])) for t in tasks} if planners else {}

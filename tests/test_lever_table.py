@@ -89,3 +89,10 @@ def test_the_summary_applies_the_shift_criteria():
     result["errors"]["mappo"]["y"][3] = 100.0
     row = lever_table.summary([result], "mappo").splitlines()[-1]
     assert row.startswith("| `demo` | 10 |") and row.endswith("| 1 | **no** |")
+
+
+def test_pings_per_episode_are_tabled_where_recorded():
+    result = _result()
+    result["pings"] = {"a": {"x": [10, 12], "y": [14, 16]}, "mappo": {"x": [5, 5], "y": [7, 7]}}
+    table = lever_table.markdown(result)
+    assert "| a | b | mappo | ippo |" in table and "| 13.0 |  | 6.0 |  |" in table
