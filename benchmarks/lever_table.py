@@ -9,7 +9,8 @@ Every policy plays the task set's tasks (``evaluation.tasks``: the benchmark's o
 through the benchmark's own episode loop (``evaluation.episodes.run_episodes``: one
 policy object per beacon and episode), episode ``i`` of every task and policy seeded
 ``--seed + i`` (common random numbers). ``label=spec`` names a policy; a spec is a
-planner, ``ppo`` (the shipped policy), a train.py run or a BenchMARL run
+planner (``motion+schedule`` on ``sousa_ping``'s shared channel, e.g. ``ellipse+clock``),
+``ppo`` (the shipped policy), a train.py run or a BenchMARL run
 (``python -m agents.training.marl``).
 
 The table: each task's mean error per policy (95 % t interval); for each policy that is
@@ -99,7 +100,9 @@ def run(task_set: str, policies: list, episodes: int, seed: int, progress=print,
     return {
         "task_set": task_set,
         "tasks": [t.name for t in ts.tasks],
-        "policies": [{"label": label, "spec": spec, "planner": spec in planners} for label, spec in policies],
+        "policies": [
+            {"label": label, "spec": spec, "planner": spec.split("+")[0] in planners} for label, spec in policies
+        ],
         "seeds": [seed, seed + episodes - 1],
         "episodes": episodes,
         "errors": errors,

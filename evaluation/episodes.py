@@ -25,10 +25,11 @@ if TYPE_CHECKING:
 
 
 def make_policy(name: str, config: ScenarioConfig, seed: int | tuple[int, int] | None, agent: int) -> Any:
-    """A planner from baselines/ by name, else a trained policy through agents/ (same interface)."""
+    """A planner from baselines/ by name (``motion+schedule`` on the shared channel:
+    ``baselines.make_policy``), else a trained policy through agents/ (same interface)."""
     import baselines
 
-    if name in baselines.list_policies():
+    if name.partition("+")[0] in baselines.list_policies():
         return baselines.make_policy(name, config, seed=seed, agent=agent)
     import agents
 

@@ -96,3 +96,15 @@ def test_pings_per_episode_are_tabled_where_recorded():
     result["pings"] = {"a": {"x": [10, 12], "y": [14, 16]}, "mappo": {"x": [5, 5], "y": [7, 7]}}
     table = lever_table.markdown(result)
     assert "| a | b | mappo | ippo |" in table and "| 13.0 |  | 6.0 |  |" in table
+
+
+def test_a_planner_with_a_schedule_plays_through_the_benchmark_loop():
+    """``ellipse+clock`` on sousa_ping's shared channel: both ASVs ping every slot (8 in 4
+    slots), where the plain name's default TDMA alternates (4); the table counts it a planner."""
+    from coopnav_env import make_config
+    from evaluation.episodes import run_episodes
+
+    config = make_config("sousa_ping", max_cycles=4)
+    clock, _ = run_episodes(config, "ellipse+clock", [700000])
+    tdma, _ = run_episodes(config, "ellipse", [700000])
+    assert clock[0]["pings"] == 8 and tdma[0]["pings"] == 4
