@@ -33,7 +33,8 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -59,7 +60,14 @@ def _parse_policies(text: str, task_set: str | None = None) -> list:
     return out
 
 
-def run(task_set: str, policies: list, episodes: int, seed: int, progress=print, reuse: dict | None = None) -> dict:
+def run(
+    task_set: str,
+    policies: list,
+    episodes: int,
+    seed: int,
+    progress: Callable[[str], Any] | None = print,
+    reuse: dict | None = None,
+) -> dict:
     """{"tasks": [...], "policies": [...], "errors": {label: {task: [per-episode mean error]}}, ...}.
     ``reuse``: an earlier result of the same task set and seeds; its policies (same label
     and spec) are taken from it instead of run again."""
@@ -93,10 +101,11 @@ def run(task_set: str, policies: list, episodes: int, seed: int, progress=print,
             errors[label][task.name] = [float(r["mean_error_m"]) for r in rows]
             pings[label][task.name] = [int(r["pings"]) for r in rows]
             seconds[label] += time.perf_counter() - t0
-            progress(
-                f"{task_set}/{task.name} {label}: {np.mean(errors[label][task.name]):.3f} m "
-                f"({time.perf_counter() - t0:.0f} s)"
-            )
+            if progress is not None:
+                progress(
+                    f"{task_set}/{task.name} {label}: {np.mean(errors[label][task.name]):.3f} m "
+                    f"({time.perf_counter() - t0:.0f} s)"
+                )
     return {
         "task_set": task_set,
         "tasks": [t.name for t in ts.tasks],

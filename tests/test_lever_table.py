@@ -100,7 +100,7 @@ def test_pings_per_episode_are_tabled_where_recorded():
 
 def test_a_planner_with_a_schedule_plays_through_the_benchmark_loop():
     """``ellipse+clock`` on sousa_ping's shared channel: both ASVs ping every slot (8 in 4
-    slots), where the plain name's default TDMA alternates (4); the table counts it a planner."""
+    slots), where the plain name's default TDMA alternates (4)."""
     from coopnav_env import make_config
     from evaluation.episodes import run_episodes
 
