@@ -158,13 +158,13 @@ def markdown(result: dict) -> str:
             cells.append(f"{m:.3f} [{lo:.3f}, {hi:.3f}]")
         lines.append(f"| {t} | " + " | ".join(cells) + " |")
     pings = result.get("pings") or {}
-    if any(pings.get(p["label"]) for p in pols):  # pings per episode, where recorded
+    if all(pings.get(p["label"]) for p in pols):  # pings per episode, when every policy's is recorded
         lines += ["", "Pings per episode (mean over the tasks' episodes):", ""]
         lines += ["| " + " | ".join(p["label"] for p in pols) + " |", "|" + "---|" * len(pols)]
         cells = []
         for p in pols:
             per = pings.get(p["label"]) or {}
-            cells.append(f"{np.mean([np.mean(per[t]) for t in tasks]):.1f}" if all(t in per for t in tasks) else "")
+            cells.append(f"{np.mean([np.mean(per[t]) for t in tasks]):.1f}")
         lines.append("| " + " | ".join(cells) + " |")
     if not learned:
         return "\n".join(lines) + "\n"

@@ -91,11 +91,12 @@ def test_the_summary_applies_the_shift_criteria():
     assert row.startswith("| `demo` | 10 |") and row.endswith("| 1 | **no** |")
 
 
-def test_pings_per_episode_are_tabled_where_recorded():
+def test_pings_per_episode_are_tabled_when_every_policy_has_them():
     result = _result()
     result["pings"] = {"a": {"x": [10, 12], "y": [14, 16]}, "mappo": {"x": [5, 5], "y": [7, 7]}}
-    table = lever_table.markdown(result)
-    assert "| a | b | mappo | ippo |" in table and "| 13.0 |  | 6.0 |  |" in table
+    assert "Pings per episode" not in lever_table.markdown(result)  # b and ippo were not recorded
+    result["pings"].update(b={"x": [1, 1], "y": [1, 1]}, ippo={"x": [2, 2], "y": [4, 4]})
+    assert "| 13.0 | 1.0 | 6.0 | 3.0 |" in lever_table.markdown(result)
 
 
 def test_a_planner_with_a_schedule_plays_through_the_benchmark_loop():
