@@ -16,7 +16,7 @@ policy, beside the planners and the SB3 policies, on the same seeds.
   actor is decentralised: slot ``j``'s output depends on slot ``j``'s input only, so the
   other slots are zeros), and the action is slot ``j``'s. With
   ``share_policy_params: false`` slot ``j`` has its own weights.
-- **Memory.** A recurrent actor (``--model gru`` or ``lstm``) keeps its hidden state in
+- **Memory.** A recurrent actor (``--model gru``; an ``lstm`` one is refused) keeps its hidden state in
   the policy object, from one ``act`` to the next, as BenchMARL's collector carries it;
   ``reset()`` clears it (the next step is an episode's first: ``is_init``).
 - **Which scenarios.** The observation size and the action size it was trained on; with
@@ -118,6 +118,8 @@ def _model_config(record: dict, where: Path) -> Any:
 
     name = str(record.get("model", "mlp"))
     classes = {"mlp": MlpConfig, "gru": GruConfig, "lstm": LstmConfig}
+    if name == "lstm":  # BenchMARL's LSTM carries two states; acting with it is not wired yet
+        raise PolicyFormatError(f"{where}: an lstm actor cannot be loaded yet (mlp, gru can)")
     if name not in classes:
         raise PolicyFormatError(f"{where}: model {name!r} cannot be loaded (valid: {', '.join(classes)})")
     config = classes[name].get_from_yaml()  # the defaults; run.json's settings on top
@@ -210,8 +212,6 @@ class _Actor:
         self.module.eval()
         model = str(record.get("model", "mlp"))
         self.hidden_key = (self.group, _RNN_HIDDEN[model]) if model in _RNN_HIDDEN else None
-        if model == "lstm":  # BenchMARL's LSTM carries two states; acting with it is not wired yet
-            raise PolicyFormatError(f"{directory}: an lstm actor cannot be loaded yet (mlp, gru can)")
         self.hidden_shape: tuple[int, ...] = (
             (self.n_agents, int(model_config.n_layers), int(model_config.hidden_size)) if self.hidden_key else ()
         )

@@ -261,6 +261,9 @@ def test_a_run_in_evaluate_and_its_refusals(tmp_path):
     (out / "run.json").write_text(json.dumps({**record, "model_config": {"activation_class": "os.system"}}))
     with pytest.raises(PolicyFormatError, match=r"is not a torch\.nn class"):
         load(out)
+    (out / "run.json").write_text(json.dumps({**record, "model": "lstm"}))
+    with pytest.raises(PolicyFormatError, match="an lstm actor cannot be loaded yet"):
+        load(out)
     (out / "run.json").write_text(json.dumps({**record, "algorithm": "maddpg"}))
     with pytest.raises(PolicyFormatError, match="a maddpg run cannot be loaded"):
         load(out)
