@@ -22,6 +22,7 @@ import pkgutil as _pkgutil
 from .base import (
     BeaconContext,
     Policy,
+    is_planner,
     list_policies,
     make_policy,
     register_policy,
@@ -38,6 +39,7 @@ for _module in _pkgutil.iter_modules(__path__):  # each planner module registers
 __all__ = [
     "BeaconContext",
     "Policy",
+    "is_planner",
     "list_policies",
     "list_schedules",
     "make_policy",

@@ -399,6 +399,12 @@ def list_policies(network: str | None = None, config: ScenarioConfig | None = No
     return sorted({n for n, net in _BY_NETWORK if net == network})
 
 
+def is_planner(name: str) -> bool:
+    """Whether ``make_policy`` builds ``name``: a registered planner, or ``"<motion>+<schedule>"``
+    of one (the schedule is checked when it is built)."""
+    return name.partition("+")[0] in _POLICIES
+
+
 _SCHEDULER = None  # baselines.schedule.make_scheduled, set when that module is imported
 
 
@@ -418,7 +424,7 @@ def make_policy(
     with a transmit schedule (``baselines.schedule``: clock, tdma, event), and a plain
     planner name gets ``schedule.DEFAULT_SCHEDULE``."""
     motion, _, schedule = name.partition("+")
-    if motion not in _POLICIES:
+    if not is_planner(name):
         from coopnav_env.names import did_you_mean
 
         raise ValueError(

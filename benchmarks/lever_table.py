@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from evaluation.benchmark_stats import paired_verdict
 from evaluation.paired import t_interval
 
 
@@ -71,13 +72,12 @@ def run(
     """{"tasks": [...], "policies": [...], "errors": {label: {task: [per-episode mean error]}}, ...}.
     ``reuse``: an earlier result of the same task set and seeds; its policies (same label
     and spec) are taken from it instead of run again."""
-    from baselines import list_policies
+    from baselines import is_planner
     from evaluation.episodes import run_episodes
     from evaluation.tasks import get_task_set
 
     ts = get_task_set(task_set)
     seeds = list(range(seed, seed + episodes))
-    planners = set(list_policies())
     errors: dict = {label: {} for label, _ in policies}
     pings: dict = {label: {} for label, _ in policies}  # acoustic pings sent per episode
     seconds: dict = {label: 0.0 for label, _ in policies}
@@ -109,9 +109,7 @@ def run(
     return {
         "task_set": task_set,
         "tasks": [t.name for t in ts.tasks],
-        "policies": [
-            {"label": label, "spec": spec, "planner": spec.split("+")[0] in planners} for label, spec in policies
-        ],
+        "policies": [{"label": label, "spec": spec, "planner": is_planner(spec)} for label, spec in policies],
         "seeds": [seed, seed + episodes - 1],
         "episodes": episodes,
         "errors": errors,
@@ -120,13 +118,35 @@ def run(
     }
 
 
-def _paired(a: dict, b: dict, tasks: list) -> tuple:
-    d = np.mean([np.asarray(a[t]) - np.asarray(b[t]) for t in tasks], axis=0)
-    return t_interval(d)
+def _pooled(a: dict, b: dict, tasks: list) -> tuple:
+    """(mean, lo, hi) of the paired difference a - b pooled over the tasks: per seed, the
+    mean over the tasks, then the t interval over the seeds."""
+    return t_interval(np.mean([np.asarray(a[t]) - np.asarray(b[t]) for t in tasks], axis=0))
 
 
-def _verdict(lo: float, hi: float) -> str:
-    return "win" if hi < 0 else "loss" if lo > 0 else "tie"
+def against_planners(result: dict, label: str) -> dict:
+    """``label`` against each task's best planner of ``result`` (``compare_task``: the lowest
+    mean, the paired difference and its verdict): the best planner per task, the means, the
+    relative gap per task and the worst task, the pooled paired difference, the verdict
+    counts and the lost episodes."""
+    from evaluation.benchmark_stats import compare_task
+
+    tasks, errs = result["tasks"], result["errors"]
+    planners = [p["label"] for p in result["policies"] if p["planner"]]
+    per = {t: compare_task({**{p: errs[p][t] for p in planners}, label: errs[label][t]}, planners) for t in tasks}
+    best = {t: per[t]["best_planner"] for t in tasks}
+    rel = {t: np.mean(errs[label][t]) / np.mean(errs[best[t]][t]) - 1.0 for t in tasks}
+    verdicts = [per[t]["policies"][label]["paired"]["verdict"] for t in tasks]
+    return {
+        "best": best,
+        "mean": float(np.mean([np.mean(errs[label][t]) for t in tasks])),
+        "ref": float(np.mean([np.mean(errs[best[t]][t]) for t in tasks])),
+        "rel": rel,
+        "worst": max(tasks, key=lambda t: rel[t]),
+        "pooled": _pooled(errs[label], {t: errs[best[t]][t] for t in tasks}, tasks),
+        "counts": {v: verdicts.count(v) for v in ("win", "tie", "loss")},
+        "lost": lost_episodes(errs, label, planners, tasks),
+    }
 
 
 def lost_episodes(errs: dict, label: str, planners: list, tasks: list, factor: float = 10.0) -> int:
@@ -168,7 +188,6 @@ def markdown(result: dict) -> str:
         lines.append("| " + " | ".join(cells) + " |")
     if not learned:
         return "\n".join(lines) + "\n"
-    best = {t: min(planners, key=lambda p: np.mean(errs[p][t])) for t in tasks} if planners else {}
     base = learned[0]
     lines += [
         "",
@@ -180,22 +199,19 @@ def markdown(result: dict) -> str:
         " | worst task vs its best planner | lost" + (f" | paired vs `{base}` (m) |" if len(learned) > 1 else " |"),
         "|---|---|---|---|---|---|---|" + ("---|" if len(learned) > 1 else ""),
     ]
+    best: dict = {}
     for label in learned:
         mean = float(np.mean([np.mean(errs[label][t]) for t in tasks]))
         row = [f"`{label}`", f"{mean:.3f}"]
-        if best:
-            ref = float(np.mean([np.mean(errs[best[t]][t]) for t in tasks]))
-            diffs = {t: np.asarray(errs[label][t]) - np.asarray(errs[best[t]][t]) for t in tasks}
-            m, lo, hi = t_interval(np.mean(list(diffs.values()), axis=0))
-            verdicts = [_verdict(*t_interval(d)[1:]) for d in diffs.values()]
-            rel = {t: np.mean(errs[label][t]) / np.mean(errs[best[t]][t]) - 1.0 for t in tasks}
-            worst = max(tasks, key=lambda t: rel[t])
+        if planners:
+            a = against_planners(result, label)
+            best, (m, lo, hi), n, worst = a["best"], a["pooled"], a["counts"], a["worst"]
             row += [
-                f"{100 * (mean - ref) / ref:+.1f} %",
+                f"{100 * (mean - a['ref']) / a['ref']:+.1f} %",
                 f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}]",
-                f"{verdicts.count('win')} / {verdicts.count('tie')} / {verdicts.count('loss')}",
-                f"{worst} {100 * rel[worst]:+.1f} %",
-                str(lost_episodes(errs, label, planners, tasks)),
+                f"{n['win']} / {n['tie']} / {n['loss']}",
+                f"{worst} {100 * a['rel'][worst]:+.1f} %",
+                str(a["lost"]),
             ]
         else:
             row += ["", "", "", "", ""]
@@ -203,8 +219,8 @@ def markdown(result: dict) -> str:
             if label == base:
                 row.append("")
             else:
-                m, lo, hi = _paired(errs[label], errs[base], tasks)
-                row.append(f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}] {_verdict(lo, hi)}")
+                m, lo, hi = _pooled(errs[label], errs[base], tasks)
+                row.append(f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}] {paired_verdict(lo, hi)}")
         lines.append("| " + " | ".join(row) + " |")
     if best:
         lines += [
@@ -225,20 +241,14 @@ def summary(results: list, label: str = "ppo", within: float = 0.05) -> str:
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in results:
-        tasks, errs = r["tasks"], r["errors"]
-        planners = [p["label"] for p in r["policies"] if p["planner"]]
-        if label not in errs or not planners:
+        if label not in r["errors"] or not any(p["planner"] for p in r["policies"]):
             continue
-        best = {t: min(planners, key=lambda p: np.mean(errs[p][t])) for t in tasks}
-        mean = float(np.mean([np.mean(errs[label][t]) for t in tasks]))
-        ref = float(np.mean([np.mean(errs[best[t]][t]) for t in tasks]))
-        rel = {t: np.mean(errs[label][t]) / np.mean(errs[best[t]][t]) - 1.0 for t in tasks}
-        worst = max(tasks, key=lambda t: rel[t])
-        lost = lost_episodes(errs, label, planners, tasks)
-        ok = rel[worst] <= within and lost == 0
+        a = against_planners(r, label)
+        mean, ref, worst, lost = a["mean"], a["ref"], a["worst"], a["lost"]
+        ok = "yes" if a["rel"][worst] <= within and lost == 0 else "**no**"
         lines.append(
             f"| `{r['task_set']}` | {r['episodes']} | {mean:.3f} | {ref:.3f} | {100 * (mean - ref) / ref:+.1f} % "
-            f"| {worst} ({best[worst]}) {100 * rel[worst]:+.1f} % | {lost} | {'yes' if ok else '**no**'} |"
+            f"| {worst} ({a['best'][worst]}) {100 * a['rel'][worst]:+.1f} % | {lost} | {ok} |"
         )
     return "\n".join(lines) + "\n"
 

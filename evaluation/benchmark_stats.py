@@ -10,6 +10,12 @@ from typing import Any
 import numpy as np
 
 
+def paired_verdict(lo: float, hi: float) -> str:
+    """A challenger's verdict from the interval [lo, hi] of its paired difference (its
+    error minus the reference's): "win" below 0, "loss" above 0, else "tie"."""
+    return "win" if hi < 0 else "loss" if lo > 0 else "tie"
+
+
 def compare_task(
     episode_errors: dict,
     planners: Iterable[str],
@@ -55,7 +61,7 @@ def compare_task(
             stats["paired"] = {"vs": best, "mean_m": 0.0, "ci95_m": [0.0, 0.0], "verdict": "best"}
         else:
             d_mean, d_lo, d_hi = t_interval(x - runs[best], confidence)
-            verdict = "win" if d_hi < 0 else "loss" if d_lo > 0 else "tie"
+            verdict = paired_verdict(d_lo, d_hi)
             stats["paired"] = {"vs": best, "mean_m": d_mean, "ci95_m": [d_lo, d_hi], "verdict": verdict}
             if verdict == "win":
                 wins.append(p)

@@ -29,7 +29,7 @@ def make_policy(name: str, config: ScenarioConfig, seed: int | tuple[int, int] |
     ``baselines.make_policy``), else a trained policy through agents/ (same interface)."""
     import baselines
 
-    if name.partition("+")[0] in baselines.list_policies():
+    if baselines.is_planner(name):
         return baselines.make_policy(name, config, seed=seed, agent=agent)
     import agents
 
