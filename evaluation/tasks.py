@@ -6,12 +6,14 @@ task, and the planners the challengers are compared with. Episode ``i`` of every
 and policy is seeded ``coopnav_env.seeds.TEST_SEEDS[i]`` (common random numbers),
 seeds the trainers refuse (``coopnav_env.seeds.refuse_test_seeds``).
 
-* ``planners``: those of ``baselines.list_policies(network)`` other than the floors;
+* ``planners``: those of ``baselines.list_policies(network)`` other than the floors, and
+  the set's ``extra_planners`` (a planner on another transmit schedule, ``"ellipse+clock"``);
   per task the one with the lowest mean error is the "best planner" a challenger has
   to beat;
 * ``floors``: ``static`` and ``random``, reported for scale, never the best planner;
-* ``references``: ``oracle`` (``baselines.horizon``: the receding-horizon optimiser given
-  the truth), the ceiling of the headroom column, never the best planner;
+* ``references``: the set's ``oracle`` (``baselines.horizon``: the receding-horizon optimiser
+  given the truth; ``"oracle+clock"`` on ``sousa_ping``), the ceiling of the headroom column,
+  never the best planner;
 * ``greedy_planners``: the planners other than ``NON_GREEDY`` (``horizon``): the best of
   them is the floor of the headroom, best greedy minus oracle.
 
@@ -39,8 +41,11 @@ if TYPE_CHECKING:
 # 6: the moving network's task sets gain `horizon` and the `oracle` for the boats (baselines/boat_horizon.py), so
 # every task set has a headroom row (the survey task sets run the same policies as in 5, with the same results),
 # and a task's headroom is measured only where its paired interval lies above 0 (benchmark_stats.headroom_task)
-# (the shift task sets shifts_<scenario> were added under 6: new sets, the eight others unchanged)
-BENCHMARK_VERSION = 6
+# (the shift task sets shifts_<scenario> were added under 6: new sets, the eight others unchanged);
+# 7: sousa_ping's planners also transmit on the clock schedule (ellipse+clock, fim_a+clock, horizon+clock),
+# the better fixed schedule on the sonar link, and its oracle transmits on it (oracle+clock); the other
+# task sets are unchanged (their v6 results stand)
+BENCHMARK_VERSION = 7
 EPISODES = 50  # per task and policy: the benchmark's count
 FLOORS = ("static", "random")
 REFERENCES = ("oracle",)  # given the truth: never a task's best planner (issue 22's headroom reference)
@@ -84,6 +89,11 @@ class TaskSet:
     tasks: tuple
     episodes: int = EPISODES
     about: str = ""
+    # planners beyond the network's registered ones: a motion planner on another transmit
+    # schedule ("ellipse+clock") where the channel is shared (channel_mode="decide")
+    extra_planners: tuple = ()
+    # the reference given the truth (REFERENCES' oracle, or it on another transmit schedule)
+    oracle: str = "oracle"
 
     @property
     def config(self) -> ScenarioConfig:
@@ -102,19 +112,24 @@ class TaskSet:
         the references that are given the truth (``REFERENCES``)."""
         from baselines import list_policies
 
-        return [p for p in list_policies(config=self.config) if p not in FLOORS and p not in REFERENCES]
+        registered = [
+            p for p in list_policies(config=self.config) if p not in FLOORS and p.partition("+")[0] not in REFERENCES
+        ]
+        return registered + [p for p in self.extra_planners if p not in registered]
 
     @property
     def greedy_planners(self) -> list:
-        """The planners that look one ping ahead or are geometric (``planners`` minus ``NON_GREEDY``)."""
-        return [p for p in self.planners if p not in NON_GREEDY]
+        """The planners that look one ping ahead or are geometric (``planners`` minus ``NON_GREEDY``,
+        whatever their transmit schedule)."""
+        return [p for p in self.planners if p.split("+")[0] not in NON_GREEDY]
 
     @property
     def references(self) -> list:
-        """The references (``REFERENCES``) that drive the network: run on every task, never the best planner."""
+        """The reference (``oracle``: ``REFERENCES``' planner, perhaps on another transmit schedule) if it
+        drives the network: run on every task, never the best planner."""
         from baselines import list_policies
 
-        return [p for p in REFERENCES if p in list_policies(config=self.config)]
+        return [self.oracle] if self.oracle.partition("+")[0] in list_policies(config=self.config) else []
 
     @property
     def floors(self) -> list:
@@ -127,6 +142,12 @@ class TaskSet:
             if t.name == name:
                 return t
         raise KeyError(name)
+
+
+# on the sonar link two staggered pings share a slot without colliding, so the clock schedule
+# (every slot, twice TDMA's pings) is a fixed schedule to beat: ellipse+clock 1.126 m against
+# ellipse on TDMA 1.364 m (docs/training/marl.md#levers-sousa-ping, seeds 700000-700029)
+_CLOCK_PLANNERS = ("ellipse+clock", "fim_a+clock", "horizon+clock")
 
 
 def _task(name: str, about: str = "", **overrides) -> Task:
@@ -209,7 +230,10 @@ _SETS: tuple[TaskSet, ...] = (
             _task("circle_20m", "circle at 20 m", survey_path="circle", depth_m=20.0),
         ),
         about="when to ping: two ASVs decide motion and transmission on one half-duplex channel; the planners "
-        "transmit on a TDMA schedule",
+        "transmit on a TDMA schedule, and ellipse, fim_a and horizon also on the clock (both ASVs every slot, "
+        "staggered); the oracle on the clock",
+        extra_planners=_CLOCK_PLANNERS,
+        oracle="oracle+clock",
     ),
     TaskSet(
         "matos_moving_lbl",
@@ -305,6 +329,8 @@ def _shift_set(scenario: str) -> TaskSet:
         tuple(tasks),
         about=f"issue 23's shifts on {scenario}: currents 0-0.5 m/s, a lossier channel, another ping interval, "
         "shallower and deeper water",
+        extra_planners=_CLOCK_PLANNERS if base.channel_mode == "decide" else (),
+        oracle="oracle+clock" if base.channel_mode == "decide" else "oracle",
     )
 
 

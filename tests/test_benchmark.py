@@ -41,7 +41,12 @@ def test_every_task_set_plays_test_seeds_only():
         assert ts.planners and not set(ts.planners) & set(FLOORS), name
         assert not set(ts.planners) & set(REFERENCES) and not set(ts.greedy_planners) & set(NON_GREEDY), name
         # every task set carries the oracle (the headroom's reference; the boats': baselines/boat_horizon.py)
-        assert ts.references == ["oracle"], name
+        assert [r.partition("+")[0] for r in ts.references] == ["oracle"], name
+        # no planner looking ahead (on any transmit schedule) is among the greedy ones
+        assert not {p.partition("+")[0] for p in ts.greedy_planners} & set(NON_GREEDY), name
+    # on the shared channel the planners and the oracle also transmit on the clock schedule (v7)
+    assert {"ellipse+clock", "horizon+clock"} <= set(TASK_SETS["sousa_ping"].planners)
+    assert TASK_SETS["sousa_ping"].references == ["oracle+clock"]
     assert not is_test_seed(TEST_SEED - 1) and not is_test_seed(VALIDATION_SEED) and not is_test_seed(0)
 
 
