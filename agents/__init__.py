@@ -56,6 +56,7 @@ checkpoint is pickle-based, so see ``agents.rllib_policy`` for what is trusted.
 from __future__ import annotations
 
 import json
+import os
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -104,13 +105,31 @@ def list_policies() -> list:
     if not POLICY_DIR.is_dir():
         return []
 
+    from . import benchmarl_policy
+
     def has_model(p):
         try:
-            return (p / "gate.yml").is_file() or _model_files(p) is not None
+            return (p / "gate.yml").is_file() or benchmarl_policy.is_benchmarl_path(p) or _model_files(p) is not None
         except (ValueError, OSError):
             return False
 
     return sorted(p.name for p in POLICY_DIR.iterdir() if p.is_dir() and has_model(p))
+
+
+def _shipped_benchmarl(name_or_path: str | Path, scenario: str | ScenarioConfig | None) -> Path | None:
+    """The shipped policy's directory a name means ("ppo" with ``scenario``, or "ppo_<scenario>")
+    when it holds a BenchMARL run (``run.json`` + ``policy.safetensors``); None otherwise."""
+    from . import benchmarl_policy
+
+    name = str(name_or_path)
+    if not name or Path(name).exists() or "/" in name or os.sep in name:
+        return None
+    if name == "ppo":
+        if scenario is None:
+            return None
+        name = f"ppo_{_scenario_name(scenario)}"
+    directory = POLICY_DIR / name
+    return directory if benchmarl_policy.is_benchmarl_path(directory) else None
 
 
 def _model_files(directory: Path):
@@ -193,6 +212,7 @@ def resolve(
     run directory."""
     from . import benchmarl_policy, rllib_policy
 
+    name_or_path = _shipped_benchmarl(name_or_path, scenario) or name_or_path
     if rllib_policy.is_rllib_path(name_or_path):
         return rllib_policy.resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # safetensors weights and a JSON record
@@ -359,6 +379,7 @@ def load(
     ``trust_pickle`` (then an old SB3 .zip/.pkl or an RLlib checkpoint loads)."""
     from . import benchmarl_policy, rllib_policy
 
+    name_or_path = _shipped_benchmarl(name_or_path, scenario) or name_or_path  # a shipped BenchMARL run
     if rllib_policy.is_rllib_path(name_or_path):  # train.py --backend rllib
         return rllib_policy.load(name_or_path, scenario=scenario, device=device, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # python -m agents.training.marl
@@ -533,6 +554,12 @@ def make_policy(
     (deterministic, and parameter-shared across beacons). ``trust_pickle``: as ``load``."""
     from . import benchmarl_policy, rllib_policy
 
+    if env_or_config is not None and str(name_or_path) == "ppo":  # "ppo" names the scenario's shipped policy
+        from coopnav_env.scenarios import resolve_config
+
+        name_or_path = _shipped_benchmarl("ppo", resolve_config(env_or_config)) or name_or_path
+    else:
+        name_or_path = _shipped_benchmarl(name_or_path, None) or name_or_path
     if rllib_policy.is_rllib_path(name_or_path):  # one module per beacon kind: the agent matters
         return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # its own memory per beacon and episode

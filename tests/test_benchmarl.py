@@ -267,3 +267,31 @@ def test_a_run_in_evaluate_and_its_refusals(tmp_path):
     (out / "run.json").write_text(json.dumps({**record, "algorithm": "maddpg"}))
     with pytest.raises(PolicyFormatError, match="a maddpg run cannot be loaded"):
         load(out)
+
+
+def test_a_shipped_run_answers_to_ppo(tmp_path, monkeypatch):
+    """A BenchMARL run folder shipped as ``agents/policies/ppo_<scenario>`` is what "ppo" (with
+    the scenario) and "ppo_<scenario>" name: loaded, built per beacon, listed, and reported by
+    the benchmark as that shipped policy."""
+    import shutil
+
+    import numpy as np
+
+    import agents
+    from agents.benchmarl_policy import BenchMARLPolicy
+    from coopnav_env import make_config
+    from evaluation.config import resolve_trained
+
+    out, _, _ = _untrained_run(tmp_path, "mappo", "gao_team")
+    shipped = tmp_path / "policies"
+    shutil.copytree(out, shipped / "ppo_gao_team")
+    monkeypatch.setattr(agents, "POLICY_DIR", shipped)
+    assert agents.list_policies() == ["ppo_gao_team"]
+    config = make_config("gao_team", max_cycles=6)
+    for name in ("ppo", "ppo_gao_team"):
+        assert isinstance(agents.load(name, scenario="gao_team"), BenchMARLPolicy), name
+        policy = agents.make_policy(name, config, agent=1)
+        assert isinstance(policy, BenchMARLPolicy) and policy.act(np.zeros(policy.obs_dim, np.float32)).shape == (2,)
+    assert resolve_trained("ppo", "gao_team")["shipped"] == "ppo_gao_team"
+    with pytest.raises(ValueError, match=r"no policy 'ppo'.*shipped: ppo_gao_team\)"):  # gao_sea has none here
+        agents.load("ppo", scenario="gao_sea")
