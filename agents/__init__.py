@@ -116,9 +116,10 @@ def list_policies() -> list:
     return sorted(p.name for p in POLICY_DIR.iterdir() if p.is_dir() and has_model(p))
 
 
-def _shipped_benchmarl(name_or_path: str | Path, scenario: str | ScenarioConfig | None) -> Path | None:
-    """The shipped policy's directory a name means ("ppo" with ``scenario``, or "ppo_<scenario>")
-    when it holds a BenchMARL run (``run.json`` + ``policy.safetensors``); None otherwise."""
+def _shipped_benchmarl(name_or_path: str | Path, scenario: Any) -> Path | None:
+    """The shipped policy's directory a name means ("ppo" with ``scenario``: a name, a config
+    or an env; or "ppo_<scenario>") when it holds a BenchMARL run (``run.json`` +
+    ``policy.safetensors``); None otherwise."""
     from . import benchmarl_policy
 
     name = str(name_or_path)
@@ -127,7 +128,9 @@ def _shipped_benchmarl(name_or_path: str | Path, scenario: str | ScenarioConfig 
     if name == "ppo":
         if scenario is None:
             return None
-        name = f"ppo_{_scenario_name(scenario)}"
+        from coopnav_env.scenarios import resolve_config
+
+        name = f"ppo_{scenario if isinstance(scenario, str) else resolve_config(scenario).name}"
     directory = POLICY_DIR / name
     return directory if benchmarl_policy.is_benchmarl_path(directory) else None
 
@@ -554,12 +557,7 @@ def make_policy(
     (deterministic, and parameter-shared across beacons). ``trust_pickle``: as ``load``."""
     from . import benchmarl_policy, rllib_policy
 
-    if env_or_config is not None and str(name_or_path) == "ppo":  # "ppo" names the scenario's shipped policy
-        from coopnav_env.scenarios import resolve_config
-
-        name_or_path = _shipped_benchmarl("ppo", resolve_config(env_or_config)) or name_or_path
-    else:
-        name_or_path = _shipped_benchmarl(name_or_path, None) or name_or_path
+    name_or_path = _shipped_benchmarl(name_or_path, env_or_config) or name_or_path  # a shipped BenchMARL run
     if rllib_policy.is_rllib_path(name_or_path):  # one module per beacon kind: the agent matters
         return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # its own memory per beacon and episode

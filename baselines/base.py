@@ -399,10 +399,15 @@ def list_policies(network: str | None = None, config: ScenarioConfig | None = No
     return sorted({n for n, net in _BY_NETWORK if net == network})
 
 
+def motion_name(name: str) -> str:
+    """The motion planner of a planner name: ``"ellipse+clock"`` -> ``"ellipse"`` (a plain name is its own)."""
+    return name.partition("+")[0]
+
+
 def is_planner(name: str) -> bool:
     """Whether ``make_policy`` builds ``name``: a registered planner, or ``"<motion>+<schedule>"``
     of one (the schedule is checked when it is built)."""
-    return name.partition("+")[0] in _POLICIES
+    return motion_name(name) in _POLICIES
 
 
 _SCHEDULER = None  # baselines.schedule.make_scheduled, set when that module is imported

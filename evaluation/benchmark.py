@@ -176,7 +176,7 @@ def plan_benchmark(
     scenario parameters set on every task (a quick look, not the benchmark); ``only_tasks``:
     task names (a list or "a,b") to run instead of every task of the sets (a part of the
     benchmark: its result says so)."""
-    from baselines import is_planner, list_policies
+    from baselines import is_planner, list_policies, motion_name
 
     from . import outdir
     from .config import _unknown_policy, coerce_value, resolve_trained
@@ -249,7 +249,7 @@ def plan_benchmark(
         trained, unresolved = {}, {}
         for p in columns:
             if is_planner(p):  # a registered planner, or "<motion>+<schedule>" of one
-                if p.partition("+")[0] not in list_policies(ts.network):
+                if motion_name(p) not in list_policies(ts.network):
                     unresolved[p] = f"planner {p!r} cannot drive the {ts.network} network"
                 continue
             try:
@@ -395,7 +395,9 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
 
 def _closers(planners: Iterable[str], challengers: Iterable[str], references: Iterable[str]) -> list:
     """Whose share of the headroom a task set reports: its non-greedy planners, then the challengers."""
-    closers = [p for p in planners if p.partition("+")[0] in NON_GREEDY]
+    from baselines import motion_name
+
+    closers = [p for p in planners if motion_name(p) in NON_GREEDY]
     return closers + [p for p in challengers if p not in closers and p not in references]
 
 

@@ -110,26 +110,27 @@ class TaskSet:
     def planners(self) -> list:
         """The planners compared against: those that drive the network, minus the floors and
         the references that are given the truth (``REFERENCES``)."""
-        from baselines import list_policies
+        from baselines import list_policies, motion_name
 
-        registered = [
-            p for p in list_policies(config=self.config) if p not in FLOORS and p.partition("+")[0] not in REFERENCES
-        ]
+        network = list_policies(config=self.config)
+        registered = [p for p in network if p not in FLOORS and motion_name(p) not in REFERENCES]
         return registered + [p for p in self.extra_planners if p not in registered]
 
     @property
     def greedy_planners(self) -> list:
         """The planners that look one ping ahead or are geometric (``planners`` minus ``NON_GREEDY``,
         whatever their transmit schedule)."""
-        return [p for p in self.planners if p.split("+")[0] not in NON_GREEDY]
+        from baselines import motion_name
+
+        return [p for p in self.planners if motion_name(p) not in NON_GREEDY]
 
     @property
     def references(self) -> list:
         """The reference (``oracle``: ``REFERENCES``' planner, perhaps on another transmit schedule) if it
         drives the network: run on every task, never the best planner."""
-        from baselines import list_policies
+        from baselines import list_policies, motion_name
 
-        return [self.oracle] if self.oracle.partition("+")[0] in list_policies(config=self.config) else []
+        return [self.oracle] if motion_name(self.oracle) in list_policies(config=self.config) else []
 
     @property
     def floors(self) -> list:
@@ -310,9 +311,11 @@ _MLS_SHIFTS = {
 }
 
 
-def _shift_set(scenario: str) -> TaskSet:
+def _shift_set(origin: TaskSet) -> TaskSet:
+    """The shifts of ``origin``'s scenario, compared with ``origin``'s planners and oracle."""
     from coopnav_env import make_config
 
+    scenario = origin.scenario
     base = make_config(scenario)
     tasks = []
     for name, about, overrides in _SHIFTS:
@@ -329,12 +332,13 @@ def _shift_set(scenario: str) -> TaskSet:
         tuple(tasks),
         about=f"issue 23's shifts on {scenario}: currents 0-0.5 m/s, a lossier channel, another ping interval, "
         "shallower and deeper water",
-        extra_planners=_CLOCK_PLANNERS if base.channel_mode == "decide" else (),
-        oracle="oracle+clock" if base.channel_mode == "decide" else "oracle",
+        extra_planners=origin.extra_planners,
+        oracle=origin.oracle,
     )
 
 
-_SETS = _SETS + tuple(_shift_set(name) for name in dict.fromkeys(s.scenario for s in _SETS))
+_FIRST_SET = {s.scenario: s for s in reversed(_SETS)}  # each scenario's first task set
+_SETS = _SETS + tuple(_shift_set(_FIRST_SET[scenario]) for scenario in dict.fromkeys(s.scenario for s in _SETS))
 
 TASK_SETS = MappingProxyType({s.name: s for s in _SETS})
 
