@@ -68,10 +68,13 @@ def run(
     seed: int,
     progress: Callable[[str], Any] | None = print,
     reuse: dict | None = None,
+    na: dict | None = None,
 ) -> dict:
     """{"tasks": [...], "policies": [...], "errors": {label: {task: [per-episode mean error]}}, ...}.
     ``reuse``: an earlier result of the same task set and seeds; its policies (same label
-    and spec) are taken from it instead of run again."""
+    and spec) are taken from it instead of run again. ``na``: ``{label: {task: reason}}``,
+    the tasks a policy cannot drive (``find_na``): not run, ``n/a`` in the tables."""
+    na = {label: dict((na or {}).get(label, {})) for label, _ in policies}
     from baselines import is_planner
     from evaluation.episodes import run_episodes
     from evaluation.tasks import get_task_set
@@ -94,7 +97,7 @@ def run(
     for task in ts.tasks:
         config = task.config(ts.scenario)
         for label, spec in policies:
-            if label in done:
+            if label in done or task.name in na[label]:
                 continue
             t0 = time.perf_counter()
             rows, _ = run_episodes(config, spec, seeds)
@@ -115,7 +118,36 @@ def run(
         "errors": errors,
         "pings": pings,
         "seconds": seconds,
+        "na": {label: why for label, why in na.items() if why},
     }
+
+
+def find_na(task_set: str, policies: list, seed: int) -> dict:
+    """``{label: {task: reason}}`` for the tasks each policy cannot drive (one observation
+    each, ``evaluation.episodes.check_policy``: a flat policy on a team task). A policy
+    that drives none of the set's tasks is refused (ValueError): that is a wrong policy,
+    not a table with one column of ``n/a``."""
+    from evaluation.episodes import check_policy
+    from evaluation.tasks import get_task_set
+
+    ts = get_task_set(task_set)
+    out: dict = {}
+    for label, spec in policies:
+        for task in ts.tasks:
+            try:
+                check_policy(spec, task.config(ts.scenario), seed)
+            except Exception as err:
+                out.setdefault(label, {})[task.name] = (str(err).strip().splitlines() or [type(err).__name__])[0]
+        if len(out.get(label, {})) == len(ts.tasks):
+            first = next(iter(out[label].values()))
+            raise ValueError(f"policy {label!r} ({spec}) cannot drive any task of {task_set}: {first}")
+    return out
+
+
+def _driven(result: dict, label: str) -> list:
+    """The tasks of ``result`` that ``label`` drove (every task but its ``n/a``)."""
+    na = result.get("na", {}).get(label, {})
+    return [t for t in result["tasks"] if t not in na]
 
 
 def _pooled(a: dict, b: dict, tasks: list) -> tuple:
@@ -131,7 +163,7 @@ def against_planners(result: dict, label: str) -> dict:
     counts and the lost episodes."""
     from evaluation.benchmark_stats import compare_task
 
-    tasks, errs = result["tasks"], result["errors"]
+    tasks, errs = _driven(result, label), result["errors"]
     planners = [p["label"] for p in result["policies"] if p["planner"]]
     per = {t: compare_task({**{p: errs[p][t] for p in planners}, label: errs[label][t]}, planners) for t in tasks}
     best = {t: per[t]["best_planner"] for t in tasks}
@@ -146,6 +178,7 @@ def against_planners(result: dict, label: str) -> dict:
         "pooled": _pooled(errs[label], {t: errs[best[t]][t] for t in tasks}, tasks),
         "counts": {v: verdicts.count(v) for v in ("win", "tie", "loss")},
         "lost": lost_episodes(errs, label, planners, tasks),
+        "na": len(result["tasks"]) - len(tasks),
     }
 
 
@@ -174,6 +207,9 @@ def markdown(result: dict) -> str:
     for t in tasks:
         cells = []
         for p in pols:
+            if t not in errs[p["label"]]:
+                cells.append("n/a")
+                continue
             m, lo, hi = t_interval(errs[p["label"]][t])
             cells.append(f"{m:.3f} [{lo:.3f}, {hi:.3f}]")
         lines.append(f"| {t} | " + " | ".join(cells) + " |")
@@ -184,7 +220,7 @@ def markdown(result: dict) -> str:
         cells = []
         for p in pols:
             per = pings.get(p["label"]) or {}
-            cells.append(f"{np.mean([np.mean(per[t]) for t in tasks]):.1f}")
+            cells.append(f"{np.mean([np.mean(per[t]) for t in tasks if t in per]):.1f}")
         lines.append("| " + " | ".join(cells) + " |")
     if not learned:
         return "\n".join(lines) + "\n"
@@ -201,15 +237,15 @@ def markdown(result: dict) -> str:
     ]
     best: dict = {}
     for label in learned:
-        mean = float(np.mean([np.mean(errs[label][t]) for t in tasks]))
+        mean = float(np.mean([np.mean(errs[label][t]) for t in _driven(result, label)]))
         row = [f"`{label}`", f"{mean:.3f}"]
         if planners:
             a = against_planners(result, label)
-            best, (m, lo, hi), n, worst = a["best"], a["pooled"], a["counts"], a["worst"]
+            best, (m, lo, hi), n, worst = {**best, **a["best"]}, a["pooled"], a["counts"], a["worst"]
             row += [
                 f"{100 * (mean - a['ref']) / a['ref']:+.1f} %",
                 f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}]",
-                f"{n['win']} / {n['tie']} / {n['loss']}",
+                f"{n['win']} / {n['tie']} / {n['loss']}" + (f" ({a['na']} n/a)" if a["na"] else ""),
                 f"{worst} {100 * a['rel'][worst]:+.1f} %",
                 str(a["lost"]),
             ]
@@ -219,14 +255,22 @@ def markdown(result: dict) -> str:
             if label == base:
                 row.append("")
             else:
-                m, lo, hi = _pooled(errs[label], errs[base], tasks)
+                both = [t for t in _driven(result, label) if t in _driven(result, base)]
+                m, lo, hi = _pooled(errs[label], errs[base], both)
                 row.append(f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}] {paired_verdict(lo, hi)}")
         lines.append("| " + " | ".join(row) + " |")
     if best:
         lines += [
             "",
-            "Best planner per task: " + ", ".join(f"{t} `{best[t]}`" for t in tasks) + ". *lost*: episodes "
-            "where the policy's error is above 10x the lowest planner error of the same seed.",
+            "Best planner per task: " + ", ".join(f"{t} `{best[t]}`" for t in tasks if t in best) + ". *lost*: "
+            "episodes where the policy's error is above 10x the lowest planner error of the same seed.",
+        ]
+    na = result.get("na", {})
+    if na:
+        lines += [
+            "",
+            "n/a: "
+            + "; ".join(f"`{label}` on {', '.join(why)}: {next(iter(why.values()))}" for label, why in na.items()),
         ]
     return "\n".join(lines) + "\n"
 
@@ -290,17 +334,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise ValueError(f"--episodes must be >= 2 (a t interval), got {args.episodes}")
         check_seed(args.seed, "--seed")
         refuse_test_seeds(args.seed, args.episodes, what="--seed")
-        from evaluation.episodes import check_policy
-
-        ts = get_task_set(args.tasks)
-        for label, spec in policies:  # one observation each: a policy that cannot drive the set fails here
-            for task in ts.tasks:
-                try:
-                    check_policy(spec, task.config(ts.scenario), args.seed)
-                except Exception as err:
-                    first = (str(err).strip().splitlines() or [type(err).__name__])[0]
-                    where = f"{args.tasks}/{task.name}"
-                    raise ValueError(f"policy {label!r} ({spec}) cannot drive {where}: {first}") from None
+        na = find_na(args.tasks, policies, args.seed)  # one observation each: n/a, or refused if none driven
+        for label, why in na.items():
+            print(f"note: {label} is n/a on {', '.join(why)}: {next(iter(why.values()))}", file=sys.stderr)
     except (KeyError, ValueError) as err:
         message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
         print(f"error: {message}", file=sys.stderr)
@@ -311,7 +347,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         reuse = read_json(args.reuse)
     try:
-        result = run(args.tasks, policies, args.episodes, args.seed, lambda s: print(s, flush=True), reuse)
+        result = run(args.tasks, policies, args.episodes, args.seed, lambda s: print(s, flush=True), reuse, na)
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

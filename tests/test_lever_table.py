@@ -109,3 +109,33 @@ def test_a_planner_with_a_schedule_plays_through_the_benchmark_loop():
     clock, _ = run_episodes(config, "ellipse+clock", [700000])
     tdma, _ = run_episodes(config, "ellipse", [700000])
     assert clock[0]["pings"] == 8 and tdma[0]["pings"] == 4
+
+
+def test_a_task_a_policy_cannot_drive_is_na_and_left_out_of_its_pooled_row(monkeypatch):
+    """A flat policy on a team task: ``find_na`` names the task (not an error), the table
+    shows n/a there, and the policy's row pools only the tasks it drove (x: -0.5 m, a win).
+    A policy that drives no task of the set is refused."""
+    import evaluation.episodes
+
+    def check(spec, config, seed):
+        if spec == "runs/m" and config.n_survey == 2:
+            raise ValueError(f"policy {spec!r} was trained on 1 survey vehicle")
+        if spec == "runs/none":
+            raise ValueError("observation size 12, not 40")
+
+    monkeypatch.setattr(evaluation.episodes, "check_policy", check)
+    na = lever_table.find_na("gao_lawnmower", [("e", "ellipse"), ("mappo", "runs/m")], 700000)
+    assert na == {"mappo": {"two_surveys": "policy 'runs/m' was trained on 1 survey vehicle"}}
+    with pytest.raises(ValueError, match="cannot drive any task of gao_lawnmower: observation size 12"):
+        lever_table.find_na("gao_lawnmower", [("x", "runs/none")], 700000)
+
+    result = _result()
+    del result["errors"]["mappo"]["y"]
+    result["na"] = {"mappo": {"y": "trained on 1 survey vehicle"}}
+    table = lever_table.markdown(result)
+    assert "| y | " in table and "| n/a |" in next(line for line in table.splitlines() if line.startswith("| y |"))
+    row = next(line for line in table.splitlines() if line.startswith("| `mappo`"))
+    assert "-0.500 [-0.500, -0.500]" in row and "| 1 / 0 / 0 (1 n/a) |" in row
+    ippo = next(line for line in table.splitlines() if line.startswith("| `ippo`"))
+    assert "+0.250 [+0.250, +0.250] loss" in ippo  # paired with mappo on x only
+    assert "n/a: `mappo` on y: trained on 1 survey vehicle" in table
