@@ -413,7 +413,7 @@ def test_ppo_on_a_scenario_without_a_shipped_policy(tmp_path, capsys, monkeypatc
 
 
 def test_a_model_that_does_not_fit_the_scenario(tmp_path, capsys):
-    _shipped("ppo_swarm_mls")
+    _shipped("ppo_gao_team")
     out = tmp_path / "never"
     code, _, err = run_main(
         [
@@ -422,7 +422,7 @@ def test_a_model_that_does_not_fit_the_scenario(tmp_path, capsys):
             "--set",
             "max_cycles=3",
             "--policies",
-            "static,ppo_swarm_mls",
+            "static,ppo_gao_team",
             "--episodes",
             "1",
             "--out",
@@ -431,7 +431,7 @@ def test_a_model_that_does_not_fit_the_scenario(tmp_path, capsys):
         capsys,
     )
     assert code == 2 and len(err.strip().splitlines()) == 1, err
-    assert "ppo_swarm_mls" in err and "observations" in err and "Traceback" not in err
+    assert "ppo_gao_team" in err and "observations" in err and "Traceback" not in err
     assert not out.exists()
 
 

@@ -36,9 +36,9 @@ TINY = {
     "checkpoint_every_steps": 256,
 }
 # the policies converted from the old pickle-based files (ppo_gao_sea was, until it was
-# replaced on 2026-12-02 by a fine-tune trained in the safe format)
+# replaced on 2026-12-02 by a fine-tune trained in the safe format; ppo_swarm_mls until it
+# was replaced on 2026-12-04 by an entity policy)
 SHIPPED = {
-    "ppo_swarm_mls": "ppo_swarm_mls",
     "ppo_sousa_asv_deep": "ppo_sousa_asv/deep",
     "ppo_sousa_asv_shallow": "ppo_sousa_asv/shallow",
     "ppo_sousa_asv_shallow_ft": "ppo_sousa_asv/shallow_ft",
