@@ -400,3 +400,27 @@ def test_measure_with_bounds_is_the_two_calls_bit_for_bit(sensor, jitter_s):
     assert all(np.array_equal(x, y) for x, y in zip(m, m0))
     with pytest.raises(ValueError, match="exactly one of rng and normals"):
         s.measure_analytic_with_bounds(sp, sh, op, oh)
+
+
+def test_a_randomized_depth_row_is_measured_by_its_own_depths_sensor():
+    """With ``randomize_depth_m`` each row's MLS measurement comes from the sensor of its
+    episode's depth: a row drawn at 50 m is the standalone 50 m scenario bit for bit. Until
+    2026-12-04 one sensor at the scenario's ``depth_m`` (5 m) measured every row, so the
+    50 m rows differed from the 50 m scenario (by ~1e-4 in the observation after a step)."""
+    import coopnav_env
+    from coopnav_env.core import make_simulator
+    from coopnav_env.views import action_dim
+
+    seeds = list(range(9000, 9016))
+    sim = make_simulator(coopnav_env.make_config("swarm_mls", randomize_depth_m=(5.0, 50.0)), len(seeds))
+    obs = sim.reset(seeds)
+    deep_rows = [r for r, v in enumerate(sim.state.ep_variant) if sim.variants[v][1] == 50.0]
+    assert deep_rows and len(deep_rows) < len(seeds)  # both depths drawn
+    r = deep_rows[0]
+    one = make_simulator(coopnav_env.make_config("swarm_mls", depth_m=50.0), 1)
+    np.testing.assert_array_equal(obs[r], one.reset([seeds[r]])[0])
+    rng = np.random.default_rng(1)
+    for _ in range(6):
+        actions = rng.uniform(-1.0, 1.0, (len(seeds), obs.shape[1], action_dim(sim)))
+        res = sim.step(actions)
+        np.testing.assert_array_equal(res.obs[r], one.step(actions[r : r + 1]).obs[0])

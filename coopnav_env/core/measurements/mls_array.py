@@ -101,22 +101,37 @@ fuse_kernel_parallel = parallel_twin(_fuse)
 
 
 class MLSArray:
-    """The MLS model of one simulator: the sensor (built once, ~0.2 s) and the kernel."""
+    """The MLS model of one simulator: the sensor (built once per survey depth, ~0.2 s each)
+    and the kernel.
+
+    The sensor's errors depend on the depth (the surface image's path, the sound speed), so
+    with ``randomize_depth_m`` each episode's row is measured by the sensor of its own depth
+    (``Simulator.variants``); without it there is one sensor, the scenario's ``depth_m``'s."""
 
     def __init__(self, sim: SensorHost) -> None:
         from ..mls import MLSConfig, MLSSensor
 
         c = sim.config
         self.sim = sim
-        self.sensor = MLSSensor(
-            MLSConfig(
-                snr_db_at_1m=c.mls_snr_db_at_1m,
-                max_range_m=c.mls_max_range_m,
-                water_temperature_c=c.water_temperature_c,
-                salinity_psu=c.salinity_psu,
-                depth_m=c.depth_m,
+        variants = getattr(sim, "variants", None) or [(c.survey_path, c.depth_m)]
+        self.depths_m = sorted({float(depth) for _, depth in variants})
+        self.sensors = {
+            depth: MLSSensor(
+                MLSConfig(
+                    snr_db_at_1m=c.mls_snr_db_at_1m,
+                    max_range_m=c.mls_max_range_m,
+                    water_temperature_c=c.water_temperature_c,
+                    salinity_psu=c.salinity_psu,
+                    depth_m=depth,
+                )
             )
-        )
+            for depth in self.depths_m
+        }
+        # each path variant's sensor index (into depths_m)
+        self._variant_sensor = np.array([self.depths_m.index(float(depth)) for _, depth in variants])
+        # the scenario's own depth's sensor where it is one of them (its geometry, the window's
+        # minimum range, is the same at every depth)
+        self.sensor = self.sensors.get(float(c.depth_m), self.sensors[self.depths_m[0]])
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
 
     def heard_mask(self, cycle: np.ndarray) -> np.ndarray:
@@ -145,12 +160,17 @@ class MLSArray:
         rng_m = np.zeros((B, S))
         var_r = np.ones((B, S))
         var_az = np.ones((B, S))
-        if heard.any():
-            m, (b_az, b_r, _) = self.sensor.measure_analytic_with_bounds(
-                sender_en[heard], sender_h[heard], obs_en[heard], obs_h[heard], normals=n[heard][:, :13]
+        # each row's sensor: its episode's depth (one sensor, every row, without randomize_depth_m)
+        which = self._variant_sensor[st.ep_variant][:, None] if len(self.depths_m) > 1 else None
+        for k, depth in enumerate(self.depths_m):
+            rows_k = heard if which is None else heard & (which == k)
+            if not rows_k.any():
+                continue
+            m, (b_az, b_r, _) = self.sensors[depth].measure_analytic_with_bounds(
+                sender_en[rows_k], sender_h[rows_k], obs_en[rows_k], obs_h[rows_k], normals=n[rows_k][:, :13]
             )
-            az[heard], rng_m[heard] = m.azimuth_rad, m.range_m
-            var_r[heard], var_az[heard] = np.square(b_r), np.square(b_az)
+            az[rows_k], rng_m[rows_k] = m.azimuth_rad, m.range_m
+            var_r[rows_k], var_az[rows_k] = np.square(b_r), np.square(b_az)
         # the compass: bearing (clockwise from north) = pi/2 - heading angle (anticlockwise from east)
         compass_std = np.radians(c.compass_noise_deg) * st.ep_noise_scale[:, None]
         compass = np.pi / 2 - obs_h + st.s_compass_bias_rad + compass_std * n[..., 13]
