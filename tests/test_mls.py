@@ -424,3 +424,28 @@ def test_a_randomized_depth_row_is_measured_by_its_own_depths_sensor():
         actions = rng.uniform(-1.0, 1.0, (len(seeds), obs.shape[1], action_dim(sim)))
         res = sim.step(actions)
         np.testing.assert_array_equal(res.obs[r], one.step(actions[r : r + 1]).obs[0])
+
+
+@pytest.mark.parametrize("depth_m", [5.0, 50.0])
+def test_the_array_range_is_the_slant_range_the_filters_predict(depth_m):
+    """The MLS range is a time of flight: with the school at 50 m and the sender at 5 m it is
+    the slant range (hypot(30, 45) = 54.08 m at 30 m across), which is what the survey
+    filters predict (eq. 7). Until 2026-12-04 the array sent the horizontal range (30 m),
+    and the filters' gate rejected almost every range of the `deep_50m` shift."""
+    import coopnav_env
+    from coopnav_env.core import make_simulator
+    from coopnav_env.core.measurements.mls_array import HEARD
+
+    sim = make_simulator(coopnav_env.make_config("swarm_mls", depth_m=depth_m), 1)
+    sim.reset([123])
+    st = sim.state
+    S = st.s_pos.shape[1]
+    j = int(np.argmax(sim.sensor.heard_mask(st.cycle - 1)[0]))
+    across = 30.0 + np.arange(S)  # each survey vehicle 30, 31, ... m east of the sender
+    st.s_pos[0, :, 0] = st.b_pos[0, j, 0] + across
+    st.s_pos[0, :, 1] = st.b_pos[0, j, 1]
+    dz = depth_m - 5.0  # the sender at the scenario's beacon depth, 5 m
+    assert np.allclose(st.s_pos[0, :, 2] - st.b_pos[0, j, 2], dz)
+    m = sim.sensor.measure({"mls_n": np.zeros((1, S, 14))})  # noise-free
+    assert (m.state[0, j] == HEARD).all()
+    np.testing.assert_allclose(m.range_m[0, j], np.hypot(across, dz), atol=1e-2)
