@@ -34,15 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
+from evaluation.benchmark_stats import lowest_mean
 from evaluation.paired import t_interval
 
 AIM = -0.20  # the issue's aim: a mean error at least 20 % below the best planner's
-
-
-def best_greedy(task: dict, greedy: Sequence[str]) -> str | None:
-    """The task's greedy planner (of ``greedy``) with the lowest mean error, None if none ran."""
-    ran = [p for p in greedy if "mean_error_m" in task["policies"].get(p, {})]
-    return min(ran, key=lambda p: task["policies"][p]["mean_error_m"]) if ran else None
 
 
 def _pooled(diffs: list) -> tuple:
@@ -69,7 +64,7 @@ def rows(results: dict) -> list:
                 mine.append(entry["mean_error_m"])
                 best.append(planner["mean_error_m"])
                 diffs.append(np.subtract(entry["episode_mean_error_m"], planner["episode_mean_error_m"]))
-                g = best_greedy(task, greedy or ())
+                g = lowest_mean(task["policies"], greedy or ())
                 if g is not None:
                     g_best.append(task["policies"][g]["mean_error_m"])
                     g_diffs.append(

@@ -88,6 +88,14 @@ def summarize_task_set(tasks: dict, policies: Iterable[str]) -> dict:
     return out
 
 
+def lowest_mean(policies: dict, candidates: Iterable[str]) -> str | None:
+    """The policy of ``candidates`` with the lowest mean error among those that ran in a
+    task's ``policies`` (``compare_task``'s result; a skipped one has no mean); the first
+    listed on a tie; None if none ran. The best greedy planner of a task, for one."""
+    ran = [p for p in candidates if "mean_error_m" in policies.get(p, {})]
+    return min(ran, key=lambda p: float(policies[p]["mean_error_m"])) if ran else None
+
+
 def headroom_task(
     task: dict,
     greedy: Iterable[str],
@@ -120,8 +128,7 @@ def headroom_task(
         st = pol.get(p)
         return None if st is None or "skipped" in st else float(st["mean_error_m"])
 
-    ran = [p for p in greedy if mean(p) is not None]
-    best = min(ran, key=lambda p: (mean(p), ran.index(p))) if ran else None
+    best = lowest_mean(pol, greedy)
     out: dict[str, Any] = {"best_greedy": best, "best_greedy_m": None if best is None else mean(best)}
     challengers = list(challengers)
     o = mean(oracle)

@@ -154,10 +154,10 @@ class MLSArray:
         sender_h = np.angle(st.b_heading[rows, j])[:, None].repeat(S, 1)
         obs_en, obs_h = st.s_pos[..., :2], np.angle(st.s_heading)
         dist = np.linalg.norm(sender_en - obs_en, axis=-1)
-        # the sender's height above each survey vehicle (0 at the scenario's one depth for all)
+        # the sender's height above each survey vehicle (0 at the scenario's one depth for all,
+        # where hypot(x, 0) = |x| exactly: nothing below changes a one-depth scenario)
         dz = st.s_pos[..., 2] - st.b_pos[rows, j, 2][:, None]  # (B,S)
-        level = dz == 0.0
-        slant = np.where(level, dist, np.hypot(dist, dz))
+        slant = np.hypot(dist, dz)
         heard = (dist > self.sensor.min_range_m) & (arrival_probability(c, slant) > 0.0)  # the window
         n = draws["mls_n"]  # (B,S,14)
         az = np.zeros((B, S))
@@ -181,8 +181,8 @@ class MLSArray:
         # 2026-12-04 the horizontal range went to the filters as it was: with the school at 50 m
         # and the sender at 5 m the gate rejected almost every range.
         lifted = np.hypot(rng_m, dz)
-        var_r = np.where(level, var_r, var_r * np.square(rng_m / np.maximum(lifted, 1e-9)))
-        rng_m = np.where(level, rng_m, lifted)
+        var_r[heard] *= np.square(rng_m[heard] / lifted[heard])
+        rng_m[heard] = lifted[heard]
         # the compass: bearing (clockwise from north) = pi/2 - heading angle (anticlockwise from east)
         compass_std = np.radians(c.compass_noise_deg) * st.ep_noise_scale[:, None]
         compass = np.pi / 2 - obs_h + st.s_compass_bias_rad + compass_std * n[..., 13]
