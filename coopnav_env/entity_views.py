@@ -12,8 +12,9 @@ one core, so the flat vector stays what the existing policies read.
   underneath, and beacon j's role input says so.
 * ``MixedTeamVecEnv``: several teams of one scenario family behind one SB3 VecEnv, for
   training one entity policy on every team at once (the team makeup randomized over the
-  batch). ``teams`` is a list of team overrides (``n_survey``, ``beacon_kinds``; {}: the
-  scenario's own team); the ``n_envs`` environments are dealt to the teams in turn
+  batch). ``teams`` is a list of team overrides (``n_survey``, ``beacon_kinds``,
+  ``ping_interval_s``: a cycle length is one simulator's, so a second ping interval is a
+  second team; {}: the scenario's own team); the ``n_envs`` environments are dealt to the teams in turn
   (team i gets ``n_envs // T`` plus one of the remainder for i < ``n_envs % T``), so the
   number of rows is fixed: the sum over teams of environments x beacons.
   **Seeds**: the environments are numbered through the teams in order (g = 0 ..
@@ -44,7 +45,7 @@ if TYPE_CHECKING:
 
     from .scenarios import ScenarioConfig
 
-TEAM_KEYS = ("n_survey", "beacon_kinds")  # what a team of MixedTeamVecEnv may set
+TEAM_KEYS = ("n_survey", "beacon_kinds", "ping_interval_s")  # what a team of MixedTeamVecEnv may set
 MAX_TEAMS = 16
 
 __all__ = ["MAX_TEAMS", "TEAM_KEYS", "EntityParallelEnv", "EntityVecEnv", "MixedTeamVecEnv", "entity_parallel_env"]

@@ -214,6 +214,24 @@ def test_mixed_team_env_seeds_rows_and_reproducibility():
     assert a.get_attr("agent") == ["beacon_0", "beacon_0", "beacon_0", "beacon_0", "beacon_1"]
     with pytest.raises(ValueError, match=r"teams\[0\]: 'depth_m' is not a team parameter"):
         MixedTeamVecEnv("gao_lawnmower", teams=[{"depth_m": 3.0}], n_envs=1)
+    with pytest.raises(ValueError, match=r"teams\[1\].*ping_interval_s \(7.5\) must be a whole multiple"):
+        MixedTeamVecEnv("gao_lawnmower", teams=[{}, {"ping_interval_s": 7.5}], n_envs=2)
+
+
+def test_a_team_may_have_its_own_ping_interval():
+    """A cycle length is one simulator's, so a second ping interval is a second team: its rows
+    are the standalone env at that interval."""
+    from coopnav_env.entity_views import EntityVecEnv, MixedTeamVecEnv
+    from coopnav_env.vector import CoopNavVecEnv
+
+    kw: dict[str, Any] = dict(teams=[{}, {"ping_interval_s": 10.0}], n_envs=2, seed=5)
+    mixed = MixedTeamVecEnv("gao_sea", **kw)
+    assert [c.ping_interval_s for c in mixed.configs] == [20.0, 10.0]
+    obs = np.asarray(mixed.reset())
+    alone = EntityVecEnv(CoopNavVecEnv("gao_sea", n_envs=1, seed=6, ping_interval_s=10.0))
+    np.testing.assert_array_equal(obs[1:2], alone.reset())
+    action = np.full((2, 2), 0.3)
+    np.testing.assert_array_equal(mixed.step(action)[0][1:2], alone.step(action[1:2])[0])
     with pytest.raises(ValueError, match=r"at most MAX_SURVEY=5"):
         MixedTeamVecEnv("gao_lawnmower", teams=[{"n_survey": 6}], n_envs=1)
 
@@ -257,6 +275,9 @@ def test_training_config_checks_the_entity_keys():
         _entity_config(env=EnvSpec(observation="entities", teams=[{"n_surveys": 2}])).check()
     with pytest.raises(ConfigError, match=r"1-3 beacon kinds"):
         _entity_config(env=EnvSpec(observation="entities", teams=[{"beacon_kinds": ["asv"] * 4}])).check()
+    with pytest.raises(ConfigError, match=r"env.teams\[1\].ping_interval_s must be a number of seconds"):
+        _entity_config(env=EnvSpec(observation="entities", teams=[{}, {"ping_interval_s": "10 s"}])).check()
+    _entity_config(env=EnvSpec(observation="entities", teams=[{}, {"ping_interval_s": 10.0}])).check()
     with pytest.raises(ConfigError, match=r"lists a team twice"):
         _entity_config(env=EnvSpec(observation="entities", teams=[{}, {}])).check()
     with pytest.raises(ConfigError, match=r"n_envs \(1\) must be at least the number of env.teams \(2\)"):

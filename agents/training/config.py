@@ -80,7 +80,7 @@ class ConfigError(ValueError):
 # the sections
 # ----------------------------------------------------------------------------------
 OBSERVATIONS = ("flat", "entities")  # env.observation
-TEAM_KEYS = ("n_survey", "beacon_kinds")  # what an env.teams entry sets (coopnav_env.entity_views)
+TEAM_KEYS = ("n_survey", "beacon_kinds", "ping_interval_s")  # what an env.teams entry sets (coopnav_env.entity_views)
 MAX_TEAMS = 16  # env.teams entries (coopnav_env.entity_views.MAX_TEAMS)
 
 
@@ -335,6 +335,9 @@ def check_env_observation(env: EnvSpec) -> None:
         kinds = team.get("beacon_kinds", ["beacon_auv"])
         if not isinstance(kinds, (list, tuple)) or not 1 <= len(kinds) <= MAX_BEACONS:
             raise ConfigError(f"{where}.beacon_kinds must be a list of 1-{MAX_BEACONS} beacon kinds, got {kinds!r}")
+        ping = team.get("ping_interval_s", 1.0)
+        if isinstance(ping, bool) or not isinstance(ping, (int, float)) or not 0 < ping <= 3600:
+            raise ConfigError(f"{where}.ping_interval_s must be a number of seconds in (0, 3600], got {ping!r}")
     if len({repr(sorted(t.items())) for t in env.teams}) != len(env.teams):
         raise ConfigError("env.teams lists a team twice")
 
