@@ -105,11 +105,16 @@ def list_policies() -> list:
     if not POLICY_DIR.is_dir():
         return []
 
-    from . import benchmarl_policy
+    from . import batched_policy, benchmarl_policy
 
     def has_model(p):
         try:
-            return (p / "gate.yml").is_file() or benchmarl_policy.is_benchmarl_path(p) or _model_files(p) is not None
+            return (
+                (p / "gate.yml").is_file()
+                or benchmarl_policy.is_benchmarl_path(p)
+                or batched_policy.is_batched_path(p)
+                or _model_files(p) is not None
+            )
         except (ValueError, OSError):
             return False
 
@@ -213,7 +218,7 @@ def resolve(
     Refuses (``PolicyFormatError``) pickle-based files unless ``trust_pickle``, a missing
     normalization file of a normalized run, and checkpoint records pointing outside the
     run directory."""
-    from . import benchmarl_policy, rllib_policy
+    from . import batched_policy, benchmarl_policy, rllib_policy
 
     name_or_path = _shipped_benchmarl(name_or_path, scenario) or name_or_path
     if rllib_policy.is_rllib_path(name_or_path):
@@ -222,6 +227,10 @@ def resolve(
         directory = Path(str(name_or_path))
         safe_paths.check_tree(directory)
         return directory / benchmarl_policy.WEIGHTS, None, directory / benchmarl_policy.RUN_RECORD
+    if batched_policy.is_batched_path(name_or_path):  # python -m agents.training.batched_ppo
+        directory = Path(str(name_or_path))
+        safe_paths.check_tree(directory)
+        return directory / batched_policy.WEIGHTS, None, directory / batched_policy.RUN_RECORD
     path = Path(str(name_or_path))
     if path.suffix in (".zip", ".safetensors") and path.is_file():
         safe_paths.inside(path.parent, path.name, "model file")  # a link out of its folder: refused
@@ -380,13 +389,15 @@ def load(
     directory, or model file. With ``scenario`` (name or ScenarioConfig) its
     observation size is checked against the policy's. Nothing is unpickled unless
     ``trust_pickle`` (then an old SB3 .zip/.pkl or an RLlib checkpoint loads)."""
-    from . import benchmarl_policy, rllib_policy
+    from . import batched_policy, benchmarl_policy, rllib_policy
 
     name_or_path = _shipped_benchmarl(name_or_path, scenario) or name_or_path  # a shipped BenchMARL run
     if rllib_policy.is_rllib_path(name_or_path):  # train.py --backend rllib
         return rllib_policy.load(name_or_path, scenario=scenario, device=device, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # python -m agents.training.marl
         return benchmarl_policy.load(name_or_path, scenario=scenario)
+    if batched_policy.is_batched_path(name_or_path):  # python -m agents.training.batched_ppo
+        return batched_policy.load(name_or_path, scenario=scenario)
     model_path, stats_path, config_path = resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     if model_path.name == "gate.yml":
         return _load_gated(model_path, scenario, device, name=Path(str(name_or_path)).name, trust_pickle=trust_pickle)
@@ -555,13 +566,17 @@ def make_policy(
     and episode is cheap, since the loaded model is shared (cached by resolved path).
     ``seed`` and ``agent`` are accepted for the interface; the policy ignores them
     (deterministic, and parameter-shared across beacons). ``trust_pickle``: as ``load``."""
-    from . import benchmarl_policy, rllib_policy
+    from . import batched_policy, benchmarl_policy, rllib_policy
 
     name_or_path = _shipped_benchmarl(name_or_path, env_or_config) or name_or_path  # a shipped BenchMARL run
     if rllib_policy.is_rllib_path(name_or_path):  # one module per beacon kind: the agent matters
         return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # its own memory per beacon and episode
         return benchmarl_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent)
+    if batched_policy.is_batched_path(name_or_path):  # stateless and shared: one object serves every beacon
+        from coopnav_env.scenarios import resolve_config
+
+        return batched_policy.load(name_or_path, None if env_or_config is None else resolve_config(env_or_config))
     scenario = None
     if env_or_config is not None:
         from coopnav_env.scenarios import resolve_config

@@ -225,6 +225,62 @@ def _clock_class() -> type:
     return globals()["_Clock"]
 
 
+def measure_loop(
+    critic: str,
+    scenario: str,
+    overrides: dict,
+    n_envs: int,
+    steps: int,
+    minibatch: int,
+    epochs: int,
+    net: Sequence[int],
+    rollouts: int,
+    seed: int,
+    threads: int = 1,
+) -> dict:
+    """Whole-loop env-steps/s of ``agents.training.batched_ppo`` (critic "state": MAPPO,
+    "observation": IPPO) on the batched TorchRL env: ``rollouts`` timed iterations
+    (collection + update) after one untimed, from the loop's own per-iteration clock."""
+    from agents.training.batched_ppo import BatchedPPOConfig, train
+
+    config = BatchedPPOConfig(
+        scenario=scenario,
+        n_envs=n_envs,
+        n_steps=steps,
+        epochs=epochs,
+        minibatch=minibatch,
+        net=tuple(net),
+        critic=critic,
+        seed=seed,
+        overrides=dict(overrides),
+    )
+    result = train(config, (rollouts + 1) * n_envs * steps, progress=False, threads=threads)
+    timed = result["log"][1:]
+    env_s = sum(r["env_s"] for r in timed)
+    collect_s = sum(r["collect_s"] for r in timed)
+    update_s = sum(r["update_s"] for r in timed)
+    wall = env_s + collect_s + update_s
+    frames = len(timed) * n_envs * steps
+    import torch
+
+    return {
+        "kind": f"loop-{'mappo' if critic == 'state' else 'ippo'}",
+        "rows": n_envs,
+        "steps": frames,
+        "wall_s": wall,
+        "steps_per_s": frames / wall,
+        "env_s": env_s,
+        "env_share": env_s / wall,
+        "rollout_other_share": collect_s / wall,
+        "update_share": update_s / wall,
+        "minibatch": min(minibatch, n_envs * steps),
+        "epochs": epochs,
+        "steps_per_env": steps,
+        "net": list(net),
+        "torch_threads": torch.get_num_threads(),
+    }
+
+
 def measure_torchrl(
     algorithm: str,
     scenario: str,
@@ -352,6 +408,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--threads", type=int, default=1, help="torch threads (train.py's default: 1)")
     p.add_argument("--torchrl", default="", help="also BenchMARL on the TorchRL env: mappo, ippo or mappo,ippo")
+    p.add_argument(
+        "--loop",
+        default="",
+        help="also agents.training.batched_ppo (one readable PPO loop) on the TorchRL env: mappo, ippo or mappo,ippo; "
+        "with the --torchrl-* settings",
+    )
     p.add_argument("--torchrl-n-envs", default="1024", help="environments in its batch (comma list: one run each)")
     p.add_argument("--torchrl-steps", type=int, default=64, help="steps per environment per iteration")
     p.add_argument("--torchrl-minibatch", type=int, default=8192, help="PPO minibatch (env-steps)")
@@ -425,6 +487,26 @@ def main(argv: Sequence[str] | None = None) -> int:
                     args.torchrl_activation,
                 )
             )
+    for algorithm in [a for a in args.loop.split(",") if a]:
+        if algorithm not in ("mappo", "ippo"):
+            print(f"train_throughput.py: error: --loop takes mappo and ippo, got {algorithm!r}", file=sys.stderr)
+            return 2
+        for n in (int(v) for v in args.torchrl_n_envs.split(",")):
+            done(
+                measure_loop(
+                    "state" if algorithm == "mappo" else "observation",
+                    args.scenario,
+                    dict(config.env.overrides),
+                    n,
+                    args.torchrl_steps,
+                    args.torchrl_minibatch,
+                    args.torchrl_epochs,
+                    [int(v) for v in args.torchrl_net.split(",")],
+                    args.rollouts,
+                    args.seed,
+                    args.threads,
+                )
+            )
     meta = {
         "scenario": args.scenario,
         "n_envs": n_envs,
@@ -446,7 +528,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         meta["speedup"] = by_kind["coopnav"]["steps_per_s"] / by_kind["supersuit"]["steps_per_s"]
     if "coopnav" in by_kind:
         for r in results:
-            if r["kind"].startswith("torchrl"):
+            if r["kind"].startswith(("torchrl", "loop")):
                 r["vs_sb3"] = r["steps_per_s"] / by_kind["coopnav"]["steps_per_s"]
     if args.json:
         print(json.dumps({"meta": meta, "results": results}, indent=2))
@@ -466,7 +548,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{r['env_share']:>8.1%}{r['rollout_other_share']:>15.1%}{r['update_share']:>9.1%}"
             + (f"  {r['vs_sb3']:.1f}x SB3" if "vs_sb3" in r else "")
         )
-    if any(r["kind"].startswith("torchrl") for r in results):
+    if any(r["kind"].startswith("loop") for r in results):
+        print("loop: agents.training.batched_ppo with the torchrl settings below")
+    if any(r["kind"].startswith(("torchrl", "loop")) for r in results):
         print(
             f"torchrl: BenchMARL, {args.torchrl_steps} steps per env per iteration, "
             f"minibatch {args.torchrl_minibatch}, {args.torchrl_epochs} epochs, net {args.torchrl_net} "

@@ -1,0 +1,122 @@
+"""Runs of ``agents.training.batched_ppo`` as coopnav policies:
+``agents.load("runs/sousa_asv_batched", scenario="sousa_asv")``.
+
+A run folder holds ``run.json`` (``"trainer": "batched_ppo"``, its settings, the sizes of
+the observation and the action) and ``actor.safetensors`` (the actor MLP's weights and
+the log standard deviation: data, not a pickle). The policy acts deterministically (the
+Gaussian's mean, clipped to [-1, 1]); the beacons share the network, so it drives any number
+of beacons of a scenario whose observation and action sizes are the run's. Acting needs
+torch only (not torchrl).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .formats import PolicyFormatError
+from .policy import BatchPolicy
+
+if TYPE_CHECKING:
+    from coopnav_env.scenarios import ScenarioConfig
+
+RUN_RECORD = "run.json"
+WEIGHTS = "actor.safetensors"
+TRAINER = "batched_ppo"  # agents.training.batched_ppo.TRAINER
+
+__all__ = ["BatchedPPOPolicy", "is_batched_path", "load"]
+
+
+def _record(directory: Path) -> dict | None:
+    from .formats import safe_json
+
+    try:
+        record = safe_json(directory / RUN_RECORD)
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) and record.get("trainer") == TRAINER else None
+
+
+def is_batched_path(path: Any) -> bool:
+    """Whether ``path`` is a batched_ppo run folder (no import of torch)."""
+    directory = Path(str(path))
+    if not (directory.is_dir() and (directory / RUN_RECORD).is_file() and (directory / WEIGHTS).is_file()):
+        return False
+    return _record(directory) is not None
+
+
+class BatchedPPOPolicy(BatchPolicy):
+    """The actor of a batched_ppo run (see the module docstring)."""
+
+    def __init__(self, directory: Path, record: dict, config: ScenarioConfig | None) -> None:
+        import torch
+        from safetensors.torch import load_file
+
+        from .training.batched_ppo import mlp
+
+        self.name = directory.name
+        self.record = record
+        self.run_config = record
+        self.config = config
+        try:
+            self.obs_dim = int(record["obs_dim"])
+            self.action_dim = int(record["action_dim"])
+            net = [int(h) for h in record["config"]["net"]]
+        except (KeyError, TypeError, ValueError):
+            raise PolicyFormatError(f"{directory / RUN_RECORD} lacks obs_dim, action_dim or config.net") from None
+        self.actor = mlp(self.obs_dim, net, self.action_dim, 0.01)
+        weights = load_file(str(directory / WEIGHTS))
+        state = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
+        try:
+            self.actor.load_state_dict(state)
+        except RuntimeError as err:
+            first = str(err).strip().splitlines()[0]
+            raise PolicyFormatError(f"{directory / WEIGHTS} does not fit the run's network {net}: {first}") from None
+        self.actor.eval()
+        self._torch = torch
+
+    def reset(self, seed: int | None = None) -> None:
+        """Nothing to clear: the actor has no memory."""
+
+    def act_batch(self, obs: np.ndarray) -> np.ndarray:
+        obs = np.asarray(obs, dtype=np.float64)
+        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
+            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        torch = self._torch
+        with torch.no_grad():
+            mean = self.actor(torch.as_tensor(obs, dtype=torch.float32)).numpy()
+        return np.clip(mean, -1.0, 1.0).astype(np.float32)
+
+    def config_problem(self, config: Any) -> str | None:
+        from coopnav_env.views import action_dim
+
+        problem = super().config_problem(config)
+        if problem is None and action_dim(config) != self.action_dim:
+            return f"takes actions of size {self.action_dim}; scenario {config.name!r} has {action_dim(config)}"
+        return problem
+
+    def __repr__(self) -> str:
+        return f"BatchedPPOPolicy({self.name!r}, critic={self.record['config'].get('critic')})"
+
+
+def load(path: str | Path, scenario: str | ScenarioConfig | None = None) -> BatchedPPOPolicy:
+    """The policy of the run at ``path``, bound to ``scenario`` (default: the scenario it
+    trained on, with its parameters). One line (``ValueError``) if it cannot drive it."""
+    from coopnav_env.scenarios import make_config, resolve_config
+
+    directory = Path(str(path))
+    record = _record(directory)
+    if record is None:
+        raise PolicyFormatError(f"{directory} is not a batched_ppo run (run.json with trainer: batched_ppo)")
+    if scenario is None:
+        run = record.get("config") or {}
+        config = make_config(str(run.get("scenario")), **dict(run.get("overrides") or {}))
+    else:
+        config = resolve_config(scenario)
+    policy = BatchedPPOPolicy(directory, record, config)
+    problem = policy.config_problem(config)
+    if problem:
+        raise ValueError(f"{directory}: {problem}")
+    return policy

@@ -1,0 +1,418 @@
+"""PPO on the batched core in one readable loop (CleanRL's habit): MAPPO or IPPO over
+``coopnav_env.torchrl_env.CoopNavTorchEnv``, with no framework between the loop and the
+tensors.
+
+    python -m agents.training.batched_ppo --scenario sousa_asv --timesteps 20000000 \\
+        --out runs/sousa_asv_batched             # MAPPO, 4,096 environments
+    python -m agents.training.batched_ppo --scenario gao_team --critic observation ...   # IPPO
+
+Why it exists: BenchMARL's ``Experiment`` (``agents.training.marl``) spends 60-70 % of its
+loop in its PPO update machinery (TensorDict losses, value estimators over the whole
+batch; ``docs/performance.md#torchrl-throughput``); the simulator's step over a batch of
+4,096 environments is a quarter of it. This loop keeps the update to what PPO needs, so the
+batched core's speed reaches the training loop. It is a second trainer of the same
+algorithm, not a second copy of the physics: the environment is the TorchRL view of the one
+core.
+
+**The algorithm** (Schulman et al. 2017; Yu et al. 2022 for MAPPO), each step where it is
+computed below:
+
+* actor: an MLP (tanh) from a beacon's observation to the mean of a Gaussian with a
+  state-independent log standard deviation, shared by the beacons of the group; actions are
+  clipped to [-1, 1] by the environment, the log-probability is the unclipped sample's;
+* critic: ``"state"`` (MAPPO): an MLP on the environment's ``state`` (the privileged global
+  state and every observation) with one value per beacon; ``"observation"`` (IPPO): the
+  actor's input, one value each;
+* advantages: GAE(γ, λ) (P1) with the value of the episode's last state bootstrapped when it
+  ended by the cycle limit (truncated) and not when it terminated (P2);
+* the clipped surrogate (P3), the value loss (P4), the entropy bonus, gradient clipping;
+* the reward scaled by a running standard deviation of the discounted return (as SB3's
+  ``VecNormalize(norm_reward=True)``), per environment.
+
+**Output** (``--out``, a new or empty folder): ``actor.safetensors`` (the actor's weights:
+data, not a pickle), ``run.json`` (the settings and the scenario) and ``log.jsonl`` (one
+line per iteration: steps, seconds, the mean episode return and the survey error).
+
+Needs the ``marl`` extra (torchrl, tensordict).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+CRITICS = ("state", "observation")
+TRAINER = "batched_ppo"  # run.json's "trainer" (agents.batched_policy.is_batched_path)
+
+
+@dataclass
+class BatchedPPOConfig:
+    """The loop's settings (``--help`` lists them with their defaults)."""
+
+    scenario: str = "sousa_asv"
+    n_envs: int = 4096  # environments in the core's batch
+    n_steps: int = 32  # steps per environment per iteration
+    epochs: int = 2  # passes over each batch
+    minibatch: int = 32768  # env-steps per gradient step
+    learning_rate: float = 3e-4
+    gamma: float = 0.95
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.0
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    net: tuple[int, ...] = (128, 128)
+    log_std_init: float = -1.0
+    critic: str = "state"  # "state": MAPPO's centralized critic; "observation": IPPO's
+    norm_reward: bool = True
+    seed: int = 0
+    overrides: dict[str, Any] = field(default_factory=dict)  # scenario parameters
+
+    def check(self) -> None:
+        """One-line ``ValueError`` naming the first bad setting."""
+        for name in ("n_envs", "n_steps", "epochs", "minibatch"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
+        if self.critic not in CRITICS:
+            raise ValueError(f"critic must be one of {', '.join(CRITICS)}, got {self.critic!r}")
+        if not self.net or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in self.net):
+            raise ValueError(f"net must be a non-empty list of layer widths >= 1, got {list(self.net)!r}")
+        for name in ("gamma", "gae_lambda"):
+            v = getattr(self, name)
+            if not 0.0 <= v <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {v!r}")
+        for name in ("learning_rate", "clip_range", "max_grad_norm"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+
+
+def mlp(n_in: int, net: Sequence[int], n_out: int, out_gain: float) -> Any:
+    """Linear-tanh layers with orthogonal initialisation (gain sqrt 2, the output ``out_gain``)."""
+    import torch
+    from torch import nn
+
+    layers: list[nn.Module] = []
+    for h in net:
+        layer = nn.Linear(n_in, h)
+        nn.init.orthogonal_(layer.weight, math.sqrt(2))
+        nn.init.zeros_(layer.bias)
+        layers += [layer, nn.Tanh()]
+        n_in = h
+    out = nn.Linear(n_in, n_out)
+    nn.init.orthogonal_(out.weight, out_gain)
+    nn.init.zeros_(out.bias)
+    return nn.Sequential(*layers, out).to(torch.float32)
+
+
+def gae(reward: Any, value: Any, next_value: Any, terminated: Any, done: Any, gamma: float, lam: float) -> Any:
+    """Generalized advantage estimates (Schulman et al. 2016) over a rollout of T steps
+    (leading axis): (P1) delta_t = r_t + gamma V(s'_t) (1 - terminated_t) - V(s_t), with
+    s'_t the state step t ended in (the last state of an episode the cycle limit cut is
+    bootstrapped (P2), a terminated one is not); A_t = delta_t + gamma lam (1 - done_t)
+    A_t+1: the sum stops where an episode ended, since row t+1 is then a new episode.
+    ``terminated`` and ``done`` broadcast against ``reward`` (e.g. (T, B, 1) against
+    (T, B, N))."""
+    import torch
+
+    adv = torch.zeros_like(reward)
+    last = torch.zeros_like(reward[0])
+    for t in reversed(range(reward.shape[0])):
+        delta = reward[t] + gamma * next_value[t] * (1.0 - terminated[t]) - value[t]
+        last = delta + gamma * lam * (1.0 - done[t]) * last
+        adv[t] = last
+    return adv
+
+
+def make_env(config: BatchedPPOConfig) -> Any:
+    from coopnav_env.torchrl_env import CoopNavTorchEnv
+
+    state = "privileged" if config.critic == "state" else "observations"
+    return CoopNavTorchEnv(
+        config.scenario, n_envs=config.n_envs, seed=config.seed, infos=True, state=state, **config.overrides
+    )
+
+
+def train(
+    config: BatchedPPOConfig,
+    total_steps: int,
+    out: Path | None = None,
+    progress: bool = True,
+    threads: int | None = None,
+) -> dict:
+    """Trains for at least ``total_steps`` env-steps (one step of one environment); returns
+    ``{"actor": ..., "log": [...], "steps": ..., "seconds": ...}``; each log row has the
+    iteration's wall seconds in the simulator (``env_s``), the rest of collection
+    (``collect_s``) and the update (``update_s``). ``threads``: torch's threads, set after
+    the environment is built (numba's start can reset them)."""
+    import torch
+    from torch import nn
+
+    from coopnav_env.torchrl_env import GROUP
+
+    config.check()
+    torch.manual_seed(config.seed)
+    env = make_env(config)
+    if threads is not None:
+        torch.set_num_threads(threads)
+    B, N, O, D = env.n_envs, env.n_beacons, env.obs_dim, env.action_dim
+    S = env.state_dim
+    T = config.n_steps
+    actor = mlp(O, config.net, D, 0.01)
+    log_std = nn.Parameter(torch.full((D,), float(config.log_std_init)))
+    critic = mlp(S, config.net, N, 1.0) if config.critic == "state" else mlp(O, config.net, 1, 1.0)
+    params = [*actor.parameters(), log_std, *critic.parameters()]
+    optimizer = torch.optim.Adam(params, lr=config.learning_rate, eps=1e-5)
+
+    def values(state: Any, obs: Any) -> Any:  # (..., N)
+        return critic(state) if config.critic == "state" else critic(obs).squeeze(-1)
+
+    # the rollout's buffers: T steps of B environments and N beacons
+    obs_buf = torch.zeros(T, B, N, O)
+    state_buf = torch.zeros(T, B, S)
+    act_buf = torch.zeros(T, B, N, D)
+    logp_buf = torch.zeros(T, B, N)
+    rew_buf = torch.zeros(T, B, N)
+    val_buf = torch.zeros(T, B, N)
+    next_val_buf = torch.zeros(T, B, N)
+    term_buf = torch.zeros(T, B, 1)
+    done_buf = torch.zeros(T, B, 1)
+
+    ret_running = torch.zeros(B, N, dtype=torch.float64)  # discounted return, for the reward's scale
+    ret_count, ret_mean, ret_var = 1e-4, 0.0, 1.0
+    ep_return = torch.zeros(B)
+    ep_error = torch.zeros(B, dtype=torch.float64)
+    ep_len = torch.zeros(B)
+    finished_returns: list[float] = []
+    finished_errors: list[float] = []
+
+    iterations = max(1, math.ceil(total_steps / (B * T)))
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=iterations * B * T, unit="step", unit_scale=True, desc=f"batched PPO {config.scenario}")
+    log: list[dict] = []
+    start = time.perf_counter()
+    td = env.reset()
+    steps = 0
+    for it in range(iterations):
+        # ---- collection -------------------------------------------------------------
+        t_collect = time.perf_counter()
+        env_s = 0.0
+        with torch.no_grad():
+            for t in range(T):
+                obs = td.get((GROUP, "observation"))
+                state = td.get("state")
+                mean = actor(obs)
+                std = log_std.exp()
+                action = mean + std * torch.randn_like(mean)
+                logp = (-0.5 * ((action - mean) / std) ** 2 - log_std - 0.5 * math.log(2 * math.pi)).sum(-1)
+                obs_buf[t], state_buf[t], act_buf[t], logp_buf[t] = obs, state, action, logp
+                val_buf[t] = values(state, obs)
+                td.set((GROUP, "action"), action)
+                t0 = time.perf_counter()
+                td, td_next = env.step_and_maybe_reset(td)
+                env_s += time.perf_counter() - t0
+                nxt = td.get("next")
+                reward = nxt.get((GROUP, "reward")).squeeze(-1)
+                term = nxt.get("terminated").float()
+                done = nxt.get("done").float()
+                # the value of the state the step ended in: bootstrapped unless terminated (P2)
+                next_val_buf[t] = values(nxt.get("state"), nxt.get((GROUP, "observation")))
+                ep_return += reward.mean(-1)
+                ep_error += nxt.get(("info", "survey_error_m"))
+                ep_len += 1
+                if config.norm_reward:  # the running std of the discounted return (VecNormalize's)
+                    ret_running = ret_running * config.gamma + reward.double()
+                    x = ret_running.flatten()
+                    b_mean, b_var, n = float(x.mean()), float(x.var(unbiased=False)), x.numel()
+                    delta, tot = b_mean - ret_mean, ret_count + n
+                    ret_var = (ret_var * ret_count + b_var * n + delta**2 * ret_count * n / tot) / tot
+                    ret_mean, ret_count = ret_mean + delta * n / tot, tot
+                    reward = torch.clamp(reward / math.sqrt(ret_var + 1e-8), -10.0, 10.0)
+                rew_buf[t], term_buf[t], done_buf[t] = reward, term, done
+                ended = done.squeeze(-1).bool()
+                if ended.any():
+                    finished_returns += ep_return[ended].tolist()
+                    finished_errors += (ep_error[ended] / ep_len[ended]).tolist()
+                    ep_return[ended], ep_error[ended], ep_len[ended] = 0.0, 0.0, 0.0
+                    ret_running[ended] = 0.0
+                td = td_next
+
+            adv = gae(rew_buf, val_buf, next_val_buf, term_buf, done_buf, config.gamma, config.gae_lambda)
+            returns = adv + val_buf
+        collect_s = time.perf_counter() - t_collect - env_s
+
+        # ---- update -----------------------------------------------------------------
+        t_update = time.perf_counter()
+        M = T * B
+        b_obs, b_state = obs_buf.reshape(M, N, O), state_buf.reshape(M, S)
+        b_act, b_logp = act_buf.reshape(M, N, D), logp_buf.reshape(M, N)
+        b_adv, b_ret = adv.reshape(M, N), returns.reshape(M, N)
+        b_adv = (b_adv - b_adv.mean()) / (b_adv.std() + 1e-8)
+        mb = min(config.minibatch, M)
+        clip_fractions = []
+        for _ in range(config.epochs):
+            order = torch.randperm(M)
+            for lo in range(0, M, mb):
+                idx = order[lo : lo + mb]
+                mean = actor(b_obs[idx])
+                logp = (-0.5 * ((b_act[idx] - mean) / log_std.exp()) ** 2 - log_std - 0.5 * math.log(2 * math.pi)).sum(
+                    -1
+                )
+                ratio = (logp - b_logp[idx]).exp()
+                a = b_adv[idx]
+                # the clipped surrogate (P3)
+                policy_loss = -torch.min(
+                    ratio * a, ratio.clamp(1 - config.clip_range, 1 + config.clip_range) * a
+                ).mean()
+                value_loss = 0.5 * (values(b_state[idx], b_obs[idx]) - b_ret[idx]).pow(2).mean()  # (P4)
+                entropy = (log_std + 0.5 * math.log(2 * math.pi * math.e)).sum()
+                loss = policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
+                optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                nn.utils.clip_grad_norm_(params, config.max_grad_norm)
+                optimizer.step()
+                clip_fractions.append(float(((ratio - 1).abs() > config.clip_range).float().mean()))
+        update_s = time.perf_counter() - t_update
+
+        steps += M
+        row = {
+            "iteration": it + 1,
+            "steps": steps,
+            "seconds": round(time.perf_counter() - start, 2),
+            "episodes": len(finished_returns),
+            "return_mean": float(sum(finished_returns) / len(finished_returns)) if finished_returns else None,
+            "survey_error_m": float(sum(finished_errors) / len(finished_errors)) if finished_errors else None,
+            "value_loss": float(value_loss.detach()),
+            "env_s": round(env_s, 4),  # the simulator's steps and resets
+            "collect_s": round(collect_s, 4),  # the rest of collection: forward passes, buffers, GAE
+            "update_s": round(update_s, 4),
+            "clip_fraction": float(sum(clip_fractions) / len(clip_fractions)),
+            "action_std": [float(s) for s in log_std.detach().exp()],
+        }
+        finished_returns, finished_errors = [], []
+        log.append(row)
+        if out is not None:
+            with open(out / "log.jsonl", "a") as f:
+                f.write(json.dumps(row) + "\n")
+        if bar is not None:
+            bar.update(M)
+            if row["survey_error_m"] is not None:
+                bar.set_postfix(error_m=f"{row['survey_error_m']:.2f}")
+    if bar is not None:
+        bar.close()
+    seconds = time.perf_counter() - start
+    if out is not None:
+        save(out, actor, log_std, config, steps, seconds, obs_dim=O, action_dim=D)
+    return {"actor": actor, "log_std": log_std, "log": log, "steps": steps, "seconds": seconds}
+
+
+def save(
+    out: Path,
+    actor: Any,
+    log_std: Any,
+    config: BatchedPPOConfig,
+    steps: int,
+    seconds: float,
+    obs_dim: int,
+    action_dim: int,
+) -> None:
+    """``actor.safetensors`` and ``run.json`` in ``out`` (``agents.batched_policy`` reads
+    them), each written atomically."""
+    from safetensors.torch import save as save_bytes
+
+    from coopnav_env.records import atomic_write_bytes
+
+    tensors = {f"actor.{k}": v.detach().contiguous() for k, v in actor.state_dict().items()}
+    tensors["log_std"] = log_std.detach().contiguous()
+    atomic_write_bytes(out / "actor.safetensors", save_bytes(tensors))
+    record = {
+        "trainer": TRAINER,
+        "config": asdict(config),
+        "obs_dim": int(obs_dim),
+        "action_dim": int(action_dim),
+        "steps": steps,
+        "seconds": round(seconds, 1),
+    }
+    atomic_write_bytes(out / "run.json", (json.dumps(record, indent=1) + "\n").encode())
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    defaults = BatchedPPOConfig()
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--scenario", default=defaults.scenario)
+    p.add_argument("--timesteps", type=int, required=True, help="env-steps in all (one step of one environment)")
+    p.add_argument("--out", help="new or empty folder for actor.safetensors, run.json, log.jsonl")
+    p.add_argument("--critic", choices=CRITICS, default=defaults.critic, help="state: MAPPO; observation: IPPO")
+    p.add_argument("--n-envs", type=int, default=defaults.n_envs)
+    p.add_argument("--n-steps", type=int, default=defaults.n_steps)
+    p.add_argument("--epochs", type=int, default=defaults.epochs)
+    p.add_argument("--minibatch", type=int, default=defaults.minibatch)
+    p.add_argument("--learning-rate", type=float, default=defaults.learning_rate)
+    p.add_argument("--gamma", type=float, default=defaults.gamma)
+    p.add_argument("--net", default=",".join(map(str, defaults.net)), help="hidden layer widths, e.g. 128,128")
+    p.add_argument("--seed", type=int, default=defaults.seed)
+    p.add_argument("--threads", type=int, default=1, help="torch threads")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a scenario parameter (YAML value)")
+    p.add_argument("--no-progress", action="store_true")
+    args = p.parse_args(argv)
+    try:
+        import yaml
+
+        net = tuple(int(x) for x in args.net.split(","))
+        overrides = {}
+        for item in args.set:
+            key, sep, value = item.partition("=")
+            if not sep:
+                raise ValueError(f"--set takes KEY=VALUE, got {item!r}")
+            overrides[key] = yaml.safe_load(value)
+        config = BatchedPPOConfig(
+            scenario=args.scenario,
+            n_envs=args.n_envs,
+            n_steps=args.n_steps,
+            epochs=args.epochs,
+            minibatch=args.minibatch,
+            learning_rate=args.learning_rate,
+            gamma=args.gamma,
+            net=net,
+            critic=args.critic,
+            seed=args.seed,
+            overrides=overrides,
+        )
+        config.check()
+        if args.timesteps < 1:
+            raise ValueError(f"--timesteps must be >= 1, got {args.timesteps}")
+        out = None
+        if args.out:
+            out = Path(args.out)
+            if out.exists() and (not out.is_dir() or any(out.iterdir())):
+                raise ValueError(f"--out {out} exists and is not an empty folder (nothing is overwritten)")
+            out.mkdir(parents=True, exist_ok=True)
+        import torch
+
+        torch.set_num_threads(args.threads)
+        make_env(BatchedPPOConfig(**{**asdict(config), "n_envs": 1}))  # bad scenario parameters fail here, fast
+    except (ValueError, ImportError) as err:
+        print(f"batched_ppo: {err}", file=sys.stderr)
+        return 2
+    result = train(config, args.timesteps, out=out, progress=not args.no_progress, threads=args.threads)
+    last = result["log"][-1]
+    print(
+        f"{result['steps']:,} steps in {result['seconds']:.1f} s ({result['steps'] / result['seconds']:,.0f} steps/s); "
+        f"last iteration: survey error {last['survey_error_m']} m"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,118 @@
+"""The readable PPO loop on the batched core (agents/training/batched_ppo.py) and its runs as
+policies (agents/batched_policy.py): GAE by hand, a tiny training run end to end, bad input."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from optional import require
+
+require("torchrl")
+import torch  # noqa: E402
+
+import agents  # noqa: E402
+from agents.training.batched_ppo import BatchedPPOConfig, gae, main, train  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_gae_by_hand_bootstraps_a_truncated_end_and_not_a_terminated_one():
+    """Three steps, one environment, one beacon, gamma 0.5, lambda 0.5 (P1, P2):
+    step 0 continues, step 1 ends by the cycle limit (truncated: V of its last state counts),
+    step 2 terminates (its next value is ignored)."""
+    r = torch.tensor([1.0, 2.0, 3.0]).reshape(3, 1, 1)
+    v = torch.tensor([0.5, 1.0, 4.0]).reshape(3, 1, 1)
+    v_next = torch.tensor([1.0, 8.0, 100.0]).reshape(3, 1, 1)  # V of the state each step ended in
+    term = torch.tensor([0.0, 0.0, 1.0]).reshape(3, 1, 1)
+    done = torch.tensor([0.0, 1.0, 1.0]).reshape(3, 1, 1)
+    adv = gae(r, v, v_next, term, done, 0.5, 0.5).flatten().tolist()
+    d2 = 3.0 - 4.0  # terminated: no bootstrap
+    d1 = 2.0 + 0.5 * 8.0 - 1.0  # truncated: bootstrapped; the sum stops here (done)
+    d0 = 1.0 + 0.5 * 1.0 - 0.5
+    assert adv == pytest.approx([d0 + 0.25 * d1, d1, d2])
+
+
+def test_gae_broadcasts_the_environment_flags_over_the_beacons():
+    r = torch.ones(2, 3, 2)
+    zeros = torch.zeros(2, 3, 2)
+    done = torch.tensor([1.0, 0.0]).reshape(2, 1, 1).expand(2, 3, 1)
+    adv = gae(r, zeros, zeros, torch.zeros(2, 3, 1), done, 1.0, 1.0)
+    assert adv.shape == (2, 3, 2)
+    assert torch.equal(adv[0], torch.ones(3, 2))  # step 0 ended the episode: step 1 is not added
+    assert torch.equal(adv[1], torch.ones(3, 2))
+
+
+@pytest.mark.parametrize("critic", ["state", "observation"])
+def test_a_tiny_run_trains_saves_and_loads_as_a_policy(tmp_path, critic):
+    """Three iterations of 8 environments of gao_team (two beacons, one shared actor): the
+    files are written, the log has a row per iteration with its clock, and agents.load
+    gives a deterministic policy that acts on every beacon and refuses another action size."""
+    out = tmp_path / "run"
+    out.mkdir()
+    config = BatchedPPOConfig(scenario="gao_team", n_envs=8, n_steps=8, minibatch=32, critic=critic, seed=3)
+    result = train(config, 3 * 8 * 8, out=out, progress=False)
+    assert result["steps"] == 192
+    rows = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
+    assert [r["iteration"] for r in rows] == [1, 2, 3]
+    assert all(r["env_s"] > 0 and r["update_s"] > 0 for r in rows)
+    record = json.loads((out / "run.json").read_text())
+    assert record["trainer"] == "batched_ppo" and record["config"]["critic"] == critic
+    policy = agents.load(str(out), scenario="gao_team")
+    obs = np.random.default_rng(0).uniform(-1, 1, (5, policy.obs_dim))
+    a = policy.act_batch(obs)
+    assert a.shape == (5, 2) and np.all(np.abs(a) <= 1)
+    assert np.array_equal(a, policy.act_batch(obs))
+    with torch.no_grad():  # the mean of the trained actor, as saved
+        want = np.clip(result["actor"](torch.as_tensor(obs, dtype=torch.float32)).numpy(), -1, 1)
+    np.testing.assert_array_equal(a, want)
+    assert policy.config_problem(agents_config("sousa_ping")) is not None  # a third action component
+
+
+def agents_config(name):
+    from coopnav_env.scenarios import make_config
+
+    return make_config(name)
+
+
+def test_the_policy_runs_in_evaluate(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    train(BatchedPPOConfig(scenario="sousa_asv", n_envs=4, n_steps=4, minibatch=16), 16, out=out, progress=False)
+    res = subprocess.run(
+        [sys.executable, "evaluate.py", "--scenario", "sousa_asv", "--policies", str(out), "--episodes", "1"]
+        + ["--set", "max_cycles=5", "--out", str(tmp_path / "ev"), "--no-figures"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert res.returncode == 0, res.stderr[-2000:]
+    summary = json.loads((tmp_path / "ev" / "summary.json").read_text())
+    assert str(out) in json.dumps(summary)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--timesteps", "100", "--critic", "state", "--set", "depth_m=-5"], "depth_m"),
+        (["--timesteps", "100", "--n-envs", "0"], "n_envs must be an integer >= 1"),
+        (["--timesteps", "0"], "--timesteps must be >= 1"),
+        (["--timesteps", "100", "--set", "depth_m"], "--set takes KEY=VALUE"),
+        (["--timesteps", "100", "--scenario", "gao_see"], "gao_sea"),
+    ],
+)
+def test_bad_input_is_one_line_and_status_2(argv, message, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err
+
+
+def test_an_occupied_out_folder_is_refused(tmp_path, capsys):
+    (tmp_path / "keep.txt").write_text("x")
+    assert main(["--timesteps", "100", "--out", str(tmp_path)]) == 2
+    assert "nothing is overwritten" in capsys.readouterr().err
+    assert (tmp_path / "keep.txt").read_text() == "x"
