@@ -76,6 +76,10 @@ class BatchedPPOPolicy(BatchPolicy):
             raise PolicyFormatError(f"{directory / WEIGHTS} does not fit the run's network {net}: {first}") from None
         self.actor.eval()
         self._torch = torch
+        self.obs_mean = weights.get("obs_mean")  # None: trained on raw observations
+        self.obs_std = None if self.obs_mean is None else torch.sqrt(weights["obs_var"] + 1e-8)
+        if self.obs_mean is not None and self.obs_mean.shape != (self.obs_dim,):
+            raise PolicyFormatError(f"{directory / WEIGHTS}: obs_mean has shape {tuple(self.obs_mean.shape)}")
 
     def reset(self, seed: int | None = None) -> None:
         """Nothing to clear: the actor has no memory."""
@@ -85,8 +89,11 @@ class BatchedPPOPolicy(BatchPolicy):
         if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
         torch = self._torch
+        x = torch.as_tensor(obs, dtype=torch.float32)
+        if self.obs_mean is not None:  # as training scaled them (agents.training.batched_ppo.RunningNorm)
+            x = ((x - self.obs_mean) / self.obs_std).clamp(-10.0, 10.0)
         with torch.no_grad():
-            mean = self.actor(torch.as_tensor(obs, dtype=torch.float32)).numpy()
+            mean = self.actor(x).numpy()
         return np.clip(mean, -1.0, 1.0).astype(np.float32)
 
     def config_problem(self, config: Any) -> str | None:

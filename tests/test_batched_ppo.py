@@ -66,8 +66,9 @@ def test_a_tiny_run_trains_saves_and_loads_as_a_policy(tmp_path, critic):
     a = policy.act_batch(obs)
     assert a.shape == (5, 2) and np.all(np.abs(a) <= 1)
     assert np.array_equal(a, policy.act_batch(obs))
-    with torch.no_grad():  # the mean of the trained actor, as saved
-        want = np.clip(result["actor"](torch.as_tensor(obs, dtype=torch.float32)).numpy(), -1, 1)
+    with torch.no_grad():  # the mean of the trained actor on the observation as training scaled it
+        x = result["obs_norm"].normalize(torch.as_tensor(obs, dtype=torch.float32))
+        want = np.clip(result["actor"](x).numpy(), -1, 1)
     np.testing.assert_array_equal(a, want)
     assert policy.config_problem(agents_config("sousa_ping")) is not None  # a third action component
 
@@ -103,6 +104,8 @@ def test_the_policy_runs_in_evaluate(tmp_path):
         (["--timesteps", "0"], "--timesteps must be >= 1"),
         (["--timesteps", "100", "--set", "depth_m"], "--set takes KEY=VALUE"),
         (["--timesteps", "100", "--scenario", "gao_see"], "gao_sea"),
+        (["--timesteps", "100", "--reward-term", "stdd=1"], "unknown reward term 'stdd'"),
+        (["--timesteps", "100", "--reward-term", "std=a"], "the weight must be a number"),
     ],
 )
 def test_bad_input_is_one_line_and_status_2(argv, message, capsys):
