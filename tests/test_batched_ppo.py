@@ -15,7 +15,7 @@ require("torchrl")
 import torch  # noqa: E402
 
 import agents  # noqa: E402
-from agents.training.batched_ppo import BatchedPPOConfig, gae, main, train  # noqa: E402
+from agents.training.batched_ppo import BatchedPPOConfig, RunningNorm, gae, main, train  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -44,6 +44,18 @@ def test_gae_broadcasts_the_environment_flags_over_the_beacons():
     assert adv.shape == (2, 3, 2)
     assert torch.equal(adv[0], torch.ones(3, 2))  # step 0 ended the episode: step 1 is not added
     assert torch.equal(adv[1], torch.ones(3, 2))
+
+
+def test_running_norm_in_chunks_is_the_mean_and_variance_of_all_the_data():
+    data = np.random.default_rng(1).normal([3.0, -2.0], [0.5, 4.0], (1000, 2))
+    norm = RunningNorm((2,))
+    for chunk in np.array_split(data, 7):  # unequal chunks, as batches of rows
+        norm.update(torch.as_tensor(chunk))
+    np.testing.assert_allclose(norm.mean.numpy(), data.mean(0), rtol=1e-6)
+    np.testing.assert_allclose(norm.var.numpy(), data.var(0), rtol=2e-5)  # the prior count 1e-4
+    z = norm.normalize(torch.tensor([[3.0 + 0.5, 1e6]], dtype=torch.float32))
+    assert z[0, 0].item() == pytest.approx((0.5 + 3.0 - data[:, 0].mean()) / data[:, 0].std(), rel=1e-5)
+    assert z[0, 1].item() == 10.0  # clipped
 
 
 @pytest.mark.parametrize("critic", ["state", "observation"])
@@ -106,6 +118,7 @@ def test_the_policy_runs_in_evaluate(tmp_path):
         (["--timesteps", "100", "--scenario", "gao_see"], "gao_sea"),
         (["--timesteps", "100", "--reward-term", "stdd=1"], "unknown reward term 'stdd'"),
         (["--timesteps", "100", "--reward-term", "std=a"], "the weight must be a number"),
+        (["--timesteps", "100", "--seed", str(2**61)], "--seed"),
     ],
 )
 def test_bad_input_is_one_line_and_status_2(argv, message, capsys):
@@ -119,3 +132,10 @@ def test_an_occupied_out_folder_is_refused(tmp_path, capsys):
     assert main(["--timesteps", "100", "--out", str(tmp_path)]) == 2
     assert "nothing is overwritten" in capsys.readouterr().err
     assert (tmp_path / "keep.txt").read_text() == "x"
+
+
+def test_the_command_line_writes_a_run_and_releases_its_folder(tmp_path):
+    out = tmp_path / "run"
+    argv = ["--scenario", "sousa_asv", "--timesteps", "64", "--n-envs", "8", "--n-steps", "8", "--minibatch", "32"]
+    assert main([*argv, "--out", str(out), "--no-progress"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["actor.safetensors", "log.jsonl", "run.json"]

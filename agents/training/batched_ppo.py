@@ -495,20 +495,33 @@ def main(argv: Sequence[str] | None = None) -> int:
         config.check()
         if args.timesteps < 1:
             raise ValueError(f"--timesteps must be >= 1, got {args.timesteps}")
+        from coopnav_env.seeds import refuse_test_seeds
+
+        refuse_test_seeds(args.seed, config.n_envs, what="--seed")
         out = None
         if args.out:
             out = Path(args.out)
             if out.exists() and (not out.is_dir() or any(out.iterdir())):
                 raise ValueError(f"--out {out} exists and is not an empty folder (nothing is overwritten)")
-            out.mkdir(parents=True, exist_ok=True)
         import torch
 
         torch.set_num_threads(args.threads)
         make_env(BatchedPPOConfig(**{**asdict(config), "n_envs": 1}))  # bad scenario parameters fail here, fast
+        if out is not None:  # one trainer per folder (agents.training.runlock), as train.py's
+            from . import runlock
+
+            runlock.claim(
+                out, new=True, command="python -m agents.training.batched_ppo " + " ".join(argv or sys.argv[1:])
+            )
     except (ValueError, ImportError) as err:
         print(f"batched_ppo: {err}", file=sys.stderr)
         return 2
-    result = train(config, args.timesteps, out=out, progress=not args.no_progress, threads=args.threads)
+    try:
+        result = train(config, args.timesteps, out=out, progress=not args.no_progress, threads=args.threads)
+    finally:
+        from . import runlock
+
+        runlock.release_all()
     last = result["log"][-1]
     print(
         f"{result['steps']:,} steps in {result['seconds']:.1f} s ({result['steps'] / result['seconds']:,.0f} steps/s); "
