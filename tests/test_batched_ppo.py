@@ -134,6 +134,18 @@ def test_an_occupied_out_folder_is_refused(tmp_path, capsys):
     assert (tmp_path / "keep.txt").read_text() == "x"
 
 
+def test_a_long_run_saves_along_the_way(tmp_path, monkeypatch):
+    from agents.training import batched_ppo
+
+    saved = []
+    real = batched_ppo.save
+    monkeypatch.setattr(batched_ppo, "save", lambda out, *a: saved.append(a[3]) or real(out, *a))
+    config = BatchedPPOConfig(scenario="sousa_asv", n_envs=4, n_steps=4, minibatch=16)
+    train(config, 5 * 16, out=tmp_path, progress=False, save_every_steps=32)
+    assert saved == [32, 64, 80]  # every 32 steps, then the end
+    assert json.loads((tmp_path / "run.json").read_text())["steps"] == 80
+
+
 def test_the_command_line_writes_a_run_and_releases_its_folder(tmp_path):
     out = tmp_path / "run"
     argv = ["--scenario", "sousa_asv", "--timesteps", "64", "--n-envs", "8", "--n-steps", "8", "--minibatch", "32"]

@@ -213,8 +213,11 @@ def train(
     out: Path | None = None,
     progress: bool = True,
     threads: int | None = None,
+    save_every_steps: int = 5_000_000,
 ) -> dict:
-    """Trains for at least ``total_steps`` env-steps (one step of one environment); returns
+    """Trains for at least ``total_steps`` env-steps (one step of one environment); with
+    ``out``, the weights and run.json are also written every ``save_every_steps`` (a run
+    stopped early keeps its last save; ``run.json`` says its steps). Returns
     ``{"actor": ..., "log": [...], "steps": ..., "seconds": ...}``; each log row has the
     iteration's wall seconds in the simulator (``env_s``), the rest of collection
     (``collect_s``) and the update (``update_s``). ``threads``: torch's threads, set after
@@ -391,11 +394,13 @@ def train(
             bar.update(M)
             if row["survey_error_m"] is not None:
                 bar.set_postfix(error_m=f"{row['survey_error_m']:.2f}")
+        if out is not None and steps // save_every_steps > (steps - M) // save_every_steps and it + 1 < iterations:
+            save(out, actor, log_std, config, steps, time.perf_counter() - start, O, D, obs_norm)
     if bar is not None:
         bar.close()
     seconds = time.perf_counter() - start
     if out is not None:
-        save(out, actor, log_std, config, steps, seconds, obs_dim=O, action_dim=D, obs_norm=obs_norm)
+        save(out, actor, log_std, config, steps, seconds, O, D, obs_norm)
     return {"actor": actor, "log_std": log_std, "obs_norm": obs_norm, "log": log, "steps": steps, "seconds": seconds}
 
 
@@ -457,6 +462,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="SIGNAL=WEIGHT",
         help="train on core.reward's training signals (repeatable, e.g. std=1 penalties=1; default: the env's reward)",
     )
+    p.add_argument("--save-every-steps", type=int, default=5_000_000, help="also save the weights every N env-steps")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
     try:
@@ -495,6 +501,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         config.check()
         if args.timesteps < 1:
             raise ValueError(f"--timesteps must be >= 1, got {args.timesteps}")
+        if args.save_every_steps < 1:
+            raise ValueError(f"--save-every-steps must be >= 1, got {args.save_every_steps}")
         from coopnav_env.seeds import refuse_test_seeds
 
         refuse_test_seeds(args.seed, config.n_envs, what="--seed")
@@ -517,7 +525,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"batched_ppo: {err}", file=sys.stderr)
         return 2
     try:
-        result = train(config, args.timesteps, out=out, progress=not args.no_progress, threads=args.threads)
+        result = train(
+            config,
+            args.timesteps,
+            out=out,
+            progress=not args.no_progress,
+            threads=args.threads,
+            save_every_steps=args.save_every_steps,
+        )
     finally:
         from . import runlock
 
