@@ -1,4 +1,5 @@
-"""Learning curves of BenchMARL runs (``python -m agents.training.marl``) side by side.
+"""Learning curves of BenchMARL runs (``python -m agents.training.marl``) and batched PPO runs
+(``python -m agents.training.batched_ppo``) side by side.
 
     python benchmarks/marl_curves.py mappo=runs/gao_team_mappo ippo=runs/gao_team_ippo \\
         --out docs/figures/levers_gao_team.png
@@ -7,7 +8,10 @@ Reads each run's BenchMARL CSV log (``<run>/benchmarl/*/scalars/<metric>.csv``: 
 collected batch) and plots it against the env-steps collected (BenchMARL's
 ``counters_total_frames``), smoothed over ``--smooth`` batches. The default metric is the training
 batch's mean true survey error (``collection_info_survey_error_m``: every step of every
-environment in the batch, exploration noise included; a learning curve, not a score).
+environment in the batch, exploration noise included; a learning curve, not a score). A batched
+PPO run's ``log.jsonl`` gives the same quantity per iteration as ``survey_error_m`` (the mean
+error of the episodes that ended in the iteration, exploration included); it is read for the
+default metric.
 """
 
 from __future__ import annotations
@@ -23,6 +27,15 @@ import numpy as np
 def curve(run: Path, metric: str) -> tuple:
     """(env-steps, values) of ``metric`` in the run folder ``run`` (the env-steps from
     BenchMARL's own frame counter, logged beside it)."""
+    if (run / "log.jsonl").is_file() and not (run / "benchmarl").is_dir():  # agents.training.batched_ppo
+        import json
+
+        key = "survey_error_m" if metric == "collection_info_survey_error_m" else metric
+        rows = [json.loads(line) for line in (run / "log.jsonl").read_text().splitlines() if line.strip()]
+        rows = [r for r in rows if r.get(key) is not None]
+        if not rows:
+            raise ValueError(f"{run}/log.jsonl has no {key!r}")
+        return np.array([r["steps"] for r in rows], dtype=float), np.array([r[key] for r in rows], dtype=float)
     logs = sorted((run / "benchmarl").glob("*/scalars"))
     if not logs or not (logs[0] / f"{metric}.csv").is_file():
         raise ValueError(f"{run} has no BenchMARL log of {metric!r} (benchmarl/*/scalars/{metric}.csv)")
