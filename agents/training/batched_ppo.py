@@ -3,7 +3,7 @@
 tensors.
 
     python -m agents.training.batched_ppo --scenario sousa_asv --timesteps 20000000 \\
-        --out runs/sousa_asv_batched             # MAPPO, 4,096 environments
+        --out runs/sousa_asv_batched             # MAPPO, 4,096 environments, 2 epochs
     python -m agents.training.batched_ppo --scenario gao_team --critic observation ...   # IPPO
 
 Why it exists: BenchMARL's ``Experiment`` (``agents.training.marl``) spends 60-70 % of its
@@ -26,12 +26,16 @@ computed below:
 * advantages: GAE(γ, λ) (P1) with the value of the episode's last state bootstrapped when it
   ended by the cycle limit (truncated) and not when it terminated (P2);
 * the clipped surrogate (P3), the value loss (P4), the entropy bonus, gradient clipping;
-* the reward scaled by a running standard deviation of the discounted return (as SB3's
-  ``VecNormalize(norm_reward=True)``), per environment.
+* observations and state scaled by their running mean and variance, the reward by a running
+  standard deviation of the discounted return (as SB3's ``VecNormalize``; ``RunningNorm``).
 
-**Output** (``--out``, a new or empty folder): ``actor.safetensors`` (the actor's weights:
-data, not a pickle), ``run.json`` (the settings and the scenario) and ``log.jsonl`` (one
-line per iteration: steps, seconds, the mean episode return and the survey error).
+**Output** (``--out``, a new or empty folder, locked for the run): ``actor.safetensors`` (the
+actor's weights and the observation statistics: data, not a pickle; written every
+``--save-every-steps`` and at the end), ``run.json`` (the settings, the scenario, the sizes, the
+steps) and ``log.jsonl`` (one line per iteration: steps, seconds, the mean episode return and
+survey error, the seconds in the simulator, the rest of collection and the update).
+``agents.batched_policy`` loads it as a policy. Measured: ``docs/performance.md#loop-throughput``
+and ``docs/training/marl.md#levers-loop``.
 
 Needs the ``marl`` extra (torchrl, tensordict).
 """
