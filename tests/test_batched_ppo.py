@@ -15,7 +15,14 @@ require("torchrl")
 import torch  # noqa: E402
 
 import agents  # noqa: E402
-from agents.training.batched_ppo import BatchedPPOConfig, RunningNorm, gae, main, train  # noqa: E402
+from agents.training.batched_ppo import (  # noqa: E402
+    BatchedPPOConfig,
+    RunningNorm,
+    gae,
+    main,
+    next_state_values,
+    train,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -44,6 +51,41 @@ def test_gae_broadcasts_the_environment_flags_over_the_beacons():
     assert adv.shape == (2, 3, 2)
     assert torch.equal(adv[0], torch.ones(3, 2))  # step 0 ended the episode: step 1 is not added
     assert torch.equal(adv[1], torch.ones(3, 2))
+
+
+def test_next_state_values_come_from_the_next_step_except_at_an_episode_end():
+    """Two environments, three steps: environment 1's episode ends at step 1, so its value
+    there is the one computed on the episode's last state, not step 2's (a new episode)."""
+    value = torch.tensor([[1.0, 10.0], [2.0, 20.0], [3.0, 30.0]]).reshape(3, 2, 1)
+    at_ends = torch.full((3, 2, 1), -1.0)
+    at_ends[1, 1] = 99.0
+    done = torch.zeros(3, 2, 1)
+    done[1, 1] = 1.0
+    got = next_state_values(value, at_ends, done, torch.tensor([4.0, 40.0]).reshape(2, 1))
+    assert got.flatten().tolist() == [2.0, 20.0, 3.0, 99.0, 4.0, 40.0]
+
+
+def test_the_loop_bootstraps_from_the_next_step_and_from_each_episode_end_state(monkeypatch):
+    """End to end, what the loop hands to GAE: where an episode went on, the next value is the
+    next step's value; where it ended, it is the end state's own (not the new episode's)."""
+    from agents.training import batched_ppo
+
+    seen = []
+    real_gae = batched_ppo.gae
+    monkeypatch.setattr(batched_ppo, "gae", lambda *a: seen.append([x.clone() for x in a[:5]]) or real_gae(*a))
+    config = BatchedPPOConfig(
+        scenario="sousa_asv", n_envs=3, n_steps=6, minibatch=18, seed=4, overrides={"max_cycles": 4}
+    )
+    torch.manual_seed(0)
+    result = train(config, 18, progress=False)
+    _, value, next_value, _, done = seen[0]
+    assert done.sum() >= 3  # every environment ended an episode inside the rollout (max_cycles 4)
+    # where an episode went on, the next value is the next step's value; at an end it is not
+    going = done[:-1, :, 0] == 0
+    assert torch.equal(next_value[:-1][going], value[1:][going])
+    ended = done[:-1, :, 0] == 1
+    assert not torch.equal(next_value[:-1][ended], value[1:][ended])
+    assert result["steps"] == 18
 
 
 def test_running_norm_in_chunks_is_the_mean_and_variance_of_all_the_data():

@@ -196,6 +196,17 @@ class RunningNorm:
         return z.clamp(-self.clip, self.clip)
 
 
+def next_state_values(value: Any, at_ends: Any, done: Any, last_value: Any) -> Any:
+    """V of the state each step ended in, (T, B, N): where the episode went on, that state is
+    the next step's, so its value is ``value[t + 1]`` (``last_value`` after the rollout's last
+    step); where it ended (``done`` (T, B, 1)), ``at_ends[t]``, the value of the episode's
+    last state computed before the reset replaced it."""
+    import torch
+
+    following = torch.cat([value[1:], last_value[None]])
+    return torch.where(done == 0.0, following, at_ends)
+
+
 def make_env(config: BatchedPPOConfig) -> Any:
     from coopnav_env.torchrl_env import CoopNavTorchEnv
 
@@ -332,11 +343,8 @@ def train(
                     ret_running[ended] = 0.0
                 td = td_next
 
-            going = done_buf == 0.0  # (T, B, 1): the state after step t is step t+1's (or the last one's)
             last_obs, last_state = observe(td)
-            last_value = values(last_state, last_obs)
-            following = torch.cat([val_buf[1:], last_value[None]])
-            next_val_buf = torch.where(going, following, next_val_buf)
+            next_val_buf = next_state_values(val_buf, next_val_buf, done_buf, values(last_state, last_obs))
             adv = gae(rew_buf, val_buf, next_val_buf, term_buf, done_buf, config.gamma, config.gae_lambda)
             returns = adv + val_buf
         collect_s = time.perf_counter() - t_collect - env_s
