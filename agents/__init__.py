@@ -574,9 +574,7 @@ def make_policy(
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # its own memory per beacon and episode
         return benchmarl_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent)
     if batched_policy.is_batched_path(name_or_path):  # stateless and shared: one object serves every beacon
-        from coopnav_env.scenarios import resolve_config
-
-        return batched_policy.load(name_or_path, None if env_or_config is None else resolve_config(env_or_config))
+        return batched_policy.load(name_or_path, env_or_config)
     scenario = None
     if env_or_config is not None:
         from coopnav_env.scenarios import resolve_config

@@ -108,9 +108,10 @@ class BatchedPPOPolicy(BatchPolicy):
         return f"BatchedPPOPolicy({self.name!r}, critic={self.record['config'].get('critic')})"
 
 
-def load(path: str | Path, scenario: str | ScenarioConfig | None = None) -> BatchedPPOPolicy:
-    """The policy of the run at ``path``, bound to ``scenario`` (default: the scenario it
-    trained on, with its parameters). One line (``ValueError``) if it cannot drive it."""
+def load(path: str | Path, scenario: Any = None) -> BatchedPPOPolicy:
+    """The policy of the run at ``path``, bound to ``scenario`` (a name, a ScenarioConfig or
+    an env; default: the scenario it trained on, with its parameters). One line
+    (``ValueError``) if it cannot drive it."""
     from coopnav_env.scenarios import make_config, resolve_config
 
     directory = Path(str(path))

@@ -225,8 +225,31 @@ def _clock_class() -> type:
     return globals()["_Clock"]
 
 
+def _batched_result(
+    kind: str, n_envs: int, steps: int, frames: int, wall: float, env_s: float, collect_s: float, **settings: Any
+) -> dict:
+    """A batched path's figures: ``collect_s`` is the whole collection (the simulator's
+    ``env_s`` included), the rest of ``wall`` the updates; ``settings`` are recorded as given."""
+    import torch
+
+    return {
+        "kind": kind,
+        "rows": n_envs,
+        "steps": frames,
+        "wall_s": wall,
+        "steps_per_s": frames / wall,
+        "env_s": env_s,
+        "env_share": env_s / wall,
+        "rollout_other_share": (collect_s - env_s) / wall,
+        "update_share": (wall - collect_s) / wall,
+        **settings,
+        "steps_per_env": steps,
+        "torch_threads": torch.get_num_threads(),
+    }
+
+
 def measure_loop(
-    critic: str,
+    algorithm: str,
     scenario: str,
     overrides: dict,
     n_envs: int,
@@ -238,9 +261,10 @@ def measure_loop(
     seed: int,
     threads: int = 1,
 ) -> dict:
-    """Whole-loop env-steps/s of ``agents.training.batched_ppo`` (critic "state": MAPPO,
-    "observation": IPPO) on the batched TorchRL env: ``rollouts`` timed iterations
-    (collection + update) after one untimed, from the loop's own per-iteration clock."""
+    """Whole-loop env-steps/s of ``agents.training.batched_ppo`` (``algorithm`` mappo: the
+    critic on the state; ippo: on each observation) on the batched TorchRL env: ``rollouts``
+    timed iterations (collection + update) after one untimed, from the loop's own
+    per-iteration clock."""
     from agents.training.batched_ppo import BatchedPPOConfig, train
 
     config = BatchedPPOConfig(
@@ -250,35 +274,18 @@ def measure_loop(
         epochs=epochs,
         minibatch=minibatch,
         net=tuple(net),
-        critic=critic,
+        critic="state" if algorithm == "mappo" else "observation",
         seed=seed,
         overrides=dict(overrides),
     )
     result = train(config, (rollouts + 1) * n_envs * steps, progress=False, threads=threads)
     timed = result["log"][1:]
     env_s = sum(r["env_s"] for r in timed)
-    collect_s = sum(r["collect_s"] for r in timed)
-    update_s = sum(r["update_s"] for r in timed)
-    wall = env_s + collect_s + update_s
+    collect_s = env_s + sum(r["collect_s"] for r in timed)
+    wall = collect_s + sum(r["update_s"] for r in timed)
     frames = len(timed) * n_envs * steps
-    import torch
-
-    return {
-        "kind": f"loop-{'mappo' if critic == 'state' else 'ippo'}",
-        "rows": n_envs,
-        "steps": frames,
-        "wall_s": wall,
-        "steps_per_s": frames / wall,
-        "env_s": env_s,
-        "env_share": env_s / wall,
-        "rollout_other_share": collect_s / wall,
-        "update_share": update_s / wall,
-        "minibatch": min(minibatch, n_envs * steps),
-        "epochs": epochs,
-        "steps_per_env": steps,
-        "net": list(net),
-        "torch_threads": torch.get_num_threads(),
-    }
+    settings = {"minibatch": min(minibatch, n_envs * steps), "epochs": epochs, "net": list(net)}
+    return _batched_result(f"loop-{algorithm}", n_envs, steps, frames, wall, env_s, collect_s, **settings)
 
 
 def measure_torchrl(
@@ -367,22 +374,8 @@ def measure_torchrl(
     collect = sum(c - t for c, t in zip(clock.collected[1:], clock.trained[:-1]))
     env_time = clock.env_s[-1] - clock.env_s[0]
     frames = rollouts * per_batch
-    return {
-        "kind": f"torchrl-{algorithm}",
-        "rows": n_envs,
-        "steps": frames,
-        "wall_s": wall,
-        "steps_per_s": frames / wall,
-        "env_s": env_time,
-        "env_share": env_time / wall,
-        "rollout_other_share": (collect - env_time) / wall,
-        "update_share": (wall - collect) / wall,
-        "minibatch": min(minibatch, per_batch),
-        "epochs": epochs,
-        "steps_per_env": steps,
-        "net": list(net),
-        "torch_threads": torch.get_num_threads(),
-    }
+    settings = {"minibatch": min(minibatch, per_batch), "epochs": epochs, "net": list(net)}
+    return _batched_result(f"torchrl-{algorithm}", n_envs, steps, frames, wall, env_time, collect, **settings)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -466,47 +459,30 @@ def main(argv: Sequence[str] | None = None) -> int:
                 args.training_reward,
             )
         )
-    for algorithm in [a for a in args.torchrl.split(",") if a]:
-        if algorithm not in ("mappo", "ippo"):
-            print(f"train_throughput.py: error: --torchrl takes mappo and ippo, got {algorithm!r}", file=sys.stderr)
-            return 2
-        for n in (int(v) for v in args.torchrl_n_envs.split(",")):
-            done(
-                measure_torchrl(
-                    algorithm,
-                    args.scenario,
-                    dict(config.env.overrides),
-                    n,
-                    args.torchrl_steps,
-                    args.torchrl_minibatch,
-                    args.torchrl_epochs,
-                    [int(v) for v in args.torchrl_net.split(",")],
-                    args.rollouts,
-                    args.seed,
-                    args.threads,
-                    args.torchrl_activation,
+    batched = [("--torchrl", args.torchrl, measure_torchrl), ("--loop", args.loop, measure_loop)]
+    for flag, algorithms, measure_batched in batched:
+        for algorithm in [a for a in algorithms.split(",") if a]:
+            if algorithm not in ("mappo", "ippo"):
+                print(f"train_throughput.py: error: {flag} takes mappo and ippo, got {algorithm!r}", file=sys.stderr)
+                return 2
+            extra = {"activation": args.torchrl_activation} if flag == "--torchrl" else {}
+            for n in (int(v) for v in args.torchrl_n_envs.split(",")):
+                done(
+                    measure_batched(
+                        algorithm,
+                        args.scenario,
+                        dict(config.env.overrides),
+                        n,
+                        args.torchrl_steps,
+                        args.torchrl_minibatch,
+                        args.torchrl_epochs,
+                        [int(v) for v in args.torchrl_net.split(",")],
+                        args.rollouts,
+                        args.seed,
+                        args.threads,
+                        **extra,
+                    )
                 )
-            )
-    for algorithm in [a for a in args.loop.split(",") if a]:
-        if algorithm not in ("mappo", "ippo"):
-            print(f"train_throughput.py: error: --loop takes mappo and ippo, got {algorithm!r}", file=sys.stderr)
-            return 2
-        for n in (int(v) for v in args.torchrl_n_envs.split(",")):
-            done(
-                measure_loop(
-                    "state" if algorithm == "mappo" else "observation",
-                    args.scenario,
-                    dict(config.env.overrides),
-                    n,
-                    args.torchrl_steps,
-                    args.torchrl_minibatch,
-                    args.torchrl_epochs,
-                    [int(v) for v in args.torchrl_net.split(",")],
-                    args.rollouts,
-                    args.seed,
-                    args.threads,
-                )
-            )
     meta = {
         "scenario": args.scenario,
         "n_envs": n_envs,

@@ -478,23 +478,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
     try:
-        import yaml
+        from .config import parse_assignments
 
         net = tuple(int(x) for x in args.net.split(","))
-        overrides = {}
-        for item in args.set:
-            key, sep, value = item.partition("=")
-            if not sep:
-                raise ValueError(f"--set takes KEY=VALUE, got {item!r}")
-            overrides[key] = yaml.safe_load(value)
+        overrides = parse_assignments(args.set, "--set")
         terms = {}
-        for item in args.reward_term:
-            key, sep, value = item.partition("=")
-            if not sep:
-                raise ValueError(f"--reward-term takes SIGNAL=WEIGHT, got {item!r}")
+        for key, value in parse_assignments(args.reward_term, "--reward-term").items():
             try:
                 terms[key] = float(value)
-            except ValueError:
+            except (TypeError, ValueError):
                 raise ValueError(f"--reward-term {key}: the weight must be a number, got {value!r}") from None
         config = BatchedPPOConfig(
             scenario=args.scenario,

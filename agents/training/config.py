@@ -28,7 +28,7 @@ import dataclasses
 import difflib
 import types
 import typing
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -74,6 +74,21 @@ __all__ = [
 
 class ConfigError(ValueError):
     """Bad input: a config, a file or an option that cannot be used (one line)."""
+
+
+def parse_assignments(items: Sequence[str], what: str) -> dict:
+    """``KEY=VALUE`` command-line items as a dict, each VALUE read as YAML (``--set`` and the
+    like of ``agents.training.marl`` and ``agents.training.batched_ppo``); one-line
+    ``ConfigError`` naming ``what`` for an item without ``=``."""
+    import yaml
+
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ConfigError(f"{what} takes KEY=VALUE, got {item!r}")
+        out[key.strip()] = yaml.safe_load(value)
+    return out
 
 
 # ----------------------------------------------------------------------------------

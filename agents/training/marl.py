@@ -39,7 +39,7 @@ from typing import Any
 
 from benchmarl.experiment.callback import Callback
 
-from .config import ConfigError
+from .config import ConfigError, parse_assignments
 
 ALGORITHMS = ("mappo", "ippo", "masac", "maddpg", "iddpg", "isac")  # BenchMARL's continuous-action algorithms
 # BenchMARL's models that read the flat observation; its Deep Sets and GNN need set (entity)
@@ -89,18 +89,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
     return p
-
-
-def _parse_assignments(items: Sequence[str], what: str) -> dict:
-    import yaml
-
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            raise ConfigError(f"{what} must be KEY=VALUE, got {item!r}")
-        out[key.strip()] = yaml.safe_load(value)
-    return out
 
 
 def _choice(value: str, valid: Sequence[str], what: str) -> str:
@@ -264,8 +252,8 @@ def run(args: argparse.Namespace, command: str) -> dict:
     except ValueError as err:
         raise ConfigError(str(err)) from None
     out = Path(args.out or f"runs/marl/{args.task.replace('/', '_')}-{algorithm}-seed{args.seed}")
-    changes = _parse_assignments(args.set, "--set")
-    overrides = _parse_assignments(args.override, "--override")
+    changes = parse_assignments(args.set, "--set")
+    overrides = parse_assignments(args.override, "--override")
     import logging
     import warnings
 
@@ -279,7 +267,7 @@ def run(args: argparse.Namespace, command: str) -> dict:
         if args.state:
             task_changes["state"] = args.state
         if args.reward_term:
-            task_changes["reward_terms"] = _parse_assignments(args.reward_term, "--reward-term")
+            task_changes["reward_terms"] = parse_assignments(args.reward_term, "--reward-term")
         task = get_task(set_name, task_name or None, **task_changes)
         from .benchmarl_task import scenario_config
 
