@@ -11,10 +11,14 @@ one core, so the flat vector stays what the existing policies read.
   infos) are entity observations; row ``e * N + j`` is beacon j of environment e, as
   underneath, and beacon j's role input says so.
 * ``MixedTeamVecEnv``: several teams of one scenario family behind one SB3 VecEnv, for
-  training one entity policy on every team at once (the team makeup randomized over the
-  batch). ``teams`` is a list of team overrides (``n_survey``, ``beacon_kinds``,
-  ``ping_interval_s``: a cycle length is one simulator's, so a second ping interval is a
-  second team; {}: the scenario's own team); the ``n_envs`` environments are dealt to the teams in turn
+  training one policy on every team at once (the team makeup randomized over the
+  batch). ``teams`` is a list of team overrides: any scenario parameter (``n_survey``,
+  ``beacon_kinds``, and settings one simulator holds for all its rows, such as
+  ``ping_interval_s`` or the channel's ``packet_loss_near``/``far``: a second value is a
+  second team; {}: the scenario's own team). The rows are entity observations, or with
+  ``observation="flat"`` the flat vector, for teams whose flat observations have one size
+  (a flat policy takes one team makeup, but may see several settings). The ``n_envs``
+  environments are dealt to the teams in turn
   (team i gets ``n_envs // T`` plus one of the remainder for i < ``n_envs % T``), so the
   number of rows is fixed: the sum over teams of environments x beacons.
   **Seeds**: the environments are numbered through the teams in order (g = 0 ..
@@ -45,8 +49,9 @@ if TYPE_CHECKING:
 
     from .scenarios import ScenarioConfig
 
-TEAM_KEYS = ("n_survey", "beacon_kinds", "ping_interval_s")  # what a team of MixedTeamVecEnv may set
+TEAM_KEYS = ("n_survey", "beacon_kinds")  # the team makeup: what changes the flat observation's size
 MAX_TEAMS = 16
+VIEWS = ("entities", "flat")  # MixedTeamVecEnv's observation
 
 __all__ = ["MAX_TEAMS", "TEAM_KEYS", "EntityParallelEnv", "EntityVecEnv", "MixedTeamVecEnv", "entity_parallel_env"]
 
@@ -85,21 +90,18 @@ class EntityVecEnv(VecEnvWrapper):
 
 def _check_team(team: Any, i: int) -> dict:
     if not isinstance(team, Mapping):
-        raise ValueError(f"teams[{i}] must be a mapping of {', '.join(TEAM_KEYS)}, got {team!r}")
-    extra = [k for k in team if k not in TEAM_KEYS]
-    if extra:
-        raise ValueError(f"teams[{i}]: {extra[0]!r} is not a team parameter; a team sets {', '.join(TEAM_KEYS)}")
-    out = dict(team)
-    if "beacon_kinds" in out:
-        out["beacon_kinds"] = tuple(out["beacon_kinds"])
-    return out
+        raise ValueError(f"teams[{i}] must be a mapping of scenario parameters ({{}}: the scenario's), got {team!r}")
+    return {k: tuple(v) if isinstance(v, list) else v for k, v in team.items()}
 
 
 class MixedTeamVecEnv(VecEnv):
-    """Teams of one scenario behind one VecEnv of entity observations (see the module
-    docstring). Arguments: ``scenario``, ``teams`` (team overrides; at most
-    ``MAX_TEAMS``), ``n_envs`` (environments in all, at least one per team), ``seed``,
-    ``step_infos``, ``reward_terms`` and scenario ``overrides`` as ``CoopNavVecEnv``'s."""
+    """Teams of one scenario behind one VecEnv (see the module docstring). Arguments:
+    ``scenario``, ``teams`` (scenario overrides per team; at most ``MAX_TEAMS``),
+    ``n_envs`` (environments in all, at least one per team), ``seed``, ``step_infos``,
+    ``reward_terms`` and scenario ``overrides`` as ``CoopNavVecEnv``'s, and
+    ``observation`` (``"entities"``, or ``"flat"`` for teams of one observation size).
+    ``row_config(i)`` and ``row_agent(i)`` say which team's scenario and which beacon a
+    row is."""
 
     # VecEnv declares metadata an instance attribute (its __init__ sets it)
     metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
@@ -112,8 +114,12 @@ class MixedTeamVecEnv(VecEnv):
         seed: int | None = None,
         step_infos: bool = False,
         reward_terms: Mapping[str, float] | None = None,
+        observation: str = "entities",
         **overrides: Any,
     ) -> None:
+        if observation not in VIEWS:
+            raise ValueError(f"observation must be one of {', '.join(VIEWS)}, got {observation!r}")
+        entities = observation == "entities"
         if isinstance(teams, (str, bytes, Mapping)) or not isinstance(teams, Sequence) or not teams:
             raise ValueError(f"teams must be a non-empty list of team overrides, got {teams!r}")
         if len(teams) > MAX_TEAMS:
@@ -125,19 +131,30 @@ class MixedTeamVecEnv(VecEnv):
         for i, t in enumerate(team_overrides):
             try:
                 config = make_config(scenario, **{**overrides, **t})
-                check_team(config)
-            except ValueError as err:
-                raise ValueError(
-                    f"teams[{i}] {t}: {err} (entity teams: n_survey 1-{MAX_SURVEY}, 1-{MAX_BEACONS} beacons)"
-                ) from None
+                if entities:
+                    check_team(config)
+            except (TypeError, ValueError) as err:
+                hint = f" (entity teams: n_survey 1-{MAX_SURVEY}, 1-{MAX_BEACONS} beacons)" if entities else ""
+                raise ValueError(f"teams[{i}] {t}: {err}{hint}") from None
             self.configs.append(config)
         counts = [int(n_envs) // len(teams) + (i < int(n_envs) % len(teams)) for i in range(len(teams))]
         self.team_envs = counts
         self.teams = team_overrides
-        self.subs = [
-            EntityVecEnv(CoopNavVecEnv(c, n_envs=n, seed=0, step_infos=step_infos, reward_terms=reward_terms))
+        self.observation = observation
+        subs: list[Any] = [
+            CoopNavVecEnv(c, n_envs=n, seed=0, step_infos=step_infos, reward_terms=reward_terms)
             for c, n in zip(self.configs, counts)
         ]
+        if entities:
+            subs = [EntityVecEnv(s) for s in subs]
+        else:
+            sizes = [s.observation_space.shape for s in subs]
+            if len(set(sizes)) > 1:
+                raise ValueError(
+                    f"the teams' flat observations differ in size ({sizes}): a flat policy takes one team "
+                    "makeup; vary n_survey or beacon_kinds with observation='entities'"
+                )
+        self.subs = subs
         dims = {tuple(s.action_space.shape or ()) for s in self.subs}
         if len(dims) > 1:
             raise ValueError(f"the teams' action spaces differ ({sorted(dims)}): one scenario family only")
@@ -146,8 +163,23 @@ class MixedTeamVecEnv(VecEnv):
         rows = [s.num_envs for s in self.subs]
         self.row_offsets = np.cumsum([0, *rows]).tolist()
         self.render_mode = None
-        super().__init__(int(sum(rows)), entity_space(), self.subs[0].action_space)
+        space = entity_space() if entities else self.subs[0].observation_space
+        super().__init__(int(sum(rows)), space, self.subs[0].action_space)
         self.seed(seed)
+
+    def _simulator(self, t: int) -> CoopNavVecEnv:
+        sub = self.subs[t]
+        return sub.venv if isinstance(sub, EntityVecEnv) else sub
+
+    def row_config(self, i: int) -> ScenarioConfig:
+        """The scenario of row ``i``'s team."""
+        t, _ = self._where([i])[0]
+        return self.configs[t]
+
+    def row_agent(self, i: int) -> int:
+        """The beacon index (in its team) of row ``i``."""
+        t, r = self._where([i])[0]
+        return r % self.configs[t].n_beacons
 
     # ------------------------------------------------------------------------------
     def seed(self, seed: int | None = None) -> Sequence[int | None]:
@@ -157,15 +189,15 @@ class MixedTeamVecEnv(VecEnv):
         if seed is None:
             seed = int(np.random.SeedSequence().generate_state(1, dtype=np.uint32)[0] >> 1)
         out: list[int | None] = []
-        for sub, offset in zip(self.subs, self.env_offsets):
-            out += list(sub.venv.seed(int(seed) + offset))
+        for t, offset in enumerate(self.env_offsets):
+            out += list(self._simulator(t).seed(int(seed) + offset))
         self._base_seed = int(seed)
         return out
 
     @property
     def episode_seeds(self) -> np.ndarray:
         """Each environment's current episode seed, in the global numbering."""
-        return np.concatenate([s.venv.episode_seeds for s in self.subs])
+        return np.concatenate([self._simulator(t).episode_seeds for t in range(len(self.subs))])
 
     def reset(self) -> VecEnvObs:
         return np.concatenate([s.reset() for s in self.subs])

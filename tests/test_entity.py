@@ -212,8 +212,8 @@ def test_mixed_team_env_seeds_rows_and_reproducibility():
     assert da.all() and ia[4]["terminal_observation"].shape == (ENTITY_DIM,)
     assert a.episode_seeds.tolist() == [7 + g + SEED_STRIDE for g in range(4)]
     assert a.get_attr("agent") == ["beacon_0", "beacon_0", "beacon_0", "beacon_0", "beacon_1"]
-    with pytest.raises(ValueError, match=r"teams\[0\]: 'depth_m' is not a team parameter"):
-        MixedTeamVecEnv("gao_lawnmower", teams=[{"depth_m": 3.0}], n_envs=1)
+    with pytest.raises(ValueError, match=r"teams\[0\].*'depth_mm'.*did you mean 'depth_m'"):
+        MixedTeamVecEnv("gao_lawnmower", teams=[{"depth_mm": 3.0}], n_envs=1)
     with pytest.raises(ValueError, match=r"teams\[1\].*ping_interval_s \(7.5\) must be a whole multiple"):
         MixedTeamVecEnv("gao_lawnmower", teams=[{}, {"ping_interval_s": 7.5}], n_envs=2)
 
@@ -234,6 +234,35 @@ def test_a_team_may_have_its_own_ping_interval():
     np.testing.assert_array_equal(mixed.step(action)[0][1:2], alone.step(action[1:2])[0])
     with pytest.raises(ValueError, match=r"at most MAX_SURVEY=5"):
         MixedTeamVecEnv("gao_lawnmower", teams=[{"n_survey": 6}], n_envs=1)
+
+
+def test_flat_teams_vary_the_setting_not_the_makeup():
+    """A flat policy takes one team makeup but may train over settings one simulator holds
+    for all its rows (here the channel's loss): each team's rows are the standalone env with
+    that setting, and a team that changes the observation's size is refused by name."""
+    from coopnav_env.entity_views import MixedTeamVecEnv
+    from coopnav_env.vector import CoopNavVecEnv
+
+    lossy = {"packet_loss_near": 0.2, "packet_loss_far": 0.8}
+    mixed = MixedTeamVecEnv("matos_moving_lbl", teams=[{}, lossy], n_envs=2, seed=3, observation="flat")
+    assert [c.packet_loss_far for c in mixed.configs] == [0.5, 0.8]
+    assert mixed.num_envs == 4
+    assert mixed.observation_space == CoopNavVecEnv("matos_moving_lbl", n_envs=1).observation_space
+    assert [mixed.row_agent(i) for i in range(4)] == [0, 1, 0, 1]
+    assert mixed.row_config(3).packet_loss_far == 0.8 and mixed.row_config(1).packet_loss_far == 0.5
+    obs = np.asarray(mixed.reset())
+    alone = CoopNavVecEnv("matos_moving_lbl", n_envs=1, seed=4, **lossy)
+    np.testing.assert_array_equal(obs[2:4], alone.reset())
+    actions = np.random.default_rng(1).uniform(-1, 1, (30, 4, mixed.action_space.shape[0]))
+    for k in range(30):  # long enough for the two channels to differ
+        om, rm, _, _ = mixed.step(actions[k])
+        oa, ra, _, _ = alone.step(actions[k, 2:4])
+        np.testing.assert_array_equal(om[2:4], oa)
+        np.testing.assert_array_equal(rm[2:4], ra)
+    with pytest.raises(ValueError, match=r"flat observations differ in size"):
+        MixedTeamVecEnv("gao_lawnmower", teams=[{}, {"n_survey": 2}], n_envs=2, observation="flat")
+    with pytest.raises(ValueError, match=r"observation must be one of entities, flat"):
+        MixedTeamVecEnv("gao_lawnmower", teams=[{}], n_envs=1, observation="entity")
 
 
 def test_pettingzoo_entity_env_passes_the_api_test():
@@ -267,8 +296,11 @@ def test_training_config_checks_the_entity_keys():
         _entity_config(normalize=NormalizeSpec()).check()
     with pytest.raises(ConfigError, match=r"unknown env.observation 'entity'; did you mean 'entities'"):
         _entity_config(env=EnvSpec(observation="entity")).check()
-    with pytest.raises(ConfigError, match=r"env.teams needs env.observation: entities"):
+    with pytest.raises(ConfigError, match=r"env.teams\[0\].n_survey: a flat-observation policy takes one team makeup"):
         TrainConfig(scenario="gao_lawnmower", env=EnvSpec(teams=[{"n_survey": 2}])).check()
+    TrainConfig(scenario="matos_moving_lbl", env=EnvSpec(teams=[{}, {"packet_loss_far": 0.8}])).check()
+    with pytest.raises(ConfigError, match=r"unknown env.teams\[1\] key 'packet_loss'; did you mean"):
+        TrainConfig(scenario="matos_moving_lbl", env=EnvSpec(teams=[{}, {"packet_loss": 0.8}])).check()
     with pytest.raises(ConfigError, match=r"env.teams\[1\].n_survey must be an integer in \[1, 5\], got 6"):
         _entity_config(env=EnvSpec(observation="entities", teams=[{}, {"n_survey": 6}])).check()
     with pytest.raises(ConfigError, match=r"unknown env.teams\[0\] key 'n_surveys'; did you mean 'n_survey'"):
@@ -406,3 +438,28 @@ def test_a_run_without_observation_normalization_saves_and_restores(tmp_path):
     other = VecNormalize(EntityVecEnv(CoopNavVecEnv("gao_lawnmower", n_envs=2, seed=5)), norm_obs=False)
     formats.restore_vecnormalize(other, stats)
     assert (float(other.ret_rms.mean), other.ret_rms.count) == (0.25, 7.0)
+
+
+def test_imitation_drives_each_flat_team_with_its_own_scenario():
+    """The clone's data (agents.training.imitation.collect) over flat teams: each row's
+    planner is made for its team's scenario and beacon, so the recorded actions of the
+    second team are the planner's for that team (here a shorter baseline, which moves abeam's
+    targets), not the first team's."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from agents.training.imitation import collect
+    from baselines import make_policy
+    from coopnav_env.entity_views import MixedTeamVecEnv
+
+    teams: list[dict[str, Any]] = [{}, {"baseline_target_m": 50.0}]
+    raw = MixedTeamVecEnv("matos_moving_lbl", teams=teams, n_envs=2, seed=11, observation="flat")
+    data = collect(VecNormalize(raw, norm_reward=False), raw, "abeam", steps=40, seed=3)
+    obs, acts = data["obs"], data["actions"]
+    k = 5  # a few steps in: both boats moving
+    for r in (2, 3):
+        own = make_policy("abeam", raw.row_config(r), seed=(3, r), agent=raw.row_agent(r))
+        other = make_policy("abeam", raw.configs[0], seed=(3, r), agent=raw.row_agent(r))
+        for t in range(k + 1):
+            a_own, a_other = own.act(obs[t, r]), other.act(obs[t, r])
+        np.testing.assert_allclose(acts[k, r], a_own, rtol=1e-6, atol=1e-6)
+        assert not np.allclose(acts[k, r], a_other, atol=1e-3)

@@ -81,10 +81,10 @@ def team_label(team: dict) -> str:
     return ";".join(f"{k}={'+'.join(v) if isinstance(v, (list, tuple)) else v}" for k, v in team.items())
 
 
-def team_cells(scenario_config: ScenarioConfig, teams: list, cells: dict | None) -> list:
+def team_cells(scenario_config: ScenarioConfig, teams: list, cells: dict | None, entities: bool = True) -> list:
     """The evaluation cells of a mixed-team run: ``eval_cells`` of every team, each
     label prefixed with the team's (``team_label``); a ``ConfigError`` for a team the
-    scenario or the entity view cannot take."""
+    scenario (or, with ``entities``, the entity view) cannot take."""
     from coopnav_env.entity_obs import check_team
 
     out = []
@@ -92,7 +92,8 @@ def team_cells(scenario_config: ScenarioConfig, teams: list, cells: dict | None)
         t = {k: tuple(v) if isinstance(v, list) else v for k, v in team.items()}
         try:
             config = scenario_config.replace(**t)
-            check_team(config)
+            if entities:
+                check_team(config)
         except (TypeError, ValueError) as err:
             raise ConfigError(f"env.teams[{i}]: {err}") from None
         for label, cell in eval_cells(config, cells):
@@ -137,7 +138,8 @@ def prepare_job(config: Any) -> Job:
     teams = list(getattr(env, "teams", None) or [])
     try:
         if teams:  # a mixed-team run: every team is scored
-            cells = team_cells(scenario_config, teams, config.eval.cells)
+            entities = getattr(env, "observation", "flat") == "entities"
+            cells = team_cells(scenario_config, teams, config.eval.cells, entities)
         else:
             cells = eval_cells(scenario_config, config.eval.cells)
     except (TypeError, ValueError) as err:

@@ -95,7 +95,7 @@ def parse_assignments(items: Sequence[str], what: str) -> dict:
 # the sections
 # ----------------------------------------------------------------------------------
 OBSERVATIONS = ("flat", "entities")  # env.observation
-TEAM_KEYS = ("n_survey", "beacon_kinds", "ping_interval_s")  # what an env.teams entry sets (coopnav_env.entity_views)
+TEAM_KEYS = ("n_survey", "beacon_kinds")  # the team makeup (coopnav_env.entity_views): entities only
 MAX_TEAMS = 16  # env.teams entries (coopnav_env.entity_views.MAX_TEAMS)
 
 
@@ -105,10 +105,12 @@ class EnvSpec:
     the core's per-episode randomization included (``randomize_depth_m: [..]``, ...).
     ``observation``: ``flat`` (the vector of ``coopnav_env.obs_layout``) or ``entities``
     (``coopnav_env.entity_obs``: any team, read by ``agents.entity``'s encoder; the SB3
-    trainer only). ``teams`` (with ``entities``): team overrides (``n_survey`` 1-5,
-    ``beacon_kinds`` of 1-3 beacons; {}: the scenario's own team) trained at once, the
-    ``n_envs`` environments dealt to them in turn (``coopnav_env.entity_views.MixedTeamVecEnv``);
-    the evaluation then scores every team; [] trains the scenario's team only."""
+    trainer only). ``teams``: scenario overrides per team trained at once, the ``n_envs``
+    environments dealt to them in turn (``coopnav_env.entity_views.MixedTeamVecEnv``; {}:
+    the scenario's own team): with ``entities`` the makeup too (``n_survey`` 1-5,
+    ``beacon_kinds`` of 1-3 beacons), with ``flat`` settings one simulator holds for all
+    its rows (``ping_interval_s``, ``packet_loss_near``, ...); the evaluation then scores
+    every team; [] trains the scenario's team only."""
 
     overrides: dict = field(default_factory=dict)
     observation: str = "flat"
@@ -326,24 +328,34 @@ class RLlibConfig(_Job):
 
 
 def check_env_observation(env: EnvSpec) -> None:
-    """``env.observation`` and ``env.teams`` (a ``ConfigError`` naming the value)."""
+    """``env.observation`` and ``env.teams`` (a ``ConfigError`` naming the value; the
+    values themselves are the scenario's to check, when the job is prepared)."""
     if env.observation not in OBSERVATIONS:
         raise ConfigError(unknown_key_message(env.observation, OBSERVATIONS, "env.observation"))
-    if env.teams and env.observation != "entities":
-        raise ConfigError("env.teams needs env.observation: entities (a flat-observation policy takes one team)")
     if len(env.teams) > MAX_TEAMS:
         raise ConfigError(f"env.teams: at most {MAX_TEAMS} teams, got {len(env.teams)}")
     from coopnav_env.entity_obs import MAX_BEACONS, MAX_SURVEY
+    from coopnav_env.scenarios.config import flat_name, parameter_names
 
+    params = [p for p in parameter_names() if p not in ("name", "network")]
     for i, team in enumerate(env.teams):
         where = f"env.teams[{i}]"
         if team is None:
             team = env.teams[i] = {}
         if not isinstance(team, dict):
-            raise ConfigError(f"{where} must be a mapping of {', '.join(TEAM_KEYS)} ({{}}: the scenario's team)")
+            raise ConfigError(f"{where} must be a mapping of scenario parameters ({{}}: the scenario's team)")
         for key in team:
-            if key not in TEAM_KEYS:
-                raise ConfigError(unknown_key_message(key, TEAM_KEYS, f"{where} key"))
+            try:
+                name = flat_name(str(key))  # "channel.packet_loss_far" or "packet_loss_far"
+            except ValueError as err:
+                raise ConfigError(f"{where}: {err}") from None
+            if name not in params:
+                raise ConfigError(unknown_key_message(key, params, f"{where} key"))
+            if name in TEAM_KEYS and env.observation != "entities":
+                raise ConfigError(
+                    f"{where}.{key}: a flat-observation policy takes one team makeup; "
+                    "vary n_survey or beacon_kinds with env.observation: entities"
+                )
         n = team.get("n_survey", 1)
         if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_SURVEY:
             raise ConfigError(f"{where}.n_survey must be an integer in [1, {MAX_SURVEY}], got {n!r}")

@@ -4,9 +4,10 @@ A config's ``imitate:`` block (``ImitateSpec``) names a planner that drives the
 scenario's network (``baselines``: ``river_escort``, ``abeam``, ``ellipse``, ...). Before
 PPO's first rollout, ``imitate``:
 
-1. drives the training environments (the run's own ``CoopNavVecEnv`` under its
-   VecNormalize, seeded as the run) with the planner for ``steps`` row-steps, each row
-   a beacon with its own planner copy (reset when its episode ends), recording the raw
+1. drives the training environments (the run's own ``CoopNavVecEnv``, or flat
+   ``MixedTeamVecEnv`` of ``env.teams``, under its VecNormalize, seeded as the run) with
+   the planner for ``steps`` row-steps, each row a beacon with its own planner copy for
+   its team's scenario (reset when its episode ends), recording the raw
    observations, the planner's actions, the rewards PPO would see (normalized when the
    run normalizes rewards) and the episode ends; VecNormalize's observation statistics
    are updated on the way, as they would be by training;
@@ -40,9 +41,14 @@ def collect(vecnorm: Any, raw_env: Any, planner: str, steps: int, seed: int) -> 
     wrappers) with ``planner`` for at least ``steps`` row-steps."""
     from baselines import make_policy
 
-    config, N = raw_env.config, raw_env.n_beacons
     rows = raw_env.num_envs
-    policies = [make_policy(planner, config, seed=(seed, r), agent=r % N) for r in range(rows)]
+    if hasattr(raw_env, "row_config"):  # MixedTeamVecEnv: each row its team's scenario and beacon
+        row_cfgs = [raw_env.row_config(r) for r in range(rows)]
+        agents = [raw_env.row_agent(r) for r in range(rows)]
+    else:
+        row_cfgs = [raw_env.config] * rows
+        agents = [r % raw_env.n_beacons for r in range(rows)]
+    policies = [make_policy(planner, row_cfgs[r], seed=(seed, r), agent=agents[r]) for r in range(rows)]
     vecnorm.reset()
     raw = vecnorm.get_original_obs()
     n_steps = -(-steps // rows)

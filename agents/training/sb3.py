@@ -395,16 +395,11 @@ def entity_policy_kwargs(config: TrainConfig) -> dict:
 def make_training_env(config: TrainConfig, job: Any, seed: int) -> Any:
     """The training VecEnv (before VecMonitor and VecNormalize): a ``CoopNavVecEnv`` of
     the scenario; with ``env.observation: entities`` seen as entities
-    (``coopnav_env.entity_views.EntityVecEnv``), and with ``env.teams`` every team at once
-    (``MixedTeamVecEnv``: the ``n_envs`` environments dealt to the teams, seeds
+    (``coopnav_env.entity_views.EntityVecEnv``), and with ``env.teams`` every team at once,
+    flat or entities (``MixedTeamVecEnv``: the ``n_envs`` environments dealt to the teams, seeds
     ``seed + g + k * SEED_STRIDE`` for environment g's episode k)."""
-    from coopnav_env.vector import CoopNavVecEnv
-
-    if config.env.observation != "entities":
-        return CoopNavVecEnv(
-            job.scenario_config, n_envs=config.n_envs, seed=seed, step_infos=False, reward_terms=job.reward_terms
-        )
     from coopnav_env.entity_views import EntityVecEnv, MixedTeamVecEnv
+    from coopnav_env.vector import CoopNavVecEnv
 
     try:
         if job.teams:
@@ -415,12 +410,12 @@ def make_training_env(config: TrainConfig, job: Any, seed: int) -> Any:
                 seed=seed,
                 step_infos=False,
                 reward_terms=job.reward_terms,
+                observation=config.env.observation,
             )
-        return EntityVecEnv(
-            CoopNavVecEnv(
-                job.scenario_config, n_envs=config.n_envs, seed=seed, step_infos=False, reward_terms=job.reward_terms
-            )
+        venv = CoopNavVecEnv(
+            job.scenario_config, n_envs=config.n_envs, seed=seed, step_infos=False, reward_terms=job.reward_terms
         )
+        return EntityVecEnv(venv) if config.env.observation == "entities" else venv
     except ValueError as err:
         raise ConfigError(f"env: {_first_line(err)}") from None
 
