@@ -611,3 +611,39 @@ def test_imitation_refuses_a_planner_that_cannot_drive_the_scenario(tmp_path, ca
     err = capsys.readouterr().err.strip()
     assert code == 2 and "imitate.planner 'abeam' cannot drive 'sousa_asv'" in err and "\n" not in err
     assert not out.exists()
+    # a schedule only where the beacons decide when to ping (sousa_ping), and a named one
+    for scenario, planner, want in (
+        ("sousa_asv", "ellipse+clock", "imitate.planner 'ellipse+clock' cannot drive 'sousa_asv'"),
+        ("sousa_ping", "ellipse+clocks", "did you mean 'ellipse+clock'?"),
+    ):
+        code = cli.main(
+            ["--scenario", scenario, "--timesteps", "256", "--out", str(out), "--no-progress"]
+            + ["--config", _tiny_yaml(tmp_path, imitate={"planner": planner})]
+        )
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and want in err and "\n" not in err, err
+
+
+def test_imitation_of_a_planner_on_a_schedule(tmp_path):
+    """sousa_ping's beacons decide when to ping: the clone copies a planner with its transmit
+    schedule (ellipse+clock: both ASVs ping in every slot, staggered), so the clone transmits
+    in every slot too."""
+    out = tmp_path / "bc_clock"
+    changes = {
+        "imitate": {"planner": "ellipse+clock", "steps": 2000, "epochs": 30, "batch_size": 256},
+        "ppo": {**TINY["ppo"], "learning_rate": 1e-9, "policy_kwargs": {"net_arch": [64, 64]}},
+    }
+    argv = ["--scenario", "sousa_ping", "--timesteps", "256", "--seed", "0", "--out", str(out), "--no-progress"]
+    assert cli.main([*argv, "--config", _tiny_yaml(tmp_path, **changes)]) == 0
+    record = yaml.safe_load((out / "config.yml").read_text())
+    assert record["imitation"]["planner"] == "ellipse+clock" and record["imitation"]["action_rms_error"] < 0.3
+    config = coopnav_env.make_config("sousa_ping", max_cycles=10, mission_duration_s=200.0)
+    clone = agents.load(out / "model.safetensors", scenario=config)
+    env = coopnav_env.parallel_env(config, seed=12345)
+    obs, _ = env.reset()
+    transmit = []
+    while env.agents:
+        actions = {a: clone.act(o) for a, o in obs.items()}
+        transmit += [float(act[2]) > 0 for act in actions.values()]
+        obs, *_ = env.step(actions)
+    assert np.mean(transmit) > 0.9, np.mean(transmit)

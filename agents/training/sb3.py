@@ -130,9 +130,17 @@ def train(
         from baselines import list_policies
 
         valid = list_policies(job.scenario_config.network)
-        if config.imitate.planner not in valid:
+        planner = config.imitate.planner
+        decide = job.scenario_config.channel_mode == "decide"
+        if decide:  # the beacons decide when to ping: "<planner>+<schedule>" too (baselines.schedule)
+            from baselines.schedule import list_schedules
+
+            valid += [f"{p}+{s}" for p in valid for s in list_schedules()]
+        if planner not in valid:
+            from coopnav_env.names import did_you_mean
+
             raise ConfigError(
-                f"imitate.planner {config.imitate.planner!r} cannot drive {config.scenario!r}; "
+                f"imitate.planner {planner!r} cannot drive {config.scenario!r}{did_you_mean(planner, valid)} "
                 f"valid: {', '.join(valid)}"
             )
 
