@@ -632,11 +632,14 @@ def test_imitation_of_a_planner_on_a_schedule(tmp_path):
     changes = {
         "imitate": {"planner": "ellipse+clock", "steps": 2000, "epochs": 30, "batch_size": 256},
         "ppo": {**TINY["ppo"], "learning_rate": 1e-9, "policy_kwargs": {"net_arch": [64, 64]}},
+        "eval": {**TINY["eval"], "baselines": ["ellipse+clock"]},  # validated against the schedule too
     }
     argv = ["--scenario", "sousa_ping", "--timesteps", "256", "--seed", "0", "--out", str(out), "--no-progress"]
     assert cli.main([*argv, "--config", _tiny_yaml(tmp_path, **changes)]) == 0
     record = yaml.safe_load((out / "config.yml").read_text())
     assert record["imitation"]["planner"] == "ellipse+clock" and record["imitation"]["action_rms_error"] < 0.3
+    baseline = json.loads((out / "baseline_eval.json").read_text())
+    assert "ellipse+clock" in json.dumps(baseline), baseline
     config = coopnav_env.make_config("sousa_ping", max_cycles=10, mission_duration_s=200.0)
     clone = agents.load(out / "model.safetensors", scenario=config)
     env = coopnav_env.parallel_env(config, seed=12345)

@@ -51,6 +51,7 @@ __all__ = [
     "StopFlag",
     "command_line",
     "new_run_dir",
+    "planner_names",
     "prepare_job",
     "read_run_record",
     "resume_command",
@@ -99,6 +100,16 @@ def team_cells(scenario_config: ScenarioConfig, teams: list, cells: dict | None,
         for label, cell in eval_cells(config, cells):
             out.append((team_label(team) + ("" if label == "all" else ";" + label), cell))
     return out
+
+
+def planner_names(scenario_config: ScenarioConfig, names: list) -> list:
+    """``names`` (planners), and where the beacons decide when to ping
+    (``channel_mode="decide"``) each with every transmit schedule: ``ellipse+clock``, ..."""
+    if scenario_config.channel_mode != "decide":
+        return list(names)
+    from baselines.schedule import list_schedules
+
+    return [*names, *(f"{p}+{s}" for p in names for s in list_schedules())]
 
 
 def prepare_job(config: Any) -> Job:
@@ -150,13 +161,13 @@ def prepare_job(config: Any) -> Job:
         problem = team_problem(scenario_config)
         if problem is not None:
             raise ConfigError(f"env.observation: entities: {problem}")
+    valid = planner_names(scenario_config, list_policies())
     for name in config.eval.baselines:
-        if name not in list_policies():
+        if name not in valid:
             from coopnav_env.names import did_you_mean
 
             raise ConfigError(
-                f"eval.baselines: unknown policy {name!r}{did_you_mean(name, list_policies())} "
-                f"valid: {', '.join(list_policies())}"
+                f"eval.baselines: unknown policy {name!r}{did_you_mean(name, valid)} valid: {', '.join(valid)}"
             )
     return Job(scenario_config, reward_terms, cells, teams)
 

@@ -68,6 +68,7 @@ from . import runlock
 from .common import (
     EXIT_INTERRUPTED,
     new_run_dir,
+    planner_names,
     prepare_job,
     resume_command,
     resume_seed,
@@ -129,13 +130,8 @@ def train(
     if config.imitate.planner is not None:
         from baselines import list_policies
 
-        valid = list_policies(job.scenario_config.network)
+        valid = planner_names(job.scenario_config, list_policies(job.scenario_config.network))
         planner = config.imitate.planner
-        decide = job.scenario_config.channel_mode == "decide"
-        if decide:  # the beacons decide when to ping: "<planner>+<schedule>" too (baselines.schedule)
-            from baselines.schedule import list_schedules
-
-            valid += [f"{p}+{s}" for p in valid for s in list_schedules()]
         if planner not in valid:
             from coopnav_env.names import did_you_mean
 
