@@ -131,6 +131,9 @@ class BenchmarkPlan:
     overrides: dict
     out: str
     partial: bool = False  # --task: some tasks of the sets only
+    # the code that runs: recorded when the run is planned, not when its results are written
+    # (a commit made during a long run is not the one whose code produced it)
+    versions: dict = dataclasses.field(default_factory=lambda: version_record())
 
     @property
     def seeds(self) -> list:
@@ -389,7 +392,7 @@ def build_results(plan: BenchmarkPlan, raw: dict, command: str | None = None) ->
         "set_overrides": plain(plan.overrides),
         "confidence": 0.95,
         "task_sets": sets,
-        "versions": version_record(),
+        "versions": plan.versions,
     }
 
 

@@ -287,8 +287,19 @@ def test_the_best_planner_is_the_lowest_mean_among_planners_only():
 # the command
 
 
-def test_a_tiny_run_of_the_command(tmp_path, capsys):
+def test_a_tiny_run_of_the_command(tmp_path, capsys, monkeypatch):
     out = tmp_path / "bench"
+    # the versions are the code's at the start: a commit made during the run is not recorded
+    head = {"git_commit": "at-start"}
+    monkeypatch.setattr(benchmark, "version_record", lambda: dict(head))
+    run = benchmark.run_benchmark
+
+    def run_then_commit(*args, **kwargs):
+        raw = run(*args, **kwargs)
+        head["git_commit"] = "committed-during-the-run"
+        return raw
+
+    monkeypatch.setattr(benchmark, "run_benchmark", run_then_commit)
     t0 = time.perf_counter()
     rc = benchmark.main(
         ["--tasks", "gao_lawnmower", "--episodes", "2", "--set", "max_cycles=3", "--out", str(out), "--no-progress"]
@@ -297,6 +308,7 @@ def test_a_tiny_run_of_the_command(tmp_path, capsys):
     assert time.perf_counter() - t0 < 30
     results = json.loads((out / "results.json").read_text())
     assert results["official"] is False and len(results["not_official_because"]) == 2
+    assert results["versions"] == {"git_commit": "at-start"}
     assert results["seeds"]["first"] == TEST_SEED and results["episodes"] == 2
     s = results["task_sets"]["gao_lawnmower"]
     assert s["columns"] == ["circle", "ellipse", "fim_a", "fim_b", "horizon", "oracle", "static", "random"]
