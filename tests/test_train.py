@@ -624,7 +624,7 @@ def test_imitation_refuses_a_planner_that_cannot_drive_the_scenario(tmp_path, ca
         assert code == 2 and want in err and "\n" not in err, err
 
 
-def test_imitation_of_a_planner_on_a_schedule(tmp_path):
+def test_imitation_of_a_planner_on_a_schedule(tmp_path, capsys, monkeypatch):
     """sousa_ping's beacons decide when to ping: the clone copies a planner with its transmit
     schedule (ellipse+clock: both ASVs ping in every slot, staggered), so the clone transmits
     in every slot too."""
@@ -635,7 +635,10 @@ def test_imitation_of_a_planner_on_a_schedule(tmp_path):
         "eval": {**TINY["eval"], "baselines": ["ellipse+clock"]},  # validated against the schedule too
     }
     argv = ["--scenario", "sousa_ping", "--timesteps", "256", "--seed", "0", "--out", str(out), "--no-progress"]
+    monkeypatch.setenv("COOPNAV_PROGRESS", "lines")  # the stage lines (the suite silences them)
     assert cli.main([*argv, "--config", _tiny_yaml(tmp_path, **changes)]) == 0
+    # the planners' collection can take minutes: it says so before it starts
+    assert "imitation: ellipse+clock drives the training environments for 2,000 row-steps" in capsys.readouterr().err
     record = yaml.safe_load((out / "config.yml").read_text())
     assert record["imitation"]["planner"] == "ellipse+clock" and record["imitation"]["action_rms_error"] < 0.3
     baseline = json.loads((out / "baseline_eval.json").read_text())

@@ -36,10 +36,12 @@ import numpy as np
 __all__ = ["imitate"]
 
 
-def collect(vecnorm: Any, raw_env: Any, planner: str, steps: int, seed: int) -> dict:
+def collect(vecnorm: Any, raw_env: Any, planner: str, steps: int, seed: int, progress: bool = False) -> dict:
     """Drive ``vecnorm`` (a VecNormalize over ``raw_env``'s rows, possibly through other
-    wrappers) with ``planner`` for at least ``steps`` row-steps."""
+    wrappers) with ``planner`` for at least ``steps`` row-steps (``progress``: a bar on a
+    terminal, a line a minute elsewhere; the planners' minutes can be many)."""
     from baselines import make_policy
+    from coopnav_env.progress import Progress
 
     rows = raw_env.num_envs
     if hasattr(raw_env, "row_config"):  # MixedTeamVecEnv: each row its team's scenario and beacon
@@ -56,13 +58,18 @@ def collect(vecnorm: Any, raw_env: Any, planner: str, steps: int, seed: int) -> 
     acts = np.empty((n_steps, rows, raw_env.action_space.shape[0]), dtype=np.float32)
     rewards = np.empty((n_steps, rows), dtype=np.float32)
     dones = np.empty((n_steps, rows), dtype=bool)
-    for t in range(n_steps):
-        obs[t] = raw
-        acts[t] = np.stack([p.act(raw[r]) for r, p in enumerate(policies)])
-        _, rewards[t], dones[t], _ = vecnorm.step(acts[t])
-        raw = vecnorm.get_original_obs()
-        for r in np.flatnonzero(dones[t]):
-            policies[r].reset()
+    bar = Progress(
+        n_steps * rows, unit="row-step", desc=f"imitating {planner}", mode=None if progress else "off", every_s=60.0
+    )
+    with bar:
+        for t in range(n_steps):
+            obs[t] = raw
+            acts[t] = np.stack([p.act(raw[r]) for r, p in enumerate(policies)])
+            _, rewards[t], dones[t], _ = vecnorm.step(acts[t])
+            raw = vecnorm.get_original_obs()
+            for r in np.flatnonzero(dones[t]):
+                policies[r].reset()
+            bar.update(rows)
     return {"obs": obs, "actions": acts, "rewards": rewards, "dones": dones}
 
 
@@ -77,13 +84,19 @@ def discounted_returns(rewards: np.ndarray, dones: np.ndarray, gamma: float) -> 
     return out
 
 
-def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int) -> dict:
+def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progress: bool = False) -> dict:
     """Clone ``spec.planner`` into ``model`` (an SB3 PPO whose env is ``vecnorm``); returns
-    what was done (steps, final losses, seconds)."""
+    what was done (steps, final losses, seconds). ``progress``: ``collect``'s."""
     import torch
 
+    from coopnav_env.progress import stage
+
     t0 = time.perf_counter()
-    data = collect(vecnorm, raw_env, spec.planner, spec.steps, seed)
+    stage(
+        f"imitation: {spec.planner} drives the training environments for {spec.steps:,} row-steps, "
+        "then the clone is fitted"
+    )
+    data = collect(vecnorm, raw_env, spec.planner, spec.steps, seed, progress)
     gamma = float(model.gamma)
     returns = discounted_returns(data["rewards"], data["dones"], gamma)
     obs = vecnorm.normalize_obs(data["obs"].reshape(-1, data["obs"].shape[-1]))

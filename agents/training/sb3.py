@@ -226,7 +226,7 @@ def train(
     if config.imitate.planner is not None and not ckpt:  # behaviour cloning before PPO (a resumed run has it)
         from .imitation import imitate
 
-        imitation = imitate(model, vecnorm, raw_env, config.imitate, run_seed)
+        imitation = imitate(model, vecnorm, raw_env, config.imitate, run_seed, progress)
         print(
             f"imitated {imitation['planner']}: {imitation['steps']} steps, action rms error "
             f"{imitation['action_rms_error']}, {imitation['seconds']} s",
