@@ -61,6 +61,35 @@ def _parse_policies(text: str, task_set: str | None = None) -> list:
     return out
 
 
+def fingerprint(spec: str, scenario: str) -> str | None:
+    """What a trained policy's spec resolves to, as a hash of its files (None for a planner):
+    ``ppo`` or a run directory names other weights once a policy is re-shipped or retrained,
+    so ``--reuse`` compares this, not the spec alone."""
+    import hashlib
+    from pathlib import Path
+
+    from agents import resolve
+    from baselines import is_planner
+
+    if is_planner(spec):
+        return None
+    files: list = []
+    for p in resolve(spec, scenario)[:2]:
+        if p is None:
+            continue
+        p = Path(p)
+        if p.is_dir():  # an RLlib checkpoint
+            files += sorted(q for q in p.rglob("*") if q.is_file())
+        elif p.name == "gate.yml":  # a gated policy: its networks are beside it
+            files += [p, *sorted(p.parent.rglob("*.safetensors"))]
+        else:
+            files.append(p)
+    digest = hashlib.sha256()
+    for q in files:
+        digest.update(q.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 def run(
     task_set: str,
     policies: list,
@@ -71,8 +100,9 @@ def run(
     na: dict | None = None,
 ) -> dict:
     """{"tasks": [...], "policies": [...], "errors": {label: {task: [per-episode mean error]}}, ...}.
-    ``reuse``: an earlier result of the same task set and seeds; its policies (same label
-    and spec) are taken from it instead of run again. ``na``: ``{label: {task: reason}}``,
+    ``reuse``: an earlier result of the same task set and seeds; its policies (same label,
+    spec and, for a trained policy, the same files: ``fingerprint``) are taken from it instead
+    of run again. ``na``: ``{label: {task: reason}}``,
     the tasks a policy cannot drive (``find_na``): not run, ``n/a`` in the tables."""
     na = {label: dict((na or {}).get(label, {})) for label, _ in policies}
     from baselines import is_planner
@@ -85,11 +115,16 @@ def run(
     pings: dict = {label: {} for label, _ in policies}  # acoustic pings sent per episode
     seconds: dict = {label: 0.0 for label, _ in policies}
     done = set()
+    prints = {label: fingerprint(spec, ts.scenario) for label, spec in policies}
     if reuse is not None:
         if reuse["task_set"] != task_set or reuse["seeds"] != [seed, seed + episodes - 1]:
             raise ValueError(f"--reuse holds {reuse['task_set']} on seeds {reuse['seeds']}, not this run's")
         for p in reuse["policies"]:
             if (p["label"], p["spec"]) in policies:
+                if p.get("fingerprint") != prints[p["label"]]:
+                    if progress is not None:
+                        progress(f"{p['label']} ({p['spec']}): its files differ from --reuse's, run again")
+                    continue
                 errors[p["label"]] = reuse["errors"][p["label"]]
                 pings[p["label"]] = reuse.get("pings", {}).get(p["label"], {})
                 seconds[p["label"]] = reuse.get("seconds", {}).get(p["label"], 0.0)
@@ -112,7 +147,10 @@ def run(
     return {
         "task_set": task_set,
         "tasks": [t.name for t in ts.tasks],
-        "policies": [{"label": label, "spec": spec, "planner": is_planner(spec)} for label, spec in policies],
+        "policies": [
+            {"label": label, "spec": spec, "planner": is_planner(spec), "fingerprint": prints[label]}
+            for label, spec in policies
+        ],
         "seeds": [seed, seed + episodes - 1],
         "episodes": episodes,
         "errors": errors,
@@ -308,7 +346,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--episodes", type=int, default=30)
     p.add_argument("--seed", type=int, default=700_000, help="episode i of every task and policy uses SEED + i")
-    p.add_argument("--reuse", help="an earlier --out of the same task set and seeds: its policies are not run again")
+    p.add_argument(
+        "--reuse",
+        help="an earlier --out of the same task set and seeds: its policies (same label, spec and "
+        "files) are not run again",
+    )
     p.add_argument("--out", help="write the per-episode errors as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
     if argv is None:

@@ -81,6 +81,28 @@ def test_reuse_takes_the_policies_of_an_earlier_run_and_refuses_other_seeds():
         lever_table.run("gao_team", [("e", "ellipse")], 2, 700001, progress=None, reuse=earlier)
 
 
+def test_reuse_runs_a_trained_policy_again_when_its_files_changed(monkeypatch):
+    """``ppo`` names other weights once a policy is re-shipped: --reuse compares the files'
+    fingerprint with the earlier run's, not the spec alone, and runs a changed policy again."""
+    from evaluation.tasks import get_task_set
+
+    tasks = [t.name for t in get_task_set("gao_team").tasks]
+    earlier = {
+        "task_set": "gao_team",
+        "seeds": [700000, 700001],
+        "policies": [{"label": "p", "spec": "ppo", "planner": False, "fingerprint": "the-old-weights"}],
+        "errors": {"p": {t: [1.0, 2.0] for t in tasks}},
+    }
+    assert lever_table.fingerprint("ppo", "gao_team") == lever_table.fingerprint("ppo", "gao_team") != "the-old-weights"
+    assert lever_table.fingerprint("ellipse", "gao_team") is None
+    said: list = []
+    na = {"p": dict.fromkeys(tasks[1:], "skipped here")}  # one task only: the test stays short
+    out = lever_table.run("gao_team", [("p", "ppo")], 2, 700000, progress=said.append, reuse=earlier, na=na)
+    assert any("its files differ from --reuse's, run again" in line for line in said)
+    assert out["errors"]["p"][tasks[0]] != [1.0, 2.0]
+    assert out["policies"][0]["fingerprint"] == lever_table.fingerprint("ppo", "gao_team")
+
+
 def test_the_summary_applies_the_shift_criteria():
     """ippo is 0.25 m below the best planner everywhere (yes); mappo with one episode at 10x
     the best planner is lost there (no)."""
