@@ -653,3 +653,28 @@ def test_imitation_of_a_planner_on_a_schedule(tmp_path, capsys, monkeypatch):
         transmit += [float(act[2]) > 0 for act in actions.values()]
         obs, *_ = env.step(actions)
     assert np.mean(transmit) > 0.9, np.mean(transmit)
+
+
+def test_action_log_std_sets_the_exploration_per_action_component(tmp_path, capsys):
+    """``action_log_std`` is the policy's log std when PPO starts (here with a learning rate
+    that cannot move it), one value per action component; another length is refused by
+    name before anything is written."""
+    from safetensors.numpy import load_file
+
+    out = tmp_path / "std"
+    changes = {"ppo": {**TINY["ppo"], "learning_rate": 1e-12}, "action_log_std": [-1.5, 0.5]}
+    argv = ["--scenario", "sousa_asv", "--timesteps", "256", "--seed", "0", "--out", str(out), "--no-progress"]
+    assert cli.main([*argv, "--config", _tiny_yaml(tmp_path, **changes)]) == 0
+    weights = load_file(str(out / "model.safetensors"))
+    log_std = [v for k, v in weights.items() if k.endswith("log_std")]
+    assert len(log_std) == 1
+    np.testing.assert_allclose(log_std[0], [-1.5, 0.5], atol=1e-6)
+    capsys.readouterr()
+    bad = tmp_path / "bad"
+    argv = ["--scenario", "sousa_asv", "--timesteps", "256", "--out", str(bad), "--no-progress"]
+    code = cli.main([*argv, "--config", _tiny_yaml(tmp_path, action_log_std=[-2.0, -2.0, 0.0])])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "action_log_std has 3 values; sousa_asv's actions have 2" in err and "\n" not in err
+    assert not bad.exists()
+    code = cli.main([*argv, "--config", _tiny_yaml(tmp_path, action_log_std=[-2.0, "wide"])])
+    assert code == 2 and "action_log_std must be a list of numbers" in capsys.readouterr().err

@@ -231,7 +231,11 @@ class TrainConfig(_Job):
     keyword arguments (``learning_rate`` may be ``"lin_<x>"``: linear decay from x to
     0; ``policy_kwargs.activation_fn`` a name: tanh, relu, elu, leaky_relu); {} leaves
     SB3's defaults. ``init_from``: start from another policy's weights and
-    normalization (a run directory, a shipped policy name, a model .zip)."""
+    normalization (a run directory, a shipped policy name, a model .zip).
+    ``action_log_std``: the log standard deviation of each action component when PPO
+    starts (after ``init_from`` and ``imitate``; not on a resume), e.g. ``[-2, -2, 0]`` to
+    keep a clone's motion and explore its transmit decision (None: as trained, or
+    ``log_std_init``)."""
 
     policy: str = "MlpPolicy"
     n_envs: int = 16
@@ -242,6 +246,7 @@ class TrainConfig(_Job):
     init_from: str | None = None
     imitate: ImitateSpec = field(default_factory=ImitateSpec)
     entity: EntitySpec = field(default_factory=EntitySpec)
+    action_log_std: list | None = None
 
     def check(self) -> Self:
         import inspect
@@ -265,6 +270,15 @@ class TrainConfig(_Job):
             raise ConfigError(f"ppo.policy_kwargs must be a mapping, got {kwargs!r}")
         if "activation_fn" in kwargs and kwargs["activation_fn"] not in ACTIVATIONS:
             raise ConfigError(f"unknown activation_fn {kwargs['activation_fn']!r}; valid: {', '.join(ACTIVATIONS)}")
+        std = self.action_log_std
+        if std is not None and (
+            not isinstance(std, list)
+            or not std
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and -10 <= v <= 2 for v in std)
+        ):
+            raise ConfigError(
+                f"action_log_std must be a list of numbers in [-10, 2], one per action component, got {std!r}"
+            )
         im = self.imitate
         if im.planner is not None:
             for key in ("steps", "epochs", "batch_size"):

@@ -163,6 +163,12 @@ def train(
         "about a minute)"
     )
     raw_env = make_training_env(config, job, run_seed)
+    dim = int(raw_env.action_space.shape[0])
+    if config.action_log_std is not None and len(config.action_log_std) != dim:
+        raw_env.close()
+        raise ConfigError(
+            f"action_log_std has {len(config.action_log_std)} values; {config.scenario}'s actions have {dim}"
+        )
     venv = VecMonitor(raw_env)
     ckpt_stats = read_stats(ckpt["vecnormalize"]) if ckpt else None
     if ckpt and ckpt_stats is not None:  # the checkpoint's statistics and settings, training on
@@ -232,6 +238,11 @@ def train(
             f"{imitation['action_rms_error']}, {imitation['seconds']} s",
             flush=True,
         )
+    if config.action_log_std is not None and not ckpt:  # the exploration PPO starts with, per action component
+        import torch
+
+        with torch.no_grad():
+            model.policy.log_std.copy_(torch.as_tensor(config.action_log_std, dtype=model.policy.log_std.dtype))
     runlock.claim(out, new=not resume, command=command)  # the inputs are good: lock --out, the first file of a new run
     if not resume:
         write_run_record(
