@@ -100,8 +100,8 @@ class MixedTeamVecEnv(VecEnv):
     ``n_envs`` (environments in all, at least one per team), ``seed``, ``step_infos``,
     ``reward_terms`` and scenario ``overrides`` as ``CoopNavVecEnv``'s, and
     ``observation`` (``"entities"``, or ``"flat"`` for teams of one observation size).
-    ``row_config(i)`` and ``row_agent(i)`` say which team's scenario and which beacon a
-    row is."""
+    ``get_attr("config")`` and ``get_attr("agent")`` say which team's scenario and which
+    beacon each row is."""
 
     # VecEnv declares metadata an instance attribute (its __init__ sets it)
     metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
@@ -170,16 +170,6 @@ class MixedTeamVecEnv(VecEnv):
     def _simulator(self, t: int) -> CoopNavVecEnv:
         sub = self.subs[t]
         return sub.venv if isinstance(sub, EntityVecEnv) else sub
-
-    def row_config(self, i: int) -> ScenarioConfig:
-        """The scenario of row ``i``'s team."""
-        t, _ = self._where([i])[0]
-        return self.configs[t]
-
-    def row_agent(self, i: int) -> int:
-        """The beacon index (in its team) of row ``i``."""
-        t, r = self._where([i])[0]
-        return r % self.configs[t].n_beacons
 
     # ------------------------------------------------------------------------------
     def seed(self, seed: int | None = None) -> Sequence[int | None]:

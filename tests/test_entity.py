@@ -248,8 +248,9 @@ def test_flat_teams_vary_the_setting_not_the_makeup():
     assert [c.packet_loss_far for c in mixed.configs] == [0.5, 0.8]
     assert mixed.num_envs == 4
     assert mixed.observation_space == CoopNavVecEnv("matos_moving_lbl", n_envs=1).observation_space
-    assert [mixed.row_agent(i) for i in range(4)] == [0, 1, 0, 1]
-    assert mixed.row_config(3).packet_loss_far == 0.8 and mixed.row_config(1).packet_loss_far == 0.5
+    assert mixed.get_attr("agent") == ["beacon_0", "beacon_1", "beacon_0", "beacon_1"]
+    configs = mixed.get_attr("config")
+    assert configs[3].packet_loss_far == 0.8 and configs[1].packet_loss_far == 0.5
     obs = np.asarray(mixed.reset())
     alone = CoopNavVecEnv("matos_moving_lbl", n_envs=1, seed=4, **lossy)
     np.testing.assert_array_equal(obs[2:4], alone.reset())
@@ -456,9 +457,10 @@ def test_imitation_drives_each_flat_team_with_its_own_scenario():
     data = collect(VecNormalize(raw, norm_reward=False), raw, "abeam", steps=40, seed=3)
     obs, acts = data["obs"], data["actions"]
     k = 5  # a few steps in: both boats moving
+    configs, agents = raw.get_attr("config"), raw.get_attr("agent")
     for r in (2, 3):
-        own = make_policy("abeam", raw.row_config(r), seed=(3, r), agent=raw.row_agent(r))
-        other = make_policy("abeam", raw.configs[0], seed=(3, r), agent=raw.row_agent(r))
+        own = make_policy("abeam", configs[r], seed=(3, r), agent=agents[r])
+        other = make_policy("abeam", raw.configs[0], seed=(3, r), agent=agents[r])
         for t in range(k + 1):
             a_own, a_other = own.act(obs[t, r]), other.act(obs[t, r])
         np.testing.assert_allclose(acts[k, r], a_own, rtol=1e-6, atol=1e-6)

@@ -44,13 +44,9 @@ def collect(vecnorm: Any, raw_env: Any, planner: str, steps: int, seed: int, pro
     from coopnav_env.progress import Progress
 
     rows = raw_env.num_envs
-    if hasattr(raw_env, "row_config"):  # MixedTeamVecEnv: each row its team's scenario and beacon
-        row_cfgs = [raw_env.row_config(r) for r in range(rows)]
-        agents = [raw_env.row_agent(r) for r in range(rows)]
-    else:
-        row_cfgs = [raw_env.config] * rows
-        agents = [r % raw_env.n_beacons for r in range(rows)]
-    policies = [make_policy(planner, row_cfgs[r], seed=(seed, r), agent=agents[r]) for r in range(rows)]
+    # each row's scenario (a MixedTeamVecEnv row: its team's) and beacon name
+    configs, agents = raw_env.get_attr("config"), raw_env.get_attr("agent")
+    policies = [make_policy(planner, configs[r], seed=(seed, r), agent=agents[r]) for r in range(rows)]
     vecnorm.reset()
     raw = vecnorm.get_original_obs()
     n_steps = -(-steps // rows)
