@@ -89,6 +89,43 @@ def moving_range_prediction(
 
 
 @njit(cache=True)
+def range_curvature(
+    P: np.ndarray, Pxb: np.ndarray, beacon_var_m2: float, H: np.ndarray, h: float
+) -> tuple[float, float]:
+    """The second-order terms of a range (the second-order EKF's measurement terms;
+    Bar-Shalom, Li & Kirubarajan 2001, ch. 10): with the relative position d = x - b of
+    covariance Pd = P - Pxb - Pxb^T + Pbb (P the filter's 3x3, Pxb (3, 2) its
+    cross-covariance with the beacon's horizontal error, Pbb = beacon_var_m2 I2), the
+    range |d| has Hessian M = (I - u u^T) / h, u = H / |H| (eq. L1), so
+
+    E[r] ~ h + tr(M Pd) / 2 (eq. L2), and its variance beyond H Pd H^T is
+    tr(M Pd M Pd) / 2 (eq. L3).
+
+    Both are of order sigma_perp^2 / h: negligible at a few metres' error hundreds of
+    metres away, dominant when the estimate is tens of metres off and the beacon passes
+    within tens of metres, where the first-order update alone moves the estimate along
+    a wrong gradient and reports a covariance far too small. Returns (the bias of eq. L2,
+    the variance of eq. L3), both 0 for h <= 0."""
+    n = np.sqrt(H[0] * H[0] + H[1] * H[1] + H[2] * H[2])
+    if not (h > 0.0 and n > 0.0):
+        return 0.0, 0.0
+    Pd = P.copy()
+    for i in range(3):
+        for a in range(Pxb.shape[1]):
+            Pd[i, a] -= Pxb[i, a]
+            Pd[a, i] -= Pxb[i, a]
+    for a in range(2):
+        Pd[a, a] += beacon_var_m2
+    M = -np.outer(H / n, H / n)
+    for i in range(3):
+        M[i, i] += 1.0
+    MP = (M / h) @ Pd  # eq. (L1)
+    bias = 0.5 * np.trace(MP)  # eq. (L2)
+    var = 0.5 * np.trace(MP @ MP)  # eq. (L3)
+    return bias, var
+
+
+@njit(cache=True)
 def innovation_variance(P: np.ndarray, H: np.ndarray, R: float) -> float:
     """Eq. (11): S = H P H^T + R for one scalar measurement."""
     S = R

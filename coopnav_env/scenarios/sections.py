@@ -24,6 +24,7 @@ CHANNEL_MODES = ("clock", "decide")
 BEACON_ERROR_FUSIONS = ("schmidt", "white", "ci")
 LOCKOUT_RECOVERIES = ("window", "nearest_point")
 RANGE_OUTLIER_MODELS = ("mixture", "hold", "gate")
+RANGE_LINEARIZATIONS = ("first_order", "second_order")
 # the survey filter of the papers (Gao & Chitre 2010; Sousa et al.): the beacon's variance in R,
 # hard gating, a nearest-point restart, white GPS errors. Paper reproductions set these.
 PAPER_FILTER = {
@@ -32,6 +33,7 @@ PAPER_FILTER = {
     "lockout_recovery": "nearest_point",
     "gps_error_time_constant_s": 0.0,
     "survey_bias_consider": False,
+    "range_linearization": "first_order",
 }
 AREA_LIMIT_M = 20_000.0  # each side of the survey area
 MAX_WAYPOINTS = 100_000  # a path that needs more is refused before it is built
@@ -320,6 +322,16 @@ class SurveyEKF(Section):
             "given the multipath model outlier_probability / outlier_mean_excess_m (PDA; core/multipath.py, "
             "M1-M3); 'hold', the same with both hypotheses held until the next range re-weighs them (M4-M7); "
             "'gate', fused as good (the papers' filter)"
+        ),
+    )
+    range_linearization: str = param(
+        "first_order",
+        choices=RANGE_LINEARIZATIONS,
+        doc=(
+            "a modem range's model in the survey filter: 'first_order', the EKF's linearization (the papers); "
+            "'second_order', with the range's curvature (the Gaussian second-order filter, "
+            "core/navigation.range_curvature, eqs. L1-L3): the prediction's bias and the variance the "
+            "linearization leaves, which matter when the estimate's error is not small against the range"
         ),
     )
     recovery_window: int = param(

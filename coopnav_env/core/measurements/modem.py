@@ -32,7 +32,7 @@ from ..dr_bias import N_BIASES, told_current_std_mps
 from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import Held, Moments, blend_update, direct_path_weight, hold_hypotheses, reweigh_hypotheses
-from ..navigation import gated_update, innovation_variance, moving_range_prediction, reinit_on_range
+from ..navigation import gated_update, innovation_variance, moving_range_prediction, range_curvature, reinit_on_range
 from ..recovery import RangeWindow, WindowNoise, window_bias_cross, window_fix, window_terms
 from . import FusionOutputs
 
@@ -130,6 +130,7 @@ class ModemParams(NamedTuple):
         float  # the told current's error per axis (dr_bias.told_current_std_mps): its shared drift (R2')
     )
     bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
+    second_order: bool  # range_linearization == "second_order": eqs. L1-L3 (navigation.range_curvature)
 
 
 # beacon_error_fusion as the kernel reads it
@@ -429,6 +430,9 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     noise_std = cyc.range_noise_std_m[b]
     R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
     R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
+    if prm.second_order:  # eqs. (L2), (L3)
+        bias, var = range_curvature(sv.P[b, s], cv.Pxb[b, s, j], beacon_var, H, h)
+        h, R, R_white = h + bias, R + var, R_white + var
     if cv.hyp_w[b, s] < 1.0:  # (M6, M7): this range re-weighs the last one's hypotheses, then they merge
         reweigh_hypotheses(
             cv.hyp_w[b, s],
@@ -446,6 +450,9 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
         h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
         R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
         R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
+        if prm.second_order:
+            bias, var = range_curvature(sv.P[b, s], cv.Pxb[b, s, j], beacon_var, H, h)
+            h, R, R_white = h + bias, R + var, R_white + var
     meas = (r, h, R, R_white, beacon_var)
     if prm.window:
         _remember(cv, sv, b, s, j, r, bv.est[b, j], delays, cyc.t_s[b])
@@ -533,6 +540,7 @@ class ModemRanging:
                 float(np.radians(c.compass_bias_std_deg)),
                 told_current_std_mps(c),
                 bool(c.survey_bias_consider),
+                c.range_linearization == "second_order",
             ]
         )
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
