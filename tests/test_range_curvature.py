@@ -125,3 +125,7 @@ def test_the_option_is_wired_and_first_order_is_untouched():
     assert np.all(np.trace(P2[..., :2, :2], axis1=-2, axis2=-1) >= np.trace(P1[..., :2, :2], axis1=-2, axis2=-1) - 1e-9)
     with pytest.raises(ValueError, match="second_order"):
         make_config("gao_sea", range_linearization="second_ordr")
+    # the moving network's and the MLS array's filters have no second-order update: refused, not ignored
+    for scenario in ("matos_moving_lbl", "swarm_mls"):
+        with pytest.raises(ValueError, match="range_linearization='first_order'"):
+            make_config(scenario, range_linearization="second_order")

@@ -331,7 +331,8 @@ class SurveyEKF(Section):
             "a modem range's model in the survey filter: 'first_order', the EKF's linearization (the papers); "
             "'second_order', with the range's curvature (the Gaussian second-order filter, "
             "core/navigation.range_curvature, eqs. L1-L3): the prediction's bias and the variance the "
-            "linearization leaves, which matter when the estimate's error is not small against the range"
+            "linearization leaves, which matter when the estimate's error is not small against the range "
+            "(the modem sensor of network='survey_beacons' only)"
         ),
     )
     recovery_window: int = param(

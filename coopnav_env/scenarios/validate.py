@@ -38,6 +38,12 @@ def validate(c: Any) -> None:
         check(c.action_mode != "frame_velocity", "action_mode='frame_velocity' belongs to network='moving_lbl'")
     if c.channel_mode == "decide":
         _check_decision_slot(c)
+    check(
+        c.range_linearization == "first_order" or (c.network == "survey_beacons" and c.acoustic_sensor == "modem"),
+        "range_linearization='second_order' is the modem filter's (network='survey_beacons', acoustic_sensor='modem'); "
+        f"network={c.network!r} with acoustic_sensor={c.acoustic_sensor!r} fuses its ranges to first order: "
+        "use range_linearization='first_order'",
+    )
     # what scales with the values: the number of waypoints a path needs
     randomized = c.randomize_survey_path if c.randomization is not None else ()
     for path in set(randomized or (c.survey_path,)):

@@ -315,8 +315,12 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     After ``reinit_after`` of them the filter restarts (lock-out): from a window of
     beacon j's ranges (``lockout_recovery="window"``), else from the range at the nearest
     point of its circle (``navigation.reinit_on_range``, R with the beacon's variance).
-    meas: (r, h, R without the beacon's variance, R with it, the beacon's variance)."""
-    r, h, R, R_white, beacon_var = meas
+    meas: (r, h, R without the beacon's variance, R with it, the beacon's variance, and the
+    curvature's bias and variance (L2, L3) that h and both R hold, 0 to first order).
+    A restart leaves the locked-out filter's covariance behind, so it uses h and R
+    without the curvature's terms."""
+    r, h, R, R_white, beacon_var, bias, var = meas
+    h, R, R_white = h - bias, R - var, R_white - var
     sign = 1 if r > h else -1
     streak = sv.rejected_streak[b, s]
     sv.rejected_streak[b, s] = streak + sign if streak * sign >= 0 else sign
@@ -342,7 +346,7 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
     with it as consider states (eqs. C2-C6); ``"ci"`` by covariance intersection
     (CI3, CI5) with R as white's. Each carries the survey's dead-reckoning-bias cross-covariance
     Pxd through its gain (``dr_bias.py``, eq. D3). Returns (fused, the innovation's variance S)."""
-    r, h, R, R_white, beacon_var = meas
+    r, h, R, R_white, beacon_var = meas[:5]
     K, Pbb = scratch[0], scratch[1]
     y = r - h
     if prm.fusion == SCHMIDT:
@@ -430,6 +434,7 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     noise_std = cyc.range_noise_std_m[b]
     R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
     R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
+    bias, var = 0.0, 0.0
     if prm.second_order:  # eqs. (L2), (L3)
         bias, var = range_curvature(sv.P[b, s], cv.Pxb[b, s, j], beacon_var, H, h)
         h, R, R_white = h + bias, R + var, R_white + var
@@ -453,7 +458,7 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
         if prm.second_order:
             bias, var = range_curvature(sv.P[b, s], cv.Pxb[b, s, j], beacon_var, H, h)
             h, R, R_white = h + bias, R + var, R_white + var
-    meas = (r, h, R, R_white, beacon_var)
+    meas = (r, h, R, R_white, beacon_var, bias, var)
     if prm.window:
         _remember(cv, sv, b, s, j, r, bv.est[b, j], delays, cyc.t_s[b])
     if not _update(sv, cv, prm, b, s, j, H, meas, scratch):
