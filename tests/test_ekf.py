@@ -376,10 +376,9 @@ def test_nees_per_cycle(scenario):
 @pytest.mark.parametrize("scenario", ["gao_lawnmower", "gao_sea"])
 def test_nees_per_cycle_100_runs(scenario):
     """``test_nees_per_cycle`` over 100 runs, with issue 21's bound on the exceedances:
-    at most 3x the nominal 0.1 %. gao_sea fails at its defaults, on its mean only: 1.540
-    below the band's 1.627 (8 exceedances, 1.2x). At Q 1.0 to first order it was 1.344 and
-    3.4x, the tail the first-order range update's after close passes far off
-    (docs/scenarios/consider-fusion.md#curvature)."""
+    at most 3x the nominal 0.1 %. gao_sea fails at its defaults (mean 1.344 below its
+    band, 3.4x): the tail is the first-order range update after close passes far off, the
+    mean its Q (docs/scenarios/consider-fusion.md#curvature)."""
     r = _nees_summary(scenario, runs=N_RUNS)
     report = _format(r)
     print(report)

@@ -116,7 +116,7 @@ def test_the_option_is_wired_and_first_order_is_untouched():
             sim.step(np.broadcast_to(np.array([1.0, 0.0]), (4, sim.N, 2)).copy())
         return sim.state.s_est.copy(), sim.state.s_P.copy()
 
-    _, P1 = run(range_linearization="first_order")
+    x1, P1 = run(range_linearization="first_order")
     x2, P2 = run()  # gao_sea's default
     x2b, P2b = run(range_linearization="second_order")
     assert make_config("gao_sea").range_linearization == "second_order"
