@@ -59,12 +59,6 @@ GAO_SEA = ScenarioConfig(
     current_direction_spread_deg=20.0,
     max_cycles=400,
     beacon_surface_above_std_m=5.0,  # a GPS fix at the surface when its DVL dead reckoning has drifted [U]
-    # Q: what the consider states leave; chosen on tuning seeds 700000-700099 with the range's curvature
-    # (mean NEES 1.78, 99.9 % exceedances 1.2x; two hours without surfacing 2.01, 0.2x). Q 1.0, the default,
-    # left the filter under-confident (1.27-1.40 on the held-out ranges); the curvature terms remove the
-    # tail of close passes far off (docs/scenarios/consider-fusion.md#curvature)
-    process_noise_horizontal_m2ps=0.3,
-    range_linearization="second_order",
 )
 
 # A team of two beacons of different kinds helping two survey AUVs (not in the paper):
@@ -78,11 +72,6 @@ GAO_TEAM = GAO_SEA.replace(
     n_survey=2,
     survey_spacing_m=60.0,  # [U] the two lawnmowers overlap by 60 % of the 150 m width
     beacon_kinds=("asv", "beacon_auv"),
-    # the filter gao_sea had before: measured consistent here (mean NEES 1.77 and 1.75, 99.9 % exceedances
-    # 1.6x on seeds 700000- and 900000-, 100 runs with ellipse); with gao_sea's Q 0.3 and the curvature one
-    # run of 100 diverged (87 m; episode mean 20.7 m)
-    process_noise_horizontal_m2ps=1.0,
-    range_linearization="first_order",
 )
 
 register("gao_lawnmower", GAO_LAWNMOWER)
