@@ -4,7 +4,8 @@ inside its per-cycle chi-square band, and how often it exceeds the 99.9 % point.
     python benchmarks/nees_per_cycle.py --runs 100 --markdown results/nees.md
 
 For each case, ``--runs`` episodes run as one batch of the core (seeds ``--seed`` +
-i) with the case's planner driving every beacon. At every cycle and run the
+i) with the case's planner driving every beacon (``--beacon`` another policy: a planner,
+``ppo``, a run folder; the filter's consistency depends on where the beacon goes). At every cycle and run the
 normalized estimation error squared of the survey vehicle's horizontal estimate,
 NEES = e^T P^-1 e with e the (east, north) error and P its 2 x 2 covariance (the
 step infos ``survey_error_en_m`` and ``survey_cov_en_m2``), is chi-square with 2
@@ -80,17 +81,50 @@ BAND = chi2.ppf([0.025, 0.975], 2)
 P999 = chi2.ppf(0.999, 2)
 
 
-def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: int) -> dict:
-    """Horizontal NEES of every run at every cycle of one case, and its summary."""
+def policy_steps(scenario: str, policy: str, overrides: dict, runs: int, seed: int):
+    """``baselines.rollout.planned_steps`` for any policy the evaluation takes (a planner,
+    ``ppo``, a run folder: ``evaluation.episodes.make_policy``, seeded as the evaluation
+    seeds it), every beacon driven by it; yields ``(config, simulator, result, live)``."""
+    import coopnav_env
+    from coopnav_env.core import make_simulator
+    from coopnav_env.views import action_dim
+    from evaluation.episodes import make_policy
+
+    cfg = coopnav_env.make_config(scenario, **overrides)
+    seeds = list(range(seed, seed + runs))
+    sim = make_simulator(cfg, runs)
+    obs = sim.reset(seeds)
+    policies = [[make_policy(policy, cfg, seed=(s, j), agent=j) for j in range(cfg.n_beacons)] for s in seeds]
+    actions = np.zeros((runs, cfg.n_beacons, action_dim(sim)))
+    done = np.zeros(runs, dtype=bool)
+    while not done.all():
+        for b in np.flatnonzero(~done).tolist():
+            for j in range(cfg.n_beacons):
+                actions[b, j] = policies[b][j].act(obs[b, j])
+        actions[done] = 0.0
+        res = sim.step(actions)
+        obs = res.obs
+        yield cfg, sim, res, ~done
+        done = done | np.asarray(res.terminated) | np.asarray(res.truncated)
+
+
+def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: int, beacon: str | None = None) -> dict:
+    """Horizontal NEES of every run at every cycle of one case, and its summary; with
+    ``beacon``, that policy drives the beacons instead of the case's planner."""
     from baselines.rollout import planned_steps
 
+    steps = (
+        planned_steps(scenario, planner, overrides, runs, seed)
+        if beacon is None
+        else policy_steps(scenario, beacon, overrides, runs, seed)
+    )
     values = []
     worst = np.zeros(runs)  # largest error of each run
     err_sum, n_cycles = np.zeros(runs), np.zeros(runs)
     restarts = 0
     streak, longest = np.zeros(runs, dtype=int), 0
     exceed = np.zeros(runs, dtype=int)  # run-cycles above the 99.9 % point, per run
-    for _cfg, _sim, res, live in planned_steps(scenario, planner, overrides, runs, seed):
+    for _cfg, _sim, res, live in steps:
         e = np.asarray(res.info["survey_error_en_m"])  # (B, S, 2)
         P = np.asarray(res.info["survey_cov_en_m2"])  # (B, S, 2, 2)
         nees = np.einsum("bsi,bsi->bs", e, np.linalg.solve(P, e[..., None])[..., 0])
@@ -145,6 +179,13 @@ def main(argv: list[str] | None = None) -> int:
         metavar="NAME=VALUE",
         help="a scenario parameter for every chosen case (repeatable), e.g. --set beacon_error_fusion=schmidt",
     )
+    p.add_argument(
+        "--beacon",
+        metavar="POLICY",
+        help="drive every beacon with this policy instead of each case's planner: a planner, 'ppo' (the "
+        "scenario's shipped policy) or a run folder, as evaluate.py takes them (the filter's consistency "
+        "depends on where the beacon goes)",
+    )
     args = p.parse_args(argv)
     if not 1 <= args.runs <= 10_000:
         print(f"--runs must be in [1, 10000], got {args.runs}", file=sys.stderr)
@@ -174,6 +215,23 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, TypeError) as e:
         print(f"--set: {e}", file=sys.stderr)
         return 2
+    if args.beacon is not None:
+        from evaluation.episodes import check_policy
+
+        for i in chosen:
+            try:
+                check_policy(args.beacon, coopnav_env.make_config(CASES[i][1], **{**CASES[i][3], **extra}), args.seed)
+            except Exception as e:  # one line, whatever the policy raised
+                import agents
+                from baselines import list_policies
+                from coopnav_env.names import did_you_mean
+
+                first = (str(e).strip().splitlines() or [type(e).__name__])[0]
+                hint = did_you_mean(args.beacon, list_policies() + ["ppo"] + list(agents.list_policies()))
+                print(
+                    f"--beacon {args.beacon!r} on case {i} ({CASES[i][0]}): {first}{hint.rstrip(';')}", file=sys.stderr
+                )
+                return 2
     lines = [
         f"Horizontal NEES over {args.runs} runs (seeds {args.seed}..{args.seed + args.runs - 1}); "
         f"per-cycle 95 % band [{BAND[0]:.3f}, {BAND[1]:.2f}], 99.9 % point {P999:.1f}.",
@@ -188,9 +246,10 @@ def main(argv: list[str] | None = None) -> int:
     bar = Progress(total=len(chosen), unit="case", desc="NEES per cycle")
     for i in chosen:
         label, scenario, planner, overrides = CASES[i]
+        planner = args.beacon or planner
         bar.stage(f"{label}: {args.runs} runs of {scenario} with {planner}")
         t0 = time.perf_counter()
-        r = nees_of_case(scenario, planner, {**overrides, **extra}, args.runs, args.seed)
+        r = nees_of_case(scenario, planner, {**overrides, **extra}, args.runs, args.seed, beacon=args.beacon)
         lo, hi = r["mean_band"]
         line = (
             f"| {label} | {planner} | {r['run_cycles']} | {r['mean']:.2f} | [{lo:.2f}, {hi:.2f}] | "
