@@ -137,9 +137,18 @@ def policy_steps(scenario: str, policy: str, overrides: dict, runs: int, seed: i
         done = done | np.asarray(res.terminated) | np.asarray(res.truncated)
 
 
-def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: int, beacon: str | None = None) -> dict:
+def nees_of_case(
+    scenario: str,
+    planner: str,
+    overrides: dict,
+    runs: int,
+    seed: int,
+    beacon: str | None = None,
+    distances: bool = False,
+) -> dict:
     """Horizontal NEES of every run at every cycle of one case, and its summary; with
-    ``beacon``, that policy drives the beacons instead of the case's planner."""
+    ``beacon``, that policy drives the beacons instead of the case's planner; with
+    ``distances``, also ``by_distance`` (None without)."""
     from baselines.rollout import planned_steps
 
     steps = (
@@ -158,9 +167,10 @@ def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: 
         P = np.asarray(res.info["survey_cov_en_m2"])  # (B, S, 2, 2)
         nees = np.einsum("bsi,bsi->bs", e, np.linalg.solve(P, e[..., None])[..., 0])
         values.append(nees[live].ravel())
-        snap = sim.snapshot()
-        gap = snap.survey_true_m[:, :, None, :2] - snap.beacon_true_m[:, None, :, :2]  # (B, S, N, 2)
-        dists.append(np.linalg.norm(gap, axis=-1).min(axis=-1)[live].ravel())
+        if distances:  # the snapshot copies every position: only when asked
+            snap = sim.snapshot()
+            gap = snap.survey_true_m[:, :, None, :2] - snap.beacon_true_m[:, None, :, :2]  # (B, S, N, 2)
+            dists.append(np.linalg.norm(gap, axis=-1).min(axis=-1)[live].ravel())
         exceed[live] += (nees[live] > P999).sum(axis=-1)
         err = np.asarray(res.info["survey_error_m"]).max(axis=1)  # (B,) the worst survey vehicle
         worst[live] = np.maximum(worst[live], err[live])
@@ -187,7 +197,7 @@ def nees_of_case(scenario: str, planner: str, overrides: dict, runs: int, seed: 
         "restarts": restarts,
         "longest_rejected_streak": longest,
         "exceed_by_run": exceed,
-        "by_distance": by_distance(v, np.concatenate(dists)),
+        "by_distance": by_distance(v, np.concatenate(dists)) if distances else None,
     }
 
 
@@ -288,7 +298,15 @@ def main(argv: list[str] | None = None) -> int:
         planner = args.beacon or planner
         bar.stage(f"{label}: {args.runs} runs of {scenario} with {planner}")
         t0 = time.perf_counter()
-        r = nees_of_case(scenario, planner, {**overrides, **extra}, args.runs, args.seed, beacon=args.beacon)
+        r = nees_of_case(
+            scenario,
+            planner,
+            {**overrides, **extra},
+            args.runs,
+            args.seed,
+            beacon=args.beacon,
+            distances=args.by_distance,
+        )
         lo, hi = r["mean_band"]
         line = (
             f"| {label} | {planner} | {r['run_cycles']} | {r['mean']:.2f} | [{lo:.2f}, {hi:.2f}] | "

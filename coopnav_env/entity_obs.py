@@ -69,6 +69,8 @@ if TYPE_CHECKING:
 
 MAX_SURVEY = 5
 MAX_BEACONS = 3
+TEAM_KEYS = ("n_survey", "beacon_kinds")  # the team makeup: what changes a flat observation's size
+MAX_TEAMS = 16  # teams of one mixed-team run (entity_views.MixedTeamVecEnv, a config's env.teams)
 ENTITY_WAYPOINTS = 2
 KINDS = ("survey_auv", "beacon_auv", "asv", "boat")
 
@@ -79,6 +81,8 @@ __all__ = [
     "LAYOUT",
     "MAX_BEACONS",
     "MAX_SURVEY",
+    "MAX_TEAMS",
+    "TEAM_KEYS",
     "EntityLayout",
     "Entities",
     "check_team",

@@ -40,7 +40,16 @@ from pettingzoo.utils.wrappers import BaseParallelWrapper
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
-from .entity_obs import MAX_BEACONS, MAX_SURVEY, check_team, entity_observation, entity_space, row_agents
+from .entity_obs import (
+    MAX_BEACONS,
+    MAX_SURVEY,
+    MAX_TEAMS,
+    TEAM_KEYS,
+    check_team,
+    entity_observation,
+    entity_space,
+    row_agents,
+)
 from .scenarios import make_config
 from .vector import CoopNavVecEnv
 
@@ -49,8 +58,6 @@ if TYPE_CHECKING:
 
     from .scenarios import ScenarioConfig
 
-TEAM_KEYS = ("n_survey", "beacon_kinds")  # the team makeup: what changes the flat observation's size
-MAX_TEAMS = 16
 VIEWS = ("entities", "flat")  # MixedTeamVecEnv's observation
 
 __all__ = ["MAX_TEAMS", "TEAM_KEYS", "EntityParallelEnv", "EntityVecEnv", "MixedTeamVecEnv", "entity_parallel_env"]

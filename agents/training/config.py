@@ -95,8 +95,6 @@ def parse_assignments(items: Sequence[str], what: str) -> dict:
 # the sections
 # ----------------------------------------------------------------------------------
 OBSERVATIONS = ("flat", "entities")  # env.observation
-TEAM_KEYS = ("n_survey", "beacon_kinds")  # the team makeup (coopnav_env.entity_views): entities only
-MAX_TEAMS = 16  # env.teams entries (coopnav_env.entity_views.MAX_TEAMS)
 
 
 @dataclass
@@ -346,9 +344,10 @@ def check_env_observation(env: EnvSpec) -> None:
     values themselves are the scenario's to check, when the job is prepared)."""
     if env.observation not in OBSERVATIONS:
         raise ConfigError(unknown_key_message(env.observation, OBSERVATIONS, "env.observation"))
+    from coopnav_env.entity_obs import MAX_BEACONS, MAX_SURVEY, MAX_TEAMS, TEAM_KEYS
+
     if len(env.teams) > MAX_TEAMS:
         raise ConfigError(f"env.teams: at most {MAX_TEAMS} teams, got {len(env.teams)}")
-    from coopnav_env.entity_obs import MAX_BEACONS, MAX_SURVEY
     from coopnav_env.scenarios.config import flat_name, parameter_names
 
     params = [p for p in parameter_names() if p not in ("name", "network")]

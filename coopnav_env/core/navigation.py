@@ -109,19 +109,27 @@ def range_curvature(
     n = np.sqrt(H[0] * H[0] + H[1] * H[1] + H[2] * H[2])
     if not (h > 0.0 and n > 0.0):
         return 0.0, 0.0
-    Pd = P.copy()
+    # with M = (I - u u^T) / h: tr(M Pd) = (tr Pd - u^T Pd u) / h and
+    # tr(M Pd M Pd) = (tr Pd^2 - 2 |Pd u|^2 + (u^T Pd u)^2) / h^2, element by element
+    # (no array is allocated: this runs for every range in the fusion kernel)
+    tr = tr2 = uPu = w2 = 0.0
     for i in range(3):
-        for a in range(Pxb.shape[1]):
-            Pd[i, a] -= Pxb[i, a]
-            Pd[a, i] -= Pxb[i, a]
-    for a in range(2):
-        Pd[a, a] += beacon_var_m2
-    M = -np.outer(H / n, H / n)
-    for i in range(3):
-        M[i, i] += 1.0
-    MP = (M / h) @ Pd  # eq. (L1)
-    bias = 0.5 * np.trace(MP)  # eq. (L2)
-    var = 0.5 * np.trace(MP @ MP)  # eq. (L3)
+        wi = 0.0
+        for j in range(3):
+            d = P[i, j]
+            if j < 2:
+                d -= Pxb[i, j]
+            if i < 2:
+                d -= Pxb[j, i]
+                if i == j:
+                    d += beacon_var_m2
+            tr2 += d * d
+            wi += d * H[j] / n
+        tr += P[i, i] - (2.0 * Pxb[i, i] - beacon_var_m2 if i < 2 else 0.0)
+        uPu += H[i] / n * wi
+        w2 += wi * wi
+    bias = 0.5 * (tr - uPu) / h  # eq. (L2)
+    var = 0.5 * (tr2 - 2.0 * w2 + uPu * uPu) / (h * h)  # eq. (L3)
     return bias, var
 
 
