@@ -37,3 +37,110 @@ def test_by_distance_splits_the_run_cycles():
     assert [b["share"] for b in bands] == [0.25, 0.25, 0.5, 0.0]
     assert [b["mean"] for b in bands] == [1.0, 20.0, 3.0, None]
     assert bands[1]["above_x"] == pytest.approx(1000.0) and bands[0]["above_x"] == 0.0 and bands[3]["above_x"] is None
+
+
+def test_given_draws_against_quadrature():
+    """(G1-G3) by hand: P = I, the compass bias (variance 1) explains 0.9 of the east
+    variance (Pxd[0, 1] = sqrt 0.9) and was drawn 4 sigma out. Given it, e_E ~ N(4 sqrt 0.9,
+    0.1) and e_N ~ N(0, 1), and P(e_E^2 + e_N^2 > 13.8) is a one-dimensional integral."""
+    from scipy import integrate, stats
+
+    a = np.sqrt(0.9)
+    P = np.eye(2)[None]
+    Pxd = np.zeros((1, 2, 4))
+    Pxd[0, 0, 1] = a
+    var = np.array([[0.0, 1.0, 0.0, 0.0]])  # only beta conditioned on
+    phi = np.array([[0.3, 4.0, 0.0, 0.0]])  # k is not: its value must not matter
+    mu = 4.0 * a
+    e = np.array([[mu + np.sqrt(0.1) * 1.0, 2.0]])  # one sigma out east given the draw, 2 north
+    cond, p = nees_per_cycle.given_draws(e, P, Pxd, var, phi)
+    assert cond[0] == pytest.approx(1.0 + 4.0, rel=1e-9)  # (G2): 1^2 + 2^2
+    point = nees_per_cycle.P999
+
+    def tail(n):  # P(e_E^2 > point - n^2) for e_E ~ N(mu, 0.1)
+        c = point - n * n
+        if c <= 0:
+            return 1.0
+        s = np.sqrt(0.1)
+        return stats.norm.sf((np.sqrt(c) - mu) / s) + stats.norm.cdf((-np.sqrt(c) - mu) / s)
+
+    ref = integrate.quad(lambda n: stats.norm.pdf(n) * tail(n), -8, 8)[0]
+    assert 0.1 < ref < 0.9  # a case where the draw matters
+    sd = np.sqrt(ref * (1 - ref) / nees_per_cycle.GIVEN_DRAWS_SAMPLES)
+    assert abs(p[0] - ref) < 4 * sd
+    # with no bias at all it is the nominal 0.1 % (a chi-square(2) tail)
+    _, p0 = nees_per_cycle.given_draws(e, P, np.zeros((1, 2, 4)), var, phi)
+    assert p0[0] < 0.004
+
+
+def test_given_draws_average_to_the_nominal_rate():
+    """For a consistent filter, averaging (G3) over the draws of phi gives the marginal
+    chance, 0.1 %; and the conditional NEES (G2) of errors drawn with the joint covariance is
+    chi-square(2). A random joint covariance of (e, phi), 4000 draws."""
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((6, 6))
+    C = A @ A.T + 0.5 * np.eye(6)
+    d = np.sqrt(np.diag(C)[2:])
+    C[2:, :] /= d[:, None]
+    C[:, 2:] /= d[None, :]
+    C[2:, 2:] = np.eye(4)  # Pff diagonal, unit variances
+    C += np.diag([5.0, 5.0, 0, 0, 0, 0])  # keep the joint positive definite
+    assert np.all(np.linalg.eigvalsh(C) > 0)
+    M = 4000
+    x = rng.multivariate_normal(np.zeros(6), C, size=M)
+    e, phi = x[:, :2], x[:, 2:]
+    P = np.broadcast_to(C[:2, :2], (M, 2, 2)).copy()
+    Pxd = np.broadcast_to(C[:2, 2:], (M, 2, 4)).copy()
+    var = np.ones((M, 4))
+    cond, p = nees_per_cycle.given_draws(e, P, Pxd, var, phi)
+    assert cond.mean() == pytest.approx(2.0, abs=0.15)
+    assert np.mean(cond > stats_chi2_point()) < 0.003
+    assert p.mean() == pytest.approx(0.001, abs=0.0006)
+    # the marginal NEES of the same errors is chi-square(2) as well
+    nees = np.einsum("mi,ij,mj->m", e, np.linalg.inv(C[:2, :2]), e)
+    assert np.mean(nees > nees_per_cycle.P999) < 0.004
+    # errors and draws sqrt 2 larger than the filter says (an over-confident filter): (G2) doubles
+    cond_bad, _ = nees_per_cycle.given_draws(np.sqrt(2) * e, P, Pxd, var, np.sqrt(2) * phi)
+    assert cond_bad.mean() == pytest.approx(4.0, abs=0.3)
+
+
+def stats_chi2_point() -> float:
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(0.999, 2))
+
+
+@pytest.mark.parametrize(
+    "scenario, planner, overrides, columns",
+    [("sousa_asv", "fim_a", {"max_cycles": 60}, [1]), ("gao_lawnmower", "ellipse", {}, [2, 3])],
+)
+def test_episode_draws_signs_in_the_simulator(monkeypatch, scenario, planner, overrides, columns):
+    """The draws as the simulator keeps them (speed scale, compass bias, the told current as
+    sent minus true) with the signs of eq. D1: the conditional NEES of 20 runs is near 2;
+    with the compass bias's sign flipped (sousa_asv) or the told current's (gao_lawnmower)
+    it is 3.5 and 4.8."""
+    r = nees_per_cycle.nees_of_case(scenario, planner, overrides, 20, 0, draws=True)
+    assert 1.3 < r["given"]["conditional_mean"] < 2.6
+    assert r["given"]["expected"] > 0 and r["given"]["expected_by_run"].shape == (20,)
+    orig = nees_per_cycle.episode_draws
+
+    def flipped(cfg, st):
+        var, phi = orig(cfg, st)
+        phi = phi.copy()
+        phi[..., columns] *= -1
+        return var, phi
+
+    monkeypatch.setattr(nees_per_cycle, "episode_draws", flipped)
+    bad = nees_per_cycle.nees_of_case(scenario, planner, overrides, 20, 0, draws=True)
+    assert bad["given"]["conditional_mean"] > 3.0
+
+
+def test_given_draws_is_na_without_the_consider_states(capsys):
+    r = nees_per_cycle.nees_of_case(
+        "gao_sea", "ellipse", {"max_cycles": 5, "survey_bias_consider": False}, 2, 0, draws=True
+    )
+    assert r["given"] is None
+    assert (
+        nees_per_cycle.main(["--runs", "2", "--cases", "1", "--given-draws", "--per-run", "--set", "max_cycles=5"]) == 0
+    )
+    assert "given the draws:" in capsys.readouterr().out
