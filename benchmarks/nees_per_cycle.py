@@ -113,7 +113,14 @@ DISTANCE_BANDS_M = (0.0, 20.0, 50.0, 100.0, np.inf)
 GIVEN_DRAWS_SAMPLES = 2000  # Monte Carlo draws of e per run-cycle for (G3)
 
 
-def given_draws(e: np.ndarray, P: np.ndarray, Pxd: np.ndarray, var: np.ndarray, phi: np.ndarray, rng=None) -> tuple:
+def given_draws(
+    e: np.ndarray,
+    P: np.ndarray,
+    Pxd: np.ndarray,
+    var: np.ndarray,
+    phi: np.ndarray,
+    rng: np.random.Generator | None = None,
+) -> tuple:
     """Eqs. (G1-G3) for M run-cycles: e (M, 2) the horizontal error true minus estimate, P
     (M, 2, 2) its covariance, Pxd (M, 2, 4) its cross-covariance with phi, var (M, 4) Pff's
     diagonal (0: a column not conditioned on), phi (M, 4) the episode's draws. Returns the
