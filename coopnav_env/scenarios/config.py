@@ -195,8 +195,10 @@ class ScenarioConfig:
         return out
 
     def replace(self, **overrides: Any) -> ScenarioConfig:
-        """A copy with ``overrides`` (flat or dotted parameter names, or sections)."""
-        return dataclasses.replace(self, **check_overrides(overrides))
+        """A copy with ``overrides`` (flat or dotted parameter names, or sections). On the
+        moving network, an override of ``depth_m`` without ``waypoints_m`` moves the
+        mission's waypoints to that depth (``_mission_depth``)."""
+        return dataclasses.replace(self, **_mission_depth(self, check_overrides(overrides)))
 
     # derived quantities, computed in one place --------------------------------------
     @property
@@ -287,6 +289,24 @@ def bounds() -> dict:
         for n, f in FIELD.items()
         if f.metadata.get("low") is not None
     }
+
+
+def _mission_depth(config: ScenarioConfig, overrides: dict) -> dict:
+    """The moving network's vehicle holds one depth, ``depth_m``: the depth its waypoints
+    carry (``validate``) and the one the boats' external tracking assumes. An override of
+    ``depth_m`` alone (the shift sets' ``deep_50m``, a training team's ``{depth_m: 50}``)
+    therefore moves the waypoints' depth column with it; before, the vehicle stayed at its
+    waypoints' 2 m while the tracking placed it as if at 50 m, never got a fix, and the
+    boats lost it. Other overrides pass unchanged."""
+    named = {flat_name(k): k for k in overrides if k not in SECTION_BY_ATTR}
+    if "depth_m" not in named or "waypoints_m" in named:
+        return overrides
+    depth = overrides[named["depth_m"]]
+    network = overrides.get("network", config.network)
+    if network != "moving_lbl" or isinstance(depth, bool) or not isinstance(depth, int | float):
+        return overrides  # (a bad depth_m is refused by its own check)
+    moved = tuple((w[0], w[1], float(depth)) for w in config.waypoints_m)
+    return {**overrides, "waypoints_m": moved}
 
 
 def check_overrides(overrides: dict) -> dict:

@@ -114,7 +114,14 @@ class SurveyPath(Section):
     survey_origin_m: tuple = param((0.0, 0.0), unit="m", doc="south-west corner of the survey area")
     survey_area_m: tuple = param((130.0, 100.0), unit="m", doc="east extent, north extent")
     lawnmower_spacing_m: float = param(25.0, unit="m", low=0.1, high=10000.0, doc="track spacing")
-    depth_m: float = param(5.0, unit="m", low=0.0, high=6000.0, doc="mission depth (start depth of a spiral)")
+    depth_m: float = param(
+        5.0,
+        unit="m",
+        low=0.0,
+        high=6000.0,
+        doc="mission depth (start depth of a spiral; on the moving network the vehicle's one depth, which "
+        "its waypoints carry: overriding depth_m alone moves them)",
+    )
     spiral_end_depth_m: float = param(
         0.0, unit="m", low=0.0, high=6000.0, doc="spiral: depth at the end; <= depth_m means depth_m + 20"
     )
