@@ -176,7 +176,7 @@ def initial_state(sim: _Simulator, seeds: np.ndarray) -> FrameState:
         b_vel=b_vel,
         b_gps_err=gps_err,
         k_pos=start.copy(),
-        k_vel=np.zeros((B, 2)),
+        k_vel=c.survey_speed_mps * np.stack([heading.real, heading.imag], axis=-1),  # the mission's, until fixes say
         k_age_s=np.zeros(B),
         k_has_fix=np.zeros(B, dtype=bool),
         k_outlier=np.zeros((B, 3)),
