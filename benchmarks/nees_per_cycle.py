@@ -145,7 +145,7 @@ def episode_draws(cfg: Any, st: Any) -> tuple[np.ndarray, np.ndarray] | None:
     ``given_draws``, or None when the filter does not carry them (``dr_bias.considered_biases``).
     The told current's columns get variance 0 (not conditioned on) unless exactly one beacon
     sends a current; phi's current is the true current minus the one told (``b_current_err``
-    is the sent estimate minus the truth)."""
+    is the sent estimate minus the truth), or the whole current where none is told (eq. D1'')."""
     from coopnav_env.core import dr_bias
 
     std = dr_bias.considered_biases(cfg)
@@ -157,8 +157,10 @@ def episode_draws(cfg: Any, st: Any) -> tuple[np.ndarray, np.ndarray] | None:
     phi[..., 0] = st.s_speed_scale - 1.0
     phi[..., 1] = st.s_compass_bias_rad
     senders = [j for j, kind in enumerate(cfg.beacon_kinds) if kind == "beacon_auv"]
-    if std[2] > 0 and len(senders) == 1:
-        c = -st.b_current_err[:, senders[0]]
+    told = cfg.survey_uses_beacon_current and senders
+    if std[2] > 0 and (len(senders) == 1 or not told):
+        # told: the sent estimate's error; untold (eq. D1''): the whole current
+        c = -st.b_current_err[:, senders[0]] if told else st.current_mean + st.current_gm
         phi[..., 2], phi[..., 3] = c.real[:, None], c.imag[:, None]
     else:
         var[..., 2:] = 0.0

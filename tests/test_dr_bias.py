@@ -189,3 +189,41 @@ def test_told_current_error_is_considered_end_to_end():
     nees, e = _end_nees(c, runs, cycles, 731000)
     assert np.median(np.hypot(e[:, 0], e[:, 1])) > 10.0  # the current's error dominates
     assert 1.67 < nees.mean() < 2.37, nees.mean()
+
+
+def test_untold_current_second_moment_by_hand():
+    """Eq. (D1''): (s^2 + spread^2 / 3) / 2 per axis, the Gauss-Markov part left to Q; the told
+    current's error where a beacon AUV tells one (eq. D1'); 0 at the defaults of the scenarios
+    with an ASV beacon."""
+    from coopnav_env.core import dr_bias
+
+    c = coopnav_env.make_config(
+        "sousa_asv", current_speed_mps=0.3, current_speed_spread_mps=0.3, current_gm_std_mps=0.1
+    )
+    assert dr_bias.current_error_std_mps(c) == pytest.approx(np.sqrt((0.09 + 0.03) / 2), rel=1e-12)
+    assert dr_bias.considered_biases(coopnav_env.make_config("sousa_asv"))[2] == 0.0
+    assert dr_bias.current_error_std_mps(coopnav_env.make_config("gao_lawnmower")) == 0.05  # told: its error
+    untold = coopnav_env.make_config("gao_lawnmower", survey_uses_beacon_current=False)
+    assert dr_bias.current_error_std_mps(untold) == pytest.approx(dr_bias.untold_current_std_mps(untold))
+
+
+def test_untold_current_is_considered_end_to_end():
+    """sousa_asv with a 0.3 m/s current in a direction drawn over +-180 deg that no beacon
+    tells the ROV, uninformative ranges (noise 1 km) and no other bias: after 24 cycles (120
+    s, about 36 m of drift) the end NEES over 200 runs averages 2 (the 99 % band of the mean
+    of 200 is [1.67, 2.37]). Before eq. (D1'') the filter had only Q (0.001 m^2/s) for it and
+    the mean was 318."""
+    runs, cycles = 200, 24
+    c = coopnav_env.make_config(
+        "sousa_asv",
+        range_noise_std_m=1000.0,
+        outlier_probability=0.0,
+        survey_speed_scale_error_std=0.0,
+        compass_bias_std_deg=0.0,
+        current_speed_mps=0.3,
+        current_direction_spread_deg=180.0,
+        max_cycles=cycles,
+    )
+    nees, e = _end_nees(c, runs, cycles, 732000)
+    assert np.median(np.hypot(e[:, 0], e[:, 1])) > 20.0  # the current dominates
+    assert 1.67 < nees.mean() < 2.37, nees.mean()

@@ -55,6 +55,24 @@ varying Gauss-Markov part is in what the beacon measures and sends, so it is not
 error of the told current; before the first ping that carries a current the survey
 adds none, an error this model leaves out (the first 20-s cycle).
 
+The untold current (issue 23's shift ``current_0.5`` on the Sousa scenarios: every planner
+lost the survey vehicle, 16-26 m against 1.4 m). A survey vehicle that no beacon AUV tells a
+current (an ASV beacon, or ``survey_uses_beacon_current=False``) adds none, and its whole
+current is the error c; its filter, whose Q stands for white noise only (0.001 m^2/s on
+sousa_asv), then holds a 0.5 m/s drift as 2.5 m of unexplained motion every 5-s cycle and
+gates out the ranges that would correct it. So c enters phi the same way, with
+
+    (D1'') sigma_c^2 = (s^2 + s_spread^2 / 3) / 2 per axis: the second moment of the episode's
+           mean current per axis (a speed drawn uniformly in s +- s_spread, in a direction
+           unknown to the vehicle, split between two axes), 0 without one. The Gauss-Markov
+           part is not an episode constant (with tau of seconds it is white from cycle to
+           cycle) and stays with Q, as before
+
+(``untold_current_std_mps``). A zero-mean consider state of that second moment is right on
+average over directions even when the scenario's direction is fixed (c = (0.5, 0) m/s is
+Mahalanobis^2 2 against sigma_c^2 = 0.125 per axis). The scenarios' defaults have no untold
+current, so their filters are unchanged.
+
 With every sigma = 0 this is the old filter. D is the change of the dead-reckoning-only
 track over the cycle (``SimState.s_dr``), which is what k and beta act on (the current
 the survey is told is not scaled by them: an overstatement of their share, small where
@@ -78,12 +96,28 @@ def told_current_std_mps(c: Any) -> float:
     return float(c.beacon_current_estimate_error_mps) if sends else 0.0
 
 
+def untold_current_std_mps(c: Any) -> float:
+    """Eq. (D1''): the per-axis RMS of scenario config ``c``'s mean current, sqrt((s^2 +
+    s_spread^2 / 3) / 2), for a survey vehicle that no beacon tells one; 0 without one (the
+    Gauss-Markov part stays with Q)."""
+    s, spread = float(c.current_speed_mps), float(c.current_speed_spread_mps)
+    return float(np.sqrt((s * s + spread * spread / 3.0) / 2.0))
+
+
+def current_error_std_mps(c: Any) -> float:
+    """sigma_c of eqs. (D1', D1''): the error per axis of the current the survey adds, the told
+    current's (``told_current_std_mps``) when a beacon AUV sends one it adds, else the whole
+    untold current's (``untold_current_std_mps``)."""
+    sends = c.survey_uses_beacon_current and any(k == "beacon_auv" for k in c.beacon_kinds)
+    return told_current_std_mps(c) if sends else untold_current_std_mps(c)
+
+
 def considered_biases(c: Any) -> tuple[float, float, float] | None:
-    """(sigma_k, sigma_beta in rad, sigma_c in m/s) of scenario config ``c`` when its survey
+    """(sigma_k, sigma_beta in rad, sigma_c in m/s; ``current_error_std_mps``) of scenario config ``c`` when its survey
     filter carries them (``survey_bias_consider``), else None. Only with the modem sensor:
     it carries Pxd through its updates (eq. D3); the MLS sensor's bearing reads the compass
     bias itself (a measurement that is a function of phi) and does not."""
-    std = (float(c.survey_speed_scale_error_std), float(np.radians(c.compass_bias_std_deg)), told_current_std_mps(c))
+    std = (float(c.survey_speed_scale_error_std), float(np.radians(c.compass_bias_std_deg)), current_error_std_mps(c))
     use = c.survey_bias_consider and c.acoustic_sensor == "modem" and max(std) > 0
     return std if use else None
 

@@ -28,7 +28,7 @@ from ..consider import (
     schmidt_range_update,
 )
 from ..contract import SensorHost
-from ..dr_bias import N_BIASES, told_current_std_mps
+from ..dr_bias import N_BIASES, current_error_std_mps
 from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import Held, Moments, blend_update, direct_path_weight, hold_hypotheses, reweigh_hypotheses
@@ -127,7 +127,7 @@ class ModemParams(NamedTuple):
     dr_scale_std: float  # survey_speed_scale_error_std: the window's shared shift scale error (R2')
     dr_heading_std_rad: float  # compass_bias_std_deg: its shared rotation (R2')
     dr_current_std_mps: (
-        float  # the told current's error per axis (dr_bias.told_current_std_mps): its shared drift (R2')
+        float  # the added current's error per axis (dr_bias.current_error_std_mps): its shared drift (R2')
     )
     bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
     second_order: bool  # range_linearization == "second_order": eqs. L1-L3 (navigation.range_curvature)
@@ -543,7 +543,7 @@ class ModemRanging:
                 chi2.ppf(0.99, np.maximum(np.arange(7), 1)),
                 float(c.survey_speed_scale_error_std),
                 float(np.radians(c.compass_bias_std_deg)),
-                told_current_std_mps(c),
+                current_error_std_mps(c),
                 bool(c.survey_bias_consider),
                 c.range_linearization == "second_order",
             ]
