@@ -48,10 +48,11 @@ consistent, its error e = x - x_hat given this episode's phi is Gaussian with
 
 Summed over the run-cycles, G3 is the count a consistent filter would expect in this
 batch: a run whose k and beta were both drawn 3 sigma out exceeds the point at most of
-its cycles, and does so rightly. Observed counts well above it are the filter's. c is
-conditioned on only when one beacon sends the current (which beacon's the survey used
+its cycles, and does so rightly. Observed counts well above it are the filter's. A told
+c is conditioned on only when one beacon sends the current (which beacon's the survey used
 last is not recorded otherwise), and before the first ping that carries one the survey
-adds none (its error is then the whole current, which G1 leaves out).
+adds none (its error is then the whole current, which G1 leaves out); an untold c (eq.
+D1'') is the episode's mean current.
 
 Issue 21 asks, for gao_sea two hours without surfacing, gao_lawnmower and sousa_asv at
 their defaults: the mean inside its band, at least 85 % of run-cycles in the band, and
@@ -145,7 +146,8 @@ def episode_draws(cfg: Any, st: Any) -> tuple[np.ndarray, np.ndarray] | None:
     ``given_draws``, or None when the filter does not carry them (``dr_bias.considered_biases``).
     The told current's columns get variance 0 (not conditioned on) unless exactly one beacon
     sends a current; phi's current is the true current minus the one told (``b_current_err``
-    is the sent estimate minus the truth), or the whole current where none is told (eq. D1'')."""
+    is the sent estimate minus the truth), or the episode's mean current where none is told
+    (eq. D1'')."""
     from coopnav_env.core import dr_bias
 
     std = dr_bias.considered_biases(cfg)
@@ -159,8 +161,9 @@ def episode_draws(cfg: Any, st: Any) -> tuple[np.ndarray, np.ndarray] | None:
     senders = [j for j, kind in enumerate(cfg.beacon_kinds) if kind == "beacon_auv"]
     told = cfg.survey_uses_beacon_current and senders
     if std[2] > 0 and (len(senders) == 1 or not told):
-        # told: the sent estimate's error; untold (eq. D1''): the whole current
-        c = -st.b_current_err[:, senders[0]] if told else st.current_mean + st.current_gm
+        # told: the sent estimate's error; untold (eq. D1''): the episode's mean current (the
+        # Gauss-Markov part is Q's)
+        c = -st.b_current_err[:, senders[0]] if told else st.current_mean
         phi[..., 2], phi[..., 3] = c.real[:, None], c.imag[:, None]
     else:
         var[..., 2:] = 0.0
