@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import numbers
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -303,7 +304,7 @@ def _mission_depth(config: ScenarioConfig, overrides: dict) -> dict:
         return overrides
     depth = overrides[named["depth_m"]]
     network = overrides.get("network", config.network)
-    if network != "moving_lbl" or isinstance(depth, bool) or not isinstance(depth, int | float):
+    if network != "moving_lbl" or isinstance(depth, bool) or not isinstance(depth, numbers.Real):
         return overrides  # (a bad depth_m is refused by its own check)
     moved = tuple((w[0], w[1], float(depth)) for w in config.waypoints_m)
     return {**overrides, "waypoints_m": moved}
