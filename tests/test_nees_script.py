@@ -144,3 +144,33 @@ def test_given_draws_is_na_without_the_consider_states(capsys):
         nees_per_cycle.main(["--runs", "2", "--cases", "1", "--given-draws", "--per-run", "--set", "max_cycles=5"]) == 0
     )
     assert "given the draws:" in capsys.readouterr().out
+
+
+def test_given_draws_of_an_untold_current(monkeypatch):
+    """An untold current (eq. D1''): phi's current is the episode's mean current. sousa_asv
+    with a 0.3 m/s current in a random direction, uninformative ranges and no other bias: the
+    conditional NEES of 50 runs is near 2 (1.78 here); with the current's sign flipped, 417."""
+    over = {
+        "range_noise_std_m": 1000.0,
+        "outlier_probability": 0.0,
+        "survey_speed_scale_error_std": 0.0,
+        "compass_bias_std_deg": 0.0,
+        "current_speed_mps": 0.3,
+        "current_direction_spread_deg": 180.0,
+        "max_cycles": 24,
+    }
+    r = nees_per_cycle.nees_of_case("sousa_asv", "fim_a", over, 50, 733000, draws=True)
+    assert 1.3 < r["given"]["conditional_mean"] < 2.6
+    orig = nees_per_cycle.episode_draws
+
+    def flipped(cfg, st):
+        var, phi = orig(cfg, st)
+        phi = phi.copy()
+        phi[..., 2:] *= -1
+        return var, phi
+
+    monkeypatch.setattr(nees_per_cycle, "episode_draws", flipped)
+    assert (
+        nees_per_cycle.nees_of_case("sousa_asv", "fim_a", over, 50, 733000, draws=True)["given"]["conditional_mean"]
+        > 10
+    )
