@@ -46,7 +46,8 @@ SOUSA_ASV = ScenarioConfig(
     survey_thrust_percent=45.0,  # ~1.0 m/s with the thrust model [U, ROV speed not given]
     current_speed_mps=0.0,  # the paper simulates no current (sec. IV: "simplicity of the simulation
     current_speed_spread_mps=0.0,  # environment"); DR error comes from the ROV's speed scale,
-    current_gm_std_mps=0.0,  # compass bias and sensor noise. --set current_speed_mps=... adds one
+    current_gm_std_mps=0.0,  # compass bias and sensor noise. --set current_speed_mps=... adds one, which no
+    # beacon tells the ROV (an ASV): its filter considers it (core/dr_bias.py, eq. D1'')
     process_noise_horizontal_m2ps=0.001,  # the white share only: the speed-scale error and compass bias are
     # the filter's consider states (core/dr_bias.py, survey_bias_consider); the compass's 1 deg per 1 s sub-step
     # at ~1 m/s moves the ROV v^2 sigma^2 dt = 3e-4 m^2/s across its track, 0.001 keeps a margin for the pitch
