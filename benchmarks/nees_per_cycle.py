@@ -137,7 +137,7 @@ def given_draws(
     cond = np.sum(r**2 / w, axis=-1)  # (G2)
     z = rng.standard_normal((GIVEN_DRAWS_SAMPLES, 2))
     draws = mu[:, None, :] + np.einsum("mij,mj,kj->mki", V, np.sqrt(w), z)  # e ~ N(mu, Pr)
-    q = np.einsum("mki,mki->mk", draws, np.linalg.solve(P[:, None], draws[..., None])[..., 0])
+    q = np.einsum("mki,mij,mkj->mk", draws, np.linalg.inv(P), draws)  # one inverse per run-cycle
     return cond, np.mean(q > P999, axis=-1)  # (G3)
 
 
@@ -159,7 +159,7 @@ def episode_draws(cfg: Any, st: Any) -> tuple[np.ndarray, np.ndarray] | None:
     phi[..., 0] = st.s_speed_scale - 1.0
     phi[..., 1] = st.s_compass_bias_rad
     senders = [j for j, kind in enumerate(cfg.beacon_kinds) if kind == "beacon_auv"]
-    told = cfg.survey_uses_beacon_current and senders
+    told = dr_bias.told_current(cfg)
     if std[2] > 0 and (len(senders) == 1 or not told):
         # told: the sent estimate's error; untold (eq. D1''): the episode's mean current (the
         # Gauss-Markov part is Q's)
@@ -248,6 +248,7 @@ def nees_of_case(
     expected = np.zeros(runs)  # (G3) summed per run
     cond: list[np.ndarray] = []  # (G2) per run-cycle
     rng = np.random.default_rng(0)
+    known = None  # (var, phi) of the episodes' draws, with ``draws``
     for cfg, sim, res, live in steps:
         e = np.asarray(res.info["survey_error_en_m"])  # (B, S, 2)
         P = np.asarray(res.info["survey_cov_en_m2"])  # (B, S, 2, 2)
@@ -258,7 +259,8 @@ def nees_of_case(
             gap = snap.survey_true_m[:, :, None, :2] - snap.beacon_true_m[:, None, :, :2]  # (B, S, N, 2)
             dists.append(np.linalg.norm(gap, axis=-1).min(axis=-1)[live].ravel())
         exceed[live] += (nees[live] > P999).sum(axis=-1)
-        known = episode_draws(cfg, sim.state) if draws else None
+        if draws and known is None:  # episode constants: read once, at the first cycle
+            known = episode_draws(cfg, sim.state)
         if known is not None:
             var, phi = known
             X = sim.state.s_Pxd[..., :2, :]

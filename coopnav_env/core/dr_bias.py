@@ -88,12 +88,17 @@ import numpy as np
 N_BIASES = 4  # phi = (k, beta, c_e, c_n): the columns of SimState.s_Pxd
 
 
+def told_current(c: Any) -> bool:
+    """Whether the survey vehicles of scenario config ``c`` add a current a beacon tells them:
+    ``survey_uses_beacon_current`` and a DVL beacon AUV there to send it (Gao II-A)."""
+    return bool(c.survey_uses_beacon_current and any(k == "beacon_auv" for k in c.beacon_kinds))
+
+
 def told_current_std_mps(c: Any) -> float:
     """sigma_c of scenario config ``c``: the per-axis error of the current a DVL beacon
     AUV sends (``beacon_current_estimate_error_mps``) when the survey adds it
-    (``survey_uses_beacon_current``) and a beacon AUV is there to send it, else 0."""
-    sends = c.survey_uses_beacon_current and any(k == "beacon_auv" for k in c.beacon_kinds)
-    return float(c.beacon_current_estimate_error_mps) if sends else 0.0
+    (``told_current``), else 0."""
+    return float(c.beacon_current_estimate_error_mps) if told_current(c) else 0.0
 
 
 def untold_current_std_mps(c: Any) -> float:
@@ -108,8 +113,7 @@ def current_error_std_mps(c: Any) -> float:
     """sigma_c of eqs. (D1', D1''): the error per axis of the current the survey adds, the told
     current's (``told_current_std_mps``) when a beacon AUV sends one it adds, else the whole
     untold current's (``untold_current_std_mps``)."""
-    sends = c.survey_uses_beacon_current and any(k == "beacon_auv" for k in c.beacon_kinds)
-    return told_current_std_mps(c) if sends else untold_current_std_mps(c)
+    return told_current_std_mps(c) if told_current(c) else untold_current_std_mps(c)
 
 
 def considered_biases(c: Any) -> tuple[float, float, float] | None:

@@ -66,13 +66,14 @@ def _check_moving_network(c: Any) -> None:
         c.survey_path == "waypoints",
         f"network='moving_lbl' needs survey_path='waypoints' ({c.mission_frame} coordinates)",
     )
-    off = [w for w in c.waypoints_m if w[2] != c.depth_m]
-    check(
-        not off,
-        f"waypoints_m: network='moving_lbl' holds the vehicle at one depth, depth_m ({c.depth_m:g} m), which the "
-        f"boats' tracking assumes; waypoint {off[0] if off else ()!r} is at another (give depth_m="
-        f"{off[0][2] if off else 0:g} with them; depth_m alone moves every waypoint to it)",
-    )
+    off = next((w for w in c.waypoints_m if w[2] != c.depth_m), None)
+    if off is not None:
+        check(
+            False,
+            f"waypoints_m: network='moving_lbl' holds the vehicle at one depth, depth_m ({c.depth_m:g} m), which the "
+            f"boats' tracking assumes; waypoint {off!r} is at another (give depth_m={off[2]:g} with them; depth_m "
+            "alone moves every waypoint to it)",
+        )
     if c.mission_frame == "frame":
         check(
             all(w[1] > 0 for w in c.waypoints_m),

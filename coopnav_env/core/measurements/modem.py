@@ -411,6 +411,23 @@ def _update(sv, cv, prm, b, s, j, H, meas, scratch):
 
 
 @njit(cache=True, inline="always")
+def _range_model(sv, bv, cv, cyc, prm, b, s, j, delays, sound_speed_rel_std):
+    """Survey s's prediction of beacon j's range at its current estimate: (h, H, R without the
+    beacon's variance, R with it, the curvature's bias and variance); with
+    ``range_linearization="second_order"`` h and both R hold the curvature's terms (eqs. L2,
+    L3), else those are 0."""
+    h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
+    beacon_var = bv.nav_var[b, j]
+    noise_std = cyc.range_noise_std_m[b]
+    R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
+    R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
+    bias, var = 0.0, 0.0
+    if prm.second_order:  # eqs. (L2), (L3)
+        bias, var = range_curvature(sv.P[b, s], cv.Pxb[b, s, j], beacon_var, H, h)
+    return h + bias, H, R + var, R_white + var, bias, var
+
+
+@njit(cache=True, inline="always")
 def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     """Beacon j's ping at survey vehicle s of environment b: lost, an outlier or NaN at
     random, then gated and fused (eqs. 7-13 or C1-C6), in place; returns whether it was fused."""
@@ -429,15 +446,8 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
     if not np.isfinite(r):
         out.nan_count[b, s] += 1
         return False
-    h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
     beacon_var = bv.nav_var[b, j]
-    noise_std = cyc.range_noise_std_m[b]
-    R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
-    R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
-    bias, var = 0.0, 0.0
-    if prm.second_order:  # eqs. (L2), (L3)
-        bias, var = range_curvature(sv.P[b, s], cv.Pxb[b, s, j], beacon_var, H, h)
-        h, R, R_white = h + bias, R + var, R_white + var
+    h, H, R, R_white, bias, var = _range_model(sv, bv, cv, cyc, prm, b, s, j, delays, sound_speed_rel_std)
     if cv.hyp_w[b, s] < 1.0:  # (M6, M7): this range re-weighs the last one's hypotheses, then they merge
         reweigh_hypotheses(
             cv.hyp_w[b, s],
@@ -452,12 +462,7 @@ def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
             beacon_var,
         )
         cv.hyp_w[b, s] = 1.0
-        h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
-        R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
-        R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
-        if prm.second_order:
-            bias, var = range_curvature(sv.P[b, s], cv.Pxb[b, s, j], beacon_var, H, h)
-            h, R, R_white = h + bias, R + var, R_white + var
+        h, H, R, R_white, bias, var = _range_model(sv, bv, cv, cyc, prm, b, s, j, delays, sound_speed_rel_std)
     meas = (r, h, R, R_white, beacon_var, bias, var)
     if prm.window:
         _remember(cv, sv, b, s, j, r, bv.est[b, j], delays, cyc.t_s[b])
