@@ -52,6 +52,22 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          Pxd = E[(x - x_hat) phi^T] = P J^T Sigma^-1 Uf Pff (the prior's share, through
          P Pp^-1 <= P / s_lock^2, left out; s_k includes the told current's drift, which the
          biases do not scale, as R2' does: an overstatement where a beacon sends a current).
+    (R7) which ranges: the window holds the rejected ranges that caused the lock-out, and a
+         multipath streak among them is what set it off as often as a drift did. The fix
+         keeps the largest subset K (at least 3 ranges) whose residuals pass their chi-square
+         test, r_K^T Sigma_K^-1 r_K <= chi2_0.99(|K| - 2), and whose every dropped range is
+         long at the fix (r_k > 0): the channel's outliers are longer paths, never shorter
+         (``multipath.py``), so a fix that must call a range too short to be kept is not one
+         the channel can produce. Subsets of one size have as many outliers, so the same
+         prior probability; of those the fix keeps the one that best agrees with both its
+         ranges and the locked-out estimate taken at its own covariance P0 (not inflated):
+             score_K = r_K^T Sigma_K^-1 r_K + (x_K - x0)^T (P0 + P_K)^-1 (x_K - x0),
+         because a lock-out is set off by a drift or by a streak of long paths, and under the
+         second the old estimate was right. From 3 ranges with one dof, several subsets fit;
+         the chi-square alone picked the wrong one. (Dropping the worst range greedily
+         followed three multipath ranges in a row, the last three of a window of six, to a
+         fix 48 m off with a sigma of 3-4 m, having dropped the three direct ranges as 'too
+         short': docs/scenarios/consider-fusion.md#consensus.)
 """
 
 from __future__ import annotations
@@ -180,3 +196,81 @@ def window_bias_cross(
         Uf[k, 2] = win.age_s[k] * J[k, 0] * noise.current_std_mps**2  # age_k u_k^T, eq. (D1')
         Uf[k, 3] = win.age_s[k] * J[k, 1] * noise.current_std_mps**2
     out[:, :] = P @ (J.T @ np.linalg.solve(Sig, Uf))
+
+
+@njit(cache=True)
+def window_subset(win: RangeWindow, keep: np.ndarray) -> RangeWindow:
+    """The entries ``keep`` (indices, oldest first) of the window ``win``."""
+    m = keep.shape[0]
+    z, beacon, shift, dz, age = np.empty(m), np.empty((m, 2)), np.empty((m, 2)), np.empty(m), np.empty(m)
+    for k in range(m):
+        i = keep[k]
+        z[k], dz[k], age[k] = win.z[i], win.dz[i], win.age_s[i]
+        for a in range(2):
+            beacon[k, a], shift[k, a] = win.beacon[i, a], win.shift[i, a]
+    return RangeWindow(z, beacon, shift, dz, age)
+
+
+@njit(cache=True)
+def window_consensus_fix(
+    win: RangeWindow,
+    m: int,
+    noise: WindowNoise,
+    x0: np.ndarray,
+    P0: np.ndarray,
+    chi2_by_dof: np.ndarray,
+    out_x: np.ndarray,
+    out_P: np.ndarray,
+    out_Pxb: np.ndarray,
+    out_keep: np.ndarray,
+) -> int:
+    """Eq. (R7): ``window_fix`` (R1-R5) on the largest subset of the window's m ranges (at
+    least 3) whose residuals pass chi2_by_dof[|K| - 2] and whose dropped ranges are all long
+    at the fix; of equal sizes, the smallest score_K (the chi-square plus the fix's squared
+    distance from x0 at P0 + P_K). Writes the fix as ``window_fix`` and
+    the kept indices (oldest first) into out_keep[:n]. Returns n, the number kept (0: no
+    subset passes; the outputs are then unspecified)."""
+    Jm, rm, Sm = np.empty((m, 2)), np.empty(m), np.empty((m, m))
+    x, P, Pxb = np.empty(2), np.empty((2, 2)), np.empty((2, 2))
+    for size in range(m, 2, -1):
+        best = np.inf
+        for mask in range(1 << m):
+            n = 0
+            for k in range(m):
+                n += (mask >> k) & 1
+            if n != size:
+                continue
+            keep = np.empty(size, np.int64)
+            i = 0
+            for k in range(m):
+                if (mask >> k) & 1:
+                    keep[i] = k
+                    i += 1
+            sub = window_subset(win, keep)
+            window_fix(sub, size, noise, x0, P0, x, P, Pxb)
+            if not (np.isfinite(x[0]) and np.isfinite(x[1]) and np.isfinite(P[0, 0]) and np.isfinite(P[1, 1])):
+                continue
+            J, r, Sig = np.empty((size, 2)), np.empty(size), np.empty((size, size))
+            window_terms(x, sub, size, noise, J, r, Sig)
+            c2 = r @ np.linalg.solve(Sig, r)
+            if c2 > chi2_by_dof[size - 2]:
+                continue
+            d = x - x0
+            score = c2 + d @ np.linalg.solve(P0 + P, d)
+            if score >= best:
+                continue
+            window_terms(x, win, m, noise, Jm, rm, Sm)  # the dropped ranges' residuals at this fix
+            long_only = True
+            for k in range(m):
+                if not (mask >> k) & 1 and rm[k] <= 0.0:
+                    long_only = False
+            if not long_only:
+                continue
+            best = score
+            out_x[:] = x
+            out_P[:, :] = P
+            out_Pxb[:, :] = Pxb
+            out_keep[:size] = keep
+        if best < np.inf:
+            return size
+    return 0

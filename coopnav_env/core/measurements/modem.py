@@ -33,7 +33,7 @@ from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import Held, Moments, blend_update, direct_path_weight, hold_hypotheses, reweigh_hypotheses
 from ..navigation import gated_update, innovation_variance, moving_range_prediction, range_curvature, reinit_on_range
-from ..recovery import RangeWindow, WindowNoise, window_bias_cross, window_fix, window_terms
+from ..recovery import RangeWindow, WindowNoise, window_bias_cross, window_consensus_fix, window_subset
 from . import FusionOutputs
 
 
@@ -259,44 +259,33 @@ def _window_of(cv, sv, b, s, j, keep, t_s):
 
 @njit(cache=True)
 def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
-    """Lock-out recovery from beacon j's last ranges (``recovery.window_fix``, eqs. R1-R5):
-    the horizontal position and covariance re-fixed in place, the depth kept without
-    cross terms, every cross-covariance zeroed but the fix's own with beacon j (with
-    ``"schmidt"``). The window holds rejected ranges too, multipath among them: a fix
-    whose residuals fail their chi-square test (99 %, m - 2 dof) drops its worst range
-    and is redone. Returns False (nothing changed) when no fix of at least 3 ranges passes."""
+    """Lock-out recovery from beacon j's last ranges (``recovery.window_consensus_fix``,
+    eqs. R1-R5, R7): the horizontal position and covariance re-fixed in place, the depth
+    kept without cross terms, every cross-covariance zeroed but the fix's own with beacon j
+    (with ``"schmidt"``). The window holds rejected ranges too, multipath among them: the
+    fix keeps the largest subset whose residuals pass their chi-square test (99 %, m - 2
+    dof) with every dropped range long at the fix. Returns False (nothing changed) when
+    no fix of at least 3 ranges passes."""
     n = cv.win_n[b, s, j]
     m = min(n, prm.window_m)
     if m < 3:
         return False
-    keep = np.arange(n - m, n)
     Pbb = np.zeros((2, 2))
     Pbb[0, 0] = Pbb[1, 1] = beacon_var
     noise = WindowNoise(
         R, Pbb, prm.dr_rate_m2ps, prm.prior_std_m, prm.dr_scale_std, prm.dr_heading_std_rad, prm.dr_current_std_mps
     )
-    x, P, Pxb = np.empty(2), np.empty((2, 2)), np.empty((2, 2))
-    while keep.shape[0] >= 3:
-        mk = keep.shape[0]
-        win = _window_of(cv, sv, b, s, j, keep, t_s)
-        window_fix(win, mk, noise, sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy(), x, P, Pxb)
-        if not (np.isfinite(x[0]) and np.isfinite(x[1]) and np.isfinite(P[0, 0]) and np.isfinite(P[1, 1])):
-            return False
-        J, r, Sig = np.empty((mk, 2)), np.empty(mk), np.empty((mk, mk))
-        window_terms(x, win, mk, noise, J, r, Sig)
-        if r @ np.linalg.solve(Sig, r) <= prm.window_chi2[mk - 2]:
-            break
-        worst, k_worst = -1.0, 0
-        for k in range(mk):
-            if abs(r[k]) / np.sqrt(Sig[k, k]) > worst:
-                worst, k_worst = abs(r[k]) / np.sqrt(Sig[k, k]), k
-        keep = np.concatenate((keep[:k_worst], keep[k_worst + 1 :]))
-    if keep.shape[0] < 3:
+    x, P, Pxb, keep = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty(m, np.int64)
+    win = _window_of(cv, sv, b, s, j, np.arange(n - m, n), t_s)
+    n_kept = window_consensus_fix(
+        win, m, noise, sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy(), prm.window_chi2, x, P, Pxb, keep
+    )
+    if n_kept < 3:
         return False
     cv.Pxb[b, s] = 0.0  # the old estimate is discarded: so are its correlations
     cv.Pxd[b, s] = 0.0
     if prm.bias_consider:  # (R6, D4)
-        window_bias_cross(x, _window_of(cv, sv, b, s, j, keep, t_s), keep.shape[0], noise, P, cv.Pxd[b, s, :2])
+        window_bias_cross(x, window_subset(win, keep[:n_kept]), n_kept, noise, P, cv.Pxd[b, s, :2])
     for i in range(2):
         sv.est[b, s, i] = x[i]
         sv.P[b, s, i, 2] = sv.P[b, s, 2, i] = 0.0
