@@ -98,6 +98,16 @@ def direct_path_weight(y: float, S: float, p: float, mu: float) -> float:
 
 
 @njit(cache=True)
+def longer_path_log_likelihood(y: float, S: float, mu: float) -> float:
+    """Eq. (M1)'s log g1(y): a range too long by Exp(mu) with direct-path innovation y of
+    variance S (both > 0; -inf when S or mu is not)."""
+    if S <= 0.0 or mu <= 0.0:
+        return -math.inf
+    sd = math.sqrt(S)
+    return _log_g1(y, S, sd, max(mu, 1e-12 * sd))
+
+
+@njit(cache=True)
 def range_log_likelihood(y: float, S: float, p: float, mu: float) -> float:
     """Eq. (M4): log of a range's likelihood under the multipath model, log((1 - p) g0(y)
     + p g1(y)); the Gaussian's when p or mu is 0."""

@@ -22,7 +22,7 @@ RANGING_MODES = ("owtt", "twtt")
 ACTION_MODES = ("velocity", "heading_speed", "frame_velocity")
 CHANNEL_MODES = ("clock", "decide")
 BEACON_ERROR_FUSIONS = ("schmidt", "white", "ci")
-LOCKOUT_RECOVERIES = ("window", "nearest_point")
+LOCKOUT_RECOVERIES = ("window", "window_consensus", "nearest_point")
 RANGE_OUTLIER_MODELS = ("mixture", "hold", "gate")
 RANGE_LINEARIZATIONS = ("first_order", "second_order")
 # the survey filter of the papers (Gao & Chitre 2010; Sousa et al.): the beacon's variance in R,
@@ -317,7 +317,11 @@ class SurveyEKF(Section):
         choices=LOCKOUT_RECOVERIES,
         doc=(
             "after reinit_after_rejected_ranges rejected ranges: 'window', a least-squares fix from the locked-out "
-            "beacon's last recovery_window ranges (eqs. R1-R5; the nearest point when it has fewer than 3); "
+            "beacon's last recovery_window ranges (eqs. R1-R5; a fix that fails its chi-square test drops its worst "
+            "range, R6'; the nearest point when fewer than 3 are left); 'window_consensus', the same fix from the "
+            "most probable labelling of the window's ranges as direct or longer paths under the multipath model, "
+            "R7 (better after multipath streaks on gao_lawnmower, worse on one sousa_asv block: "
+            "docs/scenarios/consider-fusion.md#consensus); "
             "'nearest_point', a restart at the nearest point of the last range's circle (the papers' runs)"
         ),
     )

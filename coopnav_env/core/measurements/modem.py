@@ -33,7 +33,14 @@ from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import Held, Moments, blend_update, direct_path_weight, hold_hypotheses, reweigh_hypotheses
 from ..navigation import gated_update, innovation_variance, moving_range_prediction, range_curvature, reinit_on_range
-from ..recovery import RangeWindow, WindowNoise, window_bias_cross, window_consensus_fix, window_subset
+from ..recovery import (
+    RangeWindow,
+    WindowNoise,
+    window_bias_cross,
+    window_consensus_fix,
+    window_greedy_fix,
+    window_subset,
+)
 from . import FusionOutputs
 
 
@@ -116,7 +123,8 @@ class ModemParams(NamedTuple):
     gate: float  # the chi-square gate (Simulator.gate)
     sends_current: np.ndarray  # (N,) bool: the beacon's ping carries its current estimate
     fusion: int  # beacon_error_fusion: WHITE, SCHMIDT or CI
-    window: bool  # lockout_recovery == "window"
+    window: bool  # lockout_recovery in ("window", "window_consensus")
+    window_consensus: bool  # lockout_recovery == "window_consensus": which ranges by eq. R7, not R6'
     window_m: int  # recovery_window
     prior_std_m: float  # recovery_prior_std_m
     dr_rate_m2ps: float  # the survey's dead-reckoning variance growth per axis (process_noise_horizontal_m2ps)
@@ -124,6 +132,7 @@ class ModemParams(NamedTuple):
     mixture: bool  # range_outlier_model in ("mixture", "hold"): eqs. M1-M3
     hold: bool  # range_outlier_model == "hold": the hypotheses held for the next range (M4-M7)
     window_chi2: np.ndarray  # (7,): the 99 % chi-square point of a window fix's residuals by dof = m - 2
+    window_chi2_consensus: np.ndarray  # (7,): the same at 99.9 %, eq. R7's guard
     dr_scale_std: float  # survey_speed_scale_error_std: the window's shared shift scale error (R2')
     dr_heading_std_rad: float  # compass_bias_std_deg: its shared rotation (R2')
     dr_current_std_mps: (
@@ -259,13 +268,13 @@ def _window_of(cv, sv, b, s, j, keep, t_s):
 
 @njit(cache=True)
 def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
-    """Lock-out recovery from beacon j's last ranges (``recovery.window_consensus_fix``,
-    eqs. R1-R5, R7): the horizontal position and covariance re-fixed in place, the depth
-    kept without cross terms, every cross-covariance zeroed but the fix's own with beacon j
-    (with ``"schmidt"``). The window holds rejected ranges too, multipath among them: the
-    fix keeps the largest subset whose residuals pass their chi-square test (99 %, m - 2
-    dof) with every dropped range long at the fix. Returns False (nothing changed) when
-    no fix of at least 3 ranges passes."""
+    """Lock-out recovery from beacon j's last ranges (``recovery.window_greedy_fix``, eqs.
+    R1-R5, R6'; with ``lockout_recovery="window_consensus"``, ``window_consensus_fix``, R7):
+    the horizontal position and covariance re-fixed in place, the depth kept without cross
+    terms, every cross-covariance zeroed but the fix's own with beacon j (with
+    ``"schmidt"``). The window holds rejected ranges too, multipath among them: a fix
+    whose residuals fail their chi-square test (99 %, m - 2 dof) keeps fewer. Returns
+    False (nothing changed) when no fix of at least 3 ranges passes."""
     n = cv.win_n[b, s, j]
     m = min(n, prm.window_m)
     if m < 3:
@@ -277,9 +286,12 @@ def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
     )
     x, P, Pxb, keep = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty(m, np.int64)
     win = _window_of(cv, sv, b, s, j, np.arange(n - m, n), t_s)
-    n_kept = window_consensus_fix(
-        win, m, noise, sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy(), prm.window_chi2, x, P, Pxb, keep
-    )
+    x0, P0 = sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy()
+    if prm.window_consensus:
+        eps, mu, chi2_r7 = prm.outlier_probability, prm.outlier_mean_excess_m, prm.window_chi2_consensus
+        n_kept = window_consensus_fix(win, m, noise, x0, P0, chi2_r7, eps, mu, x, P, Pxb, keep)
+    else:
+        n_kept = window_greedy_fix(win, m, noise, x0, P0, prm.window_chi2, x, P, Pxb, keep)
     if n_kept < 3:
         return False
     cv.Pxb[b, s] = 0.0  # the old estimate is discarded: so are its correlations
@@ -302,7 +314,7 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     innovations share a sign (a filter that has drifted sees them all too long or all
     too short; multipath outliers are too long only, between fused ranges): +k or -k.
     After ``reinit_after`` of them the filter restarts (lock-out): from a window of
-    beacon j's ranges (``lockout_recovery="window"``), else from the range at the nearest
+    beacon j's ranges (``lockout_recovery="window"`` or ``"window_consensus"``), else from the range at the nearest
     point of its circle (``navigation.reinit_on_range``, R with the beacon's variance).
     meas: (r, h, R without the beacon's variance, R with it, the beacon's variance, and the
     curvature's bias and variance (L2, L3) that h and both R hold, 0 to first order).
@@ -527,7 +539,8 @@ class ModemRanging:
                 float(sim.gate),
                 np.asarray(sim.sends_current, dtype=bool),
                 FUSIONS[c.beacon_error_fusion],
-                c.lockout_recovery == "window",
+                c.lockout_recovery in ("window", "window_consensus"),
+                c.lockout_recovery == "window_consensus",
                 int(c.recovery_window),
                 float(c.recovery_prior_std_m),
                 float(c.process_noise_horizontal_m2ps),
@@ -535,6 +548,7 @@ class ModemRanging:
                 c.range_outlier_model in ("mixture", "hold"),
                 c.range_outlier_model == "hold",
                 chi2.ppf(0.99, np.maximum(np.arange(7), 1)),
+                chi2.ppf(0.999, np.maximum(np.arange(7), 1)),
                 float(c.survey_speed_scale_error_std),
                 float(np.radians(c.compass_bias_std_deg)),
                 current_error_std_mps(c),
