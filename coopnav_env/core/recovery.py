@@ -145,6 +145,42 @@ def window_terms(
 
 
 @njit(cache=True)
+def lockout_prior(win: RangeWindow, m: int, noise: WindowNoise, x0: np.ndarray, P0: np.ndarray) -> np.ndarray:
+    """Eq. (R3): the prior's covariance P0 + s_lock^2 I, s_lock = max(prior_std_m, the
+    window's largest miss |r_k(x0)|)."""
+    J, r, Sig = np.empty((m, 2)), np.empty(m), np.empty((m, m))
+    window_terms(x0, win, m, noise, J, r, Sig)
+    s_lock = noise.prior_std_m
+    for k in range(m):
+        s_lock = max(s_lock, abs(r[k]))
+    Pp = P0.copy()
+    Pp[0, 0] += s_lock * s_lock
+    Pp[1, 1] += s_lock * s_lock
+    return Pp
+
+
+@njit(cache=True)
+def _finite(x: np.ndarray, P: np.ndarray) -> bool:
+    """A fix and its covariance's diagonal are finite."""
+    return bool(np.isfinite(x[0]) and np.isfinite(x[1]) and np.isfinite(P[0, 0]) and np.isfinite(P[1, 1]))
+
+
+@njit(cache=True)
+def _mask_indices(mask: int, m: int) -> np.ndarray:
+    """The indices k < m whose bit is set in ``mask``, ascending."""
+    n = 0
+    for k in range(m):
+        n += (mask >> k) & 1
+    keep = np.empty(n, np.int64)
+    i = 0
+    for k in range(m):
+        if (mask >> k) & 1:
+            keep[i] = k
+            i += 1
+    return keep
+
+
+@njit(cache=True)
 def window_fix(
     win: RangeWindow,
     m: int,
@@ -179,14 +215,7 @@ def window_fix_from(
     locked-out estimate x0 with P0 inflated (a second start finds the other branch of a
     ring that one start misses)."""
     J, r, Sig = np.empty((m, 2)), np.empty(m), np.empty((m, m))
-    window_terms(x0, win, m, noise, J, r, Sig)
-    s_lock = noise.prior_std_m
-    for k in range(m):
-        s_lock = max(s_lock, abs(r[k]))
-    Pp = P0.copy()  # (R3)
-    Pp[0, 0] += s_lock * s_lock
-    Pp[1, 1] += s_lock * s_lock
-    Ppi = np.linalg.inv(Pp)
+    Ppi = np.linalg.inv(lockout_prior(win, m, noise, x0, P0))
     x = x_start.copy()
     it = -30
     for i in range(30):  # (R4)
@@ -258,20 +287,13 @@ def _labelling_score(win, m, noise, lm, mask, x_start, x, P, Pxb) -> float:
     ``lm`` (``LabelModel``), its fix started at x_start written into x, P, Pxb; inf when
     fewer than 3 are kept, the fix is not finite or its residuals fail the guard."""
     x0, P0, Pp, chi2_by_dof, eps, mu = lm
-    size = 0
-    for k in range(m):
-        size += (mask >> k) & 1
+    keep = _mask_indices(mask, m)
+    size = keep.shape[0]
     if size < 3:
         return np.inf
-    keep = np.empty(size, np.int64)
-    i = 0
-    for k in range(m):
-        if (mask >> k) & 1:
-            keep[i] = k
-            i += 1
     sub = window_subset(win, keep)
     window_fix_from(sub, size, noise, x0, P0, x_start, x, P, Pxb)
-    if not (np.isfinite(x[0]) and np.isfinite(x[1]) and np.isfinite(P[0, 0]) and np.isfinite(P[1, 1])):
+    if not _finite(x, P):
         return np.inf
     J, r, Sig = np.empty((size, 2)), np.empty(size), np.empty((size, size))
     window_terms(x, sub, size, noise, J, r, Sig)
@@ -312,14 +334,7 @@ def window_consensus_fix(
     mean excess 0) nothing may be dropped. Writes the fix as ``window_fix`` and the kept
     indices (oldest first) into out_keep[:n]; returns n (0: no labelling passes; the outputs
     are then unspecified)."""
-    J, r, Sig = np.empty((m, 2)), np.empty(m), np.empty((m, m))
-    window_terms(x0, win, m, noise, J, r, Sig)
-    s_lock = noise.prior_std_m
-    for k in range(m):
-        s_lock = max(s_lock, abs(r[k]))
-    Pp = P0.copy()  # (R3) at the whole window's largest miss: one prior for every labelling
-    Pp[0, 0] += s_lock * s_lock
-    Pp[1, 1] += s_lock * s_lock
+    Pp = lockout_prior(win, m, noise, x0, P0)  # (R3) at the whole window's largest miss: one for every labelling
     eps, mu = outlier_probability, outlier_mean_excess_m
     lm = LabelModel(x0, P0, Pp, chi2_by_dof, eps, mu)
     first = (1 << m) - 1 if not (0.0 < eps < 1.0 and mu > 0.0) else 1  # no model: the whole window only
@@ -339,12 +354,9 @@ def window_consensus_fix(
                 out_x[:] = x
                 out_P[:, :] = P
                 out_Pxb[:, :] = Pxb
-    n = 0
-    for k in range(m):
-        if (best_mask >> k) & 1:
-            out_keep[n] = k
-            n += 1
-    return n
+    keep = _mask_indices(best_mask, m)
+    out_keep[: keep.shape[0]] = keep
+    return keep.shape[0]
 
 
 @njit(cache=True)
@@ -369,9 +381,7 @@ def window_greedy_fix(
         mk = keep.shape[0]
         sub = window_subset(win, keep)
         window_fix(sub, mk, noise, x0, P0, out_x, out_P, out_Pxb)
-        if not (
-            np.isfinite(out_x[0]) and np.isfinite(out_x[1]) and np.isfinite(out_P[0, 0]) and np.isfinite(out_P[1, 1])
-        ):
+        if not _finite(out_x, out_P):
             return 0
         J, r, Sig = np.empty((mk, 2)), np.empty(mk), np.empty((mk, mk))
         window_terms(out_x, sub, mk, noise, J, r, Sig)
