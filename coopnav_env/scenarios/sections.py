@@ -31,6 +31,7 @@ PAPER_FILTER = {
     "beacon_error_fusion": "white",
     "range_outlier_model": "gate",
     "lockout_recovery": "nearest_point",
+    "reinit_after_short_ranges": 0,
     "gps_error_time_constant_s": 0.0,
     "survey_bias_consider": False,
     "range_linearization": "first_order",
@@ -291,6 +292,16 @@ class SurveyEKF(Section):
     )
     reinit_after_rejected_ranges: int = param(
         3, low=0, high=1000, doc="survey filter: restart from the range after this many gated out in a row (0: never)"
+    )
+    reinit_after_short_ranges: int = param(
+        0,
+        low=0,
+        high=1000,
+        doc=(
+            "modem sensor: restart already after this many gated out in a row that were all shorter than predicted "
+            "(multipath only lengthens a range, so only a drifted filter explains them: eq. R8, "
+            "docs/scenarios/consider-fusion.md#short-ranges); 0: they count like any (reinit_after_rejected_ranges)"
+        ),
     )
     survey_uses_beacon_current: bool = param(True, doc="add the current a DVL beacon AUV sends (Gao II-A)")
     beacon_error_fusion: str = param(

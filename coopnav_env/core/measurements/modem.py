@@ -140,6 +140,7 @@ class ModemParams(NamedTuple):
     )
     bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
     second_order: bool  # range_linearization == "second_order": eqs. L1-L3 (navigation.range_curvature)
+    reinit_after_short: int  # reinit_after_short_ranges: a lock-out after this many too short in a row (0: as any)
 
 
 # beacon_error_fusion as the kernel reads it
@@ -325,7 +326,9 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     sign = 1 if r > h else -1
     streak = sv.rejected_streak[b, s]
     sv.rejected_streak[b, s] = streak + sign if streak * sign >= 0 else sign
-    if not 0 < prm.reinit_after <= abs(sv.rejected_streak[b, s]):
+    # too short: no longer path explains it, only a filter that has drifted (R8)
+    short = sign < 0 and 0 < prm.reinit_after_short <= -sv.rejected_streak[b, s]
+    if not (short or 0 < prm.reinit_after <= abs(sv.rejected_streak[b, s])):
         return
     if prm.window and _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
         restarted = True
@@ -554,6 +557,7 @@ class ModemRanging:
                 current_error_std_mps(c),
                 bool(c.survey_bias_consider),
                 c.range_linearization == "second_order",
+                int(c.reinit_after_short_ranges),
             ]
         )
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
