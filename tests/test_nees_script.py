@@ -174,3 +174,28 @@ def test_given_draws_of_an_untold_current(monkeypatch):
         nees_per_cycle.nees_of_case("sousa_asv", "fim_a", over, 50, 733000, draws=True)["given"]["conditional_mean"]
         > 10
     )
+
+
+def test_given_draws_condition_on_the_beacons_errors(monkeypatch):
+    """Round 8: G1 also conditions on each heard beacon's error b = -b_nav_err through the
+    survey's Pxb (``beacon_draws``). On gao_lawnmower (the lake beacon's Gauss-Markov GPS
+    error, Pxb carried by the Schmidt filter), 40 runs: the conditional NEES stays near 2 (1.45
+    here; 1.64 without the beacons' columns), and with b's sign flipped it is 21: the filter's
+    Pxb has the sign and size of the error it carries. A filter without consider states
+    (white fusion) gives no beacon columns."""
+    r = nees_per_cycle.nees_of_case("gao_lawnmower", "ellipse", {}, 40, 0, draws=True)
+    assert 1.2 < r["given"]["conditional_mean"] < 2.2
+    orig = nees_per_cycle.beacon_draws
+
+    def flipped(cfg, st):
+        X, var, b = orig(cfg, st)
+        return X, var, -b
+
+    monkeypatch.setattr(nees_per_cycle, "beacon_draws", flipped)
+    bad = nees_per_cycle.nees_of_case("gao_lawnmower", "ellipse", {}, 40, 0, draws=True)
+    assert bad["given"]["conditional_mean"] > 8.0
+    from baselines.rollout import planned_steps
+
+    for cfg, sim, _res, _live in planned_steps("gao_lawnmower", "ellipse", {"beacon_error_fusion": "white"}, 2, 0):
+        assert orig(cfg, sim.state) is None
+        break

@@ -1,0 +1,99 @@
+"""A lock-out already after ranges gated out as too short (eq. R8,
+``reinit_after_short_ranges``; docs/scenarios/consider-fusion.md#short-ranges).
+
+The channel's outliers are longer paths: a multipath arrival is never shorter than the
+direct one. So a streak of ranges rejected as too *long* may be multipath, and the filter
+waits for ``reinit_after_rejected_ranges`` (3) of them; a streak rejected as too *short*
+has no explanation but a filter that has drifted, and the gao scenarios restart after 2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from coopnav_env import make_config
+from coopnav_env.scenarios.sections import PAPER_FILTER
+
+
+def _first_restart(scenario: str, offset_east_m: float, **overrides) -> int:
+    """The call (0-based) of the survey sensor's fusion at which the filter restarts: a
+    noiseless range every call from a beacon 100 m east of the survey vehicle, the filter's
+    estimate held ``offset_east_m`` off the truth with a small covariance (so each range is
+    gated out), west (negative) making every range too short and east too long."""
+    from coopnav_env.core import make_simulator
+
+    c = make_config(scenario, outlier_probability=0.0, max_range_m=5000.0, **overrides)
+    sim = make_simulator(c, 1)
+    sim.reset(np.array([0]))
+    st = sim.state
+    depth = st.s_pos[0, 0, 2]
+    for call in range(4):
+        st.s_pos[0, 0] = [0.0, 0.0, depth]
+        st.s_est[0, 0] = [offset_east_m, 0.0, depth]
+        st.s_vel_true[:] = st.s_vel_est[:] = 0.0
+        st.s_P[0, 0] = np.diag([1.0, 1.0, 0.01])
+        st.s_Pxd[:] = 0.0
+        st.s_Pxb[:] = 0.0
+        st.b_pos[0, 0] = [100.0, 0.0, depth]
+        st.b_vel[:] = 0.0
+        st.b_nav_err[:] = 0.0
+        st.b_nav_var_m2[:] = 0.0
+        st.temperature_c[:] = c.water_temperature_c
+        draws = sim._cycle_draws(st.cycle)
+        draws["acoustic_n"][:] = 0.0
+        draws["acoustic_u"][:] = 1.0  # not lost, not an outlier, not NaN
+        out = sim._predict_depth_gps(draws)
+        st.s_est[0, 0] = [offset_east_m, 0.0, depth]
+        st.s_P[0, 0] = np.diag([1.0, 1.0, 0.01])
+        sim.sensor.fuse(draws, out)
+        assert not out.fused[0, 0, 0]  # 20 m off with sigma 1 m: every range is gated out
+        st.t_s = st.t_s + c.ping_interval_s
+        if out.restarts[0, 0]:
+            return call
+    raise AssertionError("no restart in 4 rejected ranges")
+
+
+@pytest.mark.parametrize("scenario", ["gao_lawnmower", "gao_sea"])
+def test_too_short_ranges_restart_after_two_too_long_after_three(scenario):
+    """Estimate 20 m west of the truth, the beacon east: each range is 20 m shorter than
+    predicted, and the filter restarts at the second; 20 m east, 20 m too long, at the third
+    (a multipath streak must not restart it sooner). With the rule off (0, the papers' and
+    the Sousa scenarios' setting), the short streak waits for the third too."""
+    assert make_config(scenario).reinit_after_short_ranges == 2
+    assert _first_restart(scenario, -20.0) == 1
+    assert _first_restart(scenario, 20.0) == 2
+    assert _first_restart(scenario, -20.0, reinit_after_short_ranges=0) == 2
+
+
+def test_the_rule_is_off_in_the_papers_filter_and_on_sousa():
+    assert PAPER_FILTER["reinit_after_short_ranges"] == 0
+    assert make_config("gao_lawnmower", **PAPER_FILTER).reinit_after_short_ranges == 0
+    assert make_config("sousa_asv").reinit_after_short_ranges == 0
+    assert _first_restart("sousa_asv", -20.0) == 2
+
+
+def test_gao_lawnmower_seed_950061_restarts_at_its_second_short_range():
+    """End to end, the episode that set the rule (``ellipse`` driving): the told current's
+    error drifts the filter 17 m east; the direct ranges of cycles 9 and 10 are 10 and 18 m
+    shorter than predicted and gated out, and a multipath range at cycle 11 happens to fit
+    the drifted estimate, is fused and ends the streak. Without the rule the filter restarts
+    only at cycle 17, with the NEES above the 99.9 % point (13.8) at cycles 11-16; with it,
+    at cycle 10, and no cycle of the episode exceeds the point."""
+    from baselines.rollout import planned_steps
+
+    def run(**over):
+        restarts, nees = [], []
+        for _cfg, _sim, res, live in planned_steps("gao_lawnmower", "ellipse", over, 1, 950061):
+            if not live[0]:
+                break
+            e = np.asarray(res.info["survey_error_en_m"])[0, 0]
+            P = np.asarray(res.info["survey_cov_en_m2"])[0, 0]
+            nees.append(float(e @ np.linalg.solve(P, e)))
+            restarts.append(int(np.asarray(res.info["filter_restarts"]).sum()))
+        return np.flatnonzero(restarts), np.array(nees)
+
+    at, nees = run(reinit_after_short_ranges=0)
+    assert at[0] == 17 and np.all(nees[11:17] > 13.8)
+    at, nees = run()
+    assert at[0] == 10 and nees.max() < 13.8
