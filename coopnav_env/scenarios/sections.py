@@ -332,7 +332,7 @@ class SurveyEKF(Section):
             "range, R6'; the nearest point when fewer than 3 are left); 'window_consensus', the same fix from the "
             "most probable labelling of the window's ranges as direct or longer paths under the multipath model, "
             "R7 (better after multipath streaks on gao_lawnmower, worse on one sousa_asv block: "
-            "docs/scenarios/consider-fusion.md#consensus); "
+            "docs/scenarios/consider-fusion.md#consensus; the gao scenarios' default); "
             "'nearest_point', a restart at the nearest point of the last range's circle (the papers' runs)"
         ),
     )
@@ -342,7 +342,8 @@ class SurveyEKF(Section):
         doc=(
             "a modem range that passes the gate: 'mixture', fused with the direct path's posterior probability "
             "given the multipath model outlier_probability / outlier_mean_excess_m (PDA; core/multipath.py, "
-            "M1-M3); 'hold', the same with both hypotheses held until the next range re-weighs them (M4-M7); "
+            "M1-M3); 'hold', the same with both hypotheses held until the next range re-weighs them (M4-M7; "
+            "the gao scenarios' default); "
             "'gate', fused as good (the papers' filter)"
         ),
     )
