@@ -1,5 +1,6 @@
-"""A lock-out already after ranges gated out as too short (eq. R8,
-``reinit_after_short_ranges``; docs/scenarios/consider-fusion.md#short-ranges).
+"""Ranges too short: a lock-out already after two gated out (eq. R8,
+``reinit_after_short_ranges``; docs/scenarios/consider-fusion.md#short-ranges), and a gate of
+their own (``range_gate_short_probability``, docs/scenarios/consider-fusion.md#one-sided-gate).
 
 The channel's outliers are longer paths: a multipath arrival is never shorter than the
 direct one. So a streak of ranges rejected as too *long* may be multipath, and the filter
@@ -16,7 +17,7 @@ from coopnav_env import make_config
 from coopnav_env.scenarios.sections import PAPER_FILTER
 
 
-def _first_restart(scenario: str, offset_east_m: float, **overrides) -> int:
+def _first_restart(scenario: str, offset_east_m: float, calls: int = 4, fused_ok: bool = False, **overrides):
     """The call (0-based) of the survey sensor's fusion at which the filter restarts: a
     noiseless range every call from a beacon 100 m east of the survey vehicle, the filter's
     estimate held ``offset_east_m`` off the truth with a small covariance (so each range is
@@ -28,7 +29,8 @@ def _first_restart(scenario: str, offset_east_m: float, **overrides) -> int:
     sim.reset(np.array([0]))
     st = sim.state
     depth = st.s_pos[0, 0, 2]
-    for call in range(4):
+    fused = []
+    for call in range(calls):
         st.s_pos[0, 0] = [0.0, 0.0, depth]
         st.s_est[0, 0] = [offset_east_m, 0.0, depth]
         st.s_vel_true[:] = st.s_vel_est[:] = 0.0
@@ -47,11 +49,14 @@ def _first_restart(scenario: str, offset_east_m: float, **overrides) -> int:
         st.s_est[0, 0] = [offset_east_m, 0.0, depth]
         st.s_P[0, 0] = np.diag([1.0, 1.0, 0.01])
         sim.sensor.fuse(draws, out)
-        assert not out.fused[0, 0, 0]  # 20 m off with sigma 1 m: every range is gated out
+        fused.append(bool(out.fused[0, 0, 0]))
+        assert fused_ok or not fused[-1]  # 20 m off with sigma 1 m: every range is gated out
         st.t_s = st.t_s + c.ping_interval_s
         if out.restarts[0, 0]:
             return call
-    raise AssertionError("no restart in 4 rejected ranges")
+    if fused_ok:
+        return fused
+    raise AssertionError(f"no restart in {calls} rejected ranges")
 
 
 @pytest.mark.parametrize("scenario", ["gao_lawnmower", "gao_sea"])
@@ -97,3 +102,18 @@ def test_gao_lawnmower_seed_950061_restarts_at_its_second_short_range():
     assert at[0] == 17 and np.all(nees[11:17] > 13.8)
     at, nees = run()
     assert at[0] == 10 and nees.max() < 13.8
+
+
+@pytest.mark.parametrize("scenario", ["sousa_asv", "gao_lawnmower"])
+def test_a_gate_of_their_own_fuses_a_range_too_short_and_still_rejects_one_too_long(scenario):
+    """The estimate 4 m off along the line of sight, P = I (m^2) and R about 1 m^2: the
+    innovation is about +-4 m with S about 2 m^2, a normalized square of about 8, beyond the
+    99 % gate (6.63) and inside 99.99 % (15.1). With one gate both ways (the default) both are
+    rejected; with ``range_gate_short_probability=0.9999`` the short one is fused and the long
+    one still rejected."""
+    short, long = -4.0, 4.0
+    assert _first_restart(scenario, short, calls=1, fused_ok=True) == [False]
+    assert _first_restart(scenario, long, calls=1, fused_ok=True) == [False]
+    g = {"range_gate_short_probability": 0.9999}
+    assert _first_restart(scenario, short, calls=1, fused_ok=True, **g) == [True]
+    assert _first_restart(scenario, long, calls=1, fused_ok=True, **g) == [False]

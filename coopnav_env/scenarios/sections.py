@@ -290,6 +290,15 @@ class SurveyEKF(Section):
     range_gate_probability: float = param(
         0.99, low=0, high=0.999999, open_low=True, doc="chi-square innovation gate (1 dof)"
     )
+    range_gate_short_probability: float = param(
+        0.0,
+        low=0.0,
+        high=0.999999,
+        doc=(
+            "modem sensor: the gate of a range shorter than predicted, which no longer path explains "
+            "(docs/scenarios/consider-fusion.md#one-sided-gate); 0: range_gate_probability, one gate both ways"
+        ),
+    )
     reinit_after_rejected_ranges: int = param(
         3, low=0, high=1000, doc="survey filter: restart from the range after this many gated out in a row (0: never)"
     )

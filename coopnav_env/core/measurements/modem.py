@@ -141,6 +141,7 @@ class ModemParams(NamedTuple):
     bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
     second_order: bool  # range_linearization == "second_order": eqs. L1-L3 (navigation.range_curvature)
     reinit_after_short: int  # reinit_after_short_ranges: a lock-out after this many too short in a row (0: as any)
+    gate_short: float  # the chi-square gate of a range shorter than predicted (range_gate_short_probability)
 
 
 # beacon_error_fusion as the kernel reads it
@@ -326,8 +327,7 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     sign = 1 if r > h else -1
     streak = sv.rejected_streak[b, s]
     sv.rejected_streak[b, s] = streak + sign if streak * sign >= 0 else sign
-    # too short: no longer path explains it, only a filter that has drifted (R8)
-    short = sign < 0 and 0 < prm.reinit_after_short <= -sv.rejected_streak[b, s]
+    short = sign < 0 and 0 < prm.reinit_after_short <= -sv.rejected_streak[b, s]  # R8: only a drift makes it short
     if not (short or 0 < prm.reinit_after <= abs(sv.rejected_streak[b, s])):
         return
     if prm.window and _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
@@ -353,9 +353,10 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
     r, h, R, R_white, beacon_var = meas[:5]
     K, Pbb = scratch[0], scratch[1]
     y = r - h
+    gate = prm.gate if y >= 0.0 else prm.gate_short  # (G8) no longer path makes a range short
     if prm.fusion == SCHMIDT:
         Pbb[0, 0] = Pbb[1, 1] = beacon_var
-        nis, fused = schmidt_range_update(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s, j], Pbb, y, H, R, prm.gate, K)
+        nis, fused = schmidt_range_update(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s, j], Pbb, y, H, R, gate, K)
         if fused:
             for j2 in range(cv.Pxb.shape[2]):
                 if j2 != j:
@@ -364,7 +365,7 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
         return fused, y * y / nis if nis > 0.0 else 0.0
     S = innovation_variance(sv.P[b, s], H, R_white)
     if prm.fusion == CI:
-        if y * y / S > prm.gate:
+        if y * y / S > gate:
             return False, S
         x0 = sv.est[b, s].copy()
         ci_range_update(sv.est[b, s], sv.P[b, s], y, H, R_white, False)
@@ -374,7 +375,7 @@ def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
             carry_cross_covariance(cv.Pxd[b, s], K, H)
         return True, S
     K[:] = sv.P[b, s] @ H / S  # the gain of eqs. (12), before the update
-    fused = gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R_white, prm.gate)
+    fused = gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R_white, gate)
     if fused:
         carry_cross_covariance(cv.Pxd[b, s], K, H)  # (D3)
     return fused, S
@@ -558,6 +559,7 @@ class ModemRanging:
                 bool(c.survey_bias_consider),
                 c.range_linearization == "second_order",
                 int(c.reinit_after_short_ranges),
+                float(chi2.ppf(c.range_gate_short_probability or c.range_gate_probability, 1)),  # G8
             ]
         )
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
