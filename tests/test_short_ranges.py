@@ -72,7 +72,7 @@ def test_too_short_ranges_restart_after_two_too_long_after_three(scenario):
 
 
 def test_the_rule_is_off_in_the_papers_filter_and_on_sousa():
-    assert PAPER_FILTER["reinit_after_short_ranges"] == 0
+    assert PAPER_FILTER["reinit_after_short_ranges"] == 0 and PAPER_FILTER["range_gate_short_probability"] == 0.0
     assert make_config("gao_lawnmower", **PAPER_FILTER).reinit_after_short_ranges == 0
     assert make_config("sousa_asv").reinit_after_short_ranges == 0
     assert _first_restart("sousa_asv", -20.0) == 2

@@ -32,6 +32,7 @@ PAPER_FILTER = {
     "range_outlier_model": "gate",
     "lockout_recovery": "nearest_point",
     "reinit_after_short_ranges": 0,
+    "range_gate_short_probability": 0.0,
     "gps_error_time_constant_s": 0.0,
     "survey_bias_consider": False,
     "range_linearization": "first_order",
