@@ -8,6 +8,7 @@ random Generator). Where a value was computed by hand, the arithmetic is shown.
 
 import numpy as np
 import pytest
+from ping_harness import fuse_one_ping
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 from scipy.stats import kstest
@@ -598,19 +599,9 @@ def test_two_way_range_from_a_moving_beacon_is_fused_without_bias():
     sim.reset(np.array([0]))
     st = sim.state
     st.s_pos[0, 0] = [0.0, 0.0, st.s_pos[0, 0, 2]]
-    st.s_est[0, 0] = st.s_pos[0, 0]
-    st.s_vel_true[:] = st.s_vel_est[:] = 0.0
-    st.s_P[0, 0] = np.diag([4.0, 4.0, 0.01])
-    st.b_pos[0, 0] = [1500.0, 0.0, st.s_pos[0, 0, 2]]  # same depth: the hand case's horizontal line
-    st.b_vel[0, 0] = [2.0, 0.0, 0.0]
-    st.b_nav_err[:] = 0.0
-    st.b_nav_var_m2[:] = 0.0
-    st.temperature_c[:] = c.water_temperature_c
-    draws = sim._cycle_draws(st.cycle)
-    draws["acoustic_n"][:] = 0.0
-    draws["acoustic_u"][:] = 1.0  # not lost, not an outlier, not NaN
-    out = sim._predict_depth_gps(draws)
-    st.s_est[0, 0] = st.s_pos[0, 0]  # the prediction step moved nothing but P; keep it exact
-    sim.sensor.fuse(draws, out)
+    # the beacon at the same depth: the hand case's horizontal line
+    out = fuse_one_ping(
+        sim, st.s_pos[0, 0].copy(), np.diag([4.0, 4.0, 0.01]), [1500.0, 0.0, st.s_pos[0, 0, 2]], [2.0, 0.0, 0.0]
+    )
     assert out.fused[0, 0, 0]
     assert abs(st.s_est[0, 0, 0] - st.s_pos[0, 0, 0]) < 0.01  # 1.99 m off with the t = 0 geometry (/work/main)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from ping_harness import fuse_one_ping
 
 from coopnav_env import make_config
 from coopnav_env.scenarios.sections import PAPER_FILTER
@@ -32,23 +33,10 @@ def _first_restart(scenario: str, offset_east_m: float, calls: int = 4, fused_ok
     fused = []
     for call in range(calls):
         st.s_pos[0, 0] = [0.0, 0.0, depth]
-        st.s_est[0, 0] = [offset_east_m, 0.0, depth]
-        st.s_vel_true[:] = st.s_vel_est[:] = 0.0
-        st.s_P[0, 0] = np.diag([1.0, 1.0, 0.01])
         st.s_Pxd[:] = 0.0
         st.s_Pxb[:] = 0.0
-        st.b_pos[0, 0] = [100.0, 0.0, depth]
-        st.b_vel[:] = 0.0
-        st.b_nav_err[:] = 0.0
-        st.b_nav_var_m2[:] = 0.0
-        st.temperature_c[:] = c.water_temperature_c
-        draws = sim._cycle_draws(st.cycle)
-        draws["acoustic_n"][:] = 0.0
-        draws["acoustic_u"][:] = 1.0  # not lost, not an outlier, not NaN
-        out = sim._predict_depth_gps(draws)
-        st.s_est[0, 0] = [offset_east_m, 0.0, depth]
-        st.s_P[0, 0] = np.diag([1.0, 1.0, 0.01])
-        sim.sensor.fuse(draws, out)
+        est, P = np.array([offset_east_m, 0.0, depth]), np.diag([1.0, 1.0, 0.01])
+        out = fuse_one_ping(sim, est, P, [100.0, 0.0, depth], P_after_predict=True)
         fused.append(bool(out.fused[0, 0, 0]))
         assert fused_ok or not fused[-1]  # 20 m off with sigma 1 m: every range is gated out
         st.t_s = st.t_s + c.ping_interval_s

@@ -52,10 +52,10 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          Pxd = E[(x - x_hat) phi^T] = P J^T Sigma^-1 Uf Pff (the prior's share, through
          P Pp^-1 <= P / s_lock^2, left out; s_k includes the told current's drift, which the
          biases do not scale, as R2' does: an overstatement where a beacon sends a current).
-    (R6') which ranges, by default (``window_greedy_fix``): the window holds the rejected
-         ranges that caused the lock-out, multipath among them; a fix whose residuals fail
-         their chi-square test (99 %, m - 2 dof) drops its worst range (largest |r_k| /
-         sqrt(Sigma_kk)) and is redone, down to 3 ranges.
+    (R6') which ranges, by the parameter's default (``window_greedy_fix``; the Sousa scenarios'):
+         the window holds the rejected ranges that caused the lock-out, multipath among them;
+         a fix whose residuals fail their chi-square test (99 %, m - 2 dof) drops its worst
+         range (largest |r_k| / sqrt(Sigma_kk)) and is redone, down to 3 ranges.
     (R7) which ranges, with ``lockout_recovery="window_consensus"`` (``window_consensus_fix``):
          a lock-out is set off by a drift or by a streak of multipath ranges, and which
          ranges of the window to drop is a labelling L (each range direct or a longer path).
@@ -76,8 +76,9 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          (gao_lawnmower seed 950040: 48 m off), and a rule that drops long ranges only kept a
          spurious ring fit where the oldest ranges were short from the dead reckoning
          (sousa_asv seed 900063: 39 m off); R7 is right on both recorded windows
-         (tests/test_window_consensus.py). It is not the default: over held-out blocks it
-         is better on some and worse on one (docs/scenarios/consider-fusion.md#consensus).
+         (tests/test_window_consensus.py). It is the gao scenarios' default (scenarios/gao.py),
+         not the Sousa ones': over held-out blocks it is better on some and worse on one
+         (docs/scenarios/consider-fusion.md#consensus).
 """
 
 from __future__ import annotations
