@@ -96,12 +96,26 @@ def test_gao_lawnmower_seed_950061_restarts_at_its_second_short_range():
 def test_a_gate_of_their_own_fuses_a_range_too_short_and_still_rejects_one_too_long(scenario):
     """The estimate 4 m off along the line of sight, P = I (m^2) and R about 1 m^2: the
     innovation is about +-4 m with S about 2 m^2, a normalized square of about 8, beyond the
-    99 % gate (6.63) and inside 99.99 % (15.1). With one gate both ways (the default) both are
-    rejected; with ``range_gate_short_probability=0.9999`` the short one is fused and the long
-    one still rejected."""
+    99 % gate (6.63) and inside 99.99 % (15.1). With one gate both ways
+    (``range_gate_short_probability=0``, gao's default) both are rejected; with 0.9999 (the
+    Sousa scenarios' default) the short one is fused and the long one still rejected."""
     short, long = -4.0, 4.0
-    assert _first_restart(scenario, short, calls=1, fused_ok=True) == [False]
-    assert _first_restart(scenario, long, calls=1, fused_ok=True) == [False]
+    one = {"range_gate_short_probability": 0.0}
+    assert _first_restart(scenario, short, calls=1, fused_ok=True, **one) == [False]
+    assert _first_restart(scenario, long, calls=1, fused_ok=True, **one) == [False]
     g = {"range_gate_short_probability": 0.9999}
     assert _first_restart(scenario, short, calls=1, fused_ok=True, **g) == [True]
     assert _first_restart(scenario, long, calls=1, fused_ok=True, **g) == [False]
+
+
+@pytest.mark.parametrize(
+    ("scenario", "expected"), [("sousa_asv", 0.9999), ("sousa_ping", 0.9999), ("gao_lawnmower", 0.0)]
+)
+def test_the_short_side_gate_is_the_sousa_default_and_off_in_the_papers_filter(scenario, expected):
+    """The one-sided gate is the Sousa scenarios' default (their excess came from the symmetric
+    gate) and not gao's; the papers' filter keeps one gate both ways."""
+    from coopnav_env.scenarios import make_config
+    from coopnav_env.scenarios.sections import PAPER_FILTER
+
+    assert make_config(scenario).range_gate_short_probability == expected
+    assert make_config(scenario, **PAPER_FILTER).range_gate_short_probability == 0.0
