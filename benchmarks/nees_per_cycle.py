@@ -352,6 +352,29 @@ def nees_of_case(
     }
 
 
+def block_report(r: dict[str, Any], n: int, resamples: int = 100_000, seed: int = 0) -> str:
+    """How lumpy a block of ``n`` runs is against issue 21's "at most 3x nominal": the consecutive
+    blocks' exceedances (x nominal), and the share of ``resamples`` blocks drawn with replacement
+    from the batch's runs that are above 3x; with the draws (``r["given"]``), the same share for a
+    consistent filter whose run counts are Poisson with each run's expected count."""
+    ex = np.asarray(r["exceed_by_run"], dtype=float)
+    runs = len(ex)
+    nominal = n * (r["run_cycles"] / runs) * 0.001  # the nominal count of a block of n runs
+    k = runs // n
+    blocks = ex[: k * n].reshape(k, n).sum(1) / nominal
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, runs, size=(resamples, n))
+    text = (
+        f"blocks of {n} runs: {k} consecutive at "
+        + ", ".join(f"{b:.1f}x" for b in blocks)
+        + f"; resampled, above 3x: {np.mean(ex[idx].sum(1) / nominal > 3):.1%} of blocks"
+    )
+    if r.get("given") is not None:
+        expected = np.asarray(r["given"]["expected_by_run"], dtype=float)
+        text += f" (a consistent filter: {np.mean(rng.poisson(expected[idx]).sum(1) / nominal > 3):.2%})"
+    return text
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
@@ -387,6 +410,16 @@ def main(argv: list[str] | None = None) -> int:
         "conditional NEES mean (2 when consistent)",
     )
     p.add_argument(
+        "--blocks",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also print, per case, each run of N consecutive runs' exceedances (x nominal) and how often a "
+        "block of N runs resampled from the batch (100,000 times, with replacement) is above 3x nominal, "
+        "issue 21's limit; with --given-draws also for a consistent filter (each run's count Poisson with "
+        "its expected count: a lower bound, it leaves out the clustering within a run)",
+    )
+    p.add_argument(
         "--beacon",
         metavar="POLICY",
         help="drive every beacon with this policy instead of each case's planner: a planner, 'ppo' (the "
@@ -396,6 +429,9 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if not 1 <= args.runs <= 10_000:
         print(f"--runs must be in [1, 10000], got {args.runs}", file=sys.stderr)
+        return 2
+    if args.blocks and not 1 <= args.blocks <= args.runs:
+        print(f"--blocks must be in [1, --runs = {args.runs}], got {args.blocks}", file=sys.stderr)
         return 2
     try:
         chosen = range(len(CASES)) if args.cases == "all" else [int(i) for i in args.cases.split(",")]
@@ -508,6 +544,8 @@ def main(argv: list[str] | None = None) -> int:
                 if ex[b] > 0
             ]
             bar.write(f"  runs above 13.8 ({len(worst)} of {args.runs}): " + (", ".join(worst) or "none"), sys.stdout)
+        if args.blocks:
+            bar.write("  " + block_report(r, args.blocks), sys.stdout)
         bar.update(1)
     bar.close()
     if args.markdown:

@@ -199,3 +199,26 @@ def test_given_draws_condition_on_the_beacons_errors(monkeypatch):
     for cfg, sim, _res, _live in planned_steps("gao_lawnmower", "ellipse", {"beacon_error_fusion": "white"}, 2, 0):
         assert orig(cfg, sim.state) is None
         break
+
+
+def test_block_report_counts_consecutive_and_resampled_blocks():
+    """Four runs of 1000 run-cycles, blocks of two: the nominal count of a block is
+    2 x 1000 x 0.1 % = 2, so runs with 0, 2, 10 and 0 exceedances make blocks of 1.0x and
+    5.0x. A resampled block is above 3x (more than 6) exactly when it draws the run with 10:
+    1 - (3/4)^2 = 43.75 %. A consistent filter expecting nothing never is."""
+    import re
+
+    r = {"exceed_by_run": np.array([0, 2, 10, 0]), "run_cycles": 4000, "given": {"expected_by_run": np.zeros(4)}}
+    text = nees_per_cycle.block_report(r, 2)
+    assert "2 consecutive at 1.0x, 5.0x" in text, text
+    share = float(re.search(r"above 3x: ([0-9.]+)% of blocks", text).group(1))
+    assert abs(share - 43.75) < 1.0, text
+    assert "(a consistent filter: 0.00%)" in text, text
+    r["given"] = None
+    assert "consistent" not in nees_per_cycle.block_report(r, 2)
+
+
+def test_blocks_larger_than_the_batch_is_one_clear_line(capsys):
+    assert nees_per_cycle.main(["--runs", "10", "--blocks", "20", "--cases", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["--blocks must be in [1, --runs = 10], got 20"]
