@@ -119,11 +119,13 @@ FIELDS_ADDED_AFTER_CACHE_V1 = (
 def config_key(config: ScenarioConfig) -> str:
     from coopnav_env.scenarios import ScenarioConfig
 
-    default = ScenarioConfig()
+    # every parameter's default, those of sections the default config leaves out included (a
+    # getattr on the config would refuse a parameter of an absent section, e.g. the MLS array's)
+    default = ScenarioConfig().to_flat_dict(all_parameters=True)
     fields = {
         k: v
         for k, v in config.to_flat_dict(all_parameters=True).items()
-        if k not in FIELDS_ADDED_AFTER_CACHE_V1 or v != getattr(default, k)
+        if k not in FIELDS_ADDED_AFTER_CACHE_V1 or v != default.get(k)
     }
     return hashlib.sha1(repr(fields).encode()).hexdigest()[:16]
 
