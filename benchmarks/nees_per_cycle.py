@@ -414,7 +414,7 @@ def main(argv: list[str] | None = None) -> int:
         type=int,
         default=0,
         metavar="N",
-        help="also print, per case, each run of N consecutive runs' exceedances (x nominal) and how often a "
+        help="also print, per case, the exceedances (x nominal) of each block of N consecutive runs and how often a "
         "block of N runs resampled from the batch (100,000 times, with replacement) is above 3x nominal, "
         "issue 21's limit; with --given-draws also for a consistent filter (each run's count Poisson with "
         "its expected count: a lower bound, it leaves out the clustering within a run)",

@@ -297,7 +297,8 @@ class SurveyEKF(Section):
         high=0.999999,
         doc=(
             "modem sensor: the gate of a range shorter than predicted, which no longer path explains "
-            "(docs/scenarios/consider-fusion.md#one-sided-gate); 0: range_gate_probability, one gate both ways"
+            "(docs/scenarios/consider-fusion.md#one-sided-gate); 0: range_gate_probability, one gate both ways "
+            "(sousa_asv and sousa_ping: 0.9999)"
         ),
     )
     reinit_after_rejected_ranges: int = param(
