@@ -12,6 +12,7 @@ import pytest
 from filterpy.kalman import ExtendedKalmanFilter
 from scipy.stats import chi2, norm, poisson
 
+from benchmarks.nees_per_cycle import CASES
 from coopnav_env.core import navigation
 from coopnav_env.core.sim import Simulator
 from coopnav_env.scenarios import make_config
@@ -379,13 +380,9 @@ GAO_SEA_KNOWN = pytest.mark.xfail(
 )
 
 
-def _no_surfacing_2h():
-    """benchmarks/nees_per_cycle.py's case 2: two hours, the beacon never surfacing."""
-    from benchmarks.nees_per_cycle import CASES
-
-    label, scenario, _planner, overrides = CASES[2]
-    assert scenario == "gao_sea" and "no surfacing" in label
-    return overrides
+# benchmarks/nees_per_cycle.py's case 2, issue 21's first target: two hours, the beacon never surfacing
+_LABEL, _SCENARIO, _PLANNER, NO_SURFACING_2H = CASES[2]
+assert _SCENARIO == "gao_sea" and "no surfacing" in _LABEL
 
 
 @pytest.mark.slow
@@ -394,7 +391,7 @@ def _no_surfacing_2h():
     [
         ("gao_lawnmower", {}),
         pytest.param("gao_sea", {}, marks=GAO_SEA_KNOWN),
-        ("gao_sea", "2h"),  # issue 21's first target: two hours, the beacon never surfacing
+        ("gao_sea", NO_SURFACING_2H),
         ("sousa_asv", {}),
     ],
     ids=["gao_lawnmower", "gao_sea", "gao_sea_2h_no_surfacing", "sousa_asv"],
@@ -407,7 +404,7 @@ def test_nees_per_cycle_100_runs(scenario, overrides):
     benchmarks/nees_per_cycle.py case 2 measures, 0.1x): the tail is
     the first-order range update after close passes far off, the mean its Q
     (docs/scenarios/consider-fusion.md#curvature)."""
-    r = _nees_summary(scenario, runs=N_RUNS, **(_no_surfacing_2h() if overrides == "2h" else overrides))
+    r = _nees_summary(scenario, runs=N_RUNS, **overrides)
     report = _format(r)
     print(report)
     _check_per_cycle(r, report)

@@ -583,7 +583,7 @@ def test_two_way_range_from_a_moving_beacon_is_fused_without_bias():
     """The simulator's modem model end to end: the survey filter sits on the truth; a
     noiseless two-way range from the beacon of the hand case above must not move it
     (the old prediction, both legs from the beacon's t = 0 position, pushed it away
-    from the beacon by K y, y = 2.02 m: 1.99 m on /work/main)."""
+    from the beacon by K y, y = 2.02 m: 1.99 m before the fix)."""
     from coopnav_env.core import make_simulator
 
     c = make_config(
@@ -604,4 +604,4 @@ def test_two_way_range_from_a_moving_beacon_is_fused_without_bias():
         sim, st.s_pos[0, 0].copy(), np.diag([4.0, 4.0, 0.01]), [1500.0, 0.0, st.s_pos[0, 0, 2]], [2.0, 0.0, 0.0]
     )
     assert out.fused[0, 0, 0]
-    assert abs(st.s_est[0, 0, 0] - st.s_pos[0, 0, 0]) < 0.01  # 1.99 m off with the t = 0 geometry (/work/main)
+    assert abs(st.s_est[0, 0, 0] - st.s_pos[0, 0, 0]) < 0.01  # 1.99 m off with the t = 0 geometry (before the fix)

@@ -532,7 +532,7 @@ class ModemRanging:
     """The modem model of one simulator (its scalars gathered once)."""
 
     def __init__(self, sim: SensorHost) -> None:
-        c = sim.config
+        c, gate = sim.config, float(sim.gate)  # the chi-square gate, both ways unless G8 sets the short side
         scalars = [getattr(c, k) for k in CONFIG_FIELDS]
         # _make: the fields by position, which mypy cannot count through the starred floats
         self.params = ModemParams._make(
@@ -540,7 +540,7 @@ class ModemRanging:
                 int(scalars[0]),
                 c.ranging_mode == "twtt",
                 *(float(v) for v in scalars[2:]),
-                float(sim.gate),
+                gate,
                 np.asarray(sim.sends_current, dtype=bool),
                 FUSIONS[c.beacon_error_fusion],
                 c.lockout_recovery in ("window", "window_consensus"),
@@ -559,7 +559,7 @@ class ModemRanging:
                 bool(c.survey_bias_consider),
                 c.range_linearization == "second_order",
                 int(c.reinit_after_short_ranges),
-                float(chi2.ppf(c.range_gate_short_probability or c.range_gate_probability, 1)),  # G8
+                float(chi2.ppf(c.range_gate_short_probability, 1)) if c.range_gate_short_probability else gate,
             ]
         )
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
