@@ -81,40 +81,52 @@ def schmidt_range_update(
     beacon's variance not: it is Pbb). Writes the gain into K (3,), or zeros when gated.
     Returns (nis, fused): nis = y^2 / S, fused when nis <= gate. Eqs. (C1)-(C5)."""
     nb = Pbb.shape[0]
-    n = 3 + nb
-    Ha = np.zeros(n)
-    Pa = np.zeros((n, n))
-    for i in range(3):
-        Ha[i] = H[i]
-        for j in range(3):
-            Pa[i, j] = P[i, j]
-        for j in range(nb):
-            Pa[i, 3 + j] = Pxb[i, j]
-            Pa[3 + j, i] = Pxb[i, j]
-    for i in range(nb):
-        Ha[3 + i] = -H[i]  # (C1): Hb = -H[:nb]
-        for j in range(nb):
-            Pa[3 + i, 3 + j] = Pbb[i, j]
-    PH = Pa @ Ha
-    S = R  # (C2)
-    for i in range(n):
-        S += Ha[i] * PH[i]
+    # Written out element by element over the augmented state a = (x, b), n = 3 + nb,
+    # Pa = [[P, Pxb], [Pxb^T, Pbb]], Ha = [H, -H[:nb]] (C1): nothing is allocated and
+    # no BLAS is called, since this runs for every range in the fusion kernel.
+    # PH = Pa Ha^T: rows 0-2 (P H^T + Pxb Hb^T), then rows 3.. (Pxb^T H^T + Pbb Hb^T)
+    PH0 = PH1 = PH2 = 0.0
+    S = R  # (C2): S = Ha Pa Ha^T + R
+    for k in range(3 + nb):
+        if k < 3:
+            hk = H[k]
+            c0, c1, c2 = P[0, k], P[1, k], P[2, k]
+        else:
+            hk = -H[k - 3]
+            c0, c1, c2 = Pxb[0, k - 3], Pxb[1, k - 3], Pxb[2, k - 3]
+        PH0 += c0 * hk
+        PH1 += c1 * hk
+        PH2 += c2 * hk
+    S += H[0] * PH0 + H[1] * PH1 + H[2] * PH2
+    for i in range(nb):  # the consider rows of PH, times Hb
+        v = Pxb[0, i] * H[0] + Pxb[1, i] * H[1] + Pxb[2, i] * H[2]
+        for k in range(nb):
+            v -= Pbb[i, k] * H[k]
+        S -= H[i] * v
     nis = y * y / S
     K[:] = 0.0
     if not nis <= gate:
         return nis, False
-    Ka = np.zeros(n)
+    K[0], K[1], K[2] = PH0 / S, PH1 / S, PH2 / S  # (C3); Kb = 0
     for i in range(3):
-        Ka[i] = PH[i] / S  # (C3); Kb = 0
-        K[i] = Ka[i]
-        x[i] += Ka[i] * y  # (C4)
-    A = np.eye(n) - np.outer(Ka, Ha)
-    Pn = A @ Pa @ A.T + R * np.outer(Ka, Ka)  # (C5), Joseph form
+        x[i] += K[i] * y  # (C4)
+    # (C5), Joseph form, its rows 0-2 (Pbb does not change): with A = I - Ka Ha,
+    # M = A Pa has rows M_i = Pa_i - K_i (Ha Pa) = Pa_i - K_i PH^T, and
+    # Pn_ij = (M A^T)_ij + R K_i K_j = M_ij - K_j (M Ha^T)_i + R K_i K_j, where
+    # K_j = 0 for the consider columns j >= 3 (so Pxb <- M's columns 3..)
+    # symmetrized, (Pn + Pn^T) / 2, in place: entry (i, j) needs only P_ij and P_ji
+    PH = (PH0, PH1, PH2)
+    MH = (PH0 - K[0] * (S - R), PH1 - K[1] * (S - R), PH2 - K[2] * (S - R))  # (M Ha^T)_i = PH_i - K_i Ha PH
     for i in range(3):
-        for j in range(3):
-            P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
-        for j in range(nb):
-            Pxb[i, j] = Pn[i, 3 + j]
+        for j in range(i, 3):
+            v = 0.5 * (P[i, j] + P[j, i]) - 0.5 * (K[i] * (PH[j] + MH[j]) + K[j] * (PH[i] + MH[i]))
+            P[i, j] = P[j, i] = v + R * K[i] * K[j]
+    for j in range(nb):  # PH's consider rows: Pxb^T H^T + Pbb Hb^T
+        pb = Pxb[0, j] * H[0] + Pxb[1, j] * H[1] + Pxb[2, j] * H[2]
+        for k in range(nb):
+            pb -= Pbb[j, k] * H[k]
+        for i in range(3):
+            Pxb[i, j] -= K[i] * pb
     return nis, True
 
 

@@ -148,22 +148,29 @@ def joseph_update_residual(x: np.ndarray, P: np.ndarray, y: float, H: np.ndarray
     """Eqs. (9), (11)-(13) for one scalar measurement of one filter, in place, given its
     innovation ``y`` (filterpy's ``update(..., residual=...)``: each measurement model
     computes its own residual, a bearing's wrapped to (-pi, pi]). Returns S."""
-    PHt = P @ H
     S = innovation_variance(P, H, R)  # eq. (11)
-    K = PHt / S  # eq. (12)
+    # P H^T and H P, element by element (nothing allocated, no BLAS: this runs for
+    # every range and depth reading of every environment)
+    PH = (
+        P[0, 0] * H[0] + P[0, 1] * H[1] + P[0, 2] * H[2],
+        P[1, 0] * H[0] + P[1, 1] * H[1] + P[1, 2] * H[2],
+        P[2, 0] * H[0] + P[2, 1] * H[1] + P[2, 2] * H[2],
+    )
+    HP = (
+        H[0] * P[0, 0] + H[1] * P[1, 0] + H[2] * P[2, 0],
+        H[0] * P[0, 1] + H[1] * P[1, 1] + H[2] * P[2, 1],
+        H[0] * P[0, 2] + H[1] * P[1, 2] + H[2] * P[2, 2],
+    )
+    K = (PH[0] / S, PH[1] / S, PH[2] / S)  # eq. (12)
     for i in range(3):
         x[i] += K[i] * y  # eq. (9)
-    A = np.eye(3)
+    # eq. (13), Joseph form: (I - KH) P (I - KH)^T + K R K^T. With A = I - K H,
+    # (A P)_ij = P_ij - K_i (H P)_j and (A P H^T)_i = (P H^T)_i - K_i (S - R), so entry
+    # (i, j) needs only the old P_ij: P_ij - K_i (HP)_j - K_j ((PH)_i - K_i (S - R)) + R K_i K_j
     for i in range(3):
+        aph = PH[i] - K[i] * (S - R)
         for j in range(3):
-            A[i, j] -= K[i] * H[j]  # I - K H
-    AP = A @ P
-    for i in range(3):  # eq. (13), Joseph form: (I - KH) P (I - KH)^T + K R K^T
-        for j in range(3):
-            v = R * K[i] * K[j]
-            for k in range(3):
-                v += AP[i, k] * A[j, k]
-            P[i, j] = v
+            P[i, j] = P[i, j] - K[i] * HP[j] - K[j] * aph + R * K[i] * K[j]
     return S
 
 

@@ -46,9 +46,11 @@ def obs_dim(n_survey: int, n_beacons: int, observed_waypoints: int) -> int:
 
 
 @njit(cache=True, inline="always")
-def _survey_entry(o, i, kv, sv, b, n, s, oe, on, oz, prm):
+def _survey_entry(o, i, kv, waypoints, n_waypoints, b, n, s, oe, on, oz, prm):
     """Write survey vehicle s as beacon n of environment b last heard of it into o from
-    index i (estimate, ellipse, ages, next waypoints); returns the next index."""
+    index i (estimate, ellipse, ages, next of its ``waypoints`` (W, 3), ``n_waypoints``
+    used); returns the next index. It takes the survey's path, not the survey record:
+    numba counts a reference to every array of a record at each call (docs/performance.md#refcounts)."""
     L = prm.position_scale_m
     age_scale = AGE_SCALE_PINGS * prm.ping_interval_s
     o[i] = (kv.est[b, n, s, 0] - oe) / L
@@ -63,9 +65,9 @@ def _survey_entry(o, i, kv, sv, b, n, s, oe, on, oz, prm):
     o[i + 8] = kv.range_age_s[b, n, s] / age_scale
     i += PER_SURVEY_FIXED
     for w in range(prm.observed_waypoints):
-        j = min(kv.wp_index[b, n, s] + w, sv.n_waypoints[b, s] - 1)
-        o[i] = (sv.waypoints[b, s, j, 0] - kv.est[b, n, s, 0]) / L
-        o[i + 1] = (sv.waypoints[b, s, j, 1] - kv.est[b, n, s, 1]) / L
+        j = min(kv.wp_index[b, n, s] + w, n_waypoints - 1)
+        o[i] = (waypoints[j, 0] - kv.est[b, n, s, 0]) / L
+        o[i + 1] = (waypoints[j, 1] - kv.est[b, n, s, 1]) / L
         i += 2
     return i
 
@@ -91,7 +93,7 @@ def _observe(bv, kv, sv, prm, out):
             o[5] = np.sqrt(bv.nav_var[b, n]) / STD_SCALE_M
             i = OWN_DIM
             for s in range(S):
-                i = _survey_entry(o, i, kv, sv, b, n, s, oe, on, oz, prm)
+                i = _survey_entry(o, i, kv, sv.waypoints[b, s], sv.n_waypoints[b, s], b, n, s, oe, on, oz, prm)
             for m in range(N):
                 if m != n:
                     o[i] = (kv.peer[b, n, m, 0] - oe) / L

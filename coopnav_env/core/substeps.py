@@ -31,76 +31,27 @@ def _leg(waypoints, i, e, alpha):
 
 
 @njit(cache=True, inline="always")
-def _guide(sv, b, s, i, steer, e, h, prm):
-    """One sub-step of line-of-sight guidance on the estimate e of vehicle (b, s): the
-    next leg once the waypoint is reached (``done`` at the path's end), the heading h
-    turned toward the line-of-sight point within the turn limit, and the depth planned
-    at this point of the leg. Returns (i, steer, h, depth_cmd)."""
-    w0, w1, q, along, seg_len = _leg(sv.waypoints[b, s], i, e, prm.los_alpha)
+def _guide(waypoints, n_waypoints, i, steer, e, h, prm):
+    """One sub-step of line-of-sight guidance on the estimate e of a vehicle following
+    ``waypoints`` (W, 3; the first ``n_waypoints`` used): the next leg once the waypoint
+    is reached, the heading h turned toward the line-of-sight point within the turn
+    limit, and the depth planned at this point of the leg. Returns (i, steer, h,
+    depth_cmd, whether the path ended now). It takes the vehicle's row, not the record:
+    numba counts a reference to every array of a record at each call (docs/performance.md#refcounts)."""
+    ended = False
+    w0, w1, q, along, seg_len = _leg(waypoints, i, e, prm.los_alpha)
     if steer and along >= seg_len - prm.acceptance_m:  # waypoint reached: next segment
         i += 1
-        if i >= sv.n_waypoints[b, s]:
-            sv.done[b, s] = True
+        if i >= n_waypoints:
+            ended = True
             steer = False
-            i = sv.n_waypoints[b, s] - 1
-        w0, w1, q, along, seg_len = _leg(sv.waypoints[b, s], i, e, prm.los_alpha)
+            i = n_waypoints - 1
+        w0, w1, q, along, seg_len = _leg(waypoints, i, e, prm.los_alpha)
     if steer:
         h = turn_toward(h, q - e, prm.turn_cos, prm.turn_sin)
     # depth: the planned depth along the segment, held by pitch
     frac = min(max(along, 0.0), seg_len) / seg_len if seg_len > 0.0 else 0.0
-    return i, steer, h, w0[2] + frac * (w1[2] - w0[2])
-
-
-@njit(cache=True, inline="always")
-def _advance_vehicle(sv, b, s, compass_noise_rad, pitch_noise_rad, current, prm):
-    """Survey vehicle s of environment b through K sub-steps, in place (fields of
-    ``sv``). compass_noise_rad, pitch_noise_rad (K, S): this environment's sub-step
-    measurement noise; current: the true water current, complex."""
-    dt = prm.substep_s
-    p = sv.pos[b, s, 0] + 1j * sv.pos[b, s, 1]
-    pz = sv.pos[b, s, 2]
-    e = sv.est[b, s, 0] + 1j * sv.est[b, s, 1]
-    ez = sv.est[b, s, 2]
-    r = sv.dr[b, s, 0] + 1j * sv.dr[b, s, 1]
-    rz = sv.dr[b, s, 2]
-    h = sv.heading[b, s]
-    i = sv.wp_index[b, s]
-    steer = not (sv.hover[b, s] or sv.done[b, s])
-    d_h = 0.0 + 0.0j
-    d_z = 0.0
-    ut = 0.0
-    pitch = 0.0
-    u0 = sv.speed_model[b, s]
-    um = u0
-    for k in range(compass_noise_rad.shape[0]):
-        i, steer, h, depth_cmd = _guide(sv, b, s, i, steer, e, h, prm)
-        pitch = min(max(prm.depth_gain_per_m * (pz - depth_cmd), -prm.max_pitch_rad), prm.max_pitch_rad)
-        # true motion: water-relative velocity plus current
-        um = thrust_speed(u0, sv.thrust_n[b, s], prm.drag_k, prm.mass_kg, (k + 1) * dt)  # eq. (1), exact
-        ut = um * sv.speed_scale[b, s]
-        cp, sp = np.cos(pitch), np.sin(pitch)
-        p += (ut * cp * h + current) * dt
-        pz -= ut * sp * dt
-        # dead reckoning, eq. (4): R(measured attitude) (u_model, 0, 0) tau
-        pm = pitch + pitch_noise_rad[k, s]
-        # the compass reads bearing + bias + noise: bearing b -> b + d is the factor exp(-1j d)
-        err = sv.compass_bias_rad[b, s] + compass_noise_rad[k, s]
-        d_h = (um * np.cos(pm) * dt) * (h * (np.cos(err) - 1j * np.sin(err)))
-        d_z = -um * np.sin(pm) * dt
-        e += d_h + sv.current_est[b, s] * dt  # told the current by a beacon (Gao II-A)
-        ez += d_z
-        r += d_h  # the dead-reckoning-only track is not
-        rz += d_z
-    sv.pos[b, s, 0], sv.pos[b, s, 1], sv.pos[b, s, 2] = p.real, p.imag, pz
-    sv.est[b, s, 0], sv.est[b, s, 1], sv.est[b, s, 2] = e.real, e.imag, ez
-    sv.dr[b, s, 0], sv.dr[b, s, 1], sv.dr[b, s, 2] = r.real, r.imag, rz
-    sv.heading[b, s] = h
-    sv.speed_model[b, s] = um
-    sv.wp_index[b, s] = i
-    v = ut * np.cos(pitch) * h + current
-    sv.vel_true[b, s, 0], sv.vel_true[b, s, 1], sv.vel_true[b, s, 2] = v.real, v.imag, -ut * np.sin(pitch)
-    ve = d_h / dt + sv.current_est[b, s]
-    sv.vel_est[b, s, 0], sv.vel_est[b, s, 1], sv.vel_est[b, s, 2] = ve.real, ve.imag, d_z / dt
+    return i, steer, h, w0[2] + frac * (w1[2] - w0[2]), ended
 
 
 def _integrate_survey(sv, compass_noise_rad, pitch_noise_rad, current, prm):
@@ -114,11 +65,66 @@ def _integrate_survey(sv, compass_noise_rad, pitch_noise_rad, current, prm):
     compass_bias_rad, current_est (what the survey was told, complex).
     compass_noise_rad, pitch_noise_rad (B,K,S): the sub-steps' measurement noise;
     current (B,) complex: the true water current; prm: ``kernel_records.SurveyParams``.
+    The vehicle's loop is written here, not in a helper taking the record: numba counts
+    a reference to every array of a record at each call (docs/performance.md#refcounts).
     """
     B, S = compass_noise_rad.shape[0], compass_noise_rad.shape[2]
     for b in prange(B):
         for s in range(S):
-            _advance_vehicle(sv, b, s, compass_noise_rad[b], pitch_noise_rad[b], current[b], prm)
+            dt = prm.substep_s
+            p = sv.pos[b, s, 0] + 1j * sv.pos[b, s, 1]
+            pz = sv.pos[b, s, 2]
+            e = sv.est[b, s, 0] + 1j * sv.est[b, s, 1]
+            ez = sv.est[b, s, 2]
+            r = sv.dr[b, s, 0] + 1j * sv.dr[b, s, 1]
+            rz = sv.dr[b, s, 2]
+            h = sv.heading[b, s]
+            i = sv.wp_index[b, s]
+            steer = not (sv.hover[b, s] or sv.done[b, s])
+            d_h = 0.0 + 0.0j
+            d_z = 0.0
+            ut = 0.0
+            pitch = 0.0
+            u0 = sv.speed_model[b, s]
+            um = u0
+            waypoints, n_waypoints = sv.waypoints[b, s], sv.n_waypoints[b, s]
+            thrust, scale, bias, told = (
+                sv.thrust_n[b, s],
+                sv.speed_scale[b, s],
+                sv.compass_bias_rad[b, s],
+                sv.current_est[b, s],
+            )
+            for k in range(compass_noise_rad.shape[1]):
+                i, steer, h, depth_cmd, ended = _guide(waypoints, n_waypoints, i, steer, e, h, prm)
+                if ended:
+                    sv.done[b, s] = True
+                pitch = min(max(prm.depth_gain_per_m * (pz - depth_cmd), -prm.max_pitch_rad), prm.max_pitch_rad)
+                # true motion: water-relative velocity plus current
+                um = thrust_speed(u0, thrust, prm.drag_k, prm.mass_kg, (k + 1) * dt)  # eq. (1), exact
+                ut = um * scale
+                cp, sp = np.cos(pitch), np.sin(pitch)
+                p += (ut * cp * h + current[b]) * dt
+                pz -= ut * sp * dt
+                # dead reckoning, eq. (4): R(measured attitude) (u_model, 0, 0) tau
+                pm = pitch + pitch_noise_rad[b, k, s]
+                # the compass reads bearing + bias + noise: bearing b -> b + d is the factor exp(-1j d)
+                err = bias + compass_noise_rad[b, k, s]
+                d_h = (um * np.cos(pm) * dt) * (h * (np.cos(err) - 1j * np.sin(err)))
+                d_z = -um * np.sin(pm) * dt
+                e += d_h + told * dt  # told the current by a beacon (Gao II-A)
+                ez += d_z
+                r += d_h  # the dead-reckoning-only track is not
+                rz += d_z
+            sv.pos[b, s, 0], sv.pos[b, s, 1], sv.pos[b, s, 2] = p.real, p.imag, pz
+            sv.est[b, s, 0], sv.est[b, s, 1], sv.est[b, s, 2] = e.real, e.imag, ez
+            sv.dr[b, s, 0], sv.dr[b, s, 1], sv.dr[b, s, 2] = r.real, r.imag, rz
+            sv.heading[b, s] = h
+            sv.speed_model[b, s] = um
+            sv.wp_index[b, s] = i
+            v = ut * np.cos(pitch) * h + current[b]
+            sv.vel_true[b, s, 0], sv.vel_true[b, s, 1], sv.vel_true[b, s, 2] = v.real, v.imag, -ut * np.sin(pitch)
+            ve = d_h / dt + sv.current_est[b, s]
+            sv.vel_est[b, s, 0], sv.vel_est[b, s, 1], sv.vel_est[b, s, 2] = ve.real, ve.imag, d_z / dt
 
 
 def _integrate_beacons(pos, heading, vel, command, cos_max_turn, sin_max_turn, n_substeps, dt):

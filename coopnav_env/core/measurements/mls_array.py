@@ -47,20 +47,22 @@ class MLSMeasurement(NamedTuple):
 
 
 @njit(cache=True, inline="always")
-def _bearing_update(sv, bv, m, b, s, j, gate, H):
-    """The bearing of sender j at survey vehicle s, gated and fused with its residual
-    wrapped (h = atan2(east, north) of sender - survey, and its Jacobian H); returns
-    whether it was fused."""
-    de = bv.est[b, j, 0] - sv.est[b, s, 0]
-    dn = bv.est[b, j, 1] - sv.est[b, s, 1]
+def _bearing_update(x, P, beacon, beacon_var, bearing_rad, bearing_var, gate, H):
+    """A sender's bearing ``bearing_rad`` (variance ``bearing_var``) at the survey filter
+    (x, P), gated and fused with its residual wrapped (h = atan2(east, north) of the
+    sender's reported position ``beacon`` (per-axis variance ``beacon_var``) minus x, and
+    its Jacobian H); returns whether it was fused. Rows, not records: numba counts a
+    reference to every array of a record at each call (docs/performance.md#refcounts)."""
+    de = beacon[0] - x[0]
+    dn = beacon[1] - x[1]
     rho2 = max(de * de + dn * dn, 1e-6)
     hb = np.arctan2(de, dn)
     H[0] = -dn / rho2  # d bearing / d survey east
     H[1] = de / rho2
     H[2] = 0.0
-    R = m.bearing_var[b, j, s] + bv.nav_var[b, j] / rho2
-    y = bearing_residual(m.bearing_rad[b, j, s], hb)
-    return gated_update_residual(sv.est[b, s], sv.P[b, s], y, H, R, gate)
+    R = bearing_var + beacon_var / rho2
+    y = bearing_residual(bearing_rad, hb)
+    return gated_update_residual(x, P, y, H, R, gate)
 
 
 def _fuse(sv, bv, m, t_s, gate, out):
@@ -87,7 +89,10 @@ def _fuse(sv, bv, m, t_s, gate, out):
                     any_fused = True
                 else:
                     out.rejected[b, j, s] = True
-                if _bearing_update(sv, bv, m, b, s, j, gate, H):
+                bearing, bearing_var = m.bearing_rad[b, j, s], m.bearing_var[b, j, s]
+                if _bearing_update(
+                    sv.est[b, s], sv.P[b, s], bv.est[b, j], bv.nav_var[b, j], bearing, bearing_var, gate, H
+                ):
                     out.fused[b, j, s] = True
                     any_fused = True
                 else:

@@ -163,33 +163,41 @@ class ModemCycle(NamedTuple):
     heard: np.ndarray  # (B,N,S) bool: the pings the channel delivers
 
 
+class _Windows(NamedTuple):
+    """``ConsiderView``'s lock-out windows (win_*) alone: what ``_remember`` writes."""
+
+    z: np.ndarray
+    dz: np.ndarray
+    t: np.ndarray
+    beacon: np.ndarray
+    dr: np.ndarray
+    n: np.ndarray
+
+
 @njit(cache=True, inline="always")
-def _ping_range(sv, bv, cyc, prm, b, s, j, delays):
-    """Beacon j's ping at survey vehicle s of environment b: the measured range (m, by
-    ``modem_range``; ``delays`` filled), its loss probability (both legs for two-way)
-    and the sound speed's relative uncertainty."""
-    depth = 0.5 * (sv.pos[b, s, 2] + bv.pos[b, j, 2])
-    c_true = mackenzie_sound_speed(cyc.temperature_c[b], prm.salinity_psu, depth)
+def _ping_range(s_pos, s_vel_true, b_pos, b_vel, temperature_c, noise_std_m, clock_s, n, prm, delays):
+    """One ping's measured range (m, by ``modem_range``; ``delays`` filled), its loss
+    probability (both legs for two-way) and the sound speed's relative uncertainty: the
+    survey vehicle at s_pos moving at s_vel_true, the beacon at b_pos moving at b_vel,
+    in water of ``temperature_c``; n the jitter's standard normal."""
+    depth = 0.5 * (s_pos[2] + b_pos[2])
+    c_true = mackenzie_sound_speed(temperature_c, prm.salinity_psu, depth)
     c_assumed = mackenzie_sound_speed(prm.nominal_temperature_c, prm.salinity_psu, depth)
     dc_dT = mackenzie_sound_speed(prm.nominal_temperature_c + 1.0, prm.salinity_psu, depth) - c_assumed
-    jitter_s = cyc.range_noise_std_m[b] / c_assumed
-    dx = sv.pos[b, s, 0] - bv.pos[b, j, 0]
-    dy = sv.pos[b, s, 1] - bv.pos[b, j, 1]
-    dz = sv.pos[b, s, 2] - bv.pos[b, j, 2]
+    dx, dy, dz = s_pos[0] - b_pos[0], s_pos[1] - b_pos[1], s_pos[2] - b_pos[2]
     p_lost = packet_loss_probability(np.sqrt(dx * dx + dy * dy + dz * dz), prm.loss_near, prm.loss_far, prm.max_range_m)
-    clock = cyc.clock_offset_s[b, s, j] + cyc.clock_drift[b, s, j] * cyc.t_s[b]
     r = modem_range(
-        sv.pos[b, s],
-        sv.vel_true[b, s],
-        bv.pos[b, j],
-        bv.vel[b, j],
+        s_pos,
+        s_vel_true,
+        b_pos,
+        b_vel,
         c_true,
         c_assumed,
-        jitter_s,
-        cyc.acoustic_n[b, j, s, 0],
+        noise_std_m / c_assumed,
+        n,
         prm.two_way,
         prm.turnaround_s,
-        clock,
+        clock_s,
         delays,
     )
     if prm.two_way:
@@ -204,10 +212,9 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
     error is Gauss-Markov (``gps_error_time_constant_s``), so what the survey's error
     knew of the beacon's last fix decays over the time dt between the fixes: Pxb <- exp(-dt
     / tau) Pxb (eq. C7 over dt); with a white GPS error (tau = 0) or fixes far apart this
-    is eq. (C8), Pxb <- 0. dt is measured between the changes the survey heard."""
+    is eq. (C8), Pxb <- 0. dt is measured between the changes the survey heard. Called
+    when the counter ``cv.fix_count[b, j] % 16`` differs from ``cv.fix_seen[b, s, j]``."""
     count = cv.fix_count[b, j] % 16
-    if count == cv.fix_seen[b, s, j]:
-        return
     if prm.gps_tau_s > 0.0:
         consider_predict(cv.Pxb[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)
         if prm.hold:  # the held hypotheses' difference too (M5)
@@ -221,32 +228,33 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
 
 
 @njit(cache=True, inline="always")
-def _remember(cv, sv, b, s, j, r, beacon, delays, t_s):
+def _remember(win, b, s, j, r, beacon, depth, dr, vel_est, delays, t_s):
     """Beacon j's finite range r at survey s enters its lock-out window (oldest first,
     the oldest dropped when full), with the beacon's reported position, the survey's
-    dead-reckoned position where the sound ended (x + v d, as ``range_prediction``),
-    the depths' difference and the time: eqs. R1's inputs."""
-    M = cv.win_z.shape[3]
-    k = cv.win_n[b, s, j]
+    dead-reckoned position where the sound ended (dr + vel_est d, as ``range_prediction``),
+    the depths' difference (the survey's estimated ``depth``) and the time: eqs. R1's
+    inputs. win: ``_Windows``."""
+    M = win.z.shape[3]
+    k = win.n[b, s, j]
     if k == M:
         for i in range(M - 1):
-            cv.win_z[b, s, j, i] = cv.win_z[b, s, j, i + 1]
-            cv.win_dz[b, s, j, i] = cv.win_dz[b, s, j, i + 1]
-            cv.win_t[b, s, j, i] = cv.win_t[b, s, j, i + 1]
+            win.z[b, s, j, i] = win.z[b, s, j, i + 1]
+            win.dz[b, s, j, i] = win.dz[b, s, j, i + 1]
+            win.t[b, s, j, i] = win.t[b, s, j, i + 1]
             for a in range(2):
-                cv.win_beacon[b, s, j, i, a] = cv.win_beacon[b, s, j, i + 1, a]
-                cv.win_dr[b, s, j, i, a] = cv.win_dr[b, s, j, i + 1, a]
+                win.beacon[b, s, j, i, a] = win.beacon[b, s, j, i + 1, a]
+                win.dr[b, s, j, i, a] = win.dr[b, s, j, i + 1, a]
         k = M - 1
     d = 0.0
     for leg in range(delays.shape[1]):  # the survey's times: row 0 (moving_range_prediction)
         d += delays[0, leg] / delays.shape[1]
-    cv.win_z[b, s, j, k] = r
-    cv.win_dz[b, s, j, k] = sv.est[b, s, 2] - beacon[2]
-    cv.win_t[b, s, j, k] = t_s
+    win.z[b, s, j, k] = r
+    win.dz[b, s, j, k] = depth - beacon[2]
+    win.t[b, s, j, k] = t_s
     for a in range(2):
-        cv.win_beacon[b, s, j, k, a] = beacon[a]
-        cv.win_dr[b, s, j, k, a] = sv.dr[b, s, a] + sv.vel_est[b, s, a] * d
-    cv.win_n[b, s, j] = k + 1
+        win.beacon[b, s, j, k, a] = beacon[a]
+        win.dr[b, s, j, k, a] = dr[a] + vel_est[a] * d
+    win.n[b, s, j] = k + 1
 
 
 @njit(cache=True)
@@ -344,168 +352,160 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
 
 
 @njit(cache=True, inline="always")
-def _kalman(sv, cv, prm, b, s, j, H, meas, scratch):
-    """The gated update of survey s with beacon j's range (row H; meas as ``_count_rejection``'s):
-    ``"white"`` with the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"``
-    with it as consider states (eqs. C2-C6); ``"ci"`` by covariance intersection
-    (CI3, CI5) with R as white's. Each carries the survey's dead-reckoning-bias cross-covariance
-    Pxd through its gain (``dr_bias.py``, eq. D3). Returns (fused, the innovation's variance S)."""
+def _kalman(f, prm, j, H, meas, K, Pbb):
+    """The gated update of survey filter f (``multipath.Moments``: views of its x, P, Pxb,
+    Pxd) with beacon j's range (row H; meas as ``_count_rejection``'s): ``"white"`` with
+    the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"`` with it as consider
+    states (eqs. C2-C6); ``"ci"`` by covariance intersection (CI3, CI5) with R as white's.
+    Each carries the survey's dead-reckoning-bias cross-covariance Pxd through its gain
+    (``dr_bias.py``, eq. D3). K (3,), Pbb (2, 2): scratch. Returns (fused, the
+    innovation's variance S)."""
     r, h, R, R_white, beacon_var = meas[:5]
-    K, Pbb = scratch[0], scratch[1]
     y = r - h
     gate = prm.gate if y >= 0.0 else prm.gate_short  # (G8) no longer path makes a range short
     if prm.fusion == SCHMIDT:
         Pbb[0, 0] = Pbb[1, 1] = beacon_var
-        nis, fused = schmidt_range_update(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s, j], Pbb, y, H, R, gate, K)
+        nis, fused = schmidt_range_update(f.x, f.P, f.X[j], Pbb, y, H, R, gate, K)
         if fused:
-            for j2 in range(cv.Pxb.shape[2]):
+            for j2 in range(f.X.shape[0]):
                 if j2 != j:
-                    carry_cross_covariance(cv.Pxb[b, s, j2], K, H)  # (C6)
-            carry_cross_covariance(cv.Pxd[b, s], K, H)  # (D3)
+                    carry_cross_covariance(f.X[j2], K, H)  # (C6)
+            carry_cross_covariance(f.D, K, H)  # (D3)
         return fused, y * y / nis if nis > 0.0 else 0.0
-    S = innovation_variance(sv.P[b, s], H, R_white)
+    S = innovation_variance(f.P, H, R_white)
     if prm.fusion == CI:
         if y * y / S > gate:
             return False, S
-        x0 = sv.est[b, s].copy()
-        ci_range_update(sv.est[b, s], sv.P[b, s], y, H, R_white, False)
+        x0 = f.x.copy()
+        ci_range_update(f.x, f.P, y, H, R_white, False)
         if y != 0.0:  # (D3) with the CI gain K (CI3), recovered from the step it took: x - x0 = K y
             for i in range(3):
-                K[i] = (sv.est[b, s, i] - x0[i]) / y
-            carry_cross_covariance(cv.Pxd[b, s], K, H)
+                K[i] = (f.x[i] - x0[i]) / y
+            carry_cross_covariance(f.D, K, H)
         return True, S
-    K[:] = sv.P[b, s] @ H / S  # the gain of eqs. (12), before the update
-    fused = gated_update(sv.est[b, s], sv.P[b, s], r, h, H, R_white, gate)
+    for i in range(3):  # the gain of eqs. (12), before the update
+        K[i] = (f.P[i, 0] * H[0] + f.P[i, 1] * H[1] + f.P[i, 2] * H[2]) / S
+    fused = gated_update(f.x, f.P, r, h, H, R_white, gate)
     if fused:
-        carry_cross_covariance(cv.Pxd[b, s], K, H)  # (D3)
+        carry_cross_covariance(f.D, K, H)  # (D3)
     return fused, S
 
 
 @njit(cache=True, inline="always")
-def _held(cv, b, s):
-    """Survey s's held multipath hypotheses (``multipath.Held``, eq. M5), views."""
-    return Held(cv.hyp_d[b, s], cv.hyp_dP[b, s], cv.hyp_dX[b, s], cv.hyp_dD[b, s])
-
-
-@njit(cache=True, inline="always")
-def _update(sv, cv, prm, b, s, j, H, meas, scratch):
+def _update(f, held, prm, j, H, meas, scratch):
     """``_kalman``; with ``range_outlier_model="mixture"`` a fused range moves the filter
     only by the direct path's posterior probability (``multipath``, eqs. M1-M3); with
-    ``"hold"`` the two hypotheses it merged are held for the next range to re-weigh (M5).
-    scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3), Pxb0 (N, 3, 2), Pxd0 (3, 4)). Returns whether fused."""
-    x0, P0, X0, D0 = scratch[2], scratch[3], scratch[4], scratch[5]
+    ``"hold"`` the two hypotheses it merged are held in ``held`` (``multipath.Held``) for
+    the next range to re-weigh (M5). scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3),
+    Pxb0 (N, 3, 2), Pxd0 (3, 4)). Returns (fused, the weight now held: 1 for none)."""
+    K, Pbb, x0, P0, X0, D0 = scratch
     if prm.mixture:
-        x0[:] = sv.est[b, s]
-        P0[:, :] = sv.P[b, s]
-        X0[:, :, :] = cv.Pxb[b, s]
-        D0[:, :] = cv.Pxd[b, s]
-    fused, S = _kalman(sv, cv, prm, b, s, j, H, meas, scratch)
+        x0[:] = f.x
+        P0[:, :] = f.P
+        X0[:, :, :] = f.X
+        D0[:, :] = f.D
+    fused, S = _kalman(f, prm, j, H, meas, K, Pbb)
+    w_held = 1.0
     if fused and prm.mixture and S > 0.0:
         w = direct_path_weight(meas[0] - meas[1], S, prm.outlier_probability, prm.outlier_mean_excess_m)
-        cv.hyp_w[b, s] = hold_hypotheses(  # (M5): both hypotheses kept until the next range
-            w if prm.hold else 1.0,
-            Moments(x0, P0, X0, D0),
-            Moments(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s], cv.Pxd[b, s]),
-            _held(cv, b, s),
-        )
-        blend_update(w, x0, P0, X0, sv.est[b, s], sv.P[b, s], cv.Pxb[b, s])
+        if prm.hold:  # (M5): both hypotheses kept until the next range
+            w_held = hold_hypotheses(w, Moments(x0, P0, X0, D0), f, held)
+        blend_update(w, x0, P0, X0, f.x, f.P, f.X)
         for i in range(3):  # (M3) for the dead-reckoning biases' cross-covariance
             for a in range(D0.shape[1]):
-                cv.Pxd[b, s, i, a] = w * cv.Pxd[b, s, i, a] + (1.0 - w) * D0[i, a]
-    return fused
+                f.D[i, a] = w * f.D[i, a] + (1.0 - w) * D0[i, a]
+    return fused, w_held
 
 
 @njit(cache=True, inline="always")
-def _range_model(sv, bv, cv, cyc, prm, b, s, j, delays, sound_speed_rel_std):
-    """Survey s's prediction of beacon j's range at its current estimate: (h, H, R without the
-    beacon's variance, R with it, the curvature's bias and variance); with
-    ``range_linearization="second_order"`` h and both R hold the curvature's terms (eqs. L2,
-    L3), else those are 0."""
-    h, H = moving_range_prediction(sv.est[b, s], sv.vel_est[b, s], bv.est[b, j], bv.vel[b, j], delays)
-    beacon_var = bv.nav_var[b, j]
-    noise_std = cyc.range_noise_std_m[b]
+def _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, delays, sound_speed_rel_std):
+    """Survey filter f's (``multipath.Moments``) prediction of beacon j's range: (h, H, R
+    without the beacon's variance, R with it, the curvature's bias and variance); with
+    ``range_linearization="second_order"`` h and both R hold the curvature's terms (eqs.
+    L2, L3), else those are 0. The beacon: at ``beacon`` moving at ``beacon_vel``, as its
+    message says, with per-axis variance ``beacon_var``."""
+    h, H = moving_range_prediction(f.x, vel_est, beacon, beacon_vel, delays)
     R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
     R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
     bias, var = 0.0, 0.0
     if prm.second_order:  # eqs. (L2), (L3)
-        bias, var = range_curvature(sv.P[b, s], cv.Pxb[b, s, j], beacon_var, H, h)
+        bias, var = range_curvature(f.P, f.X[j], beacon_var, H, h)
     return h + bias, H, R + var, R_white + var, bias, var
 
 
-@njit(cache=True, inline="always")
-def _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
-    """Beacon j's ping at survey vehicle s of environment b: lost, an outlier or NaN at
-    random, then gated and fused (eqs. 7-13 or C1-C6), in place; returns whether it was fused."""
-    r, p_lost, sound_speed_rel_std = _ping_range(sv, bv, cyc, prm, b, s, j, delays)
-    u = cyc.acoustic_u[b, j, s]
-    if u[0] < p_lost:
-        out.lost[b, j, s] = True
-        return False
-    _heard_fix_count(cv, prm, b, s, j, cyc.t_s[b])
-    if u[1] < prm.outlier_probability:  # multipath: a longer path arrives
-        r += -prm.outlier_mean_excess_m * np.log(u[2])
-    if u[3] < prm.nan_probability:
-        r = np.nan
-    if prm.sends_current[j]:  # the ping carries the beacon's current estimate (Gao II-A)
-        sv.current_est[b, s] = cyc.current_sent[b, j]
-    if not np.isfinite(r):
-        out.nan_count[b, s] += 1
-        return False
-    beacon_var = bv.nav_var[b, j]
-    h, H, R, R_white, bias, var = _range_model(sv, bv, cv, cyc, prm, b, s, j, delays, sound_speed_rel_std)
-    if cv.hyp_w[b, s] < 1.0:  # (M6, M7): this range re-weighs the last one's hypotheses, then they merge
-        reweigh_hypotheses(
-            cv.hyp_w[b, s],
-            _held(cv, b, s),
-            Moments(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s], cv.Pxd[b, s]),
-            H,
-            r - h,
-            R if prm.fusion == SCHMIDT else R_white,
-            prm.outlier_probability,
-            prm.outlier_mean_excess_m,
-            j if prm.fusion == SCHMIDT else -1,
-            beacon_var,
-        )
-        cv.hyp_w[b, s] = 1.0
-        h, H, R, R_white, bias, var = _range_model(sv, bv, cv, cyc, prm, b, s, j, delays, sound_speed_rel_std)
-    meas = (r, h, R, R_white, beacon_var, bias, var)
-    if prm.window:
-        _remember(cv, sv, b, s, j, r, bv.est[b, j], delays, cyc.t_s[b])
-    if not _update(sv, cv, prm, b, s, j, H, meas, scratch):
-        out.rejected[b, j, s] = True
-        _count_rejection(sv, cv, out, prm, b, s, j, H, meas, cyc.t_s[b])
-        return False
-    sv.rejected_streak[b, s] = 0
-    out.fused[b, j, s] = True
-    return True
-
-
 def _fuse(sv, bv, cv, cyc, prm, out):
-    """Every beacon j pings every survey vehicle s; what arrives is gated and fused, in
-    place (sv.est, P, current_est, last_range_t_s, rejected_streak; the consider states
-    and windows of cv; the flags and counts of out, ``FusionOutputs``). sv, bv, cv:
+    """Every beacon j pings every survey vehicle s; what arrives is lost, an outlier or
+    NaN at random, then gated and fused (eqs. 7-13 or C1-C6), in place (sv.est, P,
+    current_est, last_range_t_s, rejected_streak; the consider states and windows of cv;
+    the flags and counts of out, ``FusionOutputs``). sv, bv, cv:
     ``kernel_records.SurveyView``, ``BeaconView``, ``ConsiderView``;
     cyc: ``ModemCycle``, whose ``heard`` (B, N, S) are the pings the channel delivers
     (``core.channel``; all True on the fixed clock's free channel), the others are
-    neither measured nor counted lost; prm: ``ModemParams``."""
+    neither measured nor counted lost; prm: ``ModemParams``.
+
+    The helpers of a ping take the rows they read, not the records: numba counts a
+    reference to every array of a record at each call of an inlined helper, and those
+    atomic counts were most of the simulator's time (docs/performance.md#refcounts)."""
     B, N, S = bv.pos.shape[0], bv.pos.shape[1], sv.est.shape[1]
+    win = _Windows(cv.win_z, cv.win_dz, cv.win_t, cv.win_beacon, cv.win_dr, cv.win_n)
     for b in prange(B):
         delays = np.zeros((2, 2 if prm.two_way else 1))
-        scratch = (
-            np.zeros(3),
-            np.zeros((2, 2)),
-            np.zeros(3),
-            np.zeros((3, 3)),
-            np.zeros((N, 3, 2)),
-            np.zeros((3, N_BIASES)),
-        )
+        K, Pbb = np.zeros(3), np.zeros((2, 2))
+        scratch = (K, Pbb, np.zeros(3), np.zeros((3, 3)), np.zeros((N, 3, 2)), np.zeros((3, N_BIASES)))
+        t_s = cyc.t_s[b]
         for s in range(S):
+            f = Moments(sv.est[b, s], sv.P[b, s], cv.Pxb[b, s], cv.Pxd[b, s])  # survey s's filter (views)
+            held = Held(cv.hyp_d[b, s], cv.hyp_dP[b, s], cv.hyp_dX[b, s], cv.hyp_dD[b, s])
             any_fused = False
             for j in range(N):
-                if cyc.heard[b, j, s] and _fuse_ping(sv, bv, cv, cyc, prm, out, b, s, j, delays, scratch):
-                    any_fused = True
+                if not cyc.heard[b, j, s]:
+                    continue
+                clock = cyc.clock_offset_s[b, s, j] + cyc.clock_drift[b, s, j] * t_s
+                temp, noise_std, n = cyc.temperature_c[b], cyc.range_noise_std_m[b], cyc.acoustic_n[b, j, s, 0]
+                r, p_lost, rel_std = _ping_range(
+                    sv.pos[b, s], sv.vel_true[b, s], bv.pos[b, j], bv.vel[b, j], temp, noise_std, clock, n, prm, delays
+                )
+                u = cyc.acoustic_u[b, j, s]
+                if u[0] < p_lost:
+                    out.lost[b, j, s] = True
+                    continue
+                if cv.fix_count[b, j] % 16 != cv.fix_seen[b, s, j]:
+                    _heard_fix_count(cv, prm, b, s, j, t_s)
+                if u[1] < prm.outlier_probability:  # multipath: a longer path arrives
+                    r += -prm.outlier_mean_excess_m * np.log(u[2])
+                if u[3] < prm.nan_probability:
+                    r = np.nan
+                if prm.sends_current[j]:  # the ping carries the beacon's current estimate (Gao II-A)
+                    sv.current_est[b, s] = cyc.current_sent[b, j]
+                if not np.isfinite(r):
+                    out.nan_count[b, s] += 1
+                    continue
+                beacon, beacon_vel, beacon_var = bv.est[b, j], bv.vel[b, j], bv.nav_var[b, j]
+                vel_est = sv.vel_est[b, s]
+                m = _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, delays, rel_std)
+                h, H, R, R_white, bias, var = m
+                if cv.hyp_w[b, s] < 1.0:  # (M6, M7): this range re-weighs the last one's hypotheses, then they merge
+                    sch, p, mu = prm.fusion == SCHMIDT, prm.outlier_probability, prm.outlier_mean_excess_m
+                    reweigh_hypotheses(
+                        cv.hyp_w[b, s], held, f, H, r - h, R if sch else R_white, p, mu, j if sch else -1, beacon_var
+                    )
+                    cv.hyp_w[b, s] = 1.0
+                    m = _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, delays, rel_std)
+                    h, H, R, R_white, bias, var = m
+                meas = (r, h, R, R_white, beacon_var, bias, var)
+                if prm.window:
+                    _remember(win, b, s, j, r, beacon, f.x[2], sv.dr[b, s], vel_est, delays, t_s)
+                fused, w_held = _update(f, held, prm, j, H, meas, scratch)
+                if not fused:
+                    out.rejected[b, j, s] = True
+                    _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s)
+                    continue
+                cv.hyp_w[b, s] = w_held
+                sv.rejected_streak[b, s] = 0
+                out.fused[b, j, s] = True
+                any_fused = True
             if any_fused:
-                sv.last_range_t_s[b, s] = cyc.t_s[b]
+                sv.last_range_t_s[b, s] = t_s
 
 
 fuse_kernel = njit(cache=True)(_fuse)
