@@ -23,11 +23,15 @@ from .jit import parallel_twin
 @njit(cache=True, inline="always")
 def _leg(waypoints, i, e, alpha):
     """Leg i (waypoint i-1 -> i) of one path (W, 3) seen from the estimate e (complex):
-    its ends, the line-of-sight point, the distance along it and its length."""
-    w0 = waypoints[i - 1]
-    w1 = waypoints[i]
-    q, along, seg_len = los_point(e, w0[0] + 1j * w0[1], w1[0] + 1j * w1[1], alpha)
-    return w0, w1, q, along, seg_len
+    its ends' depths, the line-of-sight point, the distance along it and its length
+    (scalars: a row view would cost a reference count per sub-step)."""
+    q, along, seg_len = los_point(
+        e,
+        waypoints[i - 1, 0] + 1j * waypoints[i - 1, 1],
+        waypoints[i, 0] + 1j * waypoints[i, 1],
+        alpha,
+    )
+    return waypoints[i - 1, 2], waypoints[i, 2], q, along, seg_len
 
 
 @njit(cache=True, inline="always")
@@ -39,19 +43,19 @@ def _guide(waypoints, n_waypoints, i, steer, e, h, prm):
     depth_cmd, whether the path ended now). It takes the vehicle's row, not the record:
     numba counts a reference to every array of a record at each call (docs/performance.md#refcounts)."""
     ended = False
-    w0, w1, q, along, seg_len = _leg(waypoints, i, e, prm.los_alpha)
+    z0, z1, q, along, seg_len = _leg(waypoints, i, e, prm.los_alpha)
     if steer and along >= seg_len - prm.acceptance_m:  # waypoint reached: next segment
         i += 1
         if i >= n_waypoints:
             ended = True
             steer = False
             i = n_waypoints - 1
-        w0, w1, q, along, seg_len = _leg(waypoints, i, e, prm.los_alpha)
+        z0, z1, q, along, seg_len = _leg(waypoints, i, e, prm.los_alpha)
     if steer:
         h = turn_toward(h, q - e, prm.turn_cos, prm.turn_sin)
     # depth: the planned depth along the segment, held by pitch
     frac = min(max(along, 0.0), seg_len) / seg_len if seg_len > 0.0 else 0.0
-    return i, steer, h, w0[2] + frac * (w1[2] - w0[2]), ended
+    return i, steer, h, z0 + frac * (z1 - z0), ended
 
 
 def _integrate_survey(sv, compass_noise_rad, pitch_noise_rad, current, prm):
