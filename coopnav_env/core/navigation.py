@@ -443,15 +443,31 @@ def frame_predict(
     """
     rel = heading_rad - E[2]
     c, s = np.cos(rel), np.sin(rel)
-    A = np.zeros((6, 6))
-    A[0, 2], A[0, 3] = speed_mps * s, 1.0
-    A[1, 2], A[1, 4] = -speed_mps * c, 1.0
+    a = (speed_mps * s, -speed_mps * c)  # A[0, 2], A[1, 2]; A[0, 3] = A[1, 4] = 1
     E[0] += (speed_mps * c + E[3]) * dt_s
     E[1] += (speed_mps * s + E[4]) * dt_s
-    Phi = np.eye(6) + A * dt_s
-    AQ = A @ Q
-    Qd = Q * dt_s + (AQ + AQ.T) * (dt_s * dt_s / 2.0) + AQ @ A.T * (dt_s**3 / 3.0)
-    P[:, :] = Phi @ P @ Phi.T + Qd
+    # In place, element by element (this runs every sub-step of every environment; no
+    # allocation, no BLAS): Phi = I + A dt changes rows 0-1 of Phi P, then columns 0-1
+    # of (Phi P) Phi^T; each reads only rows or columns 2-4, which it does not change.
+    for r in range(2):
+        for k in range(6):
+            P[r, k] += dt_s * (a[r] * P[2, k] + P[3 + r, k])
+    for col in range(2):
+        for i in range(6):
+            P[i, col] += dt_s * (a[col] * P[i, 2] + P[i, 3 + col])
+    # + Q dt + (A Q + Q A^T) dt^2/2 + A Q A^T dt^3/3, with (A Q)[r, k] = a_r Q[2, k] + Q[3 + r, k]
+    # for r = 0, 1 (the other rows are zero) and (A Q A^T)[i, j] = a_j (A Q)[i, 2] + (A Q)[i, 3 + j]
+    h2, h3 = dt_s * dt_s / 2.0, dt_s**3 / 3.0
+    for i in range(6):
+        for j in range(6):
+            P[i, j] += Q[i, j] * dt_s
+    for r in range(2):
+        for k in range(6):
+            aq = a[r] * Q[2, k] + Q[3 + r, k]
+            P[r, k] += aq * h2
+            P[k, r] += aq * h2
+        for j in range(2):
+            P[r, j] += (a[j] * (a[r] * Q[2, 2] + Q[3 + r, 2]) + a[r] * Q[2, 3 + j] + Q[3 + r, 3 + j]) * h3
 
 
 @njit(cache=True)

@@ -151,22 +151,33 @@ def nis2(d0: float, d1: float, S: np.ndarray) -> float:
 
 
 @njit(cache=True)
-def _noise2(f: Filter, b: int, k: int, p: CycleParams, out: np.ndarray) -> None:
+def _noise2(window_S: np.ndarray, window_age: np.ndarray, k: int, p: CycleParams, out: np.ndarray) -> None:
     """Fix k's (x, y) noise in eq. F3, into out (2, 2): its geometry's covariance plus the
-    filter's process noise q a_k T over its age."""
-    q = p.frame_q_position_m2ps * f.window_age[b, k] * p.ping_interval_s
-    S = f.window_S[b, k]
-    out[0, 0], out[0, 1], out[1, 0], out[1, 1] = S[0, 0] + q, S[0, 1], S[1, 0], S[1, 1] + q
+    filter's process noise q a_k T over its age. window_S (W, 3, 3), window_age (W,): one
+    environment's rows of ``Filter`` (not the record: numba counts a reference to each of
+    its arrays at every call, and this runs W^3 times a restart; docs/performance.md#refcounts)."""
+    q = p.frame_q_position_m2ps * window_age[k] * p.ping_interval_s
+    out[0, 0], out[0, 1] = window_S[k, 0, 0] + q, window_S[k, 0, 1]
+    out[1, 0], out[1, 1] = window_S[k, 1, 0], window_S[k, 1, 1] + q
 
 
 @njit(cache=True)
-def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, inlier: np.ndarray) -> int:
+def _inliers(
+    R: np.ndarray,
+    window_S: np.ndarray,
+    age: np.ndarray,
+    j: int,
+    k: int,
+    l_mid: float,
+    p: CycleParams,
+    inlier: np.ndarray,
+) -> int:
     """Eq. F4's hypothesis: the line of eq. F3 through fixes j and k (none if its velocity error
     exceeds 10 ``frame_restart_velocity_std_mps``: a pair of outliers); which stored fixes lie
     on it (chi-square, 2 dof, gate2, against twice their noise) with an l residual within the
     1-dof gate of the window's median l_mid, into inlier (W,) bool. Returns their count (0: no
-    hypothesis, or j or k off it)."""
-    age, R = f.window_age[b], f.window_r[b]
+    hypothesis, or j or k off it). R (W, 3), window_S (W, 3, 3), age (W,): one environment's
+    window (``Filter``'s window_r, window_S, window_age rows)."""
     if age[j] == age[k]:
         return 0
     # beyond any boat or river-frame velocity error
@@ -182,9 +193,9 @@ def _inliers(f: Filter, b: int, j: int, k: int, l_mid: float, p: CycleParams, in
         w = (age[i] - age[k]) / (age[j] - age[k])  # the line at age i, from j and k
         d0 = R[i, 0] - (R[k, 0] + w * (R[j, 0] - R[k, 0]))
         d1 = R[i, 1] - (R[k, 1] + w * (R[j, 1] - R[k, 1]))
-        _noise2(f, b, i, p, S)
+        _noise2(window_S, age, i, p, S)
         dl = R[i, 2] - l_mid
-        if nis2(d0, d1, 2.0 * S) <= p.gate2 and dl * dl <= p.gate1 * 2.0 * f.window_S[b, i, 2, 2]:
+        if nis2(d0, d1, 2.0 * S) <= p.gate2 and dl * dl <= p.gate1 * 2.0 * window_S[i, 2, 2]:
             inlier[i] = True
             n += 1
     return n if inlier[j] and inlier[k] else 0
@@ -203,7 +214,7 @@ def filter_consensus(f: Filter, b: int, P: np.ndarray, p: CycleParams) -> int:
     for k in range(f.window_age.shape[1]):
         if f.window_age[b, k] < 0:
             continue
-        _noise2(f, b, k, p, S)
+        _noise2(f.window_S[b], f.window_age[b], k, p, S)
         S[0, 0] += P[0, 0]
         S[0, 1] += P[0, 1]
         S[1, 0] += P[1, 0]
@@ -230,7 +241,7 @@ def _fit(f: Filter, b: int, inlier: np.ndarray, p: CycleParams, theta: np.ndarra
     for k in range(age.shape[0]):
         if not inlier[k]:
             continue
-        _noise2(f, b, k, p, S)
+        _noise2(f.window_S[b], f.window_age[b], k, p, S)
         det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
         Wk = np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det
         A[0, 0], A[1, 1], A[0, 2], A[1, 3] = 1.0, 1.0, -float(age[k]), -float(age[k])
@@ -264,7 +275,7 @@ def line_fit(f: Filter, b: int, p: CycleParams, theta: np.ndarray, cov: np.ndarr
         for k in range(j + 1, W):
             if f.window_age[b, j] < 0 or f.window_age[b, k] < 0:
                 continue
-            n = _inliers(f, b, j, k, l_mid, p, inlier)
+            n = _inliers(f.window_r[b], f.window_S[b], f.window_age[b], j, k, l_mid, p, inlier)
             if n > best:
                 best = n
                 best_set[:] = inlier
@@ -291,7 +302,7 @@ def _refine(f: Filter, b: int, p: CycleParams, theta: np.ndarray, inlier: np.nda
         a = f.window_age[b, i]
         if not inlier[i]:
             continue
-        _noise2(f, b, i, p, S)
+        _noise2(f.window_S[b], f.window_age[b], i, p, S)
         d0 = f.window_r[b, i, 0] - (theta[0] - theta[2] * a)
         d1 = f.window_r[b, i, 1] - (theta[1] - theta[3] * a)
         inlier[i] = nis2(d0, d1, S) <= p.gate2

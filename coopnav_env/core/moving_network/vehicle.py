@@ -25,33 +25,37 @@ from .state import Filter, Vehicle, VehicleParams
 
 
 @njit(cache=True)
-def _guide(v: Vehicle, b: int, E: np.ndarray, p: VehicleParams) -> float:
-    """Line-of-sight guidance of vehicle b (``state.Vehicle`` v) for one sub-step on the
-    filter's frame estimate E (B,6): advances the waypoint, turns the heading towards the
-    LOS point; returns the commanded water speed (0 once the mission is done)."""
-    if v.done[b, 0]:
-        return 0.0
-    i = v.wp_index[b, 0]
-    wp = v.waypoints
-    est = E[b, 0] + 1j * E[b, 1]
-    a = wp[b, 0, i - 1, 0] + 1j * wp[b, 0, i - 1, 1]
-    e = wp[b, 0, i, 0] + 1j * wp[b, 0, i, 1]
+def _guide(
+    waypoints: np.ndarray,
+    n_waypoints: int,
+    i: int,
+    heading: complex,
+    E: np.ndarray,
+    compass_bias_rad: float,
+    p: VehicleParams,
+) -> tuple[float, int, bool, complex]:
+    """Line-of-sight guidance of one vehicle for one sub-step on its filter's frame
+    estimate E (6,), following ``waypoints`` (W, 3; the first ``n_waypoints``) from leg i:
+    advances the waypoint, turns the heading towards the LOS point. Returns (the
+    commanded water speed, the leg, whether the mission is done, the heading); speed 0
+    once done. It takes the vehicle's row and scalars, not ``state.Vehicle``: numba counts
+    a reference to every array of a record at each call (docs/performance.md#refcounts)."""
+    est = E[0] + 1j * E[1]
+    a = waypoints[i - 1, 0] + 1j * waypoints[i - 1, 1]
+    e = waypoints[i, 0] + 1j * waypoints[i, 1]
     q, along, seg_len = los_point(est, a, e, p.los_alpha)
     if along >= seg_len - p.acceptance_m or abs(est - e) < p.acceptance_m:
+        if i + 1 >= n_waypoints:
+            return 0.0, i, True, heading
         i += 1
-        if i >= v.n_waypoints[b, 0]:
-            v.done[b, 0] = True
-            return 0.0
-        v.wp_index[b, 0] = i
-        a, e = e, wp[b, 0, i, 0] + 1j * wp[b, 0, i, 1]
+        a, e = e, waypoints[i, 0] + 1j * waypoints[i, 1]
         q, along, seg_len = los_point(est, a, e, p.los_alpha)
     d = q - est
     # psi: direction of V -> Q in the frame, measured from x towards y
     # (clockwise); the heading controller's reference is psi + phi_hat
     # (section VI), which it tracks on the compass, bias included
-    ref = np.arctan2(d.imag, d.real) + E[b, 2] - v.compass_bias_rad[b]
-    v.heading[b] = turn_toward(v.heading[b], np.sin(ref) + 1j * np.cos(ref), p.turn_cos, p.turn_sin)
-    return p.speed_mps
+    ref = np.arctan2(d.imag, d.real) + E[2] - compass_bias_rad
+    return p.speed_mps, i, False, turn_toward(heading, np.sin(ref) + 1j * np.cos(ref), p.turn_cos, p.turn_sin)
 
 
 @njit(cache=True)
@@ -66,8 +70,14 @@ def integrate_vehicle(
     v, f, p = Vehicle(*v), Filter(*f), VehicleParams(*p)
     dt = p.dt
     for b in range(v.pos.shape[0]):
+        waypoints, n_waypoints, E = v.waypoints[b, 0], v.n_waypoints[b, 0], f.E[b]
         for k in range(p.K):
-            speed = _guide(v, b, f.E, p)
+            speed = 0.0
+            if not v.done[b, 0]:
+                speed, i, done, v.heading[b] = _guide(
+                    waypoints, n_waypoints, v.wp_index[b, 0], v.heading[b], E, v.compass_bias_rad[b], p
+                )
+                v.wp_index[b, 0], v.done[b, 0] = i, done
             ground = speed * v.speed_scale[b] * v.heading[b] + current[b]
             v.pos[b, 0, 0] += ground.real * dt
             v.pos[b, 0, 1] += ground.imag * dt
