@@ -81,3 +81,42 @@ def test_modules_are_of_readable_length():
 def test_the_walk_sees_the_core():
     names = {name for _, path in _modules() for name, _ in _functions(ast.parse(path.read_text()))}
     assert {"MovingNetworkSimulator.step", "exchange_of", "joseph_update_vector"} <= names
+
+
+# The large state records: numba counts a reference to each of their arrays at every call
+# of a helper (SurveyView 19, ConsiderView 16, ModemCycle 9), which was 70 % of the
+# simulator's time when the modem's per-ping helpers took them (docs/performance.md#refcounts)
+LARGE_RECORDS = {"sv", "cv", "cyc"}
+# helpers that take one anyway, on a rare path: a beacon's fix counter changed, a range was rejected
+RARE_PATH_HELPERS = {"measurements/modem._heard_fix_count", "measurements/modem._count_rejection"}
+
+
+def _inlined(fn: ast.FunctionDef) -> bool:
+    """Whether ``fn`` is decorated ``njit(..., inline="always")``: a per-element helper."""
+    for d in fn.decorator_list:
+        if isinstance(d, ast.Call) and any(
+            k.arg == "inline" and isinstance(k.value, ast.Constant) and k.value.value == "always" for k in d.keywords
+        ):
+            return True
+    return False
+
+
+def large_record_helpers() -> set[str]:
+    """The inlined helpers of ``core/`` that take a large state record as a parameter."""
+    out = set()
+    for module, path in _modules():
+        for name, fn in _functions(ast.parse(path.read_text(), filename=str(path))):
+            params = {a.arg for a in fn.args.posonlyargs + fn.args.args + fn.args.kwonlyargs}
+            if _inlined(fn) and params & LARGE_RECORDS:
+                out.add(f"{module}.{name}")
+    return out
+
+
+def test_per_element_helpers_take_rows_not_large_records():
+    found = large_record_helpers()
+    assert found >= {"measurements/modem._count_rejection"}, "the scan no longer sees the modem's helpers"
+    bad = found - RARE_PATH_HELPERS
+    assert not bad, (
+        f"inlined helpers taking {sorted(LARGE_RECORDS)}: {sorted(bad)}; pass the rows and scalars they read "
+        "(docs/performance.md#refcounts), or add a helper that runs on a rare path to RARE_PATH_HELPERS"
+    )
