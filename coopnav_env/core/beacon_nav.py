@@ -31,9 +31,10 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike
 
-from .dynamics import boat_noise_step, disturb_boats, unit_to_bearing
+from .dynamics import boat_noise_step, disturb_boats
 
 
 class SurfacingTimes(NamedTuple):
@@ -58,17 +59,25 @@ def surfacing_times(
     return SurfacingTimes(up, fix, fix + z0 / w, (z0 - zr) / w, fix + zr / w)
 
 
-def surfacing_depth_m(t_s: np.ndarray, depth_m: ArrayLike, vertical_speed_mps: float, times: SurfacingTimes) -> Any:
-    """The depth t_s into a surfacing from ``depth_m``: ascending, at the surface, descending."""
-    z0 = np.asarray(depth_m, dtype=float)
-    w = float(vertical_speed_mps)
-    down = np.clip(w * (t_s - times.fix_s), 0.0, z0)
-    return np.where(t_s < times.up_s, z0 - w * t_s, np.where(t_s <= times.fix_s, 0.0, down))
+@njit(cache=True)
+def _surfacing_depth_m(t_s: float, z0: float, w: float, up_s: float, fix_s: float) -> float:
+    """The depth t_s into a surfacing from z0 at vertical speed w: ascending, at the
+    surface, descending (module docstring)."""
+    if t_s < up_s:
+        return z0 - w * t_s
+    if t_s <= fix_s:
+        return 0.0
+    return min(max(w * (t_s - fix_s), 0.0), z0)
 
 
-def overlap_s(a0: np.ndarray, a1: np.ndarray, b0: ArrayLike, b1: ArrayLike) -> np.ndarray:
-    """Length of [a0, a1] intersected with [b0, b1] (s), elementwise."""
-    return np.maximum(np.minimum(a1, b1) - np.maximum(a0, b0), 0.0)
+@njit(cache=True)
+def _lock_pair(a: float, min_m: float, max_m: float, fade_fraction: float, p_loss: float, p_regain: float):
+    """(p_loss, p_regain) of bottom lock at altitude a (module docstring)."""
+    fade = max(fade_fraction * max_m, 1e-12)
+    ramp = min(max((a - (max_m - fade)) / fade, 0.0), 1.0)
+    if not (min_m <= a <= max_m):
+        return 1.0, 0.0
+    return p_loss + (1.0 - p_loss) * ramp, p_regain * (1.0 - ramp)
 
 
 def dvl_lock_probabilities(
@@ -80,53 +89,18 @@ def dvl_lock_probabilities(
     regain_probability: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per-cycle probabilities of losing and of regaining bottom lock at ``altitude_m``
-    (module docstring): (p_loss, p_regain), each shaped like the altitude."""
-    a = np.asarray(altitude_m, dtype=float)
-    fade = max(fade_fraction * max_altitude_m, 1e-12)
-    ramp = np.clip((a - (max_altitude_m - fade)) / fade, 0.0, 1.0)
-    inside = (a >= min_altitude_m) & (a <= max_altitude_m)
-    p_loss = np.where(inside, loss_probability + (1.0 - loss_probability) * ramp, 1.0)
-    p_regain = np.where(inside, regain_probability * (1.0 - ramp), 0.0)
-    return p_loss, p_regain
-
-
-def lock_probabilities(c: Any, depth_m: np.ndarray) -> tuple[Any, Any]:
-    """This cycle's (p_loss, p_regain) of the beacons' bottom lock at ``depth_m`` (B, N)
-    under ``c.dvl_lock_model`` (scalars for ``"fixed"``, the old model bit for bit)."""
-    if c.dvl_lock_model == "fixed":
-        return c.dvl_lock_loss_probability, c.dvl_lock_regain_probability
-    return dvl_lock_probabilities(
-        c.water_depth_m - depth_m,
-        c.dvl_min_altitude_m,
-        c.dvl_max_altitude_m,
-        c.dvl_lock_fade_fraction,
-        c.dvl_lock_loss_probability,
-        c.dvl_lock_regain_probability,
+    (module docstring): (p_loss, p_regain), each shaped like the altitude (``_lock_pair``
+    over the array)."""
+    pair = np.vectorize(_lock_pair, otypes=[float, float])
+    loss, regain = pair(
+        np.asarray(altitude_m, dtype=float),
+        min_altitude_m,
+        max_altitude_m,
+        fade_fraction,
+        loss_probability,
+        regain_probability,
     )
-
-
-def advance_surfacing(st: Any, c: Any, times: SurfacingTimes, cruise_depth_m: np.ndarray, due: np.ndarray) -> Any:
-    """One cycle of the beacons' surfacings (``beacon_surfacing="timed"``), in place on the
-    state ``st`` (``SimState``: b_surfacing, b_excursion_s, b_away_s, b_away and the depth
-    b_pos[..., 2]). ``due`` (B, N): a fix is due; a beacon not yet surfacing begins its
-    ascent at the end of this cycle. Returns (B, N) bool: the fixes taken this cycle, at
-    the end of the cycle in which a dwell ends (the dead reckoning over the rest of that
-    cycle is not added: at most one cycle's descent)."""
-    T = c.ping_interval_s
-    on = st.b_surfacing
-    t0 = st.b_excursion_s
-    t1 = t0 + T
-    fix = on & (t0 < times.fix_s) & (t1 >= times.fix_s)
-    st.b_away_s = np.where(on, overlap_s(t0, t1, times.away_from_s, times.away_until_s), 0.0)
-    ended = on & (t1 >= times.end_s)
-    start = due & ~on
-    st.b_surfacing = start | (on & ~ended)
-    st.b_excursion_s = np.where(start, 0.0, np.where(st.b_surfacing, t1, 0.0))
-    depth = surfacing_depth_m(st.b_excursion_s, cruise_depth_m, c.beacon_vertical_speed_mps, times)
-    depth = np.where(st.b_surfacing, depth, cruise_depth_m)
-    st.b_pos[..., 2] = np.where(cruise_depth_m > 0, depth, st.b_pos[..., 2])  # ASVs (depth 0) stay
-    st.b_away = st.b_surfacing & (depth < np.minimum(c.beacon_ranging_min_depth_m, cruise_depth_m) - 1e-9)
-    return fix
+    return loss, regain
 
 
 def away_masks(st: Any, S: int) -> tuple[np.ndarray, np.ndarray] | None:
@@ -156,32 +130,218 @@ def disturb_asvs(st: Any, c: Any, is_asv: np.ndarray, noise: np.ndarray) -> None
     )
 
 
-def add_displacement(travelled_m: np.ndarray, turn_sum_m: np.ndarray, moved: np.ndarray) -> tuple[Any, Any]:
+class _NavParams(NamedTuple):
+    """``navigate``'s scenario constants for one cycle."""
+
+    T: float  # ping_interval_s
+    walk_std: float  # the DVL's white velocity noise integrated over the cycle (m)
+    lock_fixed: bool  # dvl_lock_model == "fixed"
+    p_loss: float  # dvl_lock_loss_probability
+    p_regain: float  # dvl_lock_regain_probability
+    water_depth_m: float
+    min_altitude_m: float  # dvl_min_altitude_m
+    max_altitude_m: float  # dvl_max_altitude_m
+    fade_fraction: float  # dvl_lock_fade_fraction
+    cycle_rad: float  # beacon_dvl_heading_cycle_deg
+    sigma2: float  # scale error's plus constant heading error's variance
+    current_err_mps: float  # beacon_current_estimate_error_mps
+    gps_phi: float  # exp(-T / gps_error_time_constant_s), 0 for a white error
+    gps_noise_m: float
+    every_s: float  # beacon_surface_every_s
+    above_std_m: float  # beacon_surface_above_std_m
+    timed: bool  # beacon_surfacing == "timed"
+    vertical_speed_mps: float
+    ranging_min_depth_m: float
+
+
+class _NavState(NamedTuple):
+    """The beacons' navigation state ``navigate`` replaces each cycle (``SimState``'s b_*, (B, N))."""
+
+    dvl_lock: np.ndarray
+    walk_var_m2: np.ndarray
+    unlocked_s: np.ndarray
+    since_fix_s: np.ndarray
+    travelled_m: np.ndarray
+    turn_sum_m: np.ndarray
+    gps_err: np.ndarray
+    fix_count: np.ndarray
+    nav_var_m2: np.ndarray
+    fix_est: np.ndarray
+    surfacings: np.ndarray
+    surfacing: np.ndarray
+    excursion_s: np.ndarray
+    away_s: np.ndarray
+    away: np.ndarray
+
+
+_NAV_FIELDS = tuple("b_" + f for f in _NavState._fields)
+
+
+class _DvlErrors(NamedTuple):
+    """This episode's DVL dead-reckoning errors (B, N): the current estimate's (complex),
+    the compass's constant part and one-cycle phase, the velocity scale."""
+
+    current_err: np.ndarray
+    heading_bias_rad: np.ndarray
+    heading_phase_rad: np.ndarray
+    scale_error: np.ndarray
+
+
+def nav_params(c: Any, K: int) -> _NavParams:
+    """``navigate``'s constants from the scenario config ``c`` with ``K`` sub-steps a cycle
+    (built once per simulator)."""
+    tau = c.gps_error_time_constant_s
+    return _NavParams(
+        float(c.ping_interval_s),
+        float(c.dvl_velocity_noise_mps * c.substep_s * np.sqrt(K)),
+        c.dvl_lock_model == "fixed",
+        float(c.dvl_lock_loss_probability),
+        float(c.dvl_lock_regain_probability),
+        float(c.water_depth_m),
+        float(c.dvl_min_altitude_m),
+        float(c.dvl_max_altitude_m),
+        float(c.dvl_lock_fade_fraction),
+        float(np.radians(c.beacon_dvl_heading_cycle_deg)),
+        float(c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
+        float(c.beacon_current_estimate_error_mps),
+        float(np.exp(-c.ping_interval_s / tau)) if tau > 0 else 0.0,
+        float(c.gps_noise_m),
+        float(c.beacon_surface_every_s),
+        float(c.beacon_surface_above_std_m),
+        c.beacon_surfacing == "timed",
+        float(c.beacon_vertical_speed_mps),
+        float(c.beacon_ranging_min_depth_m),
+    )
+
+
+@njit(cache=True)
+def _surface(on: bool, t0: float, due: bool, times: tuple, z0: float, prm: _NavParams) -> tuple:
+    """One cycle of a beacon's surfacings (``beacon_surfacing="timed"``): ``on`` a surfacing
+    begun ``t0`` s ago, ``due`` a fix is due (a beacon not yet surfacing begins its ascent at
+    the end of this cycle), times (up, fix, end, away from, away until) of a surfacing from its
+    depth z0. Returns (the fix taken this cycle, at the end of the cycle in which a dwell ends
+    (the dead reckoning over the rest of that cycle is not added: at most one cycle's descent);
+    the time above the ranging depth this cycle; on a surfacing now; its time; the depth;
+    away)."""
+    up_s, fix_s, end_s, away_from_s, away_until_s = times
+    t1 = t0 + prm.T
+    fix = on and t0 < fix_s and t1 >= fix_s
+    away_s = max(min(t1, away_until_s) - max(t0, away_from_s), 0.0) if on else 0.0
+    start = due and not on
+    going = start or (on and not t1 >= end_s)
+    excursion_s = 0.0 if start else (t1 if going else 0.0)
+    depth = _surfacing_depth_m(excursion_s, z0, prm.vertical_speed_mps, up_s, fix_s) if going else z0
+    return fix, away_s, going, excursion_s, depth, going and depth < min(prm.ranging_min_depth_m, z0) - 1e-9
+
+
+@njit(cache=True)
+def _navigate(old, new, dvl, pos, nav_err, moved, u, draws_n, is_asv, times, cruise_depth_m, prm):
+    """``navigate`` over the batch: ``old`` (``_NavState``) read, ``new`` written; pos
+    (B, N, 3) depth and nav_err (B, N, 3) horizontal written in place (module docstring,
+    ``navigate``'s equations)."""
+    for b in range(moved.shape[0]):
+        for n in range(moved.shape[1]):
+            d = moved[b, n]
+            # bottom lock is lost and regained at random (per cycle), from the altitude
+            p_loss, p_regain = prm.p_loss, prm.p_regain
+            if not prm.lock_fixed:
+                alt = prm.water_depth_m - pos[b, n, 2]
+                p_loss, p_regain = _lock_pair(
+                    alt, prm.min_altitude_m, prm.max_altitude_m, prm.fade_fraction, p_loss, p_regain
+                )
+            lock = u[b, n] >= p_loss if old.dvl_lock[b, n] else u[b, n] < p_regain
+            new.dvl_lock[b, n] = lock
+            # DVL: the white velocity noise integrated over the cycle (a random walk); without
+            # lock, the thrust model plus the current estimate, whose error drifts
+            drift = 0.0j if lock else dvl.current_err[b, n] * prm.T
+            heading_err = dvl.heading_bias_rad[b, n] + prm.cycle_rad * np.sin(
+                np.arctan2(d.real, d.imag) + dvl.heading_phase_rad[b, n]
+            )
+            bias = ((1.0 + dvl.scale_error[b, n]) * np.exp(-1j * heading_err) - 1.0) * d
+            walk = prm.walk_std * (draws_n[b, n, 0] + 1j * draws_n[b, n, 1])
+            err_h = (nav_err[b, n, 0] + 1j * nav_err[b, n, 1]) + drift + bias + walk
+            # the variance it carries: the random walk adds up linearly; the current
+            # estimate's error is a bias, so its part grows with the square of the time
+            # without lock; the constant heading and scale errors' part with the square of the
+            # displacement D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2)
+            # |D|^2; half of each per axis; the one-cycle part exact for any path
+            # (heading_cycle_variance_m2)
+            walk_var = old.walk_var_m2[b, n] + prm.walk_std**2
+            unlocked = old.unlocked_s[b, n] + (0.0 if lock else prm.T)
+            since_fix = old.since_fix_s[b, n] + prm.T
+            est_h = pos[b, n, 0] + 1j * pos[b, n, 1] + err_h
+            travelled, turn_sum = add_displacement(old.travelled_m[b, n], old.turn_sum_m[b, n], d)
+            var = (
+                walk_var
+                + (prm.current_err_mps * unlocked) ** 2
+                + 0.5 * prm.sigma2 * abs(est_h - old.fix_est[b, n]) ** 2
+                + heading_cycle_variance_m2(prm.cycle_rad, travelled, turn_sum)
+            )
+            # a GPS fix: every cycle for ASVs; at the surface when due for AUVs. The
+            # receiver's error is first-order Gauss-Markov, exact over the cycle: e <- phi e
+            # + sigma sqrt(1 - phi^2) n (phi = 0: white, a fresh error each fix)
+            phi = prm.gps_phi
+            gps = phi * old.gps_err[b, n] + prm.gps_noise_m * np.sqrt(1.0 - phi * phi) * (
+                draws_n[b, n, 2] + 1j * draws_n[b, n, 3]
+            )
+            new.gps_err[b, n] = gps
+            auv = not is_asv[n]
+            due = auv and (
+                (prm.every_s > 0 and since_fix >= prm.every_s - 1e-9)
+                or (prm.above_std_m > 0 and var > prm.above_std_m**2)
+            )
+            surface = due
+            on, t0, away_s, away = old.surfacing[b, n], old.excursion_s[b, n], old.away_s[b, n], old.away[b, n]
+            if prm.timed:  # due: it ascends, dwells, descends (module docstring)
+                when = (times.up_s[n], times.fix_s[n], times.end_s[n], times.away_from_s[n], times.away_until_s[n])
+                surface, away_s, on, t0, depth, away = _surface(on, t0, due, when, cruise_depth_m[n], prm)
+                if cruise_depth_m[n] > 0:  # ASVs (depth 0) stay
+                    pos[b, n, 2] = depth
+            new.surfacing[b, n], new.excursion_s[b, n], new.away_s[b, n], new.away[b, n] = on, t0, away_s, away
+            fix = not auv or surface
+            new.fix_count[b, n] = old.fix_count[b, n] + surface  # in the ping: the survey zeroes its Pxb (C8)
+            if fix:
+                err_h = gps
+            gps_var = prm.gps_noise_m**2
+            new.nav_var_m2[b, n] = gps_var if fix else var
+            new.walk_var_m2[b, n] = gps_var if surface else walk_var
+            new.unlocked_s[b, n] = 0.0 if surface else unlocked
+            new.since_fix_s[b, n] = 0.0 if fix else since_fix
+            new.travelled_m[b, n] = 0.0 if fix else travelled
+            new.turn_sum_m[b, n] = 0.0j if fix else turn_sum
+            new.fix_est[b, n] = pos[b, n, 0] + 1j * pos[b, n, 1] + err_h if fix else old.fix_est[b, n]
+            new.surfacings[b, n] = surface
+            nav_err[b, n, 0], nav_err[b, n, 1] = err_h.real, err_h.imag
+
+
+@njit(cache=True)
+def add_displacement(travelled_m: float, turn_sum_m: complex, moved: complex) -> tuple[float, complex]:
     """The sums of ``heading_cycle_variance_m2`` after one more cycle's displacement
     ``moved`` (complex, east + 1j north): s + |d| and G + |d| e^{-2i theta} = G - d^2 / |d|."""
-    step_m = np.abs(moved)
-    return travelled_m + step_m, turn_sum_m - moved * moved / np.maximum(step_m, 1e-300)
+    step_m = abs(moved)
+    return travelled_m + step_m, turn_sum_m - moved * moved / max(step_m, 1e-300)
 
 
-def heading_cycle_variance_m2(cycle_deg: float, travelled_m: np.ndarray, turn_sum_m: np.ndarray) -> Any:
+@njit(cache=True)
+def heading_cycle_variance_m2(cycle_rad: float, travelled_m: float, turn_sum_m: complex) -> float:
     """Per-axis variance of the dead reckoning's error from the one-cycle compass error
-    b1 sin(theta + phi) (phase phi unknown, uniform), exact for any path under the model.
+    b1 sin(theta + phi) (b1 = ``cycle_rad``, phase phi unknown, uniform), exact for any
+    path under the model.
 
     With the cycles' displacements d_k = i |d_k| e^{-i theta_k} (theta a bearing) the error
     -i b1 sum_k sin(theta_k + phi) d_k is -i b1 (e^{i phi} s - e^{-i phi} G) / 2, with
     s = sum |d_k| (``travelled_m``) and G = sum |d_k| e^{-2i theta_k} (``turn_sum_m``);
     over phi, E|.|^2 = b1^2 (s^2 + |G|^2) / 4, half of it per axis: b1^2 s^2 / 4 per axis on
     a straight run (|G| = s), half that on whole orbits (G = 0)."""
-    return 0.125 * np.radians(cycle_deg) ** 2 * (travelled_m**2 + np.abs(turn_sum_m) ** 2)
+    return 0.125 * cycle_rad**2 * (travelled_m**2 + abs(turn_sum_m) ** 2)
 
 
 def navigate(
     st: Any,
-    c: Any,
+    prm: _NavParams,
     draws: dict,
     moved: np.ndarray,
     is_asv: np.ndarray,
-    K: int,
     surfacing: SurfacingTimes,
     cruise_depth_m: np.ndarray,
 ) -> None:
@@ -194,64 +354,16 @@ def navigate(
     bottom lock is lost; optionally a GPS fix at the surface (every
     ``beacon_surface_every_s``, or when the own std exceeds ``beacon_surface_above_std_m``).
     ASVs: a fresh GPS fix every cycle. The variance each carries (what enters the
-    survey filters' R) is the beacon's own error model, not its actual error. In place on
-    ``st`` (``SimState``): the errors, variances, lock, fix bookkeeping and counters;
-    ``K`` sub-steps of ``c.substep_s``; ``surfacing``/``cruise_depth_m``: the timed
-    surfacing's durations and each beacon's depth below it."""
-    T, dt = c.ping_interval_s, c.substep_s
-    n, u = draws["beacon_nav_n"], draws["beacon_nav_u"]
-    auv = ~is_asv
-    # bottom lock is lost and regained at random (per cycle), from the altitude (core/py)
-    p_loss, p_regain = lock_probabilities(c, st.b_pos[..., 2])
-    st.b_dvl_lock = np.where(st.b_dvl_lock, u >= p_loss, u < p_regain)
-    # DVL: the white velocity noise integrated over the cycle (a random walk)
-    walk_std = c.dvl_velocity_noise_mps * dt * np.sqrt(K)
-    drift = np.where(st.b_dvl_lock, 0.0, st.b_current_err * T)  # without lock: thrust model + current estimate
-    heading_err = st.b_dvl_heading_bias_rad + np.radians(c.beacon_dvl_heading_cycle_deg) * np.sin(
-        unit_to_bearing(moved) + st.b_dvl_heading_phase_rad
-    )
-    bias = ((1.0 + st.b_dvl_scale_error) * np.exp(-1j * heading_err) - 1.0) * moved
-    err_h = (st.b_nav_err[..., 0] + 1j * st.b_nav_err[..., 1]) + drift + bias + walk_std * (n[..., 0] + 1j * n[..., 1])
-    # the variance it carries: the random walk adds up linearly; the current-estimate
-    # error is a bias, so its part grows with the square of the time spent without lock;
-    # the constant heading and scale errors' part grows with the square of the displacement
-    # D since the last fix, E|(k - i b0) D|^2 = (sigma_k^2 + sigma_b0^2) |D|^2; half of
-    # each per axis; the one-cycle part exact for any path (heading_cycle_variance_m2)
-    st.b_walk_var_m2 = st.b_walk_var_m2 + walk_std**2
-    st.b_unlocked_s = st.b_unlocked_s + np.where(st.b_dvl_lock, 0.0, T)
-    st.b_since_fix_s = st.b_since_fix_s + T
-    est_h = st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h
-    sigma2 = c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2
-    st.b_travelled_m, st.b_turn_sum_m = add_displacement(st.b_travelled_m, st.b_turn_sum_m, moved)
-    var = (
-        st.b_walk_var_m2
-        + (c.beacon_current_estimate_error_mps * st.b_unlocked_s) ** 2
-        + 0.5 * sigma2 * np.abs(est_h - st.b_fix_est) ** 2
-        + heading_cycle_variance_m2(c.beacon_dvl_heading_cycle_deg, st.b_travelled_m, st.b_turn_sum_m)
-    )
-    # a GPS fix: every cycle for ASVs; at the surface when due for AUVs. The receiver's
-    # error is first-order Gauss-Markov, exact over the cycle: e <- phi e + sigma
-    # sqrt(1 - phi^2) n, phi = exp(-T / tau) (tau = 0: white, a fresh error each fix)
-    tau = c.gps_error_time_constant_s
-    phi = np.exp(-T / tau) if tau > 0 else 0.0
-    st.b_gps_err = phi * st.b_gps_err + c.gps_noise_m * np.sqrt(1.0 - phi * phi) * (n[..., 2] + 1j * n[..., 3])
-    gps_h = st.b_gps_err
-    surface = auv & (
-        ((c.beacon_surface_every_s > 0) & (st.b_since_fix_s >= c.beacon_surface_every_s - 1e-9))
-        | ((c.beacon_surface_above_std_m > 0) & (var > c.beacon_surface_above_std_m**2))
-    )
-    if c.beacon_surfacing == "timed":  # due: it ascends, dwells, descends (core/py)
-        surface = advance_surfacing(st, c, surfacing, cruise_depth_m, surface)
-    fix = ~auv | surface
-    st.b_fix_count = st.b_fix_count + surface  # sent in the ping: the survey zeroes its Pxb (eq. C8)
-    err_h = np.where(fix, gps_h, err_h)
-    gps_var = c.gps_noise_m**2
-    st.b_nav_var_m2 = np.where(fix, gps_var, var)
-    st.b_walk_var_m2 = np.where(surface, gps_var, st.b_walk_var_m2)
-    st.b_unlocked_s = np.where(surface, 0.0, st.b_unlocked_s)
-    st.b_since_fix_s = np.where(fix, 0.0, st.b_since_fix_s)
-    st.b_travelled_m = np.where(fix, 0.0, st.b_travelled_m)
-    st.b_turn_sum_m = np.where(fix, 0.0, st.b_turn_sum_m)
-    st.b_fix_est = np.where(fix, st.b_pos[..., 0] + 1j * st.b_pos[..., 1] + err_h, st.b_fix_est)
-    st.b_surfacings = surface.astype(np.int64)
-    st.b_nav_err[..., 0], st.b_nav_err[..., 1] = err_h.real, err_h.imag
+    survey filters' R) is the beacon's own error model, not its actual error. On ``st``
+    (``SimState``): the errors, variances, lock, fix bookkeeping and counters, each a new
+    array (b_pos's depth and b_nav_err in place); prm: ``nav_params``;
+    ``surfacing``/``cruise_depth_m`` (N,): the timed surfacing's durations and each
+    beacon's depth below it. One compiled kernel over the batch (``_navigate``): as numpy on
+    arrays of one it was a quarter of a batch-of-one step."""
+    old = _NavState(*(getattr(st, f) for f in _NAV_FIELDS))
+    new = _NavState(*(np.empty_like(a) for a in old))
+    dvl = _DvlErrors(st.b_current_err, st.b_dvl_heading_bias_rad, st.b_dvl_heading_phase_rad, st.b_dvl_scale_error)
+    u, n = draws["beacon_nav_u"], draws["beacon_nav_n"]
+    _navigate(old, new, dvl, st.b_pos, st.b_nav_err, moved, u, n, is_asv, surfacing, cruise_depth_m, prm)
+    for f, a in zip(_NAV_FIELDS, new):
+        setattr(st, f, a)

@@ -75,6 +75,7 @@ class Simulator(BatchSimulator):
         self._surfacing_times = beacon_nav.surfacing_times(
             self._beacon_depth, c.beacon_vertical_speed_mps, c.beacon_surface_dwell_s, c.beacon_ranging_min_depth_m
         )
+        self._nav_params = beacon_nav.nav_params(c, self.K)  # the beacons' navigation's constants
         self._build_paths()
         self.gate = gate_threshold(c.range_gate_probability)  # the chi-square gate of every acoustic update
         self.sends_current = ~is_asv & c.survey_uses_beacon_current  # DVL beacons send their current estimate
@@ -513,14 +514,7 @@ class Simulator(BatchSimulator):
         """The beacons' own navigation over the cycle (``beacon_nav.navigate``); ``moved``
         (B,N) complex: their true ground displacement."""
         beacon_nav.navigate(
-            self._live,
-            self.config,
-            draws,
-            moved,
-            self._beacon_is_asv,
-            self.K,
-            self._surfacing_times,
-            self._beacon_depth,
+            self._live, self._nav_params, draws, moved, self._beacon_is_asv, self._surfacing_times, self._beacon_depth
         )
 
     def _exchange_messages(self, draws: dict) -> None:
