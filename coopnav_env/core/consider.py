@@ -62,6 +62,15 @@ from numba import njit
 GOLDEN = 0.6180339887498949
 
 
+@njit(cache=True, inline="always")
+def _consider_row(Pxb: np.ndarray, Pbb: np.ndarray, H: np.ndarray, i: int) -> float:
+    """Row 3 + i of Pa Ha^T in eq. (C2)-(C5): (Pxb^T H^T + Pbb Hb^T)_i, Hb = -H[:nb]."""
+    v = Pxb[0, i] * H[0] + Pxb[1, i] * H[1] + Pxb[2, i] * H[2]
+    for k in range(Pbb.shape[0]):
+        v -= Pbb[i, k] * H[k]
+    return v
+
+
 @njit(cache=True)
 def schmidt_range_update(
     x: np.ndarray,
@@ -99,10 +108,7 @@ def schmidt_range_update(
         PH2 += c2 * hk
     S += H[0] * PH0 + H[1] * PH1 + H[2] * PH2
     for i in range(nb):  # the consider rows of PH, times Hb
-        v = Pxb[0, i] * H[0] + Pxb[1, i] * H[1] + Pxb[2, i] * H[2]
-        for k in range(nb):
-            v -= Pbb[i, k] * H[k]
-        S -= H[i] * v
+        S -= H[i] * _consider_row(Pxb, Pbb, H, i)
     nis = y * y / S
     K[:] = 0.0
     if not nis <= gate:
@@ -121,10 +127,8 @@ def schmidt_range_update(
         for j in range(i, 3):
             v = 0.5 * (P[i, j] + P[j, i]) - 0.5 * (K[i] * (PH[j] + MH[j]) + K[j] * (PH[i] + MH[i]))
             P[i, j] = P[j, i] = v + R * K[i] * K[j]
-    for j in range(nb):  # PH's consider rows: Pxb^T H^T + Pbb Hb^T
-        pb = Pxb[0, j] * H[0] + Pxb[1, j] * H[1] + Pxb[2, j] * H[2]
-        for k in range(nb):
-            pb -= Pbb[j, k] * H[k]
+    for j in range(nb):
+        pb = _consider_row(Pxb, Pbb, H, j)  # Pxb is not changed yet
         for i in range(3):
             Pxb[i, j] -= K[i] * pb
     return nis, True

@@ -73,9 +73,9 @@ def _integrate_survey(sv, compass_noise_rad, pitch_noise_rad, current, prm):
     a reference to every array of a record at each call (docs/performance.md#refcounts).
     """
     B, S = compass_noise_rad.shape[0], compass_noise_rad.shape[2]
+    dt = prm.substep_s
     for b in prange(B):
         for s in range(S):
-            dt = prm.substep_s
             p = sv.pos[b, s, 0] + 1j * sv.pos[b, s, 1]
             pz = sv.pos[b, s, 2]
             e = sv.est[b, s, 0] + 1j * sv.est[b, s, 1]
@@ -127,7 +127,7 @@ def _integrate_survey(sv, compass_noise_rad, pitch_noise_rad, current, prm):
             sv.wp_index[b, s] = i
             v = ut * np.cos(pitch) * h + current[b]
             sv.vel_true[b, s, 0], sv.vel_true[b, s, 1], sv.vel_true[b, s, 2] = v.real, v.imag, -ut * np.sin(pitch)
-            ve = d_h / dt + sv.current_est[b, s]
+            ve = d_h / dt + told
             sv.vel_est[b, s, 0], sv.vel_est[b, s, 1], sv.vel_est[b, s, 2] = ve.real, ve.imag, d_z / dt
 
 

@@ -211,10 +211,11 @@ def filter_consensus(f: Filter, b: int, P: np.ndarray, p: CycleParams) -> int:
     along the same direction, d(x, y)/dl) can otherwise outvote a filter that is right."""
     S = np.empty((2, 2))
     n = 0
-    for k in range(f.window_age.shape[1]):
-        if f.window_age[b, k] < 0:
+    window_S, window_age = f.window_S[b], f.window_age[b]
+    for k in range(window_age.shape[0]):
+        if window_age[k] < 0:
             continue
-        _noise2(f.window_S[b], f.window_age[b], k, p, S)
+        _noise2(window_S, window_age, k, p, S)
         S[0, 0] += P[0, 0]
         S[0, 1] += P[0, 1]
         S[1, 0] += P[1, 0]
@@ -233,7 +234,7 @@ def _fit(f: Filter, b: int, inlier: np.ndarray, p: CycleParams, theta: np.ndarra
     (e_x, e_y, U_x, U_y) and cov (4, 4) = N^-1, N = sum A_k^T W_k A_k (W_k the inverse of the
     fix's noise) plus the prior's information on U (``frame_restart_velocity_std_mps``), in place.
     Returns (the mean l residual, its variance)."""
-    age, R = f.window_age[b], f.window_r[b]
+    age, R, window_S = f.window_age[b], f.window_r[b], f.window_S[b]
     N, rhs, S, A = np.zeros((4, 4)), np.zeros(4), np.empty((2, 2)), np.zeros((2, 4))
     u_var = (p.frame_restart_velocity_std_mps * p.ping_interval_s) ** 2
     N[2, 2], N[3, 3] = 1.0 / u_var, 1.0 / u_var  # the prior on U
@@ -241,7 +242,7 @@ def _fit(f: Filter, b: int, inlier: np.ndarray, p: CycleParams, theta: np.ndarra
     for k in range(age.shape[0]):
         if not inlier[k]:
             continue
-        _noise2(f.window_S[b], f.window_age[b], k, p, S)
+        _noise2(window_S, age, k, p, S)
         det = S[0, 0] * S[1, 1] - S[0, 1] * S[1, 0]
         Wk = np.array([[S[1, 1], -S[0, 1]], [-S[1, 0], S[0, 0]]]) / det
         A[0, 0], A[1, 1], A[0, 2], A[1, 3] = 1.0, 1.0, -float(age[k]), -float(age[k])
@@ -271,11 +272,12 @@ def line_fit(f: Filter, b: int, p: CycleParams, theta: np.ndarray, cov: np.ndarr
         return 0, 0.0, 0.0
     l_mid = np.median(ls)
     best = 0
+    R, window_S, age = f.window_r[b], f.window_S[b], f.window_age[b]
     for j in range(W):
         for k in range(j + 1, W):
-            if f.window_age[b, j] < 0 or f.window_age[b, k] < 0:
+            if age[j] < 0 or age[k] < 0:
                 continue
-            n = _inliers(f.window_r[b], f.window_S[b], f.window_age[b], j, k, l_mid, p, inlier)
+            n = _inliers(R, window_S, age, j, k, l_mid, p, inlier)
             if n > best:
                 best = n
                 best_set[:] = inlier
@@ -298,11 +300,12 @@ def _refine(f: Filter, b: int, p: CycleParams, theta: np.ndarray, inlier: np.nda
     noise (the hypothesis of two fixes was tested at twice it), into inlier (W,); their count."""
     S = np.empty((2, 2))
     n = 0
+    window_S, window_age = f.window_S[b], f.window_age[b]
     for i in range(inlier.shape[0]):
-        a = f.window_age[b, i]
+        a = window_age[i]
         if not inlier[i]:
             continue
-        _noise2(f.window_S[b], f.window_age[b], i, p, S)
+        _noise2(window_S, window_age, i, p, S)
         d0 = f.window_r[b, i, 0] - (theta[0] - theta[2] * a)
         d1 = f.window_r[b, i, 1] - (theta[1] - theta[3] * a)
         inlier[i] = nis2(d0, d1, S) <= p.gate2
