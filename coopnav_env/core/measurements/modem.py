@@ -121,7 +121,7 @@ class ModemParams(NamedTuple):
     salinity_psu: float
     temperature_uncertainty_c: float
     gate: float  # the chi-square gate (Simulator.gate)
-    sends_current: np.ndarray  # (N,) bool: the beacon's ping carries its current estimate
+    sends_current_mask: int  # bit j: beacon j's ping carries its current estimate (an int: performance.md#refcounts)
     fusion: int  # beacon_error_fusion: WHITE, SCHMIDT or CI
     window: bool  # lockout_recovery in ("window", "window_consensus")
     window_consensus: bool  # lockout_recovery == "window_consensus": which ranges by eq. R7, not R6'
@@ -131,13 +131,11 @@ class ModemParams(NamedTuple):
     gps_tau_s: float  # gps_error_time_constant_s
     mixture: bool  # range_outlier_model in ("mixture", "hold"): eqs. M1-M3
     hold: bool  # range_outlier_model == "hold": the hypotheses held for the next range (M4-M7)
-    window_chi2: np.ndarray  # (7,): the 99 % chi-square point of a window fix's residuals by dof = m - 2
-    window_chi2_consensus: np.ndarray  # (7,): the same at 99.9 %, eq. R7's guard
+    window_chi2: tuple[float, ...]  # 7: the 99 % chi-square point of a window fix's residuals by dof = m - 2
+    window_chi2_consensus: tuple[float, ...]  # 7: the same at 99.9 %, eq. R7's guard
     dr_scale_std: float  # survey_speed_scale_error_std: the window's shared shift scale error (R2')
     dr_heading_std_rad: float  # compass_bias_std_deg: its shared rotation (R2')
-    dr_current_std_mps: (
-        float  # the added current's error per axis (dr_bias.current_error_std_mps): its shared drift (R2')
-    )
+    dr_current_std_mps: float  # the added current's error per axis (dr_bias): its shared drift (R2')
     bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
     second_order: bool  # range_linearization == "second_order": eqs. L1-L3 (navigation.range_curvature)
     reinit_after_short: int  # reinit_after_short_ranges: a lock-out after this many too short in a row (0: as any)
@@ -297,11 +295,13 @@ def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
     x, P, Pxb, keep = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty(m, np.int64)
     win = _window_of(cv, sv, b, s, j, np.arange(n - m, n), t_s)
     x0, P0 = sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy()
+    # the record holds tuples: an array in it would be reference-counted at every call (docs/performance.md#refcounts)
+    chi2_by_dof = np.array(prm.window_chi2_consensus if prm.window_consensus else prm.window_chi2)
     if prm.window_consensus:
-        eps, mu, chi2_r7 = prm.outlier_probability, prm.outlier_mean_excess_m, prm.window_chi2_consensus
-        n_kept = window_consensus_fix(win, m, noise, x0, P0, chi2_r7, eps, mu, x, P, Pxb, keep)
+        eps, mu = prm.outlier_probability, prm.outlier_mean_excess_m
+        n_kept = window_consensus_fix(win, m, noise, x0, P0, chi2_by_dof, eps, mu, x, P, Pxb, keep)
     else:
-        n_kept = window_greedy_fix(win, m, noise, x0, P0, prm.window_chi2, x, P, Pxb, keep)
+        n_kept = window_greedy_fix(win, m, noise, x0, P0, chi2_by_dof, x, P, Pxb, keep)
     if n_kept < 3:
         return False
     cv.Pxb[b, s] = 0.0  # the old estimate is discarded: so are its correlations
@@ -475,7 +475,7 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                     r += -prm.outlier_mean_excess_m * np.log(u[2])
                 if u[3] < prm.nan_probability:
                     r = np.nan
-                if prm.sends_current[j]:  # the ping carries the beacon's current estimate (Gao II-A)
+                if (prm.sends_current_mask >> j) & 1:  # the ping carries the beacon's current estimate (Gao II-A)
                     sv.current_est[b, s] = cyc.current_sent[b, j]
                 if not np.isfinite(r):
                     out.nan_count[b, s] += 1
@@ -541,7 +541,7 @@ class ModemRanging:
                 c.ranging_mode == "twtt",
                 *(float(v) for v in scalars[2:]),
                 gate,
-                np.asarray(sim.sends_current, dtype=bool),
+                sum(1 << j for j, sends in enumerate(np.asarray(sim.sends_current, dtype=bool)) if sends),
                 FUSIONS[c.beacon_error_fusion],
                 c.lockout_recovery in ("window", "window_consensus"),
                 c.lockout_recovery == "window_consensus",
@@ -551,8 +551,8 @@ class ModemRanging:
                 float(c.gps_error_time_constant_s),
                 c.range_outlier_model in ("mixture", "hold"),
                 c.range_outlier_model == "hold",
-                chi2.ppf(0.99, np.maximum(np.arange(7), 1)),
-                chi2.ppf(0.999, np.maximum(np.arange(7), 1)),
+                tuple(float(v) for v in chi2.ppf(0.99, np.maximum(np.arange(7), 1))),
+                tuple(float(v) for v in chi2.ppf(0.999, np.maximum(np.arange(7), 1))),
                 float(c.survey_speed_scale_error_std),
                 float(np.radians(c.compass_bias_std_deg)),
                 current_error_std_mps(c),
