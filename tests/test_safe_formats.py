@@ -37,12 +37,15 @@ TINY = {
 }
 # the policies converted from the old pickle-based files (ppo_gao_sea was, until it was
 # replaced on 2026-12-02 by a fine-tune trained in the safe format; ppo_swarm_mls until it
-# was replaced on 2026-12-04 by an entity policy)
+# was replaced on 2026-12-04 by an entity policy; the ppo_sousa_asv gate until it was
+# replaced on 2026-12-05 by one network trained on this round's physics): kept under
+# tests/data/converted, where they still check the conversion and the depth gate
+CONVERTED = Path(__file__).resolve().parent / "data" / "converted"
 SHIPPED = {
-    "ppo_sousa_asv_deep": "ppo_sousa_asv/deep",
-    "ppo_sousa_asv_shallow": "ppo_sousa_asv/shallow",
-    "ppo_sousa_asv_shallow_ft": "ppo_sousa_asv/shallow_ft",
-    "ppo_sousa_asv": "ppo_sousa_asv",
+    "ppo_sousa_asv_deep": "ppo_sousa_asv_gate/deep",
+    "ppo_sousa_asv_shallow": "ppo_sousa_asv_gate/shallow",
+    "ppo_sousa_asv_shallow_ft": "ppo_sousa_asv_gate/shallow_ft",
+    "ppo_sousa_asv": "ppo_sousa_asv_gate",
 }
 
 
@@ -143,21 +146,22 @@ def _refused(capsys, code, marker, name):
 
 # ------------------------------------------------------------------------------------
 # the shipped policies: converted, acting exactly as the old SB3 zip + pkl did
-def test_shipped_policies_act_as_recorded_with_the_old_files():
+def test_converted_policies_act_as_recorded_with_the_old_files():
     """tests/data/shipped_policy_actions.npz: ~200 observations per policy from real
     episodes and the actions of the old loader (SB3 model.zip + vecnormalize.pkl),
-    recorded before the conversion."""
+    recorded before the conversion (the policies, once shipped, in tests/data/converted)."""
     data = np.load(DATA)
     for key, rel in SHIPPED.items():
         obs = data[f"{key}/obs"]
         assert obs.shape[0] == 200
-        policy = agents.load(agents.POLICY_DIR / rel)
+        policy = agents.load(CONVERTED / rel)
         # equal up to float32 round-off: the matrix products' summation order depends on the
         # CPU's vector unit (on the machine that recorded them they are bit-identical)
         np.testing.assert_allclose(policy.act_batch(obs), data[f"{key}/actions"], rtol=0, atol=1e-6, err_msg=key)
         # one row alone: the same, float32 round-off of a batch of one aside
         assert np.allclose(policy.act(obs[0]), data[f"{key}/actions"][0], atol=1e-5), key
-    assert not [p for p in agents.POLICY_DIR.rglob("*") if p.suffix in (".zip", ".pkl")]
+    for where in (agents.POLICY_DIR, CONVERTED):
+        assert not [p for p in where.rglob("*") if p.suffix in (".zip", ".pkl")]
 
 
 def test_loading_imports_no_unpickler(monkeypatch):

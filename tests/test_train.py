@@ -32,6 +32,7 @@ from agents.training import (
 from agents.training.config import config_from_record, from_dict, load_config
 
 ROOT = Path(__file__).resolve().parents[1]
+GATE = ROOT / "tests" / "data" / "converted" / "ppo_sousa_asv_gate"  # two networks and a depth gate
 
 TINY = {
     "n_envs": 4,
@@ -344,11 +345,12 @@ def test_tiny_training_run_on_the_newer_scenarios(tmp_path, scenario):
 
 
 def test_depth_gated_policy_routes_by_the_observed_depth(tmp_path):
-    """agents.DepthGatedPolicy (the shipped ppo_sousa_asv): the shallow network acts where
-    the survey vehicle's observed depth below the beacon is under the threshold."""
+    """agents.DepthGatedPolicy (the ppo_sousa_asv shipped until 2026-12-05, kept in
+    tests/data/converted): the shallow network acts where the survey vehicle's observed
+    depth below the beacon is under the threshold."""
     from coopnav_env.obs_layout import encode
 
-    shipped = agents.load("ppo_sousa_asv")
+    shipped = agents.load(GATE)
     assert isinstance(shipped, agents.DepthGatedPolicy) and shipped.threshold_m == 12.5
     config = coopnav_env.make_config("sousa_asv")
     shallow = encode(config, own_en_m=[0, 0], survey_rel_m=[[20.0, 5.0, 5.0]])
@@ -411,15 +413,17 @@ def test_init_from_starts_from_another_runs_weights_and_normalization(tmp_path, 
         == 2
     )
     assert "does not fit this network" in capsys.readouterr().err
-    assert _run(tmp_path, tmp_path / "gate", 256, init_from="ppo_sousa_asv") == 2
+    assert _run(tmp_path, tmp_path / "gate", 256, init_from=str(GATE)) == 2
     assert "name one of its networks" in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------------------------
 # the typed configs, the library API, the command line's help, the import layering
 CONFIG_FILES = sorted((ROOT / "configs" / "ppo").rglob("*.yml")) + sorted((ROOT / "configs" / "rllib").glob("*.yml"))
-RUN_RECORDS = sorted((ROOT / "agents" / "policies").glob("*/config.yml")) + sorted(
-    (ROOT / "agents" / "policies").glob("*/*/config.yml")
+RUN_RECORDS = (
+    sorted((ROOT / "agents" / "policies").glob("*/config.yml"))
+    + sorted((ROOT / "agents" / "policies").glob("*/*/config.yml"))
+    + sorted((ROOT / "tests" / "data" / "converted").glob("*/*/config.yml"))
 )
 
 
