@@ -41,7 +41,7 @@ TINY = {
 # replaced on 2026-12-05 by one network trained on this round's physics): kept under
 # tests/data/converted, where they still check the conversion and the depth gate
 CONVERTED = Path(__file__).resolve().parent / "data" / "converted"
-SHIPPED = {
+CONVERTED_POLICIES = {
     "ppo_sousa_asv_deep": "ppo_sousa_asv_gate/deep",
     "ppo_sousa_asv_shallow": "ppo_sousa_asv_gate/shallow",
     "ppo_sousa_asv_shallow_ft": "ppo_sousa_asv_gate/shallow_ft",
@@ -151,7 +151,7 @@ def test_converted_policies_act_as_recorded_with_the_old_files():
     episodes and the actions of the old loader (SB3 model.zip + vecnormalize.pkl),
     recorded before the conversion (the policies, once shipped, in tests/data/converted)."""
     data = np.load(DATA)
-    for key, rel in SHIPPED.items():
+    for key, rel in CONVERTED_POLICIES.items():
         obs = data[f"{key}/obs"]
         assert obs.shape[0] == 200
         policy = agents.load(CONVERTED / rel)
