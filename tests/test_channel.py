@@ -227,6 +227,31 @@ def test_monte_carlo_delivery_matches_the_success_probability():
     assert abs(ok[:, 0, 0].mean() - p) < 4 * math.sqrt(p * (1 - p) / B)
 
 
+def test_the_planners_delivery_model_is_the_wired_sonar_link():
+    """The planners weigh a range by the probability that its ping arrives
+    (``BeaconContext.delivery_probability``). On the sonar link that is the channel's
+    own P(decode) of a lone ping, not the modem's range-loss curve (which the channel
+    switches off): before, the planners saw every ping arrive, and on a weak link (a
+    130 dB source in a loud sea) ``ellipse`` stood 310 m off where 1 ping in 200 is
+    decoded at 200 m."""
+    from baselines.base import BeaconContext
+
+    weak = dict(source_level_db=130.0, noise_wind_mps=15.0, noise_shipping=1.0)
+    ranges = np.array([20.0, 60.0, 100.0, 200.0, 1000.0])
+    B = len(ranges)
+    for kw in ({}, weak):
+        sim = _decide_sim(B=B, **kw)
+        _place(sim, np.stack([np.c_[ranges, np.zeros(B)], np.full((B, 2), 1e5)], 1), np.zeros((B, 1, 2)))
+        wired = sim.channel.pings(_tx(B, [True, False]), _draws(sim))[1].outcome.p_success[:, 0, 2]
+        planners = BeaconContext.from_config(sim.config).delivery_probability(ranges)
+        np.testing.assert_allclose(planners, wired, rtol=1e-9, atol=1e-12)
+    # by hand on the weak link: NL = band noise at 25 kHz with 15 m/s wind and full shipping
+    noise_db = sim.channel.noise_db
+    snr = [130.0 - (20.0 * math.log10(r) + 6.1048051 * r / 1000.0) - noise_db for r in ranges]
+    np.testing.assert_allclose(planners, [p_success_by_hand(x) for x in snr], atol=1e-9)
+    assert planners[0] > 0.95 and planners[3] < 0.01  # 20 m nearly always, 200 m almost never
+
+
 def test_capture_a_near_ping_survives_a_far_one_in_the_wired_channel():
     # beacons 100 m and 1000 m from the survey vehicle, both at t = 0 (ping_offsets="zero"), 5 s packets:
     # [0.067, 5.067) and [0.67, 5.67) overlap; SIR = TL(1000) - TL(100) = 20 + 6.1048 x 0.9 = +25.49 dB

@@ -65,9 +65,6 @@ from .acoustics import mackenzie_sound_speed
 from .jit import threaded
 from .kernel_records import beacon_view, knowledge_view, survey_view
 from .link import (
-    Band,
-    LinkParams,
-    NoiseConditions,
     PowerModel,
     SlotOutcome,
     SlotTransmissions,
@@ -75,6 +72,7 @@ from .link import (
     slot_timeline,
     transmit_energy_j,
 )
+from .link_budget import link_params
 from .link_framing import framing, message_bits, slot_timing
 
 if TYPE_CHECKING:
@@ -91,23 +89,6 @@ def ping_energy_j(config: ScenarioConfig) -> float:
         power = PowerModel(efficiency=float(c.transmit_efficiency))
         return float(transmit_energy_j(c.source_level_db, slot_timing(c, SLOWEST_SOUND_SPEED_MPS).ping_s, power))
     return float(c.transmit_power_w * c.ping_bits / c.modem_bit_rate_bps)
-
-
-def link_params(config: ScenarioConfig) -> LinkParams:
-    """The link budget of ``config``: its band, noise, thresholds and bit rate; the
-    range link hears nothing beyond ``max_range_m`` and has no capture."""
-    c = config
-    p = LinkParams(
-        band=Band(float(c.band_center_khz), float(c.band_width_hz)),
-        noise=NoiseConditions(float(c.noise_shipping), float(c.noise_wind_mps)),
-        source_level_db=float(c.source_level_db),
-        detection_threshold_db=float(c.detection_threshold_db),
-        capture_threshold_db=float(c.capture_threshold_db),
-        bit_rate_bps=float(c.modem_bit_rate_bps),
-    )
-    if c.link_model == "range":
-        p = p._replace(capture_threshold_db=math.inf, hearing_range_m=float(c.max_range_m))
-    return p
 
 
 class SlotResult(NamedTuple):

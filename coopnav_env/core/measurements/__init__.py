@@ -138,10 +138,18 @@ def check_sensor(config: Any) -> None:
 
 
 def _modem_arrival(config: Any, distance_m: Any) -> np.ndarray:
-    """The modem's: 1 - the loss probability, ``packet_loss_near`` to ``packet_loss_far`` over ``max_range_m``."""
+    """The modem's: on the shared channel's sonar link (``channel_mode="decide"``,
+    ``link_model="sonar"``, where the modem's own range loss is off) the link's
+    probability that the ping is decoded (``link_budget.ping_success_probability``: SNR from
+    the source level, spreading and absorption, the band's noise); otherwise 1 - the
+    loss probability, ``packet_loss_near`` to ``packet_loss_far`` over ``max_range_m``."""
     from .. import acoustics
 
     c = config
+    if getattr(c, "channel_mode", "clock") == "decide" and getattr(c, "link_model", "range") == "sonar":
+        from ..link_budget import ping_success_probability
+
+        return ping_success_probability(c, distance_m)
     return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
 
 
