@@ -472,6 +472,49 @@ def test_an_unknown_key_or_a_wrong_type_is_a_one_line_error_naming_the_closest(t
         from_dict(RLlibConfig, {"eval": {"every_steps": 1}})
 
 
+def test_a_config_file_extends_another(tmp_path):
+    """``extends:``: the base first, then the file; sections merge key by key, lists and
+    values replace, null removes (the default applies); a chain resolves through files."""
+    from agents.training.config import merge_configs
+
+    (tmp_path / "base.yml").write_text(
+        "n_envs: 8\nppo: {n_steps: 64, batch_size: 128, learning_rate: 1.0e-3}\n"
+        "env: {teams: [{}, {current_speed_mps: 0.5}]}\nimitate: {planner: ellipse, steps: 1000}\n"
+    )
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "mid.yml").write_text("extends: ../base.yml\nppo: {learning_rate: 3.0e-4}\n")
+    (tmp_path / "sub" / "top.yml").write_text(
+        "extends: mid.yml\nimitate: ~\nenv: {teams: [{}]}\ninit_from: runs/somewhere\n"
+    )
+    config = load_config(tmp_path / "sub" / "top.yml", TrainConfig)
+    assert config.n_envs == 8 and config.init_from == "runs/somewhere"
+    assert config.ppo == {"n_steps": 64, "batch_size": 128, "learning_rate": 3.0e-4}  # merged
+    assert config.env.teams == [{}]  # replaced whole
+    assert config.imitate == TrainConfig().imitate  # removed: the default
+    # without the null, the base's clone and the file's init_from conflict: the error names the file
+    (tmp_path / "sub" / "clash.yml").write_text("extends: mid.yml\ninit_from: runs/somewhere\n")
+    with pytest.raises(ConfigError, match=r"clash\.yml: imitate and init_from both set the starting weights"):
+        load_config(tmp_path / "sub" / "clash.yml", TrainConfig)
+    assert merge_configs({"a": {"b": 1, "c": 2}}, {"a": {"c": None, "d": 3}}) == {"a": {"b": 1, "d": 3}}
+
+
+@pytest.mark.parametrize(
+    "files, message",
+    [
+        ({"a.yml": "extends: b.yml\n", "b.yml": "extends: a.yml\n"}, "extends cycle: a.yml -> b.yml -> a.yml"),
+        ({"a.yml": "extends: a.yml\n"}, "extends cycle: a.yml -> a.yml"),
+        ({"a.yml": "extends: missing.yml\n"}, "a.yml: extends 'missing.yml', but there is no such file"),
+        ({"a.yml": "extends: [b.yml]\n"}, "a.yml: extends must be the path of another config file"),
+    ],
+)
+def test_a_bad_extends_is_a_one_line_error(tmp_path, files, message):
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    with pytest.raises(ConfigError) as exc:
+        load_config(tmp_path / "a.yml", TrainConfig)
+    assert message in str(exc.value) and "\n" not in str(exc.value)
+
+
 def test_overrides_apply_on_top_of_the_file(tmp_path):
     config = load_config(
         ROOT / "configs" / "ppo" / "sousa_asv.yml",

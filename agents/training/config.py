@@ -18,6 +18,9 @@ The free-form sections are dicts checked against what reads them: ``ppo`` of a
 (``ppo``, ``model``, ``env_runners``, ``learners``) are checked by RLlib when the
 ``PPOConfig`` is built (``agents.training.rllib.build_config``).
 
+A file may start from another with ``extends: other.yml`` and set only what differs
+(``read_mapping``; the experiments that continue a run do).
+
 A run directory's ``config.yml`` holds its config as ``args`` (scenario, timesteps,
 seed) and ``hyperparameters`` (the rest): ``config_from_record`` reads it back.
 """
@@ -67,6 +70,7 @@ __all__ = [
     "from_dict",
     "hyperparameter_file",
     "load_config",
+    "merge_configs",
     "parse_value",
     "set_path",
 ]
@@ -518,8 +522,18 @@ def hyperparameter_file(backend: str, scenario: str | None, explicit: str | Path
     return None
 
 
-def read_mapping(path: str | Path) -> dict:
-    """A YAML file's mapping ({} if empty); anything else is a ``ConfigError``."""
+MAX_EXTENDS = 8  # the longest chain of ``extends:`` a config file may start
+
+
+def read_mapping(path: str | Path, _chain: tuple[Path, ...] = ()) -> dict:
+    """A YAML file's mapping ({} if empty); anything else is a ``ConfigError``.
+
+    A file may start from another: ``extends: base.yml`` (a path relative to the file's
+    own folder) reads that file first (itself possibly extending another), then merges
+    this one on top (``merge_configs``): sections merge key by key, any other value
+    replaces the base's, and a key set to null (``~``) is removed so that its default
+    applies (``imitate: ~`` in a file that continues a cloned run with ``init_from``).
+    A cycle, or a chain longer than ``MAX_EXTENDS``, is a ``ConfigError``."""
     from coopnav_env.safe_load import UnsafeDataError, read_yaml
 
     try:
@@ -532,7 +546,36 @@ def read_mapping(path: str | Path) -> dict:
         return {}
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a mapping of hyperparameters")
-    return data
+    if "extends" not in data:
+        return data
+    base = data.pop("extends")
+    if not isinstance(base, str) or not base:
+        raise ConfigError(f"{path}: extends must be the path of another config file, got {base!r}")
+    here = Path(path).resolve()
+    chain = (*_chain, here)
+    parent = (here.parent / base).resolve()
+    if parent in chain:
+        raise ConfigError(f"{path}: extends cycle: {' -> '.join(p.name for p in (*chain, parent))}")
+    if len(chain) > MAX_EXTENDS:
+        raise ConfigError(f"{path}: more than {MAX_EXTENDS} files in its extends chain")
+    if not parent.is_file():
+        raise ConfigError(f"{path}: extends {base!r}, but there is no such file ({parent})")
+    return merge_configs(read_mapping(parent, chain), data)
+
+
+def merge_configs(base: dict, top: dict) -> dict:
+    """``top`` over ``base``: a key in both whose values are both mappings merges
+    recursively; otherwise ``top``'s value replaces ``base``'s (lists too: ``env.teams``
+    is the whole list); a ``top`` value of None removes the key. Neither input changes."""
+    out = dict(base)
+    for key, value in top.items():
+        if value is None:
+            out.pop(key, None)
+        elif isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = merge_configs(out[key], value)
+        else:
+            out[key] = value
+    return out
 
 
 def load_config(
