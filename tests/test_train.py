@@ -702,6 +702,45 @@ def test_imitation_of_a_planner_on_a_schedule(tmp_path, capsys, monkeypatch):
     assert np.mean(transmit) > 0.9, np.mean(transmit)
 
 
+def test_imitation_passes_planner_kwargs_to_the_planner(tmp_path, capsys):
+    """``imitate.planner_kwargs`` reach the planner and its schedule: a clone of
+    ``ellipse+event`` whose threshold no range reaches never transmits (at the default 0.5
+    nats, 91 of 120 slots), and a keyword neither takes is refused by name before anything
+    is written."""
+    out = tmp_path / "never"
+    bad = {"imitate": {"planner": "ellipse+event", "planner_kwargs": {"threshold": 0.4}}}
+    argv = ["--scenario", "sousa_ping", "--timesteps", "256", "--seed", "0", "--no-progress"]
+    assert cli.main([*argv, "--out", str(out), "--config", _tiny_yaml(tmp_path, **bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "imitate.planner_kwargs {'threshold': 0.4}:" in err and "threshold" in err and "\n" not in err, err
+    assert not out.exists()
+    out = tmp_path / "silent"
+    changes = {
+        "imitate": {
+            "planner": "ellipse+event",
+            "planner_kwargs": {"threshold_nats": 1e9},
+            "steps": 2000,
+            "epochs": 30,
+            "batch_size": 256,
+        },
+        "ppo": {**TINY["ppo"], "learning_rate": 1e-9, "policy_kwargs": {"net_arch": [64, 64]}},
+        "eval": {**TINY["eval"], "baselines": ["ellipse+clock"]},
+    }
+    assert cli.main([*argv, "--out", str(out), "--config", _tiny_yaml(tmp_path, **changes)]) == 0
+    record = yaml.safe_load((out / "config.yml").read_text())
+    assert record["imitation"]["planner_kwargs"] == {"threshold_nats": 1e9}
+    config = coopnav_env.make_config("sousa_ping", max_cycles=10, mission_duration_s=200.0)
+    clone = agents.load(out / "model.safetensors", scenario=config)
+    env = coopnav_env.parallel_env(config, seed=12345)
+    obs, _ = env.reset()
+    transmit = []
+    while env.agents:
+        actions = {a: clone.act(o) for a, o in obs.items()}
+        transmit += [float(act[2]) > 0 for act in actions.values()]
+        obs, *_ = env.step(actions)
+    assert np.mean(transmit) < 0.1, np.mean(transmit)
+
+
 def test_action_log_std_sets_the_exploration_per_action_component(tmp_path, capsys):
     """``action_log_std`` is the policy's log std when PPO starts (here with a learning rate
     that cannot move it), one value per action component; another length is refused by

@@ -170,9 +170,11 @@ class ImitateSpec:
     ``planner`` (a planner that drives the scenario's network; None: off) drives the
     training environments for ``steps`` row-steps, then the actor's mean is fitted to
     its actions and the critic to the returns, ``epochs`` passes in minibatches of
-    ``batch_size`` at ``learning_rate``."""
+    ``batch_size`` at ``learning_rate``. ``planner_kwargs`` go to the planner (and its
+    transmit schedule): ``{threshold_nats: 0.45}`` for ``ellipse+event``."""
 
     planner: str | None = None
+    planner_kwargs: dict = field(default_factory=dict)
     steps: int = 200_000
     epochs: int = 20
     batch_size: int = 4096

@@ -36,17 +36,27 @@ import numpy as np
 __all__ = ["imitate"]
 
 
-def collect(vecnorm: Any, raw_env: Any, planner: str, steps: int, seed: int, progress: bool = False) -> dict:
+def collect(
+    vecnorm: Any,
+    raw_env: Any,
+    planner: str,
+    steps: int,
+    seed: int,
+    progress: bool = False,
+    planner_kwargs: dict | None = None,
+) -> dict:
     """Drive ``vecnorm`` (a VecNormalize over ``raw_env``'s rows, possibly through other
-    wrappers) with ``planner`` for at least ``steps`` row-steps (``progress``: a bar on a
-    terminal, a line a minute elsewhere; the planners' minutes can be many)."""
+    wrappers) with ``planner`` (built with ``planner_kwargs``) for at least ``steps``
+    row-steps (``progress``: a bar on a terminal, a line a minute elsewhere; the planners'
+    minutes can be many)."""
     from baselines import make_policy
     from coopnav_env.progress import Progress
 
     rows = raw_env.num_envs
     # each row's scenario (a MixedTeamVecEnv row: its team's) and beacon name
     configs, agents = raw_env.get_attr("config"), raw_env.get_attr("agent")
-    policies = [make_policy(planner, configs[r], seed=(seed, r), agent=agents[r]) for r in range(rows)]
+    kw = dict(planner_kwargs or {})
+    policies = [make_policy(planner, configs[r], seed=(seed, r), agent=agents[r], **kw) for r in range(rows)]
     vecnorm.reset()
     raw = vecnorm.get_original_obs()
     n_steps = -(-steps // rows)
@@ -92,7 +102,7 @@ def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progre
         f"imitation: {spec.planner} drives the training environments for {spec.steps:,} row-steps, "
         "then the clone is fitted"
     )
-    data = collect(vecnorm, raw_env, spec.planner, spec.steps, seed, progress)
+    data = collect(vecnorm, raw_env, spec.planner, spec.steps, seed, progress, spec.planner_kwargs)
     gamma = float(model.gamma)
     returns = discounted_returns(data["rewards"], data["dones"], gamma)
     obs = vecnorm.normalize_obs(data["obs"].reshape(-1, data["obs"].shape[-1]))
@@ -125,6 +135,7 @@ def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progre
         rms = float(torch.sqrt(((mean - a) ** 2).mean()))
     return {
         "planner": spec.planner,
+        "planner_kwargs": dict(spec.planner_kwargs),
         "steps": int(n),
         "epochs": spec.epochs,
         "action_rms_error": round(rms, 4),

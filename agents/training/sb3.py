@@ -139,6 +139,13 @@ def train(
                 f"imitate.planner {planner!r} cannot drive {config.scenario!r}{did_you_mean(planner, valid)} "
                 f"valid: {', '.join(valid)}"
             )
+        if config.imitate.planner_kwargs:  # built once here, so a bad keyword fails before any work
+            from baselines import make_policy
+
+            try:
+                make_policy(planner, job.scenario_config, seed=0, agent=0, **config.imitate.planner_kwargs)
+            except (TypeError, ValueError) as err:
+                raise ConfigError(f"imitate.planner_kwargs {config.imitate.planner_kwargs!r}: {err}") from None
 
     from coopnav_env.progress import stage
 
