@@ -714,6 +714,8 @@ def test_imitation_passes_planner_kwargs_to_the_planner(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "imitate.planner_kwargs {'threshold': 0.4}:" in err and "threshold" in err and "\n" not in err, err
     assert not out.exists()
+    with pytest.raises(ConfigError, match=r"imitate\.planner_kwargs needs imitate\.planner"):
+        from_dict(TrainConfig, {"imitate": {"planner_kwargs": {"threshold_nats": 0.4}}}).check()
     out = tmp_path / "silent"
     changes = {
         "imitate": {

@@ -292,6 +292,8 @@ class TrainConfig(_Job):
                 raise ConfigError(f"imitate.learning_rate must be positive, got {im.learning_rate}")
             if self.init_from:
                 raise ConfigError("imitate and init_from both set the starting weights: choose one")
+        elif im.planner_kwargs:
+            raise ConfigError("imitate.planner_kwargs needs imitate.planner (the planner they are for)")
         check_env_observation(self.env)
         if self.env.observation == "entities":
             if self.normalize.norm_obs:
