@@ -671,6 +671,21 @@ def test_imitation_refuses_a_planner_that_cannot_drive_the_scenario(tmp_path, ca
         assert code == 2 and want in err and "\n" not in err, err
 
 
+def _transmit_fraction(run):
+    """The share of slots in which the clone in ``run`` transmits, both ASVs of one
+    10-slot ``sousa_ping`` episode (seed 12345)."""
+    config = coopnav_env.make_config("sousa_ping", max_cycles=10, mission_duration_s=200.0)
+    clone = agents.load(run / "model.safetensors", scenario=config)
+    env = coopnav_env.parallel_env(config, seed=12345)
+    obs, _ = env.reset()
+    transmit = []
+    while env.agents:
+        actions = {a: clone.act(o) for a, o in obs.items()}
+        transmit += [float(act[2]) > 0 for act in actions.values()]
+        obs, *_ = env.step(actions)
+    return float(np.mean(transmit))
+
+
 def test_imitation_of_a_planner_on_a_schedule(tmp_path, capsys, monkeypatch):
     """sousa_ping's beacons decide when to ping: the clone copies a planner with its transmit
     schedule (ellipse+clock: both ASVs ping in every slot, staggered), so the clone transmits
@@ -690,16 +705,8 @@ def test_imitation_of_a_planner_on_a_schedule(tmp_path, capsys, monkeypatch):
     assert record["imitation"]["planner"] == "ellipse+clock" and record["imitation"]["action_rms_error"] < 0.3
     baseline = json.loads((out / "baseline_eval.json").read_text())
     assert "ellipse+clock" in json.dumps(baseline), baseline
-    config = coopnav_env.make_config("sousa_ping", max_cycles=10, mission_duration_s=200.0)
-    clone = agents.load(out / "model.safetensors", scenario=config)
-    env = coopnav_env.parallel_env(config, seed=12345)
-    obs, _ = env.reset()
-    transmit = []
-    while env.agents:
-        actions = {a: clone.act(o) for a, o in obs.items()}
-        transmit += [float(act[2]) > 0 for act in actions.values()]
-        obs, *_ = env.step(actions)
-    assert np.mean(transmit) > 0.9, np.mean(transmit)
+    transmit = _transmit_fraction(out)
+    assert transmit > 0.9, transmit
 
 
 def test_imitation_passes_planner_kwargs_to_the_planner(tmp_path, capsys):
@@ -731,16 +738,8 @@ def test_imitation_passes_planner_kwargs_to_the_planner(tmp_path, capsys):
     assert cli.main([*argv, "--out", str(out), "--config", _tiny_yaml(tmp_path, **changes)]) == 0
     record = yaml.safe_load((out / "config.yml").read_text())
     assert record["imitation"]["planner_kwargs"] == {"threshold_nats": 1e9}
-    config = coopnav_env.make_config("sousa_ping", max_cycles=10, mission_duration_s=200.0)
-    clone = agents.load(out / "model.safetensors", scenario=config)
-    env = coopnav_env.parallel_env(config, seed=12345)
-    obs, _ = env.reset()
-    transmit = []
-    while env.agents:
-        actions = {a: clone.act(o) for a, o in obs.items()}
-        transmit += [float(act[2]) > 0 for act in actions.values()]
-        obs, *_ = env.step(actions)
-    assert np.mean(transmit) < 0.1, np.mean(transmit)
+    transmit = _transmit_fraction(out)
+    assert transmit < 0.1, transmit
 
 
 def test_action_log_std_sets_the_exploration_per_action_component(tmp_path, capsys):

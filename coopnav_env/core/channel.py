@@ -72,7 +72,7 @@ from .link import (
     slot_timeline,
     transmit_energy_j,
 )
-from .link_budget import link_params
+from .link_budget import link_params, on_sonar_link
 from .link_framing import framing, message_bits, slot_timing
 
 if TYPE_CHECKING:
@@ -85,7 +85,7 @@ def ping_energy_j(config: ScenarioConfig) -> float:
     sonar link (Urick 1983), else (the range link, the fixed clock) transmit power x
     bits / bit rate."""
     c = config
-    if c.channel_mode == "decide" and c.link_model == "sonar":
+    if on_sonar_link(c):
         power = PowerModel(efficiency=float(c.transmit_efficiency))
         return float(transmit_energy_j(c.source_level_db, slot_timing(c, SLOWEST_SOUND_SPEED_MPS).ping_s, power))
     return float(c.transmit_power_w * c.ping_bits / c.modem_bit_rate_bps)

@@ -18,6 +18,13 @@ from .link import Band, LinkParams, NoiseConditions, band_noise_db, success_prob
 from .link_framing import framing, message_bits
 
 
+def on_sonar_link(config: Any) -> bool:
+    """Whether ``config``'s pings cross the shared channel's sonar link
+    (``channel_mode="decide"``, ``link_model="sonar"``): there the link decides every
+    loss, and the modem's range-loss curve is off."""
+    return config.channel_mode == "decide" and config.link_model == "sonar"
+
+
 def link_params(config: Any) -> LinkParams:
     """The link budget of ``config``: its band, noise, thresholds and bit rate; the
     range link hears nothing beyond ``max_range_m`` and has no capture."""

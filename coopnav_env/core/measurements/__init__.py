@@ -146,9 +146,9 @@ def _modem_arrival(config: Any, distance_m: Any) -> np.ndarray:
     from .. import acoustics
 
     c = config
-    if getattr(c, "channel_mode", "clock") == "decide" and getattr(c, "link_model", "range") == "sonar":
-        from ..link_budget import ping_success_probability
+    from ..link_budget import on_sonar_link, ping_success_probability
 
+    if on_sonar_link(c):
         return ping_success_probability(c, distance_m)
     return 1.0 - acoustics.packet_loss_probability(distance_m, c.packet_loss_near, c.packet_loss_far, c.max_range_m)
 
