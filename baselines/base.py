@@ -15,7 +15,7 @@ turns "be at this point at the next ping" into the action.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -28,6 +28,7 @@ from coopnav_env.scenarios import ScenarioConfig, resolve_config
 FENCE_MARGIN_M = 2.0  # plan this far inside the geofence
 SAFETY_MARGIN_M = 2.0  # and this far beyond the safety distance
 PENALTY_PER_M = 10.0  # planners' soft-constraint weight (metrics are O(1))
+RANGE_MODELS = ("constant", "filter")  # the planners' range variance: see BeaconContext.range_variance_m2
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,7 @@ class BeaconContext:
     max_speed_mps: float
     ping_interval_s: float
     depth_m: float
+    range_model: str = "constant"  # RANGE_MODELS: how the planners weigh a range (range_variance_m2)
 
     @classmethod
     def from_config(cls, config: ScenarioConfig, agent_index: int = 0) -> BeaconContext:
@@ -88,6 +90,29 @@ class BeaconContext:
         receives it (``measurements.arrival_probability``: the modem's loss model, the MLS
         array's all-or-nothing window)."""
         return measurements.arrival_probability(self.config, distance_m)
+
+    def range_variance_m2(self, distance_m: ArrayLike, beacon_var_m2: ArrayLike) -> np.ndarray:
+        """The variance R (m^2) the planners give a range over ``distance_m`` from this
+        beacon with own position variance ``beacon_var_m2`` per axis.
+
+        ``range_model="filter"``: the survey filter's own R(d)
+        (``measurements.range_variance_m2``: for the modem the ranging noise, that
+        variance, and the sound speed's scale error (d std(c)/c)^2, which grows with the
+        distance), at the depth halfway between this beacon and the survey vehicles.
+        ``"constant"`` (the default, the papers' and benchmark v7's): the same R at every
+        distance, the filter's at d = 0 (the ranging noise and the beacon's variance).
+        See docs/baselines/horizon.md#range-variance for what the choice changes."""
+        mid_depth_m = 0.5 * (self.depth_m + self.config.depth_m)
+        d = np.asarray(distance_m, float)
+        if self.range_model == "constant":
+            d = np.zeros_like(d)
+        return measurements.range_variance_m2(self.config, d, beacon_var_m2, mid_depth_m)
+
+    def with_range_model(self, range_model: str) -> BeaconContext:
+        """This context with the planners' ``range_model`` (one of ``RANGE_MODELS``)."""
+        if range_model not in RANGE_MODELS:
+            raise ValueError(f"range_model must be one of {RANGE_MODELS}, got {range_model!r}")
+        return replace(self, range_model=range_model)
 
 
 def slant_distance(cand: np.ndarray, survey_en: np.ndarray, depth_below: ArrayLike) -> np.ndarray:

@@ -55,12 +55,14 @@ def ellipse_waypoint(
     survey_en: np.ndarray,
     depth_below: ArrayLike,
     P: np.ndarray,
-    range_var_m2: ArrayLike,
+    beacon_var_m2: float,
     **grid: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The point of the reaching disc whose range to the predicted survey position(s)
-    survey_en (S, 2), depth_below (S,), covariance P (S, 2, 2) informs most.
-    Returns (waypoint (2,), expected information at it)."""
+    survey_en (S, 2), depth_below (S,), covariance P (S, 2, 2) informs most: the most
+    expected information log(1 + h'Ph / R(d)), with R(d) the survey filter's variance
+    of a range over d from a beacon of position variance ``beacon_var_m2``
+    (``BeaconContext.range_variance_m2``). Returns (waypoint (2,), expected information at it)."""
     survey_en = np.atleast_2d(survey_en)
     depth_below = np.atleast_1d(np.asarray(depth_below, float))
     P = np.asarray(P, float).reshape(-1, 2, 2)
@@ -70,7 +72,7 @@ def ellipse_waypoint(
         d3 = slant_distance(pts, survey_en, depth_below)
         h = rel / np.maximum(d3, 1e-9)[..., None]
         var_along = np.einsum("...si,sij,...sj->...s", h, P, h)
-        gain = ctx.delivery_probability(d3) * np.log1p(var_along / range_var_m2)
+        gain = ctx.delivery_probability(d3) * np.log1p(var_along / ctx.range_variance_m2(d3, beacon_var_m2))
         return gain.sum(-1) - PENALTY_PER_M * ctx.violation_m(pts, survey_en, depth_below)
 
     return maximize_on_disc(score, np.asarray(own_en, float), ctx.reach_m, **grid)
@@ -82,6 +84,8 @@ class EllipsePolicy(TrackingPolicy):
 
     predictor: ``"path"`` (default) predicts the survey vehicle along its observed
     planned waypoints, ``"chord"`` with the constant velocity of its last replies.
+    range_model: ``"constant"`` (default: one R at every distance, as the paper) or
+    ``"filter"`` (the survey filter's R(d), ``BeaconContext.range_variance_m2``).
     """
 
     PREDICTORS = ("path", "chord")
@@ -92,11 +96,13 @@ class EllipsePolicy(TrackingPolicy):
         agent_index: int = 0,
         seed: int | Sequence[int] | None = None,
         predictor: str = "path",
+        range_model: str = "constant",
     ) -> None:
         if predictor not in self.PREDICTORS:
             raise ValueError(f"ellipse predictor must be one of {self.PREDICTORS}, got {predictor!r}")
         self.predictor = predictor
         super().__init__(config, agent_index, seed)
+        self.ctx = self.ctx.with_range_model(range_model)
 
     def predict(self, view: ObsView, ahead_s: float) -> tuple[np.ndarray, np.ndarray]:
         """The survey vehicles' (east, north) (S, 2) and depth below (S,) ``ahead_s`` after now."""
@@ -110,6 +116,5 @@ class EllipsePolicy(TrackingPolicy):
         en, dz = self.predict(view, T)
         grow = c.process_noise_horizontal_m2ps * (view.reply_age_s + T)
         P = view.cov_m2 + grow[:, None, None] * np.eye(2)
-        R = c.range_noise_std_m**2 + float(view.own_std_m) ** 2
-        wp, self.last_metric = ellipse_waypoint(self.ctx, view.own_en_m, en, dz, P, R)
+        wp, self.last_metric = ellipse_waypoint(self.ctx, view.own_en_m, en, dz, P, float(view.own_std_m) ** 2)
         return wp

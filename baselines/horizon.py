@@ -21,8 +21,11 @@ is that planner for the survey scenarios. At each decision:
    filter's process noise, P^- = P + q dt I (Gao & Chitre eq. 6; dt = reply age + T
    for the first ping, T after), and updates it with the range from b_j to s_j:
    h the horizontal part of the unit slant vector (the survey vehicle is dz deeper;
-   its depth is known), R = range variance + the beacon's own position variance
-   (as ``ellipse``), and p = the scenario's arrival probability at that distance.
+   its depth is known), R = R(d), the variance the survey filter gives a range over
+   that slant distance d from a beacon with its own position variance (as
+   ``ellipse``: ``BeaconContext.range_variance_m2``; for the modem the ranging noise,
+   the beacon's variance and the sound speed's scale error, which grows with d),
+   and p = the scenario's arrival probability at that distance.
    The range arrives with probability p, so the expected covariance after the ping
    is exactly
 
@@ -140,7 +143,7 @@ def _w_update(wa, wb, wc, a, b, c, he, hn, p, R):
     )
 
 
-def _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx, W0=None, channel_shift=None):
+def _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, beacon_var_m2, ctx, W0=None, channel_shift=None):
     """The loop of ``team_expected_covariances`` (eq. H1) and, given W0 (S, 2, 2),
     ``team_expected_errors`` (eq. H3 beside it): (P (N, H, S, 3), W (N, H, S, 3) or None).
     ``channel_shift`` (S, 2): where the survey vehicles truly are relative to the
@@ -155,7 +158,8 @@ def _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx, 
         p = ctx.delivery_probability(d3)  # (N, M, H, S)
     else:
         p = ctx.delivery_probability(np.sqrt(((rel + channel_shift) ** 2).sum(-1) + survey_dz[None] ** 2))
-    R = np.broadcast_to(np.asarray(range_var_m2, float), (M,))
+    var = np.broadcast_to(np.asarray(beacon_var_m2, float), (M,))
+    R = ctx.range_variance_m2(d3, var[None, :, None, None])  # (N, M, H, S): the filter's R(d)
     a = np.broadcast_to(P0[:, 0, 0], (N, S)).copy()
     b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
     c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
@@ -172,8 +176,8 @@ def _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx, 
         for m in range(M):
             he, hn = h[:, m, j, :, 0], h[:, m, j, :, 1]
             if out_w is not None:  # (H3) with the filter's prior P of this range
-                wa, wb, wc = _w_update(wa, wb, wc, a, b, c, he, hn, p[:, m, j], R[m])
-            a, b, c = _h1_update(a, b, c, he, hn, p[:, m, j], R[m])
+                wa, wb, wc = _w_update(wa, wb, wc, a, b, c, he, hn, p[:, m, j], R[:, m, j])
+            a, b, c = _h1_update(a, b, c, he, hn, p[:, m, j], R[:, m, j])
         out[:, j, :, 0], out[:, j, :, 1], out[:, j, :, 2] = a, b, c
         if out_w is not None:
             out_w[:, j, :, 0], out_w[:, j, :, 1], out_w[:, j, :, 2] = wa, wb, wc
@@ -186,19 +190,20 @@ def team_expected_covariances(
     survey_dz: np.ndarray,
     P0: np.ndarray,
     grow_m2: np.ndarray,
-    range_var_m2: np.ndarray,
+    beacon_var_m2: np.ndarray,
     ctx: BeaconContext,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Eq. (H1) with M beacons ranging at every ping, in index order.
 
     beacon_en (N, M, H, 2): each candidate's ping positions of every beacon;
     survey_en (H, S, 2); survey_dz (M, H, S): the survey vehicles' depth below each
-    beacon; P0 (S, 2, 2); grow_m2 (H, S); range_var_m2 (M,): each beacon's R. The
+    beacon; P0 (S, 2, 2); grow_m2 (H, S); beacon_var_m2 (M,): each beacon's own
+    position variance per axis, from which each range's R(d) (``ctx.range_variance_m2``). The
     ranges of one ping are independent, each arriving with its own probability
     p_m, and are applied one after the other (the expectation of each update over
     its arrival, eq. H1, in turn). Returns (P (N, H, S, 3), P_none (H, S, 3)) as
     ``expected_covariances``."""
-    P, _ = _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx)
+    P, _ = _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, beacon_var_m2, ctx)
     return P, _no_range(P0, grow_m2)
 
 
@@ -208,7 +213,7 @@ def team_expected_errors(
     survey_dz: np.ndarray,
     P0: np.ndarray,
     grow_m2: np.ndarray,
-    range_var_m2: np.ndarray,
+    beacon_var_m2: np.ndarray,
     ctx: BeaconContext,
     W0: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -218,7 +223,7 @@ def team_expected_errors(
     covariance (H1), the error's second moment W follows them; the noise to come
     (process noise grow_m2, range variance R) is not known. Arguments and shapes as
     ``team_expected_covariances``; returns (W (N, H, S, 3), W_none (H, S, 3): no range)."""
-    _, W = _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, range_var_m2, ctx, W0)
+    _, W = _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, beacon_var_m2, ctx, W0)
     assert W is not None
     return W, _no_range(np.asarray(W0, float), grow_m2)
 
@@ -229,7 +234,7 @@ def expected_covariances(
     survey_dz: np.ndarray,
     P0: np.ndarray,
     grow_m2: np.ndarray,
-    range_var_m2: float,
+    beacon_var_m2: float,
     ctx: BeaconContext,
     peers_en: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -247,8 +252,8 @@ def expected_covariances(
     held = np.broadcast_to(peers[None, :, None, :], (N, len(peers), H, 2))  # the peers range first
     beacons = np.concatenate([held, np.asarray(beacon_en, float)[:, None]], axis=1)  # (N, K + 1, H, 2)
     dz = np.broadcast_to(survey_dz[None], (len(peers) + 1,) + survey_dz.shape)
-    R = np.full(len(peers) + 1, float(range_var_m2))
-    return team_expected_covariances(beacons, survey_en, dz, P0, grow_m2, R, ctx)
+    var = np.full(len(peers) + 1, float(beacon_var_m2))
+    return team_expected_covariances(beacons, survey_en, dz, P0, grow_m2, var, ctx)
 
 
 def horizon_cost(
@@ -366,8 +371,9 @@ class HorizonPolicy(TrackingPolicy):
     ``team`` (with several beacons: "joint" plans every beacon's sequence together,
     "peers", the default, plans its own around the others held at their reported positions,
     "alone" ignores them), ``refine_iters`` (pattern-search rounds on the applied
-    step), ``predictor`` of the survey path ("path", "chord", "stationary") and
-    ``terminal_weight`` (``horizon_cost``)."""
+    step), ``predictor`` of the survey path ("path", "chord", "stationary"),
+    ``terminal_weight`` (``horizon_cost``) and ``range_model`` ("constant", the default,
+    or "filter": the survey filter's R(d), ``BeaconContext.range_variance_m2``)."""
 
     def __init__(
         self,
@@ -384,6 +390,7 @@ class HorizonPolicy(TrackingPolicy):
         refine_iters: int = 8,
         predictor: str = "path",
         terminal_weight: float = 0.0,
+        range_model: str = "constant",
     ) -> None:
         if predictor not in PREDICTORS:
             raise ValueError(f"predictor must be one of {PREDICTORS}, got {predictor!r}")
@@ -404,11 +411,12 @@ class HorizonPolicy(TrackingPolicy):
         self.criterion, self.team, self.refine_iters = criterion, team, int(refine_iters)
         self.terminal_weight = float(terminal_weight)
         super().__init__(config, agent_index, seed)
+        self.ctx = self.ctx.with_range_model(range_model)
         joint = team == "joint" and config.n_beacons > 1
         # the beacons this one plans for, in index order, and where it is among them
         self.planned = list(range(config.n_beacons)) if joint else [agent_index]
         self.me = agent_index if joint else 0
-        self.team_ctx = [BeaconContext.from_config(config, m) for m in self.planned]
+        self.team_ctx = [BeaconContext.from_config(config, m).with_range_model(range_model) for m in self.planned]
         self.step_m = np.array([c.max_speed_mps * c.ping_interval_s for c in self.team_ctx])  # (M,)
 
     def reset(self, seed: int | Sequence[int] | None = None) -> None:
@@ -438,7 +446,8 @@ class HorizonPolicy(TrackingPolicy):
         """What one decision scores against: the survey vehicles at the next H pings
         (``en`` (H, S, 2), depth below each planned beacon ``dz`` (M, H, S)), the reported
         covariance ``P0`` (S, 2, 2), the process noise before each ping ``grow`` (H, S),
-        each planned beacon's range variance ``R`` (M,), where the planned beacons start
+        each planned beacon's own position variance ``beacon_var`` (M,; its ranges' R(d)
+        follow from it), where the planned beacons start
         (``start`` (M, 2): its own estimate, the others' reported positions) and the other
         beacons held fixed (``fixed`` (K, 2), team="peers")."""
         c, T, H = self.config, self.ctx.ping_interval_s, self.horizon
@@ -450,7 +459,7 @@ class HorizonPolicy(TrackingPolicy):
         q = c.process_noise_horizontal_m2ps
         grow = np.full(dz_own.shape, q * T)
         grow[0] = q * (np.asarray(view.reply_age_s, float) + T)
-        R = np.full(len(self.planned), c.range_noise_std_m**2 + float(view.own_std_m) ** 2)  # peers: as its own
+        var = np.full(len(self.planned), float(view.own_std_m) ** 2)  # the beacons' own variance (peers: as its own)
         own = np.asarray(view.own_en_m, float)
         peers = np.asarray(view.peers_en_m, float).reshape(-1, 2)
         start = np.insert(peers, self.me, own, axis=0) if len(self.planned) > 1 else own[None]
@@ -460,7 +469,7 @@ class HorizonPolicy(TrackingPolicy):
             "dz": dz,
             "P0": np.asarray(view.cov_m2, float),
             "grow": grow,
-            "R": R,
+            "beacon_var": var,
             "start": start,
             "fixed": fixed,
         }
@@ -468,14 +477,14 @@ class HorizonPolicy(TrackingPolicy):
     def cost(self, v: np.ndarray, model: dict) -> np.ndarray:
         """Cost (N,) of velocity sequences v (N, M, H, 2): eq. (H2) plus the constraint penalty."""
         beacon = model["start"][None, :, None, :] + self.step_m[None, :, None, None] * np.cumsum(v, axis=2)
-        en, dz, R = model["en"], model["dz"], model["R"]
+        en, dz, var = model["en"], model["dz"], model["beacon_var"]
         fixed = model["fixed"]
         if len(fixed):  # team="peers": the others range from where they were, before this beacon, every ping
             held = np.broadcast_to(fixed[None, :, None, :], (len(v), len(fixed), self.horizon, 2))
             beacon = np.concatenate([held, beacon], axis=1)
             dz = np.concatenate([np.broadcast_to(dz[:1], (len(fixed),) + dz.shape[1:]), dz])
-            R = np.concatenate([np.full(len(fixed), R[0]), R])
-        P, P_none = self.expected(beacon, en, dz, R, model)
+            var = np.concatenate([np.full(len(fixed), var[0]), var])
+        P, P_none = self.expected(beacon, en, dz, var, model)
         viol = sum(
             bc.violation_m(beacon[:, len(fixed) + m, j], en[j], model["dz"][m, j])
             for m, bc in enumerate(self.team_ctx)
@@ -485,10 +494,10 @@ class HorizonPolicy(TrackingPolicy):
         return cost + PENALTY_PER_M * viol / self.horizon
 
     def expected(
-        self, beacon: np.ndarray, en: np.ndarray, dz: np.ndarray, R: np.ndarray, model: dict
+        self, beacon: np.ndarray, en: np.ndarray, dz: np.ndarray, beacon_var: np.ndarray, model: dict
     ) -> tuple[np.ndarray, np.ndarray]:
         """What eq. (H2) sums, per candidate: the survey filters' expected covariances (H1)."""
-        return team_expected_covariances(beacon, en, dz, model["P0"], model["grow"], R, self.ctx)
+        return team_expected_covariances(beacon, en, dz, model["P0"], model["grow"], beacon_var, self.ctx)
 
     def optimise(self, view: ObsView) -> np.ndarray:
         """The cross-entropy method; returns the best (M, H, 2) velocity sequences."""
@@ -584,15 +593,15 @@ class OraclePolicy(HorizonPolicy):
         }
 
     def expected(
-        self, beacon: np.ndarray, en: np.ndarray, dz: np.ndarray, R: np.ndarray, model: dict
+        self, beacon: np.ndarray, en: np.ndarray, dz: np.ndarray, beacon_var: np.ndarray, model: dict
     ) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (H4)'s terms: the expected squared errors (H3) plus the expected covariances
         (H1), and the same with no range; (H1) alone without a snapshot."""
         if model.get("W0") is None:
-            return super().expected(beacon, en, dz, R, model)
+            return super().expected(beacon, en, dz, beacon_var, model)
         # one pass of the loop gives both (H1) and (H3): the filter's gains are computed once
         P, W = _team_loop(
-            beacon, en, dz, model["P0"], model["grow"], R, self.ctx, model["W0"], model.get("channel_shift")
+            beacon, en, dz, model["P0"], model["grow"], beacon_var, self.ctx, model["W0"], model.get("channel_shift")
         )
         assert W is not None
         none = _no_range(model["P0"], model["grow"]) + _no_range(np.asarray(model["W0"], float), model["grow"])

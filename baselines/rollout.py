@@ -11,11 +11,14 @@ from typing import Any
 import numpy as np
 
 
-def planned_steps(scenario: str, planner: str, overrides: dict, runs: int, seed: int) -> Iterator[tuple]:
+def planned_steps(
+    scenario: str, planner: str, overrides: dict, runs: int, seed: int, planner_kwargs: dict | None = None
+) -> Iterator[tuple]:
     """Run ``runs`` episodes of ``scenario`` (with ``overrides``) as one batch, seeds
-    ``seed + i``, ``planner`` driving every beacon (its own instance per run and beacon,
-    seeded ``seed + i``); yield ``(config, simulator, result, live)`` after every step,
-    ``live`` (runs,) the episodes that had not ended before it, until all have ended."""
+    ``seed + i``, ``planner`` (with ``planner_kwargs``) driving every beacon (its own
+    instance per run and beacon, seeded ``seed + i``); yield ``(config, simulator, result,
+    live)`` after every step, ``live`` (runs,) the episodes that had not ended before it,
+    until all have ended."""
     import coopnav_env
     from coopnav_env.core import make_simulator
 
@@ -25,7 +28,8 @@ def planned_steps(scenario: str, planner: str, overrides: dict, runs: int, seed:
     sim = make_simulator(cfg, runs)
     obs = sim.reset(list(range(seed, seed + runs)))
     policies: list[list[Any]] = [
-        [make_policy(planner, cfg, seed=seed + b, agent=n) for n in range(cfg.n_beacons)] for b in range(runs)
+        [make_policy(planner, cfg, seed=seed + b, agent=n, **(planner_kwargs or {})) for n in range(cfg.n_beacons)]
+        for b in range(runs)
     ]
     for row in policies:
         for p in row:

@@ -17,7 +17,9 @@ decide-mode scenario gets ``DEFAULT_SCHEDULE``. The schedules:
   reported, grown by the filter's process noise over the reply's age and one slot
   (P' = P + q (age + T) I, q = ``process_noise_horizontal_m2ps``), a range along the
   horizontal line-of-sight h (the horizontal part of the unit slant vector) with
-  variance R = ``range_noise_std_m``^2 + own position variance gains
+  variance R (``BeaconContext.range_variance_m2``: the ranging noise and the beacon's
+  own position variance; with ``range_model="filter"`` also the sound speed's scale
+  error over the slant distance d, as the survey filter) gains
   log det P' - log det P'^+ = log(1 + h' P' h / R) nats (the scalar Kalman update;
   the reward's ``info_gain`` measures the same quantity), summed over survey
   vehicles. Beacons that decide alone can still collide: two beacons near one
@@ -34,13 +36,14 @@ Slots are counted by the policy itself from its ``reset()`` (one ``act`` per slo
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .base import Policy, register_scheduler
+from .base import BeaconContext, Policy, register_scheduler
 
 if TYPE_CHECKING:
     from coopnav_env.obs_layout import ObsView
@@ -79,33 +82,43 @@ class TdmaSchedule(Schedule):
         return slot % self.frame == self.agent_index % self.frame
 
 
-def predicted_gain_nats(view: ObsView, config: ScenarioConfig) -> float:
-    """The information a range from the beacon's position now would add to the survey
-    filters (nats, summed over survey vehicles): see the module docstring."""
-    c = config
+def predicted_gain_nats(view: ObsView, ctx: BeaconContext) -> float:
+    """The information a range from the beacon (``ctx``) at its position now would add
+    to the survey filters (nats, summed over survey vehicles): see the module docstring."""
+    c = ctx.config
     rel = np.asarray(view.survey_rel_m, float)  # (S, 3) survey minus own
     slant = np.maximum(np.linalg.norm(rel, axis=-1), 1e-6)
     h = rel[:, :2] / slant[:, None]
     grow = c.process_noise_horizontal_m2ps * (np.asarray(view.reply_age_s, float) + c.ping_interval_s)
     P = np.asarray(view.cov_m2, float) + grow[:, None, None] * np.eye(2)
-    R = c.range_noise_std_m**2 + float(view.own_std_m) ** 2
+    R = ctx.range_variance_m2(slant, float(view.own_std_m) ** 2)
     return float(np.log1p(np.einsum("si,sij,sj->s", h, P, h) / R).sum())
 
 
 class EventSchedule(Schedule):
-    def __init__(self, config: ScenarioConfig, agent_index: int, threshold_nats: float = 0.5) -> None:
+    def __init__(
+        self, config: ScenarioConfig, agent_index: int, threshold_nats: float = 0.5, range_model: str = "constant"
+    ) -> None:
         super().__init__(config, agent_index)
         if not threshold_nats >= 0:
             raise ValueError(f"threshold_nats must be >= 0, got {threshold_nats!r}")
         self.threshold_nats = float(threshold_nats)
+        self.ctx = BeaconContext.from_config(config, agent_index).with_range_model(range_model)
 
     def transmit(self, slot: int, view: ObsView) -> bool:
-        return predicted_gain_nats(view, self.config) > self.threshold_nats
+        return predicted_gain_nats(view, self.ctx) > self.threshold_nats
 
 
 class EventTdmaSchedule(EventSchedule):
-    def __init__(self, config: ScenarioConfig, agent_index: int, threshold_nats: float = 0.5, frame: int = 0) -> None:
-        super().__init__(config, agent_index, threshold_nats)
+    def __init__(
+        self,
+        config: ScenarioConfig,
+        agent_index: int,
+        threshold_nats: float = 0.5,
+        frame: int = 0,
+        range_model: str = "constant",
+    ) -> None:
+        super().__init__(config, agent_index, threshold_nats, range_model)
         self.turns = TdmaSchedule(config, agent_index, frame)
 
     def transmit(self, slot: int, view: ObsView) -> bool:
@@ -164,7 +177,8 @@ def make_scheduled(
 ) -> ScheduledPolicy:
     """``motion_cls`` with the schedule ``schedule_name`` ("" or None: ``DEFAULT_SCHEDULE``);
     ``kwargs`` go to the schedule when it takes them (every, offset, frame,
-    threshold_nats), the rest to the planner."""
+    threshold_nats), the rest to the planner; ``range_model`` to both (the event
+    schedules weigh a range as the planner does)."""
     schedule_name = schedule_name or DEFAULT_SCHEDULE
     if config.channel_mode != "decide":
         raise ValueError(
@@ -176,5 +190,10 @@ def make_scheduled(
     sched_keys = {"every", "offset", "frame", "threshold_nats"}
     sched_kw = {k: v for k, v in kwargs.items() if k in sched_keys}
     motion_kw = {k: v for k, v in kwargs.items() if k not in sched_keys}
+    if "range_model" in kwargs:
+        if schedule_name in ("event", "event_tdma"):
+            sched_kw["range_model"] = kwargs["range_model"]
+        if "range_model" not in inspect.signature(motion_cls).parameters:  # fim_a, circle: no R to weigh
+            motion_kw.pop("range_model")
     motion = motion_cls(config, agent_index=agent_index, seed=seed, **motion_kw)
     return ScheduledPolicy(motion, SCHEDULES[schedule_name](config, agent_index, **sched_kw))

@@ -101,6 +101,12 @@ class _Channel:
         a = 1.0 - np.vectorize(packet_loss_probability)(d, 0.05, 0.5, 1000.0)
         return a * a
 
+    @staticmethod
+    def range_variance_m2(d, var):
+        """The boats' R, the same at every distance (``boat_horizon``'s R_m2): here the
+        'variance' passed is that R."""
+        return var + np.zeros(np.shape(d))
+
 
 @pytest.mark.parametrize("with_error", [False, True])
 def test_kernel_cost_is_the_survey_planners_loop_on_the_boats_ranges(with_error):
@@ -128,7 +134,7 @@ def test_kernel_cost_is_the_survey_planners_loop_on_the_boats_ranges(with_error)
         dz,
         m.P0[None],
         np.full((n, 1), m.grow_m2),
-        np.ones(2),
+        np.ones(2),  # R = 1 m^2 for both boats, as m.R_m2
         _Channel,
         None if W0 is None else W0[None],
         None if W0 is None else shift[None],

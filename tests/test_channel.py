@@ -578,7 +578,9 @@ def test_schedules_are_refused_on_the_fixed_clock():
 
 
 def test_event_gain_by_hand():
+    from baselines.base import BeaconContext
     from baselines.schedule import predicted_gain_nats
+    from coopnav_env.core.acoustics import mackenzie_sound_speed
     from coopnav_env.obs_layout import ObsView
 
     config = coopnav_env.make_config("sousa_ping")
@@ -589,5 +591,16 @@ def test_event_gain_by_hand():
     view.own_std_m = np.float64(0.5)
     q = config.process_noise_horizontal_m2ps * (5.0 + config.ping_interval_s)  # the reply's age + one slot
     h = np.array([0.6, 0.8])
-    expected = np.log1p(h @ (np.diag([4.0, 1.0]) + q * np.eye(2)) @ h / (config.range_noise_std_m**2 + 0.25))
-    assert predicted_gain_nats(view, config) == pytest.approx(expected)
+    # R by hand: the ranging noise and the beacon's variance; R(d) adds the sound speed's
+    # scale error over the 50 m slant (Mackenzie's dc/dT at the mid-depth, times the uncertainty)
+    depth = 0.5 * config.depth_m  # halfway between the ASV at 0 m and the survey vehicle
+    c0 = float(mackenzie_sound_speed(config.water_temperature_c, config.salinity_psu, depth))
+    c1 = float(mackenzie_sound_speed(config.water_temperature_c + 1.0, config.salinity_psu, depth))
+    rel = config.temperature_uncertainty_c * (c1 - c0) / c0
+    ctx = BeaconContext.from_config(config, 0)
+    for model, R in [
+        ("constant", config.range_noise_std_m**2 + 0.25),  # the default: one R at every distance
+        ("filter", config.range_noise_std_m**2 + 0.25 + (50.0 * rel) ** 2),  # the survey filter's R(d)
+    ]:
+        expected = np.log1p(h @ (np.diag([4.0, 1.0]) + q * np.eye(2)) @ h / R)
+        assert predicted_gain_nats(view, ctx.with_range_model(model)) == pytest.approx(expected, rel=1e-12)

@@ -1,8 +1,9 @@
 """The receding-horizon planner (baselines/horizon.py) on toy cases with known optima.
 
 The toy: a stationary survey vehicle at SURVEY at the beacon's depth (dz = 0), no
-process noise, no packet loss, range variance R = 1 m^2, the beacon's own position
-exact, a 40 m reaching set (2 m/s x 20 s) and a 3 m safety distance.
+process noise, no packet loss, range variance R = 1 m^2 at every distance (the sound
+speed known: no scale error), the beacon's own position exact, a 40 m reaching set
+(2 m/s x 20 s) and a 3 m safety distance.
 
 * One range from a unit horizontal direction h reduces the trace of P by
   h'P^2 h / (h'Ph + R). For P = diag(a, b) in the frame of its axes and
@@ -45,6 +46,7 @@ TOY = coopnav_env.make_config(
     packet_loss_far=0.0,
     process_noise_horizontal_m2ps=0.0,
     range_noise_std_m=1.0,
+    temperature_uncertainty_c=0.0,
 )
 SURVEY = np.array([20.0, 10.0])
 R = 1.0
@@ -73,7 +75,7 @@ def test_expected_covariance_is_the_kalman_update_weighted_by_arrival():
     ctx = BeaconContext.from_config(c)
     P0 = np.array([[9.0, 2.0], [2.0, 4.0]])
     beacon = np.array([[[SURVEY[0] + 30.0, SURVEY[1] + 40.0]]])  # (N=1, H=1, 2)
-    P, P_none = expected_covariances(beacon, SURVEY[None, None], np.zeros((1, 1)), P0[None], np.zeros((1, 1)), R, ctx)
+    P, P_none = expected_covariances(beacon, SURVEY[None, None], np.zeros((1, 1)), P0[None], np.zeros((1, 1)), 0.0, ctx)
     want = 0.7 * range_update(P0, beacon[0, 0]) + 0.3 * P0
     np.testing.assert_allclose(P[0, 0, 0], [want[0, 0], want[0, 1], want[1, 1]], rtol=1e-12)
     np.testing.assert_allclose(P_none[0, 0], [9.0, 2.0, 4.0])
@@ -193,9 +195,9 @@ def test_expected_errors_with_the_error_unknown_are_eq_h1():
     beacons = SURVEY + rng.uniform(-60.0, 60.0, (5, 2, 3, 2))  # (N, M, H, 2)
     survey = np.broadcast_to(SURVEY, (3, 1, 2))
     P0 = np.array([[[9.0, 2.0], [2.0, 4.0]]])
-    grow, R2, dz = np.full((3, 1), 0.5), np.array([1.0, 4.0]), np.zeros((2, 3, 1))
-    P, P_none = team_expected_covariances(beacons, survey, dz, P0, grow, R2, ctx)
-    W, W_none = team_expected_errors(beacons, survey, dz, P0, grow, R2, ctx, P0)
+    grow, var2, dz = np.full((3, 1), 0.5), np.array([0.0, 3.0]), np.zeros((2, 3, 1))  # R = 1 and 4 m^2
+    P, P_none = team_expected_covariances(beacons, survey, dz, P0, grow, var2, ctx)
+    W, W_none = team_expected_errors(beacons, survey, dz, P0, grow, var2, ctx, P0)
     np.testing.assert_allclose(W, P, rtol=1e-12)
     np.testing.assert_allclose(W_none, P_none)
 
@@ -216,7 +218,7 @@ def test_expected_error_of_a_known_error_by_hand():
         np.zeros((1, 1, 1)),
         P0[None],
         np.zeros((1, 1)),
-        np.array([R]),
+        np.array([0.0]),  # the beacon's own variance: R = range_noise_std_m^2 = 1
         ctx,
         np.outer(e0, e0)[None],
     )
@@ -384,3 +386,49 @@ def test_mls_window_in_the_planners_channel_and_the_oracle_hears_at_the_true_dis
     assert heard[0, 0, 0, 0] < 2.0  # east variance 25 -> ~0.96 after one range along east
     unheard, _ = _team_loop(*args, channel_shift=np.array([[20.0, 0.0]]))  # truly 70 m away
     np.testing.assert_allclose(unheard[0, 0, 0], [25.0, 0.0, 25.0])
+
+
+def test_planners_weigh_a_range_by_the_filters_variance_at_its_distance():
+    """With ``range_model="filter"`` the planners' R is the survey filter's R(d)
+    (``measurements.range_variance_m2``, the ufunc the modem kernel calls): the ranging
+    noise, the beacon's own variance and the sound speed's scale error (d std(c)/c)^2,
+    which grows with the distance. By hand on ``gao_sea`` with a 2 degC temperature
+    uncertainty: Mackenzie's dc/dT at the mid-depth, and eq. (H1) from a beacon 1,200 m
+    away (the default, ``"constant"``: R the same at every distance, 1 m^2 + the beacon's
+    variance, here less than half of R(1,200 m))."""
+    from coopnav_env.core.acoustics import mackenzie_sound_speed
+
+    c = coopnav_env.make_config("gao_sea", temperature_uncertainty_c=2.0, packet_loss_near=0.0, packet_loss_far=0.0)
+    constant = BeaconContext.from_config(c)
+    np.testing.assert_array_equal(
+        constant.range_variance_m2(np.array([10.0, 1200.0]), 0.3), c.range_noise_std_m**2 + 0.3
+    )
+    ctx = constant.with_range_model("filter")
+    depth = 0.5 * (c.beacon_auv_depth_m + c.depth_m)
+    c0 = float(mackenzie_sound_speed(c.water_temperature_c, c.salinity_psu, depth))
+    dc_dT = float(mackenzie_sound_speed(c.water_temperature_c + 1.0, c.salinity_psu, depth)) - c0
+    rel = 2.0 * dc_dT / c0
+    d = np.array([10.0, 1200.0])
+    R_hand = c.range_noise_std_m**2 + 0.3 + (d * rel) ** 2
+    np.testing.assert_allclose(ctx.range_variance_m2(d, 0.3), R_hand, rtol=1e-12)
+    assert R_hand[1] > 2.0 * (c.range_noise_std_m**2 + 0.3)
+    # (H1) with that R: a beacon 1,200 m east of the survey vehicle, at its depth
+    P0 = np.diag([400.0, 100.0])
+    beacon = np.array([[[1200.0, 0.0]]])  # (N=1, H=1, 2)
+    P, _ = expected_covariances(beacon, np.zeros((1, 1, 2)), np.zeros((1, 1)), P0[None], np.zeros((1, 1)), 0.3, ctx)
+    want_east = 400.0 - 400.0**2 / (400.0 + R_hand[1])
+    np.testing.assert_allclose(P[0, 0, 0], [want_east, 0.0, 100.0], rtol=1e-12)
+
+
+def test_range_model_reaches_the_planners_and_is_checked():
+    """``range_model`` is a keyword of ``ellipse``, ``horizon`` (so ``oracle``) and the event
+    schedules; with a schedule it goes to both, and is dropped for a motion planner that
+    weighs no range (``fim_a``). A bad value is refused by name."""
+    assert make_policy("ellipse", "gao_sea", range_model="filter").ctx.range_model == "filter"
+    h = make_policy("horizon", "gao_team", range_model="filter")
+    assert h.ctx.range_model == "filter" and all(bc.range_model == "filter" for bc in h.team_ctx)
+    assert make_policy("oracle", "gao_sea").ctx.range_model == "constant"
+    p = make_policy("fim_a+event", "sousa_ping", range_model="filter")
+    assert p.schedule.ctx.range_model == "filter"
+    with pytest.raises(ValueError, match="range_model must be one of"):
+        make_policy("ellipse", "gao_sea", range_model="d2")

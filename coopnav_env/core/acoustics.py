@@ -71,6 +71,33 @@ def ranging_variance_m2(detection_std_m: float, two_way: bool) -> float:
     return 0.5 * v if two_way else v
 
 
+@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
+def sound_speed_rel_std(
+    nominal_temperature_c: float, salinity_psu: float, temperature_uncertainty_c: float, depth_m: float
+) -> float:
+    """The sound speed's relative uncertainty std(c) / c when the water's temperature is
+    known to ``temperature_uncertainty_c`` (1 sigma) about the nominal one: the
+    temperature derivative of Mackenzie's c over one degree, times the uncertainty, over
+    the assumed c. A ufunc: the survey filter's ranges (``measurements.modem``) and the
+    planners' model of them (``measurements.range_variance_m2``) call this one formula."""
+    c_assumed = mackenzie_sound_speed(nominal_temperature_c, salinity_psu, depth_m)
+    dc_dT = mackenzie_sound_speed(nominal_temperature_c + 1.0, salinity_psu, depth_m) - c_assumed
+    return temperature_uncertainty_c * dc_dT / c_assumed
+
+
+@vectorize(["float64(float64, boolean, float64, float64, float64)"], cache=True)
+def modem_range_variance(
+    detection_std_m: float, two_way: bool, beacon_var_m2: float, predicted_range_m: float, sound_speed_rel_std: float
+) -> float:
+    """R of a modem range (m^2): the ranging noise (``ranging_variance_m2``), the beacon's
+    own horizontal position variance (below Gao & Chitre eq. 7), and the sound speed's
+    relative uncertainty as a scale error of the predicted range, which grows with it:
+    R = sigma_r^2 + sigma_b^2 + (d std(c)/c)^2. A ufunc: the survey filter calls it per
+    range, the planners over their candidate positions (arrays broadcast)."""
+    scale = predicted_range_m * sound_speed_rel_std
+    return ranging_variance_m2(detection_std_m, two_way) + beacon_var_m2 + scale * scale
+
+
 @njit(cache=True)
 def travel_time(
     sender: np.ndarray, receiver: np.ndarray, receiver_velocity: np.ndarray, sound_speed_mps: float

@@ -66,6 +66,7 @@ class Sensor:
     doc: str = ""
     arrival: Callable[[Any, Any], np.ndarray] | None = None  # (config, distance_m) -> P(a ping is received)
     reach: Callable[[Any], float] | None = None  # config -> the farthest a ping is received, m
+    range_variance: Callable[..., np.ndarray] | None = None  # (config, distance_m, beacon_var_m2, depth_m) -> R, m^2
 
     def make(self, sim: Any) -> Any:
         """The sensor's model for simulator ``sim`` (a module path's ``build`` imported now)."""
@@ -86,6 +87,7 @@ def register_sensor(
     doc: str = "",
     arrival: Callable[[Any, Any], np.ndarray] | None = None,
     reach: Callable[[Any], float] | None = None,
+    range_variance: Callable[..., np.ndarray] | None = None,
 ) -> Sensor:
     """Register the sensor ``name`` (a scenario's ``acoustic_sensor``) and return it.
 
@@ -94,8 +96,10 @@ def register_sensor(
     ``networks``: the ``ScenarioConfig.network`` values it works with;
     ``validate(config)``: raises ``ValueError`` on a scenario the sensor cannot simulate;
     ``arrival(config, distance_m)``: the probability that a ping over that distance is
-    received, and ``reach(config)``: the farthest one is (what the planners model;
-    default: the modem's loss curve and ``max_range_m``).
+    received, ``reach(config)``: the farthest one is, and ``range_variance(config,
+    distance_m, beacon_var_m2, depth_m)``: the variance R (m^2) the survey filter gives
+    such a range (what the planners model; default: the modem's loss curve,
+    ``max_range_m`` and R).
     """
     if not isinstance(name, str) or not name:
         raise ValueError(f"sensor name must be a non-empty string, got {name!r}")
@@ -106,7 +110,7 @@ def register_sensor(
             raise ValueError(
                 f"sensor {name!r}: a draw is (purpose, 'normal' | 'uniform', shape_fn(S, N, K)), got {spec!r}"
             )
-    sensor = Sensor(name, build, tuple(draws), tuple(networks), validate, doc, arrival, reach)
+    sensor = Sensor(name, build, tuple(draws), tuple(networks), validate, doc, arrival, reach, range_variance)
     _SENSORS[name] = sensor
     return sensor
 
@@ -167,6 +171,36 @@ def reach_m(config: Any) -> float:
     return float(reach(config) if reach is not None else config.max_range_m)
 
 
+def _modem_range_variance(config: Any, distance_m: Any, beacon_var_m2: Any, depth_m: float) -> np.ndarray:
+    """The survey filter's R of a modem range (``acoustics.modem_range_variance``, the
+    formula its kernel calls): the ranging noise, the beacon's own position variance, and
+    the sound speed's uncertainty as a scale error that grows with the distance, at
+    mid-depth ``depth_m`` (the filter's: halfway between the two vehicles)."""
+    from .. import acoustics
+
+    c = config
+    rel = acoustics.sound_speed_rel_std(c.water_temperature_c, c.salinity_psu, c.temperature_uncertainty_c, depth_m)
+    two_way = c.ranging_mode == "twtt"
+    return acoustics.modem_range_variance(c.range_noise_std_m, two_way, beacon_var_m2, distance_m, rel)
+
+
+def range_variance_m2(config: Any, distance_m: Any, beacon_var_m2: Any, depth_m: float) -> np.ndarray:
+    """The variance R (m^2) the survey filter gives a range over ``distance_m`` from a
+    beacon whose own position variance per axis is ``beacon_var_m2``, with the
+    scenario's ``acoustic_sensor`` (its ``range_variance`` hook; the modem's R by
+    default). What the planners weigh a candidate position's range by: the same R as the
+    filter that fuses it (docs/baselines/horizon.md#range-variance)."""
+    hook = get_sensor(config.acoustic_sensor).range_variance or _modem_range_variance
+    return np.asarray(hook(config, np.asarray(distance_m, float), beacon_var_m2, float(depth_m)), float)
+
+
+def _mls_range_variance(config: Any, distance_m: Any, beacon_var_m2: Any, depth_m: float) -> np.ndarray:
+    """The MLS array's, as the planners model it: ``range_noise_std_m`` squared plus the
+    beacon's variance at every distance. (The array's own range variance follows the
+    signal-to-noise ratio of each reception, ``mls_array``; the planners do not model it.)"""
+    return config.range_noise_std_m**2 + np.asarray(beacon_var_m2, float) + np.zeros(np.shape(distance_m))
+
+
 def _mls_arrival(config: Any, distance_m: Any) -> np.ndarray:
     """The MLS array's window: it hears every sender within ``mls_max_range_m`` and none
     farther (its minimum range, 0.4 m, lies inside every scenario's safety distance)."""
@@ -199,4 +233,5 @@ register_sensor(
     doc="Kottege & Zimmer's MLS array: range and bearing from one sender per cycle",
     arrival=_mls_arrival,
     reach=lambda config: float(config.mls_max_range_m),
+    range_variance=_mls_range_variance,
 )

@@ -19,7 +19,13 @@ import numpy as np
 from numba import njit, prange
 from scipy.stats import chi2
 
-from ..acoustics import mackenzie_sound_speed, packet_loss_probability, ranging_variance_m2, travel_time
+from ..acoustics import (
+    mackenzie_sound_speed,
+    modem_range_variance,
+    packet_loss_probability,
+    sound_speed_rel_std,
+    travel_time,
+)
 from ..consider import (
     beacon_reset,
     carry_cross_covariance,
@@ -92,17 +98,6 @@ def modem_range(
     delays[0, 0] = r / c_assumed
     delays[1, 0] = 0.0
     return r
-
-
-@njit(cache=True)
-def modem_range_variance(
-    detection_std_m: float, two_way: bool, beacon_var_m2: float, predicted_range_m: float, sound_speed_rel_std: float
-) -> float:
-    """R of a modem range (m^2): the ranging noise (``acoustics.ranging_variance_m2``),
-    the beacon's own horizontal position variance (below Gao & Chitre eq. 7), and the
-    sound speed's relative uncertainty as a scale error of the predicted range."""
-    scale = predicted_range_m * sound_speed_rel_std
-    return ranging_variance_m2(detection_std_m, two_way) + beacon_var_m2 + scale * scale
 
 
 class ModemParams(NamedTuple):
@@ -181,7 +176,6 @@ def _ping_range(s_pos, s_vel_true, b_pos, b_vel, temperature_c, noise_std_m, clo
     depth = 0.5 * (s_pos[2] + b_pos[2])
     c_true = mackenzie_sound_speed(temperature_c, prm.salinity_psu, depth)
     c_assumed = mackenzie_sound_speed(prm.nominal_temperature_c, prm.salinity_psu, depth)
-    dc_dT = mackenzie_sound_speed(prm.nominal_temperature_c + 1.0, prm.salinity_psu, depth) - c_assumed
     dx, dy, dz = s_pos[0] - b_pos[0], s_pos[1] - b_pos[1], s_pos[2] - b_pos[2]
     p_lost = packet_loss_probability(np.sqrt(dx * dx + dy * dy + dz * dz), prm.loss_near, prm.loss_far, prm.max_range_m)
     r = modem_range(
@@ -200,7 +194,11 @@ def _ping_range(s_pos, s_vel_true, b_pos, b_vel, temperature_c, noise_std_m, clo
     )
     if prm.two_way:
         p_lost = 1.0 - (1.0 - p_lost) ** 2  # both legs must arrive
-    return r, p_lost, prm.temperature_uncertainty_c * dc_dT / c_assumed
+    return (
+        r,
+        p_lost,
+        sound_speed_rel_std(prm.nominal_temperature_c, prm.salinity_psu, prm.temperature_uncertainty_c, depth),
+    )
 
 
 @njit(cache=True, inline="always")

@@ -1,0 +1,99 @@
+"""What the planners' range model changes: ``range_model="constant"`` (one R at every
+distance, the default) against ``"filter"`` (the survey filter's R(d), with the sound
+speed's scale error that grows with the distance), paired on the same episodes.
+
+    python benchmarks/range_model.py --cases gao_sea,gao_sea:temperature_uncertainty_c=2 \\
+        --planners ellipse --runs 40 --seed 950000
+
+Each case is a scenario with optional ``:key=value`` overrides (``+`` between several).
+Prints per case and planner the mean horizontal error (the benchmark's score: the
+error averaged over the episode's steps, then over episodes) with each model, the paired
+difference filter - constant with its 95 % interval (t), and the mean distance from the
+beacon(s) to the survey vehicle(s). Docs: docs/baselines/horizon.md#range-variance.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def parse_case(text: str) -> tuple[str, dict]:
+    """``scenario[:key=value[+key=value...]]`` -> (scenario, overrides), values as numbers when they parse."""
+    name, _, rest = text.partition(":")
+    overrides: dict = {}
+    for item in filter(None, rest.split("+")):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise ValueError(f"case {text!r}: an override is key=value, got {item!r}")
+        try:
+            overrides[key] = float(value) if "." in value or "e" in value else int(value)
+        except ValueError:
+            overrides[key] = value
+    return name, overrides
+
+
+def run(scenario: str, overrides: dict, planner: str, model: str, runs: int, seed: int) -> tuple[np.ndarray, float]:
+    """Per-episode mean horizontal error (runs,) and the mean beacon-survey distance (m)."""
+    from baselines.rollout import planned_steps
+
+    err_sum = np.zeros(runs)
+    steps = np.zeros(runs)
+    dist: list[float] = []
+    for _cfg, sim, res, live in planned_steps(scenario, planner, overrides, runs, seed, {"range_model": model}):
+        e = np.hypot(*np.moveaxis(np.asarray(res.info["survey_error_en_m"])[..., :2], -1, 0)).mean(-1)  # (runs,)
+        err_sum += np.where(live, e, 0.0)
+        steps += live
+        st = sim.state
+        d = np.linalg.norm(st.b_pos[:, :, None, :2] - st.s_pos[:, None, :, :2], axis=-1).mean((1, 2))
+        dist.extend(d[live].tolist())
+    return err_sum / np.maximum(steps, 1), float(np.mean(dist))
+
+
+def main(argv: list[str] | None = None) -> int:
+    from scipy import stats
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cases", default="gao_sea,gao_sea:temperature_uncertainty_c=2")
+    ap.add_argument("--planners", default="ellipse")
+    ap.add_argument("--runs", type=int, default=40)
+    ap.add_argument("--seed", type=int, default=950000)
+    args = ap.parse_args(argv)
+    try:
+        cases = [parse_case(c) for c in args.cases.split(",") if c]
+    except ValueError as exc:
+        print(f"range_model.py: {exc}", file=sys.stderr)
+        return 2
+    if args.runs < 2:
+        print("range_model.py: --runs must be at least 2 (a paired interval)", file=sys.stderr)
+        return 2
+    print(f"runs {args.runs}, seeds {args.seed}..{args.seed + args.runs - 1}")
+    print("| case | planner | constant (m) | filter (m) | filter - constant [95 %] | distance constant / filter (m) |")
+    print("|---|---|---|---|---|---|")
+    for scenario, overrides in cases:
+        for planner in args.planners.split(","):
+            try:
+                a, da = run(scenario, overrides, planner, "constant", args.runs, args.seed)
+                b, db = run(scenario, overrides, planner, "filter", args.runs, args.seed)
+            except ValueError as exc:
+                print(f"range_model.py: {exc}", file=sys.stderr)
+                return 2
+            diff = b - a
+            half = stats.t.ppf(0.975, len(diff) - 1) * diff.std(ddof=1) / np.sqrt(len(diff))
+            label = scenario + "".join(f" {k}={v}" for k, v in overrides.items())
+            print(
+                f"| {label} | {planner} | {a.mean():.3f} | {b.mean():.3f} | {diff.mean():+.3f} "
+                f"[{diff.mean() - half:+.3f}, {diff.mean() + half:+.3f}] | {da:.0f} / {db:.0f} |",
+                flush=True,
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
