@@ -102,6 +102,86 @@ def test_the_seed_950040_lockout_keeps_the_direct_ranges():
     assert list(keep) == [2, 3, 5] and np.hypot(*(x - truth)) > 40.0
 
 
+def test_a_streak_the_filter_did_not_cause_is_not_re_fixed_on_the_far_branch():
+    """``gao_lawnmower`` seed 950040 under ``ellipse`` with ``range_model="filter"``, cycle 33
+    (the same streak as above on another beacon track): ranges 3-5 are multipath (+10, +26 and
+    +52 m at the truth), and the filter was 6.7 m off three cycles before, sigma 4-7 m. With
+    the prior R3 alone, at the streak's 61 m miss, for every labelling, R7 kept 0, 1, 3 and 5:
+    a fix 100 m off, whose 3.3 of prior penalty was cheaper than a third longer path (the
+    filter stayed 45-100 m off to the end). Eq. (R7')'s prior, a mixture of 'the filter was
+    right' (its own P0) and 'it drifted' (R3), keeps 0-2: 4.7 m off, inside its covariance."""
+    win = RangeWindow(
+        np.array(
+            [
+                59.579912533292884,
+                79.46733144523098,
+                100.73377016769923,
+                133.00526610899533,
+                136.36163991387215,
+                138.95049479757085,
+            ]
+        ),
+        np.array(
+            [
+                [14.152055910312804, 40.81160129115504],
+                [8.43549603126192, 63.35279684414674],
+                [10.423428863757643, 86.9665251231977],
+                [16.694321762543318, 109.74737757492458],
+                [23.41322848957167, 132.87114990963795],
+                [36.891618359451066, 151.61537257704626],
+            ]
+        ),
+        np.array(
+            [
+                [31.626510381842113, 27.627850550002282],
+                [10.402098599217563, 25.926709046755423],
+                [-10.778838158105966, 24.980708354866312],
+                [-31.75731837843476, 22.94685974190749],
+                [-25.38516895373622, 0.37531211209309934],
+                [0.0717088788852891, 0.0008718169720225433],
+            ]
+        ),
+        np.array(
+            [
+                1.0674099082295192,
+                0.9865813924261682,
+                1.056290186779775,
+                1.0094436676573717,
+                1.0917926448869957,
+                1.0034468469354967,
+            ]
+        ),
+        np.array([100.0, 80.0, 60.0, 40.0, 20.0, 0.0]),
+    )
+    noise = WindowNoise(1.0031348787702878, 4.41 * np.eye(2), 0.05, 50.0, 0.05, np.deg2rad(1.0), 0.05)
+    x0 = np.array([99.32047054200028, 104.32778217447576])
+    P0 = np.array([[19.041042352833223, 1.5966253217394426], [1.5966253217394426, 48.90189631474254]])
+    truth = np.array([100.292486666485, 91.34091729102553])
+    _n, x, P, keep = _fix(win, noise, x0, P0)
+    assert list(keep) == [0, 1, 2]
+    e = x - truth
+    assert e @ np.linalg.solve(P, e) < chi2.ppf(0.99, 2)
+    assert np.hypot(*e) < 10.0
+
+
+def test_the_lockout_prior_is_the_mixture_of_its_two_causes():
+    """Eq. (R7') by hand: -2 log(pi N(d; 0, P0) + (1 - pi) N(d; 0, Pp)) without the 2 pi;
+    pi = 1 gives the filter's own term, pi = 0 the drift's (R3 with its normaliser)."""
+    from scipy.stats import multivariate_normal
+
+    from coopnav_env.core.recovery import lockout_prior_term
+
+    d = np.array([8.0, -3.0])
+    P0, Pp = np.array([[20.0, 2.0], [2.0, 50.0]]), np.diag([3700.0, 3600.0])
+    for pi in (0.0, 0.3, 0.5, 1.0):
+        dens = pi * multivariate_normal(cov=P0).pdf(d) + (1 - pi) * multivariate_normal(cov=Pp).pdf(d)
+        assert lockout_prior_term(d, P0, Pp, pi) == pytest.approx(-2 * np.log(dens) - 2 * np.log(2 * np.pi), rel=1e-12)
+    far = np.array([-60.0, -90.0])  # the far branch: only the drift explains it
+    assert lockout_prior_term(far, P0, Pp, 0.5) == pytest.approx(
+        far @ np.linalg.solve(Pp, far) + np.linalg.slogdet(Pp)[1] - 2 * np.log(0.5), rel=1e-9
+    )
+
+
 def test_the_seed_900063_lockout_keeps_the_whole_window():
     """``sousa_asv`` seed 900063 under ``fim_a``, cycle 13: the ASV nearly overhead (20 m
     depth), so any three ranges of the window fit a ring. Its oldest ranges are 3-5 m short

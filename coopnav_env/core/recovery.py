@@ -68,7 +68,15 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
                      - 2 |D| log eps - 2 |K| log(1 - eps)                (the labels' prior)
          (constants common to all L left out; a dropped range's residual taken alone, its
          correlation with the kept ones ignored); Pp the prior of R3 at the whole window's
-         largest miss. The fix is the best-scoring L with at least 3 ranges kept whose residuals
+         largest miss.
+   (R7') the prior term is the mixture of a lock-out's two causes (``lockout_prior_term``):
+         -2 log(pi N(x_K; x0, P0) + (1 - pi) N(x_K; x0, Pp)), pi = ``LOCKOUT_STREAK_PRIOR``:
+         either the filter was right and the window holds a streak it did not cause (its
+         own covariance P0 holds), or it drifted (R3). With Pp alone a streak of long
+         multipath ranges inflates the prior to the streak's miss, and a far fix that keeps
+         one more of them costs less than a third longer path (``gao_lawnmower`` seed 950040
+         under ``ellipse`` with ``range_model="filter"``: 100 m off, where the filter had
+         been 7 m off three cycles before). The fix is the best-scoring L with at least 3 ranges kept whose residuals
          pass their chi-square test at 99.9 % (the test only guards against a model that fits
          nothing); each labelling's fix started at x0 and again at the first pass's best fix
          (from a start far off, Gauss-Newton can settle on the wrong branch of a ring).
@@ -282,6 +290,22 @@ class LabelModel(NamedTuple):
     mu: float  # outlier_mean_excess_m
 
 
+LOCKOUT_STREAK_PRIOR = 0.5  # (R7'): prior probability that a lock-out is a streak the filter did not cause [U]
+
+
+@njit(cache=True)
+def lockout_prior_term(d: np.ndarray, P0: np.ndarray, Pp: np.ndarray, pi: float) -> float:
+    """Eq. (R7'): -2 log of the fix's prior density at d = x - x0 (the 2 pi constant left
+    out), a mixture of the two causes of a lock-out: with probability ``pi`` the filter was
+    right and the window holds a streak of longer paths, so x ~ N(x0, P0), its own
+    covariance; else it drifted, x ~ N(x0, Pp), Pp the prior R3 at the window's largest
+    miss. By log-sum-exp."""
+    a = d @ np.linalg.solve(P0, d) + np.linalg.slogdet(P0)[1]
+    b = d @ np.linalg.solve(Pp, d) + np.linalg.slogdet(Pp)[1]
+    lo = min(a, b)
+    return lo - 2.0 * np.log(pi * np.exp(-0.5 * (a - lo)) + (1.0 - pi) * np.exp(-0.5 * (b - lo)))
+
+
 @njit(cache=True)
 def _labelling_score(win, m, noise, lm, mask, x_start, x, P, Pxb) -> float:
     """Eq. (R7)'s score_L of the labelling ``mask`` (bit k set: range k kept as direct) under
@@ -302,7 +326,12 @@ def _labelling_score(win, m, noise, lm, mask, x_start, x, P, Pxb) -> float:
     if c2 > chi2_by_dof[size - 2]:
         return np.inf
     d = x - x0
-    score = c2 + np.linalg.slogdet(Sig)[1] + size * np.log(2.0 * np.pi) + d @ np.linalg.solve(Pp, d)
+    score = (
+        c2
+        + np.linalg.slogdet(Sig)[1]
+        + size * np.log(2.0 * np.pi)
+        + lockout_prior_term(d, P0, Pp, LOCKOUT_STREAK_PRIOR)
+    )
     score += -np.linalg.slogdet(P)[1] - 2.0 * size * np.log(1.0 - eps)
     if size < m:
         Jm, rm, Sm = np.empty((m, 2)), np.empty(m), np.empty((m, m))
