@@ -16,12 +16,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 import numpy as np
-
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 def parse_case(text: str) -> tuple[str, dict]:
@@ -57,7 +53,7 @@ def run(scenario: str, overrides: dict, planner: str, model: str, runs: int, see
 
 
 def main(argv: list[str] | None = None) -> int:
-    from scipy import stats
+    from evaluation.paired import t_interval
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cases", default="gao_sea,gao_sea:temperature_uncertainty_c=2")
@@ -73,6 +69,35 @@ def main(argv: list[str] | None = None) -> int:
     if args.runs < 2:
         print("range_model.py: --runs must be at least 2 (a paired interval)", file=sys.stderr)
         return 2
+    import inspect
+
+    import coopnav_env
+    from baselines.base import list_policies, policy_class
+
+    for scenario, overrides in cases:
+        try:
+            config = coopnav_env.make_config(scenario, **overrides)
+        except (ValueError, TypeError) as exc:
+            print(f"range_model.py: {exc}", file=sys.stderr)
+            return 2
+        if config.channel_mode == "decide":
+            print(
+                f"range_model.py: {scenario} decides when to ping (a schedule's third action); not here",
+                file=sys.stderr,
+            )
+            return 2
+        for planner in args.planners.split(","):
+            if planner not in list_policies(config=config):
+                valid = ", ".join(list_policies(config=config))
+                print(f"range_model.py: unknown planner {planner!r} for {scenario}; valid: {valid}", file=sys.stderr)
+                return 2
+            cls = policy_class(planner, config.network)
+            if "range_model" not in inspect.signature(cls).parameters:
+                print(
+                    f"range_model.py: planner {planner!r} weighs no range; try ellipse, horizon or oracle",
+                    file=sys.stderr,
+                )
+                return 2
     print(f"runs {args.runs}, seeds {args.seed}..{args.seed + args.runs - 1}")
     print("| case | planner | constant (m) | filter (m) | filter - constant [95 %] | distance constant / filter (m) |")
     print("|---|---|---|---|---|---|")
@@ -84,12 +109,11 @@ def main(argv: list[str] | None = None) -> int:
             except ValueError as exc:
                 print(f"range_model.py: {exc}", file=sys.stderr)
                 return 2
-            diff = b - a
-            half = stats.t.ppf(0.975, len(diff) - 1) * diff.std(ddof=1) / np.sqrt(len(diff))
+            mean, low, high = t_interval(b - a)
             label = scenario + "".join(f" {k}={v}" for k, v in overrides.items())
             print(
-                f"| {label} | {planner} | {a.mean():.3f} | {b.mean():.3f} | {diff.mean():+.3f} "
-                f"[{diff.mean() - half:+.3f}, {diff.mean() + half:+.3f}] | {da:.0f} / {db:.0f} |",
+                f"| {label} | {planner} | {a.mean():.3f} | {b.mean():.3f} | {mean:+.3f} "
+                f"[{low:+.3f}, {high:+.3f}] | {da:.0f} / {db:.0f} |",
                 flush=True,
             )
     return 0
