@@ -27,6 +27,7 @@ from .base import (
     make_policy,
     motion_name,
     register_policy,
+    split_spec,
     unregister_policy,
     waypoint_to_action,
 )
@@ -46,6 +47,7 @@ __all__ = [
     "make_policy",
     "motion_name",
     "register_policy",
+    "split_spec",
     "unregister_policy",
     "waypoint_to_action",
 ]

@@ -14,6 +14,7 @@ turns "be at this point at the next ping" into the action.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -425,8 +426,49 @@ def list_policies(network: str | None = None, config: ScenarioConfig | None = No
 
 
 def motion_name(name: str) -> str:
-    """The motion planner of a planner name: ``"ellipse+clock"`` -> ``"ellipse"`` (a plain name is its own)."""
-    return name.partition("+")[0]
+    """The motion planner of a planner name: ``"ellipse+clock"`` -> ``"ellipse"``, and
+    ``"ellipse:range_model=filter"`` -> ``"ellipse"`` (a plain name is its own)."""
+    return name.partition(":")[0].partition("+")[0]
+
+
+def split_spec(spec: str) -> tuple[str, dict]:
+    """A planner spec with keywords, ``"<name>:<key>=<value>:..."`` -> (name, keywords):
+    ``"horizon:horizon=8:range_model=filter"`` -> ``("horizon", {"horizon": 8, "range_model":
+    "filter"})``; values read as int, float, true/false, or else text. How a command line
+    names a planner's settings (``evaluate.py --policies ellipse,ellipse:range_model=filter``)."""
+    name, *items = spec.split(":")
+    kwargs: dict = {}
+    for item in items:
+        key, eq, text = item.partition("=")
+        if not eq or not key.isidentifier():
+            raise ValueError(f"planner spec {spec!r}: a setting is <key>=<value>, got {item!r}")
+        if key in kwargs:
+            raise ValueError(f"planner spec {spec!r}: {key!r} is set twice")
+        value: Any = text
+        if text.lower() in ("true", "false"):
+            value = text.lower() == "true"
+        else:
+            for kind in (int, float):
+                try:
+                    value = kind(text)
+                    break
+                except ValueError:
+                    pass
+        kwargs[key] = value
+    return name, kwargs
+
+
+def check_keywords(what: str, kwargs: dict, valid: Sequence[str]) -> None:
+    """A ``ValueError`` naming the first keyword of ``kwargs`` not in ``valid`` (with the closest
+    valid one and the list), instead of a ``TypeError`` from deep inside a constructor."""
+    unknown = [k for k in kwargs if k not in valid]
+    if not unknown:
+        return
+    from coopnav_env.names import did_you_mean
+
+    hint = did_you_mean(unknown[0], list(valid))
+    listed = f" its settings: {', '.join(valid)}" if valid else " it takes none"
+    raise ValueError(f"{what} takes no setting {unknown[0]!r}{hint}{listed}")
 
 
 def is_planner(name: str) -> bool:
@@ -453,6 +495,8 @@ def make_policy(
     With ``channel_mode="decide"`` a name ``"<motion>+<schedule>"`` combines a planner
     with a transmit schedule (``baselines.schedule``: clock, tdma, event), and a plain
     planner name gets ``schedule.DEFAULT_SCHEDULE``."""
+    name, spec_kwargs = split_spec(name)
+    kwargs = {**spec_kwargs, **kwargs}
     motion, _, schedule = name.partition("+")
     if not is_planner(name):
         from coopnav_env.names import did_you_mean
@@ -469,4 +513,8 @@ def make_policy(
         if _SCHEDULER is None:
             raise ValueError(f"{name!r}: transmit schedules need baselines.schedule imported (import baselines)")
         return _SCHEDULER(policy_class(motion, config.network), schedule, config, int(agent), seed, **kwargs)
-    return policy_class(motion, config.network)(config, agent_index=int(agent), seed=seed, **kwargs)
+    cls = policy_class(motion, config.network)
+    check_keywords(
+        f"planner {motion!r}", kwargs, list(inspect.signature(cls).parameters)[3:]
+    )  # past (config, agent_index, seed)
+    return cls(config, agent_index=int(agent), seed=seed, **kwargs)

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .base import BeaconContext, Policy, register_scheduler
+from .base import BeaconContext, Policy, check_keywords, register_scheduler
 
 if TYPE_CHECKING:
     from coopnav_env.obs_layout import ObsView
@@ -176,9 +176,9 @@ def make_scheduled(
     **kwargs: Any,
 ) -> ScheduledPolicy:
     """``motion_cls`` with the schedule ``schedule_name`` ("" or None: ``DEFAULT_SCHEDULE``);
-    ``kwargs`` go to the schedule when it takes them (every, offset, frame,
-    threshold_nats), the rest to the planner; ``range_model`` to both (the event
-    schedules weigh a range as the planner does)."""
+    ``kwargs`` go to the schedule and to the planner that take them (every, offset, frame,
+    threshold_nats to the schedule; ``range_model`` to both the planner and an event
+    schedule, which weighs a range as the planner does); one neither takes is refused."""
     schedule_name = schedule_name or DEFAULT_SCHEDULE
     if config.channel_mode != "decide":
         raise ValueError(
@@ -187,13 +187,11 @@ def make_scheduled(
         )
     if schedule_name not in SCHEDULES:
         raise ValueError(f"unknown schedule {schedule_name!r}; valid schedules: {', '.join(list_schedules())}")
-    sched_keys = {"every", "offset", "frame", "threshold_nats"}
-    sched_kw = {k: v for k, v in kwargs.items() if k in sched_keys}
-    motion_kw = {k: v for k, v in kwargs.items() if k not in sched_keys}
-    if "range_model" in kwargs:
-        if schedule_name in ("event", "event_tdma"):
-            sched_kw["range_model"] = kwargs["range_model"]
-        if "range_model" not in inspect.signature(motion_cls).parameters:  # fim_a, circle: no R to weigh
-            motion_kw.pop("range_model")
+    schedule_cls = SCHEDULES[schedule_name]
+    sched_params = list(inspect.signature(schedule_cls).parameters)[2:]  # past (config, agent_index)
+    motion_params = list(inspect.signature(motion_cls).parameters)[3:]  # past (config, agent_index, seed)
+    check_keywords(f"{motion_cls.name}+{schedule_name}", kwargs, [*motion_params, *sched_params])
+    sched_kw = {k: v for k, v in kwargs.items() if k in sched_params}
+    motion_kw = {k: v for k, v in kwargs.items() if k in motion_params}  # range_model: to both that take it
     motion = motion_cls(config, agent_index=agent_index, seed=seed, **motion_kw)
-    return ScheduledPolicy(motion, SCHEDULES[schedule_name](config, agent_index, **sched_kw))
+    return ScheduledPolicy(motion, schedule_cls(config, agent_index, **sched_kw))

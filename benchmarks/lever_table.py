@@ -44,10 +44,12 @@ from evaluation.paired import t_interval
 
 def _parse_policies(text: str, task_set: str | None = None) -> list:
     """[(label, spec)] of ``[label=]spec,...``; ``greedy`` and ``planners`` stand for the task
-    set's greedy planners and all its planners (``evaluation.tasks.TaskSet``)."""
+    set's greedy planners and all its planners (``evaluation.tasks.TaskSet``); a planner spec
+    may carry settings (``ellipse:range_model=filter``, ``baselines.split_spec``)."""
     out = []
     for item in [s.strip() for s in text.split(",") if s.strip()]:
-        label, _, spec = item.rpartition("=")
+        head, eq, rest = item.partition("=")  # a label has no ':'; "ellipse:range_model=filter" is a spec
+        label, spec = (head, rest) if eq and ":" not in head else ("", item)
         if spec in ("greedy", "planners") and not label and task_set is not None:
             from evaluation.tasks import get_task_set
 

@@ -485,8 +485,9 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     p.add_argument(
         "--policies",
         default=None,
-        help="challengers, comma-separated: ppo, a shipped policy, a train.py run directory, or planners "
-        "(the task sets' planners and floors always run)",
+        help="challengers, comma-separated: ppo, a shipped policy, a train.py run directory, or planners, "
+        "with settings as NAME:KEY=VALUE (ellipse:range_model=filter) (the task sets' planners and floors "
+        "always run)",
     )
     p.add_argument(
         "--episodes",

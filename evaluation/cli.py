@@ -76,8 +76,9 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     p.add_argument(
         "--policies",
         default=None,
-        help="comma-separated policy names (listed below); default: every planner that can drive "
-        "the scenario's network",
+        help="comma-separated policy names (listed below), a planner with settings as "
+        "NAME:KEY=VALUE[:KEY=VALUE] (ellipse:range_model=filter, horizon:horizon=8); default: every "
+        "planner that can drive the scenario's network",
     )
     p.add_argument(
         "--episodes",

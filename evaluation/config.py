@@ -428,7 +428,7 @@ def prepare(config: EvalConfig) -> Plan:
     scenario, overrides, sweep and seed; and that every policy loads and can drive
     every cell's scenario (``check_policies``)."""
     import coopnav_env
-    from baselines import list_policies
+    from baselines import is_planner, list_policies
 
     from . import outdir
 
@@ -483,7 +483,7 @@ def prepare(config: EvalConfig) -> Plan:
     valid = list_policies()
     trained = {}
     for p in policies:
-        if p not in valid:
+        if p not in valid and not is_planner(p):  # is_planner: "ellipse:range_model=filter", "fim_a+clock"
             try:  # a trained policy: "ppo" (the scenario's shipped one), a shipped name, or a run directory
                 trained[p] = resolve_trained(p, config.scenario, config.trust_pickle)
             except ValueError as err:  # found but refused (agents.PolicyFormatError): pickle, normalization, ...

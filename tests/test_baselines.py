@@ -463,3 +463,33 @@ def test_fim_b_against_fim_a_at_the_papers_fig6_regime():
     b = np.array([e["mean_error_m"] for e in run_episodes(config, "fim_b", seeds)[0]])
     _, _, hi = t_interval(b - a)
     assert hi < 1.0, (a, b)
+
+
+def test_a_planner_spec_names_its_settings():
+    """``"<name>:<key>=<value>:..."`` (how a command line sets a planner's keywords): values read
+    as int, float, true/false or text; a setting the planner (or its schedule) does not take is
+    refused in one line naming the closest one and the valid ones; a schedule's settings go to
+    the schedule, ``range_model`` to the planner and an event schedule alike."""
+    from baselines.base import split_spec
+
+    assert split_spec("horizon:horizon=8:init_std=0.25:range_model=filter:x=True") == (
+        "horizon",
+        {"horizon": 8, "init_std": 0.25, "range_model": "filter", "x": True},
+    )
+    assert split_spec("ellipse") == ("ellipse", {})
+    bad_specs = [("ellipse:range_model", "<key>=<value>"), ("ellipse:a=1:a=2", "set twice"), ("ellipse:=1", "<key>")]
+    for bad, needle in bad_specs:
+        with pytest.raises(ValueError, match=needle):
+            split_spec(bad)
+    assert make_policy("horizon:horizon=3", "gao_sea").horizon == 3
+    assert make_policy("ellipse:range_model=filter", "gao_sea").ctx.range_model == "filter"
+    with pytest.raises(ValueError, match=r"did you mean 'range_model'\? its settings: predictor, range_model"):
+        make_policy("ellipse:rang_model=filter", "gao_sea")
+    with pytest.raises(ValueError, match="'fim_a' takes no setting 'range_model'; it takes none"):
+        make_policy("fim_a", "gao_sea", range_model="filter")
+    p = make_policy("ellipse+event:threshold_nats=0.3:range_model=filter", "sousa_ping")
+    assert p.schedule.threshold_nats == 0.3 and p.schedule.ctx.range_model == p.motion.ctx.range_model == "filter"
+    with pytest.raises(ValueError, match="ellipse\\+clock takes no setting 'frame'"):  # clock has no frame (tdma has)
+        make_policy("ellipse+clock:frame=2", "sousa_ping")
+    with pytest.raises(ValueError, match="fim_a\\+clock takes no setting 'range_model'"):
+        make_policy("fim_a+clock:range_model=filter", "sousa_ping")

@@ -159,6 +159,9 @@ def test_sweep_writes_the_table_layout(tmp_path):
     "argv,needle",
     [
         (["--policies", "static,nope"], "unknown policy 'nope'"),
+        (["--policies", "ellipse:rang_model=filter"], "did you mean 'range_model'?"),
+        (["--policies", "ellipse:range_model=d2"], "range_model must be one of"),
+        (["--policies", "fim_a:range_model=filter"], "takes no setting 'range_model'; it takes none"),
         (["--scenario", "atlantis"], "unknown scenario 'atlantis'"),
         (["--sweep", "depth=1,5"], "depth"),
         (["--sweep", "survey_path=stationary,zigzag"], "zigzag"),
@@ -316,3 +319,15 @@ def test_column_docs_cover_every_column(tiny_run):
     with open(os.path.join(tiny_run, "summary.json")) as f:
         stats = next(iter(json.load(f)["policies"].values()))
     assert set(stats) <= set(SUMMARY_COLUMN_DOCS)  # and the moving network's frame errors
+
+
+def test_a_planner_with_settings_is_a_column_of_its_own(tmp_path):
+    """``--policies ellipse,ellipse:range_model=filter``: the same planner with one setting
+    changed, each its own column, on the same episodes (common random numbers)."""
+    out = str(tmp_path / "run")
+    policies = "ellipse,ellipse:range_model=filter"
+    code = evaluate.main(["--scenario", "gao_lawnmower", "--policies", policies, "--episodes", "2", "--out", out])
+    assert code == 0
+    eps = rows(os.path.join(out, "episodes.csv"))
+    assert {e["policy"] for e in eps} == {"ellipse", "ellipse:range_model=filter"}
+    assert len(eps) == 4
