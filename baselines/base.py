@@ -514,7 +514,6 @@ def make_policy(
             raise ValueError(f"{name!r}: transmit schedules need baselines.schedule imported (import baselines)")
         return _SCHEDULER(policy_class(motion, config.network), schedule, config, int(agent), seed, **kwargs)
     cls = policy_class(motion, config.network)
-    check_keywords(
-        f"planner {motion!r}", kwargs, list(inspect.signature(cls).parameters)[3:]
-    )  # past (config, agent_index, seed)
+    settings = list(inspect.signature(cls).parameters)[3:]  # past (config, agent_index, seed)
+    check_keywords(f"planner {motion!r}", kwargs, settings)
     return cls(config, agent_index=int(agent), seed=seed, **kwargs)

@@ -60,9 +60,10 @@ def ellipse_waypoint(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The point of the reaching disc whose range to the predicted survey position(s)
     survey_en (S, 2), depth_below (S,), covariance P (S, 2, 2) informs most: the most
-    expected information log(1 + h'Ph / R(d)), with R(d) the survey filter's variance
-    of a range over d from a beacon of position variance ``beacon_var_m2``
-    (``BeaconContext.range_variance_m2``). Returns (waypoint (2,), expected information at it)."""
+    expected information log(1 + h'Ph / R), R the variance of a range over the slant
+    distance from a beacon of position variance ``beacon_var_m2``
+    (``BeaconContext.range_variance_m2``: the same at every distance by default, the survey
+    filter's R(d) with ``range_model="filter"``). Returns (waypoint (2,), expected information at it)."""
     survey_en = np.atleast_2d(survey_en)
     depth_below = np.atleast_1d(np.asarray(depth_below, float))
     P = np.asarray(P, float).reshape(-1, 2, 2)

@@ -21,11 +21,10 @@ is that planner for the survey scenarios. At each decision:
    filter's process noise, P^- = P + q dt I (Gao & Chitre eq. 6; dt = reply age + T
    for the first ping, T after), and updates it with the range from b_j to s_j:
    h the horizontal part of the unit slant vector (the survey vehicle is dz deeper;
-   its depth is known), R = R(d), the variance the survey filter gives a range over
-   that slant distance d from a beacon with its own position variance (as
-   ``ellipse``: ``BeaconContext.range_variance_m2``; for the modem the ranging noise,
-   the beacon's variance and the sound speed's scale error, which grows with d),
-   and p = the scenario's arrival probability at that distance.
+   its depth is known), R = the ranging noise plus the beacon's own position variance
+   (as ``ellipse``: ``BeaconContext.range_variance_m2``; with ``range_model="filter"``
+   the survey filter's R(d), which adds the sound speed's scale error growing with the
+   slant distance d), and p = the scenario's arrival probability at that distance.
    The range arrives with probability p, so the expected covariance after the ping
    is exactly
 
@@ -159,7 +158,7 @@ def _team_loop(beacon_en, survey_en, survey_dz, P0, grow_m2, beacon_var_m2, ctx,
     else:
         p = ctx.delivery_probability(np.sqrt(((rel + channel_shift) ** 2).sum(-1) + survey_dz[None] ** 2))
     var = np.broadcast_to(np.asarray(beacon_var_m2, float), (M,))
-    R = ctx.range_variance_m2(d3, var[None, :, None, None])  # (N, M, H, S): the filter's R(d)
+    R = ctx.range_variance_m2(d3, var[None, :, None, None])  # (N, M, H, S), by ctx.range_model
     a = np.broadcast_to(P0[:, 0, 0], (N, S)).copy()
     b = np.broadcast_to(P0[:, 0, 1], (N, S)).copy()
     c = np.broadcast_to(P0[:, 1, 1], (N, S)).copy()
