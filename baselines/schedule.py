@@ -190,7 +190,8 @@ def make_scheduled(
     schedule_cls = SCHEDULES[schedule_name]
     sched_params = list(inspect.signature(schedule_cls).parameters)[2:]  # past (config, agent_index)
     motion_params = list(inspect.signature(motion_cls).parameters)[3:]  # past (config, agent_index, seed)
-    check_keywords(f"{motion_cls.name}+{schedule_name}", kwargs, [*motion_params, *sched_params])
+    settings = list(dict.fromkeys([*motion_params, *sched_params]))  # range_model may be in both
+    check_keywords(f"{motion_cls.name}+{schedule_name}", kwargs, settings)
     sched_kw = {k: v for k, v in kwargs.items() if k in sched_params}
     motion_kw = {k: v for k, v in kwargs.items() if k in motion_params}  # range_model: to both that take it
     motion = motion_cls(config, agent_index=agent_index, seed=seed, **motion_kw)
