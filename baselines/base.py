@@ -434,8 +434,11 @@ def motion_name(name: str) -> str:
 def split_spec(spec: str) -> tuple[str, dict]:
     """A planner spec with keywords, ``"<name>:<key>=<value>:..."`` -> (name, keywords):
     ``"horizon:horizon=8:range_model=filter"`` -> ``("horizon", {"horizon": 8, "range_model":
-    "filter"})``; values read as int, float, true/false, or else text. How a command line
-    names a planner's settings (``evaluate.py --policies ellipse,ellipse:range_model=filter``)."""
+    "filter"})``; values read as a command line's (``safe_load.parse_value_text``: numbers,
+    true/false, lists, else the text). How a command line names a planner's settings
+    (``evaluate.py --policies ellipse,ellipse:range_model=filter``)."""
+    from coopnav_env.safe_load import UnsafeDataError, parse_value_text
+
     name, *items = spec.split(":")
     kwargs: dict = {}
     for item in items:
@@ -444,17 +447,10 @@ def split_spec(spec: str) -> tuple[str, dict]:
             raise ValueError(f"planner spec {spec!r}: a setting is <key>=<value>, got {item!r}")
         if key in kwargs:
             raise ValueError(f"planner spec {spec!r}: {key!r} is set twice")
-        value: Any = text
-        if text.lower() in ("true", "false"):
-            value = text.lower() == "true"
-        else:
-            for kind in (int, float):
-                try:
-                    value = kind(text)
-                    break
-                except ValueError:
-                    pass
-        kwargs[key] = value
+        try:
+            kwargs[key] = parse_value_text(text)
+        except UnsafeDataError as err:
+            raise ValueError(f"planner spec {spec!r}: {err}") from None
     return name, kwargs
 
 

@@ -21,17 +21,15 @@ import numpy as np
 
 
 def parse_case(text: str) -> tuple[str, dict]:
-    """``scenario[:key=value[+key=value...]]`` -> (scenario, overrides), values as numbers when they parse."""
+    """``scenario[:key=value[+key=value...]]`` -> (scenario, overrides), each value typed as
+    its scenario parameter (``evaluation.config.coerce_value``, as ``--set`` does)."""
+    from evaluation.config import coerce_value, parse_assignment
+
     name, _, rest = text.partition(":")
     overrides: dict = {}
     for item in filter(None, rest.split("+")):
-        key, eq, value = item.partition("=")
-        if not eq:
-            raise ValueError(f"case {text!r}: an override is key=value, got {item!r}")
-        try:
-            overrides[key] = float(value) if "." in value or "e" in value else int(value)
-        except ValueError:
-            overrides[key] = value
+        key, value = parse_assignment(item, f"case {text!r}")
+        overrides[key] = coerce_value(key, value)
     return name, overrides
 
 
@@ -43,7 +41,7 @@ def run(scenario: str, overrides: dict, planner: str, model: str, runs: int, see
     steps = np.zeros(runs)
     dist: list[float] = []
     for _cfg, sim, res, live in planned_steps(scenario, planner, overrides, runs, seed, {"range_model": model}):
-        e = np.hypot(*np.moveaxis(np.asarray(res.info["survey_error_en_m"])[..., :2], -1, 0)).mean(-1)  # (runs,)
+        e = np.asarray(res.info["survey_error_m"]).mean(-1)  # (runs,): the horizontal error, over survey vehicles
         err_sum += np.where(live, e, 0.0)
         steps += live
         st = sim.state

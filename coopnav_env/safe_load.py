@@ -38,6 +38,7 @@ __all__ = [
     "UnsafeDataError",
     "loads_json",
     "loads_yaml",
+    "parse_value_text",
     "read_json",
     "read_text",
     "read_yaml",
@@ -159,6 +160,26 @@ def read_yaml(path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, max_dept
     """``loads_yaml`` of a file (None if it does not exist)."""
     text = read_text(path, max_bytes)
     return None if text is None else loads_yaml(text, str(path), max_bytes, max_depth)
+
+
+def parse_value_text(text: str) -> Any:
+    """A value written on a command line: '3e-4' -> 0.0003, '2' -> 2, '[64, 64]' -> [64, 64],
+    'true' -> True, 'null' -> None, 'tanh' -> 'tanh' (numbers first, then bounded YAML,
+    else the text itself). ``UnsafeDataError`` for YAML this module refuses. The one parser
+    of training overrides (``agents.training.config.parse_value``) and planner settings
+    (``baselines.split_spec``)."""
+    text = str(text).strip()
+    for cast in (int, float):
+        try:
+            return cast(text)
+        except ValueError:
+            pass
+    try:
+        return loads_yaml(text, f"value {text[:40]!r}", max_bytes=64 << 10)  # no aliases, bounded
+    except UnsafeDataError as err:
+        if ": not YAML:" in str(err):
+            return text
+        raise
 
 
 # --------------------------------------------------------------------------------------

@@ -477,19 +477,11 @@ def from_dict(cls: type[_T], data: Any, where: str = "") -> _T:
 def parse_value(text: str) -> Any:
     """A command-line value: '3e-4' -> 0.0003, '2' -> 2, '[64, 64]' -> [64, 64],
     'true' -> True, 'null' -> None, 'tanh' -> 'tanh'."""
-    text = str(text).strip()
-    for cast in (int, float):
-        try:
-            return cast(text)
-        except ValueError:
-            pass
-    from coopnav_env.safe_load import UnsafeDataError, loads_yaml
+    from coopnav_env.safe_load import UnsafeDataError, parse_value_text
 
     try:
-        return loads_yaml(text, f"value {text[:40]!r}", max_bytes=64 << 10)  # no aliases, bounded
+        return parse_value_text(text)
     except UnsafeDataError as err:
-        if ": not YAML:" in str(err):
-            return text
         raise ConfigError(str(err)) from None
 
 
