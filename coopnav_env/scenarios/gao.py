@@ -29,8 +29,9 @@ from .base import ScenarioConfig, register
 # window's ranges (R7), and already after two ranges in a row gated out as too short (R8: no
 # longer path explains them). Measured on held-out seeds, 100 runs of gao_lawnmower each:
 # 99.9 % exceedances 3.6x, 1.6x, 1.6x nominal on 900000-, 950000-, 1000000- (3.4x, 7.6x,
-# 1.6x before); 2000 fresh runs 1.3x (1.9x). Not the Sousa scenarios' default: with an ASV
-# nearly overhead a too-short range restarts onto a ring fit (sousa_asv 950000-: 3.5x against 1.1x).
+# 1.6x before); 2000 fresh runs 1.3x (1.9x). The Sousa scenarios take R7 alone (with R7', since
+# 2026-12-05), not hold and R8: with an ASV nearly overhead a too-short range restarts onto a ring
+# fit (sousa_asv 950000-: 3.5x against 1.1x).
 GAO_FILTER: dict[str, Any] = {
     "lockout_recovery": "window_consensus",
     "range_outlier_model": "hold",

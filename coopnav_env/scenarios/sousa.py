@@ -57,6 +57,11 @@ SOUSA_ASV = ScenarioConfig(
     # longer path explains it; the symmetric 99 % gate rejected the ranges that correct the along-track error
     # just when the filter was wrong (500 fresh runs: 99.9 % exceedances 2.4x -> 1.5x nominal; held-out blocks
     # 2.6/1.7/3.9x -> 2.8/1.0/2.6x; docs/scenarios/consider-fusion.md#one-sided-gate)
+    lockout_recovery="window_consensus",  # eq. R7' (core/recovery.py): a lock-out re-fixed from the most probable
+    # labelling of the window's ranges, scored against the prior of its two causes. R6' ("window", the default until
+    # 2026-12-05) kept re-fixing a drifted filter on the far branch in a 0.5 m/s current (shifts_sousa_asv, ppo,
+    # seed 700044: 50.1 -> 13.2 m). At the defaults, 2000 fresh runs: 99.9 % exceedances 1.8x -> 1.6x nominal,
+    # worst error 65.3 -> 17.8 m; the held-out blocks the same (docs/scenarios/consider-fusion.md#r7-sousa)
     gps_noise_m=0.5,  # ASV position "with a small uncertainty" (II-A): differential GPS [U]
     safety_distance_m=3.0,  # [U] the paper keeps none; an ASV over an ROV at 1 m depth
     mission_duration_s=1200.0,  # [U] 20 min: every path runs the same time
