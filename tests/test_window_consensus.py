@@ -326,3 +326,29 @@ def test_gao_lawnmower_seed_950040_is_not_lost_after_its_multipath_streak_with_r
             break
         worst = max(worst, float(np.hypot(*np.asarray(res.info["survey_error_en_m"])[0, 0])))
     assert worst < 20.0
+
+
+def _worst_error_m(scenario, planner, overrides, seed):
+    """(worst survey error, episode mean, restarts) of one planner episode."""
+    from baselines.rollout import planned_steps
+
+    errors, restarts = [], 0
+    for _cfg, _sim, res, live in planned_steps(scenario, planner, overrides, 1, seed):
+        if not live[0]:
+            break
+        errors.append(float(np.hypot(*np.asarray(res.info["survey_error_en_m"])[0, 0])))
+        restarts += int(np.asarray(res.info["filter_restarts"])[0].sum())
+    return max(errors), float(np.mean(errors)), restarts
+
+
+def test_sousa_asv_in_a_strong_current_is_not_re_fixed_on_the_far_branch():
+    """``sousa_asv`` in a 0.5 m/s current under ``fim_a``, seed 700024 (a shift-set seed): R6'
+    ("window", the Sousa default until 2026-12-05) re-fixed the drifted filter on the far side
+    of the ASV, and again after the next lock-out (worst 214.9 m, episode mean 18.0 m, 4
+    restarts). R7', the default since, restarts twice and stays within 60 m (mean 10.3 m): the
+    current still costs much, but no far re-fix doubles it."""
+    current = {"current_speed_mps": 0.5}
+    worst, mean, _ = _worst_error_m("sousa_asv", "fim_a", current, 700024)
+    assert worst < 100.0 and mean < 12.0
+    worst_r6, mean_r6, _ = _worst_error_m("sousa_asv", "fim_a", {**current, "lockout_recovery": "window"}, 700024)
+    assert worst_r6 > 150.0 and mean_r6 > 15.0  # the case still shows what R7' mends

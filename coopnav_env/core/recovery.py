@@ -52,7 +52,7 @@ Model, for ping k of the window (k = 0 .. M-1), the fix at the time of the last:
          Pxd = E[(x - x_hat) phi^T] = P J^T Sigma^-1 Uf Pff (the prior's share, through
          P Pp^-1 <= P / s_lock^2, left out; s_k includes the told current's drift, which the
          biases do not scale, as R2' does: an overstatement where a beacon sends a current).
-    (R6') which ranges, by the parameter's default (``window_greedy_fix``; the Sousa scenarios'):
+    (R6') which ranges, by the parameter's default (``window_greedy_fix``; no modem scenario's since 2026-12-05):
          the window holds the rejected ranges that caused the lock-out, multipath among them;
          a fix whose residuals fail their chi-square test (99 %, m - 2 dof) drops its worst
          range (largest |r_k| / sqrt(Sigma_kk)) and is redone, down to 3 ranges.

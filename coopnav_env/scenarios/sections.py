@@ -342,8 +342,9 @@ class SurveyEKF(Section):
             "beacon's last recovery_window ranges (eqs. R1-R5; a fix that fails its chi-square test drops its worst "
             "range, R6'; the nearest point when fewer than 3 are left); 'window_consensus', the same fix from the "
             "most probable labelling of the window's ranges as direct or longer paths under the multipath model, "
-            "R7 (better after multipath streaks on gao_lawnmower, worse on one sousa_asv block: "
-            "docs/scenarios/consider-fusion.md#consensus; the gao scenarios' default); "
+            "R7, with the prior of the lock-out's two causes, R7' (better after multipath streaks on gao_lawnmower "
+            "and after drifts in a current on sousa_asv: docs/scenarios/consider-fusion.md#consensus, #r7-sousa; "
+            "the gao and Sousa scenarios' default); "
             "'nearest_point', a restart at the nearest point of the last range's circle (the papers' runs)"
         ),
     )
