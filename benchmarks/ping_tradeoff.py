@@ -8,7 +8,8 @@ Every schedule drives the ASVs with ``fim_a`` or ``ellipse`` (``baselines.schedu
 (both ASVs every slot: staggered on the sonar link, colliding with ``ping_offsets="zero"``),
 ``event`` at several thresholds (each ASV alone, in any slot), ``tdma`` with frames of 2 (the
 default: the two ASVs take turns every slot), 4, 8 and 16 slots, and ``event_tdma`` at
-several thresholds.
+several thresholds. The oracle's motion (``baselines.oracle``, given the survey filters' errors)
+on ``clock`` and ``event`` is the reference: what motion alone could give at each trigger's pings.
 A trained policy decides motion and transmission itself (its third action component).
 Per policy: the mean over episodes of ``mean_error_m`` with a 95 % t interval, pings
 per mission (both ASVs), collisions, transmit energy; and, paired over the same seeds,
@@ -44,9 +45,19 @@ def run(
         from baselines import make_policy
 
         policies = [[make_policy(spec, config, seed=(s, j), agent=j, **kwargs) for j in range(N)] for s in seeds]
+        privileged = getattr(policies[0][0], "privileged", False)  # the oracle: told the truth before each act
 
         def act(obs):
-            return np.stack([np.stack([policies[b][j].act(obs[b, j]) for j in range(N)]) for b in range(B)])
+            snap = sim.snapshot() if privileged else None
+            out = []
+            for b in range(B):
+                row = []
+                for j in range(N):
+                    if snap is not None:
+                        policies[b][j].observe_truth(snap, b)
+                    row.append(policies[b][j].act(obs[b, j]))
+                out.append(np.stack(row))
+            return np.stack(out)
     else:
         import agents
 
@@ -95,6 +106,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         rows += [
             (f"{motion}+event_tdma {t:g}", f"{motion}+event_tdma", {"threshold_nats": t}) for t in (0.3, 0.5, 0.8, 1.2)
         ]
+    # the reference given the truth: the oracle's motion (baselines.oracle) on the clock and on the event
+    # trigger, the error that motion alone could reach at each trigger's pings (not a planner anyone can run)
+    rows += [("oracle+clock", "oracle+clock", {"every": 1})]
+    rows += [(f"oracle+event {t:g}", "oracle+event", {"threshold_nats": t}) for t in (0.3, 0.4, 0.45, 0.475, 0.5)]
     rows += [(spec, spec, {}) for spec in args.policies.split(",") if spec]
     results = {}
     for label, spec, kw in rows:
@@ -118,7 +133,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     for ref_name in ("ellipse+clock", "ellipse+tdma"):  # the best fixed schedule (every slot, staggered), and turns
         ref = results[ref_name]
-        for spec in [s for s in args.policies.split(",") if s]:
+        oracles = [lab for lab in results if lab.startswith("oracle+")] if ref_name == "ellipse+clock" else []
+        for spec in oracles + [s for s in args.policies.split(",") if s]:
             e, pg, _, _ = results[spec]
             m, lo, hi = t_interval(e - ref[0])
             pm, plo, phi = t_interval(pg / np.maximum(ref[1], 1) - 1)
@@ -144,7 +160,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         fig = Figure(figsize=(7.0, 4.6))
         FigureCanvasAgg(fig)
         ax = fig.add_subplot(1, 1, 1)
-        groups = {f"{m}+{k}": (m, k) for m in ("fim_a", "ellipse") for k in ("clock", "event", "tdma", "event_tdma")}
+        groups = {
+            f"{m}+{k}": (m, k) for m in ("fim_a", "ellipse", "oracle") for k in ("clock", "event", "tdma", "event_tdma")
+        }
         for title, (motion, key) in groups.items():
             pts = [
                 (r[1].mean(), r[0].mean())
@@ -153,7 +171,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             ]
             if pts:
                 x, y = zip(*sorted(pts))
-                ax.plot(x, y, "o-" if len(pts) > 1 else "s", label=title)
+                if motion == "oracle":  # the reference given the truth, drawn apart from the planners
+                    ax.plot(x, y, "k--" if len(pts) > 1 else "kD", lw=1.0, label=f"{title} (given the truth)")
+                else:
+                    ax.plot(x, y, "o-" if len(pts) > 1 else "s", label=title)
         for spec in [s for s in args.policies.split(",") if s]:
             e, pg, _, _ = results[spec]
             ax.plot([pg.mean()], [e.mean()], "*", ms=14, label=f"PPO ({spec})")
