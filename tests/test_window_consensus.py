@@ -44,6 +44,15 @@ def _fix(win, noise, x0, P0, rule="r7", eps=EPS):
     return n, x, P, keep[:n]
 
 
+def _assert_fix(win, noise, x0, P0, truth, keep_expected, within_m, rule="r7") -> None:
+    """The rule's fix keeps ``keep_expected`` and lands within ``within_m`` of the truth,
+    inside its own 99 % ellipse."""
+    _n, x, P, keep = _fix(win, noise, x0, P0, rule)
+    assert list(keep) == keep_expected
+    e = x - truth
+    assert e @ np.linalg.solve(P, e) < chi2.ppf(0.99, 2) and np.hypot(*e) < within_m
+
+
 def test_the_seed_950040_lockout_keeps_the_direct_ranges():
     """``gao_lawnmower`` seed 950040 under ``ellipse``, cycle 34: ranges 3-5 are multipath
     (three in a row), 0-2 were fused. Greedy dropping of the worst range kept 2, 3, 5
@@ -90,12 +99,8 @@ def test_the_seed_950040_lockout_keeps_the_direct_ranges():
     x0 = np.array([86.93235497314846, 104.1985601160369])
     P0 = np.array([[26.90407300026208, 11.852853278195015], [11.852853278195015, 43.52781295861184]])
     truth = np.array([84.06979736432807, 93.96695646780206])
-    _n, x, P, keep = _fix(win, noise, x0, P0)
-    assert list(keep) == [0, 1, 2]
-    e = x - truth
-    assert e @ np.linalg.solve(P, e) < chi2.ppf(0.99, 2)
-    assert np.hypot(*e) < 15.0
-    _n, x, P, keep = _fix(win, noise, x0, P0, "greedy")  # R6' on the same window
+    _assert_fix(win, noise, x0, P0, truth, [0, 1, 2], 15.0)
+    _n, x, _P, keep = _fix(win, noise, x0, P0, "greedy")  # R6' on the same window
     assert list(keep) == [2, 3, 5] and np.hypot(*(x - truth)) > 40.0
 
 
@@ -146,11 +151,7 @@ def test_a_streak_the_filter_did_not_cause_is_not_re_fixed_on_the_far_branch():
     x0 = np.array([99.32047054200028, 104.32778217447576])
     P0 = np.array([[19.041042352833223, 1.5966253217394426], [1.5966253217394426, 48.90189631474254]])
     truth = np.array([100.292486666485, 91.34091729102553])
-    _n, x, P, keep = _fix(win, noise, x0, P0)
-    assert list(keep) == [0, 1, 2]
-    e = x - truth
-    assert e @ np.linalg.solve(P, e) < chi2.ppf(0.99, 2)
-    assert np.hypot(*e) < 10.0
+    _assert_fix(win, noise, x0, P0, truth, [0, 1, 2], 10.0)
 
 
 def test_the_lockout_prior_is_the_mixture_of_its_two_causes():
@@ -217,14 +218,8 @@ def test_the_seed_900063_lockout_keeps_the_whole_window():
     x0 = np.array([68.29985193500129, -0.13777041490400335])
     P0 = np.array([[2.4476480594281225, 0.6998782306975867], [0.6998782306975867, 3.2225070096838593]])
     truth = np.array([72.0782872416328, 0.8921970237182949])
-    _n, x, P, keep = _fix(win, noise, x0, P0, "greedy")
-    assert list(keep) == [0, 2, 3, 4, 5]
-    e = x - truth
-    assert e @ np.linalg.solve(P, e) < chi2.ppf(0.99, 2) and np.hypot(*e) < 6.0
-    _n, x, P, keep = _fix(win, noise, x0, P0)
-    assert list(keep) == [0, 1, 2, 3, 4, 5]
-    e = x - truth
-    assert e @ np.linalg.solve(P, e) < chi2.ppf(0.99, 2) and np.hypot(*e) < 2.0
+    _assert_fix(win, noise, x0, P0, truth, [0, 2, 3, 4, 5], 6.0, rule="greedy")
+    _assert_fix(win, noise, x0, P0, truth, [0, 1, 2, 3, 4, 5], 2.0)
 
 
 def _circle_window(truth, excess, seed=0):
@@ -316,15 +311,7 @@ def test_one_long_path_is_dropped(k_out, excess, dx, dy, seed):
 def test_gao_lawnmower_seed_950040_is_not_lost_after_its_multipath_streak_with_r7(seed):
     """End to end: the streak's lock-out re-fixed the filter 48 m off with R6' (worst error
     66.8 m, two restarts); with R7 the worst error stays under 20 m."""
-    from baselines.rollout import planned_steps
-
-    worst = 0.0
-    for _cfg, _sim, res, live in planned_steps(
-        "gao_lawnmower", "ellipse", {"lockout_recovery": "window_consensus"}, 1, seed
-    ):
-        if not live[0]:
-            break
-        worst = max(worst, float(np.hypot(*np.asarray(res.info["survey_error_en_m"])[0, 0])))
+    worst, _, _ = _worst_error_m("gao_lawnmower", "ellipse", {"lockout_recovery": "window_consensus"}, seed)
     assert worst < 20.0
 
 
