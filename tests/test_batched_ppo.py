@@ -193,3 +193,52 @@ def test_the_command_line_writes_a_run_and_releases_its_folder(tmp_path):
     argv = ["--scenario", "sousa_asv", "--timesteps", "64", "--n-envs", "8", "--n-steps", "8", "--minibatch", "32"]
     assert main([*argv, "--out", str(out), "--no-progress"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["actor.safetensors", "log.jsonl", "run.json"]
+
+
+def test_a_run_started_from_a_shipped_policy_acts_as_it_while_the_critic_warms_up(tmp_path):
+    """--init-from ppo_gao_team: SB3's policy_net + action_net and its VecNormalize become the
+    loop's actor and observation scaling, so after two iterations that train only the critic
+    the saved run's actions are the shipped policy's (to float32's rounding), on observations
+    of the scenario; the critic learned (its loss is logged) and the actor did not move."""
+    out = tmp_path / "run"
+    out.mkdir()
+    config = BatchedPPOConfig(
+        scenario="gao_team",
+        n_envs=8,
+        n_steps=8,
+        minibatch=32,
+        seed=3,
+        init_from="ppo_gao_team",
+        critic_warmup_iterations=2,
+    )
+    result = train(config, 2 * 8 * 8, out=out, progress=False)
+    assert all(r["clip_fraction"] == 0.0 for r in result["log"])  # ratio 1: the actor held
+    shipped = agents.load("ppo_gao_team")
+    loop = agents.load(str(out), scenario="gao_team")
+    stats = _shipped_stats()  # observations as the scenario gives them, by the shipped scaling's statistics
+    obs = np.random.default_rng(1).normal(0, 1, (64, loop.obs_dim)) * np.sqrt(stats["obs_var"]) + stats["obs_mean"]
+    a_shipped = np.stack([shipped.act(o) for o in obs.astype(np.float32)])
+    a_loop = loop.act_batch(obs.astype(np.float32))
+    assert np.abs(a_shipped).max() > 0.1  # the actions are not all near 0
+    np.testing.assert_allclose(a_loop, a_shipped, atol=2e-3)  # the running statistics moved a little in 128 steps
+
+
+def _shipped_stats():
+    from agents.formats import read_vecnormalize
+
+    return read_vecnormalize(ROOT / "agents" / "policies" / "ppo_gao_team" / "vecnormalize.safetensors")
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--scenario", "gao_team", "--init-from", "ppo_gao_team", "--net", "64,64"], "the loop's --net 64,64"),
+        (["--scenario", "sousa_asv", "--init-from", "ppo_gao_team"], "another scenario"),
+        (["--scenario", "gao_team", "--init-from", "ppo_gao_tam"], "ppo_gao_team"),
+        (["--critic-warmup", "-1"], "critic_warmup_iterations must be an integer >= 0"),
+    ],
+)
+def test_a_policy_that_does_not_fit_is_refused_in_one_line(argv, message, capsys):
+    assert main(["--timesteps", "100", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err

@@ -82,6 +82,8 @@ class BatchedPPOConfig:
     reward_terms: dict[str, float] | None = (
         None  # None: the env's reward; {signal: weight}: core.reward's training signals
     )
+    init_from: str | None = None  # a train.py run or shipped SB3 policy whose actor the run starts from
+    critic_warmup_iterations: int = 0  # iterations that train only the critic (the actor held)
 
     def check(self) -> None:
         """One-line ``ValueError`` naming the first bad setting."""
@@ -91,6 +93,9 @@ class BatchedPPOConfig:
                 raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
         if self.critic not in CRITICS:
             raise ValueError(f"critic must be one of {', '.join(CRITICS)}, got {self.critic!r}")
+        w = self.critic_warmup_iterations
+        if isinstance(w, bool) or not isinstance(w, int) or w < 0:
+            raise ValueError(f"critic_warmup_iterations must be an integer >= 0, got {w!r}")
         if not self.net or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in self.net):
             raise ValueError(f"net must be a non-empty list of layer widths >= 1, got {list(self.net)!r}")
         for name in ("gamma", "gae_lambda"):
@@ -146,6 +151,59 @@ def mlp(n_in: int, net: Sequence[int], n_out: int, out_gain: float) -> Any:
     nn.init.orthogonal_(out.weight, out_gain)
     nn.init.zeros_(out.bias)
     return nn.Sequential(*layers, out).to(torch.float32)
+
+
+def load_sb3_actor(source: str, scenario: str, net: Sequence[int], obs_dim: int, action_dim: int) -> dict:
+    """The actor of a train.py run or shipped policy (``agents.resolve``: a name such as
+    ``ppo_gao_team``, ``ppo`` for the scenario's, or a run folder) as this loop's tensors:
+    ``{"actor": state_dict of mlp(obs_dim, net, action_dim), "log_std", "obs_mean",
+    "obs_var", "obs_count", "ret_var", "ret_count"}``. SB3's flat ``MlpPolicy`` with tanh
+    (``mlp_extractor.policy_net`` then ``action_net``) is the same function as ``mlp``'s
+    Linear-tanh stack, and VecNormalize's scaling is ``RunningNorm``'s, so the loop starts
+    where that policy stands. A ``ValueError`` (one line) names what does not fit."""
+    import torch
+
+    from agents import resolve
+    from agents.formats import read_model, read_vecnormalize
+
+    model, stats, _ = resolve(source, scenario)
+    if Path(str(model)).suffix != ".safetensors":
+        raise ValueError(f"--init-from {source}: {model} is not an SB3 model file (a flat MlpPolicy run or policy)")
+    spec, state, _ = read_model(model)
+    kwargs = spec.get("policy_kwargs") or {}
+    if spec.get("policy") != "MlpPolicy" or kwargs.get("activation_fn", "tanh") != "tanh":
+        raise ValueError(
+            f"--init-from {source}: {spec.get('policy')} with {kwargs.get('activation_fn')}; "
+            "only SB3's MlpPolicy with tanh maps onto this loop's actor"
+        )
+    widths = [int(state[f"mlp_extractor.policy_net.{2 * i}.weight"].shape[0]) for i in range(len(net))]
+    if tuple(widths) != tuple(net) or f"mlp_extractor.policy_net.{2 * len(net)}.weight" in state:
+        arch = kwargs.get("net_arch")
+        raise ValueError(f"--init-from {source}: its actor is {arch}, the loop's --net {','.join(map(str, net))}")
+    n_in = int(state["mlp_extractor.policy_net.0.weight"].shape[1])
+    n_out = int(state["action_net.weight"].shape[0])
+    if (n_in, n_out) != (obs_dim, action_dim):
+        raise ValueError(
+            f"--init-from {source}: observations {n_in} and actions {n_out}, the environment's {obs_dim} and "
+            f"{action_dim} (a policy of another scenario or observation?)"
+        )
+    actor = {}
+    for i in range(len(net)):
+        for part in ("weight", "bias"):
+            actor[f"{2 * i}.{part}"] = state[f"mlp_extractor.policy_net.{2 * i}.{part}"]
+    for part in ("weight", "bias"):
+        actor[f"{2 * len(net)}.{part}"] = state[f"action_net.{part}"]
+    out: dict[str, Any] = {"actor": actor, "log_std": state["log_std"]}
+    if stats is not None:
+        vn = read_vecnormalize(stats)
+        out.update(
+            obs_mean=torch.as_tensor(vn["obs_mean"], dtype=torch.float64),
+            obs_var=torch.as_tensor(vn["obs_var"], dtype=torch.float64),
+            obs_count=vn["obs_count"],
+            ret_var=torch.as_tensor(vn["ret_var"], dtype=torch.float64).reshape(()),
+            ret_count=vn["ret_count"],
+        )
+    return out
 
 
 def gae(reward: Any, value: Any, next_value: Any, terminated: Any, done: Any, gamma: float, lam: float) -> Any:
@@ -252,6 +310,11 @@ def train(
     T = config.n_steps
     actor = mlp(O, config.net, D, 0.01)
     log_std = nn.Parameter(torch.full((D,), float(config.log_std_init)))
+    init = None if config.init_from is None else load_sb3_actor(config.init_from, config.scenario, config.net, O, D)
+    if init is not None:  # the loop starts where that policy stands; the critic is new
+        actor.load_state_dict({k: v.float() for k, v in init["actor"].items()})
+        with torch.no_grad():
+            log_std.copy_(init["log_std"].float())
     critic = mlp(S, config.net, N, 1.0) if config.critic == "state" else mlp(O, config.net, 1, 1.0)
     params = [*actor.parameters(), log_std, *critic.parameters()]
     optimizer = torch.optim.Adam(params, lr=config.learning_rate, eps=1e-5)
@@ -273,6 +336,9 @@ def train(
     ret_running = torch.zeros(B, N, dtype=torch.float64)  # discounted return, for the reward's scale
     ret_norm = RunningNorm(())
     obs_norm, state_norm = RunningNorm((O,)), RunningNorm((S,))
+    if init is not None and "obs_mean" in init:  # its VecNormalize's statistics, as they were
+        obs_norm.mean, obs_norm.var, obs_norm.count = init["obs_mean"], init["obs_var"], init["obs_count"]
+        ret_norm.var, ret_norm.count = init["ret_var"], init["ret_count"]
 
     def observe(td: Any, update: bool = False) -> tuple[Any, Any]:
         """The (normalized) observations (B, N, O) and state (B, S) in ``td``."""
@@ -356,6 +422,7 @@ def train(
         b_act, b_logp = act_buf.reshape(M, N, D), logp_buf.reshape(M, N)
         b_adv, b_ret = adv.reshape(M, N), returns.reshape(M, N)
         b_adv = (b_adv - b_adv.mean()) / (b_adv.std() + 1e-8)
+        warmup = it < config.critic_warmup_iterations  # the critic learns the policy's values first
         mb = min(config.minibatch, M)
         clip_fractions = []
         for _ in range(config.epochs):
@@ -375,6 +442,8 @@ def train(
                 value_loss = 0.5 * (values(b_state[idx], b_obs[idx]) - b_ret[idx]).pow(2).mean()  # (P4)
                 entropy = (log_std + 0.5 * math.log(2 * math.pi * math.e)).sum()
                 loss = policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
+                if warmup:
+                    loss = config.vf_coef * value_loss
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 nn.utils.clip_grad_norm_(params, config.max_grad_norm)
@@ -474,6 +543,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="SIGNAL=WEIGHT",
         help="train on core.reward's training signals (repeatable, e.g. std=1 penalties=1; default: the env's reward)",
     )
+    p.add_argument(
+        "--init-from",
+        metavar="POLICY",
+        help="start the actor (and the observation scaling) from a flat SB3 policy: a train.py run or a shipped "
+        "name (ppo_gao_team); needs the same --net",
+    )
+    p.add_argument(
+        "--critic-warmup",
+        type=int,
+        default=0,
+        metavar="ITERATIONS",
+        help="iterations that train only the critic before the actor moves (with --init-from)",
+    )
     p.add_argument("--save-every-steps", type=int, default=5_000_000, help="also save the weights every N env-steps")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
@@ -501,6 +583,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=args.seed,
             overrides=overrides,
             reward_terms=terms or None,
+            init_from=args.init_from,
+            critic_warmup_iterations=args.critic_warmup,
         )
         config.check()
         if args.timesteps < 1:
@@ -518,7 +602,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         import torch
 
         torch.set_num_threads(args.threads)
-        make_env(BatchedPPOConfig(**{**asdict(config), "n_envs": 1}))  # bad scenario parameters fail here, fast
+        probe = make_env(BatchedPPOConfig(**{**asdict(config), "n_envs": 1}))  # bad scenario parameters fail here, fast
+        if config.init_from is not None:  # and a policy that does not fit
+            load_sb3_actor(config.init_from, config.scenario, config.net, probe.obs_dim, probe.action_dim)
         if out is not None:  # one trainer per folder (agents.training.runlock), as train.py's
             from . import runlock
 
