@@ -242,3 +242,39 @@ def test_a_policy_that_does_not_fit_is_refused_in_one_line(argv, message, capsys
     assert main(["--timesteps", "100", *argv]) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err
+
+
+def test_teams_share_out_the_environments_and_their_seeds():
+    """Two teams of gao_team (the default and a 0.5 m/s current) over 5 environments: 3 and 2,
+    each team's scenario its own, episode seeds numbered through the teams (seed + 0..4) as
+    MixedTeamVecEnv's, and a step of the whole batch returns every environment."""
+    from agents.training.batched_ppo import make_env
+
+    config = BatchedPPOConfig(scenario="gao_team", n_envs=5, seed=40, teams=[{}, {"current_speed_mps": 0.5}])
+    env = make_env(config)
+    assert env.sizes == [3, 2] and env.n_envs == 5
+    assert env.envs[0].config.current_speed_mps == agents_config("gao_team").current_speed_mps != 0.5
+    assert env.envs[1].config.current_speed_mps == 0.5
+    td = env.reset()
+    seeds = np.concatenate([e.episode_seeds for e in env.envs])
+    assert seeds.tolist() == [40, 41, 42, 43, 44]
+    td.set(("beacons", "action"), torch.zeros(5, env.n_beacons, env.action_dim))
+    out, nxt = env.step_and_maybe_reset(td)
+    assert out.batch_size == torch.Size([5]) and nxt.batch_size == torch.Size([5])
+    train(
+        BatchedPPOConfig(scenario="gao_team", n_envs=4, n_steps=4, minibatch=16, teams=config.teams), 16, progress=False
+    )
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--scenario", "gao_team", "--team", "{}", "--team", "{n_survey: 1}"], "one team makeup only"),
+        (["--scenario", "gao_team", "--team", "[1, 2]"], "--team takes a YAML mapping"),
+        (["--scenario", "gao_team", "--team", "{curent_speed_mps: 0.5}"], "teams[0]"),
+    ],
+)
+def test_bad_teams_are_one_line(argv, message, capsys):
+    assert main(["--timesteps", "100", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err

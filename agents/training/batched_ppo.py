@@ -82,6 +82,7 @@ class BatchedPPOConfig:
     reward_terms: dict[str, float] | None = (
         None  # None: the env's reward; {signal: weight}: core.reward's training signals
     )
+    teams: list[dict[str, Any]] = field(default_factory=list)  # per team, scenario overrides (train.py's env.teams)
     init_from: str | None = None  # a train.py run or shipped SB3 policy whose actor the run starts from
     critic_warmup_iterations: int = 0  # iterations that train only the critic (the actor held)
 
@@ -93,6 +94,8 @@ class BatchedPPOConfig:
                 raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
         if self.critic not in CRITICS:
             raise ValueError(f"critic must be one of {', '.join(CRITICS)}, got {self.critic!r}")
+        if len(self.teams) > self.n_envs or any(not isinstance(t, dict) for t in self.teams):
+            raise ValueError(f"teams must be at most n_envs ({self.n_envs}) mappings of overrides, got {self.teams!r}")
         w = self.critic_warmup_iterations
         if isinstance(w, bool) or not isinstance(w, int) or w < 0:
             raise ValueError(f"critic_warmup_iterations must be an integer >= 0, got {w!r}")
@@ -265,19 +268,79 @@ def next_state_values(value: Any, at_ends: Any, done: Any, last_value: Any) -> A
     return torch.where(done == 0.0, following, at_ends)
 
 
+class TeamEnvs:
+    """Teams of settings side by side, as train.py's ``env.teams`` (``MixedTeamVecEnv``): one
+    ``CoopNavTorchEnv`` per team with its share of the ``n_envs`` environments (the first
+    teams one more where they do not divide), team t's environments seeded from ``seed`` +
+    the number of environments before it, so no two share an episode seed. The loop sees one
+    batch: ``reset`` and ``step_and_maybe_reset`` concatenate the teams' TensorDicts along
+    the batch. The teams must agree on the observation, state and action sizes."""
+
+    def __init__(self, envs: Sequence[Any]) -> None:
+        first = envs[0]
+        for i, e in enumerate(envs):
+            sizes = (e.n_beacons, e.obs_dim, e.action_dim, e.state_dim)
+            if sizes != (first.n_beacons, first.obs_dim, first.action_dim, first.state_dim):
+                raise ValueError(
+                    f"teams[{i}]: beacons, observation, action and state sizes {sizes}, the first team's "
+                    f"{(first.n_beacons, first.obs_dim, first.action_dim, first.state_dim)}: one team makeup only"
+                )
+        self.envs = list(envs)
+        self.sizes = [e.n_envs for e in envs]
+        self.n_envs = sum(self.sizes)
+        self.n_beacons, self.obs_dim, self.action_dim, self.state_dim = (
+            first.n_beacons,
+            first.obs_dim,
+            first.action_dim,
+            first.state_dim,
+        )
+
+    def reset(self) -> Any:
+        import torch
+
+        return torch.cat([e.reset() for e in self.envs], 0)
+
+    def step_and_maybe_reset(self, td: Any) -> tuple[Any, Any]:
+        import torch
+
+        outs, nexts, lo = [], [], 0
+        for e, n in zip(self.envs, self.sizes):
+            out, nxt = e.step_and_maybe_reset(td[lo : lo + n])
+            outs.append(out)
+            nexts.append(nxt)
+            lo += n
+        return torch.cat(outs, 0), torch.cat(nexts, 0)
+
+
 def make_env(config: BatchedPPOConfig) -> Any:
+    """The core's batch as a TorchRL environment; with ``config.teams`` a ``TeamEnvs``."""
     from coopnav_env.torchrl_env import CoopNavTorchEnv
 
     state = "privileged" if config.critic == "state" else "observations"
-    return CoopNavTorchEnv(
-        config.scenario,
-        n_envs=config.n_envs,
-        seed=config.seed,
-        infos=True,
-        state=state,
-        reward_terms=config.reward_terms,
-        **config.overrides,
-    )
+
+    def one(n_envs: int, seed: int, team: dict[str, Any]) -> Any:
+        return CoopNavTorchEnv(
+            config.scenario,
+            n_envs=n_envs,
+            seed=seed,
+            infos=True,
+            state=state,
+            reward_terms=config.reward_terms,
+            **{**config.overrides, **team},
+        )
+
+    if not config.teams:
+        return one(config.n_envs, config.seed, {})
+    k = len(config.teams)
+    counts = [config.n_envs // k + (i < config.n_envs % k) for i in range(k)]
+    envs, first = [], 0
+    for i, (team, n) in enumerate(zip(config.teams, counts)):
+        try:
+            envs.append(one(n, config.seed + first, team))
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"teams[{i}] {team}: {err}") from None
+        first += n
+    return TeamEnvs(envs)
 
 
 def train(
@@ -519,6 +582,23 @@ def save(
     atomic_write_bytes(out / "run.json", (json.dumps(record, indent=1) + "\n").encode())
 
 
+def _team(text: str) -> dict[str, Any]:
+    """One ``--team`` value: a YAML mapping of scenario overrides."""
+    import yaml
+
+    try:
+        team = yaml.safe_load(text)
+    except yaml.YAMLError:
+        team = None
+    if team is None and text.strip() in ("", "{}"):
+        team = {}
+    if not isinstance(team, dict):
+        raise ValueError(
+            f"--team takes a YAML mapping of scenario parameters, e.g. '{{current_speed_mps: 0.5}}', got {text!r}"
+        )
+    return team
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     defaults = BatchedPPOConfig()
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -542,6 +622,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=[],
         metavar="SIGNAL=WEIGHT",
         help="train on core.reward's training signals (repeatable, e.g. std=1 penalties=1; default: the env's reward)",
+    )
+    p.add_argument(
+        "--team",
+        action="append",
+        default=[],
+        metavar="YAML",
+        help="a team of settings trained beside the others, as train.py's env.teams (repeatable; "
+        "e.g. --team '{}' --team '{current_speed_mps: 0.5}'); the environments are dealt to the teams",
     )
     p.add_argument(
         "--init-from",
@@ -583,6 +671,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=args.seed,
             overrides=overrides,
             reward_terms=terms or None,
+            teams=[_team(t) for t in args.team],
             init_from=args.init_from,
             critic_warmup_iterations=args.critic_warmup,
         )
@@ -602,7 +691,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         import torch
 
         torch.set_num_threads(args.threads)
-        probe = make_env(BatchedPPOConfig(**{**asdict(config), "n_envs": 1}))  # bad scenario parameters fail here, fast
+        probe = make_env(
+            BatchedPPOConfig(**{**asdict(config), "n_envs": max(1, len(config.teams))})
+        )  # bad scenario parameters fail here, fast
         if config.init_from is not None:  # and a policy that does not fit
             load_sb3_actor(config.init_from, config.scenario, config.net, probe.obs_dim, probe.action_dim)
         if out is not None:  # one trainer per folder (agents.training.runlock), as train.py's
