@@ -277,23 +277,19 @@ class TeamEnvs:
     the batch. The teams must agree on the observation, state and action sizes."""
 
     def __init__(self, envs: Sequence[Any]) -> None:
-        first = envs[0]
+        def sizes(e: Any) -> tuple[int, int, int, int]:
+            return e.n_beacons, e.obs_dim, e.action_dim, e.state_dim
+
         for i, e in enumerate(envs):
-            sizes = (e.n_beacons, e.obs_dim, e.action_dim, e.state_dim)
-            if sizes != (first.n_beacons, first.obs_dim, first.action_dim, first.state_dim):
+            if sizes(e) != sizes(envs[0]):
                 raise ValueError(
-                    f"teams[{i}]: beacons, observation, action and state sizes {sizes}, the first team's "
-                    f"{(first.n_beacons, first.obs_dim, first.action_dim, first.state_dim)}: one team makeup only"
+                    f"teams[{i}]: beacons, observation, action and state sizes {sizes(e)}, the first team's "
+                    f"{sizes(envs[0])}: one team makeup only"
                 )
         self.envs = list(envs)
         self.sizes = [e.n_envs for e in envs]
         self.n_envs = sum(self.sizes)
-        self.n_beacons, self.obs_dim, self.action_dim, self.state_dim = (
-            first.n_beacons,
-            first.obs_dim,
-            first.action_dim,
-            first.state_dim,
-        )
+        self.n_beacons, self.obs_dim, self.action_dim, self.state_dim = sizes(envs[0])
 
     def reset(self) -> Any:
         import torch
