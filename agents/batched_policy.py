@@ -6,11 +6,14 @@ the observation and the action) and ``actor.safetensors`` (the actor MLP's weigh
 the log standard deviation: data, not a pickle). The policy acts deterministically (the
 Gaussian's mean, clipped to [-1, 1]); the beacons share the network, so it drives any number
 of beacons of a scenario whose observation and action sizes are the run's. Acting needs
-torch only (not torchrl).
+torch only (not torchrl). The network (``mlp``) is defined here and the trainer builds its
+actor from it, so loading a policy never imports the trainer.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -39,6 +42,51 @@ def _record(directory: Path) -> dict | None:
     return record if isinstance(record, dict) and record.get("trainer") == TRAINER else None
 
 
+def _tanh_module() -> Any:
+    """tanh as 2 sigmoid(2x) - 1 (the same function; float32 results within 2e-7 of
+    ``torch.tanh``), with the derivative 1 - y^2 from the output. On this machine's CPU
+    torch's tanh costs 15 ms on a 32,768 x 128 batch and its sigmoid 2 ms, and the
+    activations were a third of the update."""
+    import torch
+    from torch import nn
+
+    class _Tanh(torch.autograd.Function):
+        @staticmethod
+        def forward(ctx: Any, x: Any) -> Any:
+            y = torch.sigmoid(x * 2.0).mul_(2.0).sub_(1.0)
+            ctx.save_for_backward(y)
+            return y
+
+        @staticmethod
+        def backward(ctx: Any, grad: Any) -> Any:
+            (y,) = ctx.saved_tensors
+            return grad * (1.0 - y * y)
+
+    class Tanh(nn.Module):
+        def forward(self, x: Any) -> Any:
+            return _Tanh.apply(x)
+
+    return Tanh()
+
+
+def mlp(n_in: int, net: Sequence[int], n_out: int, out_gain: float) -> Any:
+    """Linear-tanh layers with orthogonal initialisation (gain sqrt 2, the output ``out_gain``)."""
+    import torch
+    from torch import nn
+
+    layers: list[nn.Module] = []
+    for h in net:
+        layer = nn.Linear(n_in, h)
+        nn.init.orthogonal_(layer.weight, math.sqrt(2))
+        nn.init.zeros_(layer.bias)
+        layers += [layer, _tanh_module()]
+        n_in = h
+    out = nn.Linear(n_in, n_out)
+    nn.init.orthogonal_(out.weight, out_gain)
+    nn.init.zeros_(out.bias)
+    return nn.Sequential(*layers, out).to(torch.float32)
+
+
 def is_batched_path(path: Any) -> bool:
     """Whether ``path`` is a batched_ppo run folder (no import of torch)."""
     directory = Path(str(path))
@@ -53,8 +101,6 @@ class BatchedPPOPolicy(BatchPolicy):
     def __init__(self, directory: Path, record: dict, config: ScenarioConfig | None) -> None:
         import torch
         from safetensors.torch import load_file
-
-        from .training.batched_ppo import mlp
 
         self.name = directory.name
         self.record = record

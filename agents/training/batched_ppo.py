@@ -52,6 +52,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from agents.batched_policy import mlp
+
 CRITICS = ("state", "observation")
 TRAINER = "batched_ppo"  # run.json's "trainer" (agents.batched_policy.is_batched_path)
 
@@ -109,51 +111,6 @@ class BatchedPPOConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
-
-
-def _tanh_module() -> Any:
-    """tanh as 2 sigmoid(2x) - 1 (the same function; float32 results within 2e-7 of
-    ``torch.tanh``), with the derivative 1 - y^2 from the output. On this machine's CPU
-    torch's tanh costs 15 ms on a 32,768 x 128 batch and its sigmoid 2 ms, and the
-    activations were a third of the update."""
-    import torch
-    from torch import nn
-
-    class _Tanh(torch.autograd.Function):
-        @staticmethod
-        def forward(ctx: Any, x: Any) -> Any:
-            y = torch.sigmoid(x * 2.0).mul_(2.0).sub_(1.0)
-            ctx.save_for_backward(y)
-            return y
-
-        @staticmethod
-        def backward(ctx: Any, grad: Any) -> Any:
-            (y,) = ctx.saved_tensors
-            return grad * (1.0 - y * y)
-
-    class Tanh(nn.Module):
-        def forward(self, x: Any) -> Any:
-            return _Tanh.apply(x)
-
-    return Tanh()
-
-
-def mlp(n_in: int, net: Sequence[int], n_out: int, out_gain: float) -> Any:
-    """Linear-tanh layers with orthogonal initialisation (gain sqrt 2, the output ``out_gain``)."""
-    import torch
-    from torch import nn
-
-    layers: list[nn.Module] = []
-    for h in net:
-        layer = nn.Linear(n_in, h)
-        nn.init.orthogonal_(layer.weight, math.sqrt(2))
-        nn.init.zeros_(layer.bias)
-        layers += [layer, _tanh_module()]
-        n_in = h
-    out = nn.Linear(n_in, n_out)
-    nn.init.orthogonal_(out.weight, out_gain)
-    nn.init.zeros_(out.bias)
-    return nn.Sequential(*layers, out).to(torch.float32)
 
 
 def load_sb3_actor(source: str, scenario: str, net: Sequence[int], obs_dim: int, action_dim: int) -> dict:
