@@ -124,6 +124,11 @@ class CoopNavTorchEnv(EnvBase):
         infos: bool = True,
         **overrides: Any,
     ) -> None:
+        if "batch_size" in overrides:  # TorchRL's own name for it is not a scenario parameter
+            raise ValueError(
+                f"CoopNavTorchEnv takes n_envs={overrides['batch_size']!r}, not batch_size= "
+                "(its batch size is (n_envs,))"
+            )
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"n_envs must be an int >= 1, got {n_envs!r}")
         if state not in STATE_KINDS:

@@ -170,6 +170,8 @@ def test_bad_arguments():
         CoopNavTorchEnv("sousa_asv", state="truth")
     with pytest.raises(ValueError, match="unknown reward term 'errror'"):
         CoopNavTorchEnv("sousa_asv", reward_terms={"errror": 1.0})
+    with pytest.raises(ValueError, match=r"takes n_envs=64, not batch_size="):  # TorchRL's word for it
+        CoopNavTorchEnv("sousa_asv", batch_size=64)
 
 
 def test_transmit_decision_and_the_motion_alone():
