@@ -278,3 +278,18 @@ def test_bad_teams_are_one_line(argv, message, capsys):
     assert main(["--timesteps", "100", *argv]) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err
+
+
+def test_the_return_scale_is_inherited_only_for_the_same_reward():
+    """ppo_gao_team was trained on std=1 error=0.25 penalties=1: a run on that reward starts
+    from its VecNormalize's return variance; a run on the environment's reward or another mix
+    starts its own (another reward has another scale); the observation scaling comes either way."""
+    from agents.training.batched_ppo import load_sb3_actor
+
+    same = {"std": 1.0, "error": 0.25, "penalties": 1.0}
+    stats = _shipped_stats()
+    got = load_sb3_actor("ppo_gao_team", "gao_team", (128, 128), 34, 2, same)
+    assert float(got["ret_var"]) == pytest.approx(float(stats["ret_var"]))
+    for other in (None, {"error": 1.0, "penalties": 1.0}):
+        got = load_sb3_actor("ppo_gao_team", "gao_team", (128, 128), 34, 2, other)
+        assert "ret_var" not in got and "obs_mean" in got

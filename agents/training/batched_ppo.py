@@ -113,20 +113,30 @@ class BatchedPPOConfig:
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
 
 
-def load_sb3_actor(source: str, scenario: str, net: Sequence[int], obs_dim: int, action_dim: int) -> dict:
+def load_sb3_actor(
+    source: str,
+    scenario: str,
+    net: Sequence[int],
+    obs_dim: int,
+    action_dim: int,
+    reward_terms: dict[str, float] | None = None,
+) -> dict:
     """The actor of a train.py run or shipped policy (``agents.resolve``: a name such as
     ``ppo_gao_team``, ``ppo`` for the scenario's, or a run folder) as this loop's tensors:
     ``{"actor": state_dict of mlp(obs_dim, net, action_dim), "log_std", "obs_mean",
     "obs_var", "obs_count", "ret_var", "ret_count"}``. SB3's flat ``MlpPolicy`` with tanh
     (``mlp_extractor.policy_net`` then ``action_net``) is the same function as ``mlp``'s
     Linear-tanh stack, and VecNormalize's scaling is ``RunningNorm``'s, so the loop starts
-    where that policy stands. A ``ValueError`` (one line) names what does not fit."""
+    where that policy stands. The return's statistics (``ret_var``, ``ret_count``) come only
+    when the run trains on the reward that policy was trained on (``reward_terms`` against its
+    config.yml's ``reward``; None and {} both the environment's): another reward has another
+    scale. A ``ValueError`` (one line) names what does not fit."""
     import torch
 
     from agents import resolve
-    from agents.formats import read_model, read_vecnormalize
+    from agents.formats import read_model, read_vecnormalize, safe_yaml
 
-    model, stats, _ = resolve(source, scenario)
+    model, stats, config_file = resolve(source, scenario)
     if Path(str(model)).suffix != ".safetensors":
         raise ValueError(f"--init-from {source}: {model} is not an SB3 model file (a flat MlpPolicy run or policy)")
     spec, state, _ = read_model(model)
@@ -160,9 +170,15 @@ def load_sb3_actor(source: str, scenario: str, net: Sequence[int], obs_dim: int,
             obs_mean=torch.as_tensor(vn["obs_mean"], dtype=torch.float64),
             obs_var=torch.as_tensor(vn["obs_var"], dtype=torch.float64),
             obs_count=vn["obs_count"],
-            ret_var=torch.as_tensor(vn["ret_var"], dtype=torch.float64).reshape(()),
-            ret_count=vn["ret_count"],
         )
+        trained_on = None
+        if config_file is not None and Path(config_file).is_file():
+            hyper = (safe_yaml(config_file) or {}).get("hyperparameters") or {}
+            trained_on = {k: float(v) for k, v in (hyper.get("reward") or {}).items()}
+        if trained_on is not None and trained_on == dict(reward_terms or {}):
+            out.update(
+                ret_var=torch.as_tensor(vn["ret_var"], dtype=torch.float64).reshape(()), ret_count=vn["ret_count"]
+            )
     return out
 
 
@@ -326,7 +342,9 @@ def train(
     T = config.n_steps
     actor = mlp(O, config.net, D, 0.01)
     log_std = nn.Parameter(torch.full((D,), float(config.log_std_init)))
-    init = None if config.init_from is None else load_sb3_actor(config.init_from, config.scenario, config.net, O, D)
+    init = None
+    if config.init_from is not None:
+        init = load_sb3_actor(config.init_from, config.scenario, config.net, O, D, config.reward_terms)
     if init is not None:  # the loop starts where that policy stands; the critic is new
         actor.load_state_dict({k: v.float() for k, v in init["actor"].items()})
         with torch.no_grad():
@@ -354,6 +372,7 @@ def train(
     obs_norm, state_norm = RunningNorm((O,)), RunningNorm((S,))
     if init is not None and "obs_mean" in init:  # its VecNormalize's statistics, as they were
         obs_norm.mean, obs_norm.var, obs_norm.count = init["obs_mean"], init["obs_var"], init["obs_count"]
+    if init is not None and "ret_var" in init:  # the same reward: its return's scale too
         ret_norm.var, ret_norm.count = init["ret_var"], init["ret_count"]
 
     def observe(td: Any, update: bool = False) -> tuple[Any, Any]:
