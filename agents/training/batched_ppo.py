@@ -5,6 +5,8 @@ tensors.
     python -m agents.training.batched_ppo --scenario sousa_asv --timesteps 20000000 \\
         --out runs/sousa_asv_batched             # MAPPO, 4,096 environments, 2 epochs
     python -m agents.training.batched_ppo --scenario gao_team --critic observation ...   # IPPO
+    python -m agents.training.batched_ppo --scenario gao_team --init-from ppo_gao_team \
+        --critic-warmup 20 --team '{}' --team '{current_speed_mps: 0.5}' ...   # continue a shipped policy
 
 Why it exists: BenchMARL's ``Experiment`` (``agents.training.marl``) spends 60-70 % of its
 loop in its PPO update machinery (TensorDict losses, value estimators over the whole
