@@ -28,6 +28,7 @@ from .base import (
     motion_name,
     register_policy,
     split_spec,
+    tell_truth,
     unregister_policy,
     waypoint_to_action,
 )
@@ -48,6 +49,7 @@ __all__ = [
     "motion_name",
     "register_policy",
     "split_spec",
+    "tell_truth",
     "unregister_policy",
     "waypoint_to_action",
 ]

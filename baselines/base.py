@@ -15,7 +15,7 @@ turns "be at this point at the next ping" into the action.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -355,6 +355,20 @@ class Policy:
 
     def __call__(self, obs):
         return self.act(obs)
+
+
+def tell_truth(policies: Sequence[Sequence[Any]], sim: Any, rows: Iterable[int] | None = None) -> None:
+    """Before they act, give the privileged policies among ``policies[b][j]`` (the oracles:
+    ``privileged = True``) the simulator's truth of their row b (``sim.snapshot()``, taken only
+    if one of them is privileged), for rows ``rows`` (default: all). The one place a runner
+    tells a reference policy what no real beacon knows."""
+    rows = range(len(policies)) if rows is None else rows
+    snap = None
+    for b in rows:
+        for p in policies[b]:
+            if getattr(p, "privileged", False):
+                snap = sim.snapshot() if snap is None else snap
+                p.observe_truth(snap, b)
 
 
 class TrackingPolicy(Policy):

@@ -42,22 +42,13 @@ def run(
     sim = make_simulator(config, B)
     obs = sim.reset(np.asarray(seeds, dtype=np.int64))
     if "+" in spec:
-        from baselines import make_policy
+        from baselines import make_policy, tell_truth
 
         policies = [[make_policy(spec, config, seed=(s, j), agent=j, **kwargs) for j in range(N)] for s in seeds]
-        privileged = getattr(policies[0][0], "privileged", False)  # the oracle: told the truth before each act
 
         def act(obs):
-            snap = sim.snapshot() if privileged else None
-            out = []
-            for b in range(B):
-                row = []
-                for j in range(N):
-                    if snap is not None:
-                        policies[b][j].observe_truth(snap, b)
-                    row.append(policies[b][j].act(obs[b, j]))
-                out.append(np.stack(row))
-            return np.stack(out)
+            tell_truth(policies, sim)  # the oracle's rows: told the truth before each act
+            return np.stack([np.stack([policies[b][j].act(obs[b, j]) for j in range(N)]) for b in range(B)])
     else:
         import agents
 

@@ -166,6 +166,7 @@ def run_episodes(
     receives the CPU seconds of every ``act`` call (the calling thread's clock,
     ``time.thread_time_ns``: one beacon's decision on one core, what other processes on
     the machine do not inflate; a privileged policy's ``observe_truth`` not included)."""
+    from baselines import tell_truth
     from coopnav_env.core import make_simulator
 
     seeds = [int(s) for s in seeds]
@@ -182,13 +183,11 @@ def run_episodes(
 
     actions = np.zeros((B, N, action_dim(sim)))
     credited, k_step, horizon = 0.0, 0, max(int(getattr(config, "max_cycles", 1)), 1)
-    privileged = any(getattr(p, "privileged", False) for row in policies for p in row)
     while not done.all():
-        snap = sim.snapshot() if privileged else None  # the truth, for reference policies (baselines' oracle)
-        for b in np.flatnonzero(~done).tolist():
+        live = np.flatnonzero(~done).tolist()
+        tell_truth(policies, sim, live)  # the truth, for reference policies (baselines' oracle)
+        for b in live:
             for j in range(N):
-                if snap is not None and getattr(policies[b][j], "privileged", False):
-                    policies[b][j].observe_truth(snap, b)
                 if act_seconds is None:
                     actions[b, j] = policies[b][j].act(obs[b, j])
                 else:

@@ -345,9 +345,8 @@ def train(
     actor = mlp(O, config.net, D, 0.01)
     log_std = nn.Parameter(torch.full((D,), float(config.log_std_init)))
     init = None
-    if config.init_from is not None:
+    if config.init_from is not None:  # the loop starts where that policy stands; the critic is new
         init = load_sb3_actor(config.init_from, config.scenario, config.net, O, D, config.reward_terms)
-    if init is not None:  # the loop starts where that policy stands; the critic is new
         actor.load_state_dict({k: v.float() for k, v in init["actor"].items()})
         with torch.no_grad():
             log_std.copy_(init["log_std"].float())
@@ -478,9 +477,10 @@ def train(
                 ).mean()
                 value_loss = 0.5 * (values(b_state[idx], b_obs[idx]) - b_ret[idx]).pow(2).mean()  # (P4)
                 entropy = (log_std + 0.5 * math.log(2 * math.pi * math.e)).sum()
-                loss = policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
-                if warmup:
+                if warmup:  # the actor held: its loss is not part of the step
                     loss = config.vf_coef * value_loss
+                else:
+                    loss = policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 nn.utils.clip_grad_norm_(params, config.max_grad_norm)
@@ -564,7 +564,7 @@ def _team(text: str) -> dict[str, Any]:
         team = yaml.safe_load(text)
     except yaml.YAMLError:
         team = None
-    if team is None and text.strip() in ("", "{}"):
+    if team is None and not text.strip():  # --team '' is the scenario as it is, as '{}'
         team = {}
     if not isinstance(team, dict):
         raise ValueError(
