@@ -266,6 +266,29 @@ def test_teams_share_out_the_environments_and_their_seeds():
     )
 
 
+def test_the_log_gives_each_teams_error():
+    """With teams each log row has the mean survey error of each team's finished episodes, the
+    rows attributed to their team: a team that starts 300 m off (initial_position_std_m) has
+    the larger error, whichever order the teams come in."""
+    far, near = {"initial_position_std_m": 300.0}, {"initial_position_std_m": 0.5}
+    for teams, far_first in (([far, near], True), ([near, far], False)):
+        config = BatchedPPOConfig(
+            scenario="gao_team", n_envs=6, n_steps=4, minibatch=24, teams=teams, overrides={"max_cycles": 2}
+        )
+        log = train(config, 24, progress=False)["log"]
+        per_team = log[0]["survey_error_m_per_team"]
+        assert len(per_team) == 2 and None not in per_team
+        big, small = per_team if far_first else per_team[::-1]
+        assert big > 10.0 * small
+        assert min(per_team) <= log[0]["survey_error_m"] <= max(per_team)
+    assert (
+        "survey_error_m_per_team"
+        not in train(BatchedPPOConfig(scenario="gao_team", n_envs=2, n_steps=2, minibatch=4), 4, progress=False)["log"][
+            0
+        ]
+    )
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [

@@ -345,6 +345,11 @@ def test_training_reward_terms():
     err_only.reset()
     _, r, _, infos = err_only.step(np.zeros((2, 2)))
     assert np.allclose(r, [-i["survey_error_m"] for i in infos])
+    # log_error: -ln(1 + e / 1 m) of the same step's error
+    log_only = CoopNavVecEnv("sousa_asv", n_envs=2, seed=0, reward_terms={"log_error": 1.0})
+    log_only.reset()
+    _, r, _, infos = log_only.step(np.zeros((2, 2)))
+    assert np.allclose(r, [-np.log(1.0 + i["survey_error_m"]) for i in infos]) and np.all(r < 0)
     # rejected: minus the ranges the survey filter gated out; every range a 200 m multipath here
     for prob, expect in ((1.0, -1.0), (0.0, 0.0)):
         rej = CoopNavVecEnv(

@@ -327,8 +327,9 @@ def train(
     stopped early keeps its last save; ``run.json`` says its steps). Returns
     ``{"actor": ..., "log": [...], "steps": ..., "seconds": ...}``; each log row has the
     iteration's wall seconds in the simulator (``env_s``), the rest of collection
-    (``collect_s``) and the update (``update_s``). ``threads``: torch's threads, set after
-    the environment is built (numba's start can reset them)."""
+    (``collect_s``) and the update (``update_s``); with teams, ``survey_error_m_per_team``.
+    ``threads``: torch's threads, set after the environment is built (numba's start can
+    reset them)."""
     import torch
     from torch import nn
 
@@ -391,6 +392,10 @@ def train(
     ep_len = torch.zeros(B)
     finished_returns: list[float] = []
     finished_errors: list[float] = []
+    # with teams, each environment's team (its rows are contiguous) and the errors per team
+    sizes = getattr(env, "sizes", [B])
+    team_of = torch.repeat_interleave(torch.arange(len(sizes)), torch.tensor(sizes))
+    team_errors: list[list[float]] = [[] for _ in sizes]
 
     iterations = max(1, math.ceil(total_steps / (B * T)))
     bar = None
@@ -440,7 +445,10 @@ def train(
                 rew_buf[t], term_buf[t], done_buf[t] = reward, term, done
                 if ended.any():
                     finished_returns += ep_return[ended].tolist()
-                    finished_errors += (ep_error[ended] / ep_len[ended]).tolist()
+                    ended_errors = (ep_error[ended] / ep_len[ended]).tolist()
+                    finished_errors += ended_errors
+                    for k, e in zip(team_of[ended].tolist(), ended_errors):
+                        team_errors[k].append(e)
                     ep_return[ended], ep_error[ended], ep_len[ended] = 0.0, 0.0, 0.0
                     ret_running[ended] = 0.0
                 td = td_next
@@ -503,7 +511,10 @@ def train(
             "clip_fraction": float(sum(clip_fractions) / len(clip_fractions)),
             "action_std": [float(s) for s in log_std.detach().exp()],
         }
+        if len(sizes) > 1:  # the mean survey error of each team's finished episodes (None: none ended)
+            row["survey_error_m_per_team"] = [sum(e) / len(e) if e else None for e in team_errors]
         finished_returns, finished_errors = [], []
+        team_errors = [[] for _ in sizes]
         log.append(row)
         if out is not None:
             with open(out / "log.jsonl", "a") as f:

@@ -432,6 +432,16 @@ register_term(
     "on its observation). Summed over an episode it is -(steps x mean error), the evaluation score itself",
 )
 
+register_term(
+    "log_error",
+    kind="training",
+    compute=lambda ctx: -np.log1p(ctx.result.info["survey_error_m"].mean(-1)[:, None] / 1.0),
+    doc="-ln(1 + survey_error_m / 1 m): the error's signal with its tail bounded. With ``error`` a few "
+    "episodes that lose the survey vehicle (hundreds of metres a step) outweigh the rest of the batch, "
+    "whose actions then learn from those episodes' noise (the moving network at 10 s pings diverged, "
+    "docs/training/marl.md#error-tail); here an error ten times larger costs about 2.3 more, not ten times",
+)
+
 
 def _std_signal(ctx: TermContext) -> np.ndarray:
     P = ctx.result.info["survey_cov_en_m2"]
