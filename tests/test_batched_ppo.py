@@ -316,3 +316,23 @@ def test_the_return_scale_is_inherited_only_for_the_same_reward():
     for other in (None, {"error": 1.0, "penalties": 1.0}):
         got = load_sb3_actor("ppo_gao_team", "gao_team", (128, 128), 34, 2, other)
         assert "ret_var" not in got and "obs_mean" in got
+
+
+def test_center_reward_subtracts_the_mean_step_reward():
+    """--center-reward pays r - rho with rho the running mean step reward. On the true error
+    (reward -e each step) with every episode two steps long, rho is minus the mean of the
+    finished episodes' errors; it is logged. Without the flag nothing is logged."""
+    config = BatchedPPOConfig(
+        scenario="gao_team",
+        n_envs=4,
+        n_steps=4,
+        minibatch=16,
+        reward_terms={"error": 1.0},
+        overrides={"max_cycles": 2},
+        center_reward=True,
+    )
+    row = train(config, 16, progress=False)["log"][0]
+    assert row["episodes"] == 8 and row["survey_error_m"] > 0.0
+    assert row["reward_center"] == pytest.approx(-row["survey_error_m"], rel=1e-4)
+    config.center_reward = False
+    assert "reward_center" not in train(config, 16, progress=False)["log"][0]

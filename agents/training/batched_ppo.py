@@ -29,13 +29,17 @@ computed below:
   ended by the cycle limit (truncated) and not when it terminated (P2);
 * the clipped surrogate (P3), the value loss (P4), the entropy bonus, gradient clipping;
 * observations and state scaled by their running mean and variance, the reward by a running
-  standard deviation of the discounted return (as SB3's ``VecNormalize``; ``RunningNorm``).
+  standard deviation of the discounted return (as SB3's ``VecNormalize``; ``RunningNorm``);
+* with ``--center-reward``, (P5) each step is paid r - ρ, ρ the running mean step reward
+  (average-reward RL's differential reward), so a policy that can lengthen or shorten its
+  episodes is not paid for the length itself.
 
 **Output** (``--out``, a new or empty folder, locked for the run): ``actor.safetensors`` (the
 actor's weights and the observation statistics: data, not a pickle; written every
 ``--save-every-steps`` and at the end), ``run.json`` (the settings, the scenario, the sizes, the
 steps) and ``log.jsonl`` (one line per iteration: steps, seconds, the mean episode return and
-survey error, the seconds in the simulator, the rest of collection and the update).
+survey error, the seconds in the simulator, the rest of collection and the update; with teams
+each team's survey error, with ``--center-reward`` the ρ subtracted).
 ``agents.batched_policy`` loads it as a policy. Measured: ``docs/performance.md#loop-throughput``
 and ``docs/training/marl.md#levers-loop``.
 
@@ -89,6 +93,10 @@ class BatchedPPOConfig:
     teams: list[dict[str, Any]] = field(default_factory=list)  # per team, scenario overrides (train.py's env.teams)
     init_from: str | None = None  # a train.py run or shipped SB3 policy whose actor the run starts from
     critic_warmup_iterations: int = 0  # iterations that train only the critic (the actor held)
+    # pay each step its reward minus the running mean step reward (average-reward RL's differential
+    # reward): where the policy can make episodes longer or shorter, length is then worth nothing to
+    # first order (docs/training/marl.md#episode-length)
+    center_reward: bool = False
 
     def check(self) -> None:
         """One-line ``ValueError`` naming the first bad setting."""
@@ -371,6 +379,7 @@ def train(
 
     ret_running = torch.zeros(B, N, dtype=torch.float64)  # discounted return, for the reward's scale
     ret_norm = RunningNorm(())
+    step_norm = RunningNorm(())  # the step reward's running mean, for center_reward
     obs_norm, state_norm = RunningNorm((O,)), RunningNorm((S,))
     if init is not None and "obs_mean" in init:  # its VecNormalize's statistics, as they were
         obs_norm.mean, obs_norm.var, obs_norm.count = init["obs_mean"], init["obs_var"], init["obs_count"]
@@ -438,6 +447,9 @@ def train(
                 ep_return += reward.mean(-1)
                 ep_error += nxt.get(("info", "survey_error_m"))
                 ep_len += 1
+                if config.center_reward:  # (P5) r - rho, rho the running mean step reward
+                    step_norm.update(reward)
+                    reward = reward - step_norm.mean.float()
                 if config.norm_reward:  # the running std of the discounted return (VecNormalize's)
                     ret_running = ret_running * config.gamma + reward.double()
                     ret_norm.update(ret_running)
@@ -511,6 +523,8 @@ def train(
             "clip_fraction": float(sum(clip_fractions) / len(clip_fractions)),
             "action_std": [float(s) for s in log_std.detach().exp()],
         }
+        if config.center_reward:  # the mean step reward subtracted, in the reward's units
+            row["reward_center"] = float(step_norm.mean)
         if len(sizes) > 1:  # the mean survey error of each team's finished episodes (None: none ended)
             row["survey_error_m_per_team"] = [sum(e) / len(e) if e else None for e in team_errors]
         finished_returns, finished_errors = [], []
@@ -629,6 +643,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="ITERATIONS",
         help="iterations that train only the critic before the actor moves (with --init-from)",
     )
+    p.add_argument(
+        "--center-reward",
+        action="store_true",
+        help="pay each step its reward minus the running mean step reward, so episode length is not paid for",
+    )
     p.add_argument("--save-every-steps", type=int, default=5_000_000, help="also save the weights every N env-steps")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
@@ -658,6 +677,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             reward_terms=terms or None,
             teams=[_team(t) for t in args.team],
             init_from=args.init_from,
+            center_reward=args.center_reward,
             critic_warmup_iterations=args.critic_warmup,
         )
         config.check()
