@@ -22,7 +22,7 @@ def planned_steps(
     import coopnav_env
     from coopnav_env.core import make_simulator
 
-    from .base import make_policy
+    from .base import make_policy, tell_truth
 
     cfg = coopnav_env.make_config(scenario, **overrides)
     sim = make_simulator(cfg, runs)
@@ -36,6 +36,7 @@ def planned_steps(
             p.reset()
     done = np.zeros(runs, dtype=bool)
     for _ in range(cfg.max_cycles):
+        tell_truth(policies, sim)  # a privileged planner (the oracle) plans on the truth, as in evaluation
         actions = np.zeros((runs, cfg.n_beacons, 2))
         for b in range(runs):
             for n in range(cfg.n_beacons):

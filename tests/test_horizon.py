@@ -271,6 +271,21 @@ def test_oracle_gets_the_truth_in_run_episodes_and_is_never_a_best_planner():
     assert all("oracle" not in ts.planners for ts in TASK_SETS.values())
 
 
+def test_planned_steps_tells_the_oracle_the_truth(monkeypatch):
+    """baselines.rollout.planned_steps (the NEES and range-model scripts' rollout) gives a
+    privileged planner the truth before every step of every run, as the evaluation does."""
+    from baselines.horizon import OraclePolicy
+    from baselines.rollout import planned_steps
+
+    calls = []
+    orig = OraclePolicy.observe_truth
+    monkeypatch.setattr(
+        OraclePolicy, "observe_truth", lambda self, snap, row: calls.append(row) or orig(self, snap, row)
+    )
+    steps = list(planned_steps("gao_lawnmower", "oracle", {"max_cycles": 3}, 2, 11))
+    assert len(steps) == 3 and sorted(calls) == [0, 0, 0, 1, 1, 1]
+
+
 def test_oracle_under_a_transmit_schedule_still_gets_the_truth():
     """On a slotted channel (``sousa_ping``) every planner is wrapped with a transmit
     schedule (``baselines.schedule.ScheduledPolicy``); the wrapper hid the oracle's
