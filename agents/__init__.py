@@ -121,11 +121,12 @@ def list_policies() -> list:
     return sorted(p.name for p in POLICY_DIR.iterdir() if p.is_dir() and has_model(p))
 
 
-def _shipped_benchmarl(name_or_path: str | Path, scenario: Any) -> Path | None:
+def _shipped_run(name_or_path: str | Path, scenario: Any) -> Path | None:
     """The shipped policy's directory a name means ("ppo" with ``scenario``: a name, a config
     or an env; or "ppo_<scenario>") when it holds a BenchMARL run (``run.json`` +
-    ``policy.safetensors``); None otherwise."""
-    from . import benchmarl_policy
+    ``policy.safetensors``) or a batched-loop run (``run.json`` + ``actor.safetensors``);
+    None otherwise."""
+    from . import batched_policy, benchmarl_policy
 
     name = str(name_or_path)
     if not name or Path(name).exists() or "/" in name or os.sep in name:
@@ -137,7 +138,8 @@ def _shipped_benchmarl(name_or_path: str | Path, scenario: Any) -> Path | None:
 
         name = f"ppo_{scenario if isinstance(scenario, str) else resolve_config(scenario).name}"
     directory = POLICY_DIR / name
-    return directory if benchmarl_policy.is_benchmarl_path(directory) else None
+    shipped_run = benchmarl_policy.is_benchmarl_path(directory) or batched_policy.is_batched_path(directory)
+    return directory if shipped_run else None
 
 
 def _model_files(directory: Path):
@@ -220,7 +222,7 @@ def resolve(
     run directory."""
     from . import batched_policy, benchmarl_policy, rllib_policy
 
-    name_or_path = _shipped_benchmarl(name_or_path, scenario) or name_or_path
+    name_or_path = _shipped_run(name_or_path, scenario) or name_or_path
     if rllib_policy.is_rllib_path(name_or_path):
         return rllib_policy.resolve(name_or_path, scenario, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # safetensors weights and a JSON record
@@ -391,7 +393,7 @@ def load(
     ``trust_pickle`` (then an old SB3 .zip/.pkl or an RLlib checkpoint loads)."""
     from . import batched_policy, benchmarl_policy, rllib_policy
 
-    name_or_path = _shipped_benchmarl(name_or_path, scenario) or name_or_path  # a shipped BenchMARL run
+    name_or_path = _shipped_run(name_or_path, scenario) or name_or_path  # a shipped BenchMARL or loop run
     if rllib_policy.is_rllib_path(name_or_path):  # train.py --backend rllib
         return rllib_policy.load(name_or_path, scenario=scenario, device=device, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # python -m agents.training.marl
@@ -568,7 +570,7 @@ def make_policy(
     (deterministic, and parameter-shared across beacons). ``trust_pickle``: as ``load``."""
     from . import batched_policy, benchmarl_policy, rllib_policy
 
-    name_or_path = _shipped_benchmarl(name_or_path, env_or_config) or name_or_path  # a shipped BenchMARL run
+    name_or_path = _shipped_run(name_or_path, env_or_config) or name_or_path  # a shipped BenchMARL or loop run
     if rllib_policy.is_rllib_path(name_or_path):  # one module per beacon kind: the agent matters
         return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # its own memory per beacon and episode

@@ -159,7 +159,9 @@ def test_the_registry_validates_and_unregisters(toy_parts):
         register_term("toy_weighed", weight="toy_weight", compute=_speed, doc="weighed by nothing")
     with pytest.raises(ValueError, match="needs a compute"):
         register_term("toy_nothing", kind="training", doc="no hook")
-    with pytest.raises(ValueError, match="valid terms: env, error, std, logdet, penalties, rejected, toy_signal"):
+    with pytest.raises(
+        ValueError, match="valid terms: env, error, log_error, std, logdet, penalties, rejected, toy_signal"
+    ):
         check_training_terms({"speed": 1.0})
     assert "| `toy_speed` | the beacon's speed over ground (m/s) | +1 |" in reward.markdown_table()
     assert "| `toy_signal` |" in reward.markdown_table("training")
