@@ -401,10 +401,12 @@ def train(
     ep_len = torch.zeros(B)
     finished_returns: list[float] = []
     finished_errors: list[float] = []
-    # with teams, each environment's team (its rows are contiguous) and the errors per team
+    # with teams, each environment's team (its rows are contiguous) and the sum and count of the
+    # errors of each team's finished episodes in the iteration
     sizes = getattr(env, "sizes", [B])
     team_of = torch.repeat_interleave(torch.arange(len(sizes)), torch.tensor(sizes))
-    team_errors: list[list[float]] = [[] for _ in sizes]
+    team_sum = torch.zeros(len(sizes), dtype=torch.float64)
+    team_count = torch.zeros(len(sizes), dtype=torch.float64)
 
     iterations = max(1, math.ceil(total_steps / (B * T)))
     bar = None
@@ -457,10 +459,10 @@ def train(
                 rew_buf[t], term_buf[t], done_buf[t] = reward, term, done
                 if ended.any():
                     finished_returns += ep_return[ended].tolist()
-                    ended_errors = (ep_error[ended] / ep_len[ended]).tolist()
-                    finished_errors += ended_errors
-                    for k, e in zip(team_of[ended].tolist(), ended_errors):
-                        team_errors[k].append(e)
+                    ended_errors = ep_error[ended] / ep_len[ended]
+                    finished_errors += ended_errors.tolist()
+                    team_sum.index_add_(0, team_of[ended], ended_errors)
+                    team_count.index_add_(0, team_of[ended], torch.ones_like(ended_errors))
                     ep_return[ended], ep_error[ended], ep_len[ended] = 0.0, 0.0, 0.0
                     ret_running[ended] = 0.0
                 td = td_next
@@ -526,9 +528,11 @@ def train(
         if config.center_reward:  # the mean step reward subtracted, in the reward's units
             row["reward_center"] = float(step_norm.mean)
         if len(sizes) > 1:  # the mean survey error of each team's finished episodes (None: none ended)
-            row["survey_error_m_per_team"] = [sum(e) / len(e) if e else None for e in team_errors]
+            row["survey_error_m_per_team"] = [
+                float(total / n) if n else None for total, n in zip(team_sum.tolist(), team_count.tolist())
+            ]
         finished_returns, finished_errors = [], []
-        team_errors = [[] for _ in sizes]
+        team_sum.zero_(), team_count.zero_()
         log.append(row)
         if out is not None:
             with open(out / "log.jsonl", "a") as f:
