@@ -24,7 +24,7 @@ CHANNEL_MODES = ("clock", "decide")
 BEACON_ERROR_FUSIONS = ("schmidt", "white", "ci")
 LOCKOUT_RECOVERIES = ("window", "window_consensus", "nearest_point")
 RANGE_OUTLIER_MODELS = ("mixture", "hold", "gate")
-RANGE_LINEARIZATIONS = ("first_order", "second_order")
+RANGE_LINEARIZATIONS = ("first_order", "second_order", "iterated")
 # the survey filter of the papers (Gao & Chitre 2010; Sousa et al.): the beacon's variance in R,
 # hard gating, a nearest-point restart, white GPS errors. Paper reproductions set these.
 PAPER_FILTER = {
@@ -366,7 +366,9 @@ class SurveyEKF(Section):
             "a modem range's model in the survey filter: 'first_order', the EKF's linearization (the papers); "
             "'second_order', with the range's curvature (the Gaussian second-order filter, "
             "core/navigation.range_curvature, eqs. L1-L3): the prediction's bias and the variance the "
-            "linearization leaves, which matter when the estimate's error is not small against the range "
+            "linearization leaves, which matter when the estimate's error is not small against the range; "
+            "'iterated', the iterated EKF's update (Gauss-Newton steps re-linearizing at its own result, "
+            "core/measurements/modem._iterated_model, eqs. I1-I3) "
             "(the modem sensor of network='survey_beacons' only)"
         ),
     )

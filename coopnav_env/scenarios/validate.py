@@ -40,7 +40,8 @@ def validate(c: Any) -> None:
         _check_decision_slot(c)
     check(
         c.range_linearization == "first_order" or (c.network == "survey_beacons" and c.acoustic_sensor == "modem"),
-        "range_linearization='second_order' is the modem filter's (network='survey_beacons', acoustic_sensor='modem'); "
+        f"range_linearization={c.range_linearization!r} is the modem filter's (network='survey_beacons', "
+        "acoustic_sensor='modem'); "
         f"network={c.network!r} with acoustic_sensor={c.acoustic_sensor!r} fuses its ranges to first order: "
         "use range_linearization='first_order'",
     )

@@ -133,6 +133,7 @@ class ModemParams(NamedTuple):
     dr_current_std_mps: float  # the added current's error per axis (dr_bias): its shared drift (R2')
     bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
     second_order: bool  # range_linearization == "second_order": eqs. L1-L3 (navigation.range_curvature)
+    iterated: bool  # range_linearization == "iterated": eqs. I1-I3 (_iterated_model)
     reinit_after_short: int  # reinit_after_short_ranges: a lock-out after this many too short in a row (0: as any)
     gate_short: float  # the chi-square gate of a range shorter than predicted (range_gate_short_probability)
 
@@ -350,17 +351,20 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
 
 
 @njit(cache=True, inline="always")
-def _kalman(f, prm, j, H, meas, K, Pbb):
+def _kalman(f, prm, j, H, meas, K, Pbb, gated):
     """The gated update of survey filter f (``multipath.Moments``: views of its x, P, Pxb,
     Pxd) with beacon j's range (row H; meas as ``_count_rejection``'s): ``"white"`` with
     the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"`` with it as consider
     states (eqs. C2-C6); ``"ci"`` by covariance intersection (CI3, CI5) with R as white's.
     Each carries the survey's dead-reckoning-bias cross-covariance Pxd through its gain
     (``dr_bias.py``, eq. D3). K (3,), Pbb (2, 2): scratch. Returns (fused, the
-    innovation's variance S)."""
+    innovation's variance S). gated: the range passed its gate already (eq. I3), so none
+    is applied here."""
     r, h, R, R_white, beacon_var = meas[:5]
     y = r - h
     gate = prm.gate if y >= 0.0 else prm.gate_short  # (G8) no longer path makes a range short
+    if gated:
+        gate = np.inf
     if prm.fusion == SCHMIDT:
         Pbb[0, 0] = Pbb[1, 1] = beacon_var
         nis, fused = schmidt_range_update(f.x, f.P, f.X[j], Pbb, y, H, R, gate, K)
@@ -390,19 +394,20 @@ def _kalman(f, prm, j, H, meas, K, Pbb):
 
 
 @njit(cache=True, inline="always")
-def _update(f, held, prm, j, H, meas, scratch):
+def _update(f, held, prm, j, H, meas, scratch, gated):
     """``_kalman``; with ``range_outlier_model="mixture"`` a fused range moves the filter
     only by the direct path's posterior probability (``multipath``, eqs. M1-M3); with
     ``"hold"`` the two hypotheses it merged are held in ``held`` (``multipath.Held``) for
     the next range to re-weigh (M5). scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3),
-    Pxb0 (N, 3, 2), Pxd0 (3, 4)). Returns (fused, the weight now held: 1 for none)."""
+    Pxb0 (N, 3, 2), Pxd0 (3, 4)); gated: as ``_kalman``'s. Returns (fused, the weight now
+    held: 1 for none)."""
     K, Pbb, x0, P0, X0, D0 = scratch
     if prm.mixture:
         x0[:] = f.x
         P0[:, :] = f.P
         X0[:, :, :] = f.X
         D0[:, :] = f.D
-    fused, S = _kalman(f, prm, j, H, meas, K, Pbb)
+    fused, S = _kalman(f, prm, j, H, meas, K, Pbb, gated)
     w_held = 1.0
     if fused and prm.mixture and S > 0.0:
         w = direct_path_weight(meas[0] - meas[1], S, prm.outlier_probability, prm.outlier_mean_excess_m)
@@ -429,6 +434,70 @@ def _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, 
     if prm.second_order:  # eqs. (L2), (L3)
         bias, var = range_curvature(f.P, f.X[j], beacon_var, H, h)
     return h + bias, H, R + var, R_white + var, bias, var
+
+
+ITERATIONS_MAX = 10  # eq. (I2)'s Gauss-Newton steps at most; a range converges in 2-4
+ITERATION_TOL_M = 1e-4  # ... and stops when a step moves the linearization point less than this
+
+
+@njit(cache=True, inline="always")
+def _iterated_model(f, prm, j, H, meas, scratch, vel_est, beacon, beacon_vel, noise_std, delays, rel_std):
+    """The iterated EKF's range model (Bell & Cathey 1993; Bar-Shalom, Li & Kirubarajan
+    2001, sec. 10.3.2), for ``range_linearization="iterated"``. The first-order update
+    linearizes |x - b| at the prior x0; where the prior is far off across the line of
+    sight of a beacon tens of metres away, that gradient points the wrong way. The
+    iterated update re-linearizes at its own result until it stops moving:
+
+    (I1) x_{i+1} = x0 + K_i (r - h(x_i) - H_i (x0 - x_i)), x_0 = x0, K_i the gain
+         (``_kalman``'s: white, or Schmidt's with the beacon's consider states) at H_i;
+    (I2) stop when |x_{i+1} - x_i| < ITERATION_TOL_M, or after ITERATIONS_MAX steps;
+    (I3) the range is gated once, on the first-order innovation r - h(x0) (an outlier is
+         judged by the prior, not by a linearization point it has already pulled).
+
+    The Gauss-Newton steps of the maximum a posteriori estimate for one range. Returns
+    (passed, H_i, meas_i): whether the range passed the gate (I3) and, if so, the model
+    at the last linearization point, whose prediction h(x_i) + H_i (x0 - x_i) makes
+    ``_kalman``'s ordinary update land on x_{i+1} with P from H_i; if not, the arguments.
+    CI (``beacon_error_fusion="ci"``) keeps the first-order model. scratch: ``_update``'s
+    (its x0, P0 and Pxb0 serve as working copies; ``_update`` refills them)."""
+    K, Pbb, xi, Pw, Xw = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
+    r, h, R, R_white, beacon_var = meas[0], meas[1], meas[2], meas[3], meas[4]
+    y = r - h
+    gate = prm.gate if y >= 0.0 else prm.gate_short
+    sch = prm.fusion == SCHMIDT
+    Pbb[0, 0] = Pbb[1, 1] = beacon_var
+    if sch:  # a gate of -1 returns the NIS and touches nothing
+        nis, _ = schmidt_range_update(f.x, f.P, f.X[j], Pbb, y, H, R, -1.0, K)
+    else:
+        nis = y * y / innovation_variance(f.P, H, R_white)
+    if not nis <= gate or prm.fusion == CI:
+        return False, H, meas
+    x0 = f.x
+    xi[:] = x0
+    Hi, lin, Ri, Rwi = H, h, R, R_white
+    for _ in range(ITERATIONS_MAX):
+        hi, Hi = moving_range_prediction(xi, vel_est, beacon, beacon_vel, delays)
+        Ri = modem_range_variance(noise_std, prm.two_way, 0.0, hi, rel_std)
+        Rwi = modem_range_variance(noise_std, prm.two_way, beacon_var, hi, rel_std)
+        lin = hi
+        for k in range(3):
+            lin += Hi[k] * (x0[k] - xi[k])  # h(x_i) + H_i (x0 - x_i): the model at x_i, read at x0
+        if sch:  # the gain at H_i: Schmidt's update of copies with a zero innovation leaves x0 as it is
+            Pw[:, :] = f.P
+            Xw[j, :, :] = f.X[j]
+            schmidt_range_update(x0, Pw, Xw[j], Pbb, 0.0, Hi, Ri, np.inf, K)
+        else:
+            S = innovation_variance(f.P, Hi, Rwi)
+            for k in range(3):
+                K[k] = (f.P[k, 0] * Hi[0] + f.P[k, 1] * Hi[1] + f.P[k, 2] * Hi[2]) / S
+        step2 = 0.0
+        for k in range(3):  # (I1)
+            xn = x0[k] + K[k] * (r - lin)
+            step2 += (xn - xi[k]) * (xn - xi[k])
+            xi[k] = xn
+        if step2 < ITERATION_TOL_M * ITERATION_TOL_M:  # (I2)
+            break
+    return True, Hi, (r, lin, Ri, Rwi, beacon_var, 0.0, 0.0)
 
 
 def _fuse(sv, bv, cv, cyc, prm, out):
@@ -493,7 +562,14 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                 meas = (r, h, R, R_white, beacon_var, bias, var)
                 if prm.window:
                     _remember(win, b, s, j, r, beacon, f.x[2], sv.dr[b, s], vel_est, delays, t_s)
-                fused, w_held = _update(f, held, prm, j, H, meas, scratch)
+                gated = False
+                if prm.iterated:  # eqs. (I1)-(I3); a range that fails the gate keeps its first-order model
+                    gated, Hi, mi = _iterated_model(
+                        f, prm, j, H, meas, scratch, vel_est, beacon, beacon_vel, noise_std, delays, rel_std
+                    )
+                    if gated:
+                        H, meas = Hi, mi
+                fused, w_held = _update(f, held, prm, j, H, meas, scratch, gated)
                 if not fused:
                     out.rejected[b, j, s] = True
                     _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s)
@@ -556,6 +632,7 @@ class ModemRanging:
                 current_error_std_mps(c),
                 bool(c.survey_bias_consider),
                 c.range_linearization == "second_order",
+                c.range_linearization == "iterated",
                 int(c.reinit_after_short_ranges),
                 float(chi2.ppf(c.range_gate_short_probability, 1)) if c.range_gate_short_probability else gate,
             ]
