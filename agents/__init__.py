@@ -575,7 +575,7 @@ def make_policy(
         return rllib_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent, trust_pickle=trust_pickle)
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # its own memory per beacon and episode
         return benchmarl_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent)
-    if batched_policy.is_batched_path(name_or_path):  # stateless and shared: one object serves every beacon
+    if batched_policy.is_batched_path(name_or_path):  # a fresh object per beacon and episode (its own window)
         return batched_policy.load(name_or_path, env_or_config)
     scenario = None
     if env_or_config is not None:

@@ -110,9 +110,12 @@ class BatchedPPOPolicy(BatchPolicy):
             self.obs_dim = int(record["obs_dim"])
             self.action_dim = int(record["action_dim"])
             net = [int(h) for h in record["config"]["net"]]
-        except (KeyError, TypeError, ValueError):
+            self.history = int(record["config"].get("history", 1))  # runs before the option: 1
+        except (KeyError, TypeError, ValueError, AttributeError):
             raise PolicyFormatError(f"{directory / RUN_RECORD} lacks obs_dim, action_dim or config.net") from None
-        self.actor = mlp(self.obs_dim, net, self.action_dim, 0.01)
+        if self.history < 1:
+            raise PolicyFormatError(f"{directory / RUN_RECORD}: config.history must be >= 1, got {self.history}")
+        self.actor = mlp(self.obs_dim * self.history, net, self.action_dim, 0.01)
         weights = load_file(str(directory / WEIGHTS))
         state = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
         try:
@@ -127,8 +130,12 @@ class BatchedPPOPolicy(BatchPolicy):
         if self.obs_mean is not None and self.obs_mean.shape != (self.obs_dim,):
             raise PolicyFormatError(f"{directory / WEIGHTS}: obs_mean has shape {tuple(self.obs_mean.shape)}")
 
+        self._window: Any = None  # with history > 1: the last observations of each row (M, K, O)
+
     def reset(self, seed: int | None = None) -> None:
-        """Nothing to clear: the actor has no memory."""
+        """Clear the memory (with ``history`` > 1 the next step is an episode's first: its
+        observation fills the window, as in training's ``push_window``)."""
+        self._window = None
 
     def act_batch(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float64)
@@ -138,6 +145,14 @@ class BatchedPPOPolicy(BatchPolicy):
         x = torch.as_tensor(obs, dtype=torch.float32)
         if self.obs_mean is not None:  # as training scaled them (agents.training.batched_ppo.RunningNorm)
             x = ((x - self.obs_mean) / self.obs_std).clamp(-10.0, 10.0)
+        if self.history > 1:  # the window, newest first
+            w = self._window
+            if w is None or w.shape[0] != x.shape[0]:
+                w = x.unsqueeze(1).expand(-1, self.history, -1)
+            else:
+                w = torch.cat([x.unsqueeze(1), w[:, :-1]], dim=1)
+            self._window = w
+            x = w.reshape(x.shape[0], -1)
         with torch.no_grad():
             mean = self.actor(x).numpy()
         return np.clip(mean, -1.0, 1.0).astype(np.float32)
@@ -151,7 +166,8 @@ class BatchedPPOPolicy(BatchPolicy):
         return problem
 
     def __repr__(self) -> str:
-        return f"BatchedPPOPolicy({self.name!r}, critic={self.record['config'].get('critic')})"
+        memory = f", history={self.history}" if self.history > 1 else ""
+        return f"BatchedPPOPolicy({self.name!r}, critic={self.record['config'].get('critic')}{memory})"
 
 
 def load(path: str | Path, scenario: Any = None) -> BatchedPPOPolicy:

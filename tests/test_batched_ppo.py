@@ -21,7 +21,9 @@ from agents.training.batched_ppo import (  # noqa: E402
     gae,
     main,
     next_state_values,
+    push_window,
     train,
+    widen_to_history,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -336,3 +338,96 @@ def test_center_reward_subtracts_the_mean_step_reward():
     assert row["reward_center"] == pytest.approx(-row["survey_error_m"], rel=1e-4)
     config.center_reward = False
     assert "reward_center" not in train(config, 16, progress=False)["log"][0]
+
+
+def test_center_reward_per_team_gives_each_team_its_own_mean():
+    """--center-reward-per-team: each team's rho is minus its own mean error (its rows only),
+    and they differ where the teams' errors do (a 0.5 m/s current against none)."""
+    config = BatchedPPOConfig(
+        scenario="gao_team",
+        n_envs=8,
+        n_steps=4,
+        minibatch=32,
+        reward_terms={"error": 1.0},
+        overrides={"max_cycles": 2},
+        teams=[{"current_speed_mps": 0.0, "current_speed_spread_mps": 0.0}, {"current_speed_mps": 0.5}],
+        center_reward=True,
+        center_per_team=True,
+    )
+    row = train(config, 32, progress=False)["log"][0]
+    per_team = row["survey_error_m_per_team"]
+    assert row["reward_center"] == pytest.approx([-e for e in per_team], rel=1e-4)
+    assert abs(per_team[0] - per_team[1]) > 1e-3
+    with pytest.raises(ValueError, match="center_per_team needs center_reward"):
+        BatchedPPOConfig(center_per_team=True).check()
+
+
+def test_the_window_shifts_newest_first_and_an_episode_starts_filled_with_its_own_observation():
+    window = torch.arange(2 * 1 * 3 * 2, dtype=torch.float32).reshape(2, 1, 3, 2)  # B 2, N 1, K 3, O 2
+    obs = torch.tensor([[[100.0, 101.0]], [[200.0, 201.0]]])
+    out = push_window(window, obs, torch.tensor([False, True]))
+    assert out[0, 0].tolist() == [[100.0, 101.0], [0.0, 1.0], [2.0, 3.0]]  # row 0 goes on: shifted
+    assert out[1, 0].tolist() == [[200.0, 201.0]] * 3  # row 1 begins an episode: nothing of the last one
+    assert window[0, 0, 0].tolist() == [0.0, 1.0]  # the window given is not changed
+
+
+def test_a_widened_actor_is_the_same_function_of_the_newest_observation():
+    from agents.batched_policy import mlp
+
+    torch.manual_seed(0)
+    narrow = mlp(5, (8, 8), 2, 0.01)
+    wide = mlp(15, (8, 8), 2, 0.01)
+    state = dict(narrow.state_dict())
+    state["0.weight"] = widen_to_history(state["0.weight"], 3)
+    wide.load_state_dict(state)
+    x = torch.randn(4, 5)
+    older = torch.randn(4, 10) * 100.0
+    torch.testing.assert_close(wide(torch.cat([x, older], -1)), narrow(x))
+    assert widen_to_history(state["0.weight"], 1) is state["0.weight"]
+
+
+def test_memory_trains_from_a_loop_run_and_acts_with_its_window(tmp_path):
+    """A run of the loop continued with --history 3 (--init-from its folder): after critic-only
+    iterations it acts as the run it started from (the older observations' weights are zero);
+    its policy keeps a window per object, which reset() clears; a window over another run's
+    window size is refused in one line."""
+    first = tmp_path / "first"
+    first.mkdir()
+    base = dict(scenario="sousa_asv", n_envs=8, n_steps=8, minibatch=32, seed=3)
+    train(BatchedPPOConfig(**base), 2 * 64, out=first, progress=False)
+    second = tmp_path / "second"
+    second.mkdir()
+    config = BatchedPPOConfig(**base, init_from=str(first), history=3, critic_warmup_iterations=2)
+    result = train(config, 2 * 64, out=second, progress=False)
+    assert all(r["clip_fraction"] == 0.0 for r in result["log"])
+    a, b = agents.load(str(first), scenario="sousa_asv"), agents.load(str(second), scenario="sousa_asv")
+    assert b.history == 3 and "history=3" in repr(b)
+    rng = np.random.default_rng(2)
+    obs = rng.normal(0, 1, (6, a.obs_dim)) * np.asarray(a.obs_std) + np.asarray(a.obs_mean)
+    # the scaling went on from the first run's statistics and count (128 more observations on its 128)
+    from safetensors.torch import load_file
+
+    count = float(load_file(str(second / "actor.safetensors"))["obs_count"][0])
+    assert count == pytest.approx(256, abs=1e-3)
+    a.obs_mean, a.obs_std = b.obs_mean, b.obs_std  # the actors alone compared, on the same scaling
+    for o in obs:  # the same actions step after step: the older observations count for nothing yet
+        np.testing.assert_allclose(b.act(o), a.act(o), atol=1e-6)
+    # the window: give the second actor's older observations weight, and it remembers
+    weights = b.actor.state_dict()
+    weights["0.weight"][:, a.obs_dim :] = 1.0
+    b.actor.load_state_dict(weights)
+    b.reset()
+    fresh = b.act(obs[0])
+    b.act(obs[1])
+    after = b.act(obs[0])  # the same observation after another one: the window differs
+    assert not np.allclose(fresh, after)
+    b.reset()
+    np.testing.assert_array_equal(b.act(obs[0]), fresh)  # reset: the window is the observation's own again
+    with pytest.raises(ValueError, match="its window is 3 observations, the run's --history 2"):
+        train(BatchedPPOConfig(**base, init_from=str(second), history=2), 64, progress=False)
+
+
+def test_history_out_of_range_is_one_line(capsys):
+    assert main(["--timesteps", "100", "--history", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "history must be an integer in 1..64, got 0" in err and "\n" not in err

@@ -30,9 +30,14 @@ computed below:
 * the clipped surrogate (P3), the value loss (P4), the entropy bonus, gradient clipping;
 * observations and state scaled by their running mean and variance, the reward by a running
   standard deviation of the discounted return (as SB3's ``VecNormalize``; ``RunningNorm``);
+* with ``--history K``, memory as a window: the actor (and IPPO's critic) sees its beacon's
+  last K observations, newest first, each scaled as above (``push_window``: an episode's first
+  step fills the window with its own observation); started from a policy, the older
+  observations' weights start at zero (``widen_to_history``);
 * with ``--center-reward``, (P5) each step is paid r - ρ, ρ the running mean step reward
   (average-reward RL's differential reward), so a policy that can lengthen or shorten its
-  episodes is not paid for the length itself.
+  episodes is not paid for the length itself; with ``--center-reward-per-team`` ρ is each
+  team's own.
 
 **Output** (``--out``, a new or empty folder, locked for the run): ``actor.safetensors`` (the
 actor's weights and the observation statistics: data, not a pickle; written every
@@ -58,9 +63,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from agents.batched_policy import mlp
+from agents.batched_policy import WEIGHTS, is_batched_path, mlp
 
 CRITICS = ("state", "observation")
+MAX_HISTORY = 64  # observations in the window at most (the rollout buffer grows with it)
 TRAINER = "batched_ppo"  # run.json's "trainer" (agents.batched_policy.is_batched_path)
 
 
@@ -97,6 +103,10 @@ class BatchedPPOConfig:
     # reward): where the policy can make episodes longer or shorter, length is then worth nothing to
     # first order (docs/training/marl.md#episode-length)
     center_reward: bool = False
+    center_per_team: bool = False  # with center_reward and teams: a rho per team, each its own running mean
+    # memory as a window: the actor (and IPPO's critic) sees the last `history` observations of its
+    # beacon, newest first (the issue's "a history of the survey's reports"); 1: the current one only
+    history: int = 1
 
     def check(self) -> None:
         """One-line ``ValueError`` naming the first bad setting."""
@@ -108,6 +118,11 @@ class BatchedPPOConfig:
             raise ValueError(f"critic must be one of {', '.join(CRITICS)}, got {self.critic!r}")
         if len(self.teams) > self.n_envs or any(not isinstance(t, dict) for t in self.teams):
             raise ValueError(f"teams must be at most n_envs ({self.n_envs}) mappings of overrides, got {self.teams!r}")
+        if self.center_per_team and not self.center_reward:
+            raise ValueError("center_per_team needs center_reward (--center-reward)")
+        h = self.history
+        if isinstance(h, bool) or not isinstance(h, int) or not 1 <= h <= MAX_HISTORY:
+            raise ValueError(f"history must be an integer in 1..{MAX_HISTORY}, got {h!r}")
         w = self.critic_warmup_iterations
         if isinstance(w, bool) or not isinstance(w, int) or w < 0:
             raise ValueError(f"critic_warmup_iterations must be an integer >= 0, got {w!r}")
@@ -130,9 +145,11 @@ def load_sb3_actor(
     obs_dim: int,
     action_dim: int,
     reward_terms: dict[str, float] | None = None,
+    history: int = 1,
 ) -> dict:
-    """The actor of a train.py run or shipped policy (``agents.resolve``: a name such as
-    ``ppo_gao_team``, ``ppo`` for the scenario's, or a run folder) as this loop's tensors:
+    """The actor of a train.py run, a run of this loop or a shipped policy (``agents.resolve``:
+    a name such as ``ppo_gao_team``, ``ppo`` for the scenario's, or a run folder) as this
+    loop's tensors:
     ``{"actor": state_dict of mlp(obs_dim, net, action_dim), "log_std", "obs_mean",
     "obs_var", "obs_count", "ret_var", "ret_count"}``. SB3's flat ``MlpPolicy`` with tanh
     (``mlp_extractor.policy_net`` then ``action_net``) is the same function as ``mlp``'s
@@ -140,13 +157,18 @@ def load_sb3_actor(
     where that policy stands. The return's statistics (``ret_var``, ``ret_count``) come only
     when the run trains on the reward that policy was trained on (``reward_terms`` against its
     config.yml's ``reward``; None and {} both the environment's): another reward has another
-    scale. A ``ValueError`` (one line) names what does not fit."""
+    scale. With ``history`` > 1 the first layer is widened to the window with zeros
+    (``widen_to_history``): the actor starts as the policy was. A loop run's actor is read
+    from its folder (``_load_loop_actor``). A ``ValueError`` (one line) names what does not
+    fit."""
     import torch
 
     from agents import resolve
     from agents.formats import read_model, read_vecnormalize, safe_yaml
 
     model, stats, config_file = resolve(source, scenario)
+    if Path(str(model)).name == WEIGHTS and is_batched_path(Path(str(model)).parent):
+        return _load_loop_actor(source, Path(str(model)).parent, net, obs_dim, action_dim, history)
     if Path(str(model)).suffix != ".safetensors":
         raise ValueError(f"--init-from {source}: {model} is not an SB3 model file (a flat MlpPolicy run or policy)")
     spec, state, _ = read_model(model)
@@ -173,6 +195,7 @@ def load_sb3_actor(
             actor[f"{2 * i}.{part}"] = state[f"mlp_extractor.policy_net.{2 * i}.{part}"]
     for part in ("weight", "bias"):
         actor[f"{2 * len(net)}.{part}"] = state[f"action_net.{part}"]
+    actor["0.weight"] = widen_to_history(actor["0.weight"], history)
     out: dict[str, Any] = {"actor": actor, "log_std": state["log_std"]}
     if stats is not None:
         vn = read_vecnormalize(stats)
@@ -189,6 +212,74 @@ def load_sb3_actor(
             out.update(
                 ret_var=torch.as_tensor(vn["ret_var"], dtype=torch.float64).reshape(()), ret_count=vn["ret_count"]
             )
+    return out
+
+
+def widen_to_history(weight: Any, history: int) -> Any:
+    """A first layer's weight (H, O) for a window of ``history`` observations, newest first
+    (H, history x O): the newest observation's columns are ``weight``, the older ones' zeros,
+    so the widened actor is the same function of the newest observation and learns what the
+    older ones are worth. A weight already that wide is returned as it is."""
+    import torch
+
+    n_out, n_in = weight.shape
+    if history == 1:
+        return weight
+    wide = torch.zeros((n_out, n_in * history), dtype=weight.dtype)
+    wide[:, :n_in] = weight
+    return wide
+
+
+def _load_loop_actor(
+    source: str, directory: Path, net: Sequence[int], obs_dim: int, action_dim: int, history: int
+) -> dict:
+    """``load_sb3_actor``'s tensors from a run of this loop (``actor.safetensors``,
+    ``run.json``): its actor (widened to ``history`` if its own window is 1), log std and
+    observation scaling with its count (runs saved before the count was kept: their
+    env-steps), so the scaling moves as slowly as it did. Its return's scale is not kept by a
+    run, so it starts anew."""
+    import torch
+    from safetensors.torch import load_file
+
+    from agents.formats import safe_json
+
+    record = safe_json(directory / "run.json")
+    run = record.get("config") or {}
+    own = [int(h) for h in run.get("net") or ()]
+    if tuple(own) != tuple(net):
+        raise ValueError(f"--init-from {source}: its actor is {own}, the loop's --net {','.join(map(str, net))}")
+    if (int(record.get("obs_dim", -1)), int(record.get("action_dim", -1))) != (obs_dim, action_dim):
+        raise ValueError(
+            f"--init-from {source}: observations {record.get('obs_dim')} and actions {record.get('action_dim')}, "
+            f"the environment's {obs_dim} and {action_dim} (a policy of another scenario or observation?)"
+        )
+    own_history = int(run.get("history", 1))
+    if own_history not in (1, history):
+        raise ValueError(
+            f"--init-from {source}: its window is {own_history} observations, the run's --history {history}"
+        )
+    weights = load_file(str(directory / WEIGHTS))
+    actor = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
+    actor["0.weight"] = widen_to_history(actor["0.weight"], history // own_history)
+    out: dict[str, Any] = {"actor": actor, "log_std": weights["log_std"]}
+    if "obs_mean" in weights:
+        out.update(
+            obs_mean=weights["obs_mean"].to(torch.float64),
+            obs_var=weights["obs_var"].to(torch.float64),
+            obs_count=float(weights["obs_count"][0]) if "obs_count" in weights else float(record.get("steps", 1)),
+        )
+    return out
+
+
+def push_window(window: Any, obs: Any, first: Any) -> Any:
+    """The window (B, N, K, O) of the last K observations, newest first, after ``obs``
+    (B, N, O): shifted by one with ``obs`` in front; where ``first`` (B,) (an episode's first
+    step) every slot holds ``obs``, so no episode sees another's observations. A new tensor."""
+    import torch
+
+    out = torch.cat([obs.unsqueeze(-2), window[..., :-1, :]], dim=-2)
+    if first.any():
+        out[first] = obs[first].unsqueeze(-2).expand(-1, -1, window.shape[-2], -1)
     return out
 
 
@@ -351,15 +442,17 @@ def train(
     B, N, O, D = env.n_envs, env.n_beacons, env.obs_dim, env.action_dim
     S = env.state_dim
     T = config.n_steps
-    actor = mlp(O, config.net, D, 0.01)
+    K = config.history
+    OK = O * K  # the actor's input: the window of its beacon's last K observations, newest first
+    actor = mlp(OK, config.net, D, 0.01)
     log_std = nn.Parameter(torch.full((D,), float(config.log_std_init)))
     init = None
     if config.init_from is not None:  # the loop starts where that policy stands; the critic is new
-        init = load_sb3_actor(config.init_from, config.scenario, config.net, O, D, config.reward_terms)
+        init = load_sb3_actor(config.init_from, config.scenario, config.net, O, D, config.reward_terms, K)
         actor.load_state_dict({k: v.float() for k, v in init["actor"].items()})
         with torch.no_grad():
             log_std.copy_(init["log_std"].float())
-    critic = mlp(S, config.net, N, 1.0) if config.critic == "state" else mlp(O, config.net, 1, 1.0)
+    critic = mlp(S, config.net, N, 1.0) if config.critic == "state" else mlp(OK, config.net, 1, 1.0)
     params = [*actor.parameters(), log_std, *critic.parameters()]
     optimizer = torch.optim.Adam(params, lr=config.learning_rate, eps=1e-5)
 
@@ -367,7 +460,7 @@ def train(
         return critic(state) if config.critic == "state" else critic(obs).squeeze(-1)
 
     # the rollout's buffers: T steps of B environments and N beacons
-    obs_buf = torch.zeros(T, B, N, O)
+    obs_buf = torch.zeros(T, B, N, OK)
     state_buf = torch.zeros(T, B, S)
     act_buf = torch.zeros(T, B, N, D)
     logp_buf = torch.zeros(T, B, N)
@@ -407,6 +500,10 @@ def train(
     team_of = torch.repeat_interleave(torch.arange(len(sizes)), torch.tensor(sizes))
     team_sum = torch.zeros(len(sizes), dtype=torch.float64)
     team_count = torch.zeros(len(sizes), dtype=torch.float64)
+    # with center_per_team, each team's rows (a slice) and its own running mean step reward
+    bounds = torch.cumsum(torch.tensor([0, *sizes]), 0).tolist()
+    team_rows = [slice(bounds[k], bounds[k + 1]) for k in range(len(sizes))]
+    team_norms = [RunningNorm(()) for _ in sizes]
 
     iterations = max(1, math.ceil(total_steps / (B * T)))
     bar = None
@@ -417,6 +514,8 @@ def train(
     log: list[dict] = []
     start = time.perf_counter()
     td = env.reset()
+    window = torch.zeros(B, N, K, O)  # the last K normalized observations per beacon (push_window)
+    first = torch.ones(B, dtype=torch.bool)  # rows whose next step is an episode's first
     steps = 0
     for it in range(iterations):
         # ---- collection -------------------------------------------------------------
@@ -425,6 +524,9 @@ def train(
         with torch.no_grad():
             for t in range(T):
                 obs, state = observe(td, update=True)
+                if K > 1:
+                    window = push_window(window, obs, first)
+                    obs = window.flatten(-2)
                 mean = actor(obs)
                 std = log_std.exp()
                 action = mean + std * torch.randn_like(mean)
@@ -445,11 +547,19 @@ def train(
                 ended = done.squeeze(-1).bool()
                 if ended.any():
                     end_obs, end_state = observe(nxt)
+                    if K > 1:  # the window as the episode's last state would have shown it
+                        end_obs = push_window(window, end_obs, torch.zeros_like(first)).flatten(-2)
                     next_val_buf[t, ended] = values(end_state[ended], end_obs[ended])
+                first = ended
                 ep_return += reward.mean(-1)
                 ep_error += nxt.get(("info", "survey_error_m"))
                 ep_len += 1
-                if config.center_reward:  # (P5) r - rho, rho the running mean step reward
+                if config.center_per_team:  # (P5) per team: a team whose cycles pay less is not paid to shorten them
+                    reward = reward.clone()
+                    for rows, norm in zip(team_rows, team_norms):
+                        norm.update(reward[rows])
+                        reward[rows] -= norm.mean.float()
+                elif config.center_reward:  # (P5) r - rho, rho the running mean step reward
                     step_norm.update(reward)
                     reward = reward - step_norm.mean.float()
                 if config.norm_reward:  # the running std of the discounted return (VecNormalize's)
@@ -468,6 +578,8 @@ def train(
                 td = td_next
 
             last_obs, last_state = observe(td)
+            if K > 1:
+                last_obs = push_window(window, last_obs, first).flatten(-2)
             next_val_buf = next_state_values(val_buf, next_val_buf, done_buf, values(last_state, last_obs))
             adv = gae(rew_buf, val_buf, next_val_buf, term_buf, done_buf, config.gamma, config.gae_lambda)
             returns = adv + val_buf
@@ -476,7 +588,7 @@ def train(
         # ---- update -----------------------------------------------------------------
         t_update = time.perf_counter()
         M = T * B
-        b_obs, b_state = obs_buf.reshape(M, N, O), state_buf.reshape(M, S)
+        b_obs, b_state = obs_buf.reshape(M, N, OK), state_buf.reshape(M, S)
         b_act, b_logp = act_buf.reshape(M, N, D), logp_buf.reshape(M, N)
         b_adv, b_ret = adv.reshape(M, N), returns.reshape(M, N)
         b_adv = (b_adv - b_adv.mean()) / (b_adv.std() + 1e-8)
@@ -525,7 +637,9 @@ def train(
             "clip_fraction": float(sum(clip_fractions) / len(clip_fractions)),
             "action_std": [float(s) for s in log_std.detach().exp()],
         }
-        if config.center_reward:  # the mean step reward subtracted, in the reward's units
+        if config.center_per_team:  # each team's mean step reward subtracted
+            row["reward_center"] = [float(norm.mean) for norm in team_norms]
+        elif config.center_reward:  # the mean step reward subtracted, in the reward's units
             row["reward_center"] = float(step_norm.mean)
         if len(sizes) > 1:  # the mean survey error of each team's finished episodes (None: none ended)
             row["survey_error_m_per_team"] = [
@@ -564,6 +678,7 @@ def save(
 ) -> None:
     """``actor.safetensors`` and ``run.json`` in ``out`` (``agents.batched_policy`` reads
     them), each written atomically."""
+    import torch
     from safetensors.torch import save as save_bytes
 
     from coopnav_env.records import atomic_write_bytes
@@ -573,6 +688,7 @@ def save(
     if config.norm_obs:  # the policy scales its observations as training did
         tensors["obs_mean"] = obs_norm.mean.float().contiguous()
         tensors["obs_var"] = obs_norm.var.float().contiguous()
+        tensors["obs_count"] = torch.tensor([float(obs_norm.count)], dtype=torch.float64)  # for --init-from
     atomic_write_bytes(out / "actor.safetensors", save_bytes(tensors))
     record = {
         "trainer": TRAINER,
@@ -637,8 +753,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument(
         "--init-from",
         metavar="POLICY",
-        help="start the actor (and the observation scaling) from a flat SB3 policy: a train.py run or a shipped "
-        "name (ppo_gao_team); needs the same --net",
+        help="start the actor (and the observation scaling) from a flat SB3 policy or a run of this loop: a "
+        "train.py run, a run folder of this loop or a shipped name (ppo_gao_team); needs the same --net",
     )
     p.add_argument(
         "--critic-warmup",
@@ -651,6 +767,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--center-reward",
         action="store_true",
         help="pay each step its reward minus the running mean step reward, so episode length is not paid for",
+    )
+    p.add_argument(
+        "--history",
+        type=int,
+        default=defaults.history,
+        metavar="K",
+        help="memory as a window: the actor sees its beacon's last K observations, newest first (with --init-from "
+        "the older ones start with zero weights, so the run starts where the policy stands)",
+    )
+    p.add_argument(
+        "--center-reward-per-team",
+        action="store_true",
+        help="--center-reward with one running mean per --team (a team whose steps pay less is not paid to end "
+        "its episodes sooner)",
     )
     p.add_argument("--save-every-steps", type=int, default=5_000_000, help="also save the weights every N env-steps")
     p.add_argument("--no-progress", action="store_true")
@@ -681,8 +811,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             reward_terms=terms or None,
             teams=[_team(t) for t in args.team],
             init_from=args.init_from,
-            center_reward=args.center_reward,
+            center_reward=args.center_reward or args.center_reward_per_team,
+            center_per_team=args.center_reward_per_team,
             critic_warmup_iterations=args.critic_warmup,
+            history=args.history,
         )
         config.check()
         if args.timesteps < 1:
@@ -704,7 +836,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             BatchedPPOConfig(**{**asdict(config), "n_envs": max(1, len(config.teams))})
         )  # bad scenario parameters fail here, fast
         if config.init_from is not None:  # and a policy that does not fit
-            load_sb3_actor(config.init_from, config.scenario, config.net, probe.obs_dim, probe.action_dim)
+            load_sb3_actor(
+                config.init_from, config.scenario, config.net, probe.obs_dim, probe.action_dim, history=config.history
+            )
         if out is not None:  # one trainer per folder (agents.training.runlock), as train.py's
             from . import runlock
 
