@@ -71,6 +71,20 @@ def ranging_variance_m2(detection_std_m: float, two_way: bool) -> float:
     return 0.5 * v if two_way else v
 
 
+@njit(cache=True)
+def sound_speed_rel_std_at(
+    c_assumed_mps: float,
+    nominal_temperature_c: float,
+    salinity_psu: float,
+    temperature_uncertainty_c: float,
+    depth_m: float,
+) -> float:
+    """``sound_speed_rel_std`` given the assumed sound speed there (Mackenzie's c at the
+    nominal temperature), which the modem's ping has already computed."""
+    dc_dT = mackenzie_sound_speed(nominal_temperature_c + 1.0, salinity_psu, depth_m) - c_assumed_mps
+    return temperature_uncertainty_c * dc_dT / c_assumed_mps
+
+
 @vectorize(["float64(float64, float64, float64, float64)"], cache=True)
 def sound_speed_rel_std(
     nominal_temperature_c: float, salinity_psu: float, temperature_uncertainty_c: float, depth_m: float
@@ -81,8 +95,7 @@ def sound_speed_rel_std(
     the assumed c. A ufunc: the survey filter's ranges (``measurements.modem``) and the
     planners' model of them (``measurements.range_variance_m2``) call this one formula."""
     c_assumed = mackenzie_sound_speed(nominal_temperature_c, salinity_psu, depth_m)
-    dc_dT = mackenzie_sound_speed(nominal_temperature_c + 1.0, salinity_psu, depth_m) - c_assumed
-    return temperature_uncertainty_c * dc_dT / c_assumed
+    return sound_speed_rel_std_at(c_assumed, nominal_temperature_c, salinity_psu, temperature_uncertainty_c, depth_m)
 
 
 @vectorize(["float64(float64, boolean, float64, float64, float64)"], cache=True)

@@ -23,7 +23,7 @@ from ..acoustics import (
     mackenzie_sound_speed,
     modem_range_variance,
     packet_loss_probability,
-    sound_speed_rel_std,
+    sound_speed_rel_std_at,
     travel_time,
 )
 from ..consider import (
@@ -198,7 +198,9 @@ def _ping_range(s_pos, s_vel_true, b_pos, b_vel, temperature_c, noise_std_m, clo
     return (
         r,
         p_lost,
-        sound_speed_rel_std(prm.nominal_temperature_c, prm.salinity_psu, prm.temperature_uncertainty_c, depth),
+        sound_speed_rel_std_at(
+            c_assumed, prm.nominal_temperature_c, prm.salinity_psu, prm.temperature_uncertainty_c, depth
+        ),
     )
 
 
