@@ -5,7 +5,10 @@ A run folder holds ``run.json`` (``"trainer": "batched_ppo"``, its settings, the
 the observation and the action) and ``actor.safetensors`` (the actor MLP's weights and
 the log standard deviation: data, not a pickle). The policy acts deterministically (the
 Gaussian's mean, clipped to [-1, 1]); the beacons share the network, so it drives any number
-of beacons of a scenario whose observation and action sizes are the run's. Acting needs
+of beacons of a scenario whose observation and action sizes are the run's. A run trained
+with ``--history K`` has memory: the policy keeps a window of the last K observations of
+each row it is given, so it wants one object per beacon and episode (``agents.make_policy``
+gives one), the same rows at each step, and ``reset()`` at an episode's start. Acting needs
 torch only (not torchrl). The network (``mlp``) is defined here and the trainer builds its
 actor from it, so loading a policy never imports the trainer.
 """
