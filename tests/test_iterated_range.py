@@ -1,5 +1,5 @@
 """The iterated EKF's range update (``range_linearization="iterated"``,
-``core/measurements/modem._iterated_model``, eqs. I1-I3) against the maximum a posteriori
+``core/iterated.py``, eqs. I1-I3) against the maximum a posteriori
 estimate of one range found by scipy, and what it does not do: the posterior's
 covariance is still the linearization's, so a filter far off across the line of sight of
 a close beacon stays as over-confident as the first-order update leaves it
@@ -12,7 +12,9 @@ import pytest
 from scipy.optimize import minimize
 from scipy.stats import chi2
 
-from coopnav_env.core.measurements.modem import SCHMIDT, WHITE, ModemRanging, _iterated_model, _kalman
+from coopnav_env.core.consider import SCHMIDT, WHITE
+from coopnav_env.core.iterated import RangeGeometry, iterated_range_model
+from coopnav_env.core.measurements.modem import ModemRanging, _kalman
 from coopnav_env.core.multipath import Moments
 from coopnav_env.core.sim import Simulator
 from coopnav_env.scenarios import make_config
@@ -36,7 +38,8 @@ def _update(prm, x0, P0, z, beacon, beacon_var=0.0, Pxb=None):
     h = float(np.linalg.norm(x0 - beacon))
     H = (x0 - beacon) / h
     meas = (z, h, SIGMA_R**2, SIGMA_R**2 + beacon_var, beacon_var, 0.0, 0.0)
-    passed, Hi, mi = _iterated_model(f, prm, 0, H, meas, scratch, zero, beacon, zero, SIGMA_R, delays, 0.0)
+    geo = RangeGeometry(zero, beacon, zero, SIGMA_R, delays, 0.0, False)
+    passed, Hi, mi = iterated_range_model(f, 0, H, meas, scratch, geo, prm.gate, prm.gate_short, prm.fusion == SCHMIDT)
     if passed:
         fused, _ = _kalman(f, prm, 0, Hi, mi, scratch[0], scratch[1], True)
         assert fused

@@ -62,6 +62,11 @@ from numba import njit
 GOLDEN = 0.6180339887498949
 
 
+# beacon_error_fusion as the kernels read it (``measurements.modem``)
+WHITE, SCHMIDT, CI = 0, 1, 2
+FUSIONS = {"white": WHITE, "schmidt": SCHMIDT, "ci": CI}
+
+
 @njit(cache=True, inline="always")
 def _consider_row(Pxb: np.ndarray, Pbb: np.ndarray, H: np.ndarray, i: int) -> float:
     """Row 3 + i of Pa Ha^T in eq. (C2)-(C5): (Pxb^T H^T + Pbb Hb^T)_i, Hb = -H[:nb]."""

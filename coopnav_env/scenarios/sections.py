@@ -368,7 +368,7 @@ class SurveyEKF(Section):
             "core/navigation.range_curvature, eqs. L1-L3): the prediction's bias and the variance the "
             "linearization leaves, which matter when the estimate's error is not small against the range; "
             "'iterated', the iterated EKF's update (Gauss-Newton steps re-linearizing at its own result, "
-            "core/measurements/modem._iterated_model, eqs. I1-I3) "
+            "core/iterated.py, eqs. I1-I3) "
             "(the modem sensor of network='survey_beacons' only)"
         ),
     )

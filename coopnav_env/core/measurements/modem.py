@@ -27,6 +27,9 @@ from ..acoustics import (
     travel_time,
 )
 from ..consider import (
+    CI,
+    FUSIONS,
+    SCHMIDT,
     beacon_reset,
     carry_cross_covariance,
     ci_range_update,
@@ -35,19 +38,13 @@ from ..consider import (
 )
 from ..contract import SensorHost
 from ..dr_bias import N_BIASES, current_error_std_mps
+from ..iterated import RangeGeometry, iterated_range_model
 from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import Held, Moments, blend_update, direct_path_weight, hold_hypotheses, reweigh_hypotheses
 from ..navigation import gated_update, innovation_variance, moving_range_prediction, range_curvature, reinit_on_range
-from ..recovery import (
-    RangeWindow,
-    WindowNoise,
-    window_bias_cross,
-    window_consensus_fix,
-    window_greedy_fix,
-    window_subset,
-)
 from . import FusionOutputs
+from .lockout_window import Windows, remember, window_refix
 
 
 @njit(cache=True)
@@ -133,14 +130,9 @@ class ModemParams(NamedTuple):
     dr_current_std_mps: float  # the added current's error per axis (dr_bias): its shared drift (R2')
     bias_consider: bool  # survey_bias_consider: the survey carries Pxd (dr_bias.py)
     second_order: bool  # range_linearization == "second_order": eqs. L1-L3 (navigation.range_curvature)
-    iterated: bool  # range_linearization == "iterated": eqs. I1-I3 (_iterated_model)
+    iterated: bool  # range_linearization == "iterated": eqs. I1-I3 (core/iterated.py)
     reinit_after_short: int  # reinit_after_short_ranges: a lock-out after this many too short in a row (0: as any)
     gate_short: float  # the chi-square gate of a range shorter than predicted (range_gate_short_probability)
-
-
-# beacon_error_fusion as the kernel reads it
-WHITE, SCHMIDT, CI = 0, 1, 2
-FUSIONS = {"white": WHITE, "schmidt": SCHMIDT, "ci": CI}
 
 
 class ModemCycle(NamedTuple):
@@ -155,17 +147,6 @@ class ModemCycle(NamedTuple):
     acoustic_n: np.ndarray  # (B,N,S,2) normals
     acoustic_u: np.ndarray  # (B,N,S,4) uniforms: loss, outlier, its excess, NaN
     heard: np.ndarray  # (B,N,S) bool: the pings the channel delivers
-
-
-class _Windows(NamedTuple):
-    """``ConsiderView``'s lock-out windows (win_*) alone: what ``_remember`` writes."""
-
-    z: np.ndarray
-    dz: np.ndarray
-    t: np.ndarray
-    beacon: np.ndarray
-    dr: np.ndarray
-    n: np.ndarray
 
 
 @njit(cache=True, inline="always")
@@ -227,99 +208,6 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
 
 
 @njit(cache=True, inline="always")
-def _remember(win, b, s, j, r, beacon, depth, dr, vel_est, delays, t_s):
-    """Beacon j's finite range r at survey s enters its lock-out window (oldest first,
-    the oldest dropped when full), with the beacon's reported position, the survey's
-    dead-reckoned position where the sound ended (dr + vel_est d, as ``range_prediction``),
-    the depths' difference (the survey's estimated ``depth``) and the time: eqs. R1's
-    inputs. win: ``_Windows``."""
-    M = win.z.shape[3]
-    k = win.n[b, s, j]
-    if k == M:
-        for i in range(M - 1):
-            win.z[b, s, j, i] = win.z[b, s, j, i + 1]
-            win.dz[b, s, j, i] = win.dz[b, s, j, i + 1]
-            win.t[b, s, j, i] = win.t[b, s, j, i + 1]
-            for a in range(2):
-                win.beacon[b, s, j, i, a] = win.beacon[b, s, j, i + 1, a]
-                win.dr[b, s, j, i, a] = win.dr[b, s, j, i + 1, a]
-        k = M - 1
-    d = 0.0
-    for leg in range(delays.shape[1]):  # the survey's times: row 0 (moving_range_prediction)
-        d += delays[0, leg] / delays.shape[1]
-    win.z[b, s, j, k] = r
-    win.dz[b, s, j, k] = depth - beacon[2]
-    win.t[b, s, j, k] = t_s
-    for a in range(2):
-        win.beacon[b, s, j, k, a] = beacon[a]
-        win.dr[b, s, j, k, a] = dr[a] + vel_est[a] * d
-    win.n[b, s, j] = k + 1
-
-
-@njit(cache=True)
-def _window_of(cv, sv, b, s, j, keep, t_s):
-    """Beacon j's window entries ``keep`` (indices, oldest first) as a ``RangeWindow`` at
-    time t_s: the filter's own motion since each ping is its dead reckoning plus the
-    current it was told."""
-    m = keep.shape[0]
-    shift, age = np.empty((m, 2)), np.empty(m)
-    z, beacon, dz = np.empty(m), np.empty((m, 2)), np.empty(m)
-    cur = (sv.current_est[b, s].real, sv.current_est[b, s].imag)
-    for k in range(m):
-        i = keep[k]
-        age[k] = t_s - cv.win_t[b, s, j, i]
-        z[k], dz[k] = cv.win_z[b, s, j, i], cv.win_dz[b, s, j, i]
-        for a in range(2):
-            beacon[k, a] = cv.win_beacon[b, s, j, i, a]
-            shift[k, a] = sv.dr[b, s, a] - cv.win_dr[b, s, j, i, a] + cur[a] * age[k]
-    return RangeWindow(z, beacon, shift, dz, age)
-
-
-@njit(cache=True)
-def _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
-    """Lock-out recovery from beacon j's last ranges (``recovery.window_greedy_fix``, eqs.
-    R1-R5, R6'; with ``lockout_recovery="window_consensus"``, ``window_consensus_fix``, R7):
-    the horizontal position and covariance re-fixed in place, the depth kept without cross
-    terms, every cross-covariance zeroed but the fix's own with beacon j (with
-    ``"schmidt"``). The window holds rejected ranges too, multipath among them: a fix
-    whose residuals fail their chi-square test (99 %, m - 2 dof) keeps fewer. Returns
-    False (nothing changed) when no fix of at least 3 ranges passes."""
-    n = cv.win_n[b, s, j]
-    m = min(n, prm.window_m)
-    if m < 3:
-        return False
-    Pbb = np.zeros((2, 2))
-    Pbb[0, 0] = Pbb[1, 1] = beacon_var
-    noise = WindowNoise(
-        R, Pbb, prm.dr_rate_m2ps, prm.prior_std_m, prm.dr_scale_std, prm.dr_heading_std_rad, prm.dr_current_std_mps
-    )
-    x, P, Pxb, keep = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty(m, np.int64)
-    win = _window_of(cv, sv, b, s, j, np.arange(n - m, n), t_s)
-    x0, P0 = sv.est[b, s, :2].copy(), sv.P[b, s, :2, :2].copy()
-    # the record holds tuples: an array in it would be reference-counted at every call (docs/performance.md#refcounts)
-    chi2_by_dof = np.array(prm.window_chi2_consensus if prm.window_consensus else prm.window_chi2)
-    if prm.window_consensus:
-        eps, mu = prm.outlier_probability, prm.outlier_mean_excess_m
-        n_kept = window_consensus_fix(win, m, noise, x0, P0, chi2_by_dof, eps, mu, x, P, Pxb, keep)
-    else:
-        n_kept = window_greedy_fix(win, m, noise, x0, P0, chi2_by_dof, x, P, Pxb, keep)
-    if n_kept < 3:
-        return False
-    cv.Pxb[b, s] = 0.0  # the old estimate is discarded: so are its correlations
-    cv.Pxd[b, s] = 0.0
-    if prm.bias_consider:  # (R6, D4)
-        window_bias_cross(x, window_subset(win, keep[:n_kept]), n_kept, noise, P, cv.Pxd[b, s, :2])
-    for i in range(2):
-        sv.est[b, s, i] = x[i]
-        sv.P[b, s, i, 2] = sv.P[b, s, 2, i] = 0.0
-        for a in range(2):
-            sv.P[b, s, i, a] = P[i, a]
-            if prm.fusion == SCHMIDT:
-                cv.Pxb[b, s, j, i, a] = Pxb[i, a]
-    return True
-
-
-@njit(cache=True, inline="always")
 def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     """A range the gate rejected: the streak counts rejected ranges in a row whose
     innovations share a sign (a filter that has drifted sees them all too long or all
@@ -339,7 +227,7 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     short = sign < 0 and 0 < prm.reinit_after_short <= -sv.rejected_streak[b, s]  # R8: only a drift makes it short
     if not (short or 0 < prm.reinit_after <= abs(sv.rejected_streak[b, s])):
         return
-    if prm.window and _window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
+    if prm.window and window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
         restarted = True
     else:
         R_all = R + beacon_var * (H[0] * H[0] + H[1] * H[1]) if prm.fusion == SCHMIDT else R_white
@@ -438,70 +326,6 @@ def _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, 
     return h + bias, H, R + var, R_white + var, bias, var
 
 
-ITERATIONS_MAX = 10  # eq. (I2)'s Gauss-Newton steps at most; a range converges in 2-4
-ITERATION_TOL_M = 1e-4  # ... and stops when a step moves the linearization point less than this
-
-
-@njit(cache=True, inline="always")
-def _iterated_model(f, prm, j, H, meas, scratch, vel_est, beacon, beacon_vel, noise_std, delays, rel_std):
-    """The iterated EKF's range model (Bell & Cathey 1993; Bar-Shalom, Li & Kirubarajan
-    2001, sec. 10.3.2), for ``range_linearization="iterated"``. The first-order update
-    linearizes |x - b| at the prior x0; where the prior is far off across the line of
-    sight of a beacon tens of metres away, that gradient points the wrong way. The
-    iterated update re-linearizes at its own result until it stops moving:
-
-    (I1) x_{i+1} = x0 + K_i (r - h(x_i) - H_i (x0 - x_i)), x_0 = x0, K_i the gain
-         (``_kalman``'s: white, or Schmidt's with the beacon's consider states) at H_i;
-    (I2) stop when |x_{i+1} - x_i| < ITERATION_TOL_M, or after ITERATIONS_MAX steps;
-    (I3) the range is gated once, on the first-order innovation r - h(x0) (an outlier is
-         judged by the prior, not by a linearization point it has already pulled).
-
-    The Gauss-Newton steps of the maximum a posteriori estimate for one range. Returns
-    (passed, H_i, meas_i): whether the range passed the gate (I3) and, if so, the model
-    at the last linearization point, whose prediction h(x_i) + H_i (x0 - x_i) makes
-    ``_kalman``'s ordinary update land on x_{i+1} with P from H_i; if not, the arguments.
-    CI (``beacon_error_fusion="ci"``) keeps the first-order model. scratch: ``_update``'s
-    (its x0, P0 and Pxb0 serve as working copies; ``_update`` refills them)."""
-    K, Pbb, xi, Pw, Xw = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
-    r, h, R, R_white, beacon_var = meas[0], meas[1], meas[2], meas[3], meas[4]
-    y = r - h
-    gate = prm.gate if y >= 0.0 else prm.gate_short
-    sch = prm.fusion == SCHMIDT
-    Pbb[0, 0] = Pbb[1, 1] = beacon_var
-    if sch:  # a gate of -1 returns the NIS and touches nothing
-        nis, _ = schmidt_range_update(f.x, f.P, f.X[j], Pbb, y, H, R, -1.0, K)
-    else:
-        nis = y * y / innovation_variance(f.P, H, R_white)
-    if not nis <= gate or prm.fusion == CI:
-        return False, H, meas
-    x0 = f.x
-    xi[:] = x0
-    Hi, lin, Ri, Rwi = H, h, R, R_white
-    for _ in range(ITERATIONS_MAX):
-        hi, Hi = moving_range_prediction(xi, vel_est, beacon, beacon_vel, delays)
-        Ri = modem_range_variance(noise_std, prm.two_way, 0.0, hi, rel_std)
-        Rwi = modem_range_variance(noise_std, prm.two_way, beacon_var, hi, rel_std)
-        lin = hi
-        for k in range(3):
-            lin += Hi[k] * (x0[k] - xi[k])  # h(x_i) + H_i (x0 - x_i): the model at x_i, read at x0
-        if sch:  # the gain at H_i: Schmidt's update of copies with a zero innovation leaves x0 as it is
-            Pw[:, :] = f.P
-            Xw[j, :, :] = f.X[j]
-            schmidt_range_update(x0, Pw, Xw[j], Pbb, 0.0, Hi, Ri, np.inf, K)
-        else:
-            S = innovation_variance(f.P, Hi, Rwi)
-            for k in range(3):
-                K[k] = (f.P[k, 0] * Hi[0] + f.P[k, 1] * Hi[1] + f.P[k, 2] * Hi[2]) / S
-        step2 = 0.0
-        for k in range(3):  # (I1)
-            xn = x0[k] + K[k] * (r - lin)
-            step2 += (xn - xi[k]) * (xn - xi[k])
-            xi[k] = xn
-        if step2 < ITERATION_TOL_M * ITERATION_TOL_M:  # (I2)
-            break
-    return True, Hi, (r, lin, Ri, Rwi, beacon_var, 0.0, 0.0)
-
-
 def _fuse(sv, bv, cv, cyc, prm, out):
     """Every beacon j pings every survey vehicle s; what arrives is lost, an outlier or
     NaN at random, then gated and fused (eqs. 7-13 or C1-C6), in place (sv.est, P,
@@ -516,7 +340,7 @@ def _fuse(sv, bv, cv, cyc, prm, out):
     reference to every array of a record at each call of an inlined helper, and those
     atomic counts were most of the simulator's time (docs/performance.md#refcounts)."""
     B, N, S = bv.pos.shape[0], bv.pos.shape[1], sv.est.shape[1]
-    win = _Windows(cv.win_z, cv.win_dz, cv.win_t, cv.win_beacon, cv.win_dr, cv.win_n)
+    win = Windows(cv.win_z, cv.win_dz, cv.win_t, cv.win_beacon, cv.win_dr, cv.win_n)
     for b in prange(B):
         delays = np.zeros((2, 2 if prm.two_way else 1))
         K, Pbb = np.zeros(3), np.zeros((2, 2))
@@ -563,12 +387,12 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                     h, H, R, R_white, bias, var = m
                 meas = (r, h, R, R_white, beacon_var, bias, var)
                 if prm.window:
-                    _remember(win, b, s, j, r, beacon, f.x[2], sv.dr[b, s], vel_est, delays, t_s)
+                    remember(win, b, s, j, r, beacon, f.x[2], sv.dr[b, s], vel_est, delays, t_s)
                 gated = False
-                if prm.iterated:  # eqs. (I1)-(I3); a range that fails the gate keeps its first-order model
-                    gated, Hi, mi = _iterated_model(
-                        f, prm, j, H, meas, scratch, vel_est, beacon, beacon_vel, noise_std, delays, rel_std
-                    )
+                if prm.iterated and prm.fusion != CI:  # eqs. (I1)-(I3); one that fails the gate keeps its model
+                    geo = RangeGeometry(vel_est, beacon, beacon_vel, noise_std, delays, rel_std, prm.two_way)
+                    sch = prm.fusion == SCHMIDT
+                    gated, Hi, mi = iterated_range_model(f, j, H, meas, scratch, geo, prm.gate, prm.gate_short, sch)
                     if gated:
                         H, meas = Hi, mi
                 fused, w_held = _update(f, held, prm, j, H, meas, scratch, gated)
