@@ -13,6 +13,7 @@ from numba import njit
 
 from .acoustics import modem_range_variance
 from .consider import schmidt_range_update
+from .multipath import Moments
 from .navigation import innovation_variance, moving_range_prediction
 
 ITERATIONS_MAX = 10  # eq. (I2)'s Gauss-Newton steps at most; a range converges in 2-4
@@ -35,7 +36,17 @@ class RangeGeometry(NamedTuple):
 
 
 @njit(cache=True, inline="always")
-def iterated_range_model(f, j, H, meas, scratch, geo, gate, gate_short, schmidt):
+def iterated_range_model(
+    f: Moments,
+    j: int,
+    H: np.ndarray,
+    meas: tuple,
+    scratch: tuple,
+    geo: RangeGeometry,
+    gate: float,
+    gate_short: float,
+    schmidt: bool,
+) -> tuple[bool, np.ndarray, tuple]:
     """The iterated EKF's range model (Bell & Cathey 1993; Bar-Shalom, Li & Kirubarajan
     2001, sec. 10.3.2), for ``range_linearization="iterated"``. The first-order update
     linearizes |x - b| at the prior x0; where the prior is far off across the line of

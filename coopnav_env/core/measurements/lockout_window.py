@@ -5,12 +5,13 @@ kernel (``measurements.modem``); the window's arrays are ``ConsiderView``'s ``wi
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from ..consider import SCHMIDT
+from ..kernel_records import ConsiderView, SurveyView
 from ..recovery import (
     RangeWindow,
     WindowNoise,
@@ -33,7 +34,19 @@ class Windows(NamedTuple):
 
 
 @njit(cache=True, inline="always")
-def remember(win, b, s, j, r, beacon, depth, dr, vel_est, delays, t_s):
+def remember(
+    win: Windows,
+    b: int,
+    s: int,
+    j: int,
+    r: float,
+    beacon: np.ndarray,
+    depth: float,
+    dr: np.ndarray,
+    vel_est: np.ndarray,
+    delays: np.ndarray,
+    t_s: float,
+) -> None:
     """Beacon j's finite range r at survey s enters its lock-out window (oldest first,
     the oldest dropped when full), with the beacon's reported position, the survey's
     dead-reckoned position where the sound ended (dr + vel_est d, as ``range_prediction``),
@@ -63,7 +76,7 @@ def remember(win, b, s, j, r, beacon, depth, dr, vel_est, delays, t_s):
 
 
 @njit(cache=True)
-def window_of(cv, sv, b, s, j, keep, t_s):
+def window_of(cv: ConsiderView, sv: SurveyView, b: int, s: int, j: int, keep: np.ndarray, t_s: float) -> RangeWindow:
     """Beacon j's window entries ``keep`` (indices, oldest first) as a ``RangeWindow`` at
     time t_s: the filter's own motion since each ping is its dead reckoning plus the
     current it was told."""
@@ -82,14 +95,17 @@ def window_of(cv, sv, b, s, j, keep, t_s):
 
 
 @njit(cache=True)
-def window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
+def window_refix(
+    sv: SurveyView, cv: ConsiderView, prm: Any, b: int, s: int, j: int, R: float, beacon_var: float, t_s: float
+) -> bool:
     """Lock-out recovery from beacon j's last ranges (``recovery.window_greedy_fix``, eqs.
     R1-R5, R6'; with ``lockout_recovery="window_consensus"``, ``window_consensus_fix``, R7):
     the horizontal position and covariance re-fixed in place, the depth kept without cross
     terms, every cross-covariance zeroed but the fix's own with beacon j (with
     ``"schmidt"``). The window holds rejected ranges too, multipath among them: a fix
     whose residuals fail their chi-square test (99 %, m - 2 dof) keeps fewer. Returns
-    False (nothing changed) when no fix of at least 3 ranges passes."""
+    False (nothing changed) when no fix of at least 3 ranges passes. prm:
+    ``measurements.modem.ModemParams``."""
     n = cv.win_n[b, s, j]
     m = min(n, prm.window_m)
     if m < 3:
