@@ -211,16 +211,19 @@ def test_shipped_policies_load_and_act(name):
     assert policy.config is not None
     env = coopnav_env.parallel_env(policy.config, seed=0, max_cycles=3)
     obs, _ = env.reset()
+    # one object per beacon, as evaluate.py makes them: a policy with memory keeps each one's window
+    beacons = {a: agents.make_policy(name, policy.config, agent=i) for i, a in enumerate(env.possible_agents)}
     while env.agents:
-        actions = {a: policy.act(obs[a]) for a in env.agents}
+        actions = {a: beacons[a].act(obs[a]) for a in env.agents}
         for a, action in actions.items():
             assert action.shape == env.action_space(a).shape and action.dtype == np.float32
             assert np.all(np.abs(action) <= 1)
         obs, *_ = env.step(actions)
-    # as the shipped "ppo" of its scenario, through make_policy (evaluate.py's path)
+    # as the shipped "ppo" of its scenario, through make_policy (evaluate.py's path), both fresh
     scenario = policy.config.name
     assert agents.resolve("ppo", scenario)[0] == agents.resolve(name)[0]
     one = agents.make_policy("ppo", coopnav_env.make_config(scenario), seed=0)
+    policy.reset()
     assert np.array_equal(one.act(obs[env.possible_agents[0]]), policy.act(obs[env.possible_agents[0]]))
 
 
