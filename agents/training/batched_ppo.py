@@ -219,7 +219,7 @@ def widen_to_history(weight: Any, history: int) -> Any:
     """A first layer's weight (H, O) for a window of ``history`` observations, newest first
     (H, history x O): the newest observation's columns are ``weight``, the older ones' zeros,
     so the widened actor is the same function of the newest observation and learns what the
-    older ones are worth. A weight already that wide is returned as it is."""
+    older ones are worth. With ``history`` 1 the weight is returned as it is."""
     import torch
 
     n_out, n_in = weight.shape
