@@ -32,7 +32,7 @@ RUN_RECORD = "run.json"
 WEIGHTS = "actor.safetensors"
 TRAINER = "batched_ppo"  # agents.training.batched_ppo.TRAINER
 
-__all__ = ["BatchedPPOPolicy", "is_batched_path", "load"]
+__all__ = ["BatchedPPOPolicy", "is_batched_path", "load", "push_window"]
 
 
 def _record(directory: Path) -> dict | None:
@@ -88,6 +88,21 @@ def mlp(n_in: int, net: Sequence[int], n_out: int, out_gain: float) -> Any:
     nn.init.orthogonal_(out.weight, out_gain)
     nn.init.zeros_(out.bias)
     return nn.Sequential(*layers, out).to(torch.float32)
+
+
+def push_window(window: Any, obs: Any, first: Any) -> Any:
+    """The window (..., K, O) of the last K observations, newest first, after ``obs``
+    (..., O): shifted by one with ``obs`` in front; where ``first`` (the leading axis: an
+    episode's first step) every slot holds ``obs``, so no episode sees another's
+    observations. A new tensor. Training (``agents.training.batched_ppo``, windows (B, N, K,
+    O)) and acting (``BatchedPPOPolicy``, (M, K, O)) share it."""
+    import torch
+
+    out = torch.cat([obs.unsqueeze(-2), window[..., :-1, :]], dim=-2)
+    if first.any():
+        fresh = obs[first].unsqueeze(-2)
+        out[first] = fresh.expand(*fresh.shape[:-2], window.shape[-2], fresh.shape[-1])
+    return out
 
 
 def is_batched_path(path: Any) -> bool:
@@ -148,13 +163,12 @@ class BatchedPPOPolicy(BatchPolicy):
         x = torch.as_tensor(obs, dtype=torch.float32)
         if self.obs_mean is not None:  # as training scaled them (agents.training.batched_ppo.RunningNorm)
             x = ((x - self.obs_mean) / self.obs_std).clamp(-10.0, 10.0)
-        if self.history > 1:  # the window, newest first
+        if self.history > 1:  # the window, newest first (an episode's first step fills it)
             w = self._window
-            if w is None or w.shape[0] != x.shape[0]:
-                w = x.unsqueeze(1).expand(-1, self.history, -1)
-            else:
-                w = torch.cat([x.unsqueeze(1), w[:, :-1]], dim=1)
-            self._window = w
+            first = w is None or w.shape[0] != x.shape[0]
+            if first:
+                w = torch.zeros((x.shape[0], self.history, x.shape[1]))
+            self._window = w = push_window(w, x, torch.full((x.shape[0],), first))
             x = w.reshape(x.shape[0], -1)
         with torch.no_grad():
             mean = self.actor(x).numpy()

@@ -15,13 +15,13 @@ require("torchrl")
 import torch  # noqa: E402
 
 import agents  # noqa: E402
+from agents.batched_policy import push_window  # noqa: E402
 from agents.training.batched_ppo import (  # noqa: E402
     BatchedPPOConfig,
     RunningNorm,
     gae,
     main,
     next_state_values,
-    push_window,
     train,
     widen_to_history,
 )

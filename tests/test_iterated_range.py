@@ -14,7 +14,7 @@ from scipy.stats import chi2
 
 from coopnav_env.core.consider import SCHMIDT, WHITE
 from coopnav_env.core.iterated import RangeGeometry, iterated_range_model
-from coopnav_env.core.measurements.modem import ModemRanging, _kalman
+from coopnav_env.core.measurements.modem import ModemRanging, _gate_of, _kalman
 from coopnav_env.core.multipath import Moments
 from coopnav_env.core.sim import Simulator
 from coopnav_env.scenarios import make_config
@@ -39,7 +39,8 @@ def _update(prm, x0, P0, z, beacon, beacon_var=0.0, Pxb=None):
     H = (x0 - beacon) / h
     meas = (z, h, SIGMA_R**2, SIGMA_R**2 + beacon_var, beacon_var, 0.0, 0.0)
     geo = RangeGeometry(zero, beacon, zero, SIGMA_R, delays, 0.0, False)
-    passed, Hi, mi = iterated_range_model(f, 0, H, meas, scratch, geo, prm.gate, prm.gate_short, prm.fusion == SCHMIDT)
+    gate = _gate_of(prm, z - h)
+    passed, Hi, mi = iterated_range_model(f, 0, H, meas, scratch, geo, gate, prm.fusion == SCHMIDT)
     if passed:
         fused, _ = _kalman(f, prm, 0, Hi, mi, scratch[0], scratch[1], True)
         assert fused

@@ -63,7 +63,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from agents.batched_policy import WEIGHTS, is_batched_path, mlp
+from agents.batched_policy import WEIGHTS, is_batched_path, mlp, push_window
 
 CRITICS = ("state", "observation")
 MAX_HISTORY = 64  # observations in the window at most (the rollout buffer grows with it)
@@ -268,18 +268,6 @@ def _load_loop_actor(
             obs_var=weights["obs_var"].to(torch.float64),
             obs_count=float(weights["obs_count"][0]) if "obs_count" in weights else float(record.get("steps", 1)),
         )
-    return out
-
-
-def push_window(window: Any, obs: Any, first: Any) -> Any:
-    """The window (B, N, K, O) of the last K observations, newest first, after ``obs``
-    (B, N, O): shifted by one with ``obs`` in front; where ``first`` (B,) (an episode's first
-    step) every slot holds ``obs``, so no episode sees another's observations. A new tensor."""
-    import torch
-
-    out = torch.cat([obs.unsqueeze(-2), window[..., :-1, :]], dim=-2)
-    if first.any():
-        out[first] = obs[first].unsqueeze(-2).expand(-1, -1, window.shape[-2], -1)
     return out
 
 

@@ -14,7 +14,7 @@ from numba import njit
 from .acoustics import modem_range_variance
 from .consider import schmidt_range_update
 from .multipath import Moments
-from .navigation import innovation_variance, moving_range_prediction
+from .navigation import innovation_variance, kalman_gain, moving_range_prediction
 
 ITERATIONS_MAX = 10  # eq. (I2)'s Gauss-Newton steps at most; a range converges in 2-4
 ITERATION_TOL_M = 1e-4  # ... and stops when a step moves the linearization point less than this
@@ -44,7 +44,6 @@ def iterated_range_model(
     scratch: tuple,
     geo: RangeGeometry,
     gate: float,
-    gate_short: float,
     schmidt: bool,
 ) -> tuple[bool, np.ndarray, tuple]:
     """The iterated EKF's range model (Bell & Cathey 1993; Bar-Shalom, Li & Kirubarajan
@@ -65,21 +64,20 @@ def iterated_range_model(
     the modem's ordinary update (``_kalman``) land on x_{i+1} with P from H_i; if not, the
     arguments.
     f: the survey filter (``multipath.Moments``); j: the beacon; H, meas: the first-order
-    model (``measurements.modem._range_model``); geo: ``RangeGeometry``; gate, gate_short:
-    the chi-square gates of a range longer and shorter than predicted; schmidt: the beacon's
+    model (``measurements.modem._range_model``); geo: ``RangeGeometry``; gate: the
+    chi-square gate for this range's first-order innovation (``modem._gate_of``); schmidt: the beacon's
     error as consider states (else white, in R). Covariance intersection keeps the
     first-order model (the modem does not call this for it). scratch: the modem's
     ``_update``'s (its x0, P0 and Pxb0 serve as working copies; ``_update`` refills them)."""
     K, Pbb, xi, Pw, Xw = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
     r, h, R, R_white, beacon_var = meas[0], meas[1], meas[2], meas[3], meas[4]
     y = r - h
-    g = gate if y >= 0.0 else gate_short
     Pbb[0, 0] = Pbb[1, 1] = beacon_var
     if schmidt:  # a gate of -1 returns the NIS and touches nothing
         nis, _ = schmidt_range_update(f.x, f.P, f.X[j], Pbb, y, H, R, -1.0, K)
     else:
         nis = y * y / innovation_variance(f.P, H, R_white)
-    if not nis <= g:
+    if not nis <= gate:
         return False, H, meas
     x0 = f.x
     xi[:] = x0
@@ -96,9 +94,7 @@ def iterated_range_model(
             Xw[j, :, :] = f.X[j]
             schmidt_range_update(x0, Pw, Xw[j], Pbb, 0.0, Hi, Ri, np.inf, K)
         else:
-            S = innovation_variance(f.P, Hi, Rwi)
-            for k in range(3):
-                K[k] = (f.P[k, 0] * Hi[0] + f.P[k, 1] * Hi[1] + f.P[k, 2] * Hi[2]) / S
+            kalman_gain(f.P, Hi, innovation_variance(f.P, Hi, Rwi), K)
         step2 = 0.0
         for k in range(3):  # (I1)
             xn = x0[k] + K[k] * (r - lin)

@@ -144,6 +144,14 @@ def innovation_variance(P: np.ndarray, H: np.ndarray, R: float) -> float:
 
 
 @njit(cache=True)
+def kalman_gain(P: np.ndarray, H: np.ndarray, S: float, K: np.ndarray) -> None:
+    """Eq. (12) for one scalar measurement, into K (3,): K = P H^T / S, S from
+    ``innovation_variance``."""
+    for i in range(3):
+        K[i] = (P[i, 0] * H[0] + P[i, 1] * H[1] + P[i, 2] * H[2]) / S
+
+
+@njit(cache=True)
 def joseph_update_residual(x: np.ndarray, P: np.ndarray, y: float, H: np.ndarray, R: float) -> float:
     """Eqs. (9), (11)-(13) for one scalar measurement of one filter, in place, given its
     innovation ``y`` (filterpy's ``update(..., residual=...)``: each measurement model

@@ -42,7 +42,14 @@ from ..iterated import RangeGeometry, iterated_range_model
 from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, consider_view, survey_view
 from ..multipath import Held, Moments, blend_update, direct_path_weight, hold_hypotheses, reweigh_hypotheses
-from ..navigation import gated_update, innovation_variance, moving_range_prediction, range_curvature, reinit_on_range
+from ..navigation import (
+    gated_update,
+    innovation_variance,
+    kalman_gain,
+    moving_range_prediction,
+    range_curvature,
+    reinit_on_range,
+)
 from . import FusionOutputs
 from .lockout_window import Windows, remember, window_refix
 
@@ -241,6 +248,13 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
 
 
 @njit(cache=True, inline="always")
+def _gate_of(prm, y):
+    """The chi-square gate of a range whose innovation is y: (G8) no longer path makes a
+    range short, so one shorter than predicted has its own (``gate_short``)."""
+    return prm.gate if y >= 0.0 else prm.gate_short
+
+
+@njit(cache=True, inline="always")
 def _kalman(f, prm, j, H, meas, K, Pbb, gated):
     """The gated update of survey filter f (``multipath.Moments``: views of its x, P, Pxb,
     Pxd) with beacon j's range (row H; meas as ``_count_rejection``'s): ``"white"`` with
@@ -252,9 +266,7 @@ def _kalman(f, prm, j, H, meas, K, Pbb, gated):
     is applied here."""
     r, h, R, R_white, beacon_var = meas[:5]
     y = r - h
-    gate = prm.gate if y >= 0.0 else prm.gate_short  # (G8) no longer path makes a range short
-    if gated:
-        gate = np.inf
+    gate = np.inf if gated else _gate_of(prm, y)
     if prm.fusion == SCHMIDT:
         Pbb[0, 0] = Pbb[1, 1] = beacon_var
         nis, fused = schmidt_range_update(f.x, f.P, f.X[j], Pbb, y, H, R, gate, K)
@@ -275,8 +287,7 @@ def _kalman(f, prm, j, H, meas, K, Pbb, gated):
                 K[i] = (f.x[i] - x0[i]) / y
             carry_cross_covariance(f.D, K, H)
         return True, S
-    for i in range(3):  # the gain of eqs. (12), before the update
-        K[i] = (f.P[i, 0] * H[0] + f.P[i, 1] * H[1] + f.P[i, 2] * H[2]) / S
+    kalman_gain(f.P, H, S, K)  # eq. (12), before the update
     fused = gated_update(f.x, f.P, r, h, H, R_white, gate)
     if fused:
         carry_cross_covariance(f.D, K, H)  # (D3)
@@ -391,8 +402,8 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                 gated = False
                 if prm.iterated and prm.fusion != CI:  # eqs. (I1)-(I3); one that fails the gate keeps its model
                     geo = RangeGeometry(vel_est, beacon, beacon_vel, noise_std, delays, rel_std, prm.two_way)
-                    sch = prm.fusion == SCHMIDT
-                    gated, Hi, mi = iterated_range_model(f, j, H, meas, scratch, geo, prm.gate, prm.gate_short, sch)
+                    gate, sch = _gate_of(prm, meas[0] - meas[1]), prm.fusion == SCHMIDT
+                    gated, Hi, mi = iterated_range_model(f, j, H, meas, scratch, geo, gate, sch)
                     if gated:
                         H, meas = Hi, mi
                 fused, w_held = _update(f, held, prm, j, H, meas, scratch, gated)
