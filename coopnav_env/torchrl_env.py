@@ -102,6 +102,10 @@ def _tensor(array: np.ndarray) -> torch.Tensor:
     return torch.from_numpy(np.array(array, dtype=_NUMPY_DTYPE[array.dtype.kind]))
 
 
+class NonFiniteAction(ValueError):
+    """A policy sent a NaN or infinite action (in training: the optimization diverged)."""
+
+
 class CoopNavTorchEnv(EnvBase):
     """``n_envs`` environments of ``scenario`` (name or ``ScenarioConfig``) as one TorchRL
     ``EnvBase`` with batch size ``(n_envs,)``. See the module docstring for the keys.
@@ -255,7 +259,7 @@ class CoopNavTorchEnv(EnvBase):
         finite = np.isfinite(a).all(-1)
         if not finite.all():
             e, j = (int(i) for i in np.argwhere(~finite)[0])
-            raise ValueError(f"action for env {e} beacon_{j} must be finite, got {a[e, j].tolist()}")
+            raise NonFiniteAction(f"action for env {e} beacon_{j} must be finite, got {a[e, j].tolist()}")
         if a.shape[-1] != D:  # the motion alone: transmit, as the fixed clock does
             a = np.concatenate([a, np.ones((B, N, 1))], -1)
         return np.clip(a, -1.0, 1.0)

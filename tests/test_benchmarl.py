@@ -99,6 +99,29 @@ def test_a_tiny_mappo_experiment(tmp_path, capsys):
     assert "not empty" in capsys.readouterr().err
 
 
+def test_a_diverged_run_stops_in_one_line(tmp_path, capsys, monkeypatch):
+    """When the policy's actions turn NaN (the env refuses them: matos_moving_lbl from scratch
+    did, docs/training/marl.md#levers-cells) the run stops with one line, status 1, and keeps
+    BenchMARL's files where it says."""
+    from coopnav_env import torchrl_env
+
+    check = torchrl_env.CoopNavTorchEnv.check_actions
+    calls = []
+
+    def nan_on_the_tenth(self, action):
+        calls.append(1)
+        if len(calls) == 10:
+            action = action * float("nan")
+        return check(self, action)
+
+    monkeypatch.setattr(torchrl_env.CoopNavTorchEnv, "check_actions", nan_on_the_tenth)
+    out = tmp_path / "run"
+    assert marl.main(["--algorithm", "mappo", "--task", "gao_sea", *TINY, "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("marl: error: training diverged after about ") and "must be finite, got [nan, nan]" in err
+    assert f"remove {out} to train again" in err and (out / ".partial").is_dir()
+
+
 def test_bad_command_lines_fail_in_one_line(tmp_path, capsys):
     for args, message in [
         (["--algorithm", "mapo", "--task", "gao_sea"], "unknown algorithm 'mapo'; did you mean 'mappo'?"),
@@ -108,6 +131,9 @@ def test_bad_command_lines_fail_in_one_line(tmp_path, capsys):
         (["--task", "gao_sea", "--seed", str(2**61)], "reserved seeds"),
         (["--task", "gao_sea", "--reward-term", "sdt=1"], "unknown reward term 'sdt'"),
         (["--task", "gao_sea", "--reward-term", "std=x"], "weight must be a number"),
+        (["--task", "gao_sea", "--set", "lr=fast"], "--set lr must be a number (BenchMARL's default"),
+        (["--task", "gao_sea", "--algorithm-set", "use_tanh=false"], "unknown mappo setting 'use_tanh'"),
+        (["--task", "gao_sea", "--algorithm-set", "use_tanh_normal=0"], "must be like its default True, got 0"),
     ]:
         assert marl.main([*args, "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
@@ -121,6 +147,12 @@ def test_bad_command_lines_fail_in_one_line(tmp_path, capsys):
         ("ippo", "sousa_ping", []),  # two ASVs, three action components
         ("mappo", "gao_team", ["--model", "gru", "--reward-term", "std=1", "--reward-term", "penalties=1"]),
         pytest.param("masac", "sousa_ping", ["--set", "off_policy_n_optimizer_steps=4"], marks=pytest.mark.slow),
+        # an algorithm setting reaches BenchMARL and run.json (the loader rebuilds the actor from it)
+        (
+            "mappo",
+            "matos_moving_lbl",
+            ["--algorithm-set", "use_tanh_normal=false", "--algorithm-set", "entropy_coef=1e-3"],
+        ),
     ],
 )
 def test_the_other_paths(tmp_path, algorithm, task, extra):
@@ -131,6 +163,13 @@ def test_the_other_paths(tmp_path, algorithm, task, extra):
     assert record["frames"] == 512 and record["task"] == f"coopnav/{task}"
     if "--reward-term" in extra:  # the training reward the run was given
         assert record["task_config"]["reward_terms"] == {"std": 1.0, "penalties": 1.0}
+    if "--algorithm-set" in extra:
+        assert record["algorithm_config"]["use_tanh_normal"] is False
+        assert record["algorithm_config"]["entropy_coef"] == 1e-3
+        from agents import load
+
+        policy = load(str(out), scenario="matos_moving_lbl")  # the actor of the run's own settings
+        assert policy is not None
 
 
 @pytest.mark.slow
@@ -172,7 +211,7 @@ def test_marl_extra_admits_the_installed_versions():
     assert torch.__version__.startswith("2.")
 
 
-def _untrained_run(tmp_path, algorithm, task_set, model="mlp"):
+def _untrained_run(tmp_path, algorithm, task_set, model="mlp", changes=None):
     """A run folder (policy.safetensors + run.json, as ``marl.run`` writes them) of an
     untrained experiment whose weights are shaken off BenchMARL's initialisation, and
     the experiment itself."""
@@ -182,11 +221,11 @@ def _untrained_run(tmp_path, algorithm, task_set, model="mlp"):
     from coopnav_env.records import atomic_write_text
 
     task = get_task(task_set, None, overrides={"max_cycles": 20})
-    on_policy = marl._algorithm_config(algorithm).on_policy()
+    on_policy = marl._algorithm_config(algorithm, changes).on_policy()
     config = marl.experiment_config(
         None, 2, 64, {"evaluation": False, "loggers": [], "save_folder": str(tmp_path)}, on_policy
     )
-    experiment = marl.build_experiment(algorithm, task, 0, config, model)
+    experiment = marl.build_experiment(algorithm, task, 0, config, model, algorithm_changes=changes)
     torch.manual_seed(3)
     with torch.no_grad():
         for p in experiment.policy.parameters():
@@ -207,6 +246,7 @@ def _untrained_run(tmp_path, algorithm, task_set, model="mlp"):
         ("mappo", "gao_team", "gru"),
         ("masac", "gao_team", "mlp"),
         ("isac", "gao_sea", "mlp"),
+        ("mappo", "matos_moving_lbl", "mlp:normal"),  # --algorithm-set use_tanh_normal=false
     ],
 )
 def test_a_run_acts_as_benchmarl_acts(tmp_path, algorithm, task_set, model):
@@ -219,11 +259,16 @@ def test_a_run_acts_as_benchmarl_acts(tmp_path, algorithm, task_set, model):
     import agents
     from agents.benchmarl_policy import BenchMARLPolicy
 
-    out, experiment, task = _untrained_run(tmp_path, algorithm, task_set, model)
+    model, _, kind = model.partition(":")
+    changes = {"use_tanh_normal": False} if kind == "normal" else None
+    out, experiment, task = _untrained_run(tmp_path, algorithm, task_set, model, changes)
     with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
         td = experiment.test_env.rollout(8, policy=experiment.policy, auto_reset=True)
     obs = td.get(("beacons", "observation"))[0].numpy()  # (8, N, D), environment 0
     want = td.get(("beacons", "action"))[0].numpy()
+    if kind == "normal":  # an untanhed Normal's mean; the env clips it to [-1, 1], as the policy does
+        assert float(np.abs(want).max()) > 1.0
+        want = np.clip(want, -1.0, 1.0)
     assert float(np.abs(want).max()) > 0.05  # the weights were shaken: the check is not on zeros
     config = scenario_config(task.config)
     for j in range(config.n_beacons):

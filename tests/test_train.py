@@ -768,3 +768,15 @@ def test_action_log_std_sets_the_exploration_per_action_component(tmp_path, caps
     assert not bad.exists()
     code = cli.main([*argv, "--config", _tiny_yaml(tmp_path, action_log_std=[-2.0, "wide"])])
     assert code == 2 and "action_log_std must be a list of numbers" in capsys.readouterr().err
+
+
+def test_command_line_assignments_read_an_exponent_as_a_number():
+    """``--set lr=1e-4`` (the marl help's own example) is 1e-4, not the string YAML 1.1 makes
+    of an exponent without a dot; other values stay YAML's."""
+    from agents.training.config import ConfigError, parse_assignments
+
+    got = parse_assignments(["lr=1e-4", "g=0.98", "n=3", "s=-2.5E+1", "name=e5", "xs=[1, 2]"], "--set")
+    assert got == {"lr": 1e-4, "g": 0.98, "n": 3, "s": -25.0, "name": "e5", "xs": [1, 2]}
+    assert isinstance(got["lr"], float)
+    with pytest.raises(ConfigError, match="--set takes KEY=VALUE"):
+        parse_assignments(["lr"], "--set")

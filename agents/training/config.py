@@ -83,7 +83,10 @@ class ConfigError(ValueError):
 def parse_assignments(items: Sequence[str], what: str) -> dict:
     """``KEY=VALUE`` command-line items as a dict, each VALUE read as YAML (``--set`` and the
     like of ``agents.training.marl`` and ``agents.training.batched_ppo``); one-line
-    ``ConfigError`` naming ``what`` for an item without ``=``."""
+    ``ConfigError`` naming ``what`` for an item without ``=``. ``1e-4`` is a number here,
+    as a user means it (YAML 1.1 reads an exponent without a dot as a string)."""
+    import re
+
     import yaml
 
     out = {}
@@ -91,7 +94,10 @@ def parse_assignments(items: Sequence[str], what: str) -> dict:
         key, sep, value = item.partition("=")
         if not sep or not key:
             raise ConfigError(f"{what} takes KEY=VALUE, got {item!r}")
-        out[key.strip()] = yaml.safe_load(value)
+        parsed = yaml.safe_load(value)
+        if isinstance(parsed, str) and re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+", parsed.strip()):
+            parsed = float(parsed)
+        out[key.strip()] = parsed
     return out
 
 

@@ -33,7 +33,7 @@ import platform
 import shlex
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -70,6 +70,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--experiment-config", help=f"experiment YAML (default: configs/benchmarl/{EXPERIMENT_YAML})")
     p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE", help="an experiment setting")
     p.add_argument(
+        "--algorithm-set",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="an algorithm setting (BenchMARL's algorithm YAML, e.g. use_tanh_normal=false, entropy_coef=0.01)",
+    )
+    p.add_argument(
         "--override",
         action="append",
         default=[],
@@ -105,10 +112,22 @@ def _model_config(name: str) -> Any:
     return {"mlp": MlpConfig, "gru": GruConfig, "lstm": LstmConfig}[name].get_from_yaml()
 
 
-def _algorithm_config(name: str) -> Any:
+def _algorithm_config(name: str, changes: Mapping[str, Any] | None = None) -> Any:
+    """BenchMARL's config of algorithm ``name`` (its YAML) with ``changes`` (``--algorithm-set``):
+    an unknown field, or a value of another type than the default's, is one ``ConfigError``."""
+    import dataclasses
+
     import benchmarl.algorithms as algos
 
-    return getattr(algos, f"{name.capitalize()}Config").get_from_yaml()
+    config = getattr(algos, f"{name.capitalize()}Config").get_from_yaml()
+    fields = sorted(f.name for f in dataclasses.fields(config))
+    for key, value in (changes or {}).items():
+        _choice(key, fields, f"{name} setting")
+        default = getattr(config, key)
+        kinds = (bool,) if isinstance(default, bool) else (int, float) if isinstance(default, (int, float)) else None
+        if kinds and (not isinstance(value, kinds) or (kinds != (bool,) and isinstance(value, bool))):
+            raise ConfigError(f"--algorithm-set {key} must be like its default {default!r}, got {value!r}")
+    return dataclasses.replace(config, **(changes or {}))
 
 
 def experiment_config(
@@ -139,6 +158,11 @@ def experiment_config(
         if frames < 1:
             raise ConfigError(f"--frames must be >= 1, got {frames}")
         config.max_n_frames = frames
+    for key, value in changes.items():  # a number where BenchMARL's default is one (one line, not Adam's TypeError)
+        default = getattr(config, key)
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if isinstance(default, (int, float)) and not isinstance(default, bool) and not number:
+            raise ConfigError(f"--set {key} must be a number (BenchMARL's default {default!r}), got {value!r}")
     config = dataclasses.replace(config, **changes)
     n = getattr(config, f"{kind}_n_envs_per_worker")
     per_batch = getattr(config, f"{kind}_collected_frames_per_batch")
@@ -196,14 +220,16 @@ def build_experiment(
     model: Any = "mlp",
     critic_model: Any = "mlp",
     callbacks: Sequence[Any] = (),
+    algorithm_changes: Mapping[str, Any] | None = None,
 ) -> Any:
     """BenchMARL's ``Experiment`` for a coopnav ``task`` (``benchmarl_task.get_task``);
-    ``model`` and ``critic_model``: a name of ``MODELS`` (BenchMARL's YAML) or a ``ModelConfig``."""
+    ``model`` and ``critic_model``: a name of ``MODELS`` (BenchMARL's YAML) or a ``ModelConfig``;
+    ``algorithm_changes``: fields of the algorithm's config (``--algorithm-set``)."""
     from benchmarl.experiment import Experiment
 
     return Experiment(
         task=task,
-        algorithm_config=_algorithm_config(algorithm),
+        algorithm_config=_algorithm_config(algorithm, algorithm_changes),
         model_config=_model_config(model) if isinstance(model, str) else model,
         critic_model_config=_model_config(critic_model) if isinstance(critic_model, str) else critic_model,
         seed=seed,
@@ -274,7 +300,8 @@ def run(args: argparse.Namespace, command: str) -> dict:
         scenario = scenario_config(task.config, set_name)  # checks the overrides now, not after the setup
     except ValueError as err:
         raise ConfigError(str(err)) from None
-    algo = _algorithm_config(algorithm)
+    algorithm_changes = parse_assignments(args.algorithm_set, "--algorithm-set")
+    algo = _algorithm_config(algorithm, algorithm_changes)
     try:
         config = experiment_config(args.experiment_config, args.n_envs, args.frames, changes, algo.on_policy())
     except (TypeError, ValueError) as err:
@@ -287,11 +314,22 @@ def run(args: argparse.Namespace, command: str) -> dict:
 
     _quiet_benchmarl_bar()
     progress = ProgressCallback(int(config.get_max_n_frames(algo.on_policy())))
-    experiment = build_experiment(algorithm, task, args.seed, config, args.model, args.critic_model, [progress])
+    experiment = build_experiment(
+        algorithm, task, args.seed, config, args.model, args.critic_model, [progress], algorithm_changes
+    )
     torch.set_num_threads(max(int(args.threads), 1))  # after the envs: numba's OpenMP start resets torch's count
     t0 = time.perf_counter()
+    from coopnav_env.torchrl_env import NonFiniteAction
+
     try:
         experiment.run()
+    except NonFiniteAction as err:  # the env refuses NaN actions: say so in one line, keep the files
+        seen = int(progress.bar.n) if progress.bar is not None else 0
+        raise TrainingDiverged(
+            f"training diverged after about {seen:,} env-steps: {err} (the policy's parameters became NaN; "
+            f"a lower --set lr=..., a bounded --reward-term such as log_error=1, or another --seed may help); "
+            f"BenchMARL's files are in {partial}: remove {out} to train again"
+        ) from None
     finally:
         progress.close()
     wall = time.perf_counter() - t0
@@ -325,6 +363,10 @@ def run(args: argparse.Namespace, command: str) -> dict:
     return record
 
 
+class TrainingDiverged(RuntimeError):
+    """The run stopped because its policy's actions became NaN (one line; exit status 1)."""
+
+
 def _jsonable(value: Any) -> bool:
     try:
         json.dumps(value)
@@ -343,6 +385,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ConfigError as err:
         print(f"marl: error: {err}", file=sys.stderr)
         return 2
+    except TrainingDiverged as err:
+        print(f"marl: error: {err}", file=sys.stderr)
+        return 1
     finally:
         runlock.release_all()
     from coopnav_env.progress import format_seconds, say
