@@ -22,6 +22,9 @@ against the first non-planner (the baseline policy, e.g. the shipped ``ppo``).
 task set for a policy (relative to the best planners, the worst task, lost episodes, and
 whether the shift criteria hold: no task more than 5 % worse, no episode lost).
 
+``python benchmarks/lever_table.py paired F.json A B``: policy ``A`` minus policy ``B`` of one
+result, paired per seed and pooled over the tasks both drove (e.g. MAPPO minus IPPO).
+
 Seeds: the benchmark's test seeds are refused; the default 700000 is neither a trainer's
 validation range (500000 + e) nor a training seed of a run seeded below 1000
 (``seed + e + k * 1_000_003``, e < 1000 environments).
@@ -337,6 +340,30 @@ def summary(results: list, label: str = "ppo", within: float = 0.05) -> str:
     return "\n".join(lines) + "\n"
 
 
+def read_result(path: str) -> dict:
+    """A result written by ``--out`` (refused with the path if it is missing or not one)."""
+    from coopnav_env.safe_load import read_json
+
+    result = read_json(path)
+    if not isinstance(result, dict) or "errors" not in result:
+        raise ValueError(f"{path}: {'no such file' if result is None else 'not a lever_table.py --out result'}")
+    return result
+
+
+def paired(result: dict, a: str, b: str) -> str:
+    """``a`` minus ``b`` of one result: per seed, the mean over the tasks both drove, and the
+    95 % t interval over the seeds, as one line."""
+    for label in (a, b):
+        if label not in result["errors"]:
+            raise ValueError(f"no policy {label!r} in the result; it has {', '.join(result['errors'])}")
+    tasks = [t for t in _driven(result, a) if t in _driven(result, b)]
+    if not tasks:
+        raise ValueError(f"{a!r} and {b!r} drove no task in common")
+    mean, lo, hi = _pooled(result["errors"][a], result["errors"][b], tasks)
+    seeds = len(result["errors"][a][tasks[0]])
+    return f"{a} - {b}: {mean:+.3f} [{lo:+.3f}, {hi:+.3f}] m over {seeds} seeds, {len(tasks)} tasks"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--tasks", required=True, help="a benchmark task set (python -m evaluation.benchmark --list)")
@@ -367,9 +394,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         q.add_argument("files", nargs="+")
         q.add_argument("--policy", default="ppo")
         sargs = q.parse_args(argv[1:])
-        from coopnav_env.safe_load import read_json
-
-        print(summary([read_json(f) for f in sargs.files], sargs.policy), end="")
+        try:
+            print(summary([read_result(f) for f in sargs.files], sargs.policy), end="")
+        except ValueError as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        return 0
+    if argv and argv[0] == "paired":  # lever_table.py paired F.json A B
+        q = argparse.ArgumentParser(prog="lever_table.py paired")
+        q.add_argument("file")
+        q.add_argument("a")
+        q.add_argument("b")
+        pargs = q.parse_args(argv[1:])
+        try:
+            print(paired(read_result(pargs.file), pargs.a, pargs.b))
+        except ValueError as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
         return 0
     args = p.parse_args(argv)
     from coopnav_env.records import atomic_write_text

@@ -40,6 +40,28 @@ def test_the_table_pairs_each_task_with_its_best_planner():
     assert "x `a`, y `b`" in table
 
 
+def test_paired_is_a_minus_b_over_the_tasks_both_drove(capsys, tmp_path):
+    """mappo is 0.25 m below ippo on every seed of both tasks; with ippo n/a on y, x alone."""
+    result = _result()
+    assert (
+        lever_table.paired(result, "mappo", "ippo") == "mappo - ippo: -0.250 [-0.250, -0.250] m over 10 seeds, 2 tasks"
+    )
+    result["errors"]["ippo"]["x"][0] += 1.0  # one seed 1 m worse on x: the pooled mean moves by 0.5 / 10
+    result["na"] = {"ippo": {"y": "n/a"}}
+    line = lever_table.paired(result, "ippo", "mappo")
+    assert line.startswith("ippo - mappo: +0.350 [") and line.endswith("over 10 seeds, 1 tasks")
+    with pytest.raises(ValueError, match="no policy 'ppo'"):
+        lever_table.paired(result, "ppo", "mappo")
+    path = tmp_path / "r.json"
+    path.write_text(__import__("json").dumps(result))
+    assert lever_table.main(["paired", str(path), "mappo", "nope"]) == 2
+    assert capsys.readouterr().err.startswith("error: no policy 'nope'")
+    assert lever_table.main(["paired", str(tmp_path / "missing.json"), "mappo", "ippo"]) == 2
+    assert capsys.readouterr().err.strip().endswith("missing.json: no such file")
+    assert lever_table.main(["summarize", str(tmp_path / "missing.json")]) == 2
+    assert "no such file" in capsys.readouterr().err
+
+
 def test_a_lost_episode_is_ten_times_the_best_planner_of_its_seed():
     result = _result()
     errs = result["errors"]
