@@ -327,8 +327,8 @@ def run(args: argparse.Namespace, command: str) -> dict:
         seen = int(progress.bar.n) if progress.bar is not None else 0
         raise TrainingDiverged(
             f"training diverged after about {seen:,} env-steps: {err} (the policy's parameters became NaN; "
-            f"a lower --set lr=..., a bounded --reward-term such as log_error=1, or another --seed may help); "
-            f"BenchMARL's files are in {partial}: remove {out} to train again"
+            f"--algorithm-set use_tanh_normal=false, a lower --set lr=..., a bounded --reward-term such as "
+            f"log_error=1 or another --seed may help); BenchMARL's files are in {partial}: remove {out} to train again"
         ) from None
     finally:
         progress.close()
