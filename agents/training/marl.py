@@ -327,8 +327,9 @@ def run(args: argparse.Namespace, command: str) -> dict:
         seen = int(progress.bar.n) if progress.bar is not None else 0
         raise TrainingDiverged(
             f"training diverged after about {seen:,} env-steps: {err} (the policy's parameters became NaN; "
-            f"--algorithm-set use_tanh_normal=false, a lower --set lr=..., a bounded --reward-term such as "
-            f"log_error=1 or another --seed may help); BenchMARL's files are in {partial}: remove {out} to train again"
+            f"a scaled reward (--reward-term weights such as 0.01: BenchMARL does not normalize rewards), "
+            f"--algorithm-set use_tanh_normal=false or a lower --set lr=... may help); BenchMARL's files are in "
+            f"{partial}: remove {out} to train again"
         ) from None
     finally:
         progress.close()
