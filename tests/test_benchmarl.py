@@ -166,10 +166,14 @@ def test_the_other_paths(tmp_path, algorithm, task, extra):
     if "--algorithm-set" in extra:
         assert record["algorithm_config"]["use_tanh_normal"] is False
         assert record["algorithm_config"]["entropy_coef"] == 1e-3
-        from agents import load
+        import numpy as np
 
-        policy = load(str(out), scenario="matos_moving_lbl")  # the actor of the run's own settings
-        assert policy is not None
+        import agents
+
+        config = scenario_config(get_task(task, None).config)
+        policy = agents.make_policy(str(out), config, agent=1)  # the actor of the run's own settings
+        action = policy.act(np.full(policy.obs_dim, 0.5, dtype=np.float32))
+        assert action.shape == (2,) and np.all(np.abs(action) <= 1.0) and np.all(np.isfinite(action))
 
 
 @pytest.mark.slow

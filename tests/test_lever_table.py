@@ -46,7 +46,7 @@ def test_paired_is_a_minus_b_over_the_tasks_both_drove(capsys, tmp_path):
     assert (
         lever_table.paired(result, "mappo", "ippo") == "mappo - ippo: -0.250 [-0.250, -0.250] m over 10 seeds, 2 tasks"
     )
-    result["errors"]["ippo"]["x"][0] += 1.0  # one seed 1 m worse on x: the pooled mean moves by 0.5 / 10
+    result["errors"]["ippo"]["x"][0] += 1.0  # one seed 1 m worse on x, the only task left: +1.0 / 10 seeds
     result["na"] = {"ippo": {"y": "n/a"}}
     line = lever_table.paired(result, "ippo", "mappo")
     assert line.startswith("ippo - mappo: +0.350 [") and line.endswith("over 10 seeds, 1 tasks")
