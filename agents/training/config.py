@@ -101,6 +101,17 @@ def parse_assignments(items: Sequence[str], what: str) -> dict:
     return out
 
 
+def like_default(value: Any, default: Any) -> bool:
+    """Whether ``value`` may replace a setting whose default is ``default``: true or false
+    for a bool, a number (not a bool) for a number, anything otherwise (the settings of
+    another library's dataclasses, e.g. BenchMARL's, checked before they reach it)."""
+    if isinstance(default, bool):
+        return isinstance(value, bool)
+    if isinstance(default, (int, float)):
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return True
+
+
 # ----------------------------------------------------------------------------------
 # the sections
 # ----------------------------------------------------------------------------------

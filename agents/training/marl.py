@@ -39,7 +39,7 @@ from typing import Any
 
 from benchmarl.experiment.callback import Callback
 
-from .config import ConfigError, parse_assignments
+from .config import ConfigError, like_default, parse_assignments
 
 ALGORITHMS = ("mappo", "ippo", "masac", "maddpg", "iddpg", "isac")  # BenchMARL's continuous-action algorithms
 # BenchMARL's models that read the flat observation; its Deep Sets and GNN need set (entity)
@@ -124,8 +124,7 @@ def _algorithm_config(name: str, changes: Mapping[str, Any] | None = None) -> An
     for key, value in (changes or {}).items():
         _choice(key, fields, f"{name} setting")
         default = getattr(config, key)
-        kinds = (bool,) if isinstance(default, bool) else (int, float) if isinstance(default, (int, float)) else None
-        if kinds and (not isinstance(value, kinds) or (kinds != (bool,) and isinstance(value, bool))):
+        if not like_default(value, default):
             raise ConfigError(f"--algorithm-set {key} must be like its default {default!r}, got {value!r}")
     return dataclasses.replace(config, **(changes or {}))
 
@@ -158,11 +157,11 @@ def experiment_config(
         if frames < 1:
             raise ConfigError(f"--frames must be >= 1, got {frames}")
         config.max_n_frames = frames
-    for key, value in changes.items():  # a number where BenchMARL's default is one (one line, not Adam's TypeError)
+    for key, value in changes.items():  # e.g. a number where BenchMARL's default is one (not Adam's TypeError)
         default = getattr(config, key)
-        number = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if isinstance(default, (int, float)) and not isinstance(default, bool) and not number:
-            raise ConfigError(f"--set {key} must be a number (BenchMARL's default {default!r}), got {value!r}")
+        if not like_default(value, default):
+            kind = "true or false" if isinstance(default, bool) else "a number"
+            raise ConfigError(f"--set {key} must be {kind} (BenchMARL's default {default!r}), got {value!r}")
     config = dataclasses.replace(config, **changes)
     n = getattr(config, f"{kind}_n_envs_per_worker")
     per_batch = getattr(config, f"{kind}_collected_frames_per_batch")
