@@ -19,7 +19,9 @@ from safetensors.torch import load_file  # noqa: E402
 from agents.training import marl  # noqa: E402
 from agents.training.benchmarl_task import (  # noqa: E402
     CONFIG_DIR,
+    REWARD_SCALE,
     CoopNavTask,
+    default_reward_terms,
     get_task,
     register,
     scenario_config,
@@ -42,6 +44,28 @@ def test_task_configs_are_the_benchmark_task_sets():
         for t in task_set.tasks:  # every task's scenario is the benchmark's
             member.config["task"] = t.name
             assert scenario_config(member.config) == t.config(task_set.scenario), (name, t.name)
+
+
+def test_task_configs_train_on_a_scaled_reward():
+    """BenchMARL does not normalize rewards: each task config's default training reward is
+    SB3's signals times REWARD_SCALE (log_error on the moving networks), and the env it
+    builds returns that reward, 0.01 of the unscaled terms' step by step."""
+    for name, task_set in TASK_SETS.items():
+        terms = get_task(name).config["reward_terms"]
+        error = "log_error" if task_set.scenario.startswith("matos") else "std"
+        assert terms == {error: REWARD_SCALE, "penalties": REWARD_SCALE} == default_reward_terms(task_set.scenario)
+    assert REWARD_SCALE == 0.01
+    rewards = []
+    for terms in (None, {"std": 1.0, "penalties": 1.0}):
+        changes = {} if terms is None else {"reward_terms": terms}
+        task = get_task("gao_lawnmower", overrides={"max_cycles": 6}, **changes)
+        env = task.get_env_fun(num_envs=3, continuous_actions=True, seed=11, device="cpu")()
+        torch.manual_seed(0)  # the same random actions in both
+        rollout = env.rollout(6, policy=None, break_when_any_done=False, auto_reset=True, tensordict=None)
+        rewards.append(rollout["next", "beacons", "reward"])
+    scaled, unscaled = rewards
+    assert unscaled.abs().min() > 0.1  # metres per step: not already small
+    torch.testing.assert_close(scaled, 0.01 * unscaled, rtol=1e-5, atol=1e-7)
 
 
 def test_task_choice_and_errors():

@@ -15,7 +15,8 @@ YAML, loaded by ``get_from_yaml`` and by Hydra): ``task_set`` and ``scenario`` n
 ``evaluation.tasks`` task set, ``tasks`` are its tasks' scenario overrides, ``task`` the
 one trained on; ``overrides`` more scenario parameters on top (randomization bounds,
 say), ``reward_terms`` the training reward (``coopnav_env.vector``'s signals; null: the
-environment's), ``state`` "privileged" or "observations". The ``tasks`` mappings are
+environment's; by default :func:`default_reward_terms`, scaled for BenchMARL, which does
+not normalize rewards), ``state`` "privileged" or "observations". The ``tasks`` mappings are
 generated from the task-set definitions (``write_task_configs``), not written by hand;
 ``tests/test_benchmarl.py`` fails if they drift (this module sits below ``evaluation`` in
 the layers, so it reads the generated files rather than importing the task sets).
@@ -55,6 +56,8 @@ __all__ = [
     "ENV_NAME",
     "CoopNavClass",
     "CoopNavTask",
+    "REWARD_SCALE",
+    "default_reward_terms",
     "get_task",
     "members",
     "register",
@@ -66,6 +69,24 @@ __all__ = [
 ENV_NAME = "coopnav"  # BenchMARL's environment name: tasks are "coopnav/<task set>"
 CONFIG_DIR = PROJECT_ROOT / "configs" / "benchmarl"  # Hydra's config root: task/, experiment/
 TASK_KEYS = ("task_set", "scenario", "task", "tasks", "overrides", "reward_terms", "state")
+
+# BenchMARL does not normalize rewards (SB3's VecNormalize and the batched loop do), and
+# coopnav's are metres per step: returns run to hundreds or thousands. Measured on seeds
+# 700000-700029 (docs/training/marl.md#levers-cells), 2 M env-steps of MAPPO: on gao_sea
+# the environment's reward left it 57 % above the best planner, SB3's terms at weight 1
+# 200 %, the same terms times 0.01 3.3 %; on gao_lawnmower 8.4 % against 1.1 %; on the
+# moving network the environment's reward diverged to NaN where log_error times 0.01 did not.
+REWARD_SCALE = 0.01
+# the scenarios whose error can run away (a lost vehicle): the bounded log error
+_BOUNDED_ERROR_SCENARIOS = frozenset({"matos_moving_lbl", "matos_river"})
+
+
+def default_reward_terms(scenario: str) -> dict[str, float]:
+    """The task configs' training reward for BenchMARL: the SB3 configs' signals
+    (``std`` and ``penalties``; ``log_error`` where the error can run away) times
+    :data:`REWARD_SCALE`."""
+    error = "log_error" if scenario in _BOUNDED_ERROR_SCENARIOS else "std"
+    return {error: REWARD_SCALE, "penalties": REWARD_SCALE}
 
 
 def _check_task_config(name: str, config: dict) -> dict:
@@ -296,9 +317,11 @@ def task_yaml(task_set: Any) -> str:
     for name, overrides in tasks.items():
         flow = yaml.safe_dump(overrides, default_flow_style=True, width=1000).strip()
         body += f"  {yaml.safe_dump(name).splitlines()[0]}: {flow}\n"
+    terms = yaml.safe_dump(default_reward_terms(task_set.scenario), default_flow_style=True, sort_keys=False).strip()
     body += (
         "overrides: {}  # more scenario parameters on top of the task's (randomization bounds, ...)\n"
-        "reward_terms: null  # training reward {signal: weight} (coopnav_env.vector.REWARD_TERMS); null: the env's\n"
+        f"reward_terms: {terms}  # training reward {{signal: weight}} (coopnav_env.vector.REWARD_TERMS), scaled:\n"
+        "  # BenchMARL does not normalize rewards (benchmarl_task.REWARD_SCALE); null: the env's, unscaled\n"
         "state: privileged  # the critics' state: privileged (core's global state + observations) or observations\n"
     )
     return head + body
