@@ -291,6 +291,50 @@ def test_the_log_gives_each_teams_error():
     )
 
 
+def test_a_curriculum_trains_each_stage_on_its_own_scenario():
+    """Two stages over four iterations: the first half starts the survey 300 m off, the second
+    0.5 m off (initial_position_std_m). The log says each iteration's stage, and its errors
+    follow the stage's scenario; each stage's environments play their own episode seeds
+    (seed + k * n_envs + e), so the second stage does not replay the first's."""
+    from agents.training.batched_ppo import make_env
+
+    far, near = {"initial_position_std_m": 300.0}, {"initial_position_std_m": 0.5}
+    config = BatchedPPOConfig(
+        scenario="gao_team", n_envs=4, n_steps=4, minibatch=16, seed=20, overrides={"max_cycles": 2},
+        stages=[(0.0, far), (0.5, near)],
+    )  # fmt: skip
+    assert [config.stage_at(it, 4) for it in range(4)] == [0, 0, 1, 1]
+    assert [config.stage_at(it, 3) for it in range(3)] == [0, 0, 1]  # from iteration ceil(0.5 * 3)
+    log = train(config, 64, progress=False)["log"]
+    assert [row["stage"] for row in log] == [0, 0, 1, 1]
+    errors = [row["survey_error_m"] for row in log]
+    assert min(errors[:2]) > 10.0 * max(errors[2:]), errors
+    for k, expected in ((0, far), (1, near)):
+        env = make_env(config, k)
+        env.reset()
+        assert env.config.initial_position_std_m == expected["initial_position_std_m"]
+        assert env.config.max_cycles == 2  # --set under the stage
+        assert env.episode_seeds.tolist() == [20 + 4 * k + e for e in range(4)]
+    plain = train(BatchedPPOConfig(scenario="gao_team", n_envs=2, n_steps=2, minibatch=4), 4, progress=False)
+    assert "stage" not in plain["log"][0]
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--stage", "0.5", "max_cycles=3"], "the first stage must start at 0"),
+        (["--stage", "0", "--stage", "half"], "--stage takes AT [KEY=VALUE ...]"),
+        (["--stage", "0", "--stage", "0.6", "--stage", "0.3"], "increasing fractions, got 0.0, 0.6, 0.3"),
+        (["--stage", "0", "--stage", "1.0"], "fraction in [0, 1)"),
+        (["--stage", "0", "max_cycle=3"], "--stage 0.0: "),
+    ],
+)
+def test_bad_stages_are_one_line(argv, message, capsys):
+    assert main(["--timesteps", "100", "--scenario", "gao_team", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err, err
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [

@@ -34,6 +34,11 @@ computed below:
   last K observations, newest first, each scaled as above (``push_window``: an episode's first
   step fills the window with its own observation); started from a policy, the older
   observations' weights start at zero (``widen_to_history``);
+* with ``--stage AT KEY=VALUE ...``, a curriculum: from the fraction AT of the iterations
+  until the next stage, the stage's scenario parameters on top of ``--set`` (the stage with
+  none is ``--set`` itself). At a stage's start the environments are built anew (episode
+  seeds go on from the previous stage's, the episodes under way are dropped); the actor,
+  critic, optimizer and the running scalings carry over;
 * with ``--center-reward``, (P5) each step is paid r - ρ, ρ the running mean step reward
   (average-reward RL's differential reward), so a policy that can lengthen or shorten its
   episodes is not paid for the length itself; with ``--center-reward-per-team`` ρ is each
@@ -107,6 +112,17 @@ class BatchedPPOConfig:
     # memory as a window: the actor (and IPPO's critic) sees the last `history` observations of its
     # beacon, newest first (the issue's "a history of the survey's reports"); 1: the current one only
     history: int = 1
+    # a curriculum: [at, overrides] pairs, `at` the fraction of the iterations from which the stage's
+    # scenario parameters apply on top of `overrides` (until the next stage); empty: none
+    stages: list[tuple[float, dict[str, Any]]] = field(default_factory=list)
+
+    def stage_at(self, it: int, iterations: int) -> int:
+        """The index of the stage iteration ``it`` of ``iterations`` trains in (-1: before any)."""
+        out = -1
+        for k, (at, _) in enumerate(self.stages):
+            if it >= at * iterations:
+                out = k
+        return out
 
     def check(self) -> None:
         """One-line ``ValueError`` naming the first bad setting."""
@@ -123,6 +139,15 @@ class BatchedPPOConfig:
         h = self.history
         if isinstance(h, bool) or not isinstance(h, int) or not 1 <= h <= MAX_HISTORY:
             raise ValueError(f"history must be an integer in 1..{MAX_HISTORY}, got {h!r}")
+        ats = [at for at, _ in self.stages]
+        if any(isinstance(a, bool) or not isinstance(a, (int, float)) or not 0.0 <= a < 1.0 for a in ats) or any(
+            not isinstance(o, dict) for _, o in self.stages
+        ):
+            raise ValueError(f"stages must be [fraction in [0, 1), overrides] pairs, got {self.stages!r}")
+        if ats != sorted(ats) or len(set(ats)) != len(ats):
+            raise ValueError(f"stages must start at increasing fractions, got {', '.join(map(str, ats))}")
+        if self.stages and self.stages[0][0] != 0.0:
+            raise ValueError(f"the first stage must start at 0 (training needs a stage from its start), got {ats[0]}")
         w = self.critic_warmup_iterations
         if isinstance(w, bool) or not isinstance(w, int) or w < 0:
             raise ValueError(f"critic_warmup_iterations must be an integer >= 0, got {w!r}")
@@ -370,31 +395,35 @@ class TeamEnvs:
         return torch.cat(outs, 0), torch.cat(nexts, 0)
 
 
-def make_env(config: BatchedPPOConfig) -> Any:
-    """The core's batch as a TorchRL environment; with ``config.teams`` a ``TeamEnvs``."""
+def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
+    """The core's batch as a TorchRL environment; with ``config.teams`` a ``TeamEnvs``;
+    ``stage`` k >= 0: the curriculum's stage k (its overrides on top of ``config.overrides``,
+    episode seeds from ``config.seed + k * n_envs``, so no stage replays another's)."""
     from coopnav_env.torchrl_env import CoopNavTorchEnv
 
     state = "privileged" if config.critic == "state" else "observations"
+    overrides = {**config.overrides, **(config.stages[stage][1] if stage >= 0 else {})}
+    base_seed = config.seed + max(stage, 0) * config.n_envs
 
-    def one(n_envs: int, seed: int, team: dict[str, Any]) -> Any:
+    def one(n_envs: int, first: int, team: dict[str, Any]) -> Any:  # first: the environments before it
         return CoopNavTorchEnv(
             config.scenario,
             n_envs=n_envs,
-            seed=seed,
+            seed=base_seed + first,
             infos=True,
             state=state,
             reward_terms=config.reward_terms,
-            **{**config.overrides, **team},
+            **{**overrides, **team},
         )
 
     if not config.teams:
-        return one(config.n_envs, config.seed, {})
+        return one(config.n_envs, 0, {})
     k = len(config.teams)
     counts = [config.n_envs // k + (i < config.n_envs % k) for i in range(k)]
     envs, first = [], 0
     for i, (team, n) in enumerate(zip(config.teams, counts)):
         try:
-            envs.append(one(n, config.seed + first, team))
+            envs.append(one(n, first, team))
         except (TypeError, ValueError) as err:
             raise ValueError(f"teams[{i}] {team}: {err}") from None
         first += n
@@ -424,7 +453,9 @@ def train(
 
     config.check()
     torch.manual_seed(config.seed)
-    env = make_env(config)
+    iterations = max(1, math.ceil(total_steps / (config.n_envs * config.n_steps)))
+    stage = config.stage_at(0, iterations)
+    env = make_env(config, stage)
     if threads is not None:
         torch.set_num_threads(threads)
     B, N, O, D = env.n_envs, env.n_beacons, env.obs_dim, env.action_dim
@@ -493,7 +524,6 @@ def train(
     team_rows = [slice(bounds[k], bounds[k + 1]) for k in range(len(sizes))]
     team_norms = [RunningNorm(()) for _ in sizes]
 
-    iterations = max(1, math.ceil(total_steps / (B * T)))
     bar = None
     if progress:
         from tqdm import tqdm
@@ -506,6 +536,16 @@ def train(
     first = torch.ones(B, dtype=torch.bool)  # rows whose next step is an episode's first
     steps = 0
     for it in range(iterations):
+        # ---- the curriculum's next stage: its environments, its episodes from their start --------
+        if config.stage_at(it, iterations) != stage:
+            stage = config.stage_at(it, iterations)
+            env = make_env(config, stage)
+            if (env.n_envs, env.n_beacons, env.obs_dim, env.action_dim, env.state_dim) != (B, N, O, D, S):
+                raise ValueError(f"stages[{stage}]: the environment's sizes differ from the first stage's")
+            td = env.reset()
+            window.zero_()
+            first = torch.ones(B, dtype=torch.bool)
+            ep_return.zero_(), ep_error.zero_(), ep_len.zero_(), ret_running.zero_()
         # ---- collection -------------------------------------------------------------
         t_collect = time.perf_counter()
         env_s = 0.0
@@ -625,6 +665,8 @@ def train(
             "clip_fraction": float(sum(clip_fractions) / len(clip_fractions)),
             "action_std": [float(s) for s in log_std.detach().exp()],
         }
+        if config.stages:
+            row["stage"] = stage
         if config.center_per_team:  # each team's mean step reward subtracted
             row["reward_center"] = [float(norm.mean) for norm in team_norms]
         elif config.center_reward:  # the mean step reward subtracted, in the reward's units
@@ -770,6 +812,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="--center-reward with one running mean per --team (a team whose steps pay less is not paid to end "
         "its episodes sooner)",
     )
+    p.add_argument(
+        "--stage",
+        action="append",
+        nargs="+",
+        default=[],
+        metavar="AT [KEY=VALUE",
+        help="a curriculum stage (repeatable): from the fraction AT of training, these scenario parameters on top "
+        "of --set until the next stage; the first at 0, a stage with none is --set itself, e.g. --stage 0 "
+        "current_speed_spread_mps=0 --stage 0.5",
+    )
     p.add_argument("--save-every-steps", type=int, default=5_000_000, help="also save the weights every N env-steps")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
@@ -784,6 +836,15 @@ def main(argv: Sequence[str] | None = None) -> int:
                 terms[key] = float(value)
             except (TypeError, ValueError):
                 raise ValueError(f"--reward-term {key}: the weight must be a number, got {value!r}") from None
+        stages = []
+        for item in args.stage:
+            try:
+                at = float(item[0])
+            except ValueError:
+                raise ValueError(
+                    f"--stage takes AT [KEY=VALUE ...], AT a fraction in [0, 1), got {item[0]!r}"
+                ) from None
+            stages.append((at, parse_assignments(item[1:], "--stage")))
         config = BatchedPPOConfig(
             scenario=args.scenario,
             n_envs=args.n_envs,
@@ -803,6 +864,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             center_per_team=args.center_reward_per_team,
             critic_warmup_iterations=args.critic_warmup,
             history=args.history,
+            stages=stages,
         )
         config.check()
         if args.timesteps < 1:
@@ -811,7 +873,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise ValueError(f"--save-every-steps must be >= 1, got {args.save_every_steps}")
         from coopnav_env.seeds import refuse_test_seeds
 
-        refuse_test_seeds(args.seed, config.n_envs, what="--seed")
+        refuse_test_seeds(args.seed, config.n_envs * max(1, len(config.stages)), what="--seed")
         out = None
         if args.out:
             out = Path(args.out)
@@ -820,9 +882,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         import torch
 
         torch.set_num_threads(args.threads)
-        probe = make_env(
-            BatchedPPOConfig(**{**asdict(config), "n_envs": max(1, len(config.teams))})
-        )  # bad scenario parameters fail here, fast
+        small = BatchedPPOConfig(**{**asdict(config), "n_envs": max(1, len(config.teams))})
+        probe = make_env(small)  # bad scenario parameters fail here, fast
+        for k in range(len(config.stages)):  # and each stage's
+            try:
+                staged = make_env(small, k)
+            except (TypeError, ValueError) as err:
+                raise ValueError(f"--stage {config.stages[k][0]}: {err}") from None
+            sizes = (staged.obs_dim, staged.action_dim, staged.state_dim)
+            if sizes != (probe.obs_dim, probe.action_dim, probe.state_dim):
+                raise ValueError(f"--stage {config.stages[k][0]}: the observation, action or state size changes")
         if config.init_from is not None:  # and a policy that does not fit
             load_sb3_actor(
                 config.init_from, config.scenario, config.net, probe.obs_dim, probe.action_dim, history=config.history
