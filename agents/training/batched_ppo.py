@@ -817,7 +817,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="append",
         nargs="+",
         default=[],
-        metavar="AT [KEY=VALUE",
+        metavar=("AT", "KEY=VALUE"),
         help="a curriculum stage (repeatable): from the fraction AT of training, these scenario parameters on top "
         "of --set until the next stage; the first at 0, a stage with none is --set itself, e.g. --stage 0 "
         "current_speed_spread_mps=0 --stage 0.5",
