@@ -319,9 +319,41 @@ def test_a_curriculum_trains_each_stage_on_its_own_scenario():
     assert "stage" not in plain["log"][0]
 
 
+@pytest.mark.parametrize("history", [1, 3])
+def test_validation_keeps_the_best_weights(tmp_path, history):
+    """With eval_every_steps the loop plays its validation episodes every so often and at the
+    end, logs the error, and keeps the best weights in <out>/best: a policy folder whose
+    recorded validation error is the lowest logged, and which evaluation.episodes gives
+    the same error on the same seeds (the validation is what the benchmark would measure)."""
+    from agents.training.batched_ppo import validate  # noqa: F401 - the public helper exists
+    from evaluation.episodes import run_episodes
+
+    out = tmp_path / "run"
+    out.mkdir()
+    config = BatchedPPOConfig(
+        scenario="gao_team", n_envs=4, n_steps=4, minibatch=16, overrides={"max_cycles": 6},
+        eval_every_steps=32, eval_episodes=3, eval_seed=123, history=history, learning_rate=0.05,
+    )  # fmt: skip
+    log = train(config, 80, out=out, progress=False)["log"]  # 5 iterations of 16 env-steps
+    validated = [(row["steps"], row["validation_error_m"]) for row in log if "validation_error_m" in row]
+    assert [s for s, _ in validated] == [32, 64, 80]  # every 32 env-steps, and the end
+    record = json.loads((out / "best" / "run.json").read_text())
+    best = min(e for _, e in validated)
+    assert record["validation_error_m"] == best and record["validation_seeds"] == [123, 125]
+    assert record["steps"] == next(s for s, e in validated if e == best)
+    from coopnav_env import make_config
+
+    scenario = make_config("gao_team", max_cycles=6)
+    rows, _ = run_episodes(scenario, str(out / "best"), [123, 124, 125])
+    assert np.mean([r["mean_error_m"] for r in rows]) == pytest.approx(best, rel=1e-5)
+    assert len({e for _, e in validated}) > 1  # the validations differ: the test tells one from another
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
+        (["--eval-every-steps", "100"], "it needs --out"),
+        (["--eval-every-steps", "100", "--eval-episodes", "0", "--out", "x"], "eval_episodes must be an integer >= 1"),
         (["--stage", "0.5", "max_cycles=3"], "the first stage must start at 0"),
         (["--stage", "0", "--stage", "half"], "--stage takes AT [KEY=VALUE ...]"),
         (["--stage", "0", "--stage", "0.6", "--stage", "0.3"], "increasing fractions, got 0.0, 0.6, 0.3"),

@@ -49,7 +49,11 @@ actor's weights and the observation statistics: data, not a pickle; written ever
 ``--save-every-steps`` and at the end), ``run.json`` (the settings, the scenario, the sizes, the
 steps) and ``log.jsonl`` (one line per iteration: steps, seconds, the mean episode return and
 survey error, the seconds in the simulator, the rest of collection and the update; with teams
-each team's survey error, with ``--center-reward`` the ρ subtracted).
+each team's survey error, with ``--center-reward`` the ρ subtracted, with ``--eval-every-steps``
+the validation error). With ``--eval-every-steps N``, ``best/`` holds the weights of the best
+validation so far (a run folder of its own: its ``run.json`` adds ``validation_error_m`` and
+the validation seeds), as ``train.py`` keeps its best model: a run's last weights are not
+always its best.
 ``agents.batched_policy`` loads it as a policy. Measured: ``docs/performance.md#loop-throughput``
 and ``docs/training/marl.md#levers-loop``.
 
@@ -115,6 +119,12 @@ class BatchedPPOConfig:
     # a curriculum: [at, overrides] pairs, `at` the fraction of the iterations from which the stage's
     # scenario parameters apply on top of `overrides` (until the next stage); empty: none
     stages: list[tuple[float, dict[str, Any]]] = field(default_factory=list)
+    # validation (with an output folder): every `eval_every_steps` env-steps (0: never) and at the
+    # end, the deterministic actor plays `eval_episodes` episodes seeded eval_seed + i on the
+    # scenario with `overrides` (no team, no stage); the best weights so far go to <out>/best
+    eval_every_steps: int = 0
+    eval_episodes: int = 16
+    eval_seed: int = 500_000  # coopnav_env.seeds.VALIDATION_SEED, as train.py's eval.seed
 
     def stage_at(self, it: int, iterations: int) -> int:
         """The index of the stage iteration ``it`` of ``iterations`` trains in (-1: before any)."""
@@ -148,6 +158,10 @@ class BatchedPPOConfig:
             raise ValueError(f"stages must start at increasing fractions, got {', '.join(map(str, ats))}")
         if self.stages and self.stages[0][0] != 0.0:
             raise ValueError(f"the first stage must start at 0 (training needs a stage from its start), got {ats[0]}")
+        for name in ("eval_every_steps", "eval_episodes", "eval_seed"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < (1 if name == "eval_episodes" else 0):
+                raise ValueError(f"{name} must be an integer >= {1 if name == 'eval_episodes' else 0}, got {v!r}")
         w = self.critic_warmup_iterations
         if isinstance(w, bool) or not isinstance(w, int) or w < 0:
             raise ValueError(f"critic_warmup_iterations must be an integer >= 0, got {w!r}")
@@ -430,6 +444,42 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
     return TeamEnvs(envs)
 
 
+def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig) -> float:
+    """The mean over ``config.eval_episodes`` episodes (seeded ``eval_seed + i``, the scenario
+    with ``config.overrides``) of each episode's mean survey error (m) under the actor's
+    deterministic action (the Gaussian's mean, as ``agents.batched_policy`` acts): what
+    ``evaluation.episodes.run_episodes`` gives the saved policy on those seeds."""
+    import torch
+
+    from coopnav_env.torchrl_env import GROUP, CoopNavTorchEnv
+
+    E, K = config.eval_episodes, config.history
+    env = CoopNavTorchEnv(config.scenario, n_envs=E, seed=config.eval_seed, infos=True, **config.overrides)
+    td = env.reset()
+    alive = torch.ones(E, dtype=torch.bool)
+    total = torch.zeros(E, dtype=torch.float64)
+    steps = torch.zeros(E, dtype=torch.float64)
+    window = torch.zeros(E, env.n_beacons, K, env.obs_dim)
+    first = torch.ones(E, dtype=torch.bool)
+    with torch.no_grad():
+        while alive.any():
+            obs = td.get((GROUP, "observation"))
+            if obs_norm is not None:
+                obs = obs_norm.normalize(obs)
+            if K > 1:
+                window = push_window(window, obs, first)
+                obs = window.flatten(-2)
+            td.set((GROUP, "action"), actor(obs).clamp(-1.0, 1.0))
+            td, td_next = env.step_and_maybe_reset(td)
+            nxt = td.get("next")
+            total += torch.where(alive, nxt.get(("info", "survey_error_m")).double(), 0.0)
+            steps += alive.double()
+            first = nxt.get("done").squeeze(-1).bool()
+            alive &= ~first
+            td = td_next
+    return float((total / steps).mean())
+
+
 def train(
     config: BatchedPPOConfig,
     total_steps: int,
@@ -535,6 +585,7 @@ def train(
     window = torch.zeros(B, N, K, O)  # the last K normalized observations per beacon (push_window)
     first = torch.ones(B, dtype=torch.bool)  # rows whose next step is an episode's first
     steps = 0
+    best_error: float | None = None  # the best validation error so far (eval_every_steps)
     for it in range(iterations):
         # ---- the curriculum's next stage: its environments, its episodes from their start --------
         if config.stage_at(it, iterations) != stage:
@@ -677,6 +728,18 @@ def train(
             ]
         finished_returns, finished_errors = [], []
         team_sum.zero_(), team_count.zero_()
+        every = config.eval_every_steps
+        if out is not None and every and (steps // every > (steps - M) // every or it + 1 == iterations):
+            row["validation_error_m"] = validate(actor, obs_norm if config.norm_obs else None, config)
+            if best_error is None or row["validation_error_m"] < best_error:
+                best_error = row["validation_error_m"]
+                extra = {
+                    "validation_error_m": best_error,
+                    "validation_seeds": [config.eval_seed, config.eval_seed + config.eval_episodes - 1],
+                }
+                save(out / "best", actor, log_std, config, steps, time.perf_counter() - start, O, D, obs_norm, extra)
+        if out is not None and steps // save_every_steps > (steps - M) // save_every_steps and it + 1 < iterations:
+            save(out, actor, log_std, config, steps, time.perf_counter() - start, O, D, obs_norm)
         log.append(row)
         if out is not None:
             with open(out / "log.jsonl", "a") as f:
@@ -685,8 +748,6 @@ def train(
             bar.update(M)
             if row["survey_error_m"] is not None:
                 bar.set_postfix(error_m=f"{row['survey_error_m']:.2f}")
-        if out is not None and steps // save_every_steps > (steps - M) // save_every_steps and it + 1 < iterations:
-            save(out, actor, log_std, config, steps, time.perf_counter() - start, O, D, obs_norm)
     if bar is not None:
         bar.close()
     seconds = time.perf_counter() - start
@@ -705,9 +766,10 @@ def save(
     obs_dim: int,
     action_dim: int,
     obs_norm: RunningNorm,
+    extra: dict | None = None,
 ) -> None:
     """``actor.safetensors`` and ``run.json`` in ``out`` (``agents.batched_policy`` reads
-    them), each written atomically."""
+    them), each written atomically; ``extra``: more fields of ``run.json``."""
     import torch
     from safetensors.torch import save as save_bytes
 
@@ -719,6 +781,7 @@ def save(
         tensors["obs_mean"] = obs_norm.mean.float().contiguous()
         tensors["obs_var"] = obs_norm.var.float().contiguous()
         tensors["obs_count"] = torch.tensor([float(obs_norm.count)], dtype=torch.float64)  # for --init-from
+    out.mkdir(exist_ok=True)
     atomic_write_bytes(out / "actor.safetensors", save_bytes(tensors))
     record = {
         "trainer": TRAINER,
@@ -727,6 +790,7 @@ def save(
         "action_dim": int(action_dim),
         "steps": steps,
         "seconds": round(seconds, 1),
+        **(extra or {}),
     }
     atomic_write_bytes(out / "run.json", (json.dumps(record, indent=1) + "\n").encode())
 
@@ -822,6 +886,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         "of --set until the next stage; the first at 0, a stage with none is --set itself, e.g. --stage 0 "
         "current_speed_spread_mps=0 --stage 0.5",
     )
+    p.add_argument(
+        "--eval-every-steps",
+        type=int,
+        default=defaults.eval_every_steps,
+        metavar="N",
+        help="with --out: every N env-steps and at the end, play --eval-episodes validation episodes with the "
+        "deterministic actor and keep the best weights in <out>/best (a policy folder; 0: never)",
+    )
+    p.add_argument("--eval-episodes", type=int, default=defaults.eval_episodes, help="validation episodes")
+    p.add_argument(
+        "--eval-seed", type=int, default=defaults.eval_seed, help="validation episode i is seeded EVAL_SEED + i"
+    )
     p.add_argument("--save-every-steps", type=int, default=5_000_000, help="also save the weights every N env-steps")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
@@ -865,8 +941,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             critic_warmup_iterations=args.critic_warmup,
             history=args.history,
             stages=stages,
+            eval_every_steps=args.eval_every_steps,
+            eval_episodes=args.eval_episodes,
+            eval_seed=args.eval_seed,
         )
         config.check()
+        if config.eval_every_steps and not args.out:
+            raise ValueError("--eval-every-steps keeps the best weights in <out>/best: it needs --out")
         if args.timesteps < 1:
             raise ValueError(f"--timesteps must be >= 1, got {args.timesteps}")
         if args.save_every_steps < 1:
@@ -874,6 +955,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         from coopnav_env.seeds import refuse_test_seeds
 
         refuse_test_seeds(args.seed, config.n_envs * max(1, len(config.stages)), what="--seed")
+        if config.eval_every_steps:
+            refuse_test_seeds(config.eval_seed, config.eval_episodes, what="--eval-seed")
         out = None
         if args.out:
             out = Path(args.out)
