@@ -75,16 +75,19 @@ TASK_KEYS = ("task_set", "scenario", "task", "tasks", "overrides", "reward_terms
 # 700000-700029 (docs/training/marl.md#levers-cells), 2 M env-steps of MAPPO: on gao_sea
 # the environment's reward left it 57 % above the best planner, SB3's terms at weight 1
 # 200 %, the same terms times 0.01 3.3 %; on gao_lawnmower 8.4 % against 1.1 %; on the
-# moving network the environment's reward diverged to NaN where log_error times 0.01 did not.
+# moving network the environment's reward diverged to NaN where log_error times 0.01 did not;
+# on sousa_grid, whose errors are near 1 m, weights 1, 0.05 and 0.01 gave the same within noise
+# (docs/training/marl.md#levers-scaled).
 REWARD_SCALE = 0.01
 # the scenarios whose error can run away (a lost vehicle): the bounded log error
 _BOUNDED_ERROR_SCENARIOS = frozenset({"matos_moving_lbl", "matos_river"})
 
 
 def default_reward_terms(scenario: str) -> dict[str, float]:
-    """The task configs' training reward for BenchMARL: the SB3 configs' signals
-    (``std`` and ``penalties``; ``log_error`` where the error can run away) times
-    :data:`REWARD_SCALE`."""
+    """The task configs' training reward for BenchMARL: the signals the shipped policies
+    train on (``std`` and ``penalties``, as the SB3 configs; on the moving networks
+    ``log_error`` and ``penalties``, as their batched-loop runs, since the error can run
+    away with a lost vehicle) times :data:`REWARD_SCALE`."""
     error = "log_error" if scenario in _BOUNDED_ERROR_SCENARIOS else "std"
     return {error: REWARD_SCALE, "penalties": REWARD_SCALE}
 
