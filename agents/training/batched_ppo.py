@@ -158,10 +158,10 @@ class BatchedPPOConfig:
             raise ValueError(f"stages must start at increasing fractions, got {', '.join(map(str, ats))}")
         if self.stages and self.stages[0][0] != 0.0:
             raise ValueError(f"the first stage must start at 0 (training needs a stage from its start), got {ats[0]}")
-        for name in ("eval_every_steps", "eval_episodes", "eval_seed"):
+        for name, least in (("eval_every_steps", 0), ("eval_episodes", 1), ("eval_seed", 0)):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < (1 if name == "eval_episodes" else 0):
-                raise ValueError(f"{name} must be an integer >= {1 if name == 'eval_episodes' else 0}, got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, int) or v < least:
+                raise ValueError(f"{name} must be an integer >= {least}, got {v!r}")
         w = self.critic_warmup_iterations
         if isinstance(w, bool) or not isinstance(w, int) or w < 0:
             raise ValueError(f"critic_warmup_iterations must be an integer >= 0, got {w!r}")
@@ -444,17 +444,20 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
     return TeamEnvs(envs)
 
 
-def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig) -> float:
+def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig, env: Any = None) -> float:
     """The mean over ``config.eval_episodes`` episodes (seeded ``eval_seed + i``, the scenario
     with ``config.overrides``) of each episode's mean survey error (m) under the actor's
     deterministic action (the Gaussian's mean, as ``agents.batched_policy`` acts): what
-    ``evaluation.episodes.run_episodes`` gives the saved policy on those seeds."""
+    ``evaluation.episodes.run_episodes`` gives the saved policy on those seeds. ``env``: an
+    environment of an earlier call to play again (re-seeded here), else a new one."""
     import torch
 
     from coopnav_env.torchrl_env import GROUP, CoopNavTorchEnv
 
     E, K = config.eval_episodes, config.history
-    env = CoopNavTorchEnv(config.scenario, n_envs=E, seed=config.eval_seed, infos=True, **config.overrides)
+    if env is None:
+        env = CoopNavTorchEnv(config.scenario, n_envs=E, seed=config.eval_seed, infos=True, **config.overrides)
+    env.set_seed(config.eval_seed)  # the same episodes at every call
     td = env.reset()
     alive = torch.ones(E, dtype=torch.bool)
     total = torch.zeros(E, dtype=torch.float64)
@@ -586,10 +589,11 @@ def train(
     first = torch.ones(B, dtype=torch.bool)  # rows whose next step is an episode's first
     steps = 0
     best_error: float | None = None  # the best validation error so far (eval_every_steps)
+    eval_env = None  # the validation episodes' environment, built at the first validation
     for it in range(iterations):
         # ---- the curriculum's next stage: its environments, its episodes from their start --------
-        if config.stage_at(it, iterations) != stage:
-            stage = config.stage_at(it, iterations)
+        if (now := config.stage_at(it, iterations)) != stage:
+            stage = now
             env = make_env(config, stage)
             if (env.n_envs, env.n_beacons, env.obs_dim, env.action_dim, env.state_dim) != (B, N, O, D, S):
                 raise ValueError(f"stages[{stage}]: the environment's sizes differ from the first stage's")
@@ -730,7 +734,13 @@ def train(
         team_sum.zero_(), team_count.zero_()
         every = config.eval_every_steps
         if out is not None and every and (steps // every > (steps - M) // every or it + 1 == iterations):
-            row["validation_error_m"] = validate(actor, obs_norm if config.norm_obs else None, config)
+            if eval_env is None:  # built once: each validation re-seeds it
+                from coopnav_env.torchrl_env import CoopNavTorchEnv
+
+                eval_env = CoopNavTorchEnv(
+                    config.scenario, n_envs=config.eval_episodes, seed=config.eval_seed, infos=True, **config.overrides
+                )
+            row["validation_error_m"] = validate(actor, obs_norm if config.norm_obs else None, config, eval_env)
             if best_error is None or row["validation_error_m"] < best_error:
                 best_error = row["validation_error_m"]
                 extra = {
