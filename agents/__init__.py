@@ -576,7 +576,7 @@ def make_policy(
     if benchmarl_policy.is_benchmarl_path(name_or_path):  # its own memory per beacon and episode
         return benchmarl_policy.make_policy(name_or_path, env_or_config, seed=seed, agent=agent)
     if batched_policy.is_batched_path(name_or_path):  # a fresh object per beacon and episode (its own window)
-        return batched_policy.load(name_or_path, env_or_config)
+        return batched_policy.make_policy(name_or_path, env_or_config, agent=agent)
     scenario = None
     if env_or_config is not None:
         from coopnav_env.scenarios import resolve_config

@@ -11,6 +11,12 @@ each row it is given, so it wants one object per beacon and episode (``agents.ma
 gives one), the same rows at each step, and ``reset()`` at an episode's start. Acting needs
 torch only (not torchrl). The network (``mlp``) is defined here and the trainer builds its
 actor from it, so loading a policy never imports the trainer.
+
+A run trained with ``--entity`` reads entity observations (``coopnav_env.entity_obs``)
+through ``entity_net``: ``agents.entity``'s permutation-invariant encoder, then the MLP. It
+loads as an ``agents.entity.EntityPolicy`` bound to a team and a beacon (its role input),
+so it drives any team the entity view reads (1-5 survey vehicles, 1-3 beacons), as the SB3
+entity policies do.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ RUN_RECORD = "run.json"
 WEIGHTS = "actor.safetensors"
 TRAINER = "batched_ppo"  # agents.training.batched_ppo.TRAINER
 
-__all__ = ["BatchedPPOPolicy", "is_batched_path", "load", "push_window"]
+__all__ = ["BatchedPPOPolicy", "entity_net", "is_batched_path", "load", "make_policy", "push_window"]
 
 
 def _record(directory: Path) -> dict | None:
@@ -90,6 +96,33 @@ def mlp(n_in: int, net: Sequence[int], n_out: int, out_gain: float) -> Any:
     return nn.Sequential(*layers, out).to(torch.float32)
 
 
+def entity_net(entity: dict, net: Sequence[int], n_out: int, out_gain: float, history: int = 1) -> Any:
+    """The entity encoder (``agents.entity.EntityEncoder(**entity)``) applied to each of the
+    ``history`` entity observations of a window (..., history x ENTITY_DIM), newest first,
+    and ``mlp`` on their features side by side (..., history x features): with ``history`` 1
+    SB3's ``EntityExtractor`` then ``mlp_extractor`` then the output layer, so an SB3 entity
+    policy's weights map onto it (``agents.training.batched_ppo.load_sb3_actor``). Modules
+    ``encoder`` and ``head``."""
+    from torch import nn
+
+    from coopnav_env.entity_obs import ENTITY_DIM
+
+    from .entity import EntityEncoder
+
+    class EntityNet(nn.Module):
+        def __init__(self) -> None:
+            super().__init__()
+            self.encoder = EntityEncoder(**entity)
+            self.head = mlp(self.encoder.features_dim * history, net, n_out, out_gain)
+
+        def forward(self, x: Any) -> Any:
+            lead = x.shape[:-1]
+            features = self.encoder(x.reshape(-1, ENTITY_DIM))  # every window slot of every row
+            return self.head(features.reshape(*lead, history * self.encoder.features_dim))
+
+    return EntityNet()
+
+
 def push_window(window: Any, obs: Any, first: Any) -> Any:
     """The window (..., K, O) of the last K observations, newest first, after ``obs``
     (..., O): shifted by one with ``obs`` in front; where ``first`` (the leading axis: an
@@ -129,11 +162,19 @@ class BatchedPPOPolicy(BatchPolicy):
             self.action_dim = int(record["action_dim"])
             net = [int(h) for h in record["config"]["net"]]
             self.history = int(record["config"].get("history", 1))  # runs before the option: 1
+            self.entity = record["config"].get("entity")  # None: flat observations
         except (KeyError, TypeError, ValueError, AttributeError):
             raise PolicyFormatError(f"{directory / RUN_RECORD} lacks obs_dim, action_dim or config.net") from None
         if self.history < 1:
             raise PolicyFormatError(f"{directory / RUN_RECORD}: config.history must be >= 1, got {self.history}")
-        self.actor = mlp(self.obs_dim * self.history, net, self.action_dim, 0.01)
+        if self.entity is not None:  # reads entity observations (bound to a team by EntityPolicy)
+            try:
+                self.actor = entity_net(dict(self.entity), net, self.action_dim, 0.01, self.history)
+            except (TypeError, ValueError) as err:
+                raise PolicyFormatError(f"{directory / RUN_RECORD}: config.entity {self.entity!r}: {err}") from None
+            self.config = None
+        else:
+            self.actor = mlp(self.obs_dim * self.history, net, self.action_dim, 0.01)
         weights = load_file(str(directory / WEIGHTS))
         state = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
         try:
@@ -149,6 +190,14 @@ class BatchedPPOPolicy(BatchPolicy):
             raise PolicyFormatError(f"{directory / WEIGHTS}: obs_mean has shape {tuple(self.obs_mean.shape)}")
 
         self._window: Any = None  # with history > 1: the last observations of each row (M, K, O)
+
+    def fork(self) -> BatchedPPOPolicy:
+        """The same network with a memory of its own (for another beacon or episode)."""
+        import copy
+
+        other = copy.copy(self)
+        other._window = None
+        return other
 
     def reset(self, seed: int | None = None) -> None:
         """Clear the memory (with ``history`` > 1 the next step is an episode's first: its
@@ -177,6 +226,10 @@ class BatchedPPOPolicy(BatchPolicy):
     def config_problem(self, config: Any) -> str | None:
         from coopnav_env.views import action_dim
 
+        if self.entity is not None:  # the entity form has one size for every team
+            from agents.entity import EntityPolicy
+
+            return EntityPolicy(self).config_problem(config)
         problem = super().config_problem(config)
         if problem is None and action_dim(config) != self.action_dim:
             return f"takes actions of size {self.action_dim}; scenario {config.name!r} has {action_dim(config)}"
@@ -184,13 +237,16 @@ class BatchedPPOPolicy(BatchPolicy):
 
     def __repr__(self) -> str:
         memory = f", history={self.history}" if self.history > 1 else ""
-        return f"BatchedPPOPolicy({self.name!r}, critic={self.record['config'].get('critic')}{memory})"
+        entity = f", entity={self.entity.get('encoder')}" if self.entity is not None else ""
+        return f"BatchedPPOPolicy({self.name!r}, critic={self.record['config'].get('critic')}{memory}{entity})"
 
 
-def load(path: str | Path, scenario: Any = None) -> BatchedPPOPolicy:
+def load(path: str | Path, scenario: Any = None, agent: int = 0) -> BatchPolicy:
     """The policy of the run at ``path``, bound to ``scenario`` (a name, a ScenarioConfig or
     an env; default: the scenario it trained on, with its parameters). One line
-    (``ValueError``) if it cannot drive it."""
+    (``ValueError``) if it cannot drive it. A run of entity observations is an
+    ``agents.entity.EntityPolicy`` for beacon ``agent`` of that team; any other run ignores
+    ``agent`` (the beacons share the network and its input has no role)."""
     from coopnav_env.scenarios import make_config, resolve_config
 
     directory = Path(str(path))
@@ -206,4 +262,14 @@ def load(path: str | Path, scenario: Any = None) -> BatchedPPOPolicy:
     problem = policy.config_problem(config)
     if problem:
         raise ValueError(f"{directory}: {problem}")
+    if policy.entity is not None:
+        from .entity import EntityPolicy
+
+        return EntityPolicy(policy, config, agent)
     return policy
+
+
+def make_policy(path: str | Path, scenario: Any = None, agent: int = 0) -> BatchPolicy:
+    """``agents.make_policy`` for a run folder: a fresh object (its own memory) for beacon
+    ``agent`` of ``scenario``."""
+    return load(path, scenario, agent)

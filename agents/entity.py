@@ -205,7 +205,9 @@ class EntityPolicy(BatchPolicy):
         self.name = name or base.name
         self.run_config = base.run_config
         self.agent = int(agent)
-        self.action_dim = int(base.model.action_space.shape[0])
+        # an SB3 network (agents.PPOPolicy) or a batched_ppo run's (agents.batched_policy)
+        dim = getattr(base, "action_dim", None)
+        self.action_dim = int(dim) if dim is not None else int(base.model.action_space.shape[0])
         self.config = None
         self.obs_dim = 0
         if config is not None:
@@ -234,11 +236,14 @@ class EntityPolicy(BatchPolicy):
         return None
 
     def for_config(self, config: Any, agent: int = 0) -> EntityPolicy:
-        """The same network bound to ``config`` and beacon ``agent``."""
-        return EntityPolicy(self.base, config, agent, self.name)
+        """The same network bound to ``config`` and beacon ``agent`` (a network with memory,
+        a batched_ppo run's window, gets a memory of its own)."""
+        fork = getattr(self.base, "fork", None)
+        return EntityPolicy(fork() if fork is not None else self.base, config, agent, self.name)
 
     def reset(self, seed: int | None = None) -> None:
-        """Stateless: nothing to clear."""
+        """Clears the network's memory, if it has one (SB3's networks have none)."""
+        self.base.reset(seed)
 
     def act_rows(self, obs: np.ndarray, agents: Any) -> np.ndarray:
         """Actions (M, action_dim) for flat observations (M, D) of the bound scenario, row i

@@ -17,7 +17,10 @@ second copy of the physics), as ``coopnav_env.vector.CoopNavVecEnv``.
 **Keys and shapes** (B = n_envs, N = beacons, S = survey vehicles):
 
 * ``("beacons", "observation")`` (B, N, obs_dim) float32 in [-10, 10]: each beacon's
-  observation (``core/observation.py``);
+  observation (``core/observation.py``); with ``observation="entities"`` its entity form
+  (``coopnav_env.entity_obs``: the beacon's own state and role, each survey vehicle and
+  each other beacon with its kind, padded to a fixed size), so that one entity policy reads
+  every team: (B, N, ENTITY_DIM), beacon j's row with role j;
 * ``("beacons", "action")`` (B, N, D) float32 in [-1, 1]: D = 2 (the motion, see the
   scenario's ``action_mode``), 3 with ``channel_mode="decide"`` (the third component > 0
   transmits this slot; a (B, N, 2) action is accepted there too and transmits every slot);
@@ -31,7 +34,8 @@ second copy of the physics), as ``coopnav_env.vector.CoopNavVecEnv``.
 * ``"state"`` (B, state_dim + N * obs_dim) float32 in [-10, 10], for centralized critics:
   **privileged** - the core's ``global_state()`` (true positions of every vehicle, the
   survey filters' estimates and error ellipses, the beacons' own navigation errors and
-  headings, the current, the episode's progress) followed by every beacon's observation.
+  headings, the current, the episode's progress) followed by every beacon's (flat)
+  observation.
   A critic is not used when acting, so it may read the truth; ``state="observations"``
   gives the beacons' observations alone (B, N * obs_dim);
 * ``"info"``: the VecEnv's infos per environment, as tensors: for every scalar info of
@@ -82,11 +86,12 @@ from .views import OBS_BOUND, action_dim
 if TYPE_CHECKING:
     from .scenarios import ScenarioConfig
 
-__all__ = ["GROUP", "SEED_STRIDE", "STATE_KINDS", "CoopNavTorchEnv"]
+__all__ = ["GROUP", "OBSERVATIONS", "SEED_STRIDE", "STATE_KINDS", "CoopNavTorchEnv"]
 
 GROUP = "beacons"  # the agent group: every beacon of a scenario, one shared policy by default
 SEED_STRIDE = TRAINING_SEED_STRIDE  # coopnav_env.vector.SEED_STRIDE: episode k of env e -> seed + e + k * stride
 STATE_KINDS = ("privileged", "observations")
+OBSERVATIONS = ("flat", "entities")  # the group's observation: core/observation.py's, or its entity form
 
 _TORCH_DTYPE = {"f": torch.float64, "i": torch.int64, "u": torch.int64, "b": torch.bool}
 _NUMPY_DTYPE = {"f": np.float64, "i": np.int64, "u": np.int64, "b": np.bool_}
@@ -114,7 +119,9 @@ class CoopNavTorchEnv(EnvBase):
     put; the core runs on the CPU), ``reward_terms`` (None: the environment's reward;
     ``{signal: weight}``: the training reward, ``coopnav_env.vector``'s),
     ``state`` ("privileged" or "observations", see the module docstring), ``infos``
-    (False: no ``"info"`` entries, a little faster), and any scenario parameter by keyword.
+    (False: no ``"info"`` entries, a little faster), ``observation`` ("flat" or "entities",
+    see the module docstring; a team the entity view cannot read is a ``ValueError``) and
+    any scenario parameter by keyword.
     """
 
     def __init__(
@@ -126,6 +133,7 @@ class CoopNavTorchEnv(EnvBase):
         reward_terms: Mapping[str, float] | None = None,
         state: str = "privileged",
         infos: bool = True,
+        observation: str = "flat",
         **overrides: Any,
     ) -> None:
         if "batch_size" in overrides:  # TorchRL's own name for it is not a scenario parameter
@@ -137,8 +145,14 @@ class CoopNavTorchEnv(EnvBase):
             raise ValueError(f"n_envs must be an int >= 1, got {n_envs!r}")
         if state not in STATE_KINDS:
             raise ValueError(f"state must be one of {', '.join(STATE_KINDS)}, got {state!r}")
+        if observation not in OBSERVATIONS:
+            raise ValueError(f"observation must be one of {', '.join(OBSERVATIONS)}, got {observation!r}")
         n_envs = int(n_envs)
         config = make_config(scenario, **overrides)
+        if observation == "entities":
+            from .entity_obs import check_team
+
+            check_team(config)
         reward_terms = check_training_terms(reward_terms)
         super().__init__(device=device, batch_size=torch.Size([n_envs]))
         self.config = config
@@ -147,7 +161,13 @@ class CoopNavTorchEnv(EnvBase):
         self.n_envs = n_envs
         self.n_beacons = self.sim.N
         self.n_survey = self.sim.S
-        self.obs_dim = self.sim.obs_dim
+        self.observation = observation
+        self.flat_obs_dim = self.sim.obs_dim  # core/observation.py's size (the state holds these)
+        self.obs_dim = self.flat_obs_dim  # the group's observation's size
+        if observation == "entities":
+            from .entity_obs import ENTITY_DIM
+
+            self.obs_dim = ENTITY_DIM
         self.action_dim = action_dim(self.sim)
         self.state_kind = state
         self.infos = bool(infos)
@@ -163,8 +183,8 @@ class CoopNavTorchEnv(EnvBase):
     # ------------------------------------------------------------------------------
     @property
     def state_dim(self) -> int:
-        """Length of ``"state"``: the core's state and every observation, or the observations."""
-        n_obs = self.n_beacons * self.obs_dim
+        """Length of ``"state"``: the core's state and every (flat) observation, or the observations."""
+        n_obs = self.n_beacons * self.flat_obs_dim
         return n_obs + (self.sim.state_dim if self.state_kind == "privileged" else 0)
 
     def _info_dtypes(self) -> tuple[dict, dict]:
@@ -291,9 +311,14 @@ class CoopNavTorchEnv(EnvBase):
     def _output(self, obs: np.ndarray, done, terminated, truncated) -> TensorDict:
         B, N = self.n_envs, self.n_beacons
         obs_t = torch.from_numpy(np.ascontiguousarray(obs, dtype=np.float32))
-        parts = [obs_t.reshape(B, N * self.obs_dim)]
+        parts = [obs_t.reshape(B, N * self.flat_obs_dim)]
         if self.state_kind == "privileged":
             parts.insert(0, torch.from_numpy(self.sim.global_state()))
+        if self.observation == "entities":  # beacon j reads its own row with role j
+            from .entity_obs import entity_observation
+
+            flat = np.asarray(obs, dtype=np.float64).reshape(B, N, self.flat_obs_dim)
+            obs_t = torch.from_numpy(entity_observation(flat, self.config, np.arange(N)))
         group = TensorDict({"observation": obs_t}, batch_size=(B, N), device=self.device)
         return TensorDict(
             {

@@ -507,3 +507,112 @@ def test_history_out_of_range_is_one_line(capsys):
     assert main(["--timesteps", "100", "--history", "0"]) == 2
     err = capsys.readouterr().err.strip()
     assert "history must be an integer in 1..64, got 0" in err and "\n" not in err
+
+
+def _entity_rows(config, n=48, seed=2):
+    """Entity observations of ``config``'s team from a short episode of the planner-free
+    environment (every beacon's row), so the comparison below is on real inputs."""
+    from coopnav_env.torchrl_env import GROUP, CoopNavTorchEnv
+
+    env = CoopNavTorchEnv(config, n_envs=n // config.n_beacons, seed=seed, observation="entities", infos=False)
+    gen = torch.Generator().manual_seed(seed)
+
+    def policy(td):
+        td.set((GROUP, "action"), torch.rand(td.get((GROUP, "observation")).shape[:-1] + (2,), generator=gen) * 2 - 1)
+        return td
+
+    obs = env.rollout(6, policy, break_when_any_done=False).get(("next", GROUP, "observation"))
+    return obs[:, -1].reshape(-1, obs.shape[-1]).numpy(), np.tile(np.arange(config.n_beacons), obs.shape[0])
+
+
+@pytest.mark.parametrize("history", [1, 3])
+def test_an_entity_run_starts_where_the_sb3_entity_policy_stands(tmp_path, history):
+    """--entity --init-from ppo_gao_sea: SB3's attention encoder and MLP become the loop's actor
+    (entity_net), so after two iterations that train only the critic the saved run acts as the
+    shipped policy on every team it drives (the trial's, two beacons with two survey vehicles),
+    beacon by beacon (each its role), with a window of 3 too (the older observations' weights
+    start at zero)."""
+    from coopnav_env import make_config
+
+    out = tmp_path / "run"
+    out.mkdir()
+    config = BatchedPPOConfig(
+        scenario="gao_sea", n_envs=8, n_steps=4, minibatch=16, seed=3, init_from="ppo_gao_sea",
+        critic_warmup_iterations=2, critic="observation", entity={"encoder": "attention", "embed_dim": 64, "heads": 4},
+        history=history, teams=[{}, {"n_survey": 2}],
+    )  # fmt: skip
+    result = train(config, 2 * 8 * 4, out=out, progress=False)
+    assert all(r["clip_fraction"] == 0.0 for r in result["log"])  # the actor held
+    for team in ({}, {"beacon_kinds": ["beacon_auv", "beacon_auv"], "n_survey": 2}):
+        scenario = make_config("gao_sea", **team)
+        obs, roles = _entity_rows(scenario)
+        shipped = agents.load("ppo_gao_sea", scenario=scenario).base.act_batch(obs)
+        loop = agents.make_policy(str(out), scenario, agent=scenario.n_beacons - 1).base  # the run's network
+        assert np.abs(shipped).max() > 0.1 and len(set(roles)) == scenario.n_beacons
+        np.testing.assert_allclose(loop.act_batch(obs), shipped, atol=1e-5)
+
+
+def test_an_entity_run_is_an_entity_policy_for_every_team(tmp_path):
+    """A run of entity observations loads as an EntityPolicy: it drives teams of other sizes
+    than its own (the benchmark's team tasks), beacon j reads its row with role j, and a
+    window is each beacon's own (make_policy gives each a memory)."""
+    from agents.entity import EntityPolicy
+    from coopnav_env import make_config
+    from coopnav_env.obs_layout import obs_dim
+    from evaluation.episodes import run_episodes
+
+    out = tmp_path / "run"
+    out.mkdir()
+    config = BatchedPPOConfig(
+        scenario="gao_sea", n_envs=4, n_steps=4, minibatch=16, history=2, critic="observation",
+        entity={"encoder": "attention", "embed_dim": 16, "heads": 2}, net=(16,),
+    )  # fmt: skip
+    train(config, 16, out=out, progress=False)
+    for team in ({}, {"n_survey": 3}, {"beacon_kinds": ["beacon_auv", "asv"], "n_survey": 2}):
+        scenario = make_config("gao_sea", max_cycles=4, **team)
+        policies = [agents.make_policy(str(out), scenario, agent=j) for j in range(scenario.n_beacons)]
+        assert all(isinstance(p, EntityPolicy) and p.agent == j for j, p in enumerate(policies))
+        if len(policies) > 1:
+            assert policies[0].base is not policies[1].base  # a window each
+        rows, _ = run_episodes(scenario, str(out), [11, 12])
+        assert all(np.isfinite(r["mean_error_m"]) for r in rows)
+        a = policies[0].act_batch(np.zeros((2, obs_dim(scenario))))
+        assert a.shape == (2, 2)
+    with pytest.raises(ValueError, match="entity view does not read"):
+        agents.load(str(out), scenario="matos_moving_lbl")
+
+
+def test_entity_validation_is_what_the_benchmark_measures(tmp_path):
+    """The validation of an entity run equals evaluation.episodes on its best folder."""
+    from coopnav_env import make_config
+    from evaluation.episodes import run_episodes
+
+    out = tmp_path / "run"
+    out.mkdir()
+    config = BatchedPPOConfig(
+        scenario="gao_sea", n_envs=4, n_steps=4, minibatch=16, overrides={"max_cycles": 6}, critic="state",
+        eval_every_steps=16, eval_episodes=3, eval_seed=321, learning_rate=0.05,
+        entity={"encoder": "deepsets", "embed_dim": 16, "heads": 1}, net=(16,),
+    )  # fmt: skip
+    log = train(config, 32, out=out, progress=False)["log"]
+    best = min(row["validation_error_m"] for row in log)
+    rows, _ = run_episodes(make_config("gao_sea", max_cycles=6), str(out / "best"), [321, 322, 323])
+    assert np.mean([r["mean_error_m"] for r in rows]) == pytest.approx(best, rel=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--scenario", "gao_sea", "--init-from", "ppo_gao_sea"], "an entity policy (EntityExtractor): add --entity"),
+        (["--scenario", "gao_team", "--entity", "--init-from", "ppo_gao_team"], "--entity needs an entity policy"),
+        (["--scenario", "matos_moving_lbl", "--entity"], "entity view does not read"),
+        (
+            ["--scenario", "gao_sea", "--entity", "--team", "{}", "--team", "{beacon_kinds: [beacon_auv, beacon_auv]}"],
+            "one team makeup only",
+        ),
+    ],
+)
+def test_entity_inputs_that_do_not_fit_are_one_line(argv, message, capsys):
+    assert main(["--timesteps", "100", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err

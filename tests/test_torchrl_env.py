@@ -216,3 +216,43 @@ def test_importing_coopnav_env_does_not_import_torch():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["False", "False", "False"]  # nor do the other views import torchrl
+
+
+def _replay(actions):
+    """A rollout policy that plays ``actions`` (steps first) in order."""
+    step = iter(actions)
+
+    def policy(td):
+        td.set(ACT, next(step))
+        return td
+
+    return policy
+
+
+@pytest.mark.parametrize("team", [{}, TWO_BY_TWO])
+def test_the_entity_observation_is_the_entity_form_of_the_flat_one(team):
+    """observation="entities": TorchRL's spec check passes, and each step's group observation
+    is entity_obs.entity_observation of the flat observation of the same seeds and actions
+    (beacon j with role j), bit for bit; the state and rewards are the flat env's."""
+    from coopnav_env.entity_obs import ENTITY_DIM, entity_observation
+
+    entity = CoopNavTorchEnv("gao_sea", n_envs=3, seed=5, max_cycles=4, observation="entities", **team)
+    flat = CoopNavTorchEnv("gao_sea", n_envs=3, seed=5, max_cycles=4, **team)
+    check_env_specs(entity, seed=0)
+    N = flat.n_beacons
+    actions = torch.linspace(-0.9, 0.9, 6 * 3 * N * 2).reshape(6, 3, N, 2)
+    rollouts = []
+    for env in (entity, flat):
+        env.set_seed(5)
+        rollouts.append(env.rollout(6, _replay(actions), break_when_any_done=False))
+    e, f = rollouts
+    assert e[("next", *OBS)].shape == (3, 6, N, ENTITY_DIM) and entity.obs_dim == ENTITY_DIM
+    want = entity_observation(f[("next", *OBS)].double().numpy(), flat.config, np.arange(N))
+    np.testing.assert_array_equal(e[("next", *OBS)].numpy(), want)
+    assert np.unique(e[("next", *OBS)][..., 10:13].argmax(-1)).tolist() == list(range(N))  # the role one-hot
+    torch.testing.assert_close(e["next", "state"], f["next", "state"], rtol=0, atol=0)
+    torch.testing.assert_close(e[("next", *REW)], f[("next", *REW)], rtol=0, atol=0)
+    with pytest.raises(ValueError, match="entity view does not read"):
+        CoopNavTorchEnv("matos_moving_lbl", observation="entities")
+    with pytest.raises(ValueError, match="observation must be one of flat, entities"):
+        CoopNavTorchEnv("gao_sea", observation="entity")

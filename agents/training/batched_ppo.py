@@ -30,6 +30,13 @@ computed below:
 * the clipped surrogate (P3), the value loss (P4), the entropy bonus, gradient clipping;
 * observations and state scaled by their running mean and variance, the reward by a running
   standard deviation of the discounted return (as SB3's ``VecNormalize``; ``RunningNorm``);
+* with ``--entity``, the entity observation (``coopnav_env.entity_obs``: the beacon's own
+  state and role, each survey vehicle and each other beacon with its kind) through
+  ``agents.entity``'s permutation-invariant encoder, then the MLP (``entity_net``; IPPO's
+  critic the same network with one output), so ``--team`` may mix teams of other sizes
+  (survey vehicles; the number of beacons stays the scenario's) and ``--init-from`` may
+  name an SB3 entity policy (``ppo_gao_sea``); the entity features are scaled already (as
+  SB3's entity policies train them), only the state is normalized;
 * with ``--history K``, memory as a window: the actor (and IPPO's critic) sees its beacon's
   last K observations, newest first, each scaled as above (``push_window``: an episode's first
   step fills the window with its own observation); started from a policy, the older
@@ -72,9 +79,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from agents.batched_policy import WEIGHTS, is_batched_path, mlp, push_window
+from agents.batched_policy import WEIGHTS, entity_net, is_batched_path, mlp, push_window
 
 CRITICS = ("state", "observation")
+ENTITY = {"encoder": "attention", "embed_dim": 64, "heads": 4}  # --entity: the SB3 entity policies' encoder
 MAX_HISTORY = 64  # observations in the window at most (the rollout buffer grows with it)
 TRAINER = "batched_ppo"  # run.json's "trainer" (agents.batched_policy.is_batched_path)
 
@@ -125,6 +133,8 @@ class BatchedPPOConfig:
     eval_every_steps: int = 0
     eval_episodes: int = 16
     eval_seed: int = 500_000  # coopnav_env.seeds.VALIDATION_SEED, as train.py's eval.seed
+    # entity observations through agents.entity.EntityEncoder(**entity) (None: the flat observation)
+    entity: dict[str, Any] | None = None
 
     def stage_at(self, it: int, iterations: int) -> int:
         """The index of the stage iteration ``it`` of ``iterations`` trains in (-1: before any)."""
@@ -162,6 +172,12 @@ class BatchedPPOConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < least:
                 raise ValueError(f"{name} must be an integer >= {least}, got {v!r}")
+        if self.entity is not None:
+            from agents.entity import check_encoder_kwargs
+
+            if not isinstance(self.entity, dict) or set(self.entity) - set(ENTITY):
+                raise ValueError(f"entity must be a mapping of {', '.join(ENTITY)}, got {self.entity!r}")
+            check_encoder_kwargs(**self.entity)
         w = self.critic_warmup_iterations
         if isinstance(w, bool) or not isinstance(w, int) or w < 0:
             raise ValueError(f"critic_warmup_iterations must be an integer >= 0, got {w!r}")
@@ -185,6 +201,7 @@ def load_sb3_actor(
     action_dim: int,
     reward_terms: dict[str, float] | None = None,
     history: int = 1,
+    entity: dict[str, Any] | None = None,
 ) -> dict:
     """The actor of a train.py run, a run of this loop or a shipped policy (``agents.resolve``:
     a name such as ``ppo_gao_team``, ``ppo`` for the scenario's, or a run folder) as this
@@ -197,9 +214,12 @@ def load_sb3_actor(
     when the run trains on the reward that policy was trained on (``reward_terms`` against its
     config.yml's ``reward``; None and {} both the environment's): another reward has another
     scale. With ``history`` > 1 the first layer is widened to the window with zeros
-    (``widen_to_history``): the actor starts as the policy was. A loop run's actor is read
-    from its folder (``_load_loop_actor``). A ``ValueError`` (one line) names what does not
-    fit."""
+    (``widen_to_history``): the actor starts as the policy was. With ``entity`` (the run's
+    encoder settings) the policy must be an SB3 entity policy with that encoder: its
+    ``pi_features_extractor`` becomes ``entity_net``'s ``encoder``, its MLP the ``head``
+    (``{"actor": state_dict of entity_net(...)}``; no observation statistics, since the
+    entity features are not normalized). A loop run's actor is read from its folder
+    (``_load_loop_actor``). A ``ValueError`` (one line) names what does not fit."""
     import torch
 
     from agents import resolve
@@ -207,7 +227,7 @@ def load_sb3_actor(
 
     model, stats, config_file = resolve(source, scenario)
     if Path(str(model)).name == WEIGHTS and is_batched_path(Path(str(model)).parent):
-        return _load_loop_actor(source, Path(str(model)).parent, net, obs_dim, action_dim, history)
+        return _load_loop_actor(source, Path(str(model)).parent, net, obs_dim, action_dim, history, entity)
     if Path(str(model)).suffix != ".safetensors":
         raise ValueError(f"--init-from {source}: {model} is not an SB3 model file (a flat MlpPolicy run or policy)")
     spec, state, _ = read_model(model)
@@ -217,32 +237,57 @@ def load_sb3_actor(
             f"--init-from {source}: {spec.get('policy')} with {kwargs.get('activation_fn')}; "
             "only SB3's MlpPolicy with tanh maps onto this loop's actor"
         )
+    extractor = kwargs.get("features_extractor_class")
+    if (extractor == "EntityExtractor") != (entity is not None):
+        raise ValueError(
+            f"--init-from {source}: an entity policy (EntityExtractor): add --entity"
+            if extractor == "EntityExtractor"
+            else f"--init-from {source}: a flat policy ({extractor or 'no features extractor'}); --entity needs an "
+            "entity policy (ppo_gao_sea, ppo_gao_lawnmower, ...)"
+        )
+    if entity is not None:
+        from agents.entity import check_encoder_kwargs
+
+        fe_kwargs = dict(kwargs.get("features_extractor_kwargs") or {})
+        check_encoder_kwargs(**fe_kwargs)  # its layout is this code's entity view
+        own = {k: v for k, v in fe_kwargs.items() if k != "layout"}
+        if {**ENTITY, **own} != entity:
+            raise ValueError(f"--init-from {source}: its encoder is {own}, the run's {entity}")
     widths = [int(state[f"mlp_extractor.policy_net.{2 * i}.weight"].shape[0]) for i in range(len(net))]
     if tuple(widths) != tuple(net) or f"mlp_extractor.policy_net.{2 * len(net)}.weight" in state:
         arch = kwargs.get("net_arch")
         raise ValueError(f"--init-from {source}: its actor is {arch}, the loop's --net {','.join(map(str, net))}")
     n_in = int(state["mlp_extractor.policy_net.0.weight"].shape[1])
+    if entity is not None:  # the MLP reads the encoder's features; the policy reads entity observations
+        n_in = int((spec.get("observation_space") or {}).get("shape", [-1])[0])
     n_out = int(state["action_net.weight"].shape[0])
     if (n_in, n_out) != (obs_dim, action_dim):
         raise ValueError(
             f"--init-from {source}: observations {n_in} and actions {n_out}, the environment's {obs_dim} and "
             f"{action_dim} (a policy of another scenario or observation?)"
         )
+    head = "head." if entity is not None else ""  # entity_net's MLP is its module "head"
     actor = {}
     for i in range(len(net)):
         for part in ("weight", "bias"):
-            actor[f"{2 * i}.{part}"] = state[f"mlp_extractor.policy_net.{2 * i}.{part}"]
+            actor[f"{head}{2 * i}.{part}"] = state[f"mlp_extractor.policy_net.{2 * i}.{part}"]
     for part in ("weight", "bias"):
-        actor[f"{2 * len(net)}.{part}"] = state[f"action_net.{part}"]
-    actor["0.weight"] = widen_to_history(actor["0.weight"], history)
+        actor[f"{head}{2 * len(net)}.{part}"] = state[f"action_net.{part}"]
+    actor[f"{head}0.weight"] = widen_to_history(actor[f"{head}0.weight"], history)
+    if entity is not None:  # SB3 shares one extractor between actor and critic; the actor's copy
+        prefix = next(
+            p for p in ("pi_features_extractor.net.", "features_extractor.net.") if any(k.startswith(p) for k in state)
+        )
+        actor.update({"encoder." + k[len(prefix) :]: v for k, v in state.items() if k.startswith(prefix)})
     out: dict[str, Any] = {"actor": actor, "log_std": state["log_std"]}
     if stats is not None:
         vn = read_vecnormalize(stats)
-        out.update(
-            obs_mean=torch.as_tensor(vn["obs_mean"], dtype=torch.float64),
-            obs_var=torch.as_tensor(vn["obs_var"], dtype=torch.float64),
-            obs_count=vn["obs_count"],
-        )
+        if entity is None:
+            out.update(
+                obs_mean=torch.as_tensor(vn["obs_mean"], dtype=torch.float64),
+                obs_var=torch.as_tensor(vn["obs_var"], dtype=torch.float64),
+                obs_count=vn["obs_count"],
+            )
         trained_on = None
         if config_file is not None and Path(config_file).is_file():
             hyper = (safe_yaml(config_file) or {}).get("hyperparameters") or {}
@@ -270,7 +315,13 @@ def widen_to_history(weight: Any, history: int) -> Any:
 
 
 def _load_loop_actor(
-    source: str, directory: Path, net: Sequence[int], obs_dim: int, action_dim: int, history: int
+    source: str,
+    directory: Path,
+    net: Sequence[int],
+    obs_dim: int,
+    action_dim: int,
+    history: int,
+    entity: dict[str, Any] | None = None,
 ) -> dict:
     """``load_sb3_actor``'s tensors from a run of this loop (``actor.safetensors``,
     ``run.json``): its actor (widened to ``history`` if its own window is 1), log std and
@@ -292,6 +343,8 @@ def _load_loop_actor(
             f"--init-from {source}: observations {record.get('obs_dim')} and actions {record.get('action_dim')}, "
             f"the environment's {obs_dim} and {action_dim} (a policy of another scenario or observation?)"
         )
+    if run.get("entity") != entity:
+        raise ValueError(f"--init-from {source}: its entity encoder is {run.get('entity')}, the run's {entity}")
     own_history = int(run.get("history", 1))
     if own_history not in (1, history):
         raise ValueError(
@@ -299,7 +352,8 @@ def _load_loop_actor(
         )
     weights = load_file(str(directory / WEIGHTS))
     actor = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
-    actor["0.weight"] = widen_to_history(actor["0.weight"], history // own_history)
+    first = "head.0.weight" if entity is not None else "0.weight"
+    actor[first] = widen_to_history(actor[first], history // own_history)
     out: dict[str, Any] = {"actor": actor, "log_std": weights["log_std"]}
     if "obs_mean" in weights:
         out.update(
@@ -375,27 +429,37 @@ class TeamEnvs:
     teams one more where they do not divide), team t's environments seeded from ``seed`` +
     the number of environments before it, so no two share an episode seed. The loop sees one
     batch: ``reset`` and ``step_and_maybe_reset`` concatenate the teams' TensorDicts along
-    the batch. The teams must agree on the observation, state and action sizes."""
+    the batch, keeping only what the loop reads (the observations, rewards, flags, the
+    survey error and, with ``state``, the state; so teams with other infos, e.g. another
+    number of survey vehicles under entity observations, fit). The teams must agree on the
+    number of beacons and the observation and action sizes, and with ``state`` on the state's."""
 
-    def __init__(self, envs: Sequence[Any]) -> None:
-        def sizes(e: Any) -> tuple[int, int, int, int]:
-            return e.n_beacons, e.obs_dim, e.action_dim, e.state_dim
+    def __init__(self, envs: Sequence[Any], state: bool = True) -> None:
+        from coopnav_env.torchrl_env import GROUP
 
+        def sizes(e: Any) -> tuple[int, ...]:
+            return (e.n_beacons, e.obs_dim, e.action_dim) + ((e.state_dim,) if state else ())
+
+        what = "beacons, observation, action" + (" and state sizes" if state else " sizes")
         for i, e in enumerate(envs):
             if sizes(e) != sizes(envs[0]):
                 raise ValueError(
-                    f"teams[{i}]: beacons, observation, action and state sizes {sizes(e)}, the first team's "
-                    f"{sizes(envs[0])}: one team makeup only"
+                    f"teams[{i}]: {what} {sizes(e)}, the first team's {sizes(envs[0])}: one team makeup only"
                 )
         self.envs = list(envs)
         self.sizes = [e.n_envs for e in envs]
         self.n_envs = sum(self.sizes)
-        self.n_beacons, self.obs_dim, self.action_dim, self.state_dim = sizes(envs[0])
+        first = envs[0]
+        self.n_beacons, self.obs_dim, self.action_dim = first.n_beacons, first.obs_dim, first.action_dim
+        self.state_dim = first.state_dim if state else 0
+        root = [(GROUP, "observation"), "done", "terminated", "truncated", *(["state"] if state else [])]
+        self._root = root
+        self._step = [(GROUP, "action"), *[("next", k) for k in [*root, (GROUP, "reward"), ("info", "survey_error_m")]]]
 
     def reset(self) -> Any:
         import torch
 
-        return torch.cat([e.reset() for e in self.envs], 0)
+        return torch.cat([e.reset().select(*self._root) for e in self.envs], 0)
 
     def step_and_maybe_reset(self, td: Any) -> tuple[Any, Any]:
         import torch
@@ -403,8 +467,8 @@ class TeamEnvs:
         outs, nexts, lo = [], [], 0
         for e, n in zip(self.envs, self.sizes):
             out, nxt = e.step_and_maybe_reset(td[lo : lo + n])
-            outs.append(out)
-            nexts.append(nxt)
+            outs.append(out.select(*self._step))
+            nexts.append(nxt.select(*self._root))
             lo += n
         return torch.cat(outs, 0), torch.cat(nexts, 0)
 
@@ -427,6 +491,7 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
             infos=True,
             state=state,
             reward_terms=config.reward_terms,
+            observation="flat" if config.entity is None else "entities",
             **{**overrides, **team},
         )
 
@@ -441,7 +506,22 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
         except (TypeError, ValueError) as err:
             raise ValueError(f"teams[{i}] {team}: {err}") from None
         first += n
-    return TeamEnvs(envs)
+    return TeamEnvs(envs, state=config.critic == "state")
+
+
+def validation_env(config: BatchedPPOConfig) -> Any:
+    """The environment ``validate`` plays its episodes in."""
+    from coopnav_env.torchrl_env import CoopNavTorchEnv
+
+    observation = "flat" if config.entity is None else "entities"
+    return CoopNavTorchEnv(
+        config.scenario,
+        n_envs=config.eval_episodes,
+        seed=config.eval_seed,
+        infos=True,
+        observation=observation,
+        **config.overrides,
+    )
 
 
 def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig, env: Any = None) -> float:
@@ -452,11 +532,11 @@ def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig,
     environment of an earlier call to play again (re-seeded here), else a new one."""
     import torch
 
-    from coopnav_env.torchrl_env import GROUP, CoopNavTorchEnv
+    from coopnav_env.torchrl_env import GROUP
 
     E, K = config.eval_episodes, config.history
     if env is None:
-        env = CoopNavTorchEnv(config.scenario, n_envs=E, seed=config.eval_seed, infos=True, **config.overrides)
+        env = validation_env(config)
     env.set_seed(config.eval_seed)  # the same episodes at every call
     td = env.reset()
     alive = torch.ones(E, dtype=torch.bool)
@@ -512,19 +592,24 @@ def train(
     if threads is not None:
         torch.set_num_threads(threads)
     B, N, O, D = env.n_envs, env.n_beacons, env.obs_dim, env.action_dim
-    S = env.state_dim
+    S = env.state_dim if config.critic == "state" else 0  # IPPO's critic reads no state
     T = config.n_steps
     K = config.history
     OK = O * K  # the actor's input: the window of its beacon's last K observations, newest first
-    actor = mlp(OK, config.net, D, 0.01)
+    entity = config.entity
+    norm_actor_obs = config.norm_obs and entity is None  # entity features come scaled
+    actor = mlp(OK, config.net, D, 0.01) if entity is None else entity_net(entity, config.net, D, 0.01, K)
     log_std = nn.Parameter(torch.full((D,), float(config.log_std_init)))
     init = None
     if config.init_from is not None:  # the loop starts where that policy stands; the critic is new
-        init = load_sb3_actor(config.init_from, config.scenario, config.net, O, D, config.reward_terms, K)
+        init = load_sb3_actor(config.init_from, config.scenario, config.net, O, D, config.reward_terms, K, entity)
         actor.load_state_dict({k: v.float() for k, v in init["actor"].items()})
         with torch.no_grad():
             log_std.copy_(init["log_std"].float())
-    critic = mlp(S, config.net, N, 1.0) if config.critic == "state" else mlp(OK, config.net, 1, 1.0)
+    if config.critic == "state":
+        critic = mlp(S, config.net, N, 1.0)
+    else:
+        critic = mlp(OK, config.net, 1, 1.0) if entity is None else entity_net(entity, config.net, 1, 1.0, K)
     params = [*actor.parameters(), log_std, *critic.parameters()]
     optimizer = torch.optim.Adam(params, lr=config.learning_rate, eps=1e-5)
 
@@ -546,20 +631,25 @@ def train(
     ret_norm = RunningNorm(())
     step_norm = RunningNorm(())  # the step reward's running mean, for center_reward
     obs_norm, state_norm = RunningNorm((O,)), RunningNorm((S,))
+    norms = obs_norm if norm_actor_obs else None  # what a saved policy scales its observations with
     if init is not None and "obs_mean" in init:  # its VecNormalize's statistics, as they were
         obs_norm.mean, obs_norm.var, obs_norm.count = init["obs_mean"], init["obs_var"], init["obs_count"]
     if init is not None and "ret_var" in init:  # the same reward: its return's scale too
         ret_norm.var, ret_norm.count = init["ret_var"], init["ret_count"]
 
     def observe(td: Any, update: bool = False) -> tuple[Any, Any]:
-        """The (normalized) observations (B, N, O) and state (B, S) in ``td``."""
-        obs, state = td.get((GROUP, "observation")), td.get("state")
-        if not config.norm_obs:
-            return obs, state
-        if update:
+        """The (normalized) observations (B, N, O) and state (B, S) in ``td`` (S = 0: none)."""
+        obs = td.get((GROUP, "observation"))
+        state = td.get("state") if S else obs.new_zeros(obs.shape[0], 0)
+        if update and norm_actor_obs:
             obs_norm.update(obs)
+        if update and config.norm_obs and S:
             state_norm.update(state)
-        return obs_norm.normalize(obs), state_norm.normalize(state)
+        if norm_actor_obs:
+            obs = obs_norm.normalize(obs)
+        if config.norm_obs and S:
+            state = state_norm.normalize(state)
+        return obs, state
 
     ep_return = torch.zeros(B)
     ep_error = torch.zeros(B, dtype=torch.float64)
@@ -595,7 +685,7 @@ def train(
         if (now := config.stage_at(it, iterations)) != stage:
             stage = now
             env = make_env(config, stage)
-            if (env.n_envs, env.n_beacons, env.obs_dim, env.action_dim, env.state_dim) != (B, N, O, D, S):
+            if (env.n_envs, env.n_beacons, env.obs_dim, env.action_dim) != (B, N, O, D) or (S and env.state_dim != S):
                 raise ValueError(f"stages[{stage}]: the environment's sizes differ from the first stage's")
             td = env.reset()
             window.zero_()
@@ -735,21 +825,17 @@ def train(
         every = config.eval_every_steps
         if out is not None and every and (steps // every > (steps - M) // every or it + 1 == iterations):
             if eval_env is None:  # built once: each validation re-seeds it
-                from coopnav_env.torchrl_env import CoopNavTorchEnv
-
-                eval_env = CoopNavTorchEnv(
-                    config.scenario, n_envs=config.eval_episodes, seed=config.eval_seed, infos=True, **config.overrides
-                )
-            row["validation_error_m"] = validate(actor, obs_norm if config.norm_obs else None, config, eval_env)
+                eval_env = validation_env(config)
+            row["validation_error_m"] = validate(actor, obs_norm if norm_actor_obs else None, config, eval_env)
             if best_error is None or row["validation_error_m"] < best_error:
                 best_error = row["validation_error_m"]
                 extra = {
                     "validation_error_m": best_error,
                     "validation_seeds": [config.eval_seed, config.eval_seed + config.eval_episodes - 1],
                 }
-                save(out / "best", actor, log_std, config, steps, time.perf_counter() - start, O, D, obs_norm, extra)
+                save(out / "best", actor, log_std, config, steps, time.perf_counter() - start, O, D, norms, extra)
         if out is not None and steps // save_every_steps > (steps - M) // save_every_steps and it + 1 < iterations:
-            save(out, actor, log_std, config, steps, time.perf_counter() - start, O, D, obs_norm)
+            save(out, actor, log_std, config, steps, time.perf_counter() - start, O, D, norms)
         log.append(row)
         if out is not None:
             with open(out / "log.jsonl", "a") as f:
@@ -762,7 +848,7 @@ def train(
         bar.close()
     seconds = time.perf_counter() - start
     if out is not None:
-        save(out, actor, log_std, config, steps, seconds, O, D, obs_norm)
+        save(out, actor, log_std, config, steps, seconds, O, D, norms)
     return {"actor": actor, "log_std": log_std, "obs_norm": obs_norm, "log": log, "steps": steps, "seconds": seconds}
 
 
@@ -775,7 +861,7 @@ def save(
     seconds: float,
     obs_dim: int,
     action_dim: int,
-    obs_norm: RunningNorm,
+    obs_norm: RunningNorm | None,
     extra: dict | None = None,
 ) -> None:
     """``actor.safetensors`` and ``run.json`` in ``out`` (``agents.batched_policy`` reads
@@ -787,7 +873,7 @@ def save(
 
     tensors = {f"actor.{k}": v.detach().contiguous() for k, v in actor.state_dict().items()}
     tensors["log_std"] = log_std.detach().contiguous()
-    if config.norm_obs:  # the policy scales its observations as training did
+    if obs_norm is not None:  # the policy scales its observations as training did
         tensors["obs_mean"] = obs_norm.mean.float().contiguous()
         tensors["obs_var"] = obs_norm.var.float().contiguous()
         tensors["obs_count"] = torch.tensor([float(obs_norm.count)], dtype=torch.float64)  # for --init-from
@@ -857,8 +943,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument(
         "--init-from",
         metavar="POLICY",
-        help="start the actor (and the observation scaling) from a flat SB3 policy or a run of this loop: a "
-        "train.py run, a run folder of this loop or a shipped name (ppo_gao_team); needs the same --net",
+        help="start the actor (and the observation scaling) from an SB3 policy or a run of this loop: a "
+        "train.py run, a run folder of this loop or a shipped name (ppo_gao_team; with --entity an entity policy "
+        "such as ppo_gao_sea); needs the same --net",
+    )
+    p.add_argument(
+        "--entity",
+        action="store_true",
+        help="entity observations through the permutation-invariant attention encoder (agents.entity, as the SB3 "
+        "entity policies): one network for any team; --team may then change the number of survey vehicles",
     )
     p.add_argument(
         "--critic-warmup",
@@ -954,6 +1047,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             eval_every_steps=args.eval_every_steps,
             eval_episodes=args.eval_episodes,
             eval_seed=args.eval_seed,
+            entity=dict(ENTITY) if args.entity else None,
         )
         config.check()
         if config.eval_every_steps and not args.out:
@@ -987,7 +1081,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 raise ValueError(f"--stage {config.stages[k][0]}: the observation, action or state size changes")
         if config.init_from is not None:  # and a policy that does not fit
             load_sb3_actor(
-                config.init_from, config.scenario, config.net, probe.obs_dim, probe.action_dim, history=config.history
+                config.init_from,
+                config.scenario,
+                config.net,
+                probe.obs_dim,
+                probe.action_dim,
+                history=config.history,
+                entity=config.entity,
             )
         if out is not None:  # one trainer per folder (agents.training.runlock), as train.py's
             from . import runlock
