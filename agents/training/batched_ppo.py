@@ -33,8 +33,8 @@ computed below:
 * with ``--entity``, the entity observation (``coopnav_env.entity_obs``: the beacon's own
   state and role, each survey vehicle and each other beacon with its kind) through
   ``agents.entity``'s permutation-invariant encoder, then the MLP (``entity_net``; IPPO's
-  critic the same network with one output), so ``--team`` may mix teams of other sizes
-  (survey vehicles; the number of beacons stays the scenario's) and ``--init-from`` may
+  critic the same network with one output), so ``--team`` may mix teams with other numbers
+  of survey vehicles (the teams share one number of beacons) and ``--init-from`` may
   name an SB3 entity policy (``ppo_gao_sea``); the entity features are scaled already (as
   SB3's entity policies train them), only the state is normalized;
 * with ``--history K``, memory as a window: the actor (and IPPO's critic) sees its beacon's
@@ -81,8 +81,10 @@ from typing import Any
 
 from agents.batched_policy import WEIGHTS, entity_net, is_batched_path, mlp, push_window
 
+from .config import EntitySpec
+
 CRITICS = ("state", "observation")
-ENTITY = {"encoder": "attention", "embed_dim": 64, "heads": 4}  # --entity: the SB3 entity policies' encoder
+ENTITY = asdict(EntitySpec())  # --entity: train.py's default encoder, the shipped entity policies'
 MAX_HISTORY = 64  # observations in the window at most (the rollout buffer grows with it)
 TRAINER = "batched_ppo"  # run.json's "trainer" (agents.batched_policy.is_batched_path)
 
@@ -135,6 +137,11 @@ class BatchedPPOConfig:
     eval_seed: int = 500_000  # coopnav_env.seeds.VALIDATION_SEED, as train.py's eval.seed
     # entity observations through agents.entity.EntityEncoder(**entity) (None: the flat observation)
     entity: dict[str, Any] | None = None
+
+    @property
+    def observation(self) -> str:
+        """The environments' observation: ``"entities"`` with ``entity``, else ``"flat"``."""
+        return "flat" if self.entity is None else "entities"
 
     def stage_at(self, it: int, iterations: int) -> int:
         """The index of the stage iteration ``it`` of ``iterations`` trains in (-1: before any)."""
@@ -473,6 +480,16 @@ class TeamEnvs:
         return torch.cat(outs, 0), torch.cat(nexts, 0)
 
 
+def window_input(window: Any, obs: Any, first: Any, history: int) -> tuple[Any, Any]:
+    """(the window after ``obs``, the actor's input): with ``history`` 1 the observation
+    itself, else ``push_window``'s window (..., K, O) and its K observations side by side
+    (..., K x O), newest first. Collection, the episode ends' values and validation share it."""
+    if history == 1:
+        return window, obs
+    window = push_window(window, obs, first)
+    return window, window.flatten(-2)
+
+
 def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
     """The core's batch as a TorchRL environment; with ``config.teams`` a ``TeamEnvs``;
     ``stage`` k >= 0: the curriculum's stage k (its overrides on top of ``config.overrides``,
@@ -491,7 +508,7 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
             infos=True,
             state=state,
             reward_terms=config.reward_terms,
-            observation="flat" if config.entity is None else "entities",
+            observation=config.observation,
             **{**overrides, **team},
         )
 
@@ -513,13 +530,12 @@ def validation_env(config: BatchedPPOConfig) -> Any:
     """The environment ``validate`` plays its episodes in."""
     from coopnav_env.torchrl_env import CoopNavTorchEnv
 
-    observation = "flat" if config.entity is None else "entities"
     return CoopNavTorchEnv(
         config.scenario,
         n_envs=config.eval_episodes,
         seed=config.eval_seed,
         infos=True,
-        observation=observation,
+        observation=config.observation,
         **config.overrides,
     )
 
@@ -549,9 +565,7 @@ def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig,
             obs = td.get((GROUP, "observation"))
             if obs_norm is not None:
                 obs = obs_norm.normalize(obs)
-            if K > 1:
-                window = push_window(window, obs, first)
-                obs = window.flatten(-2)
+            window, obs = window_input(window, obs, first, K)
             td.set((GROUP, "action"), actor(obs).clamp(-1.0, 1.0))
             td, td_next = env.step_and_maybe_reset(td)
             nxt = td.get("next")
@@ -697,9 +711,7 @@ def train(
         with torch.no_grad():
             for t in range(T):
                 obs, state = observe(td, update=True)
-                if K > 1:
-                    window = push_window(window, obs, first)
-                    obs = window.flatten(-2)
+                window, obs = window_input(window, obs, first, K)
                 mean = actor(obs)
                 std = log_std.exp()
                 action = mean + std * torch.randn_like(mean)
@@ -720,8 +732,8 @@ def train(
                 ended = done.squeeze(-1).bool()
                 if ended.any():
                     end_obs, end_state = observe(nxt)
-                    if K > 1:  # the window as the episode's last state would have shown it
-                        end_obs = push_window(window, end_obs, torch.zeros_like(first)).flatten(-2)
+                    # the window as the episode's last state would have shown it
+                    _, end_obs = window_input(window, end_obs, torch.zeros_like(first), K)
                     next_val_buf[t, ended] = values(end_state[ended], end_obs[ended])
                 first = ended
                 ep_return += reward.mean(-1)
@@ -751,8 +763,7 @@ def train(
                 td = td_next
 
             last_obs, last_state = observe(td)
-            if K > 1:
-                last_obs = push_window(window, last_obs, first).flatten(-2)
+            _, last_obs = window_input(window, last_obs, first, K)
             next_val_buf = next_state_values(val_buf, next_val_buf, done_buf, values(last_state, last_obs))
             adv = gae(rew_buf, val_buf, next_val_buf, term_buf, done_buf, config.gamma, config.gae_lambda)
             returns = adv + val_buf
