@@ -79,16 +79,16 @@ TASK_KEYS = ("task_set", "scenario", "task", "tasks", "overrides", "reward_terms
 # on sousa_grid, whose errors are near 1 m, weights 1, 0.05 and 0.01 gave the same within noise
 # (docs/training/marl.md#levers-scaled).
 REWARD_SCALE = 0.01
-# the scenarios whose error can run away (a lost vehicle): the bounded log error
-_BOUNDED_ERROR_SCENARIOS = frozenset({"matos_moving_lbl", "matos_river"})
 
 
 def default_reward_terms(scenario: str) -> dict[str, float]:
     """The task configs' training reward for BenchMARL: the signals the shipped policies
-    train on (``std`` and ``penalties``, as the SB3 configs; on the moving networks
-    ``log_error`` and ``penalties``, as their batched-loop runs, since the error can run
-    away with a lost vehicle) times :data:`REWARD_SCALE`."""
-    error = "log_error" if scenario in _BOUNDED_ERROR_SCENARIOS else "std"
+    train on (``std`` and ``penalties``, as the SB3 configs; on a moving network
+    (``network="moving_lbl"``) ``log_error`` and ``penalties``, as its batched-loop runs,
+    since the error can run away with a lost vehicle) times :data:`REWARD_SCALE`."""
+    from coopnav_env.scenarios import make_config
+
+    error = "log_error" if make_config(scenario).network == "moving_lbl" else "std"
     return {error: REWARD_SCALE, "penalties": REWARD_SCALE}
 
 
