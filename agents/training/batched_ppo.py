@@ -927,7 +927,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--out", help="new or empty folder for actor.safetensors, run.json, log.jsonl")
     p.add_argument("--critic", choices=CRITICS, default=defaults.critic, help="state: MAPPO; observation: IPPO")
     p.add_argument("--n-envs", type=int, default=defaults.n_envs)
-    p.add_argument("--n-steps", type=int, default=defaults.n_steps)
+    p.add_argument(
+        "--n-steps",
+        type=int,
+        default=defaults.n_steps,
+        help="steps per environment per rollout (default %(default)s); continuing a policy on a new critic, "
+        "use about an episode's length or more (gao_sea: 256; docs/training/marl.md#levers-rollout)",
+    )
     p.add_argument("--epochs", type=int, default=defaults.epochs)
     p.add_argument("--minibatch", type=int, default=defaults.minibatch)
     p.add_argument("--learning-rate", type=float, default=defaults.learning_rate)
