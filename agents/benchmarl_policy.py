@@ -46,7 +46,7 @@ WEIGHTS = "policy.safetensors"
 LOADABLE = ("mappo", "ippo", "masac", "isac")
 _RNN_HIDDEN = {"gru": "_hidden_gru_0", "lstm": "_hidden_lstm_h_0"}
 
-__all__ = ["BenchMARLPolicy", "is_benchmarl_path", "load", "make_policy", "policy_record"]
+__all__ = ["BenchMARLPolicy", "forget", "is_benchmarl_path", "load", "make_policy", "policy_record"]
 
 
 def is_benchmarl_path(path: Any) -> bool:
@@ -333,6 +333,14 @@ def _actor(directory: Path, record: dict, config: ScenarioConfig) -> _Actor:
     if key not in _ACTORS:
         _ACTORS[key] = _Actor(directory, record, config)
     return _ACTORS[key]
+
+
+def forget(path: str | Path) -> None:
+    """Drop the cached actors of the run folder at ``path`` (its weights may be rewritten:
+    ``agents.training.marl_validation`` saves a new set at every validation)."""
+    where = str(Path(str(path)).resolve())
+    for key in [k for k in _ACTORS if k[0] == where]:
+        del _ACTORS[key]
 
 
 def load(path: str | Path, scenario: str | ScenarioConfig | None = None, agent: int = 0) -> BenchMARLPolicy:

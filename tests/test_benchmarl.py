@@ -158,11 +158,42 @@ def test_bad_command_lines_fail_in_one_line(tmp_path, capsys):
         (["--task", "gao_sea", "--set", "lr=fast"], "--set lr must be a number (BenchMARL's default"),
         (["--task", "gao_sea", "--algorithm-set", "use_tanh=false"], "unknown mappo setting 'use_tanh'"),
         (["--task", "gao_sea", "--algorithm-set", "use_tanh_normal=0"], "must be like its default True, got 0"),
+        (["--task", "gao_sea", "--eval-every-steps", "512", "--eval-seed", str(2**62 - 5)], "--eval-seed"),
+        (["--task", "gao_sea", "--eval-every-steps", "-1"], "--eval-every-steps must be >= 0"),
     ]:
         assert marl.main([*args, "--out", str(tmp_path / "x")]) == 2
         err = capsys.readouterr().err
         assert message in err and err.count("\n") == 1, err
         assert not (tmp_path / "x").exists()  # nothing written before the checks pass
+
+
+def test_a_run_keeps_its_validation_best(tmp_path):
+    """``--eval-every-steps``: the policy is scored on the validation seeds every N env-steps
+    and at the end; ``best/`` holds the lowest one's weights, and its recorded error is what
+    the benchmark's episode runner gives the loaded folder on those seeds."""
+    import numpy as np
+
+    from evaluation.episodes import run_episodes
+
+    out = tmp_path / "run"
+    per_batch = ["--set", "on_policy_collected_frames_per_batch=512", "--set", "on_policy_minibatch_size=256"]
+    args = ["--task", "gao_sea", *TINY, "--frames", "2048", *per_batch, "--eval-every-steps", "1000"]
+    assert marl.main([*args, "--eval-episodes", "3", "--eval-seed", "500010", "--out", str(out)]) == 0
+    record = json.loads((out / "run.json").read_text())
+    history = record["validation"]
+    assert [row["frames"] for row in history] == [1024, 2048]  # the first batch past 1000, then the end
+    assert record["best"] == min(history, key=lambda row: row["validation_error_m"])
+    assert record["validation_seeds"] == [500010, 500012]
+    assert sorted(p.name for p in out.iterdir()) == ["benchmarl", "best", "policy.safetensors", "run.json"]
+    best = json.loads((out / "best" / "run.json").read_text())
+    assert best["frames"] == record["best"]["frames"] and best["validation_seeds"] == [500010, 500012]
+    config = scenario_config(get_task("gao_sea", None, overrides={"max_cycles": 20}).config)
+    episodes, _ = run_episodes(config, str(out / "best"), [500010, 500011, 500012])
+    assert np.mean([e["mean_error_m"] for e in episodes]) == pytest.approx(best["validation_error_m"], rel=1e-12)
+    if record["best"]["frames"] == 2048:  # the last weights are the best: the same file
+        assert (out / "best" / "policy.safetensors").read_bytes() == (out / "policy.safetensors").read_bytes()
+    else:
+        assert (out / "best" / "policy.safetensors").read_bytes() != (out / "policy.safetensors").read_bytes()
 
 
 @pytest.mark.parametrize(
@@ -246,6 +277,7 @@ def _untrained_run(tmp_path, algorithm, task_set, model="mlp", changes=None):
     import torch
 
     from agents.benchmarl_policy import policy_record
+    from agents.training.marl_validation import save_weights
     from coopnav_env.records import atomic_write_text
 
     task = get_task(task_set, None, overrides={"max_cycles": 20})
@@ -260,7 +292,7 @@ def _untrained_run(tmp_path, algorithm, task_set, model="mlp", changes=None):
             p.add_(0.3 * torch.randn_like(p))
     out = tmp_path / "run"
     out.mkdir()
-    marl._save_policy(experiment, out / "policy.safetensors")
+    save_weights(experiment, out / "policy.safetensors")
     record = {**policy_record(experiment, algorithm, model), "task": f"coopnav/{task_set}", "task_config": task.config}
     atomic_write_text(out / "run.json", json.dumps(record))
     return out, experiment, task

@@ -21,6 +21,12 @@ rename, the policy's weights are saved as ``<out>/policy.safetensors`` and ``<ou
 survey error) is written atomically last: a folder with ``run.json`` is a finished run.
 BenchMARL's checkpoint is a pickle (``torch.save``): load only your own.
 
+**The best weights** (``--eval-every-steps N``): every N env-steps and at the end the policy
+plays ``--eval-episodes`` validation episodes (seeded ``--eval-seed`` + i, never the test
+seeds) through the path ``evaluate.py`` scores, and ``<out>/best`` (a run folder of its own)
+keeps the lowest mean survey error's weights (``agents.training.marl_validation``); run.json
+lists every validation. A run's last weights are not its best.
+
 Progress: a bar on a terminal, a line every 30 s elsewhere (``coopnav_env.progress``).
 """
 
@@ -38,6 +44,8 @@ from pathlib import Path
 from typing import Any
 
 from benchmarl.experiment.callback import Callback
+
+from coopnav_env.seeds import VALIDATION_SEED
 
 from .config import ConfigError, like_default, parse_assignments
 
@@ -93,6 +101,21 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SIGNAL=WEIGHT",
         help="the training reward as weighted terms (coopnav_env.vector.REWARD_TERMS; repeat; default: the "
         "task YAML's reward_terms, else the env's reward)",
+    )
+    p.add_argument(
+        "--eval-every-steps",
+        type=int,
+        default=0,
+        metavar="N",
+        help="every N env-steps and at the end, play --eval-episodes validation episodes with the deterministic "
+        "actor (the path evaluate.py scores) and keep the best weights in <out>/best (a run folder; 0: never)",
+    )
+    p.add_argument("--eval-episodes", type=int, default=16, help="validation episodes (default: 16)")
+    p.add_argument(
+        "--eval-seed",
+        type=int,
+        default=VALIDATION_SEED,
+        help=f"validation episode i is seeded EVAL_SEED + i (default: {VALIDATION_SEED})",
     )
     p.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
     return p
@@ -247,21 +270,6 @@ def _quiet_benchmarl_bar() -> None:
     bx.tqdm = functools.partial(tqdm, disable=True)
 
 
-def _save_policy(experiment: Any, path: Path) -> None:
-    """The trained policy's weights as safetensors (data, not a pickle), written atomically."""
-    import torch
-    from safetensors.torch import save
-
-    from coopnav_env.records import atomic_write_bytes
-
-    state = {
-        k: v.detach().cpu().contiguous().clone()
-        for k, v in experiment.policy.state_dict().items()
-        if isinstance(v, torch.Tensor)  # TensorDict modules also keep shapes there
-    }
-    atomic_write_bytes(path, save(state))
-
-
 def run(args: argparse.Namespace, command: str) -> dict:
     from coopnav_env.seeds import refuse_test_seeds
 
@@ -272,8 +280,15 @@ def run(args: argparse.Namespace, command: str) -> dict:
     _choice(args.model, MODELS, "model")
     _choice(args.critic_model, MODELS, "critic model")
     set_name, _, task_name = args.task.partition("/")
+    if args.eval_every_steps < 0 or args.eval_episodes < 1:
+        raise ConfigError(
+            f"--eval-every-steps must be >= 0 and --eval-episodes >= 1, got {args.eval_every_steps} and "
+            f"{args.eval_episodes}"
+        )
     try:
         refuse_test_seeds(args.seed, 1, what="--seed")
+        if args.eval_every_steps:
+            refuse_test_seeds(args.eval_seed, args.eval_episodes, what="--eval-seed")
     except ValueError as err:
         raise ConfigError(str(err)) from None
     out = Path(args.out or f"runs/marl/{args.task.replace('/', '_')}-{algorithm}-seed{args.seed}")
@@ -313,8 +328,25 @@ def run(args: argparse.Namespace, command: str) -> dict:
 
     _quiet_benchmarl_bar()
     progress = ProgressCallback(int(config.get_max_n_frames(algo.on_policy())))
+    callbacks: list[Any] = [progress]
+    validation = None
+    if args.eval_every_steps:
+        from .marl_validation import ValidationCallback
+
+        validation = ValidationCallback(
+            args.eval_every_steps,
+            args.eval_episodes,
+            args.eval_seed,
+            scenario,
+            {"task": f"coopnav/{set_name}", "task_config": task.config, "scenario": scenario.name},
+            algorithm,
+            args.model,
+            scratch=partial / "validation",
+            best=partial / "best",
+        )
+        callbacks.append(validation)
     experiment = build_experiment(
-        algorithm, task, args.seed, config, args.model, args.critic_model, [progress], algorithm_changes
+        algorithm, task, args.seed, config, args.model, args.critic_model, callbacks, algorithm_changes
     )
     torch.set_num_threads(max(int(args.threads), 1))  # after the envs: numba's OpenMP start resets torch's count
     t0 = time.perf_counter()
@@ -333,9 +365,14 @@ def run(args: argparse.Namespace, command: str) -> dict:
     finally:
         progress.close()
     wall = time.perf_counter() - t0
+    best = validation.finish() if validation is not None else None  # not in the wall time
     os.replace(experiment.folder_name, out / "benchmarl")
+    if best is not None:
+        os.replace(partial / "best", out / "best")
     partial.rmdir()
-    _save_policy(experiment, out / "policy.safetensors")
+    from .marl_validation import save_weights
+
+    save_weights(experiment, out / "policy.safetensors")
     frames = int(experiment.total_frames)
     from ..benchmarl_policy import policy_record
 
@@ -353,6 +390,15 @@ def run(args: argparse.Namespace, command: str) -> dict:
         "env_steps_per_s": frames / wall if wall > 0 else None,
         "last_mean_return": progress.last_return,
         "last_batch_survey_error_m": progress.last_error_m,
+        **(
+            {}
+            if validation is None
+            else {
+                "validation": validation.history,
+                "validation_seeds": [validation.seeds[0], validation.seeds[-1]],
+                "best": best,
+            }
+        ),
         "torch_threads": torch.get_num_threads(),
         "load_avg_1m": os.getloadavg()[0],
         "python": platform.python_version(),
