@@ -61,6 +61,26 @@ def obs_dim(config: ScenarioConfig) -> int:
     return _layout.obs_dim(config.n_survey, config.n_beacons, config.observed_waypoints)
 
 
+def pad_surveys(obs: np.ndarray, config: ScenarioConfig, slots: int) -> np.ndarray:
+    """Observations (..., D) of ``config`` laid out for ``slots`` survey vehicles: the
+    per-survey blocks of the vehicles it has, then zeros for the ones it lacks, then the
+    other beacons' entries, so a value sits at the same index whatever the team's size (a
+    centralized critic trained over teams of 1-``slots`` survey vehicles reads them alike).
+    ``slots`` equal to the team's size returns ``obs`` itself."""
+    S = config.n_survey
+    if slots == S:
+        return obs
+    if config.network == "moving_lbl" or slots < S:
+        raise ValueError(
+            f"survey slots must be >= the team's {S} survey vehicles (and the moving network has no "
+            f"slots to pad), got {slots}"
+        )
+    block = PER_SURVEY_FIXED + 2 * config.observed_waypoints
+    end = OWN_DIM + S * block
+    pad = np.zeros(obs.shape[:-1] + ((slots - S) * block,), dtype=obs.dtype)
+    return np.concatenate([obs[..., :end], pad, obs[..., end:]], -1)
+
+
 def fence_center_m(config: ScenarioConfig) -> np.ndarray:
     e0, n0, e1, n1 = config.geofence_m
     return np.array([(e0 + e1) / 2, (n0 + n1) / 2])

@@ -37,7 +37,9 @@ second copy of the physics), as ``coopnav_env.vector.CoopNavVecEnv``.
   headings, the current, the episode's progress) followed by every beacon's (flat)
   observation.
   A critic is not used when acting, so it may read the truth; ``state="observations"``
-  gives the beacons' observations alone (B, N * obs_dim);
+  gives the beacons' observations alone (B, N * obs_dim). With ``state_survey_slots`` S'
+  larger than the team's S, both parts are laid out for S' survey vehicles (zeros where
+  the team has none: ``obs_layout.pad_surveys``), so teams of 1-S' vehicles share one size;
 * ``"info"``: the VecEnv's infos per environment, as tensors: for every scalar info of
   the core (``sim.info_keys``) the aggregate over survey vehicles (mean of floats, sum of
   counts, any of ``range_ok``) under its name and the values per vehicle under
@@ -120,7 +122,10 @@ class CoopNavTorchEnv(EnvBase):
     ``{signal: weight}``: the training reward, ``coopnav_env.vector``'s),
     ``state`` ("privileged" or "observations", see the module docstring), ``infos``
     (False: no ``"info"`` entries, a little faster), ``observation`` ("flat" or "entities",
-    see the module docstring; a team the entity view cannot read is a ``ValueError``) and
+    see the module docstring; a team the entity view cannot read is a ``ValueError``),
+    ``state_survey_slots`` (None: the team's own number of survey vehicles; a larger number
+    S': the state laid out for S' of them, the missing ones' values zero, so teams of other
+    sizes give states of one size and layout: a centralized critic can train over them) and
     any scenario parameter by keyword.
     """
 
@@ -134,6 +139,7 @@ class CoopNavTorchEnv(EnvBase):
         state: str = "privileged",
         infos: bool = True,
         observation: str = "flat",
+        state_survey_slots: int | None = None,
         **overrides: Any,
     ) -> None:
         if "batch_size" in overrides:  # TorchRL's own name for it is not a scenario parameter
@@ -170,6 +176,14 @@ class CoopNavTorchEnv(EnvBase):
             self.obs_dim = ENTITY_DIM
         self.action_dim = action_dim(self.sim)
         self.state_kind = state
+        slots = self.n_survey if state_survey_slots is None else state_survey_slots
+        if isinstance(slots, bool) or not isinstance(slots, (int, np.integer)) or slots < self.n_survey:
+            raise ValueError(
+                f"state_survey_slots must be an int >= the team's {self.n_survey} survey vehicles, got {slots!r}"
+            )
+        if slots != self.n_survey and config.network == "moving_lbl":
+            raise ValueError(f"state_survey_slots: the moving network's state has one survey vehicle, got {slots}")
+        self.state_survey_slots = int(slots)
         self.infos = bool(infos)
         self.agent_names = [f"beacon_{j}" for j in range(self.n_beacons)]
         self.group_map = {GROUP: list(self.agent_names)}
@@ -183,9 +197,15 @@ class CoopNavTorchEnv(EnvBase):
     # ------------------------------------------------------------------------------
     @property
     def state_dim(self) -> int:
-        """Length of ``"state"``: the core's state and every (flat) observation, or the observations."""
-        n_obs = self.n_beacons * self.flat_obs_dim
-        return n_obs + (self.sim.state_dim if self.state_kind == "privileged" else 0)
+        """Length of ``"state"``: the core's state and every (flat) observation, or the
+        observations; each for ``state_survey_slots`` survey vehicles."""
+        from .core.observation import PER_SURVEY_FIXED
+        from .core.sim import SURVEY_STATE_DIM
+
+        extra = self.state_survey_slots - self.n_survey  # 0 on the moving network
+        flat = self.flat_obs_dim + extra * (PER_SURVEY_FIXED + 2 * self.config.observed_waypoints)
+        n_obs = self.n_beacons * flat
+        return n_obs + (self.sim.state_dim + extra * SURVEY_STATE_DIM if self.state_kind == "privileged" else 0)
 
     def _info_dtypes(self) -> tuple[dict, dict]:
         """The info entries' (shape after B, dtype), root and per beacon, read from a
@@ -312,8 +332,18 @@ class CoopNavTorchEnv(EnvBase):
         B, N = self.n_envs, self.n_beacons
         obs_t = torch.from_numpy(np.ascontiguousarray(obs, dtype=np.float32))
         parts = [obs_t.reshape(B, N * self.flat_obs_dim)]
+        if self.state_survey_slots != self.n_survey:  # each survey vehicle's values at its slot's index
+            from .core.sim import SURVEY_STATE_DIM
+            from .obs_layout import pad_surveys
+
+            parts = [torch.from_numpy(pad_surveys(obs_t.numpy(), self.config, self.state_survey_slots)).reshape(B, -1)]
         if self.state_kind == "privileged":
-            parts.insert(0, torch.from_numpy(self.sim.global_state()))
+            glob = self.sim.global_state()
+            if self.state_survey_slots != self.n_survey:
+                cut = self.n_survey * SURVEY_STATE_DIM
+                pad = np.zeros((B, (self.state_survey_slots - self.n_survey) * SURVEY_STATE_DIM), np.float32)
+                glob = np.concatenate([glob[:, :cut], pad, glob[:, cut:]], 1)
+            parts.insert(0, torch.from_numpy(glob))
         if self.observation == "entities":  # beacon j reads its own row with role j
             from .entity_obs import entity_observation
 

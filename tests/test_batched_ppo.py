@@ -268,6 +268,27 @@ def test_teams_share_out_the_environments_and_their_seeds():
     )
 
 
+def test_a_centralized_critic_trains_over_teams_of_other_survey_sizes():
+    """MAPPO with entity observations over a one-survey and a two-survey team of gao_lawnmower:
+    the teams' states are laid out for two survey vehicles (``state_survey_slots``), so one
+    critic reads both; each team's episodes are logged. Another number of beacons is still refused."""
+    from agents.training.batched_ppo import make_env
+
+    teams = [{}, {"n_survey": 2}]
+    config = BatchedPPOConfig(
+        scenario="gao_lawnmower", n_envs=4, n_steps=4, minibatch=16, teams=teams, critic="state",
+        entity={"encoder": "deepsets", "embed_dim": 16, "heads": 1}, net=(16,), overrides={"max_cycles": 3},
+    )  # fmt: skip
+    env = make_env(config)
+    assert [e.n_survey for e in env.envs] == [1, 2] and {e.state_survey_slots for e in env.envs} == {2}
+    assert env.state_dim == env.envs[1].state_dim
+    log = train(config, 16, progress=False)["log"]
+    assert all(v is not None and np.isfinite(v) for v in log[-1]["survey_error_m_per_team"])
+    flat = BatchedPPOConfig(scenario="gao_lawnmower", n_envs=4, teams=[{}, {"beacon_kinds": ["beacon_auv", "asv"]}])
+    with pytest.raises(ValueError, match="one team makeup only"):
+        make_env(flat)
+
+
 def test_the_log_gives_each_teams_error():
     """With teams each log row has the mean survey error of each team's finished episodes, the
     rows attributed to their team: a team that starts 300 m off (initial_position_std_m) has

@@ -208,6 +208,40 @@ def test_state_and_training_reward():
     assert torch.equal(td["state"], td[OBS].reshape(2, -1)) and "info" not in td.keys()  # noqa: SIM118 - TensorDict has no `in`
 
 
+def test_state_survey_slots_give_teams_of_other_sizes_one_layout():
+    """``state_survey_slots``: a one-survey team's state laid out for two survey vehicles is its
+    own state with zeros at the second vehicle's indices, and every other value sits where a
+    two-survey team's sits (the beacons' block after 2 x 10 values, each observation's other
+    beacons after its two survey blocks)."""
+    from coopnav_env.core.observation import OWN_DIM, PER_SURVEY_FIXED
+    from coopnav_env.core.sim import SURVEY_STATE_DIM
+
+    one = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5, beacon_kinds=["beacon_auv", "asv"])
+    padded = CoopNavTorchEnv(
+        "gao_lawnmower", n_envs=2, seed=5, beacon_kinds=["beacon_auv", "asv"], state_survey_slots=2
+    )
+    two = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5, state_survey_slots=2, **TWO_BY_TWO)
+    block, D1 = PER_SURVEY_FIXED + 2 * one.config.observed_waypoints, one.flat_obs_dim  # a survey vehicle's
+    assert padded.state_dim == two.state_dim == one.state_dim + SURVEY_STATE_DIM + 2 * block
+    s1, sp = one.reset()["state"], padded.reset()["state"]
+    assert sp.shape == (2, two.state_dim) and two.reset()["state"].shape == sp.shape
+    G1 = one.sim.state_dim
+    # the indices the second survey vehicle takes: its 10 state values after the first's,
+    # and in each beacon's observation its block after the first's
+    zeros = list(range(SURVEY_STATE_DIM, 2 * SURVEY_STATE_DIM))
+    G2, D2 = G1 + SURVEY_STATE_DIM, D1 + block
+    for j in range(2):
+        zeros += list(range(G2 + j * D2 + OWN_DIM + block, G2 + j * D2 + OWN_DIM + 2 * block))
+    keep = [i for i in range(two.state_dim) if i not in set(zeros)]
+    assert torch.equal(sp[:, keep], s1) and not sp[:, zeros].any()
+    with pytest.raises(ValueError, match="state_survey_slots must be an int >= the team's 2 survey"):
+        CoopNavTorchEnv("gao_lawnmower", state_survey_slots=1, **TWO_BY_TWO)
+    with pytest.raises(ValueError, match="moving network's state has one survey vehicle"):
+        CoopNavTorchEnv("matos_moving_lbl", state_survey_slots=2)
+    same = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5, state_survey_slots=1)
+    assert same.state_dim == CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5).state_dim
+
+
 def test_importing_coopnav_env_does_not_import_torch():
     code = (
         "import sys, coopnav_env; torch = 'torch' in sys.modules; import coopnav_env.vector; "

@@ -439,7 +439,9 @@ class TeamEnvs:
     the batch, keeping only what the loop reads (the observations, rewards, flags, the
     survey error and, with ``state``, the state; so teams with other infos, e.g. another
     number of survey vehicles under entity observations, fit). The teams must agree on the
-    number of beacons and the observation and action sizes, and with ``state`` on the state's."""
+    number of beacons and the observation and action sizes, and with ``state`` on the state's
+    (``make_env`` lays every team's state out for the largest team's survey vehicles,
+    ``CoopNavTorchEnv(state_survey_slots=...)``, so MAPPO trains over teams of 1-5 of them)."""
 
     def __init__(self, envs: Sequence[Any], state: bool = True) -> None:
         from coopnav_env.torchrl_env import GROUP
@@ -494,11 +496,18 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
     """The core's batch as a TorchRL environment; with ``config.teams`` a ``TeamEnvs``;
     ``stage`` k >= 0: the curriculum's stage k (its overrides on top of ``config.overrides``,
     episode seeds from ``config.seed + k * n_envs``, so no stage replays another's)."""
+    from coopnav_env.scenarios import make_config
     from coopnav_env.torchrl_env import CoopNavTorchEnv
 
     state = "privileged" if config.critic == "state" else "observations"
     overrides = {**config.overrides, **(config.stages[stage][1] if stage >= 0 else {})}
     base_seed = config.seed + max(stage, 0) * config.n_envs
+    slots = None  # teams of other numbers of survey vehicles: one state layout for the largest
+    if config.teams and config.critic == "state":
+        try:
+            slots = max(make_config(config.scenario, **{**overrides, **team}).n_survey for team in config.teams)
+        except (TypeError, ValueError):
+            slots = None  # the team's own error, below, names it
 
     def one(n_envs: int, first: int, team: dict[str, Any]) -> Any:  # first: the environments before it
         return CoopNavTorchEnv(
@@ -509,6 +518,7 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
             state=state,
             reward_terms=config.reward_terms,
             observation=config.observation,
+            state_survey_slots=slots,
             **{**overrides, **team},
         )
 

@@ -51,7 +51,10 @@ INFO_KEYS = (
     "survey_cov_en_m2",
 )
 BEACON_INFO_KEYS = ("beacon_error_m",)  # and the channel model's (core.channel registry)
-SURVEY_BEACON_INFO_KEYS = ("beacon_away_s",)  # the survey network's: time away on a surfacing
+SURVEY_BEACON_INFO_KEYS = ("beacon_away_s",)
+# global_state's values per survey vehicle (true and estimated position, the error ellipse),
+# per beacon, and after both (the current, the episode's progress)
+SURVEY_STATE_DIM, BEACON_STATE_DIM, GLOBAL_STATE_DIM = 10, 7, 3  # the survey network's: time away on a surfacing
 
 
 class Simulator(BatchSimulator):
@@ -125,7 +128,7 @@ class Simulator(BatchSimulator):
         # the survey vehicles' acoustic sensor: one measurement model (core/measurements/)
         self.sensor = measurements.build(c.acoustic_sensor, self)
         self.obs_dim = observation.obs_dim(self.S, self.N, c.observed_waypoints)
-        self.state_dim = self.S * 10 + self.N * 7 + 3
+        self.state_dim = self.S * SURVEY_STATE_DIM + self.N * BEACON_STATE_DIM + GLOBAL_STATE_DIM
         self.info_keys = INFO_KEYS
         # the channel model (core.channel registry): None for the fixed clock's free channel,
         # else the shared channel (channel_mode="decide"), with its beacon infos
