@@ -184,6 +184,8 @@ def test_a_run_keeps_its_validation_best(tmp_path):
     assert [row["frames"] for row in history] == [1024, 2048]  # the first batch past 1000, then the end
     assert record["best"] == min(history, key=lambda row: row["validation_error_m"])
     assert record["validation_seeds"] == [500010, 500012]
+    assert 0 < record["validation_s"] < record["wall_s"]  # the env-steps/s leave the validations out
+    assert record["env_steps_per_s"] == pytest.approx(2048 / (record["wall_s"] - record["validation_s"]))
     assert sorted(p.name for p in out.iterdir()) == ["benchmarl", "best", "policy.safetensors", "run.json"]
     best = json.loads((out / "best" / "run.json").read_text())
     assert best["frames"] == record["best"]["frames"] and best["validation_seeds"] == [500010, 500012]

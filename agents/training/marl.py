@@ -365,7 +365,8 @@ def run(args: argparse.Namespace, command: str) -> dict:
     finally:
         progress.close()
     wall = time.perf_counter() - t0
-    best = validation.finish() if validation is not None else None  # not in the wall time
+    validation_s = validation.seconds if validation is not None else 0.0  # inside wall: taken out of env-steps/s
+    best = validation.finish() if validation is not None else None
     os.replace(experiment.folder_name, out / "benchmarl")
     if best is not None:
         os.replace(partial / "best", out / "best")
@@ -387,7 +388,8 @@ def run(args: argparse.Namespace, command: str) -> dict:
         "experiment_config": {k: v for k, v in vars(config).items() if _jsonable(v)},
         "frames": frames,
         "wall_s": wall,
-        "env_steps_per_s": frames / wall if wall > 0 else None,
+        "env_steps_per_s": frames / (wall - validation_s) if wall > validation_s else None,
+        "validation_s": validation.seconds if validation is not None else 0.0,
         "last_mean_return": progress.last_return,
         "last_batch_survey_error_m": progress.last_error_m,
         **(

@@ -76,6 +76,7 @@ class ValidationCallback(Callback):
         self.next_at = self.every_steps
         self.history: list[dict] = []
         self.best_row: dict | None = None
+        self.seconds = 0.0  # wall seconds spent validating (the run's env-steps/s leaves them out)
 
     @property
     def seeds(self) -> list[int]:
@@ -99,6 +100,15 @@ class ValidationCallback(Callback):
 
     def validate(self, frames: int) -> float:
         """Score the current weights (see the module); copy them to ``best`` if lowest."""
+        import time
+
+        t0 = time.perf_counter()
+        try:
+            return self._validate(frames)
+        finally:
+            self.seconds += time.perf_counter() - t0
+
+    def _validate(self, frames: int) -> float:
         from agents.benchmarl_policy import RUN_RECORD, WEIGHTS, forget, policy_record
         from coopnav_env.records import atomic_write_bytes, atomic_write_text
         from evaluation.episodes import run_episodes
