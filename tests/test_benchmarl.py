@@ -192,6 +192,9 @@ def test_a_run_keeps_its_validation_best(tmp_path):
     config = scenario_config(get_task("gao_sea", None, overrides={"max_cycles": 20}).config)
     episodes, _ = run_episodes(config, str(out / "best"), [500010, 500011, 500012])
     assert np.mean([e["mean_error_m"] for e in episodes]) == pytest.approx(best["validation_error_m"], rel=1e-12)
+    plain = tmp_path / "plain"  # validating leaves the training as it was: the same last weights
+    assert marl.main([*args[:-2], "--out", str(plain)]) == 0
+    assert (plain / "policy.safetensors").read_bytes() == (out / "policy.safetensors").read_bytes()
     if record["best"]["frames"] == 2048:  # the last weights are the best: the same file
         assert (out / "best" / "policy.safetensors").read_bytes() == (out / "policy.safetensors").read_bytes()
     else:

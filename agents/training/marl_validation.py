@@ -8,7 +8,9 @@ onwards: never the benchmark's test seeds) **through the path the benchmark scor
 saves the weights as a run folder (``policy.safetensors`` and ``run.json``), loads that folder
 with ``agents.benchmarl_policy`` and plays it with ``evaluation.episodes.run_episodes``. The
 number it keeps is therefore what ``evaluate.py --policies <out>/best`` gives on those seeds:
-the mean over the episodes of each episode's mean survey error (m).
+the mean over the episodes of each episode's mean survey error (m). The training's random
+streams (torch's, numpy's and Python's global generators) are left as they were: a run with
+validation trains exactly as the same run without.
 
 When a validation is the lowest so far, the folder is copied to ``best/`` (weights first,
 ``run.json`` last, each written atomically; ``run.json`` adds ``validation_error_m``,
@@ -100,12 +102,22 @@ class ValidationCallback(Callback):
 
     def validate(self, frames: int) -> float:
         """Score the current weights (see the module); copy them to ``best`` if lowest."""
+        import random
         import time
 
+        import numpy as np
+        import torch
+
         t0 = time.perf_counter()
+        # rebuilding the actor draws initial weights from torch's global generator: keep the
+        # training's random streams as they were, so a run with validation trains as one without
+        py_state, np_state = random.getstate(), np.random.get_state()
         try:
-            return self._validate(frames)
+            with torch.random.fork_rng(devices=[]):
+                return self._validate(frames)
         finally:
+            random.setstate(py_state)
+            np.random.set_state(np_state)
             self.seconds += time.perf_counter() - t0
 
     def _validate(self, frames: int) -> float:
