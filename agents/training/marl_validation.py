@@ -111,13 +111,13 @@ class ValidationCallback(Callback):
         t0 = time.perf_counter()
         # rebuilding the actor draws initial weights from torch's global generator: keep the
         # training's random streams as they were, so a run with validation trains as one without
-        py_state, np_state = random.getstate(), np.random.get_state()
+        py_state, np_state = random.getstate(), np.random.get_state()  # noqa: NPY002 - BenchMARL seeds it
         try:
             with torch.random.fork_rng(devices=[]):
                 return self._validate(frames)
         finally:
             random.setstate(py_state)
-            np.random.set_state(np_state)
+            np.random.set_state(np_state)  # noqa: NPY002
             self.seconds += time.perf_counter() - t0
 
     def _validate(self, frames: int) -> float:
