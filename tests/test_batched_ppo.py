@@ -287,6 +287,74 @@ def test_a_centralized_critic_trains_over_teams_of_other_survey_sizes():
     flat = BatchedPPOConfig(scenario="gao_lawnmower", n_envs=4, teams=[{}, {"beacon_kinds": ["beacon_auv", "asv"]}])
     with pytest.raises(ValueError, match="one team makeup only"):
         make_env(flat)
+    mappo = BatchedPPOConfig(
+        scenario="gao_lawnmower", n_envs=4, teams=[{}, {"beacon_kinds": ["beacon_auv", "asv"]}], entity=config.entity
+    )
+    with pytest.raises(ValueError, match="other numbers of beacons train with --critic observation"):
+        make_env(mappo)
+
+
+def test_ippo_trains_over_teams_of_other_numbers_of_beacons():
+    """IPPO with entity observations over a one-beacon and a two-beacon team: the batch has two
+    beacon slots; the one-beacon team's second slot is padded (its observation a copy of beacon
+    0's, its reward 0, its action dropped: the team's environment steps on its own beacon's
+    action alone, as it would by itself); the padded slots are out of the loss."""
+    from agents.training.batched_ppo import make_env
+    from coopnav_env.torchrl_env import CoopNavTorchEnv
+
+    teams = [{}, {"beacon_kinds": ["beacon_auv", "asv"]}]
+    entity = {"encoder": "deepsets", "embed_dim": 16, "heads": 1}
+    config = BatchedPPOConfig(
+        scenario="gao_lawnmower", n_envs=4, n_steps=4, minibatch=16, teams=teams, critic="observation",
+        entity=entity, net=(16,), overrides={"max_cycles": 3}, seed=7,
+    )  # fmt: skip
+    env = make_env(config)
+    assert env.n_beacons == 2 and env.agent_mask.tolist() == [[True, False]] * 2 + [[True, True]] * 2
+    td = env.reset()
+    obs = td.get(("beacons", "observation"))
+    assert obs.shape == (4, 2, env.obs_dim) and torch.equal(obs[:2, 1], obs[:2, 0])
+    alone = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=7, infos=True, observation="entities", max_cycles=3)
+    a = torch.tensor([[[0.3, -0.2], [0.9, 0.9]]] * 2 + [[[0.1, 0.1], [-0.5, 0.4]]] * 2)
+    out, _ = env.step_and_maybe_reset(td.set(("beacons", "action"), a))
+    solo = alone.reset()
+    solo_out, _ = alone.step_and_maybe_reset(solo.set(("beacons", "action"), a[:2, :1]))
+    nxt = out.get("next")
+    own = solo_out.get(("next", "beacons", "observation"))
+    torch.testing.assert_close(nxt.get(("beacons", "observation"))[:2, :1], own)
+    assert not nxt.get(("beacons", "reward"))[:2, 1].any() and nxt.get(("beacons", "reward"))[:2, 0].all()
+    run = train(config, 32, progress=False)
+    log = run["log"]
+    assert all(v is not None and np.isfinite(v) for v in log[-1]["survey_error_m_per_team"])
+    assert np.isfinite(log[-1]["value_loss"]) and 0.0 <= log[-1]["clip_fraction"] <= 1.0
+
+
+def test_padded_beacon_slots_do_not_reach_the_update(monkeypatch):
+    """Garbage in the padded slots (observations shifted by 3, rewards of 100) trains the same
+    weights to the last bit: the slots are out of every mean, scaling and loss."""
+    from agents.training.batched_ppo import TeamEnvs
+
+    config = BatchedPPOConfig(
+        scenario="gao_lawnmower", n_envs=4, n_steps=4, minibatch=8, teams=[{}, {"beacon_kinds": ["beacon_auv", "asv"]}],
+        critic="observation", entity={"encoder": "deepsets", "embed_dim": 16, "heads": 1}, net=(16,),
+        overrides={"max_cycles": 3}, seed=7, center_reward=True,
+    )  # fmt: skip
+    clean = train(config, 48, progress=False)["actor"].state_dict()
+    padded = TeamEnvs._padded
+
+    def garbage(self, td):
+        paths = [p for p in (("beacons",), ("next", "beacons")) if td.get(p, None) is not None]
+        narrow = {p: td.get(p).batch_size[1] for p in paths}
+        td = padded(self, td)
+        for path, n in narrow.items():
+            group = td.get(path)
+            if n < self.n_beacons:
+                for key, value in group.items():
+                    value[:, n:] = value[:, n:] + 3.0 if key == "observation" else 100.0
+        return td
+
+    monkeypatch.setattr(TeamEnvs, "_padded", garbage)
+    dirty = train(config, 48, progress=False)["actor"].state_dict()
+    assert all(torch.equal(clean[k], dirty[k]) for k in clean)
 
 
 def test_the_log_gives_each_teams_error():

@@ -34,7 +34,8 @@ computed below:
   state and role, each survey vehicle and each other beacon with its kind) through
   ``agents.entity``'s permutation-invariant encoder, then the MLP (``entity_net``; IPPO's
   critic the same network with one output), so ``--team`` may mix teams with other numbers
-  of survey vehicles (the teams share one number of beacons) and ``--init-from`` may
+  of survey vehicles, and with IPPO of beacons too (``TeamEnvs``' padded slots, left out of
+  the loss), and ``--init-from`` may
   name an SB3 entity policy (``ppo_gao_sea``); the entity features are scaled already (as
   SB3's entity policies train them), only the state is normalized;
 * with ``--history K``, memory as a window: the actor (and IPPO's critic) sees its beacon's
@@ -439,45 +440,89 @@ class TeamEnvs:
     the batch, keeping only what the loop reads (the observations, rewards, flags, the
     survey error and, with ``state``, the state; so teams with other infos, e.g. another
     number of survey vehicles under entity observations, fit). The teams must agree on the
-    number of beacons and the observation and action sizes, and with ``state`` on the state's
-    (``make_env`` lays every team's state out for the largest team's survey vehicles,
-    ``CoopNavTorchEnv(state_survey_slots=...)``, so MAPPO trains over teams of 1-5 of them)."""
+    observation and action sizes, and with ``state`` on the number of beacons and the state's
+    size (``make_env`` lays every team's state out for the largest team's survey vehicles,
+    ``CoopNavTorchEnv(state_survey_slots=...)``, so MAPPO trains over teams of 1-5 of them).
+
+    **Teams of other numbers of beacons** (without ``state``: IPPO's critic): the batch has
+    ``n_beacons`` slots, the largest team's. A smaller team's missing beacons are padded
+    slots: their observation a copy of its beacon 0's (so a network reads a real input),
+    their reward 0, their action dropped before the team's environment steps.
+    ``agent_mask`` (n_envs, n_beacons) is True for the real beacons; the loop leaves the
+    others out of every mean, scaling and loss (None: every slot is real)."""
 
     def __init__(self, envs: Sequence[Any], state: bool = True) -> None:
+        import torch
+
         from coopnav_env.torchrl_env import GROUP
 
         def sizes(e: Any) -> tuple[int, ...]:
-            return (e.n_beacons, e.obs_dim, e.action_dim) + ((e.state_dim,) if state else ())
+            return (e.obs_dim, e.action_dim) + ((e.n_beacons, e.state_dim) if state else ())
 
-        what = "beacons, observation, action" + (" and state sizes" if state else " sizes")
+        what = "observation, action" + (", beacons and state sizes" if state else " sizes")
         for i, e in enumerate(envs):
             if sizes(e) != sizes(envs[0]):
+                hint = ""
+                if state and e.n_beacons != envs[0].n_beacons and e.obs_dim == envs[0].obs_dim:
+                    hint = " (teams of other numbers of beacons train with --critic observation)"
                 raise ValueError(
-                    f"teams[{i}]: {what} {sizes(e)}, the first team's {sizes(envs[0])}: one team makeup only"
+                    f"teams[{i}]: {what} {sizes(e)}, the first team's {sizes(envs[0])}: one team makeup only{hint}"
                 )
         self.envs = list(envs)
         self.sizes = [e.n_envs for e in envs]
         self.n_envs = sum(self.sizes)
         first = envs[0]
-        self.n_beacons, self.obs_dim, self.action_dim = first.n_beacons, first.obs_dim, first.action_dim
+        self.n_beacons = max(e.n_beacons for e in envs)
+        self.obs_dim, self.action_dim = first.obs_dim, first.action_dim
         self.state_dim = first.state_dim if state else 0
+        self.agent_mask = None
+        if any(e.n_beacons != self.n_beacons for e in envs):
+            self.agent_mask = torch.cat(
+                [torch.arange(self.n_beacons).expand(e.n_envs, -1) < e.n_beacons for e in envs], 0
+            )
         root = [(GROUP, "observation"), "done", "terminated", "truncated", *(["state"] if state else [])]
         self._root = root
         self._step = [(GROUP, "action"), *[("next", k) for k in [*root, (GROUP, "reward"), ("info", "survey_error_m")]]]
 
+    def _padded(self, td: Any) -> Any:
+        """``td`` with its group entries (at ``GROUP`` and ``("next", GROUP)``) widened to
+        ``n_beacons`` slots: observations by copies of beacon 0's, the rest by zeros."""
+        import torch
+        from tensordict import TensorDict
+
+        from coopnav_env.torchrl_env import GROUP
+
+        for path in ((GROUP,), ("next", GROUP)):
+            group = td.get(path, None)
+            if group is None or group.batch_size[1] == self.n_beacons:
+                continue
+            B, n = group.batch_size
+            wide = {}
+            for key, value in group.items():
+                fill = value[:, :1] if key == "observation" else value[:, :1].new_zeros(())
+                wide[key] = torch.cat([value, fill.expand(B, self.n_beacons - n, *value.shape[2:])], 1)
+            td.set(path, TensorDict(wide, batch_size=(B, self.n_beacons)))
+        return td
+
     def reset(self) -> Any:
         import torch
 
-        return torch.cat([e.reset().select(*self._root) for e in self.envs], 0)
+        return torch.cat([self._padded(e.reset().select(*self._root)) for e in self.envs], 0)
 
     def step_and_maybe_reset(self, td: Any) -> tuple[Any, Any]:
         import torch
 
+        from coopnav_env.torchrl_env import GROUP
+
         outs, nexts, lo = [], [], 0
         for e, n in zip(self.envs, self.sizes):
-            out, nxt = e.step_and_maybe_reset(td[lo : lo + n])
-            outs.append(out.select(*self._step))
-            nexts.append(nxt.select(*self._root))
+            rows = td[lo : lo + n]
+            if e.n_beacons != self.n_beacons:  # the team's own beacons' slots
+                rows = rows.clone(False)
+                rows.set(GROUP, rows.get(GROUP)[:, : e.n_beacons])
+            out, nxt = e.step_and_maybe_reset(rows)
+            outs.append(self._padded(out.select(*self._step)))
+            nexts.append(self._padded(nxt.select(*self._root)))
             lo += n
         return torch.cat(outs, 0), torch.cat(nexts, 0)
 
@@ -640,6 +685,14 @@ def train(
     def values(state: Any, obs: Any) -> Any:  # (..., N)
         return critic(state) if config.critic == "state" else critic(obs).squeeze(-1)
 
+    # teams of other numbers of beacons (TeamEnvs): the real beacons' slots; the padded ones are
+    # left out of every mean, scaling and loss below (None: every slot is real, the plain means)
+    mask = getattr(env, "agent_mask", None)
+
+    def agent_mean(x: Any, real: Any) -> Any:
+        """The mean of ``x`` over the real beacons' entries (``real``: their mask, or None)."""
+        return x.mean() if real is None else torch.where(real, x, 0.0).sum() / real.sum()
+
     # the rollout's buffers: T steps of B environments and N beacons
     obs_buf = torch.zeros(T, B, N, OK)
     state_buf = torch.zeros(T, B, S)
@@ -746,20 +799,20 @@ def train(
                     _, end_obs = window_input(window, end_obs, torch.zeros_like(first), K)
                     next_val_buf[t, ended] = values(end_state[ended], end_obs[ended])
                 first = ended
-                ep_return += reward.mean(-1)
+                ep_return += reward.mean(-1) if mask is None else (reward * mask).sum(-1) / mask.sum(-1)
                 ep_error += nxt.get(("info", "survey_error_m"))
                 ep_len += 1
                 if config.center_per_team:  # (P5) per team: a team whose cycles pay less is not paid to shorten them
                     reward = reward.clone()
                     for rows, norm in zip(team_rows, team_norms):
-                        norm.update(reward[rows])
+                        norm.update(reward[rows] if mask is None else reward[rows][mask[rows]])
                         reward[rows] -= norm.mean.float()
                 elif config.center_reward:  # (P5) r - rho, rho the running mean step reward
-                    step_norm.update(reward)
+                    step_norm.update(reward if mask is None else reward[mask])
                     reward = reward - step_norm.mean.float()
                 if config.norm_reward:  # the running std of the discounted return (VecNormalize's)
                     ret_running = ret_running * config.gamma + reward.double()
-                    ret_norm.update(ret_running)
+                    ret_norm.update(ret_running if mask is None else ret_running[mask])
                     reward = torch.clamp(reward / math.sqrt(float(ret_norm.var) + 1e-8), -10.0, 10.0)
                 rew_buf[t], term_buf[t], done_buf[t] = reward, term, done
                 if ended.any():
@@ -785,7 +838,12 @@ def train(
         b_obs, b_state = obs_buf.reshape(M, N, OK), state_buf.reshape(M, S)
         b_act, b_logp = act_buf.reshape(M, N, D), logp_buf.reshape(M, N)
         b_adv, b_ret = adv.reshape(M, N), returns.reshape(M, N)
-        b_adv = (b_adv - b_adv.mean()) / (b_adv.std() + 1e-8)
+        b_real = None if mask is None else mask.expand(T, B, N).reshape(M, N)
+        if b_real is None:
+            b_adv = (b_adv - b_adv.mean()) / (b_adv.std() + 1e-8)
+        else:
+            real_adv = b_adv[b_real]
+            b_adv = (b_adv - real_adv.mean()) / (real_adv.std() + 1e-8)
         warmup = it < config.critic_warmup_iterations  # the critic learns the policy's values first
         mb = min(config.minibatch, M)
         clip_fractions = []
@@ -799,11 +857,12 @@ def train(
                 )
                 ratio = (logp - b_logp[idx]).exp()
                 a = b_adv[idx]
+                real = None if b_real is None else b_real[idx]
                 # the clipped surrogate (P3)
-                policy_loss = -torch.min(
-                    ratio * a, ratio.clamp(1 - config.clip_range, 1 + config.clip_range) * a
-                ).mean()
-                value_loss = 0.5 * (values(b_state[idx], b_obs[idx]) - b_ret[idx]).pow(2).mean()  # (P4)
+                policy_loss = -agent_mean(
+                    torch.min(ratio * a, ratio.clamp(1 - config.clip_range, 1 + config.clip_range) * a), real
+                )
+                value_loss = 0.5 * agent_mean((values(b_state[idx], b_obs[idx]) - b_ret[idx]).pow(2), real)  # (P4)
                 entropy = (log_std + 0.5 * math.log(2 * math.pi * math.e)).sum()
                 if warmup:  # the actor held: its loss is not part of the step
                     loss = config.vf_coef * value_loss
@@ -813,7 +872,7 @@ def train(
                 loss.backward()
                 nn.utils.clip_grad_norm_(params, config.max_grad_norm)
                 optimizer.step()
-                clip_fractions.append(float(((ratio - 1).abs() > config.clip_range).float().mean()))
+                clip_fractions.append(float(agent_mean(((ratio - 1).abs() > config.clip_range).float(), real)))
         update_s = time.perf_counter() - t_update
 
         steps += M
