@@ -191,7 +191,7 @@ def test_a_run_keeps_its_validation_best(tmp_path):
     assert best["frames"] == record["best"]["frames"] and best["validation_seeds"] == [500010, 500012]
     config = scenario_config(get_task("gao_sea", None, overrides={"max_cycles": 20}).config)
     episodes, _ = run_episodes(config, str(out / "best"), [500010, 500011, 500012])
-    assert np.mean([e["mean_error_m"] for e in episodes]) == pytest.approx(best["validation_error_m"], rel=1e-12)
+    assert np.mean([e["mean_error_m"] for e in episodes]) == pytest.approx(best["validation_error_m"], rel=1e-6)
     plain = tmp_path / "plain"  # validating leaves the training as it was: the same last weights
     assert marl.main([*args[:-2], "--out", str(plain)]) == 0
     assert (plain / "policy.safetensors").read_bytes() == (out / "policy.safetensors").read_bytes()

@@ -603,33 +603,21 @@ def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig,
     environment of an earlier call to play again (re-seeded here), else a new one."""
     import torch
 
-    from coopnav_env.torchrl_env import GROUP
+    from .scoring import episode_mean_error
 
     E, K = config.eval_episodes, config.history
     if env is None:
         env = validation_env(config)
-    env.set_seed(config.eval_seed)  # the same episodes at every call
-    td = env.reset()
-    alive = torch.ones(E, dtype=torch.bool)
-    total = torch.zeros(E, dtype=torch.float64)
-    steps = torch.zeros(E, dtype=torch.float64)
     window = torch.zeros(E, env.n_beacons, K, env.obs_dim)
-    first = torch.ones(E, dtype=torch.bool)
-    with torch.no_grad():
-        while alive.any():
-            obs = td.get((GROUP, "observation"))
-            if obs_norm is not None:
-                obs = obs_norm.normalize(obs)
-            window, obs = window_input(window, obs, first, K)
-            td.set((GROUP, "action"), actor(obs).clamp(-1.0, 1.0))
-            td, td_next = env.step_and_maybe_reset(td)
-            nxt = td.get("next")
-            total += torch.where(alive, nxt.get(("info", "survey_error_m")).double(), 0.0)
-            steps += alive.double()
-            first = nxt.get("done").squeeze(-1).bool()
-            alive &= ~first
-            td = td_next
-    return float((total / steps).mean())
+
+    def act(obs: Any, first: Any) -> Any:
+        nonlocal window
+        if obs_norm is not None:
+            obs = obs_norm.normalize(obs)
+        window, obs = window_input(window, obs, first, K)
+        return actor(obs)
+
+    return episode_mean_error(env, act, config.eval_seed)
 
 
 def train(

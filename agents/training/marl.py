@@ -23,7 +23,7 @@ BenchMARL's checkpoint is a pickle (``torch.save``): load only your own.
 
 **The best weights** (``--eval-every-steps N``): every N env-steps and at the end the policy
 plays ``--eval-episodes`` validation episodes (seeded ``--eval-seed`` + i, never the test
-seeds) through the path ``evaluate.py`` scores, and ``<out>/best`` (a run folder of its own)
+seeds) as ``evaluate.py`` plays it, and ``<out>/best`` (a run folder of its own)
 keeps the lowest mean survey error's weights (``agents.training.marl_validation``); run.json
 lists every validation. A run's last weights are not its best.
 
@@ -108,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=0,
         metavar="N",
         help="every N env-steps and at the end, play --eval-episodes validation episodes with the deterministic "
-        "actor (the path evaluate.py scores) and keep the best weights in <out>/best (a run folder; 0: never)",
+        "actor (as evaluate.py plays it) and keep the best weights in <out>/best (a run folder; 0: never)",
     )
     p.add_argument("--eval-episodes", type=int, default=16, help="validation episodes (default: 16)")
     p.add_argument(

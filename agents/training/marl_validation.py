@@ -6,9 +6,10 @@ run's last weights are not its best. ``ValidationCallback`` plays the policy, ev
 env-steps and at the end, on the validation seeds (``coopnav_env.seeds.VALIDATION_SEED``
 onwards: never the benchmark's test seeds) **through the path the benchmark scores**: it
 saves the weights as a run folder (``policy.safetensors`` and ``run.json``), loads that folder
-with ``agents.benchmarl_policy`` and plays it with ``evaluation.episodes.run_episodes``. The
-number it keeps is therefore what ``evaluate.py --policies <out>/best`` gives on those seeds:
-the mean over the episodes of each episode's mean survey error (m). The training's random
+with ``agents.benchmarl_policy`` (one policy per beacon, as ``evaluate.py`` does) and plays it
+with ``agents.training.scoring.episode_mean_error``, where the batched loop's validation plays
+too. The number it keeps is what ``evaluate.py --policies <out>/best`` gives on those seeds
+(a test checks it): the mean over the episodes of each episode's mean survey error (m). The training's random
 streams (torch's, numpy's and Python's global generators) are left as they were: a run with
 validation trains exactly as the same run without.
 
@@ -79,6 +80,10 @@ class ValidationCallback(Callback):
         self.history: list[dict] = []
         self.best_row: dict | None = None
         self.seconds = 0.0  # wall seconds spent validating (the run's env-steps/s leaves them out)
+        self._env: Any = None  # the validation episodes' environment, built at the first validation
+
+    def __getstate__(self) -> dict:  # BenchMARL pickles its callbacks with the experiment
+        return {**self.__dict__, "_env": None}
 
     @property
     def seeds(self) -> list[int]:
@@ -121,19 +126,30 @@ class ValidationCallback(Callback):
             self.seconds += time.perf_counter() - t0
 
     def _validate(self, frames: int) -> float:
-        from agents.benchmarl_policy import RUN_RECORD, WEIGHTS, forget, policy_record
+        from agents.benchmarl_policy import RUN_RECORD, WEIGHTS, forget, load, policy_record
         from coopnav_env.records import atomic_write_bytes, atomic_write_text
-        from evaluation.episodes import run_episodes
+        from coopnav_env.torchrl_env import CoopNavTorchEnv
+
+        from .scoring import episode_mean_error
 
         self.scratch.mkdir(parents=True, exist_ok=True)
         save_weights(self.experiment, self.scratch / WEIGHTS)
         record = {**policy_record(self.experiment, self.algorithm, self.model), **self.record, "frames": frames}
         atomic_write_text(self.scratch / RUN_RECORD, json.dumps(record, indent=2, default=str))
-        try:
-            episodes, _ = run_episodes(self.config, str(self.scratch), self.seeds)
+        if self._env is None:  # built once: each validation re-seeds it
+            self._env = CoopNavTorchEnv(self.config, n_envs=self.episodes, seed=self.seed, infos=True)
+        try:  # the saved folder, loaded as evaluate.py loads it: one policy (its own memory) per beacon
+            policies = [load(self.scratch, scenario=self.config, agent=j) for j in range(self.config.n_beacons)]
+
+            def act(obs: Any, first: Any) -> Any:
+                import numpy as np
+
+                rows = obs.numpy().astype(np.float64)
+                return np.stack([p.act_batch(rows[:, j]) for j, p in enumerate(policies)], 1)
+
+            error = episode_mean_error(self._env, act, self.seed)
         finally:
             forget(self.scratch)  # one cached actor per validation would pile up
-        error = float(sum(e["mean_error_m"] for e in episodes) / len(episodes))
         row = {"frames": frames, "validation_error_m": error}
         self.history.append(row)
         if self.best_row is None or error < self.best_row["validation_error_m"]:

@@ -25,7 +25,46 @@ from coopnav_env.records import atomic_write_text, read_json, strict_json
 
 RANDOMIZATION_OFF = {"randomize_survey_path": (), "randomize_depth_m": (), "randomize_noise_scale": ()}
 
-__all__ = ["RANDOMIZATION_OFF", "baseline_actor", "baselines_on_eval_seeds", "eval_cells", "evaluate"]
+__all__ = [
+    "RANDOMIZATION_OFF",
+    "baseline_actor",
+    "baselines_on_eval_seeds",
+    "episode_mean_error",
+    "eval_cells",
+    "evaluate",
+]
+
+
+def episode_mean_error(env: Any, act: Callable[[Any, Any], Any], seed: int) -> float:
+    """Play one episode in each row of ``env`` (a ``coopnav_env.torchrl_env.CoopNavTorchEnv``,
+    re-seeded so that row e plays episode ``seed + e``) with ``act(obs, first) -> actions``:
+    obs (E, N, O) the group's observations, first (E,) True where the step is an episode's
+    first, actions (E, N, A) (clipped to [-1, 1] here). Returns the mean over the rows of
+    each episode's mean survey error (m): what ``evaluation.episodes.run_episodes`` gives the
+    same policy on those seeds (to float32 rounding: this acts on every row in one batch).
+    The batched loop's and BenchMARL's validations play here."""
+    import torch
+
+    from coopnav_env.torchrl_env import GROUP
+
+    E = env.n_envs
+    env.set_seed(seed)  # the same episodes at every call
+    td = env.reset()
+    alive = torch.ones(E, dtype=torch.bool)
+    total = torch.zeros(E, dtype=torch.float64)
+    steps = torch.zeros(E, dtype=torch.float64)
+    first = torch.ones(E, dtype=torch.bool)
+    with torch.no_grad():
+        while alive.any():
+            td.set((GROUP, "action"), torch.as_tensor(act(td.get((GROUP, "observation")), first)).clamp(-1.0, 1.0))
+            td, td_next = env.step_and_maybe_reset(td)
+            nxt = td.get("next")
+            total += torch.where(alive, nxt.get(("info", "survey_error_m")).double(), 0.0)
+            steps += alive.double()
+            first = nxt.get("done").squeeze(-1).bool()
+            alive &= ~first
+            td = td_next
+    return float((total / steps).mean())
 
 
 def eval_cells(scenario_config: Any, cells: dict | None = None) -> list:
