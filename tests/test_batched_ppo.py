@@ -689,6 +689,34 @@ def test_entity_validation_is_what_the_benchmark_measures(tmp_path):
     assert np.mean([r["mean_error_m"] for r in rows]) == pytest.approx(best, rel=1e-5)
 
 
+def test_validation_over_the_teams(tmp_path):
+    """``eval_teams``: each validation plays the episodes on every team's scenario; each team's
+    figure is what evaluation.episodes gives the best folder there, the score their mean, and
+    best/ keeps the weights with the lowest mean (so it may differ from the trial team's pick)."""
+    from coopnav_env import make_config
+    from evaluation.episodes import run_episodes
+
+    out = tmp_path / "run"
+    out.mkdir()
+    teams = [{}, {"current_speed_mps": 0.5}, {"beacon_kinds": ["beacon_auv", "beacon_auv"]}]
+    config = BatchedPPOConfig(
+        scenario="gao_sea", n_envs=6, n_steps=4, minibatch=24, overrides={"max_cycles": 6}, critic="observation",
+        teams=teams, eval_teams=True, eval_every_steps=24, eval_episodes=3, eval_seed=321, learning_rate=0.05,
+        entity={"encoder": "deepsets", "embed_dim": 16, "heads": 1}, net=(16,),
+    )  # fmt: skip
+    log = train(config, 72, out=out, progress=False)["log"]
+    assert all(len(row["validation_error_m_per_team"]) == 3 for row in log)
+    best = min(log, key=lambda row: row["validation_error_m"])
+    assert best["validation_error_m"] == pytest.approx(np.mean(best["validation_error_m_per_team"]), rel=1e-12)
+    for team, error in zip(teams, best["validation_error_m_per_team"]):
+        rows, _ = run_episodes(make_config("gao_sea", max_cycles=6, **team), str(out / "best"), [321, 322, 323])
+        assert np.mean([r["mean_error_m"] for r in rows]) == pytest.approx(error, rel=1e-5)
+    saved = json.loads((out / "best" / "run.json").read_text())
+    assert saved["validation_error_m_per_team"] == best["validation_error_m_per_team"]
+    with pytest.raises(ValueError, match="eval_teams validates on every team: it needs teams"):
+        BatchedPPOConfig(scenario="gao_sea", eval_teams=True).check()
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [

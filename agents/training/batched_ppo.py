@@ -136,6 +136,9 @@ class BatchedPPOConfig:
     eval_every_steps: int = 0
     eval_episodes: int = 16
     eval_seed: int = 500_000  # coopnav_env.seeds.VALIDATION_SEED, as train.py's eval.seed
+    # with teams: the validation plays `eval_episodes` episodes (the same seeds) on each team's
+    # scenario and scores the mean over the teams (False: the scenario with `overrides` alone)
+    eval_teams: bool = False
     # entity observations through agents.entity.EntityEncoder(**entity) (None: the flat observation)
     entity: dict[str, Any] | None = None
 
@@ -158,6 +161,8 @@ class BatchedPPOConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
+        if self.eval_teams and not self.teams:
+            raise ValueError("eval_teams validates on every team: it needs teams (--team)")
         if self.critic not in CRITICS:
             raise ValueError(f"critic must be one of {', '.join(CRITICS)}, got {self.critic!r}")
         if len(self.teams) > self.n_envs or any(not isinstance(t, dict) for t in self.teams):
@@ -581,43 +586,58 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
     return TeamEnvs(envs, state=config.critic == "state")
 
 
-def validation_env(config: BatchedPPOConfig) -> Any:
-    """The environment ``validate`` plays its episodes in."""
+def validation_env(config: BatchedPPOConfig) -> list:
+    """The environments ``validate`` plays its episodes in: the scenario with
+    ``config.overrides``, or with ``eval_teams`` one per team (its overrides on top)."""
     from coopnav_env.torchrl_env import CoopNavTorchEnv
 
-    return CoopNavTorchEnv(
-        config.scenario,
-        n_envs=config.eval_episodes,
-        seed=config.eval_seed,
-        infos=True,
-        observation=config.observation,
-        **config.overrides,
-    )
+    teams = config.teams if config.eval_teams and config.teams else [{}]
+    return [
+        CoopNavTorchEnv(
+            config.scenario,
+            n_envs=config.eval_episodes,
+            seed=config.eval_seed,
+            infos=True,
+            observation=config.observation,
+            **{**config.overrides, **team},
+        )
+        for team in teams
+    ]
 
 
-def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig, env: Any = None) -> float:
-    """The mean over ``config.eval_episodes`` episodes (seeded ``eval_seed + i``, the scenario
-    with ``config.overrides``) of each episode's mean survey error (m) under the actor's
-    deterministic action (the Gaussian's mean, as ``agents.batched_policy`` acts): what
-    ``evaluation.episodes.run_episodes`` gives the saved policy on those seeds. ``env``: an
-    environment of an earlier call to play again (re-seeded here), else a new one."""
+def validate_per_team(
+    actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig, envs: Any = None
+) -> list[float]:
+    """Per environment of ``validation_env`` (one, or one per team with ``eval_teams``): the
+    mean over ``config.eval_episodes`` episodes (seeded ``eval_seed + i``) of each episode's
+    mean survey error (m) under the actor's deterministic action (the Gaussian's mean, as
+    ``agents.batched_policy`` acts): what ``evaluation.episodes.run_episodes`` gives the
+    saved policy on those seeds and that scenario. ``envs``: the environments of an earlier
+    call to play again (re-seeded here), else new ones."""
     import torch
 
     from .scoring import episode_mean_error
 
     E, K = config.eval_episodes, config.history
-    if env is None:
-        env = validation_env(config)
-    window = torch.zeros(E, env.n_beacons, K, env.obs_dim)
+    errors = []
+    for env in envs if envs is not None else validation_env(config):
+        window = torch.zeros(E, env.n_beacons, K, env.obs_dim)
 
-    def act(obs: Any, first: Any) -> Any:
-        nonlocal window
-        if obs_norm is not None:
-            obs = obs_norm.normalize(obs)
-        window, obs = window_input(window, obs, first, K)
-        return actor(obs)
+        def act(obs: Any, first: Any) -> Any:
+            nonlocal window
+            if obs_norm is not None:
+                obs = obs_norm.normalize(obs)
+            window, obs = window_input(window, obs, first, K)
+            return actor(obs)
 
-    return episode_mean_error(env, act, config.eval_seed)
+        errors.append(episode_mean_error(env, act, config.eval_seed))
+    return errors
+
+
+def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig, envs: Any = None) -> float:
+    """The validation error (m): ``validate_per_team``'s mean over the teams (one without ``eval_teams``)."""
+    errors = validate_per_team(actor, obs_norm, config, envs)
+    return float(sum(errors) / len(errors))
 
 
 def train(
@@ -894,12 +914,16 @@ def train(
         if out is not None and every and (steps // every > (steps - M) // every or it + 1 == iterations):
             if eval_env is None:  # built once: each validation re-seeds it
                 eval_env = validation_env(config)
-            row["validation_error_m"] = validate(actor, obs_norm if norm_actor_obs else None, config, eval_env)
+            per_team = validate_per_team(actor, obs_norm if norm_actor_obs else None, config, eval_env)
+            row["validation_error_m"] = float(sum(per_team) / len(per_team))
+            if len(per_team) > 1:
+                row["validation_error_m_per_team"] = per_team
             if best_error is None or row["validation_error_m"] < best_error:
                 best_error = row["validation_error_m"]
                 extra = {
                     "validation_error_m": best_error,
                     "validation_seeds": [config.eval_seed, config.eval_seed + config.eval_episodes - 1],
+                    **({"validation_error_m_per_team": per_team} if len(per_team) > 1 else {}),
                 }
                 save(out / "best", actor, log_std, config, steps, time.perf_counter() - start, O, D, norms, extra)
         if out is not None and steps // save_every_steps > (steps - M) // save_every_steps and it + 1 < iterations:
@@ -1073,6 +1097,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--eval-episodes", type=int, default=defaults.eval_episodes, help="validation episodes")
     p.add_argument(
+        "--eval-teams",
+        action="store_true",
+        help="with --team: validate on every team (--eval-episodes each, the same seeds) and keep the weights "
+        "with the best mean over the teams (default: the scenario with --set alone)",
+    )
+    p.add_argument(
         "--eval-seed", type=int, default=defaults.eval_seed, help="validation episode i is seeded EVAL_SEED + i"
     )
     p.add_argument("--save-every-steps", type=int, default=5_000_000, help="also save the weights every N env-steps")
@@ -1121,6 +1151,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             eval_every_steps=args.eval_every_steps,
             eval_episodes=args.eval_episodes,
             eval_seed=args.eval_seed,
+            eval_teams=args.eval_teams,
             entity=dict(ENTITY) if args.entity else None,
         )
         config.check()
