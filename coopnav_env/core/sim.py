@@ -51,10 +51,10 @@ INFO_KEYS = (
     "survey_cov_en_m2",
 )
 BEACON_INFO_KEYS = ("beacon_error_m",)  # and the channel model's (core.channel registry)
-SURVEY_BEACON_INFO_KEYS = ("beacon_away_s",)
+SURVEY_BEACON_INFO_KEYS = ("beacon_away_s",)  # the survey network's: time away on a surfacing
 # global_state's values per survey vehicle (true and estimated position, the error ellipse),
 # per beacon, and after both (the current, the episode's progress)
-SURVEY_STATE_DIM, BEACON_STATE_DIM, GLOBAL_STATE_DIM = 10, 7, 3  # the survey network's: time away on a surfacing
+SURVEY_STATE_DIM, BEACON_STATE_DIM, GLOBAL_STATE_DIM = 10, 7, 3
 
 
 class Simulator(BatchSimulator):
