@@ -199,11 +199,13 @@ class CoopNavTorchEnv(EnvBase):
     def state_dim(self) -> int:
         """Length of ``"state"``: the core's state and every (flat) observation, or the
         observations; each for ``state_survey_slots`` survey vehicles."""
-        from .core.observation import PER_SURVEY_FIXED
+        from .core import observation as layout
         from .core.sim import SURVEY_STATE_DIM
 
         extra = self.state_survey_slots - self.n_survey  # 0 on the moving network
-        flat = self.flat_obs_dim + extra * (PER_SURVEY_FIXED + 2 * self.config.observed_waypoints)
+        flat = self.flat_obs_dim
+        if extra:
+            flat = layout.obs_dim(self.state_survey_slots, self.n_beacons, self.config.observed_waypoints)
         n_obs = self.n_beacons * flat
         return n_obs + (self.sim.state_dim + extra * SURVEY_STATE_DIM if self.state_kind == "privileged" else 0)
 
@@ -331,18 +333,19 @@ class CoopNavTorchEnv(EnvBase):
     def _output(self, obs: np.ndarray, done, terminated, truncated) -> TensorDict:
         B, N = self.n_envs, self.n_beacons
         obs_t = torch.from_numpy(np.ascontiguousarray(obs, dtype=np.float32))
-        parts = [obs_t.reshape(B, N * self.flat_obs_dim)]
-        if self.state_survey_slots != self.n_survey:  # each survey vehicle's values at its slot's index
-            from .core.sim import SURVEY_STATE_DIM
+        slots = self.state_survey_slots
+        if slots == self.n_survey:
+            parts = [obs_t.reshape(B, N * self.flat_obs_dim)]
+        else:  # each survey vehicle's values at its slot's index
             from .obs_layout import pad_surveys
 
-            parts = [torch.from_numpy(pad_surveys(obs_t.numpy(), self.config, self.state_survey_slots)).reshape(B, -1)]
+            parts = [torch.from_numpy(pad_surveys(obs_t.numpy(), self.config, slots)).reshape(B, -1)]
         if self.state_kind == "privileged":
             glob = self.sim.global_state()
-            if self.state_survey_slots != self.n_survey:
-                cut = self.n_survey * SURVEY_STATE_DIM
-                pad = np.zeros((B, (self.state_survey_slots - self.n_survey) * SURVEY_STATE_DIM), np.float32)
-                glob = np.concatenate([glob[:, :cut], pad, glob[:, cut:]], 1)
+            if slots != self.n_survey:
+                from .core.sim import pad_global_state
+
+                glob = pad_global_state(glob, self.n_survey, slots)
             parts.insert(0, torch.from_numpy(glob))
         if self.observation == "entities":  # beacon j reads its own row with role j
             from .entity_obs import entity_observation

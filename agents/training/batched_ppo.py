@@ -696,6 +696,7 @@ def train(
     # teams of other numbers of beacons (TeamEnvs): the real beacons' slots; the padded ones are
     # left out of every mean, scaling and loss below (None: every slot is real, the plain means)
     mask = getattr(env, "agent_mask", None)
+    n_real = None if mask is None else mask.sum(-1)  # (B,) each row's real beacons
 
     def agent_mean(x: Any, real: Any) -> Any:
         """The mean of ``x`` over the real beacons' entries (``real``: their mask, or None)."""
@@ -807,7 +808,7 @@ def train(
                     _, end_obs = window_input(window, end_obs, torch.zeros_like(first), K)
                     next_val_buf[t, ended] = values(end_state[ended], end_obs[ended])
                 first = ended
-                ep_return += reward.mean(-1) if mask is None else (reward * mask).sum(-1) / mask.sum(-1)
+                ep_return += reward.mean(-1) if mask is None else (reward * mask).sum(-1) / n_real
                 ep_error += nxt.get(("info", "survey_error_m"))
                 ep_len += 1
                 if config.center_per_team:  # (P5) per team: a team whose cycles pay less is not paid to shorten them

@@ -329,6 +329,7 @@ def run(args: argparse.Namespace, command: str) -> dict:
     _quiet_benchmarl_bar()
     progress = ProgressCallback(int(config.get_max_n_frames(algo.on_policy())))
     callbacks: list[Any] = [progress]
+    task_fields = {"task": f"coopnav/{set_name}", "task_config": task.config, "scenario": scenario.name}
     validation = None
     if args.eval_every_steps:
         from .marl_validation import ValidationCallback
@@ -338,7 +339,7 @@ def run(args: argparse.Namespace, command: str) -> dict:
             args.eval_episodes,
             args.eval_seed,
             scenario,
-            {"task": f"coopnav/{set_name}", "task_config": task.config, "scenario": scenario.name},
+            task_fields,
             algorithm,
             args.model,
             scratch=partial / "validation",
@@ -380,9 +381,7 @@ def run(args: argparse.Namespace, command: str) -> dict:
     record = {
         "command": command,
         **policy_record(experiment, algorithm, args.model),  # what agents.load rebuilds the actor from
-        "task": f"coopnav/{set_name}",
-        "task_config": task.config,
-        "scenario": scenario.name,
+        **task_fields,
         "critic_model": args.critic_model,
         "seed": args.seed,
         "experiment_config": {k: v for k, v in vars(config).items() if _jsonable(v)},

@@ -126,6 +126,8 @@ class ValidationCallback(Callback):
             self.seconds += time.perf_counter() - t0
 
     def _validate(self, frames: int) -> float:
+        import numpy as np
+
         from agents.benchmarl_policy import RUN_RECORD, WEIGHTS, forget, load, policy_record
         from coopnav_env.records import atomic_write_bytes, atomic_write_text
         from coopnav_env.torchrl_env import CoopNavTorchEnv
@@ -142,9 +144,7 @@ class ValidationCallback(Callback):
             policies = [load(self.scratch, scenario=self.config, agent=j) for j in range(self.config.n_beacons)]
 
             def act(obs: Any, first: Any) -> Any:
-                import numpy as np
-
-                rows = obs.numpy().astype(np.float64)
+                rows = obs.numpy()
                 return np.stack([p.act_batch(rows[:, j]) for j, p in enumerate(policies)], 1)
 
             error = episode_mean_error(self._env, act, self.seed)

@@ -57,6 +57,15 @@ SURVEY_BEACON_INFO_KEYS = ("beacon_away_s",)  # the survey network's: time away 
 SURVEY_STATE_DIM, BEACON_STATE_DIM, GLOBAL_STATE_DIM = 10, 7, 3
 
 
+def pad_global_state(state: np.ndarray, n_survey: int, slots: int) -> np.ndarray:
+    """``Simulator.global_state()`` (B, state_dim) of a team of ``n_survey`` survey vehicles laid
+    out for ``slots`` of them: the missing vehicles' blocks zero, the beacons' and the global
+    values after them, where a team of ``slots`` has them."""
+    cut = n_survey * SURVEY_STATE_DIM
+    pad = np.zeros((state.shape[0], (slots - n_survey) * SURVEY_STATE_DIM), dtype=state.dtype)
+    return np.concatenate([state[:, :cut], pad, state[:, cut:]], 1)
+
+
 class Simulator(BatchSimulator):
     """The batched coopnav core: B independent environments of one scenario."""
 
