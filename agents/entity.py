@@ -134,6 +134,11 @@ class EntityEncoder(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         own, survey, survey_mask, beacons, beacon_mask = split_entities(x, self.layout)
+        # only the slots some row of the batch fills: a slot padded in every row adds nothing to
+        # any pooled value (masked out below), so it is not embedded (a mixed-team training batch
+        # of one- and two-survey teams embeds 2 of the 5 survey slots)
+        survey, survey_mask = _filled_slots(survey, survey_mask)
+        beacons, beacon_mask = _filled_slots(beacons, beacon_mask)
         o = self.own_net(own)
         s = self.survey_net(survey)
         b = self.beacon_net(beacons)
@@ -150,17 +155,33 @@ class EntityEncoder(nn.Module):
     def _attend(self, own: torch.Tensor, entities: torch.Tensor, valid: torch.Tensor) -> torch.Tensor:
         """Multi-head attention of one query (the own embedding, (B, E)) over the entities
         (B, M, E), padded slots (valid False) out of the softmax (Vaswani et al. 2017, eq. 1:
-        softmax(q k^T / sqrt(d)) v per head, then the output projection)."""
+        softmax(q k^T / sqrt(d)) v per head, then the output projection). The M entities are
+        few: the products are summed over the head's d channels one entity at a time (a batched
+        matrix product of 1 x d by d x M matrices costs several times more on the CPU)."""
         B, M, E = entities.shape
         H = self.heads
         d = E // H
-        q = self.query(own).reshape(B, H, 1, d)
-        k = self.key(entities).reshape(B, M, H, d).transpose(1, 2)  # (B, H, M, d)
-        v = self.value(entities).reshape(B, M, H, d).transpose(1, 2)
-        scores = (q @ k.transpose(-1, -2)).squeeze(-2) / d**0.5  # (B, H, M)
+        q = self.query(own).reshape(B, H, d)
+        keys = self.key(entities).reshape(B, M, H, d).unbind(1)  # M of (B, H, d)
+        values = self.value(entities).reshape(B, M, H, d).unbind(1)
+        scores = torch.stack([(q * k).sum(-1) for k in keys], -1) / d**0.5  # (B, H, M)
         scores = scores.masked_fill(~valid.unsqueeze(1), float("-inf"))
-        weights = torch.softmax(scores, -1).unsqueeze(-2)  # (B, H, 1, M)
-        return self.out((weights @ v).reshape(B, E))
+        weights = torch.softmax(scores, -1).unbind(-1)  # M of (B, H)
+        attended = sum(w.unsqueeze(-1) * v for w, v in zip(weights, values))  # (B, H, d)
+        return self.out(attended.reshape(B, E))
+
+
+def _filled_slots(entities: torch.Tensor, mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The slots (axis -2 of ``entities``, -1 of ``mask``) that at least one row fills: the
+    pooled features do not depend on the others (their mask is 0 in every row). Keeps one slot
+    where none is filled, so the shapes stay non-empty."""
+    filled = mask.reshape(-1, mask.shape[-1]).any(0)
+    if bool(filled.all()):
+        return entities, mask
+    if not bool(filled.any()):
+        filled = torch.zeros_like(filled)
+        filled[:1] = True
+    return entities[..., filled, :], mask[..., filled]
 
 
 class EntityExtractor(BaseFeaturesExtractor):

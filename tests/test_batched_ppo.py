@@ -330,7 +330,7 @@ def test_ippo_trains_over_teams_of_other_numbers_of_beacons():
 
 def test_padded_beacon_slots_do_not_reach_the_update(monkeypatch):
     """Garbage in the padded slots (observations shifted by 3, rewards of 100) trains the same
-    weights to the last bit: the slots are out of every mean, scaling and loss."""
+    weights (to float32 round-off): the slots are out of every mean, scaling and loss."""
     from agents.training.batched_ppo import TeamEnvs
 
     config = BatchedPPOConfig(
@@ -354,7 +354,12 @@ def test_padded_beacon_slots_do_not_reach_the_update(monkeypatch):
 
     monkeypatch.setattr(TeamEnvs, "_padded", garbage)
     dirty = train(config, 48, progress=False)["actor"].state_dict()
-    assert all(torch.equal(clean[k], dirty[k]) for k in clean)
+    # equal up to the grouping of the weight gradients' sums over rows: the garbage's masks
+    # (3 > 0.5) read as filled, so the encoder embeds all the slots (agents.entity._filled_slots),
+    # whose zero gradients regroup the sums (measured: at most 3e-8; a leak of rewards of 100 moves
+    # the weights by far more)
+    for k in clean:
+        torch.testing.assert_close(dirty[k], clean[k], atol=1e-6, rtol=0, msg=k)
 
 
 def test_the_log_gives_each_teams_error():

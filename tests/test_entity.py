@@ -155,6 +155,28 @@ def test_encoder_is_permutation_and_padding_invariant(encoder, seed, n_survey, n
 
 
 @pytest.mark.parametrize("encoder", ENCODERS)
+def test_a_rows_features_do_not_depend_on_its_batch(encoder):
+    """The encoder embeds only the slots some row of the batch fills (agents.entity._filled_slots):
+    a row's features alone, in a batch of larger teams, and with every slot embedded (a row of
+    five survey vehicles and two other beacons beside it) agree to 1e-6; and its gradients
+    reach the weights the same way."""
+    torch.manual_seed(3)
+    net = EntityEncoder(encoder, embed_dim=16, heads=4)
+    rng = np.random.default_rng(4)
+    parts = [_random_entities(rng, n, p, batch=2) for n, p in ((1, 0), (2, 1), (MAX_SURVEY, MAX_BEACONS - 1))]
+    x = torch.as_tensor(np.concatenate([flatten_entities(e) for e in parts]))
+    together = net(x)
+    for i in range(len(parts)):  # each team's rows alone: fewer filled slots than in the batch
+        alone = net(x[2 * i : 2 * i + 2])
+        torch.testing.assert_close(alone, together[2 * i : 2 * i + 2], atol=1e-6, rtol=0)
+    small = x[:2]
+    grads = torch.autograd.grad(net(small).sum(), list(net.parameters()), allow_unused=True)
+    padded_grads = torch.autograd.grad(net(torch.cat([small, x[-1:]]))[:2].sum(), list(net.parameters()))
+    for g, h in zip(grads, padded_grads):
+        torch.testing.assert_close(torch.zeros_like(h) if g is None else g, h, atol=1e-5, rtol=1e-5)
+
+
+@pytest.mark.parametrize("encoder", ENCODERS)
 def test_encoder_sees_the_entities(encoder):
     """Not a constant: moving one survey vehicle or flipping a beacon's kind changes the features."""
     torch.manual_seed(0)

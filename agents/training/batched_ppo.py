@@ -860,28 +860,29 @@ def train(
             order = torch.randperm(M)
             for lo in range(0, M, mb):
                 idx = order[lo : lo + mb]
-                mean = actor(b_obs[idx])
-                logp = (-0.5 * ((b_act[idx] - mean) / log_std.exp()) ** 2 - log_std - 0.5 * math.log(2 * math.pi)).sum(
-                    -1
-                )
-                ratio = (logp - b_logp[idx]).exp()
-                a = b_adv[idx]
                 real = None if b_real is None else b_real[idx]
-                # the clipped surrogate (P3)
-                policy_loss = -agent_mean(
-                    torch.min(ratio * a, ratio.clamp(1 - config.clip_range, 1 + config.clip_range) * a), real
-                )
                 value_loss = 0.5 * agent_mean((values(b_state[idx], b_obs[idx]) - b_ret[idx]).pow(2), real)  # (P4)
-                entropy = (log_std + 0.5 * math.log(2 * math.pi * math.e)).sum()
-                if warmup:  # the actor held: its loss is not part of the step
+                if warmup:  # the actor held: its loss is not part of the step, nor its forward pass
                     loss = config.vf_coef * value_loss
+                    clip_fractions.append(0.0)  # its ratio is 1
                 else:
+                    mean = actor(b_obs[idx])
+                    logp = (
+                        -0.5 * ((b_act[idx] - mean) / log_std.exp()) ** 2 - log_std - 0.5 * math.log(2 * math.pi)
+                    ).sum(-1)
+                    ratio = (logp - b_logp[idx]).exp()
+                    a = b_adv[idx]
+                    # the clipped surrogate (P3)
+                    policy_loss = -agent_mean(
+                        torch.min(ratio * a, ratio.clamp(1 - config.clip_range, 1 + config.clip_range) * a), real
+                    )
+                    entropy = (log_std + 0.5 * math.log(2 * math.pi * math.e)).sum()
                     loss = policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
+                    clip_fractions.append(float(agent_mean(((ratio - 1).abs() > config.clip_range).float(), real)))
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 nn.utils.clip_grad_norm_(params, config.max_grad_norm)
                 optimizer.step()
-                clip_fractions.append(float(agent_mean(((ratio - 1).abs() > config.clip_range).float(), real)))
         update_s = time.perf_counter() - t_update
 
         steps += M
