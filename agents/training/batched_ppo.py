@@ -693,14 +693,11 @@ def train(
     def values(state: Any, obs: Any) -> Any:  # (..., N)
         return critic(state) if config.critic == "state" else critic(obs).squeeze(-1)
 
-    # teams of other numbers of beacons (TeamEnvs): the real beacons' slots; the padded ones are
-    # left out of every mean, scaling and loss below (None: every slot is real, the plain means)
+    # teams of other numbers of beacons (TeamEnvs, IPPO only): the real beacons' slots; the padded
+    # ones are left out of every mean, scaling and loss below, and out of the update's passes
+    # (None: every slot is real)
     mask = getattr(env, "agent_mask", None)
     n_real = None if mask is None else mask.sum(-1)  # (B,) each row's real beacons
-
-    def agent_mean(x: Any, real: Any) -> Any:
-        """The mean of ``x`` over the real beacons' entries (``real``: their mask, or None)."""
-        return x.mean() if real is None else torch.where(real, x, 0.0).sum() / real.sum()
 
     # the rollout's buffers: T steps of B environments and N beacons
     obs_buf = torch.zeros(T, B, N, OK)
@@ -860,25 +857,29 @@ def train(
             order = torch.randperm(M)
             for lo in range(0, M, mb):
                 idx = order[lo : lo + mb]
-                real = None if b_real is None else b_real[idx]
-                value_loss = 0.5 * agent_mean((values(b_state[idx], b_obs[idx]) - b_ret[idx]).pow(2), real)  # (P4)
+                if b_real is None:  # every slot a beacon's: (mb, N, ...)
+                    obs_i, act_i, logp_i, adv_i, ret_i = (x[idx] for x in (b_obs, b_act, b_logp, b_adv, b_ret))
+                    value = values(b_state[idx], obs_i)
+                else:  # only the real beacons' entries (R, ...): a padded slot costs no pass (IPPO's critic)
+                    real = b_real[idx]
+                    obs_i, act_i, logp_i, adv_i, ret_i = (x[idx][real] for x in (b_obs, b_act, b_logp, b_adv, b_ret))
+                    value = critic(obs_i).squeeze(-1)
+                value_loss = 0.5 * (value - ret_i).pow(2).mean()  # (P4)
                 if warmup:  # the actor held: its loss is not part of the step, nor its forward pass
                     loss = config.vf_coef * value_loss
                     clip_fractions.append(0.0)  # its ratio is 1
                 else:
-                    mean = actor(b_obs[idx])
-                    logp = (
-                        -0.5 * ((b_act[idx] - mean) / log_std.exp()) ** 2 - log_std - 0.5 * math.log(2 * math.pi)
-                    ).sum(-1)
-                    ratio = (logp - b_logp[idx]).exp()
-                    a = b_adv[idx]
-                    # the clipped surrogate (P3)
-                    policy_loss = -agent_mean(
-                        torch.min(ratio * a, ratio.clamp(1 - config.clip_range, 1 + config.clip_range) * a), real
+                    mean = actor(obs_i)
+                    logp = (-0.5 * ((act_i - mean) / log_std.exp()) ** 2 - log_std - 0.5 * math.log(2 * math.pi)).sum(
+                        -1
                     )
+                    ratio = (logp - logp_i).exp()
+                    # the clipped surrogate (P3)
+                    clipped = ratio.clamp(1 - config.clip_range, 1 + config.clip_range)
+                    policy_loss = -torch.min(ratio * adv_i, clipped * adv_i).mean()
                     entropy = (log_std + 0.5 * math.log(2 * math.pi * math.e)).sum()
                     loss = policy_loss + config.vf_coef * value_loss - config.ent_coef * entropy
-                    clip_fractions.append(float(agent_mean(((ratio - 1).abs() > config.clip_range).float(), real)))
+                    clip_fractions.append(float(((ratio - 1).abs() > config.clip_range).float().mean()))
                 optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 nn.utils.clip_grad_norm_(params, config.max_grad_norm)
