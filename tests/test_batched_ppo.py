@@ -1,6 +1,7 @@
 """The readable PPO loop on the batched core (agents/training/batched_ppo.py) and its runs as
 policies (agents/batched_policy.py): GAE by hand, a tiny training run end to end, bad input."""
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -360,6 +361,51 @@ def test_padded_beacon_slots_do_not_reach_the_update(monkeypatch):
     # the weights by far more)
     for k in clean:
         torch.testing.assert_close(dirty[k], clean[k], atol=1e-6, rtol=0, msg=k)
+
+
+def test_advantages_scale_per_team_when_asked():
+    """normalize_advantages: over the batch's real entries by default; with team ids, each
+    team's real entries to mean 0 and std 1 on their own (a team with rewards 100 times larger
+    no longer outweighs the other), the padded entries left alone."""
+    from agents.training.batched_ppo import normalize_advantages
+
+    gen = torch.Generator().manual_seed(0)
+    adv = torch.randn(400, 2, generator=gen)
+    adv[200:] *= 100.0  # team 1's advantages, 100 times team 0's
+    team = torch.zeros(400, 2, dtype=torch.long)
+    team[200:] = 1
+    real = torch.ones(400, 2, dtype=torch.bool)
+    real[:200, 1] = False  # team 0 has one beacon: its second slot is padding
+    adv[:200, 1] = 1e6  # garbage there
+    whole = normalize_advantages(adv, real)
+    assert abs(float(whole[real].mean())) < 1e-5 and abs(float(whole[real].std()) - 1.0) < 1e-5
+    assert float(whole[:200, 0].std()) < 0.05  # the small team's signal all but vanishes
+    per = normalize_advantages(adv, real, team)
+    for k, rows in ((0, slice(0, 200)), (1, slice(200, 400))):
+        own = per[rows][real[rows]]
+        assert abs(float(own.mean())) < 1e-5 and abs(float(own.std()) - 1.0) < 1e-5, k
+    assert torch.equal(per[:200, 1], adv[:200, 1])  # padding untouched
+    one = normalize_advantages(torch.tensor([[1.0], [5.0], [9.0]]), None, torch.tensor([[0], [1], [1]]))
+    assert one.flatten().tolist() == [0.0, -0.7071067690849304, 0.7071067690849304]
+
+
+def test_advantages_per_team_need_teams():
+    with pytest.raises(ValueError, match=r"norm_adv_per_team .* needs two teams or more \(--team\)"):
+        BatchedPPOConfig(scenario="gao_lawnmower", norm_adv_per_team=True, teams=[{}]).check()
+
+
+def test_a_tiny_run_scales_advantages_per_team():
+    """The path end to end: two teams of other numbers of beacons, IPPO, per-team scaling."""
+    config = BatchedPPOConfig(
+        scenario="gao_lawnmower", n_envs=4, n_steps=4, minibatch=8, teams=[{}, {"beacon_kinds": ["beacon_auv", "asv"]}],
+        critic="observation", entity={"encoder": "deepsets", "embed_dim": 16, "heads": 1}, net=(16,),
+        overrides={"max_cycles": 3}, seed=7, norm_adv_per_team=True,
+    )  # fmt: skip
+    run = train(config, 32, progress=False)
+    row = run["log"][-1]
+    assert np.isfinite(row["value_loss"]) and 0.0 <= row["clip_fraction"] <= 1.0
+    plain = train(dataclasses.replace(config, norm_adv_per_team=False), 32, progress=False)
+    assert not torch.equal(run["actor"].head[0].weight, plain["actor"].head[0].weight)  # the scaling acts
 
 
 def test_the_log_gives_each_teams_error():

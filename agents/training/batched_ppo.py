@@ -50,7 +50,11 @@ computed below:
 * with ``--center-reward``, (P5) each step is paid r - ρ, ρ the running mean step reward
   (average-reward RL's differential reward), so a policy that can lengthen or shorten its
   episodes is not paid for the length itself; with ``--center-reward-per-team`` ρ is each
-  team's own.
+  team's own;
+* with ``--norm-advantage-per-team``, each team's advantages are scaled to mean 0 and std 1
+  over its own entries (per-task normalization, as PopArt's per-task scales in multi-task RL,
+  Hessel et al. 2019), so a team whose rewards vary more does not outweigh the others in the
+  policy's gradient; without it, over the whole batch.
 
 **Output** (``--out``, a new or empty folder, locked for the run): ``actor.safetensors`` (the
 actor's weights and the observation statistics: data, not a pickle; written every
@@ -124,6 +128,8 @@ class BatchedPPOConfig:
     # first order (docs/training/marl.md#episode-length)
     center_reward: bool = False
     center_per_team: bool = False  # with center_reward and teams: a rho per team, each its own running mean
+    # with teams: the advantages scaled to mean 0, std 1 within each team (False: over the batch)
+    norm_adv_per_team: bool = False
     # memory as a window: the actor (and IPPO's critic) sees the last `history` observations of its
     # beacon, newest first (the issue's "a history of the survey's reports"); 1: the current one only
     history: int = 1
@@ -169,6 +175,8 @@ class BatchedPPOConfig:
             raise ValueError(f"teams must be at most n_envs ({self.n_envs}) mappings of overrides, got {self.teams!r}")
         if self.center_per_team and not self.center_reward:
             raise ValueError("center_per_team needs center_reward (--center-reward)")
+        if self.norm_adv_per_team and len(self.teams) < 2:
+            raise ValueError("norm_adv_per_team scales each team's advantages: it needs two teams or more (--team)")
         h = self.history
         if isinstance(h, bool) or not isinstance(h, int) or not 1 <= h <= MAX_HISTORY:
             raise ValueError(f"history must be an integer in 1..{MAX_HISTORY}, got {h!r}")
@@ -394,6 +402,24 @@ def gae(reward: Any, value: Any, next_value: Any, terminated: Any, done: Any, ga
         last = delta + gamma * lam * (1.0 - done[t]) * last
         adv[t] = last
     return adv
+
+
+def normalize_advantages(adv: Any, real: Any = None, team: Any = None) -> Any:
+    """Advantages (M, N) scaled to mean 0 and std 1 over the real beacons' entries (``real``:
+    their mask, None: all), over the whole batch or, with ``team`` (M, N) ids, within each team
+    (``--norm-advantage-per-team``). A new tensor; entries outside ``real`` are scaled with the
+    batch's figures (or, per team, left as they are): the update does not read them."""
+    if team is None:
+        pick = adv if real is None else adv[real]
+        return (adv - pick.mean()) / (pick.std() + 1e-8)
+    out = adv.clone()
+    for k in team.unique().tolist():
+        own = team == k if real is None else (team == k) & real
+        if int(own.sum()) > 1:
+            out[own] = (adv[own] - adv[own].mean()) / (adv[own].std() + 1e-8)
+        else:  # one entry: its advantage less its mean
+            out[own] = 0.0
+    return out
 
 
 class RunningNorm:
@@ -845,11 +871,8 @@ def train(
         b_act, b_logp = act_buf.reshape(M, N, D), logp_buf.reshape(M, N)
         b_adv, b_ret = adv.reshape(M, N), returns.reshape(M, N)
         b_real = None if mask is None else mask.expand(T, B, N).reshape(M, N)
-        if b_real is None:
-            b_adv = (b_adv - b_adv.mean()) / (b_adv.std() + 1e-8)
-        else:
-            real_adv = b_adv[b_real]
-            b_adv = (b_adv - real_adv.mean()) / (real_adv.std() + 1e-8)
+        b_team = team_of.view(1, B, 1).expand(T, B, N).reshape(M, N) if config.norm_adv_per_team else None
+        b_adv = normalize_advantages(b_adv, b_real, b_team)
         warmup = it < config.critic_warmup_iterations  # the critic learns the policy's values first
         mb = min(config.minibatch, M)
         clip_fractions = []
@@ -1081,6 +1104,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "its episodes sooner)",
     )
     p.add_argument(
+        "--norm-advantage-per-team",
+        action="store_true",
+        help="with --team: scale each team's advantages to mean 0, std 1 on its own (a team whose rewards vary "
+        "more does not outweigh the others); without it, over the whole batch",
+    )
+    p.add_argument(
         "--stage",
         action="append",
         nargs="+",
@@ -1148,6 +1177,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             init_from=args.init_from,
             center_reward=args.center_reward or args.center_reward_per_team,
             center_per_team=args.center_reward_per_team,
+            norm_adv_per_team=args.norm_advantage_per_team,
             critic_warmup_iterations=args.critic_warmup,
             history=args.history,
             stages=stages,
