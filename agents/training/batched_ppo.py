@@ -1127,7 +1127,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="with --out: every N env-steps and at the end, play --eval-episodes validation episodes with the "
         "deterministic actor and keep the best weights in <out>/best (a policy folder; 0: never)",
     )
-    p.add_argument("--eval-episodes", type=int, default=defaults.eval_episodes, help="validation episodes")
+    p.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=defaults.eval_episodes,
+        help="validation episodes (16 are a noisy judge of small gains: the best of many validations on 16 "
+        "picks noise; give 64 or more to pick between close weights)",
+    )
     p.add_argument(
         "--eval-teams",
         action="store_true",
