@@ -886,7 +886,7 @@ def train(
                 else:  # only the real beacons' entries (R, ...): a padded slot costs no pass (IPPO's critic)
                     real = b_real[idx]
                     obs_i, act_i, logp_i, adv_i, ret_i = (x[idx][real] for x in (b_obs, b_act, b_logp, b_adv, b_ret))
-                    value = critic(obs_i).squeeze(-1)
+                    value = values(None, obs_i)  # a beacon mask comes with IPPO's critic only (TeamEnvs)
                 value_loss = 0.5 * (value - ret_i).pow(2).mean()  # (P4)
                 if warmup:  # the actor held: its loss is not part of the step, nor its forward pass
                     loss = config.vf_coef * value_loss
