@@ -35,7 +35,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -103,15 +102,18 @@ def run(
     progress: Callable[[str], Any] | None = print,
     reuse: dict | None = None,
     na: dict | None = None,
+    workers: int = 1,
 ) -> dict:
     """{"tasks": [...], "policies": [...], "errors": {label: {task: [per-episode mean error]}}, ...}.
     ``reuse``: an earlier result of the same task set and seeds; its policies (same label,
     spec and, for a trained policy, the same files: ``fingerprint``) are taken from it instead
     of run again. ``na``: ``{label: {task: reason}}``,
-    the tasks a policy cannot drive (``find_na``): not run, ``n/a`` in the tables."""
+    the tasks a policy cannot drive (``find_na``): not run, ``n/a`` in the tables. ``workers``:
+    processes playing (task, policy) cells side by side (``evaluation.parallel``); the errors
+    are the same to the bit for any count, ``seconds`` each cell's wall clock where it ran."""
     na = {label: dict((na or {}).get(label, {})) for label, _ in policies}
     from baselines import is_planner
-    from evaluation.episodes import run_episodes
+    from evaluation.parallel import Cell, run_cells
     from evaluation.tasks import get_task_set
 
     ts = get_task_set(task_set)
@@ -134,21 +136,23 @@ def run(
                 pings[p["label"]] = reuse.get("pings", {}).get(p["label"], {})
                 seconds[p["label"]] = reuse.get("seconds", {}).get(p["label"], 0.0)
                 done.add(p["label"])
+    keys, cells = [], []
     for task in ts.tasks:
         config = task.config(ts.scenario)
         for label, spec in policies:
             if label in done or task.name in na[label]:
                 continue
-            t0 = time.perf_counter()
-            rows, _ = run_episodes(config, spec, seeds)
-            errors[label][task.name] = [float(r["mean_error_m"]) for r in rows]
-            pings[label][task.name] = [int(r["pings"]) for r in rows]
-            seconds[label] += time.perf_counter() - t0
-            if progress is not None:
-                progress(
-                    f"{task_set}/{task.name} {label}: {np.mean(errors[label][task.name]):.3f} m "
-                    f"({time.perf_counter() - t0:.0f} s)"
-                )
+            keys.append((task.name, label))
+            cells.append(Cell(config, spec, tuple(seeds), label=f"{task_set}/{task.name} {label}", steps=False))
+    for (task_name, label), result in zip(keys, run_cells(cells, workers)):
+        rows = result.episodes
+        errors[label][task_name] = [float(r["mean_error_m"]) for r in rows]
+        pings[label][task_name] = [int(r["pings"]) for r in rows]
+        seconds[label] += result.wall_s
+        if progress is not None:
+            progress(
+                f"{task_set}/{task_name} {label}: {np.mean(errors[label][task_name]):.3f} m ({result.wall_s:.0f} s)"
+            )
     return {
         "task_set": task_set,
         "tasks": [t.name for t in ts.tasks],
@@ -387,6 +391,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--out", help="write the per-episode errors as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
+    p.add_argument(
+        "--workers",
+        default="1",
+        metavar="N",
+        help="processes playing tasks and policies side by side (default 1; 0: every core); the errors are "
+        "the same for any N",
+    )
     if argv is None:
         argv = sys.argv[1:]
     if argv and argv[0] == "summarize":  # lever_table.py summarize [--policy ppo] A.json B.json ...
@@ -415,6 +426,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     from coopnav_env.records import atomic_write_text
     from coopnav_env.seeds import check_seed, refuse_test_seeds
+    from evaluation.parallel import check_workers
     from evaluation.tasks import get_task_set
 
     try:
@@ -425,6 +437,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.episodes < 2:
             raise ValueError(f"--episodes must be >= 2 (a t interval), got {args.episodes}")
         check_seed(args.seed, "--seed")
+        workers = check_workers(args.workers)
         refuse_test_seeds(args.seed, args.episodes, what="--seed")
         na = find_na(args.tasks, policies, args.seed)  # one observation each: n/a, or refused if none driven
         for label, why in na.items():
@@ -439,7 +452,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         reuse = read_json(args.reuse)
     try:
-        result = run(args.tasks, policies, args.episodes, args.seed, lambda s: print(s, flush=True), reuse, na)
+        result = run(args.tasks, policies, args.episodes, args.seed, lambda s: print(s, flush=True), reuse, na, workers)
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -4,6 +4,7 @@ docs/getting-started.md#how-long.
     python benchmarks/times.py --list
     python benchmarks/times.py --only quickstart,first_training --out results/times
     python benchmarks/times.py                       # every item (hours: the CI run, time to beat, 8 task sets)
+    python benchmarks/times.py --only benchmark:gao_team --workers 2   # the benchmark items with --workers 2
 
 Each item is the command the documentation gives, run as a subprocess from this
 checkout (``ci`` from a fresh ``git clone`` of it, as CI does), timed by the wall clock.
@@ -32,8 +33,9 @@ ROOT = Path(__file__).resolve().parent.parent
 PY = sys.executable
 
 
-def _items(out: Path) -> dict:
-    """name -> (what, command, working directory or None for a fresh clone)."""
+def _items(out: Path, workers: int = 1) -> dict:
+    """name -> (what, command, working directory or None for a fresh clone); ``workers`` > 1
+    adds ``--workers`` to the benchmark's items."""
     from evaluation.tasks import TASK_SETS
 
     items = {
@@ -96,9 +98,12 @@ def _items(out: Path) -> dict:
         ],
         ROOT,
     )
+    extra = ["--workers", str(workers)] if workers > 1 else []
+    note = f", --workers {workers}" if workers > 1 else ""
     for name, ts in TASK_SETS.items():
         items[f"benchmark:{name}"] = (
-            f"`coopnav-benchmark --tasks {name} --policies ppo` ({len(ts.tasks)} tasks, {ts.episodes} episodes each)",
+            f"`coopnav-benchmark --tasks {name} --policies ppo` "
+            f"({len(ts.tasks)} tasks, {ts.episodes} episodes each{note})",
             [
                 PY,
                 "-m",
@@ -110,6 +115,7 @@ def _items(out: Path) -> dict:
                 "--out",
                 str(out / f"benchmark_{name}"),
                 "--overwrite",
+                *extra,
             ],
             ROOT,
         )
@@ -162,11 +168,16 @@ def main(argv: list[str] | None = None) -> int:
         "--out", type=Path, default=ROOT / "results" / "times", help="output directory (default: %(default)s)"
     )
     p.add_argument("--list", action="store_true", help="list the items and exit")
+    p.add_argument(
+        "--workers", type=int, default=1, help="the task sets' items with --workers N (default 1: without it)"
+    )
     args = p.parse_args(argv)
+    if not 1 <= args.workers <= 64:
+        p.error(f"--workers must be in [1, 64], got {args.workers}")
     from coopnav_env.progress import format_seconds, say
 
     args.out.mkdir(parents=True, exist_ok=True)
-    items = _items(args.out.resolve())
+    items = _items(args.out.resolve(), args.workers)
     if args.list:
         for name, (what, cmd, _) in items.items():
             print(f"{name}: {what}\n    {shlex.join(cmd)}")

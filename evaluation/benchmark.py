@@ -71,7 +71,6 @@ import shlex
 import signal
 import sys
 from collections.abc import Iterable, Sequence
-from typing import Any
 
 import numpy as np
 
@@ -312,38 +311,39 @@ def _progress_bar(total: int, show: bool | None):
     return Progress(total, unit="episode", desc="benchmark", mode="bar" if show else None)
 
 
-def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None) -> dict:
+def run_benchmark(plan: BenchmarkPlan, progress: bool | None = None, workers: int = 1) -> dict:
     """Run every (task set, task, policy) of ``plan`` on the test seeds; returns
-    ``{set: {task: {policy: {"mean_error_m": [...], "ranges_fused": [...]} or None}}}``."""
-    from .episodes import run_episodes
+    ``{set: {task: {policy: {"mean_error_m": [...], "ranges_fused": [...]} or None}}}``.
+    ``workers``: processes running cells side by side (``evaluation.parallel``; 0: every
+    core); the results are the same to the bit for any count."""
+    from .parallel import Cell, run_cells
 
     bar = _progress_bar(plan.total_episodes(), progress)
-    raw: dict = {}
+    keys, cells = [], []
+    for sp in plan.sets:
+        for task, config in sp.configs.items():
+            for p in sp.columns:
+                if p not in sp.cannot[task]:
+                    keys.append((sp.task_set.name, task, p))
+                    label = f"{sp.task_set.name}/{task} {p}"
+                    cells.append(Cell(config, p, tuple(plan.seeds), label=label, steps=False, act_seconds=True))
+    done: dict = {}
     try:
-        for sp in plan.sets:
-            per_set: dict = {}
-            raw[sp.task_set.name] = per_set
-            for task, config in sp.configs.items():
-                per_task: dict[str, Any] = {}
-                per_set[task] = per_task
-                for p in sp.columns:
-                    if p in sp.cannot[task]:
-                        per_task[p] = None
-                        continue
-                    if bar is not None:
-                        bar.stage(f"{sp.task_set.name}/{task} {p}")
-                    seconds: list = []
-                    rows, _ = run_episodes(
-                        config, p, plan.seeds, progress=None if bar is None else bar.update, act_seconds=seconds
-                    )
-                    per_task[p] = {
-                        "mean_error_m": [r["mean_error_m"] for r in rows],
-                        "ranges_fused": [r["ranges_fused"] for r in rows],
-                        "ms_per_act": 1e3 * float(np.median(seconds)),
-                    }
+        for key, result in zip(keys, run_cells(cells, workers, bar)):
+            rows = result.episodes
+            done[key] = {
+                "mean_error_m": [r["mean_error_m"] for r in rows],
+                "ranges_fused": [r["ranges_fused"] for r in rows],
+                "ms_per_act": 1e3 * float(np.median(result.act_seconds)),
+            }
     finally:
         if bar is not None:
             bar.close()
+    raw: dict = {}
+    for sp in plan.sets:
+        per_set: dict = raw.setdefault(sp.task_set.name, {})
+        for task in sp.configs:
+            per_set[task] = {p: done.get((sp.task_set.name, task, p)) for p in sp.columns}
     return raw
 
 
@@ -514,6 +514,13 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     )
     p.add_argument("--no-figures", action="store_true", help="write no benchmark_<set>.png")
     p.add_argument(
+        "--workers",
+        default="1",
+        metavar="N",
+        help="processes running tasks and policies side by side (default 1; 0: every core); the results "
+        "are the same for any N",
+    )
+    p.add_argument(
         "--trust-pickle",
         action="store_true",
         help="accept trained policies in pickle-based formats (only files you trust)",
@@ -557,6 +564,7 @@ def _terminate(signum, frame):
 def _main(argv: list, prog: str) -> int:
     from . import outdir
     from .config import parse_assignment
+    from .parallel import check_workers
 
     try:
         args = build_parser(prog).parse_args(argv)
@@ -569,6 +577,10 @@ def _main(argv: list, prog: str) -> int:
         if args.tasks is None:
             raise UsageError(f"--tasks is required: {', '.join(TASK_SETS)} or all")
         sets = dict(parse_assignment(item, "--set") for item in args.sets)
+        try:
+            workers = check_workers(args.workers)
+        except ValueError as err:
+            raise UsageError(str(err)) from None
         from coopnav_env.progress import announce_after
 
         with announce_after(
@@ -586,7 +598,7 @@ def _main(argv: list, prog: str) -> int:
             )
         command = " ".join([prog, shlex.join(argv)]).strip()
         with outdir.OutputLock(args.out, command):
-            raw = run_benchmark(plan, progress=False if args.no_progress else None)
+            raw = run_benchmark(plan, progress=False if args.no_progress else None, workers=workers)
             results = build_results(plan, raw, command)
             try:
                 files = write_results(args.out, results, figures=not args.no_figures)

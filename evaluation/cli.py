@@ -117,6 +117,12 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     )
     p.add_argument("--overwrite", action="store_true", help="replace the result already in OUT")
     p.add_argument("--batch-size", type=int, default=_DEFAULTS.batch_size, help="episodes simulated together")
+    p.add_argument(
+        "--workers",
+        default="1",
+        metavar="N",
+        help="processes running batches side by side (default 1; 0: every core); the results are the same for any N",
+    )
     p.add_argument("--no-figures", action="store_true", help="write no PNG files")
     p.add_argument(
         "--trust-pickle",
@@ -148,6 +154,7 @@ def config_from_args(args: argparse.Namespace) -> EvalConfig:
         resume=args.resume,
         overwrite=args.overwrite,
         batch_size=args.batch_size,
+        workers=args.workers,
         figures=not args.no_figures,
         trust_pickle=args.trust_pickle,
     )

@@ -82,6 +82,8 @@ class EvalConfig:
       earlier ones) and the larger of the two episode counts;
     * ``overwrite``: replace an earlier result in ``out``;
     * ``batch_size``: episodes simulated together;
+    * ``workers``: processes running batches side by side (``evaluation.parallel``; 0:
+      every core); the results are the same to the bit for any count;
     * ``figures``: write the PNG figures;
     * ``progress``: a progress bar on stderr (None: a bar when stderr is a terminal, one line per batch
       elsewhere; False: nothing).
@@ -97,6 +99,7 @@ class EvalConfig:
     resume: bool = False
     overwrite: bool = False
     batch_size: int = 25
+    workers: int = 1
     figures: bool = True
     progress: bool | None = None
     trust_pickle: bool = False  # accept pickle-based trained policies (they can run code): --trust-pickle
@@ -135,6 +138,12 @@ class EvalConfig:
             high = MAX_EPISODES if name == "episodes" else MAX_BATCH_SIZE
             if int(value) > high:  # bounded work, before anything runs
                 raise UsageError(f"--{name.replace('_', '-')} must be <= {high}, got {value}")
+        from .parallel import check_workers
+
+        try:
+            object.__setattr__(self, "workers", check_workers(self.workers))
+        except ValueError as err:
+            raise UsageError(str(err)) from None
         try:  # the seed range every tool shares
             object.__setattr__(self, "seed", check_seed(self.seed, "--seed"))
         except ValueError as err:

@@ -1,6 +1,7 @@
 """Running a whole evaluation: check the inputs (``config.prepare``), run the missing
 episodes in batches (with a progress bar on a terminal), write episodes.csv and
-steps.csv after every batch, then run.json, summary.json, summary.md and the figures.
+steps.csv after every batch (``config.workers`` batches side by side:
+``evaluation.parallel``), then run.json, summary.json, summary.md and the figures.
 
     from evaluation import EvalConfig, run_evaluation
     summary = run_evaluation(EvalConfig(scenario="gao_lawnmower", policies=("fim_a", "static"),
@@ -24,7 +25,7 @@ from typing import Any, NamedTuple
 from coopnav_env.records import atomic_write_text, strict_json, version_record
 
 from .config import EvalConfig, cell_id, prepare
-from .episodes import run_episodes
+from .parallel import Cell, run_cells
 from .report import EPISODE_COLUMNS, STEP_COLUMNS, csv_text, markdown
 from .resume import kept_rows
 from .stats import summarize
@@ -195,13 +196,18 @@ def _run_locked(plan, saved: list) -> EvalResult:
     atomic_write_text(os.path.join(out, "run.json"), strict_json(run_record))
     bar = _progress_bar(config, total)
     try:
-        for cell, p, chunk in todo:
-            cid = cell_id(cell)
-            if bar is not None:
-                bar.stage(f"{p} {cid}".strip() + f" ({len(chunk)} episodes)")
-            eps, sts = run_episodes(
-                plan.configs[cid], p, [s for _, s in chunk], progress=bar.update if bar is not None else None
+        jobs = [
+            Cell(
+                plan.configs[cell_id(cell)],
+                p,
+                tuple(s for _, s in chunk),
+                label=f"{p} {cell_id(cell)}".strip() + f" ({len(chunk)} episodes)",
             )
+            for cell, p, chunk in todo
+        ]
+        for (cell, p, chunk), result in zip(todo, run_cells(jobs, config.workers, bar)):
+            cid = cell_id(cell)
+            eps, sts = result.episodes, result.steps
             index = {s: i for i, s in chunk}
             for r in eps:
                 r.update({"cell": cid, "policy": p, "episode": index[r["seed"]], **cell})

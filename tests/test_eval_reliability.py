@@ -318,17 +318,17 @@ def test_resume_extends_policies_and_episodes_consistently(tmp_path, capsys, fas
 
 
 def test_a_nan_is_an_error_naming_the_episode(tmp_path, capsys, monkeypatch):
-    import evaluation.run as run
+    import evaluation.episodes as episodes
 
-    real = run.run_episodes
+    real = episodes.run_episodes
 
-    def with_nan(config, policy, seeds, progress=None):
-        eps, sts = real(config, policy, seeds, progress)
+    def with_nan(config, policy, seeds, progress=None, act_seconds=None):
+        eps, sts = real(config, policy, seeds, progress, act_seconds)
         if policy == "fim_a" and 1 in seeds:
             sts[2]["survey_error_m"] = float("nan")
         return eps, sts
 
-    monkeypatch.setattr(run, "run_episodes", with_nan)
+    monkeypatch.setattr(episodes, "run_episodes", with_nan)  # where evaluation.parallel finds it
     out = tmp_path / "o"
     code, stdout, err = run_main(FAST + ["--out", str(out)], capsys)
     assert code == 1 and stdout == ""

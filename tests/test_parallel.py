@@ -1,0 +1,151 @@
+"""Cells side by side (``evaluation.parallel``): the same numbers as one process, to the bit,
+in the cells' order; errors and early stops end the workers; bad counts are one line."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import time
+
+import pytest
+
+from coopnav_env import make_config
+from evaluation.parallel import Cell, check_workers, default_workers, run_cells
+
+
+def _cells():
+    config = make_config("gao_lawnmower", max_cycles=8)
+    # a slow planner first, so that with two workers the later cells finish before it
+    return [Cell(config, p, (3, 4, 5), label=p) for p in ("horizon", "fim_a", "static", "ellipse")]
+
+
+def test_two_workers_give_one_process_numbers_in_order():
+    cells = _cells()
+    one = list(run_cells(cells, workers=1))
+    two = list(run_cells(cells, workers=2))
+    assert len(two) == len(cells)
+    for a, b in zip(one, two):
+        assert a.episodes == b.episodes  # every column of every episode, floats to the bit
+        assert a.steps == b.steps
+    # the cells differ from each other (the order is checked, not four equal answers)
+    assert len({json.dumps(r.episodes) for r in one}) == len(cells)
+
+
+class _Bar:
+    def __init__(self):
+        self.n, self.stages = 0.0, []
+
+    def update(self, n):
+        self.n += n
+
+    def stage(self, text):
+        self.stages.append(text)
+
+
+def test_progress_adds_up_over_workers():
+    cells = _cells()
+    bar = _Bar()
+    list(run_cells(cells, workers=2, progress=bar))
+    assert bar.n == pytest.approx(sum(len(c.seeds) for c in cells))
+    assert sorted(bar.stages) == sorted(c.label for c in cells)
+
+
+def test_a_worker_error_reaches_the_caller():
+    config = make_config("gao_lawnmower", max_cycles=4)
+    cells = [Cell(config, "fim_a", (1,)), Cell(config, "no_such_policy", (1,))]
+    with pytest.raises(Exception, match="no_such_policy"):
+        list(run_cells(cells, workers=2))
+    time.sleep(0.5)
+    assert not [p for p in multiprocessing.active_children() if p.is_alive()]
+
+
+def test_stopping_early_ends_the_workers():
+    short = make_config("gao_lawnmower", max_cycles=4)
+    long = make_config("gao_lawnmower")  # 150 cycles: 16 episodes of horizon take about 7 s
+    cells = [Cell(short, "fim_a", (1,))] + [Cell(long, "horizon", tuple(range(16)))] * 6
+    gen = run_cells(cells, workers=2)
+    first = next(gen)
+    assert len(first.episodes) == 1
+    time.sleep(1.0)  # the second worker is inside a long cell now
+    gen.close()  # what Ctrl-C in the consumer does
+    deadline = time.monotonic() + 2  # a worker left running would take seconds more
+    while [p for p in multiprocessing.active_children() if p.is_alive()] and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [p for p in multiprocessing.active_children() if p.is_alive()]
+
+
+@pytest.mark.parametrize(("value", "expected"), [(1, 1), ("2", 2), (" 3 ", 3), (0, None)])
+def test_worker_counts(value, expected):
+    assert check_workers(value) == (default_workers() if expected is None else expected)
+
+
+@pytest.mark.parametrize("value", [-1, 65, "two", 1.5, True, None])
+def test_bad_worker_counts_name_the_valid_range(value):
+    with pytest.raises(ValueError, match=r"--workers must be an integer in \[0, 64\]"):
+        check_workers(value)
+
+
+def test_benchmark_and_evaluate_refuse_a_bad_count(tmp_path, capsys):
+    from evaluation.benchmark import main as bench_main
+    from evaluation.cli import main as eval_main
+
+    code = bench_main(["--tasks", "gao_lawnmower", "--workers", "many", "--out", str(tmp_path / "b")])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "--workers" in err, err
+    code = eval_main(["--scenario", "gao_lawnmower", "--workers", "-2", "--out", str(tmp_path / "e")])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "--workers" in err, err
+    assert not (tmp_path / "b").exists() and not (tmp_path / "e").exists()
+
+
+def test_the_benchmark_with_two_workers_writes_the_same_errors(tmp_path):
+    from evaluation.benchmark import build_results, plan_benchmark, run_benchmark
+
+    def raw(workers, out):
+        plan = plan_benchmark("gao_lawnmower", None, episodes=2, out=str(out), only_tasks="lake,spiral")
+        plan = dataclass_replace_cycles(plan, 6)
+        r = run_benchmark(plan, progress=False, workers=workers)
+        for per_task in r.values():
+            for cells in per_task.values():
+                for v in cells.values():
+                    if v is not None:
+                        v.pop("ms_per_act")  # a timing: the one field that differs
+        return r, build_results
+
+    one, _ = raw(1, tmp_path / "one")
+    two, _ = raw(2, tmp_path / "two")
+    assert one == two
+    assert list(one["gao_lawnmower"]) == ["lake", "spiral"]
+
+
+def dataclass_replace_cycles(plan, cycles):
+    """The plan with every task's episodes cut to ``cycles`` (a quick test of the same code)."""
+    import dataclasses
+
+    for sp in plan.sets:
+        sp.configs = {k: dataclasses.replace(c, max_cycles=cycles) for k, c in sp.configs.items()}
+    return plan
+
+
+def test_evaluate_with_two_workers_writes_the_same_files(tmp_path):
+    from evaluation import EvalConfig, evaluate
+
+    def files(workers):
+        out = tmp_path / f"w{workers}"
+        config = EvalConfig(
+            scenario="gao_lawnmower",
+            policies=("fim_a", "static", "ellipse"),
+            episodes=3,
+            batch_size=2,  # two batches per policy: six cells
+            overrides={"max_cycles": 6},
+            out=str(out),
+            workers=workers,
+            figures=False,
+            progress=False,
+        )
+        evaluate(config)
+        return {name: (out / name).read_bytes() for name in ("episodes.csv", "steps.csv", "summary.json")}
+
+    one, two = files(1), files(2)
+    assert one == two
+    assert one["episodes.csv"].count(b"\n") == 1 + 3 * 3
