@@ -465,7 +465,6 @@ def test_validation_keeps_the_best_weights(tmp_path, history):
     end, logs the error, and keeps the best weights in <out>/best: a policy folder whose
     recorded validation error is the lowest logged, and which evaluation.episodes gives
     the same error on the same seeds (the validation is what the benchmark would measure)."""
-    from agents.training.batched_ppo import validate  # noqa: F401 - the public helper exists
     from evaluation.episodes import run_episodes
 
     out = tmp_path / "run"

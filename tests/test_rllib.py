@@ -26,6 +26,10 @@ import pytest
 import yaml
 from ray_loopback import LOOPBACK_ENV  # conftest.py has applied them already
 
+# .ci/run runs the tests on two workers (pytest-xdist, --dist loadgroup): every test that starts Ray
+# runs in one group, on one worker, one after the other (tests/test_safe_formats.py's Ray test too)
+pytestmark = pytest.mark.xdist_group("ray")
+
 ROOT = Path(__file__).resolve().parents[1]
 CYCLES = 10
 TINY = {

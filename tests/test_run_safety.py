@@ -579,14 +579,14 @@ def test_a_read_only_folder_during_evaluate_is_one_line(small_tmpfs, fast_ref, c
 
 
 def test_a_memory_error_during_evaluate_is_one_line_and_releases_the_folder(tmp_path, monkeypatch, capsys):
-    from evaluation import run as eval_run
+    from evaluation import episodes
 
     def no_memory(*args, **kwargs):
         raise MemoryError
 
     out = tmp_path / "o"
     with monkeypatch.context() as m:
-        m.setattr(eval_run, "run_episodes", no_memory)
+        m.setattr(episodes, "run_episodes", no_memory)  # where evaluation.parallel finds it
         code, err = evaluate(FAST + ["--out", str(out)], capsys)
     one_line_exit_2(code, err, "out of memory")
     assert not (out / ".evaluate.owner.json").exists()

@@ -391,6 +391,7 @@ def test_safe_files_hold_json_readable_without_python_objects(tiny_run):
 
 # ------------------------------------------------------------------------------------
 # RLlib: the safe export train.py writes beside every checkpoint; RLlib's own pickles unread
+@pytest.mark.xdist_group("ray")  # .ci/run's workers: one Ray at a time (tests/test_rllib.py's group)
 def test_rllib_checkpoints_load_from_their_safe_export(tmp_path, capsys):
     require("ray.rllib")
     import ray

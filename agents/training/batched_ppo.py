@@ -613,7 +613,7 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
 
 
 def validation_env(config: BatchedPPOConfig) -> list:
-    """The environments ``validate`` plays its episodes in: the scenario with
+    """The environments ``validate_per_team`` plays its episodes in: the scenario with
     ``config.overrides``, or with ``eval_teams`` one per team (its overrides on top)."""
     from coopnav_env.torchrl_env import CoopNavTorchEnv
 
@@ -658,12 +658,6 @@ def validate_per_team(
 
         errors.append(episode_mean_error(env, act, config.eval_seed))
     return errors
-
-
-def validate(actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig, envs: Any = None) -> float:
-    """The validation error (m): ``validate_per_team``'s mean over the teams (one without ``eval_teams``)."""
-    errors = validate_per_team(actor, obs_norm, config, envs)
-    return float(sum(errors) / len(errors))
 
 
 def train(
