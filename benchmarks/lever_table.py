@@ -456,6 +456,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except (OSError, MemoryError) as err:  # out of memory, a lost worker: one line
+        from coopnav_env.failures import one_line
+
+        print(f"error: {one_line(err)}", file=sys.stderr)
+        return 2
     result["command"] = " ".join(["python", "benchmarks/lever_table.py", *argv])
     table = markdown(result)
     print(table)

@@ -23,6 +23,8 @@ def one_line(err: BaseException) -> str:
     """``err`` (an OSError, MemoryError, OverflowError, ...) as one line."""
     if isinstance(err, MemoryError):
         return "out of memory (MemoryError): nothing more was written; use smaller settings"
+    if isinstance(err, OSError) and err.errno is None and err.strerror is None and str(err):
+        return " ".join(str(err).split())  # raised by this project with its own sentence (a lost worker)
     if isinstance(err, OSError):
         what = _WHAT.get(err.errno, err.strerror or type(err).__name__)
         where = f" writing {err.filename}" if err.filename else ""

@@ -611,6 +611,11 @@ def _main(argv: list, prog: str) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted; nothing written", file=sys.stderr)
         return 130
+    except (OSError, MemoryError) as err:  # a full disk, out of memory, a lost worker: one line
+        from coopnav_env.failures import one_line
+
+        print(f"{prog}: error: {one_line(err)}; nothing written", file=sys.stderr)
+        return 2
     print(render_markdown(results))
     print(f"\nwrote {args.out}/: {', '.join(files)}")
     return 0

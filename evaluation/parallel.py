@@ -29,7 +29,8 @@ to the bit). What runs where:
 Progress (``progress``: a ``coopnav_env.progress.Progress``) moves with every step of every
 running cell, as in one process; each cell's ``label`` becomes the bar's stage when it starts.
 Ctrl-C (or any error) stops the workers at once and raises in this process; cells not yet
-given back are lost, as an interrupted single process loses its running batch.
+given back are lost, as an interrupted single process loses its running batch. A worker that
+dies (the kernel's out-of-memory killer, a ``kill -9``) raises ``WorkerLost`` here.
 """
 
 from __future__ import annotations
@@ -44,9 +45,14 @@ if TYPE_CHECKING:
     from coopnav_env.progress import Progress
     from coopnav_env.scenarios import ScenarioConfig
 
-__all__ = ["Cell", "CellResult", "default_workers", "run_cells", "check_workers"]
+__all__ = ["Cell", "CellResult", "WorkerLost", "check_workers", "default_workers", "run_cells"]
 
 MAX_WORKERS = 64
+
+
+class WorkerLost(OSError):
+    """A worker process ended without giving its cell back (killed, or out of memory): an
+    ``OSError``, so the commands report it in one line as they do a full disk."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -171,6 +177,7 @@ def run_cells(cells: Sequence[Cell], workers: int = 1, progress: Progress | None
 def _run_pool(cells: list, workers: int, progress: Progress | None) -> Iterator[CellResult]:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
 
     ctx = multiprocessing.get_context("spawn")
     messages = ctx.Queue()
@@ -182,7 +189,14 @@ def _run_pool(cells: list, workers: int, progress: Progress | None) -> Iterator[
             while not future.done():
                 _drain(messages, progress, timeout=0.2)
             _drain(messages, progress, timeout=0.0)
-            yield future.result()
+            try:
+                result = future.result()
+            except BrokenProcessPool as err:
+                raise WorkerLost(
+                    "a --workers process ended abruptly (killed, or out of memory?) before giving its "
+                    "cell back: run again, with fewer workers if memory is short"
+                ) from err
+            yield result
         finished = True
     finally:
         if finished:

@@ -149,3 +149,29 @@ def test_evaluate_with_two_workers_writes_the_same_files(tmp_path):
     one, two = files(1), files(2)
     assert one == two
     assert one["episodes.csv"].count(b"\n") == 1 + 3 * 3
+
+
+def test_a_killed_worker_is_one_oserror():
+    """The out-of-memory killer's SIGKILL on a worker: WorkerLost (an OSError, which the
+    commands print as one line), and the other worker stopped too."""
+    import os
+    import signal
+
+    from evaluation.parallel import WorkerLost
+
+    short = make_config("gao_lawnmower", max_cycles=4)
+    long = make_config("gao_lawnmower")
+    cells = [Cell(short, "fim_a", (1,))] + [Cell(long, "horizon", tuple(range(16)))] * 4
+    gen = run_cells(cells, workers=2)
+    next(gen)
+    time.sleep(1.0)
+    victims = [p for p in multiprocessing.active_children() if p.is_alive()]
+    assert len(victims) == 2
+    os.kill(victims[0].pid, signal.SIGKILL)
+    with pytest.raises(WorkerLost, match="ended abruptly") as info:
+        next(gen)
+    assert isinstance(info.value, OSError)
+    deadline = time.monotonic() + 2
+    while [p for p in multiprocessing.active_children() if p.is_alive()] and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [p for p in multiprocessing.active_children() if p.is_alive()]
