@@ -61,7 +61,8 @@ command that resumes is printed).
 
 Modules: ``config`` (EvalConfig, input checks), ``outdir`` (the output directory: lock,
 earlier results), ``resume`` (what resume keeps), ``errors`` (UsageError), ``episodes``
-(running episodes), ``stats`` (statistics), ``report`` (columns, CSV, summary.md),
+(running episodes), ``parallel`` (batches side by side: ``--workers``), ``stats``
+(statistics), ``report`` (columns, CSV, summary.md),
 ``figures``, ``run`` (the whole evaluation), ``cli`` (the command line). Importing this package is cheap:
 the names below load their module on first use.
 """
