@@ -183,3 +183,13 @@ def test_a_task_a_policy_cannot_drive_is_na_and_left_out_of_its_pooled_row(monke
     ippo = next(line for line in table.splitlines() if line.startswith("| `ippo`"))
     assert "+0.250 [+0.250, +0.250] loss" in ippo  # paired with mappo on x only
     assert "n/a: `mappo` on y: trained on 1 survey vehicle" in table
+
+
+def test_two_workers_give_the_same_errors_per_task_and_label():
+    """``--workers 2`` plays the (task, policy) cells in two processes: each label's errors
+    land under the right task, the same as one process's (the tasks differ, so a cell filed
+    under another task would show)."""
+    one = lever_table.run("gao_lawnmower", [("a", "fim_a"), ("s", "static")], 2, 700000, progress=None)
+    two = lever_table.run("gao_lawnmower", [("a", "fim_a"), ("s", "static")], 2, 700000, progress=None, workers=2)
+    assert one["errors"] == two["errors"] and one["pings"] == two["pings"]
+    assert len({tuple(v) for v in one["errors"]["a"].values()}) == len(one["tasks"])
