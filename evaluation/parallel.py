@@ -198,10 +198,10 @@ def _run_pool(cells: list, workers: int, progress: Progress | None) -> Iterator[
                 ) from err
             yield result
         finished = True
+        pool.shutdown(wait=True)  # the workers exit, flushing what their queue still held
+        _drain(messages, progress, timeout=0.0)  # the last cells' last steps: the bar ends at its total
     finally:
-        if finished:
-            pool.shutdown(wait=True)
-        else:  # an error, Ctrl-C or a consumer that stopped early: stop every worker now
+        if not finished:  # an error, Ctrl-C or a consumer that stopped early: stop every worker now
             processes = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
             for process in processes:
