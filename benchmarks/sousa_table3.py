@@ -1,7 +1,7 @@
 """Sousa, Ferreira & Cruz's Table III measured: approach A against approach B per ROV path.
 
     python benchmarks/sousa_table3.py --episodes 20
-    python benchmarks/sousa_table3.py --episodes 20 --depth 5 --ping-interval 5 --jobs 2
+    python benchmarks/sousa_table3.py --episodes 20 --depth 5 --ping-interval 5 --workers 2
 
 The paper's Table III ("Expected performance of the approaches") has one row per
 approach (A, B) and one column per ROV path of Fig. 8 (stationary, lawn mower,
@@ -184,7 +184,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--circle-radius", type=float, default=30.0, help="m, circle and spiral (not given in the paper)")
     p.add_argument("--duration", type=float, default=1200.0, help="mission length (s)")
-    p.add_argument("--jobs", type=int, default=1, help="worker processes")
+    p.add_argument(
+        "--workers", "--jobs", dest="jobs", type=int, default=1, metavar="N", help="worker processes (--jobs: its old name)"
+    )
     p.add_argument("--markdown", help="also write the report here")
     args = p.parse_args(argv)
 
