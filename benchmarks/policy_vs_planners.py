@@ -208,7 +208,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario override")
     p.add_argument("--cache", help="JSON file caching the planners' per-episode means")
     p.add_argument(
-        "--workers", "--jobs", dest="jobs", type=int, default=1, metavar="N", help="worker processes (--jobs: its old name)"
+        "--workers", "--jobs", dest="jobs", type=int, default=1, metavar="N", help="worker processes (--jobs: old name)"
     )
     p.add_argument("--out", help="write the results as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")

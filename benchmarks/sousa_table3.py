@@ -185,7 +185,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--circle-radius", type=float, default=30.0, help="m, circle and spiral (not given in the paper)")
     p.add_argument("--duration", type=float, default=1200.0, help="mission length (s)")
     p.add_argument(
-        "--workers", "--jobs", dest="jobs", type=int, default=1, metavar="N", help="worker processes (--jobs: its old name)"
+        "--workers", "--jobs", dest="jobs", type=int, default=1, metavar="N", help="worker processes (--jobs: old name)"
     )
     p.add_argument("--markdown", help="also write the report here")
     args = p.parse_args(argv)
