@@ -520,6 +520,34 @@ def test_interrupt_exits_130_and_the_printed_command_resumes(tmp_path, long_ref,
     assert results(out) == results(long_ref)
 
 
+def test_an_interrupt_with_two_workers_stops_them_and_resumes_exactly(tmp_path, long_ref):
+    """SIGTERM during a ``--workers 2`` run: exit 130 with the resume command, no worker left
+    running, and the resumed files (one worker) equal an uninterrupted one-worker run's."""
+    out = str(tmp_path / "o")
+    proc = start(LONG + ["--out", out, "--workers", "2"])
+    assert wait_for(os.path.join(out, "episodes.csv"), proc), proc.communicate()
+    workers = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+    proc.send_signal(signal.SIGTERM)
+    stdout, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and stdout == "", err
+    assert len(err.strip().splitlines()) == 1 and "interrupted" in err and "--workers 2" in err, err
+    assert workers, "the run had no worker processes"
+    time.sleep(0.5)
+    alive = [w for w in workers if os.path.exists(f"/proc/{w}") and "Z" not in _proc_state(w)]
+    assert not alive, alive
+    argv = [a for a in _resume_argv(err) if a not in ("--workers", "2")]
+    done = subprocess.run(EVALUATE + argv, capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert results(out) == results(long_ref)
+
+
+def _proc_state(pid: str) -> str:
+    try:
+        return open(f"/proc/{pid}/stat").read().split(")")[-1].split()[0]
+    except OSError:
+        return "gone"
+
+
 def _kill_and_resume(out, delays):
     """Start the run, SIGKILL it after each delay (resuming each time), then resume to the end."""
     for delay in delays:
