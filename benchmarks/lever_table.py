@@ -369,6 +369,8 @@ def paired(result: dict, a: str, b: str) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from evaluation.parallel import add_workers_argument
+
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--tasks", required=True, help="a benchmark task set (python -m evaluation.benchmark --list)")
     p.add_argument(
@@ -391,13 +393,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--out", help="write the per-episode errors as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
-    p.add_argument(
-        "--workers",
-        default="1",
-        metavar="N",
-        help="processes playing tasks and policies side by side (default 1; 0: every core); the errors are "
-        "the same for any N",
-    )
+    add_workers_argument(p, "tasks and policies")
     if argv is None:
         argv = sys.argv[1:]
     if argv and argv[0] == "summarize":  # lever_table.py summarize [--policy ppo] A.json B.json ...

@@ -172,8 +172,12 @@ def main(argv: list[str] | None = None) -> int:
         "--workers", type=int, default=1, help="the task sets' items with --workers N (default 1: without it)"
     )
     args = p.parse_args(argv)
-    if not 1 <= args.workers <= 64:
-        p.error(f"--workers must be in [1, 64], got {args.workers}")
+    from evaluation.parallel import check_workers
+
+    try:
+        args.workers = check_workers(args.workers)
+    except ValueError as err:
+        p.error(str(err))
     from coopnav_env.progress import format_seconds, say
 
     args.out.mkdir(parents=True, exist_ok=True)

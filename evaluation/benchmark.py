@@ -464,6 +464,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
+    from .parallel import add_workers_argument
+
     p = _Parser(
         prog=prog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -513,13 +515,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
         help="no progress (default: a bar on a terminal, a line per task and policy elsewhere)",
     )
     p.add_argument("--no-figures", action="store_true", help="write no benchmark_<set>.png")
-    p.add_argument(
-        "--workers",
-        default="1",
-        metavar="N",
-        help="processes running tasks and policies side by side (default 1; 0: every core); the results "
-        "are the same for any N",
-    )
+    add_workers_argument(p, "tasks and policies")
     p.add_argument(
         "--trust-pickle",
         action="store_true",

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from .config import EvalConfig, UsageError, parse_assignment, split_top_level
+from .parallel import add_workers_argument
 
 _DEFAULTS = EvalConfig()
 
@@ -117,12 +118,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     )
     p.add_argument("--overwrite", action="store_true", help="replace the result already in OUT")
     p.add_argument("--batch-size", type=int, default=_DEFAULTS.batch_size, help="episodes simulated together")
-    p.add_argument(
-        "--workers",
-        default="1",
-        metavar="N",
-        help="processes running batches side by side (default 1; 0: every core); the results are the same for any N",
-    )
+    add_workers_argument(p, "batches")
     p.add_argument("--no-figures", action="store_true", help="write no PNG files")
     p.add_argument(
         "--trust-pickle",

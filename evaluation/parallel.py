@@ -45,7 +45,7 @@ if TYPE_CHECKING:
     from coopnav_env.progress import Progress
     from coopnav_env.scenarios import ScenarioConfig
 
-__all__ = ["Cell", "CellResult", "WorkerLost", "check_workers", "default_workers", "run_cells"]
+__all__ = ["Cell", "CellResult", "WorkerLost", "add_workers_argument", "check_workers", "default_workers", "run_cells"]
 
 MAX_WORKERS = 64
 
@@ -106,6 +106,17 @@ def check_workers(workers: Any) -> int:
     if not 1 <= workers <= MAX_WORKERS:
         raise ValueError(f"--workers must be {valid}, got {workers}")
     return workers
+
+
+def add_workers_argument(parser: Any, what: str) -> None:
+    """The commands' one ``--workers N`` option (text, checked later by ``check_workers``):
+    ``what`` names what the workers run side by side."""
+    parser.add_argument(
+        "--workers",
+        default="1",
+        metavar="N",
+        help=f"processes running {what} side by side (default 1; 0: every core); the results are the same for any N",
+    )
 
 
 def _play(cell: Cell, progress: Any = None) -> CellResult:
