@@ -189,6 +189,8 @@ def with_warnings_quiet() -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from coopnav_env.records import atomic_write_text
+
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
     p.add_argument(
@@ -247,10 +249,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             cache[key] = per_ep
     if args.cache and jobs:
         Path(args.cache).parent.mkdir(parents=True, exist_ok=True)
-        tmp = f"{args.cache}.tmp{os.getpid()}"
-        with open(tmp, "w") as f:
-            json.dump(cache, f)
-        os.replace(tmp, args.cache)
+        atomic_write_text(args.cache, json.dumps(cache))
 
     names = [n for n, _ in specs]
     first = names[0]
@@ -301,10 +300,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"[{time.perf_counter() - t0:.0f} s]", file=sys.stderr)
     if args.markdown:
         Path(args.markdown).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.markdown).write_text(text + "\n")
+        atomic_write_text(args.markdown, text + "\n")
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(
+        atomic_write_text(
+            args.out,
             json.dumps(
                 {
                     "scenario": args.scenario,
@@ -319,6 +319,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 },
                 indent=1,
             )
+            + "\n",
         )
     return 0
 

@@ -207,8 +207,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(text)
     print(f"[{time.perf_counter() - t0:.0f} s]", file=sys.stderr)
     if args.markdown:
-        with open(args.markdown, "w") as f:
-            f.write(text + "\n")
+        from coopnav_env.records import atomic_write_text
+
+        atomic_write_text(args.markdown, text + "\n")
     return 0
 
 

@@ -61,24 +61,30 @@ def obs_dim(config: ScenarioConfig) -> int:
     return _layout.obs_dim(config.n_survey, config.n_beacons, config.observed_waypoints)
 
 
-def pad_surveys(obs: np.ndarray, config: ScenarioConfig, slots: int) -> np.ndarray:
-    """Observations (..., D) of ``config`` laid out for ``slots`` survey vehicles: the
-    per-survey blocks of the vehicles it has, then zeros for the ones it lacks, then the
-    other beacons' entries, so a value sits at the same index whatever the team's size (a
-    centralized critic trained over teams of 1-``slots`` survey vehicles reads them alike).
-    ``slots`` equal to the team's size returns ``obs`` itself."""
-    S = config.n_survey
-    if slots == S:
+def pad_slots(
+    obs: np.ndarray, config: ScenarioConfig, survey_slots: int, beacon_slots: int | None = None
+) -> np.ndarray:
+    """Observations (..., D) of ``config`` laid out for a team of ``survey_slots`` survey
+    vehicles and ``beacon_slots`` beacons (None: the team's own): the per-survey blocks of the
+    vehicles it has, zeros for the ones it lacks, then the other beacons' entries it has and
+    zeros for the ones it lacks, so a value sits at the same index whatever the team's makeup
+    (a centralized critic trained over teams of other sizes reads them alike). Slots equal to
+    the team's sizes return ``obs`` itself."""
+    S, N = config.n_survey, config.n_beacons
+    beacon_slots = N if beacon_slots is None else beacon_slots
+    if survey_slots == S and beacon_slots == N:
         return obs
-    if config.network == "moving_lbl" or slots < S:
+    if config.network == "moving_lbl" or survey_slots < S or beacon_slots < N:
         raise ValueError(
-            f"survey slots must be >= the team's {S} survey vehicles (and the moving network has no "
-            f"slots to pad), got {slots}"
+            f"slots must be >= the team's {S} survey vehicles and {N} beacons (and the moving network "
+            f"has no slots to pad), got {survey_slots} and {beacon_slots}"
         )
     block = PER_SURVEY_FIXED + 2 * config.observed_waypoints
     end = OWN_DIM + S * block
-    pad = np.zeros(obs.shape[:-1] + ((slots - S) * block,), dtype=obs.dtype)
-    return np.concatenate([obs[..., :end], pad, obs[..., end:]], -1)
+    lead = obs.shape[:-1]
+    surveys = np.zeros(lead + ((survey_slots - S) * block,), dtype=obs.dtype)
+    peers = np.zeros(lead + (2 * (beacon_slots - N),), dtype=obs.dtype)  # after the team's own peers
+    return np.concatenate([obs[..., :end], surveys, obs[..., end:], peers], -1)
 
 
 def fence_center_m(config: ScenarioConfig) -> np.ndarray:

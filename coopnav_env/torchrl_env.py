@@ -38,8 +38,10 @@ second copy of the physics), as ``coopnav_env.vector.CoopNavVecEnv``.
   observation.
   A critic is not used when acting, so it may read the truth; ``state="observations"``
   gives the beacons' observations alone (B, N * obs_dim). With ``state_survey_slots`` S'
-  larger than the team's S, both parts are laid out for S' survey vehicles (zeros where
-  the team has none: ``obs_layout.pad_surveys``), so teams of 1-S' vehicles share one size;
+  larger than the team's S, or ``state_beacon_slots`` N' larger than its N, both parts are
+  laid out for S' survey vehicles and N' beacons (zeros where the team has none, a missing
+  beacon's observation all zeros: ``obs_layout.pad_slots``), so teams of 1-S' survey
+  vehicles and 1-N' beacons share one size;
 * ``"info"``: the VecEnv's infos per environment, as tensors: for every scalar info of
   the core (``sim.info_keys``) the aggregate over survey vehicles (mean of floats, sum of
   counts, any of ``range_ok``) under its name and the values per vehicle under
@@ -125,7 +127,8 @@ class CoopNavTorchEnv(EnvBase):
     see the module docstring; a team the entity view cannot read is a ``ValueError``),
     ``state_survey_slots`` (None: the team's own number of survey vehicles; a larger number
     S': the state laid out for S' of them, the missing ones' values zero, so teams of other
-    sizes give states of one size and layout: a centralized critic can train over them) and
+    sizes give states of one size and layout: a centralized critic can train over them),
+    ``state_beacon_slots`` (the same for the beacons: None, the team's own number) and
     any scenario parameter by keyword.
     """
 
@@ -140,6 +143,7 @@ class CoopNavTorchEnv(EnvBase):
         infos: bool = True,
         observation: str = "flat",
         state_survey_slots: int | None = None,
+        state_beacon_slots: int | None = None,
         **overrides: Any,
     ) -> None:
         if "batch_size" in overrides:  # TorchRL's own name for it is not a scenario parameter
@@ -184,6 +188,14 @@ class CoopNavTorchEnv(EnvBase):
         if slots != self.n_survey and config.network == "moving_lbl":
             raise ValueError(f"state_survey_slots: the moving network's state has one survey vehicle, got {slots}")
         self.state_survey_slots = int(slots)
+        bslots = self.n_beacons if state_beacon_slots is None else state_beacon_slots
+        if isinstance(bslots, bool) or not isinstance(bslots, (int, np.integer)) or bslots < self.n_beacons:
+            raise ValueError(
+                f"state_beacon_slots must be an int >= the team's {self.n_beacons} beacons, got {bslots!r}"
+            )
+        if bslots != self.n_beacons and config.network == "moving_lbl":
+            raise ValueError(f"state_beacon_slots: the moving network's state has its two boats, got {bslots}")
+        self.state_beacon_slots = int(bslots)
         self.infos = bool(infos)
         self.agent_names = [f"beacon_{j}" for j in range(self.n_beacons)]
         self.group_map = {GROUP: list(self.agent_names)}
@@ -198,16 +210,20 @@ class CoopNavTorchEnv(EnvBase):
     @property
     def state_dim(self) -> int:
         """Length of ``"state"``: the core's state and every (flat) observation, or the
-        observations; each for ``state_survey_slots`` survey vehicles."""
+        observations; each for ``state_survey_slots`` survey vehicles and ``state_beacon_slots``
+        beacons."""
         from .core import observation as layout
-        from .core.sim import SURVEY_STATE_DIM
+        from .core.sim import BEACON_STATE_DIM, SURVEY_STATE_DIM
 
-        extra = self.state_survey_slots - self.n_survey  # 0 on the moving network
+        extra = self.state_survey_slots - self.n_survey  # both 0 on the moving network
+        extra_b = self.state_beacon_slots - self.n_beacons
         flat = self.flat_obs_dim
-        if extra:
-            flat = layout.obs_dim(self.state_survey_slots, self.n_beacons, self.config.observed_waypoints)
-        n_obs = self.n_beacons * flat
-        return n_obs + (self.sim.state_dim + extra * SURVEY_STATE_DIM if self.state_kind == "privileged" else 0)
+        if extra or extra_b:
+            flat = layout.obs_dim(self.state_survey_slots, self.state_beacon_slots, self.config.observed_waypoints)
+        n_obs = self.state_beacon_slots * flat
+        if self.state_kind != "privileged":
+            return n_obs
+        return n_obs + self.sim.state_dim + extra * SURVEY_STATE_DIM + extra_b * BEACON_STATE_DIM
 
     def _info_dtypes(self) -> tuple[dict, dict]:
         """The info entries' (shape after B, dtype), root and per beacon, read from a
@@ -333,19 +349,22 @@ class CoopNavTorchEnv(EnvBase):
     def _output(self, obs: np.ndarray, done, terminated, truncated) -> TensorDict:
         B, N = self.n_envs, self.n_beacons
         obs_t = torch.from_numpy(np.ascontiguousarray(obs, dtype=np.float32))
-        slots = self.state_survey_slots
-        if slots == self.n_survey:
+        slots, bslots = self.state_survey_slots, self.state_beacon_slots
+        padded = slots != self.n_survey or bslots != N
+        if not padded:
             parts = [obs_t.reshape(B, N * self.flat_obs_dim)]
-        else:  # each survey vehicle's values at its slot's index
-            from .obs_layout import pad_surveys
+        else:  # each vehicle's values at its slot's index; a missing beacon's observation zeros
+            from .obs_layout import pad_slots
 
-            parts = [torch.from_numpy(pad_surveys(obs_t.numpy(), self.config, slots)).reshape(B, -1)]
+            wide = pad_slots(obs_t.numpy(), self.config, slots, bslots).reshape(B, N, -1)
+            rows = np.zeros((B, bslots - N, wide.shape[-1]), dtype=wide.dtype)
+            parts = [torch.from_numpy(np.concatenate([wide, rows], 1)).reshape(B, -1)]
         if self.state_kind == "privileged":
             glob = self.sim.global_state()
-            if slots != self.n_survey:
+            if padded:
                 from .core.sim import pad_global_state
 
-                glob = pad_global_state(glob, self.n_survey, slots)
+                glob = pad_global_state(glob, self.n_survey, slots, N, bslots)
             parts.insert(0, torch.from_numpy(glob))
         if self.observation == "entities":  # beacon j reads its own row with role j
             from .entity_obs import entity_observation

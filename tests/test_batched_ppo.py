@@ -272,7 +272,8 @@ def test_teams_share_out_the_environments_and_their_seeds():
 def test_a_centralized_critic_trains_over_teams_of_other_survey_sizes():
     """MAPPO with entity observations over a one-survey and a two-survey team of gao_lawnmower:
     the teams' states are laid out for two survey vehicles (``state_survey_slots``), so one
-    critic reads both; each team's episodes are logged. Another number of beacons is still refused."""
+    critic reads both; each team's episodes are logged. Flat observations of another number of
+    beacons differ in size and are refused."""
     from agents.training.batched_ppo import make_env
 
     teams = [{}, {"n_survey": 2}]
@@ -288,11 +289,27 @@ def test_a_centralized_critic_trains_over_teams_of_other_survey_sizes():
     flat = BatchedPPOConfig(scenario="gao_lawnmower", n_envs=4, teams=[{}, {"beacon_kinds": ["beacon_auv", "asv"]}])
     with pytest.raises(ValueError, match="one team makeup only"):
         make_env(flat)
-    mappo = BatchedPPOConfig(
-        scenario="gao_lawnmower", n_envs=4, teams=[{}, {"beacon_kinds": ["beacon_auv", "asv"]}], entity=config.entity
+
+
+def test_a_centralized_critic_trains_over_teams_of_other_numbers_of_beacons():
+    """MAPPO with entity observations over a one-beacon and a two-beacon team: both teams' states
+    are laid out for two beacons (``state_beacon_slots``; the one-beacon team's second beacon's
+    values zero), the critic gives a value per slot and the padded slot's is out of the loss."""
+    from agents.training.batched_ppo import make_env
+
+    teams = [{}, {"beacon_kinds": ["beacon_auv", "asv"]}]
+    config = BatchedPPOConfig(
+        scenario="gao_lawnmower", n_envs=4, n_steps=4, minibatch=16, teams=teams, critic="state",
+        entity={"encoder": "deepsets", "embed_dim": 16, "heads": 1}, net=(16,), overrides={"max_cycles": 3}, seed=7,
+    )  # fmt: skip
+    env = make_env(config)
+    assert [e.n_beacons for e in env.envs] == [1, 2] and {e.state_beacon_slots for e in env.envs} == {2}
+    assert (
+        env.state_dim == env.envs[1].state_dim and env.agent_mask.tolist() == [[True, False]] * 2 + [[True, True]] * 2
     )
-    with pytest.raises(ValueError, match="other numbers of beacons train with --critic observation"):
-        make_env(mappo)
+    log = train(config, 32, progress=False)["log"]
+    assert all(v is not None and np.isfinite(v) for v in log[-1]["survey_error_m_per_team"])
+    assert np.isfinite(log[-1]["value_loss"])
 
 
 def test_ippo_trains_over_teams_of_other_numbers_of_beacons():
@@ -329,17 +346,20 @@ def test_ippo_trains_over_teams_of_other_numbers_of_beacons():
     assert np.isfinite(log[-1]["value_loss"]) and 0.0 <= log[-1]["clip_fraction"] <= 1.0
 
 
-def test_padded_beacon_slots_do_not_reach_the_update(monkeypatch):
+@pytest.mark.parametrize("critic", ["observation", "state"])
+def test_padded_beacon_slots_do_not_reach_the_update(monkeypatch, critic):
     """Garbage in the padded slots (observations shifted by 3, rewards of 100) trains the same
-    weights (to float32 round-off): the slots are out of every mean, scaling and loss."""
+    weights (to float32 round-off): the slots are out of every mean, scaling and loss, with
+    IPPO's critic and with MAPPO's (whose value of a padded slot is computed and dropped)."""
     from agents.training.batched_ppo import TeamEnvs
 
     config = BatchedPPOConfig(
         scenario="gao_lawnmower", n_envs=4, n_steps=4, minibatch=8, teams=[{}, {"beacon_kinds": ["beacon_auv", "asv"]}],
-        critic="observation", entity={"encoder": "deepsets", "embed_dim": 16, "heads": 1}, net=(16,),
+        critic=critic, entity={"encoder": "deepsets", "embed_dim": 16, "heads": 1}, net=(16,),
         overrides={"max_cycles": 3}, seed=7, center_reward=True,
     )  # fmt: skip
-    clean = train(config, 48, progress=False)["actor"].state_dict()
+    run = train(config, 48, progress=False)
+    clean, clean_critic = run["actor"].state_dict(), run["critic"].state_dict()
     padded = TeamEnvs._padded
 
     def garbage(self, td):
@@ -354,13 +374,16 @@ def test_padded_beacon_slots_do_not_reach_the_update(monkeypatch):
         return td
 
     monkeypatch.setattr(TeamEnvs, "_padded", garbage)
-    dirty = train(config, 48, progress=False)["actor"].state_dict()
+    run = train(config, 48, progress=False)
+    dirty, dirty_critic = run["actor"].state_dict(), run["critic"].state_dict()
     # equal up to the grouping of the weight gradients' sums over rows: the garbage's masks
     # (3 > 0.5) read as filled, so the encoder embeds all the slots (agents.entity._filled_slots),
     # whose zero gradients regroup the sums (measured: at most 3e-8; a leak of rewards of 100 moves
     # the weights by far more)
     for k in clean:
         torch.testing.assert_close(dirty[k], clean[k], atol=1e-6, rtol=0, msg=k)
+    for k in clean_critic:
+        torch.testing.assert_close(dirty_critic[k], clean_critic[k], atol=1e-6, rtol=0, msg=k)
 
 
 def test_advantages_scale_per_team_when_asked():
@@ -774,8 +797,8 @@ def test_validation_over_the_teams(tmp_path):
         (["--scenario", "gao_team", "--entity", "--init-from", "ppo_gao_team"], "--entity needs an entity policy"),
         (["--scenario", "matos_moving_lbl", "--entity"], "entity view does not read"),
         (
-            ["--scenario", "gao_sea", "--entity", "--team", "{}", "--team", "{beacon_kinds: [beacon_auv, beacon_auv]}"],
-            "one team makeup only",
+            ["--scenario", "gao_sea", "--team", "{}", "--team", "{beacon_kinds: [beacon_auv, beacon_auv]}"],
+            "one team makeup only",  # flat observations of one and two beacons differ in size
         ),
     ],
 )

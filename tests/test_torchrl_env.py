@@ -242,6 +242,38 @@ def test_state_survey_slots_give_teams_of_other_sizes_one_layout():
     assert same.state_dim == CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5).state_dim
 
 
+def test_state_beacon_slots_give_teams_of_other_numbers_of_beacons_one_layout():
+    """``state_beacon_slots``: a one-beacon team's state laid out for two beacons is its own
+    state with zeros at the second beacon's indices (its 7 state values after the first's, the
+    first beacon's entry for a peer at the end of its observation, the second beacon's whole
+    observation), and it has the two-beacon team's size."""
+    from coopnav_env.core.sim import BEACON_STATE_DIM, SURVEY_STATE_DIM
+
+    one = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5)
+    padded = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5, state_beacon_slots=2)
+    two = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5, beacon_kinds=["beacon_auv", "asv"])
+    assert one.n_beacons == 1 and two.n_beacons == 2
+    D1, D2 = one.flat_obs_dim, two.flat_obs_dim
+    assert D2 == D1 + 2 and padded.state_dim == two.state_dim == one.state_dim + BEACON_STATE_DIM + D2 + 2
+    s1, sp = one.reset()["state"], padded.reset()["state"]
+    G1 = one.sim.state_dim
+    b0 = SURVEY_STATE_DIM + BEACON_STATE_DIM  # the second beacon's block starts after the first's
+    zeros = list(range(b0, b0 + BEACON_STATE_DIM))
+    G2 = G1 + BEACON_STATE_DIM
+    zeros += [G2 + D1, G2 + D1 + 1]  # beacon 0's observation: its peer's entry
+    zeros += list(range(G2 + D2, G2 + 2 * D2))  # beacon 1's observation
+    keep = [i for i in range(two.state_dim) if i not in set(zeros)]
+    assert sp.shape == (2, two.state_dim) and torch.equal(sp[:, keep], s1) and not sp[:, zeros].any()
+    both = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5, state_survey_slots=2, state_beacon_slots=2)
+    assert both.state_dim == CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5, **TWO_BY_TWO).state_dim
+    observed = CoopNavTorchEnv("gao_lawnmower", n_envs=2, seed=5, state="observations", state_beacon_slots=3)
+    assert observed.reset()["state"].shape == (2, 3 * (D1 + 4))
+    with pytest.raises(ValueError, match="state_beacon_slots must be an int >= the team's 2 beacons"):
+        CoopNavTorchEnv("gao_lawnmower", state_beacon_slots=1, beacon_kinds=["beacon_auv", "asv"])
+    with pytest.raises(ValueError, match="moving network's state has its two boats"):
+        CoopNavTorchEnv("matos_moving_lbl", state_beacon_slots=3)
+
+
 def test_importing_coopnav_env_does_not_import_torch():
     code = (
         "import sys, coopnav_env; torch = 'torch' in sys.modules; import coopnav_env.vector; "

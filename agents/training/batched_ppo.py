@@ -471,16 +471,17 @@ class TeamEnvs:
     the batch, keeping only what the loop reads (the observations, rewards, flags, the
     survey error and, with ``state``, the state; so teams with other infos, e.g. another
     number of survey vehicles under entity observations, fit). The teams must agree on the
-    observation and action sizes, and with ``state`` on the number of beacons and the state's
-    size (``make_env`` lays every team's state out for the largest team's survey vehicles,
-    ``CoopNavTorchEnv(state_survey_slots=...)``, so MAPPO trains over teams of 1-5 of them).
+    observation and action sizes, and with ``state`` on the state's size (``make_env`` lays
+    every team's state out for the largest team's survey vehicles and beacons,
+    ``CoopNavTorchEnv(state_survey_slots=..., state_beacon_slots=...)``, so MAPPO trains
+    over teams of 1-5 survey vehicles and of other numbers of beacons).
 
-    **Teams of other numbers of beacons** (without ``state``: IPPO's critic): the batch has
-    ``n_beacons`` slots, the largest team's. A smaller team's missing beacons are padded
-    slots: their observation a copy of its beacon 0's (so a network reads a real input),
-    their reward 0, their action dropped before the team's environment steps.
-    ``agent_mask`` (n_envs, n_beacons) is True for the real beacons; the loop leaves the
-    others out of every mean, scaling and loss (None: every slot is real)."""
+    **Teams of other numbers of beacons**: the batch has ``n_beacons`` slots, the largest
+    team's. A smaller team's missing beacons are padded slots: their observation a copy of
+    its beacon 0's (so a network reads a real input), their reward 0, their action dropped
+    before the team's environment steps (and in the state, zeros). ``agent_mask``
+    (n_envs, n_beacons) is True for the real beacons; the loop leaves the others out of
+    every mean, scaling and loss (None: every slot is real)."""
 
     def __init__(self, envs: Sequence[Any], state: bool = True) -> None:
         import torch
@@ -488,16 +489,13 @@ class TeamEnvs:
         from coopnav_env.torchrl_env import GROUP
 
         def sizes(e: Any) -> tuple[int, ...]:
-            return (e.obs_dim, e.action_dim) + ((e.n_beacons, e.state_dim) if state else ())
+            return (e.obs_dim, e.action_dim) + ((e.state_dim,) if state else ())
 
-        what = "observation, action" + (", beacons and state sizes" if state else " sizes")
+        what = "observation, action" + (" and state sizes" if state else " sizes")
         for i, e in enumerate(envs):
             if sizes(e) != sizes(envs[0]):
-                hint = ""
-                if state and e.n_beacons != envs[0].n_beacons and e.obs_dim == envs[0].obs_dim:
-                    hint = " (teams of other numbers of beacons train with --critic observation)"
                 raise ValueError(
-                    f"teams[{i}]: {what} {sizes(e)}, the first team's {sizes(envs[0])}: one team makeup only{hint}"
+                    f"teams[{i}]: {what} {sizes(e)}, the first team's {sizes(envs[0])}: one team makeup only"
                 )
         self.envs = list(envs)
         self.sizes = [e.n_envs for e in envs]
@@ -578,12 +576,13 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
     state = "privileged" if config.critic == "state" else "observations"
     overrides = {**config.overrides, **(config.stages[stage][1] if stage >= 0 else {})}
     base_seed = config.seed + max(stage, 0) * config.n_envs
-    slots = None  # teams of other numbers of survey vehicles: one state layout for the largest
+    slots = beacon_slots = None  # teams of other sizes: one state layout for the largest
     if config.teams and config.critic == "state":
         try:
-            slots = max(make_config(config.scenario, **{**overrides, **team}).n_survey for team in config.teams)
+            made = [make_config(config.scenario, **{**overrides, **team}) for team in config.teams]
+            slots, beacon_slots = max(c.n_survey for c in made), max(c.n_beacons for c in made)
         except (TypeError, ValueError):
-            slots = None  # the team's own error, below, names it
+            slots = beacon_slots = None  # the team's own error, below, names it
 
     def one(n_envs: int, first: int, team: dict[str, Any]) -> Any:  # first: the environments before it
         return CoopNavTorchEnv(
@@ -595,6 +594,7 @@ def make_env(config: BatchedPPOConfig, stage: int = -1) -> Any:
             reward_terms=config.reward_terms,
             observation=config.observation,
             state_survey_slots=slots,
+            state_beacon_slots=beacon_slots,
             **{**overrides, **team},
         )
 
@@ -671,7 +671,7 @@ def train(
     """Trains for at least ``total_steps`` env-steps (one step of one environment); with
     ``out``, the weights and run.json are also written every ``save_every_steps`` (a run
     stopped early keeps its last save; ``run.json`` says its steps). Returns
-    ``{"actor": ..., "log": [...], "steps": ..., "seconds": ...}``; each log row has the
+    ``{"actor": ..., "critic": ..., "log": [...], "steps": ..., "seconds": ...}``; each log row has the
     iteration's wall seconds in the simulator (``env_s``), the rest of collection
     (``collect_s``) and the update (``update_s``); with teams, ``survey_error_m_per_team``.
     ``threads``: torch's threads, set after the environment is built (numba's start can
@@ -713,7 +713,7 @@ def train(
     def values(state: Any, obs: Any) -> Any:  # (..., N)
         return critic(state) if config.critic == "state" else critic(obs).squeeze(-1)
 
-    # teams of other numbers of beacons (TeamEnvs, IPPO only): the real beacons' slots; the padded
+    # teams of other numbers of beacons (TeamEnvs): the real beacons' slots; the padded
     # ones are left out of every mean, scaling and loss below, and out of the update's passes
     # (None: every slot is real)
     mask = getattr(env, "agent_mask", None)
@@ -877,10 +877,12 @@ def train(
                 if b_real is None:  # every slot a beacon's: (mb, N, ...)
                     obs_i, act_i, logp_i, adv_i, ret_i = (x[idx] for x in (b_obs, b_act, b_logp, b_adv, b_ret))
                     value = values(b_state[idx], obs_i)
-                else:  # only the real beacons' entries (R, ...): a padded slot costs no pass (IPPO's critic)
+                else:  # only the real beacons' entries (R, ...): a padded slot costs no actor pass
                     real = b_real[idx]
                     obs_i, act_i, logp_i, adv_i, ret_i = (x[idx][real] for x in (b_obs, b_act, b_logp, b_adv, b_ret))
-                    value = values(None, obs_i)  # a beacon mask comes with IPPO's critic only (TeamEnvs)
+                    # IPPO's critic reads the real beacons' observations; MAPPO's reads each row's
+                    # state once, its values of the padded slots dropped
+                    value = values(None, obs_i) if S == 0 else values(b_state[idx], None)[real]
                 value_loss = 0.5 * (value - ret_i).pow(2).mean()  # (P4)
                 if warmup:  # the actor held: its loss is not part of the step, nor its forward pass
                     loss = config.vf_coef * value_loss
@@ -961,7 +963,15 @@ def train(
     seconds = time.perf_counter() - start
     if out is not None:
         save(out, actor, log_std, config, steps, seconds, O, D, norms)
-    return {"actor": actor, "log_std": log_std, "obs_norm": obs_norm, "log": log, "steps": steps, "seconds": seconds}
+    return {
+        "actor": actor,
+        "critic": critic,
+        "log_std": log_std,
+        "obs_norm": obs_norm,
+        "log": log,
+        "steps": steps,
+        "seconds": seconds,
+    }
 
 
 def save(

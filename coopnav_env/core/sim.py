@@ -57,13 +57,21 @@ SURVEY_BEACON_INFO_KEYS = ("beacon_away_s",)  # the survey network's: time away 
 SURVEY_STATE_DIM, BEACON_STATE_DIM, GLOBAL_STATE_DIM = 10, 7, 3
 
 
-def pad_global_state(state: np.ndarray, n_survey: int, slots: int) -> np.ndarray:
-    """``Simulator.global_state()`` (B, state_dim) of a team of ``n_survey`` survey vehicles laid
-    out for ``slots`` of them: the missing vehicles' blocks zero, the beacons' and the global
-    values after them, where a team of ``slots`` has them."""
+def pad_global_state(
+    state: np.ndarray, n_survey: int, slots: int, n_beacons: int | None = None, beacon_slots: int | None = None
+) -> np.ndarray:
+    """``Simulator.global_state()`` (B, state_dim) of a team of ``n_survey`` survey vehicles and
+    ``n_beacons`` beacons laid out for ``slots`` survey vehicles and ``beacon_slots`` beacons
+    (None: the team's own): the missing vehicles' blocks zero, each part where a team of that
+    size has it (survey blocks, beacon blocks, the global values)."""
+    B = state.shape[0]
     cut = n_survey * SURVEY_STATE_DIM
-    pad = np.zeros((state.shape[0], (slots - n_survey) * SURVEY_STATE_DIM), dtype=state.dtype)
-    return np.concatenate([state[:, :cut], pad, state[:, cut:]], 1)
+    parts = [state[:, :cut], np.zeros((B, (slots - n_survey) * SURVEY_STATE_DIM), dtype=state.dtype)]
+    if n_beacons is None or beacon_slots is None or beacon_slots == n_beacons:
+        return np.concatenate([*parts, state[:, cut:]], 1)
+    end = cut + n_beacons * BEACON_STATE_DIM
+    pad = np.zeros((B, (beacon_slots - n_beacons) * BEACON_STATE_DIM), dtype=state.dtype)
+    return np.concatenate([*parts, state[:, cut:end], pad, state[:, end:]], 1)
 
 
 class Simulator(BatchSimulator):
