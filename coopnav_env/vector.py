@@ -269,9 +269,12 @@ class CoopNavVecEnv(VecEnv):
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """Per row: ``episode_seed`` its episode's seed, ``episode_cell`` its episode's
-        (survey_path, depth_m), ``agent`` its beacon name; anything else (``config``
-        included) is the VecEnv's own attribute."""
+        (survey_path, depth_m), ``agent`` its beacon name, ``env_index`` its environment's
+        row in ``sim`` (the batch row of ``sim.snapshot()``); anything else (``config`` and
+        ``sim`` included) is the VecEnv's own attribute."""
         envs = self._row_envs(indices)
+        if attr_name == "env_index":
+            return envs
         if attr_name == "episode_cell":
             cells = self.episode_cells()
             return [cells[e] for e in envs]

@@ -48,7 +48,9 @@ def collect(
     """Drive ``vecnorm`` (a VecNormalize over ``raw_env``'s rows, possibly through other
     wrappers) with ``planner`` (built with ``planner_kwargs``) for at least ``steps``
     row-steps (``progress``: a bar on a terminal, a line a minute elsewhere; the planners'
-    minutes can be many)."""
+    minutes can be many). A privileged planner (the oracle) is told its row's truth before
+    each decision, as the evaluation tells it (``baselines.tell_truth``), so the clone is of
+    the oracle, not of the planner it falls back to without the truth."""
     from baselines import make_policy
     from coopnav_env.progress import Progress
 
@@ -57,6 +59,9 @@ def collect(
     configs, agents = raw_env.get_attr("config"), raw_env.get_attr("agent")
     kw = dict(planner_kwargs or {})
     policies = [make_policy(planner, configs[r], seed=(seed, r), agent=agents[r], **kw) for r in range(rows)]
+    truth = None  # per row (its simulator, its environment's row there), for a privileged planner
+    if any(getattr(p, "privileged", False) for p in policies):
+        truth = list(zip(raw_env.get_attr("sim"), raw_env.get_attr("env_index")))
     vecnorm.reset()
     raw = vecnorm.get_original_obs()
     n_steps = -(-steps // rows)
@@ -70,6 +75,8 @@ def collect(
     with bar:
         for t in range(n_steps):
             obs[t] = raw
+            if truth is not None:
+                tell_rows(policies, truth)
             acts[t] = np.stack([p.act(raw[r]) for r, p in enumerate(policies)])
             _, rewards[t], dones[t], _ = vecnorm.step(acts[t])
             raw = vecnorm.get_original_obs()
@@ -77,6 +84,18 @@ def collect(
                 policies[r].reset()
             bar.update(rows)
     return {"obs": obs, "actions": acts, "rewards": rewards, "dones": dones}
+
+
+def tell_rows(policies: list, truth: list) -> None:
+    """Give each privileged policy of ``policies`` (one per VecEnv row) its row's truth:
+    ``truth[r]`` is (the row's simulator, its environment's batch row); one snapshot per
+    simulator."""
+    snaps: dict[int, Any] = {}
+    for p, (sim, b) in zip(policies, truth):
+        if getattr(p, "privileged", False):
+            if id(sim) not in snaps:
+                snaps[id(sim)] = sim.snapshot()
+            p.observe_truth(snaps[id(sim)], b)
 
 
 def discounted_returns(rewards: np.ndarray, dones: np.ndarray, gamma: float) -> np.ndarray:
