@@ -13,9 +13,10 @@ it in the table. Every cell is the scenario with the cell's parameters set and t
 per-episode randomization off; episode ``i`` of every cell and every policy uses
 seed ``--seed + i`` (the core's random numbers are counter-based per environment,
 so every policy meets the same noise, biases and start: common random numbers).
-All episodes of one (cell, policy) run as one batch of the core (``Simulator``);
-trained policies act on the whole batch at once, planners one beacon at a time
-(one instance per beacon and episode, as evaluate.py).
+All episodes of one (cell, policy) run as one batch of the core, through the
+evaluation's own runner (``evaluation.parallel.run_cells``, ``run_episodes``: one
+policy instance per beacon and episode, a privileged planner told the truth, as
+evaluate.py; ``--workers N`` plays N cells side by side, with the same numbers).
 
 Score: ``survey_error_m`` (mean over survey vehicles) averaged over every step of
 every episode, as evaluate.py's ``mean_error_m``. The table gives it per cell and
@@ -37,7 +38,6 @@ import os
 import sys
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -136,50 +136,18 @@ def is_planner(spec: str) -> bool:
     return spec in list_policies()
 
 
-def run_cell(config: ScenarioConfig, spec: str, seeds: list) -> np.ndarray:
-    """Per-episode mean survey_error_m of policy ``spec`` on ``seeds`` (one batch)."""
-    from coopnav_env.core import make_simulator
-    from coopnav_env.views import action_dim
+def run_cells_of(jobs: list, workers: int) -> list:
+    """Per job (label, config, spec, seeds, ...): (per-episode mean survey_error_m, seconds),
+    each job one ``evaluation.parallel.Cell`` (``run_episodes``: the evaluation's own runner,
+    so a privileged planner such as the oracle is told the truth) on ``workers`` processes."""
+    from evaluation.parallel import Cell, run_cells
 
-    B, N = len(seeds), config.n_beacons
-    sim = make_simulator(config, batch_size=B)
-    obs = sim.reset(np.asarray(seeds, dtype=np.int64))
-    if is_planner(spec):
-        from baselines import make_policy
-
-        policies = [[make_policy(spec, config, seed=(s, j), agent=j) for j in range(N)] for s in seeds]
-
-        def act(obs, alive):
-            a = np.zeros((B, N, action_dim(sim)))
-            for b in np.flatnonzero(alive):
-                for j in range(N):
-                    a[b, j] = policies[b][j].act(obs[b, j])
-            return a
-    else:
-        import agents
-
-        policy = agents.load(spec, scenario=config.name if spec == "ppo" else None)
-
-        def act(obs, alive):
-            return policy.act_batch(obs.reshape(B * N, -1)).reshape(B, N, -1).astype(np.float64)
-
-    alive = np.ones(B, dtype=bool)
-    err_sum, steps = np.zeros(B), np.zeros(B)
-    while alive.any():
-        res = sim.step(act(obs, alive))
-        obs = res.obs
-        err = res.info["survey_error_m"].mean(-1)
-        err_sum += np.where(alive, err, 0.0)
-        steps += alive
-        alive &= ~(res.terminated | res.truncated)
-    return err_sum / steps
-
-
-def _job(args):
-    label, config, spec, seeds = args
-    t = time.perf_counter()
+    cells = [
+        Cell(config, spec, tuple(seeds), label=f"{label} {spec}", steps=False)
+        for label, config, spec, seeds, *_ in jobs
+    ]
     with_warnings_quiet()
-    return label, spec, run_cell(config, spec, seeds).tolist(), time.perf_counter() - t
+    return [([row["mean_error_m"] for row in r.episodes], r.wall_s) for r in run_cells(cells, workers)]
 
 
 def with_warnings_quiet() -> None:
@@ -190,6 +158,7 @@ def with_warnings_quiet() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     from coopnav_env.records import atomic_write_text
+    from evaluation.parallel import check_workers
 
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
@@ -210,7 +179,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scenario override")
     p.add_argument("--cache", help="JSON file caching the planners' per-episode means")
     p.add_argument(
-        "--workers", "--jobs", dest="jobs", type=int, default=1, metavar="N", help="worker processes (--jobs: old name)"
+        "--workers",
+        "--jobs",
+        dest="jobs",
+        default="1",
+        metavar="N",
+        help="worker processes, 0: every core (--jobs: old name)",
     )
     p.add_argument("--out", help="write the results as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
@@ -236,13 +210,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             else:
                 jobs.append((label, config, spec, seeds, name, key))
     t0 = time.perf_counter()
-    work = [(j[0], j[1], j[2], j[3]) for j in jobs]
-    if args.jobs > 1 and len(work) > 1:
-        with ProcessPoolExecutor(args.jobs) as pool:
-            outs = list(pool.map(_job, work))
-    else:
-        outs = [_job(w) for w in work]
-    for (label, _config, spec, _, name, key), (_, _, per_ep, secs) in zip(jobs, outs):
+    try:
+        outs = run_cells_of(jobs, check_workers(args.jobs))
+    except (ValueError, OSError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    for (label, _config, spec, _, name, key), (per_ep, secs) in zip(jobs, outs):
         results[(label, name)] = np.array(per_ep)
         print(f"  {label:<40} {name:<12} {np.mean(per_ep):8.3f} m  [{secs:.0f} s]", file=sys.stderr, flush=True)
         if is_planner(spec):

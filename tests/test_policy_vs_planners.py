@@ -18,3 +18,30 @@ def test_cache_key_takes_every_scenario_and_changes_with_a_parameter():
     assert config_key(make_config("sousa_asv", depth_m=5.0)) != keys["sousa_asv"]
     later = next(k for k in FIELDS_ADDED_AFTER_CACHE_V1 if k in base.to_flat_dict(all_parameters=True))
     assert config_key(make_config("sousa_asv", **{later: getattr(base, later)})) == keys["sousa_asv"]
+
+
+def test_the_script_plays_cells_through_the_evaluations_runner(tmp_path):
+    """Its per-episode means are run_episodes' (the evaluation's runner: the oracle told the
+    truth, so it is not horizon), the same on one worker and on two."""
+    import json
+
+    from benchmarks.policy_vs_planners import main
+    from evaluation.episodes import run_episodes
+
+    argv = ["--scenario", "gao_lawnmower", "--policies", "oracle,horizon", "--episodes", "2", "--seed", "4100"]
+    argv += ["--set", "max_cycles=12"]
+    outs = []
+    for workers in ("1", "2"):
+        out = tmp_path / f"w{workers}.json"
+        assert main([*argv, "--workers", workers, "--out", str(out)]) == 0
+        outs.append(json.loads(out.read_text())["per_episode"])
+    assert outs[0] == outs[1]
+    config = make_config(
+        "gao_lawnmower", max_cycles=12, randomize_survey_path=(), randomize_depth_m=(), randomize_noise_scale=()
+    )
+    rows, _ = run_episodes(config, "oracle", [4100, 4101])
+    per_episode = outs[0]
+    (oracle_key,) = [k for k in per_episode if k.endswith("|oracle")]
+    (horizon_key,) = [k for k in per_episode if k.endswith("|horizon")]
+    assert per_episode[oracle_key] == [round(r["mean_error_m"], 5) for r in rows]
+    assert per_episode[oracle_key] != per_episode[horizon_key]
