@@ -151,7 +151,8 @@ class CoopNavVecEnv(VecEnv):
         )
         self._reset_seeds()
         self._reset_options()
-        return obs.reshape(self.num_envs, self.obs_dim)
+        self._last_obs = obs.reshape(self.num_envs, self.obs_dim)
+        return self._last_obs
 
     # ------------------------------------------------------------------------------
     def check_actions(self, actions: np.ndarray) -> np.ndarray:
@@ -211,8 +212,9 @@ class CoopNavVecEnv(VecEnv):
                 for j in range(self.n_beacons):
                     infos[e * self.n_beacons + j]["terminal_observation"] = final[i, j]
             obs = self.sim.reset(self._next_seeds(ended), done)
+        self._last_obs = obs.reshape(self.num_envs, self.obs_dim)
         return (
-            obs.reshape(self.num_envs, self.obs_dim),
+            self._last_obs,
             reward.reshape(-1).astype(np.float32),
             np.repeat(done, self.n_beacons),
             infos,
@@ -270,11 +272,17 @@ class CoopNavVecEnv(VecEnv):
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """Per row: ``episode_seed`` its episode's seed, ``episode_cell`` its episode's
         (survey_path, depth_m), ``agent`` its beacon name, ``env_index`` its environment's
-        row in ``sim`` (the batch row of ``sim.snapshot()``); anything else (``config`` and
-        ``sim`` included) is the VecEnv's own attribute."""
+        row in ``sim`` (the batch row of ``sim.snapshot()``), ``flat_observation`` its last
+        observation (the flat vector, under a wrapper such as ``EntityVecEnv`` too: what a
+        planner reads); anything else (``config`` and ``sim`` included) is the VecEnv's own
+        attribute."""
         envs = self._row_envs(indices)
         if attr_name == "env_index":
             return envs
+        if attr_name == "flat_observation":
+            if getattr(self, "_last_obs", None) is None:
+                raise RuntimeError("flat_observation before reset()")
+            return [self._last_obs[int(i)] for i in self._get_indices(indices)]
         if attr_name == "episode_cell":
             cells = self.episode_cells()
             return [cells[e] for e in envs]

@@ -343,8 +343,7 @@ def test_training_config_checks_the_entity_keys():
         _entity_config(entity=EntitySpec(encoder="gnn")).check()
     from agents.training.config import ImitateSpec
 
-    with pytest.raises(ConfigError, match=r"imitate.planner needs env.observation: flat"):
-        _entity_config(imitate=ImitateSpec(planner="ellipse")).check()
+    _entity_config(imitate=ImitateSpec(planner="ellipse")).check()  # entity policies can clone a planner
     from agents.training import RLlibConfig
 
     with pytest.raises(ConfigError, match=r"is for the SB3 trainer"):
@@ -487,3 +486,28 @@ def test_imitation_drives_each_flat_team_with_its_own_scenario():
             a_own, a_other = own.act(obs[t, r]), other.act(obs[t, r])
         np.testing.assert_allclose(acts[k, r], a_own, rtol=1e-6, atol=1e-6)
         assert not np.allclose(acts[k, r], a_other, atol=1e-3)
+
+
+def test_imitation_records_entity_rows_and_the_planners_flat_decisions():
+    """collect() over entity rows: the policy's data are the entity observations, and the planners
+    decide on each row's flat vector underneath, so the recorded actions are those of a flat run
+    of the same episodes; over a mixed team each team's planner reads its own team's vector."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from agents.training.imitation import collect
+    from coopnav_env.entity_views import EntityVecEnv, MixedTeamVecEnv
+    from coopnav_env.vector import CoopNavVecEnv
+
+    flat = CoopNavVecEnv("gao_lawnmower", n_envs=2, seed=31)
+    ent = EntityVecEnv(CoopNavVecEnv("gao_lawnmower", n_envs=2, seed=31))
+    a = collect(VecNormalize(flat, norm_obs=False, norm_reward=False), flat, "ellipse", steps=12, seed=3)
+    b = collect(VecNormalize(ent, norm_obs=False, norm_reward=False), ent, "ellipse", steps=12, seed=3)
+    np.testing.assert_array_equal(a["actions"], b["actions"])
+    assert b["obs"].shape[-1] == ent.observation_space.shape[0] != a["obs"].shape[-1]
+    for t in range(a["obs"].shape[0]):
+        np.testing.assert_allclose(b["obs"][t], ent.convert(a["obs"][t].astype(np.float64)), atol=1e-6)
+    teams: list[dict[str, Any]] = [{}, {"beacon_kinds": ["beacon_auv", "beacon_auv"]}]
+    mixed = MixedTeamVecEnv("gao_lawnmower", teams=teams, n_envs=2, seed=5)
+    c = collect(VecNormalize(mixed, norm_obs=False, norm_reward=False), mixed, "ellipse", steps=9, seed=3)
+    assert c["actions"].shape == (3, 3, 2) and np.isfinite(c["actions"]).all()
+    assert mixed.get_attr("flat_observation")[0].shape != mixed.get_attr("flat_observation")[1].shape

@@ -593,6 +593,35 @@ def test_importing_the_command_line_is_cheap_and_one_way():
     assert r.stdout.strip() == "[]"  # agents does not import its training package
 
 
+def test_an_entity_policy_clones_a_planner_over_teams(tmp_path):
+    """imitate: with env.observation: entities: a tiny run over a one- and a two-beacon team
+    clones ellipse (each team's planner on its own flat vector), scores the clone at step 0 and
+    saves an entity policy that drives both teams."""
+    out = tmp_path / "bc_entity"
+    changes = {
+        "imitate": {"planner": "ellipse", "steps": 600, "epochs": 2, "batch_size": 128},
+        "env": {
+            "overrides": {"max_cycles": 10},
+            "observation": "entities",
+            "teams": [{}, {"beacon_kinds": ["beacon_auv", "beacon_auv"]}],
+        },
+        "normalize": {"norm_obs": False},
+        "entity": {"encoder": "deepsets", "embed_dim": 16, "heads": 1},
+    }
+    argv = ["--scenario", "gao_lawnmower", "--timesteps", "256", "--seed", "0", "--out", str(out)]
+    assert cli.main([*argv, "--config", _tiny_yaml(tmp_path, **changes), "--no-progress"]) == 0
+    record = yaml.safe_load((out / "config.yml").read_text())
+    assert record["imitation"]["planner"] == "ellipse" and record["imitation"]["steps"] >= 600
+    evals = [json.loads(line) for line in (out / "evaluations.jsonl").read_text().splitlines()]
+    assert evals[0]["num_timesteps"] == 0
+    for team in ({}, {"beacon_kinds": ["beacon_auv", "beacon_auv"]}):
+        config = coopnav_env.make_config("gao_lawnmower", max_cycles=3, **team)
+        policy = agents.load(out / "model.safetensors", scenario=config)
+        env = coopnav_env.parallel_env(config, seed=5)
+        obs, _ = env.reset()
+        assert all(np.isfinite(policy.act(o)).all() for o in obs.values())
+
+
 def test_imitation_clones_the_planner_before_ppo(tmp_path):
     """The imitate: path (agents.training.imitation): a tiny run clones the circle planner,
     evaluates the clone at step 0, records what it did; the clone acts like the planner on

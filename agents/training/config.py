@@ -318,8 +318,6 @@ class TrainConfig(_Job):
                     "env.observation: entities needs normalize.norm_obs: false (the entity view is already "
                     "scaled, and normalizing would move its masks and one-hot kinds)"
                 )
-            if im.planner is not None:
-                raise ConfigError("imitate.planner needs env.observation: flat (imitation of entity policies: not yet)")
             if "features_extractor_class" in kwargs or "features_extractor_kwargs" in kwargs:
                 raise ConfigError(
                     "ppo.policy_kwargs.features_extractor_class/kwargs: with env.observation: entities the "

@@ -62,6 +62,13 @@ def collect(
     truth = None  # per row (its simulator, its environment's row there), for a privileged planner
     if any(getattr(p, "privileged", False) for p in policies):
         truth = list(zip(raw_env.get_attr("sim"), raw_env.get_attr("env_index")))
+    # entity rows (EntityVecEnv, MixedTeamVecEnv of entities): the policy learns from the entity
+    # observation, the planners read each row's flat vector underneath (its team's own size)
+    from coopnav_env.entity_views import EntityVecEnv, MixedTeamVecEnv
+
+    entity = isinstance(raw_env, EntityVecEnv) or (
+        isinstance(raw_env, MixedTeamVecEnv) and raw_env.observation == "entities"
+    )
     vecnorm.reset()
     raw = vecnorm.get_original_obs()
     n_steps = -(-steps // rows)
@@ -77,7 +84,8 @@ def collect(
             obs[t] = raw
             if truth is not None:
                 tell_rows(policies, truth)
-            acts[t] = np.stack([p.act(raw[r]) for r, p in enumerate(policies)])
+            seen = raw_env.get_attr("flat_observation") if entity else raw
+            acts[t] = np.stack([p.act(seen[r]) for r, p in enumerate(policies)])
             _, rewards[t], dones[t], _ = vecnorm.step(acts[t])
             raw = vecnorm.get_original_obs()
             for r in np.flatnonzero(dones[t]):
@@ -149,9 +157,17 @@ def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progre
             optimizer.step()
             actor_loss, critic_loss = float(la.detach()), float(lv.detach())
     policy.set_training_mode(False)
-    with torch.no_grad():
-        mean = policy.get_distribution(x).distribution.mean.clamp(-1.0, 1.0)
-        rms = float(torch.sqrt(((mean - a) ** 2).mean()))
+    with torch.no_grad():  # in batches: an entity encoder over every row at once is large
+        sq = sum(
+            float(
+                (
+                    (policy.get_distribution(x[i : i + 65536]).distribution.mean.clamp(-1.0, 1.0) - a[i : i + 65536])
+                    ** 2
+                ).sum()
+            )
+            for i in range(0, n, 65536)
+        )
+        rms = float(np.sqrt(sq / a.numel()))
     return {
         "planner": spec.planner,
         "planner_kwargs": dict(spec.planner_kwargs),
