@@ -31,11 +31,17 @@ def test_the_script_plays_cells_through_the_evaluations_runner(tmp_path):
     argv = ["--scenario", "gao_lawnmower", "--policies", "oracle,horizon", "--episodes", "2", "--seed", "4100"]
     argv += ["--set", "max_cycles=12"]
     outs = []
+    cache = tmp_path / "cache.json"
     for workers in ("1", "2"):
         out = tmp_path / f"w{workers}.json"
-        assert main([*argv, "--workers", workers, "--out", str(out)]) == 0
+        assert main([*argv, "--workers", workers, "--out", str(out), "--cache", str(cache)]) == 0
         outs.append(json.loads(out.read_text())["per_episode"])
+        cache.unlink()  # each run plays its cells
     assert outs[0] == outs[1]
+    assert main([*argv, "--out", str(tmp_path / "c.json"), "--cache", str(cache)]) == 0
+    # the oracle's cached figures under their own name: a cache from before it was told the truth
+    # (horizon's figures under "oracle") is not read back
+    assert sorted(k.split("|")[0] for k in json.loads(cache.read_text())) == ["horizon", "oracle@truth"]
     config = make_config(
         "gao_lawnmower", max_cycles=12, randomize_survey_path=(), randomize_depth_m=(), randomize_noise_scale=()
     )
