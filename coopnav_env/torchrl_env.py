@@ -115,6 +115,17 @@ class NonFiniteAction(ValueError):
     """A policy sent a NaN or infinite action (in training: the optimization diverged)."""
 
 
+def _state_slots(name: str, value: Any, own: int, what: str, moving: bool, moving_has: str) -> int:
+    """The number of ``what`` the state is laid out for: ``value`` (None: the team's ``own``),
+    an int >= ``own``; the moving network's state has no slots to pad."""
+    slots = own if value is None else value
+    if isinstance(slots, bool) or not isinstance(slots, (int, np.integer)) or slots < own:
+        raise ValueError(f"{name} must be an int >= the team's {own} {what}, got {slots!r}")
+    if slots != own and moving:
+        raise ValueError(f"{name}: the moving network's state has {moving_has}, got {slots}")
+    return int(slots)
+
+
 class CoopNavTorchEnv(EnvBase):
     """``n_envs`` environments of ``scenario`` (name or ``ScenarioConfig``) as one TorchRL
     ``EnvBase`` with batch size ``(n_envs,)``. See the module docstring for the keys.
@@ -180,22 +191,13 @@ class CoopNavTorchEnv(EnvBase):
             self.obs_dim = ENTITY_DIM
         self.action_dim = action_dim(self.sim)
         self.state_kind = state
-        slots = self.n_survey if state_survey_slots is None else state_survey_slots
-        if isinstance(slots, bool) or not isinstance(slots, (int, np.integer)) or slots < self.n_survey:
-            raise ValueError(
-                f"state_survey_slots must be an int >= the team's {self.n_survey} survey vehicles, got {slots!r}"
-            )
-        if slots != self.n_survey and config.network == "moving_lbl":
-            raise ValueError(f"state_survey_slots: the moving network's state has one survey vehicle, got {slots}")
-        self.state_survey_slots = int(slots)
-        bslots = self.n_beacons if state_beacon_slots is None else state_beacon_slots
-        if isinstance(bslots, bool) or not isinstance(bslots, (int, np.integer)) or bslots < self.n_beacons:
-            raise ValueError(
-                f"state_beacon_slots must be an int >= the team's {self.n_beacons} beacons, got {bslots!r}"
-            )
-        if bslots != self.n_beacons and config.network == "moving_lbl":
-            raise ValueError(f"state_beacon_slots: the moving network's state has its two boats, got {bslots}")
-        self.state_beacon_slots = int(bslots)
+        moving = config.network == "moving_lbl"
+        self.state_survey_slots = _state_slots(
+            "state_survey_slots", state_survey_slots, self.n_survey, "survey vehicles", moving, "one survey vehicle"
+        )
+        self.state_beacon_slots = _state_slots(
+            "state_beacon_slots", state_beacon_slots, self.n_beacons, "beacons", moving, "its two boats"
+        )
         self.infos = bool(infos)
         self.agent_names = [f"beacon_{j}" for j in range(self.n_beacons)]
         self.group_map = {GROUP: list(self.agent_names)}
