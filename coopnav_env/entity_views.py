@@ -234,7 +234,13 @@ class MixedTeamVecEnv(VecEnv):
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """Per row: the attribute of its team's ``CoopNavVecEnv`` row (``episode_seed``,
         ``episode_cell``, ``agent``, ``config``, ...)."""
-        return [self.subs[t].get_attr(attr_name, [r])[0] for t, r in self._where(indices)]
+        where = self._where(indices)
+        by_team: dict[int, list[int]] = {}
+        for t, r in where:
+            by_team.setdefault(t, []).append(r)
+        # one call per team (imitation reads every row's flat vector each step)
+        values = {t: iter(self.subs[t].get_attr(attr_name, rows)) for t, rows in by_team.items()}
+        return [next(values[t]) for t, _ in where]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         """The rows share their teams' simulators: only attributes of every row can be set."""

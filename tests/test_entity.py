@@ -511,3 +511,21 @@ def test_imitation_records_entity_rows_and_the_planners_flat_decisions():
     c = collect(VecNormalize(mixed, norm_obs=False, norm_reward=False), mixed, "ellipse", steps=9, seed=3)
     assert c["actions"].shape == (3, 3, 2) and np.isfinite(c["actions"]).all()
     assert mixed.get_attr("flat_observation")[0].shape != mixed.get_attr("flat_observation")[1].shape
+
+
+def test_mixed_get_attr_keeps_the_rows_order_with_one_call_per_team():
+    """MixedTeamVecEnv.get_attr asks each team once for its rows, and hands the values back in
+    the order of ``indices``, however the rows of the teams interleave there."""
+    from coopnav_env.entity_views import MixedTeamVecEnv
+
+    teams: list[dict[str, Any]] = [{}, {"beacon_kinds": ["beacon_auv", "beacon_auv"]}]
+    mixed = MixedTeamVecEnv("gao_lawnmower", teams=teams, n_envs=2, seed=5)
+    mixed.reset()
+    assert mixed.num_envs == 3  # a row of the first team, two of the second
+    order = [2, 0, 1]  # the second team's rows around the first's
+    one_by_one = [mixed.get_attr("agent", [i])[0] for i in order]
+    assert mixed.get_attr("agent", order) == one_by_one
+    flat = mixed.get_attr("flat_observation", order)
+    for i, v in zip(order, flat):
+        np.testing.assert_array_equal(v, mixed.get_attr("flat_observation", [i])[0])
+    assert len({v.shape for v in flat}) == 2  # both teams' rows are there, each its own size
