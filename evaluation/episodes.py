@@ -156,6 +156,7 @@ def run_episodes(
     seeds: Sequence[int],
     progress: Callable[[float], object] | None = None,
     act_seconds: list | None = None,
+    keep_steps: bool = True,
 ) -> tuple[list[dict], list[dict]]:
     """Run ``policy_name`` (one instance per beacon and episode) on episodes ``seeds``
     as one batch. Returns (episode rows, step rows) without the cell/policy/episode
@@ -165,7 +166,9 @@ def run_episodes(
     ``len(seeds)`` exactly when the last episode ends). ``act_seconds``: a list that
     receives the CPU seconds of every ``act`` call (the calling thread's clock,
     ``time.thread_time_ns``: one beacon's decision on one core, what other processes on
-    the machine do not inflate; a privileged policy's ``observe_truth`` not included)."""
+    the machine do not inflate; a privileged policy's ``observe_truth`` not included).
+    ``keep_steps=False``: no step rows (an empty list), for callers that keep the episodes'
+    alone (a cell of the benchmark: 60-240 rows an episode not built)."""
     from baselines import tell_truth
     from coopnav_env.core import make_simulator
 
@@ -240,7 +243,7 @@ def run_episodes(
                 "energy_J": float(H["energy_J"][:n, b].sum()),
             }
         )
-        for i in range(n):
+        for i in range(n if keep_steps else 0):
             steps.append(
                 {
                     "seed": seed,

@@ -126,8 +126,10 @@ def _play(cell: Cell, progress: Any = None) -> CellResult:
 
     t0 = time.perf_counter()
     seconds: list | None = [] if cell.act_seconds else None
-    episodes, steps = run_episodes(cell.config, cell.policy, list(cell.seeds), progress=progress, act_seconds=seconds)
-    return CellResult(episodes, steps if cell.steps else [], seconds or [], time.perf_counter() - t0)
+    episodes, steps = run_episodes(
+        cell.config, cell.policy, list(cell.seeds), progress=progress, act_seconds=seconds, keep_steps=cell.steps
+    )
+    return CellResult(episodes, steps, seconds or [], time.perf_counter() - t0)
 
 
 # ------------------------------------------------------------------------------------

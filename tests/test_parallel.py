@@ -31,6 +31,16 @@ def test_two_workers_give_one_process_numbers_in_order():
     assert len({json.dumps(r.episodes) for r in one}) == len(cells)
 
 
+def test_a_cell_without_step_rows_has_the_same_episodes():
+    """``Cell(steps=False)`` (the benchmark's cells) builds no step rows; its episodes are the
+    same to the bit as a cell that keeps them (8 step rows an episode here)."""
+    config = make_config("gao_lawnmower", max_cycles=8)
+    (kept,) = run_cells([Cell(config, "fim_a", (3, 4))], workers=1)
+    (dropped,) = run_cells([Cell(config, "fim_a", (3, 4), steps=False)], workers=1)
+    assert len(kept.steps) == 2 * 8 and dropped.steps == []
+    assert dropped.episodes == kept.episodes
+
+
 class _Bar:
     def __init__(self):
         self.n, self.stages = 0.0, []
