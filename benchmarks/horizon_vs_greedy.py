@@ -28,13 +28,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from baselines.base import is_planner, make_policy, split_spec
 from evaluation.paired import t_interval
+from evaluation.parallel import Cell, add_workers_argument, check_workers, run_cells
 
 EXCLUDED = ("static", "random", "oracle")
 
@@ -65,17 +65,11 @@ def register_variants(variants: Sequence[str]) -> list:
     return names
 
 
-def _job(args: tuple) -> tuple:
-    set_name, task_name, policy, seeds, extra, variants = args
-    register_variants(variants)
-    from evaluation.episodes import run_episodes
-    from evaluation.tasks import get_task_set
-
-    ts = get_task_set(set_name)
-    config = ts.task(task_name).config(ts.scenario, **extra)
-    t0 = time.process_time()
-    rows, _ = run_episodes(config, policy, seeds)
-    return set_name, task_name, policy, [r["mean_error_m"] for r in rows], time.process_time() - t0
+def variant_spec(text: str) -> tuple[str, str]:
+    """``NAME:BASE:KEY=VALUE,...`` -> (NAME, the planner spec ``BASE:KEY=VALUE:...`` that
+    ``make_policy`` reads in any process, ``baselines.split_spec``)."""
+    name, base, args = (text.split(":", 2) + ["", ""])[:3]
+    return name, ":".join([base, *filter(None, args.split(","))])
 
 
 def _parse_set(items: list) -> dict:
@@ -105,7 +99,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--first-seed", type=int, default=None, help="episode i uses this + i (default TEST_SEEDS[i])")
-    p.add_argument("--workers", type=int, default=1)
+    add_workers_argument(p, "the cells (a task and a policy)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="on every task")
     p.add_argument("--markdown", help="also write the table here")
     p.add_argument("--json", help="write the per-episode errors here as they come (a partial run is usable)")
@@ -115,10 +109,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         seeds = list(range(args.first_seed, args.first_seed + args.episodes))
     extra = _parse_set(args.set)
-    variants = register_variants(args.variant)
+    try:
+        workers = check_workers(args.workers)
+        specs = dict(variant_spec(v) for v in args.variant)
+        for name, text in specs.items():  # a bad base or keyword: one line now, not in a worker
+            split_spec(text)
+            if not is_planner(text.split(":")[0]):
+                raise ValueError(f"--variant {name}: {text.split(':')[0]!r} is not a planner")
+    except ValueError as err:
+        p.error(str(err))
+    variants = list(specs)
     only = set(filter(None, args.task.split(",")))
     challengers = [q for q in args.challenger.split(",") if q]
-    jobs, order = [], []
+    cells: list[Cell] = []
+    keys: list[tuple[str, str, str]] = []
+    order: list[tuple[str, str, list]] = []
     for set_name in args.tasks.split(","):
         ts = get_task_set(set_name)
         if args.against:
@@ -133,24 +138,33 @@ def main(argv: Sequence[str] | None = None) -> int:
             if only and task.name not in only:
                 continue
             order.append((set_name, task.name, greedy))
-            jobs += [(set_name, task.name, q, seeds, extra, args.variant) for q in [*challengers, *greedy]]
+            config = ts.task(task.name).config(ts.scenario, **extra)
+            for q in [*challengers, *greedy]:
+                if q in specs and not any(k[2] == q for k in keys):  # its settings checked once, here
+                    try:
+                        make_policy(specs[q], config)
+                    except ValueError as err:
+                        p.error(f"--variant {q}: {err}")
+                keys.append((set_name, task.name, q))
+                cells.append(Cell(config, specs.get(q, q), tuple(seeds), f"{set_name}/{task.name} {q}", False, True))
     scores: dict = {}
     cpu: dict[str, float] = {}
     from coopnav_env.progress import Progress
 
-    bar = Progress(total=len(jobs), unit="job", desc="task x policy")
-    bar.stage(f"{len(jobs)} jobs (a task and a policy, {len(seeds)} episodes each) on {max(args.workers, 1)} workers")
-    with ProcessPoolExecutor(max(args.workers, 1)) as pool:
-        for s, t, q, errs, sec in pool.map(_job, jobs):
-            scores[s, t, q] = np.asarray(errs)
-            cpu[q] = cpu.get(q, 0.0) + sec
-            bar.update(1)
-            bar.stage(f"{s}/{t} {q}: {np.mean(errs):.3f} m ({sec:.0f} s)")
-            if args.json:
-                from coopnav_env.records import atomic_write_text
+    bar = Progress(total=len(cells) * len(seeds), unit="episode", desc="task x policy")
+    bar.stage(f"{len(cells)} cells (a task and a policy, {len(seeds)} episodes each) on {workers} workers")
+    # the evaluation's episode loop and process pool (evaluation.parallel), in the cells' order
+    for (s, t, q), out in zip(keys, run_cells(cells, workers, bar)):
+        errs = [r["mean_error_m"] for r in out.episodes]
+        scores[s, t, q] = np.asarray(errs)
+        sec = float(sum(out.act_seconds))
+        cpu[q] = cpu.get(q, 0.0) + sec
+        bar.stage(f"{s}/{t} {q}: {np.mean(errs):.3f} m ({sec:.0f} s of decisions)")
+        if args.json:
+            from coopnav_env.records import atomic_write_text
 
-                dump = {f"{a}/{b}/{x}": v.tolist() for (a, b, x), v in scores.items()}
-                atomic_write_text(args.json, json.dumps({"seeds": seeds, "episode_mean_error_m": dump}) + "\n")
+            dump = {f"{a}/{b}/{x}": v.tolist() for (a, b, x), v in scores.items()}
+            atomic_write_text(args.json, json.dumps({"seeds": seeds, "episode_mean_error_m": dump}) + "\n")
     bar.close()
     c = ", ".join(challengers)
     lines = [
@@ -176,7 +190,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
     lines += ["", "| task set | challenger | wins | ties | losses |", "|---|---|---|---|---|"]
     lines += [f"| {s} | {q} | {v['win']} | {v['tie']} | {v['loss']} |" for (s, q), v in tally.items()]
-    lines += ["", "CPU seconds per policy (all tasks): " + ", ".join(f"{q} {v:.0f}" for q, v in sorted(cpu.items()))]
+    lines += [
+        "",
+        "CPU seconds of the decisions per policy (all tasks): "
+        + ", ".join(f"{q} {v:.0f}" for q, v in sorted(cpu.items())),
+    ]
     text = "\n".join(lines)
     print(text)
     if args.markdown:

@@ -36,12 +36,12 @@ import argparse
 import sys
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from evaluation.paired import t_interval
+from evaluation.parallel import check_workers
 
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
@@ -76,37 +76,19 @@ def make_path_config(path: str, args: argparse.Namespace) -> ScenarioConfig:
     )
 
 
-def run_episodes(config: ScenarioConfig, policy: str, kwargs: dict, seeds: list) -> tuple:
-    """Per-episode (eps_bar, sigma^2_eps) of ``policy`` on ``seeds``, all episodes one batch."""
-    from baselines import make_policy
-    from coopnav_env.core import make_simulator
-
-    B, N = len(seeds), config.n_beacons
-    sim = make_simulator(config, B)
-    obs = sim.reset(np.asarray(seeds, dtype=np.int64))
-    pols = [[make_policy(policy, config, seed=(s, j), agent=j, **kwargs) for j in range(N)] for s in seeds]
-    alive = np.ones(B, dtype=bool)
-    errs = [[] for _ in range(B)]
-    while alive.any():
-        a = np.zeros((B, N, 2))
-        for b in np.flatnonzero(alive):
-            for j in range(N):
-                a[b, j] = pols[b][j].act(obs[b, j])
-        res = sim.step(a)
-        obs = res.obs
-        err = res.info["survey_error_m"].mean(-1)  # eq. (7), mean over survey vehicles (one here)
-        for b in np.flatnonzero(alive):
-            errs[b].append(float(err[b]))
-        alive &= ~(res.terminated | res.truncated)
-    e = [np.asarray(x) for x in errs]
+def episode_moments(steps: list, seeds: list) -> tuple:
+    """Per-episode (eps_bar, sigma^2_eps) of eq. (7) from ``run_episodes``' step rows
+    (``survey_error_m``: the mean over survey vehicles, one here), in the order of ``seeds``."""
+    errs: dict = {s: [] for s in seeds}
+    for row in steps:
+        errs[row["seed"]].append(row["survey_error_m"])
+    e = [np.asarray(errs[s]) for s in seeds]
     return np.array([x.mean() for x in e]), np.array([x.var() for x in e])
 
 
-def _job(job):
-    path, label, policy, kwargs, config, seeds = job
-    t = time.perf_counter()
-    mean, var = run_episodes(config, policy, kwargs, seeds)
-    return path, label, mean, var, time.perf_counter() - t
+def spec(policy: str, kwargs: dict) -> str:
+    """The planner spec ``make_policy`` reads: ``"fim_b:predictor=heading"``."""
+    return ":".join([policy, *(f"{k}={v}" for k, v in kwargs.items())])
 
 
 def table3_marks(means: dict) -> dict:
@@ -185,24 +167,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--circle-radius", type=float, default=30.0, help="m, circle and spiral (not given in the paper)")
     p.add_argument("--duration", type=float, default=1200.0, help="mission length (s)")
     p.add_argument(
-        "--workers", "--jobs", dest="jobs", type=int, default=1, metavar="N", help="worker processes (--jobs: old name)"
+        "--workers",
+        "--jobs",
+        dest="jobs",
+        default="1",
+        metavar="N",
+        help="worker processes (0: every core; --jobs: old name); the results are the same for any N",
     )
     p.add_argument("--markdown", help="also write the report here")
     args = p.parse_args(argv)
 
     seeds = [args.seed + i for i in range(args.episodes)]
     labels = [n for n, _, _ in APPROACHES]
-    jobs = [(path, n, pol, kw, make_path_config(path, args), seeds) for path in PATHS for n, pol, kw in APPROACHES]
+    from evaluation.parallel import Cell, run_cells
+
+    try:
+        workers = check_workers(args.jobs)
+    except ValueError as err:
+        p.error(str(err))
+    keys = [(path, n) for path in PATHS for n, _, _ in APPROACHES]
+    cells = [
+        Cell(make_path_config(path, args), spec(pol, kw), tuple(seeds), label=f"{path} {n}")
+        for path in PATHS
+        for n, pol, kw in APPROACHES
+    ]
     t0 = time.perf_counter()
-    if args.jobs > 1:
-        with ProcessPoolExecutor(args.jobs) as pool:
-            outs = list(pool.map(_job, jobs))
-    else:
-        outs = [_job(j) for j in jobs]
     results = {}
-    for path, n, mean, var, secs in outs:
+    # the evaluation's episode loop and process pool (evaluation.parallel): one home for both
+    for (path, n), out in zip(keys, run_cells(cells, workers)):
+        mean, var = episode_moments(out.steps, seeds)
         results[(path, n)] = (mean, var)
-        print(f"  {path:<11} {n:<12} eps_bar {mean.mean():7.3f} m  [{secs:.0f} s]", file=sys.stderr, flush=True)
+        print(f"  {path:<11} {n:<12} eps_bar {mean.mean():7.3f} m  [{out.wall_s:.0f} s]", file=sys.stderr, flush=True)
     text = build_report(results, labels, args)
     print(text)
     print(f"[{time.perf_counter() - t0:.0f} s]", file=sys.stderr)
