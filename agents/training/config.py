@@ -188,7 +188,11 @@ class ImitateSpec:
     training environments for ``steps`` row-steps, then the actor's mean is fitted to
     its actions and the critic to the returns, ``epochs`` passes in minibatches of
     ``batch_size`` at ``learning_rate``. ``planner_kwargs`` go to the planner (and its
-    transmit schedule): ``{threshold_nats: 0.45}`` for ``ellipse+event``."""
+    transmit schedule): ``{threshold_nats: 0.45}`` for ``ellipse+event``.
+    ``dagger_rounds``: after the first fit, that many rounds of DAgger (Ross, Gordon &
+    Bagnell 2011): the clone drives for ``dagger_steps`` row-steps (0: ``steps``), the
+    planner labels the states the clone reaches, and the clone is fitted again on all the
+    data so far."""
 
     planner: str | None = None
     planner_kwargs: dict = field(default_factory=dict)
@@ -196,6 +200,8 @@ class ImitateSpec:
     epochs: int = 20
     batch_size: int = 4096
     learning_rate: float = 1e-3
+    dagger_rounds: int = 0
+    dagger_steps: int = 0
 
 
 @dataclass
@@ -307,6 +313,10 @@ class TrainConfig(_Job):
                     raise ConfigError(f"imitate.{key} must be at least 1, got {getattr(im, key)}")
             if not im.learning_rate > 0:
                 raise ConfigError(f"imitate.learning_rate must be positive, got {im.learning_rate}")
+            for key in ("dagger_rounds", "dagger_steps"):
+                value = getattr(im, key)
+                if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                    raise ConfigError(f"imitate.{key} must be an integer of at least 0, got {value!r}")
             if self.init_from:
                 raise ConfigError("imitate and init_from both set the starting weights: choose one")
         elif im.planner_kwargs:

@@ -44,13 +44,16 @@ def collect(
     seed: int,
     progress: bool = False,
     planner_kwargs: dict | None = None,
+    driver: Any = None,
 ) -> dict:
     """Drive ``vecnorm`` (a VecNormalize over ``raw_env``'s rows, possibly through other
     wrappers) with ``planner`` (built with ``planner_kwargs``) for at least ``steps``
     row-steps (``progress``: a bar on a terminal, a line a minute elsewhere; the planners'
     minutes can be many). A privileged planner (the oracle) is told its row's truth before
     each decision, as the evaluation tells it (``baselines.tell_truth``), so the clone is of
-    the oracle, not of the planner it falls back to without the truth."""
+    the oracle, not of the planner it falls back to without the truth. ``driver``: DAgger's
+    collection, ``driver(raw observations) -> actions`` drives instead and the planner's
+    actions are only recorded (its labels of the states the driver reaches)."""
     from baselines import make_policy
     from coopnav_env.progress import Progress
 
@@ -86,7 +89,7 @@ def collect(
                 tell_rows(policies, truth)
             seen = raw_env.get_attr("flat_observation") if entity else raw
             acts[t] = np.stack([p.act(seen[r]) for r, p in enumerate(policies)])
-            _, rewards[t], dones[t], _ = vecnorm.step(acts[t])
+            _, rewards[t], dones[t], _ = vecnorm.step(acts[t] if driver is None else driver(raw))
             raw = vecnorm.get_original_obs()
             for r in np.flatnonzero(dones[t]):
                 policies[r].reset()
@@ -118,10 +121,10 @@ def discounted_returns(rewards: np.ndarray, dones: np.ndarray, gamma: float) -> 
 
 
 def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progress: bool = False) -> dict:
-    """Clone ``spec.planner`` into ``model`` (an SB3 PPO whose env is ``vecnorm``); returns
-    what was done (steps, final losses, seconds). ``progress``: ``collect``'s."""
-    import torch
-
+    """Clone ``spec.planner`` into ``model`` (an SB3 PPO whose env is ``vecnorm``), then run
+    ``spec.dagger_rounds`` rounds of DAgger; returns what was done (steps, final losses,
+    seconds; per DAgger round, the clone's action error on the states it reached before it
+    was fitted again). ``progress``: ``collect``'s."""
     from coopnav_env.progress import stage
 
     t0 = time.perf_counter()
@@ -129,14 +132,75 @@ def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progre
         f"imitation: {spec.planner} drives the training environments for {spec.steps:,} row-steps, "
         "then the clone is fitted"
     )
-    data = collect(vecnorm, raw_env, spec.planner, spec.steps, seed, progress, spec.planner_kwargs)
+    data = [collect(vecnorm, raw_env, spec.planner, spec.steps, seed, progress, spec.planner_kwargs)]
+    fit = _fit(model, vecnorm, data, spec, seed)
+    rounds = []
+    for k in range(int(getattr(spec, "dagger_rounds", 0))):
+        steps = int(getattr(spec, "dagger_steps", 0)) or spec.steps
+        stage(f"DAgger round {k + 1}: the clone drives for {steps:,} row-steps, {spec.planner} labels its states")
+
+        def drive(raw: np.ndarray) -> np.ndarray:
+            return model.predict(vecnorm.normalize_obs(raw), deterministic=True)[0]
+
+        data.append(collect(vecnorm, raw_env, spec.planner, steps, seed + k + 1, progress, spec.planner_kwargs, drive))
+        before = _action_rms(model, vecnorm, data[-1:])  # the clone against the planner where the clone went
+        fit = _fit(model, vecnorm, data, spec, seed + k + 1)
+        rounds.append({"steps": int(data[-1]["actions"][..., 0].size), "action_rms_error_before": round(before, 4)})
+    out = {
+        "planner": spec.planner,
+        "planner_kwargs": dict(spec.planner_kwargs),
+        "steps": int(sum(d["actions"][..., 0].size for d in data)),
+        "epochs": spec.epochs,
+        **fit,
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
+    if rounds:
+        out["dagger"] = rounds
+    return out
+
+
+def _tensors(model: Any, vecnorm: Any, data: list) -> tuple:
+    """(normalized observations, planner actions, discounted returns) of ``data`` (collect's
+    outputs), as float32 tensors on the model's device."""
+    import torch
+
     gamma = float(model.gamma)
-    returns = discounted_returns(data["rewards"], data["dones"], gamma)
-    obs = vecnorm.normalize_obs(data["obs"].reshape(-1, data["obs"].shape[-1]))
+    obs = np.concatenate([d["obs"].reshape(-1, d["obs"].shape[-1]) for d in data])
+    acts = np.concatenate([d["actions"].reshape(-1, d["actions"].shape[-1]) for d in data])
+    returns = np.concatenate([discounted_returns(d["rewards"], d["dones"], gamma).reshape(-1) for d in data])
     device = model.policy.device
-    x = torch.as_tensor(obs, dtype=torch.float32, device=device)
-    a = torch.as_tensor(data["actions"].reshape(len(obs), -1), dtype=torch.float32, device=device)
-    g = torch.as_tensor(returns.reshape(-1), dtype=torch.float32, device=device)
+    x = torch.as_tensor(vecnorm.normalize_obs(obs), dtype=torch.float32, device=device)
+    a = torch.as_tensor(acts, dtype=torch.float32, device=device)
+    g = torch.as_tensor(returns, dtype=torch.float32, device=device)
+    return x, a, g
+
+
+def _action_rms(model: Any, vecnorm: Any, data: list) -> float:
+    """The RMS of the clone's mean action (clipped to the box) minus the planner's, over ``data``."""
+    import torch
+
+    x, a, _ = _tensors(model, vecnorm, data)
+    policy = model.policy
+    policy.set_training_mode(False)
+    with torch.no_grad():  # in batches: an entity encoder over every row at once is large
+        sq = sum(
+            float(
+                (
+                    (policy.get_distribution(x[i : i + 65536]).distribution.mean.clamp(-1.0, 1.0) - a[i : i + 65536])
+                    ** 2
+                ).sum()
+            )
+            for i in range(0, len(x), 65536)
+        )
+    return float(np.sqrt(sq / a.numel()))
+
+
+def _fit(model: Any, vecnorm: Any, data: list, spec: Any, seed: int) -> dict:
+    """Fit the actor's mean to the planner's actions and the critic to the returns over all of
+    ``data``: ``spec.epochs`` passes in minibatches; returns the last losses and the RMS."""
+    import torch
+
+    x, a, g = _tensors(model, vecnorm, data)
     policy = model.policy
     optimizer = torch.optim.Adam(policy.parameters(), lr=spec.learning_rate)
     rng = np.random.default_rng(seed)
@@ -144,7 +208,7 @@ def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progre
     actor_loss = critic_loss = float("nan")
     policy.set_training_mode(True)
     for _ in range(spec.epochs):
-        order = torch.as_tensor(rng.permutation(n), device=device)
+        order = torch.as_tensor(rng.permutation(n), device=x.device)
         for start in range(0, n, spec.batch_size):
             idx = order[start : start + spec.batch_size]
             mean = policy.get_distribution(x[idx]).distribution.mean
@@ -157,24 +221,8 @@ def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progre
             optimizer.step()
             actor_loss, critic_loss = float(la.detach()), float(lv.detach())
     policy.set_training_mode(False)
-    with torch.no_grad():  # in batches: an entity encoder over every row at once is large
-        sq = sum(
-            float(
-                (
-                    (policy.get_distribution(x[i : i + 65536]).distribution.mean.clamp(-1.0, 1.0) - a[i : i + 65536])
-                    ** 2
-                ).sum()
-            )
-            for i in range(0, n, 65536)
-        )
-        rms = float(np.sqrt(sq / a.numel()))
     return {
-        "planner": spec.planner,
-        "planner_kwargs": dict(spec.planner_kwargs),
-        "steps": int(n),
-        "epochs": spec.epochs,
-        "action_rms_error": round(rms, 4),
+        "action_rms_error": round(_action_rms(model, vecnorm, data), 4),
         "actor_loss": round(actor_loss, 5),
         "critic_loss": round(critic_loss, 5),
-        "seconds": round(time.perf_counter() - t0, 1),
     }
