@@ -146,7 +146,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                     except ValueError as err:
                         p.error(f"--variant {q}: {err}")
                 keys.append((set_name, task.name, q))
-                cells.append(Cell(config, specs.get(q, q), tuple(seeds), f"{set_name}/{task.name} {q}", False, True))
+                label = f"{set_name}/{task.name} {q}"
+                cells.append(Cell(config, specs.get(q, q), tuple(seeds), label, steps=False, act_seconds=True))
     scores: dict = {}
     cpu: dict[str, float] = {}
     from coopnav_env.progress import Progress

@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evaluation.paired import t_interval
-from evaluation.parallel import check_workers
+from evaluation.parallel import Cell, check_workers, run_cells
 
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
@@ -179,8 +179,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     seeds = [args.seed + i for i in range(args.episodes)]
     labels = [n for n, _, _ in APPROACHES]
-    from evaluation.parallel import Cell, run_cells
-
     try:
         workers = check_workers(args.jobs)
     except ValueError as err:
