@@ -322,8 +322,8 @@ def test_a_nan_is_an_error_naming_the_episode(tmp_path, capsys, monkeypatch):
 
     real = episodes.run_episodes
 
-    def with_nan(config, policy, seeds, progress=None, act_seconds=None):
-        eps, sts = real(config, policy, seeds, progress, act_seconds)
+    def with_nan(config, policy, seeds, progress=None, act_seconds=None, keep_steps=True):
+        eps, sts = real(config, policy, seeds, progress, act_seconds, keep_steps)
         if policy == "fim_a" and 1 in seeds:
             sts[2]["survey_error_m"] = float("nan")
         return eps, sts
