@@ -14,7 +14,7 @@ which favours it); the table gives its mean, the challenger's, and the paired di
 when the interval lies below 0, **loss** above, **tie** otherwise.
 
 For tuning (on seeds other than the test seeds: ``--first-seed``), ``--variant
-NAME:BASE:KEY=VALUE,...`` registers a planner ``NAME``: ``BASE`` with other constructor
+NAME:BASE:KEY=VALUE,...`` names a planner ``NAME``: ``BASE`` with other constructor
 arguments (e.g. ``--variant h8:horizon:horizon=8,n_samples=128``), usable as
 ``--challenger`` or ``--against``; ``--against POLICY`` compares the challenger with that
 policy instead of the best greedy planner (e.g. joint against per-beacon team planning):
@@ -37,32 +37,6 @@ from evaluation.paired import t_interval
 from evaluation.parallel import Cell, add_workers_argument, check_workers, run_cells
 
 EXCLUDED = ("static", "random", "oracle")
-
-
-def register_variants(variants: Sequence[str]) -> list:
-    """Register each ``NAME:BASE:KEY=VALUE,...`` as the planner NAME (BASE's class with those
-    constructor arguments as defaults); returns the names."""
-    import ast
-    import functools
-
-    from baselines.base import _POLICIES, register_policy
-
-    names = []
-    for text in variants:
-        name, base, args = (text.split(":", 2) + ["", ""])[:3]
-        kwargs = {}
-        for item in filter(None, args.split(",")):
-            key, value = item.split("=", 1)
-            try:
-                kwargs[key] = ast.literal_eval(value)
-            except (ValueError, SyntaxError):
-                kwargs[key] = value
-        cls = _POLICIES[base]
-        variant = type(name, (cls,), {"__init__": functools.partialmethod(cls.__init__, **kwargs)})
-        variant.__module__, variant.__qualname__ = __name__, f"variant_{name}"
-        register_policy(name)(variant)
-        names.append(name)
-    return names
 
 
 def variant_spec(text: str) -> tuple[str, str]:
@@ -124,6 +98,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     cells: list[Cell] = []
     keys: list[tuple[str, str, str]] = []
     order: list[tuple[str, str, list]] = []
+    checked: set[str] = set()  # the variants built once to check their settings
     for set_name in args.tasks.split(","):
         ts = get_task_set(set_name)
         if args.against:
@@ -140,11 +115,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             order.append((set_name, task.name, greedy))
             config = ts.task(task.name).config(ts.scenario, **extra)
             for q in [*challengers, *greedy]:
-                if q in specs and not any(k[2] == q for k in keys):  # its settings checked once, here
+                if q in specs and q not in checked:  # its settings checked once, here
                     try:
                         make_policy(specs[q], config)
                     except ValueError as err:
                         p.error(f"--variant {q}: {err}")
+                    checked.add(q)
                 keys.append((set_name, task.name, q))
                 label = f"{set_name}/{task.name} {q}"
                 cells.append(Cell(config, specs.get(q, q), tuple(seeds), label, steps=False, act_seconds=True))

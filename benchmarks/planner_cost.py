@@ -90,7 +90,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         d = default_of(key)
         overrides[key] = type(d)(text) if isinstance(d, (int, float)) and not isinstance(d, bool) else text
     config = coopnav_env.make_config(args.scenario, **overrides)
-    names = list_policies(config.network) + [q for q in args.policies.split(",") if q]
+    names = [(q, q) for q in list_policies(config.network) + [q for q in args.policies.split(",") if q]]
     if args.variant:
         import importlib.util
 
@@ -98,8 +98,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         spec = importlib.util.spec_from_file_location("horizon_vs_greedy", here)
         module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
         spec.loader.exec_module(module)  # type: ignore[union-attr]
-        register_variants = module.register_variants
-        names += register_variants(args.variant)
+        names += [module.variant_spec(v) for v in args.variant]  # (NAME, the planner spec it stands for)
     lines = [
         f"{args.scenario}{' ' + ' '.join(args.set) if args.set else ''}: CPU ms per act (one beacon's decision), "
         f"{args.steps} decisions after {args.warmup} untimed, one core.",
@@ -107,8 +106,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "| policy | median (ms) | p90 (ms) | calls |",
         "|---|---|---|---|",
     ]
-    for name in names:
-        sec = np.asarray(time_policy(config, name, args.steps, args.warmup, args.seed))
+    for name, planner in names:
+        sec = np.asarray(time_policy(config, planner, args.steps, args.warmup, args.seed))
         lines.append(f"| {name} | {1e3 * np.median(sec):.3f} | {1e3 * np.quantile(sec, 0.9):.3f} | {len(sec)} |")
         print(lines[-1], file=sys.stderr, flush=True)
     text = "\n".join(lines)

@@ -101,12 +101,13 @@ def tell_rows(policies: list, truth: list) -> None:
     """Give each privileged policy of ``policies`` (one per VecEnv row) its row's truth:
     ``truth[r]`` is (the row's simulator, its environment's batch row); one snapshot per
     simulator."""
-    snaps: dict[int, Any] = {}
+    from baselines import tell_truth
+
+    by_sim: dict[int, tuple[Any, dict[int, list]]] = {}  # id(sim) -> (sim, {its row: the policies there})
     for p, (sim, b) in zip(policies, truth):
-        if getattr(p, "privileged", False):
-            if id(sim) not in snaps:
-                snaps[id(sim)] = sim.snapshot()
-            p.observe_truth(snaps[id(sim)], b)
+        by_sim.setdefault(id(sim), (sim, {}))[1].setdefault(b, []).append(p)
+    for sim, by_row in by_sim.values():
+        tell_truth(by_row, sim, by_row)  # type: ignore[arg-type]  # {row: policies} indexed as a list
 
 
 def discounted_returns(rewards: np.ndarray, dones: np.ndarray, gamma: float) -> np.ndarray:
@@ -143,7 +144,8 @@ def imitate(model: Any, vecnorm: Any, raw_env: Any, spec: Any, seed: int, progre
             return model.predict(vecnorm.normalize_obs(raw), deterministic=True)[0]
 
         data.append(collect(vecnorm, raw_env, spec.planner, steps, seed + k + 1, progress, spec.planner_kwargs, drive))
-        before = _action_rms(model, vecnorm, data[-1:])  # the clone against the planner where the clone went
+        x, a, _ = _tensors(model, vecnorm, data[-1:])
+        before = _action_rms(model.policy, x, a)  # the clone against the planner where the clone went
         fit = _fit(model, vecnorm, data, spec, seed + k + 1)
         rounds.append({"steps": int(data[-1]["actions"][..., 0].size), "action_rms_error_before": round(before, 4)})
     out = {
@@ -175,12 +177,11 @@ def _tensors(model: Any, vecnorm: Any, data: list) -> tuple:
     return x, a, g
 
 
-def _action_rms(model: Any, vecnorm: Any, data: list) -> float:
-    """The RMS of the clone's mean action (clipped to the box) minus the planner's, over ``data``."""
+def _action_rms(policy: Any, x: Any, a: Any) -> float:
+    """The RMS of the clone's mean action (clipped to the box) minus the planner's ``a`` at the
+    normalized observations ``x``."""
     import torch
 
-    x, a, _ = _tensors(model, vecnorm, data)
-    policy = model.policy
     policy.set_training_mode(False)
     with torch.no_grad():  # in batches: an entity encoder over every row at once is large
         sq = sum(
@@ -222,7 +223,7 @@ def _fit(model: Any, vecnorm: Any, data: list, spec: Any, seed: int) -> dict:
             actor_loss, critic_loss = float(la.detach()), float(lv.detach())
     policy.set_training_mode(False)
     return {
-        "action_rms_error": round(_action_rms(model, vecnorm, data), 4),
+        "action_rms_error": round(_action_rms(policy, x, a), 4),
         "actor_loss": round(actor_loss, 5),
         "critic_loss": round(critic_loss, 5),
     }
