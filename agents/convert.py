@@ -30,6 +30,7 @@ import os
 import sys
 from pathlib import Path
 
+from coopnav_env.failures import MACHINE_FAILURES, one_line
 from coopnav_env.records import atomic_write_bytes, atomic_write_text
 
 from . import formats, safe_paths
@@ -203,12 +204,11 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     existed = out.exists() or out.is_symlink()
     fresh = not existed or (out.is_dir() and not any(out.iterdir()))
+    refused: tuple[type[BaseException], ...] = (PolicyFormatError, ValueError, KeyError, *MACHINE_FAILURES)
     try:
         written = convert(args.src, args.out, trust_pickle=args.trust_pickle)
-    except (PolicyFormatError, OSError, ValueError, KeyError, MemoryError) as err:
-        if isinstance(err, (OSError, MemoryError)):
-            from coopnav_env.failures import one_line
-
+    except refused as err:
+        if isinstance(err, MACHINE_FAILURES):
             text = one_line(err)
         else:
             text = " ".join(str(err).splitlines())

@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from coopnav_env.failures import MACHINE_FAILURES, one_line
 from evaluation.benchmark_stats import paired_verdict
 from evaluation.paired import t_interval
 
@@ -452,9 +453,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    except (OSError, MemoryError) as err:  # out of memory, a lost worker: one line
-        from coopnav_env.failures import one_line
-
+    except MACHINE_FAILURES as err:  # out of memory, a lost worker: one line
         print(f"error: {one_line(err)}", file=sys.stderr)
         return 2
     result["command"] = " ".join(["python", "benchmarks/lever_table.py", *argv])

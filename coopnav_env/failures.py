@@ -8,7 +8,12 @@ from __future__ import annotations
 
 import errno
 
-__all__ = ["one_line"]
+__all__ = ["MACHINE_FAILURES", "one_line"]
+
+#: What a command catches as the machine's failure (one line, exit status 2) rather than a bug:
+#: a full disk, a read-only folder, a lost worker (OSError), no memory left, a size that
+#: overflows an allocation. One home, so every command line catches the same set.
+MACHINE_FAILURES: tuple[type[BaseException], ...] = (OSError, MemoryError, OverflowError)
 
 _WHAT: dict[int | None, str] = {
     errno.ENOSPC: "the disk is full",

@@ -74,6 +74,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from coopnav_env.failures import MACHINE_FAILURES, one_line
 from coopnav_env.records import plain, version_record
 from coopnav_env.seeds import TEST_SEED, TEST_SEED_COUNT, TEST_SEEDS
 
@@ -607,9 +608,7 @@ def _main(argv: list, prog: str) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted; nothing written", file=sys.stderr)
         return 130
-    except (OSError, MemoryError) as err:  # a full disk, out of memory, a lost worker: one line
-        from coopnav_env.failures import one_line
-
+    except MACHINE_FAILURES as err:  # a full disk, out of memory, a lost worker: one line
         print(f"{prog}: error: {one_line(err)}; nothing written", file=sys.stderr)
         return 2
     print(render_markdown(results))

@@ -18,6 +18,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from coopnav_env.failures import MACHINE_FAILURES, one_line
+
 from .config import EvalConfig, UsageError, parse_assignment, split_top_level
 from .parallel import add_workers_argument
 
@@ -197,9 +199,7 @@ def main(argv: Sequence[str] | None = None, prog: str | None = None) -> int:
         except KeyboardInterrupt:
             print(f"{prog}: interrupted before any episode ran; nothing was written", file=sys.stderr)
             return 130
-        except (OSError, MemoryError) as err:  # disk full, read-only, out of memory: one line, the lock released
-            from coopnav_env.failures import one_line
-
+        except MACHINE_FAILURES as err:  # disk full, read-only, out of memory: one line, the lock released
             print(f"{prog}: error: {one_line(err)}", file=sys.stderr)
             return 2
     finally:

@@ -578,17 +578,25 @@ def test_a_read_only_folder_during_evaluate_is_one_line(small_tmpfs, fast_ref, c
     assert tree_hash(out) == before
 
 
-def test_a_memory_error_during_evaluate_is_one_line_and_releases_the_folder(tmp_path, monkeypatch, capsys):
+@pytest.mark.parametrize(
+    "failure, needle",
+    [(MemoryError(), "out of memory"), (OverflowError("cannot allocate 1e20 rows"), "OverflowError: cannot allocate")],
+)
+def test_a_memory_error_during_evaluate_is_one_line_and_releases_the_folder(
+    tmp_path, monkeypatch, capsys, failure, needle
+):
+    """Every failure of the machine that ``coopnav_env.failures.MACHINE_FAILURES`` names is one line
+    (an OverflowError was a traceback from evaluate.py while train.py caught it)."""
     from evaluation import episodes
 
     def no_memory(*args, **kwargs):
-        raise MemoryError
+        raise failure
 
     out = tmp_path / "o"
     with monkeypatch.context() as m:
         m.setattr(episodes, "run_episodes", no_memory)  # where evaluation.parallel finds it
         code, err = evaluate(FAST + ["--out", str(out)], capsys)
-    one_line_exit_2(code, err, "out of memory")
+    one_line_exit_2(code, err, needle)
     assert not (out / ".evaluate.owner.json").exists()
     code, err = evaluate(FAST + ["--out", str(out), "--overwrite"], capsys)  # not "in use by another evaluation"
     assert code == 0, err

@@ -199,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     prog = Path(sys.argv[0]).name if argv is None and sys.argv and sys.argv[0] else "train.py"
     if prog in ("__main__.py", "-c", "cli.py"):
         prog = "train.py"
-    from coopnav_env.failures import one_line
+    from coopnav_env.failures import MACHINE_FAILURES, one_line
     from coopnav_env.progress import announce_after
     from coopnav_env.safe_load import UnsafeDataError
 
@@ -215,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     except (ConfigError, PolicyFormatError, UnsafeDataError) as err:
         print(f"{prog}: error: {' '.join(str(err).splitlines())}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (OSError, MemoryError, OverflowError) as err:  # disk full, read-only, out of memory: one line
+    except MACHINE_FAILURES as err:  # disk full, read-only, out of memory: one line
         print(f"{prog}: error: {one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     finally:
