@@ -60,10 +60,11 @@ def check_policy(name: str, config: ScenarioConfig, seed: int) -> None:
             raise ValueError(f"beacon_{j}'s action is {action!r}, not {dim} finite numbers")
 
 
-def _step_measurements(sim, res, config) -> dict:
+def _step_measurements(sim, res, config, step_rows: bool = True) -> dict:
     """What the evaluation reads of the batch after a step (``res``, the step's result)
     or after a reset (``res`` None: only the positions), from the step result and
-    ``sim.snapshot()`` (``coopnav_env.core.contract``). Arrays over the batch:
+    ``sim.snapshot()`` (``coopnav_env.core.contract``). ``step_rows=False``: without what
+    only the step rows use (the ellipse's axes, the frame's signed error). Arrays over the batch:
 
     * (B,): ``survey_error_m``, ``dr_error_m``, ``ellipse_major_m``, ``ellipse_minor_m``
       (means over survey vehicles), ``reward`` (mean over beacons), ``ranges_fused``,
@@ -92,15 +93,12 @@ def _step_measurements(sim, res, config) -> dict:
     }
     if res is None:
         return out
-    major, minor, _ = error_ellipse(res.info["survey_cov_en_m2"])
     dist = np.linalg.norm(snap.survey_true_m[:, None, :, :] - snap.beacon_true_m[:, :, None, :], axis=-1)  # (B,N,S)
     no_term = np.zeros(res.reward.shape)
     out.update(
         {
             "survey_error_m": res.info["survey_error_m"].mean(-1),
             "dr_error_m": res.info["dr_error_m"].mean(-1),
-            "ellipse_major_m": major.mean(-1),
-            "ellipse_minor_m": minor.mean(-1),
             "reward": res.reward.mean(-1),
             "beacon_distance_m": dist.mean((-1, -2)),
             "ranges_fused": res.info["ranges_fused"].sum(-1),
@@ -112,6 +110,10 @@ def _step_measurements(sim, res, config) -> dict:
             **_channel_use(res, config),
         }
     )
+    if not step_rows:
+        return out
+    major, minor, _ = error_ellipse(res.info["survey_cov_en_m2"])
+    out["ellipse_major_m"], out["ellipse_minor_m"] = major.mean(-1), minor.mean(-1)
     if frame:
         out["error_x_m"] = res.info["error_x_m"][:, 0]
         out["error_y_m"] = res.info["error_y_m"][:, 0]
@@ -132,11 +134,9 @@ def _channel_use(res, config) -> dict:
     return {"pings": pings, "collisions": np.zeros_like(pings), "energy_J": pings * joules}
 
 
-_PER_STEP = (
+_PER_EPISODE = (  # summed or averaged into the episode rows
     "survey_error_m",
     "dr_error_m",
-    "ellipse_major_m",
-    "ellipse_minor_m",
     "reward",
     "beacon_distance_m",
     "ranges_fused",
@@ -148,6 +148,7 @@ _PER_STEP = (
     "collisions",
     "energy_J",
 )
+_STEP_ONLY = ("ellipse_major_m", "ellipse_minor_m")  # read by the step rows alone
 
 
 def run_episodes(
@@ -179,7 +180,7 @@ def run_episodes(
     policies = [[make_policy(policy_name, config, seed=(s, j), agent=j) for j in range(N)] for s in seeds]
     T = config.ping_interval_s
     frame = config.network == "moving_lbl"
-    keys = _PER_STEP + (("error_x_m", "error_y_m") if frame else ())
+    keys = _PER_EPISODE + ((_STEP_ONLY + (("error_x_m", "error_y_m") if frame else ())) if keep_steps else ())
     done = np.zeros(B, dtype=bool)
     hist: dict[str, list] = {k: [] for k in ("alive",) + keys}
     from coopnav_env.views import action_dim
@@ -200,7 +201,7 @@ def run_episodes(
         actions[done] = 0.0
         res = sim.step(actions)
         obs = res.obs
-        m = _step_measurements(sim, res, config)
+        m = _step_measurements(sim, res, config, step_rows=keep_steps)
         hist["alive"].append(~done)
         for k in keys:
             hist[k].append(m[k])

@@ -31,13 +31,25 @@ def test_two_workers_give_one_process_numbers_in_order():
     assert len({json.dumps(r.episodes) for r in one}) == len(cells)
 
 
-def test_a_cell_without_step_rows_has_the_same_episodes():
-    """``Cell(steps=False)`` (the benchmark's cells) builds no step rows; its episodes are the
-    same to the bit as a cell that keeps them (8 step rows an episode here)."""
-    config = make_config("gao_lawnmower", max_cycles=8)
-    (kept,) = run_cells([Cell(config, "fim_a", (3, 4))], workers=1)
-    (dropped,) = run_cells([Cell(config, "fim_a", (3, 4), steps=False)], workers=1)
-    assert len(kept.steps) == 2 * 8 and dropped.steps == []
+@pytest.mark.parametrize("scenario", ["gao_lawnmower", "matos_moving_lbl"])
+def test_a_cell_without_step_rows_has_the_same_episodes(scenario, monkeypatch):
+    """``Cell(steps=False)`` (the benchmark's cells) builds no step rows and computes nothing only
+    they read (the ellipse's axes); its episodes are the same to the bit as a cell that keeps
+    them (8 step rows an episode here; the moving network's rows carry the frame's error too)."""
+    from coopnav_env.core import information
+
+    config = make_config(scenario, max_cycles=8)
+    policy = "fim_a" if scenario == "gao_lawnmower" else "static"
+    (kept,) = run_cells([Cell(config, policy, (3, 4))], workers=1)
+    assert len(kept.steps) == 2 * 8 and {"ellipse_major_m", "reward"} <= set(kept.steps[0])
+    assert ("error_x_m" in kept.steps[0]) == (scenario == "matos_moving_lbl")
+
+    def no_ellipse(*args, **kwargs):
+        raise AssertionError("the ellipse is computed for step rows that are not kept")
+
+    monkeypatch.setattr(information, "error_ellipse", no_ellipse)
+    (dropped,) = run_cells([Cell(config, policy, (3, 4), steps=False)], workers=1)
+    assert dropped.steps == []
     assert dropped.episodes == kept.episodes
 
 
