@@ -40,17 +40,31 @@ def test_a_driven_collection_records_the_planners_labels_of_the_drivers_states()
     assert not np.allclose(still["obs"][-1], driven["obs"][-1])  # the planner driving reaches other states
 
 
-def test_dagger_rounds_refit_on_the_clones_own_states(tmp_path):
+ENTITY_TEAMS = {  # the entity clone's path: teams of one and two beacons, the clone reads entities
+    "observation": "entities",
+    "teams": [{}, {"beacon_kinds": ["beacon_auv", "beacon_auv"]}],
+}
+
+
+@pytest.mark.parametrize(
+    "scenario, env, rows_per_env",
+    [("sousa_asv", {}, 1), ("gao_lawnmower", ENTITY_TEAMS, 1.5)],
+    ids=["flat", "entity_teams"],
+)
+def test_dagger_rounds_refit_on_the_clones_own_states(tmp_path, scenario, env, rows_per_env):
     """A tiny run with one DAgger round: the record has the round, with the clone's error on its
-    own states before the refit, and the data of both collections."""
+    own states before the refit, and the data of both collections; flat, and an entity policy
+    driving teams of other numbers of beacons (``MixedTeamVecEnv``)."""
     from agents.training import cli
 
     out = tmp_path / "dagger"
+    rows = int(4 * rows_per_env)
     config = {
         "policy": "MlpPolicy",
         "n_envs": 4,
         "ppo": {"n_steps": 64, "batch_size": 128, "n_epochs": 1, "policy_kwargs": {"net_arch": [32, 32]}},
-        "env": {"overrides": {"max_cycles": 12}},
+        "env": {"overrides": {"max_cycles": 12}, **env},
+        **({"entity": {"embed_dim": 16, "heads": 2}, "normalize": {"norm_obs": False}} if env else {}),
         "imitate": {
             "planner": "circle",
             "steps": 400,
@@ -64,11 +78,12 @@ def test_dagger_rounds_refit_on_the_clones_own_states(tmp_path):
     }
     path = tmp_path / "c.yml"
     path.write_text(yaml.safe_dump(config))
-    argv = ["--scenario", "sousa_asv", "--timesteps", "256", "--seed", "0", "--out", str(out), "--config", str(path)]
+    argv = ["--scenario", scenario, "--timesteps", "256", "--seed", "0", "--out", str(out), "--config", str(path)]
     assert cli.main([*argv, "--no-progress"]) == 0
     record = yaml.safe_load((out / "config.yml").read_text())["imitation"]
-    assert [r["steps"] for r in record["dagger"]] == [200]
-    assert record["steps"] == 400 + 200
+    whole = -(-200 // rows) * rows  # collect's whole steps of every row
+    assert [r["steps"] for r in record["dagger"]] == [whole]
+    assert record["steps"] == -(-400 // rows) * rows + whole
     assert 0 < record["dagger"][0]["action_rms_error_before"] < 2.0
     json.dumps(record)
 
