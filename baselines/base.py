@@ -15,7 +15,7 @@ turns "be at this point at the next ping" into the action.
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -357,12 +357,16 @@ class Policy:
         return self.act(obs)
 
 
-def tell_truth(policies: Sequence[Sequence[Any]], sim: Any, rows: Iterable[int] | None = None) -> None:
+def tell_truth(
+    policies: Sequence[Sequence[Any]] | Mapping[int, Sequence[Any]], sim: Any, rows: Iterable[int] | None = None
+) -> None:
     """Before they act, give the privileged policies among ``policies[b][j]`` (the oracles:
     ``privileged = True``) the simulator's truth of their row b (``sim.snapshot()``, taken only
-    if one of them is privileged), for rows ``rows`` (default: all). The one place a runner
-    tells a reference policy what no real beacon knows."""
-    rows = range(len(policies)) if rows is None else rows
+    if one of them is privileged), for rows ``rows`` (default: all; ``policies`` a mapping
+    {row: its policies}: its rows). The one place a runner tells a reference policy what no
+    real beacon knows."""
+    if rows is None:
+        rows = policies.keys() if isinstance(policies, Mapping) else range(len(policies))
     snap = None
     for b in rows:
         for p in policies[b]:

@@ -180,7 +180,8 @@ def run_episodes(
     policies = [[make_policy(policy_name, config, seed=(s, j), agent=j) for j in range(N)] for s in seeds]
     T = config.ping_interval_s
     frame = config.network == "moving_lbl"
-    keys = _PER_EPISODE + ((_STEP_ONLY + (("error_x_m", "error_y_m") if frame else ())) if keep_steps else ())
+    step_only = _STEP_ONLY + (("error_x_m", "error_y_m") if frame else ())
+    keys = _PER_EPISODE + (step_only if keep_steps else ())
     done = np.zeros(B, dtype=bool)
     hist: dict[str, list] = {k: [] for k in ("alive",) + keys}
     from coopnav_env.views import action_dim

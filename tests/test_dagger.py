@@ -47,18 +47,17 @@ ENTITY_TEAMS = {  # the entity clone's path: teams of one and two beacons, the c
 
 
 @pytest.mark.parametrize(
-    "scenario, env, rows_per_env",
-    [("sousa_asv", {}, 1), ("gao_lawnmower", ENTITY_TEAMS, 1.5)],
+    "scenario, env, rows",
+    [("sousa_asv", {}, 4), ("gao_lawnmower", ENTITY_TEAMS, 6)],  # rows: the VecEnv's rows of 4 environments
     ids=["flat", "entity_teams"],
 )
-def test_dagger_rounds_refit_on_the_clones_own_states(tmp_path, scenario, env, rows_per_env):
+def test_dagger_rounds_refit_on_the_clones_own_states(tmp_path, scenario, env, rows):
     """A tiny run with one DAgger round: the record has the round, with the clone's error on its
     own states before the refit, and the data of both collections; flat, and an entity policy
     driving teams of other numbers of beacons (``MixedTeamVecEnv``)."""
     from agents.training import cli
 
     out = tmp_path / "dagger"
-    rows = int(4 * rows_per_env)
     config = {
         "policy": "MlpPolicy",
         "n_envs": 4,

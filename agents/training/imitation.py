@@ -107,7 +107,7 @@ def tell_rows(policies: list, truth: list) -> None:
     for p, (sim, b) in zip(policies, truth):
         by_sim.setdefault(id(sim), (sim, {}))[1].setdefault(b, []).append(p)
     for sim, by_row in by_sim.values():
-        tell_truth(by_row, sim, by_row)  # type: ignore[arg-type]  # {row: policies} indexed as a list
+        tell_truth(by_row, sim)
 
 
 def discounted_returns(rewards: np.ndarray, dones: np.ndarray, gamma: float) -> np.ndarray:
