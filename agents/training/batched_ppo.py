@@ -72,7 +72,7 @@ and ``docs/training/marl.md#levers-loop``.
 **Where the parts are**: this module is the loop (``train``, top to bottom) and its output
 (``save``); the settings are ``loop_config.BatchedPPOConfig``, the environments and the
 validation ``loop_envs``, GAE and the running scalings ``loop_math``, the start from a policy
-(``--init-from``) ``loop_init``, the command line ``loop_cli``. Each name is importable from
+(``--init-from``) ``loop_init``, the command line's flags and checks ``loop_cli``. Each name is importable from
 here too.
 
 Needs the ``marl`` extra (torchrl, tensordict).
@@ -82,7 +82,9 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 import time
+from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -90,7 +92,7 @@ from typing import Any
 from agents.batched_policy import entity_net, mlp
 
 # the loop's parts, each in its own module (and importable from here, as before the split)
-from .loop_cli import main
+from . import loop_cli
 from .loop_config import CRITICS, ENTITY, MAX_HISTORY, BatchedPPOConfig
 from .loop_envs import TeamEnvs, make_env, validate_per_team, validation_env
 from .loop_init import load_sb3_actor, widen_to_history
@@ -472,6 +474,36 @@ def save(
         **(extra or {}),
     }
     atomic_write_bytes(out / "run.json", (json.dumps(record, indent=1) + "\n").encode())
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m agents.training.batched_ppo``: the flags (``loop_cli.parser``), checked before
+    any training (``loop_cli.settings``: a bad one is one line and exit status 2), then ``train``."""
+    args = loop_cli.parser((__doc__ or "").split("\n")[0]).parse_args(argv)
+    try:
+        config, out = loop_cli.settings(args, argv)
+    except (ValueError, ImportError) as err:
+        print(f"batched_ppo: {err}", file=sys.stderr)
+        return 2
+    try:
+        result = train(
+            config,
+            args.timesteps,
+            out=out,
+            progress=not args.no_progress,
+            threads=args.threads,
+            save_every_steps=args.save_every_steps,
+        )
+    finally:
+        from . import runlock
+
+        runlock.release_all()
+    last = result["log"][-1]
+    print(
+        f"{result['steps']:,} steps in {result['seconds']:.1f} s ({result['steps'] / result['seconds']:,.0f} steps/s); "
+        f"last iteration: survey error {last['survey_error_m']} m"
+    )
+    return 0
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
-"""The command line of the batched PPO loop: ``python -m agents.training.batched_ppo``
-(``--help`` lists the flags). Bad input is one line on stderr and exit status 2."""
+"""The batched PPO loop's command line (``python -m agents.training.batched_ppo``, whose
+``main`` uses these): its flags (``parser``; ``--help`` lists them) and their checks before
+any training (``settings``), each failure one line that ``main`` prints with exit status 2."""
 
 from __future__ import annotations
 
@@ -32,11 +33,10 @@ def _team(text: str) -> dict[str, Any]:
     return team
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def parser(description: str) -> argparse.ArgumentParser:
+    """The loop's flags, each with ``BatchedPPOConfig``'s default."""
     defaults = BatchedPPOConfig()
-    from . import batched_ppo  # its docstring is the loop's documentation; train() is there
-
-    p = argparse.ArgumentParser(description=(batched_ppo.__doc__ or "").split("\n")[0])
+    p = argparse.ArgumentParser(description=description)
     p.add_argument("--scenario", default=defaults.scenario)
     p.add_argument("--timesteps", type=int, required=True, help="env-steps in all (one step of one environment)")
     p.add_argument("--out", help="new or empty folder for actor.safetensors, run.json, log.jsonl")
@@ -153,119 +153,101 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--save-every-steps", type=int, default=5_000_000, help="also save the weights every N env-steps")
     p.add_argument("--no-progress", action="store_true")
-    args = p.parse_args(argv)
-    try:
-        from .config import parse_assignments
+    return p
 
-        net = tuple(int(x) for x in args.net.split(","))
-        overrides = parse_assignments(args.set, "--set")
-        terms = {}
-        for key, value in parse_assignments(args.reward_term, "--reward-term").items():
-            try:
-                terms[key] = float(value)
-            except (TypeError, ValueError):
-                raise ValueError(f"--reward-term {key}: the weight must be a number, got {value!r}") from None
-        stages = []
-        for item in args.stage:
-            try:
-                at = float(item[0])
-            except ValueError:
-                raise ValueError(
-                    f"--stage takes AT [KEY=VALUE ...], AT a fraction in [0, 1), got {item[0]!r}"
-                ) from None
-            stages.append((at, parse_assignments(item[1:], "--stage")))
-        config = BatchedPPOConfig(
-            scenario=args.scenario,
-            n_envs=args.n_envs,
-            n_steps=args.n_steps,
-            epochs=args.epochs,
-            minibatch=args.minibatch,
-            learning_rate=args.learning_rate,
-            gamma=args.gamma,
-            net=net,
-            critic=args.critic,
-            seed=args.seed,
-            overrides=overrides,
-            reward_terms=terms or None,
-            teams=[_team(t) for t in args.team],
-            init_from=args.init_from,
-            center_reward=args.center_reward or args.center_reward_per_team,
-            center_per_team=args.center_reward_per_team,
-            norm_adv_per_team=args.norm_advantage_per_team,
-            critic_warmup_iterations=args.critic_warmup,
-            history=args.history,
-            stages=stages,
-            eval_every_steps=args.eval_every_steps,
-            eval_episodes=args.eval_episodes,
-            eval_seed=args.eval_seed,
-            eval_teams=args.eval_teams,
-            entity=dict(ENTITY) if args.entity else None,
+
+def settings(args: argparse.Namespace, argv: Sequence[str] | None = None) -> tuple[BatchedPPOConfig, Path | None]:
+    """The run's settings from parsed flags, checked before any training: the scenario's
+    parameters, each stage's and the policy ``--init-from`` names are tried on a small
+    environment, test seeds are refused, and ``--out`` must be a new or empty folder, which is
+    then claimed for the run (``agents.training.runlock``). A ``ValueError`` (one line) names
+    the first that does not fit."""
+    from .config import parse_assignments
+
+    net = tuple(int(x) for x in args.net.split(","))
+    overrides = parse_assignments(args.set, "--set")
+    terms = {}
+    for key, value in parse_assignments(args.reward_term, "--reward-term").items():
+        try:
+            terms[key] = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"--reward-term {key}: the weight must be a number, got {value!r}") from None
+    stages = []
+    for item in args.stage:
+        try:
+            at = float(item[0])
+        except ValueError:
+            raise ValueError(f"--stage takes AT [KEY=VALUE ...], AT a fraction in [0, 1), got {item[0]!r}") from None
+        stages.append((at, parse_assignments(item[1:], "--stage")))
+    config = BatchedPPOConfig(
+        scenario=args.scenario,
+        n_envs=args.n_envs,
+        n_steps=args.n_steps,
+        epochs=args.epochs,
+        minibatch=args.minibatch,
+        learning_rate=args.learning_rate,
+        gamma=args.gamma,
+        net=net,
+        critic=args.critic,
+        seed=args.seed,
+        overrides=overrides,
+        reward_terms=terms or None,
+        teams=[_team(t) for t in args.team],
+        init_from=args.init_from,
+        center_reward=args.center_reward or args.center_reward_per_team,
+        center_per_team=args.center_reward_per_team,
+        norm_adv_per_team=args.norm_advantage_per_team,
+        critic_warmup_iterations=args.critic_warmup,
+        history=args.history,
+        stages=stages,
+        eval_every_steps=args.eval_every_steps,
+        eval_episodes=args.eval_episodes,
+        eval_seed=args.eval_seed,
+        eval_teams=args.eval_teams,
+        entity=dict(ENTITY) if args.entity else None,
+    )
+    config.check()
+    if config.eval_every_steps and not args.out:
+        raise ValueError("--eval-every-steps keeps the best weights in <out>/best: it needs --out")
+    if args.timesteps < 1:
+        raise ValueError(f"--timesteps must be >= 1, got {args.timesteps}")
+    if args.save_every_steps < 1:
+        raise ValueError(f"--save-every-steps must be >= 1, got {args.save_every_steps}")
+    from coopnav_env.seeds import refuse_test_seeds
+
+    refuse_test_seeds(args.seed, config.n_envs * max(1, len(config.stages)), what="--seed")
+    if config.eval_every_steps:
+        refuse_test_seeds(config.eval_seed, config.eval_episodes, what="--eval-seed")
+    out = None
+    if args.out:
+        out = Path(args.out)
+        if out.exists() and (not out.is_dir() or any(out.iterdir())):
+            raise ValueError(f"--out {out} exists and is not an empty folder (nothing is overwritten)")
+    import torch
+
+    torch.set_num_threads(args.threads)
+    small = BatchedPPOConfig(**{**asdict(config), "n_envs": max(1, len(config.teams))})
+    probe = make_env(small)  # bad scenario parameters fail here, fast
+    for k in range(len(config.stages)):  # and each stage's
+        try:
+            staged = make_env(small, k)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"--stage {config.stages[k][0]}: {err}") from None
+        sizes = (staged.obs_dim, staged.action_dim, staged.state_dim)
+        if sizes != (probe.obs_dim, probe.action_dim, probe.state_dim):
+            raise ValueError(f"--stage {config.stages[k][0]}: the observation, action or state size changes")
+    if config.init_from is not None:  # and a policy that does not fit
+        load_sb3_actor(
+            config.init_from,
+            config.scenario,
+            config.net,
+            probe.obs_dim,
+            probe.action_dim,
+            history=config.history,
+            entity=config.entity,
         )
-        config.check()
-        if config.eval_every_steps and not args.out:
-            raise ValueError("--eval-every-steps keeps the best weights in <out>/best: it needs --out")
-        if args.timesteps < 1:
-            raise ValueError(f"--timesteps must be >= 1, got {args.timesteps}")
-        if args.save_every_steps < 1:
-            raise ValueError(f"--save-every-steps must be >= 1, got {args.save_every_steps}")
-        from coopnav_env.seeds import refuse_test_seeds
-
-        refuse_test_seeds(args.seed, config.n_envs * max(1, len(config.stages)), what="--seed")
-        if config.eval_every_steps:
-            refuse_test_seeds(config.eval_seed, config.eval_episodes, what="--eval-seed")
-        out = None
-        if args.out:
-            out = Path(args.out)
-            if out.exists() and (not out.is_dir() or any(out.iterdir())):
-                raise ValueError(f"--out {out} exists and is not an empty folder (nothing is overwritten)")
-        import torch
-
-        torch.set_num_threads(args.threads)
-        small = BatchedPPOConfig(**{**asdict(config), "n_envs": max(1, len(config.teams))})
-        probe = make_env(small)  # bad scenario parameters fail here, fast
-        for k in range(len(config.stages)):  # and each stage's
-            try:
-                staged = make_env(small, k)
-            except (TypeError, ValueError) as err:
-                raise ValueError(f"--stage {config.stages[k][0]}: {err}") from None
-            sizes = (staged.obs_dim, staged.action_dim, staged.state_dim)
-            if sizes != (probe.obs_dim, probe.action_dim, probe.state_dim):
-                raise ValueError(f"--stage {config.stages[k][0]}: the observation, action or state size changes")
-        if config.init_from is not None:  # and a policy that does not fit
-            load_sb3_actor(
-                config.init_from,
-                config.scenario,
-                config.net,
-                probe.obs_dim,
-                probe.action_dim,
-                history=config.history,
-                entity=config.entity,
-            )
-        if out is not None:  # one trainer per folder (agents.training.runlock), as train.py's
-            from . import runlock
-
-            runlock.claim(
-                out, new=True, command="python -m agents.training.batched_ppo " + " ".join(argv or sys.argv[1:])
-            )
-    except (ValueError, ImportError) as err:
-        print(f"batched_ppo: {err}", file=sys.stderr)
-        return 2
-    try:
-        result = batched_ppo.train(
-            config,
-            args.timesteps,
-            out=out,
-            progress=not args.no_progress,
-            threads=args.threads,
-            save_every_steps=args.save_every_steps,
-        )
-    finally:
+    if out is not None:  # one trainer per folder (agents.training.runlock), as train.py's
         from . import runlock
 
-        runlock.release_all()
-    last = result["log"][-1]
-    print(
-        f"{result['steps']:,} steps in {result['seconds']:.1f} s ({result['steps'] / result['seconds']:,.0f} steps/s); "
-        f"last iteration: survey error {last['survey_error_m']} m"
-    )
-    return 0
+        runlock.claim(out, new=True, command="python -m agents.training.batched_ppo " + " ".join(argv or sys.argv[1:]))
+    return config, out
