@@ -498,10 +498,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         from . import runlock
 
         runlock.release_all()
-    last = result["log"][-1]
+    error = result["log"][-1]["survey_error_m"]
+    last = "no episode ended" if error is None else f"survey error {error:.3f} m"
     print(
         f"{result['steps']:,} steps in {result['seconds']:.1f} s ({result['steps'] / result['seconds']:,.0f} steps/s); "
-        f"last iteration: survey error {last['survey_error_m']} m"
+        f"last iteration: {last}"
     )
     return 0
 
