@@ -24,7 +24,7 @@ CHANNEL_MODES = ("clock", "decide")
 BEACON_ERROR_FUSIONS = ("schmidt", "white", "ci")
 LOCKOUT_RECOVERIES = ("window", "window_consensus", "nearest_point")
 RANGE_OUTLIER_MODELS = ("mixture", "hold", "gate")
-RANGE_LINEARIZATIONS = ("first_order", "second_order", "iterated")
+RANGE_LINEARIZATIONS = ("first_order", "second_order", "iterated", "split")
 # the survey filter of the papers (Gao & Chitre 2010; Sousa et al.): the beacon's variance in R,
 # hard gating, a nearest-point restart, white GPS errors. Paper reproductions set these.
 PAPER_FILTER = {
@@ -368,7 +368,9 @@ class SurveyEKF(Section):
             "core/navigation.range_curvature, eqs. L1-L3): the prediction's bias and the variance the "
             "linearization leaves, which matter when the estimate's error is not small against the range; "
             "'iterated', the iterated EKF's update (Gauss-Newton steps re-linearizing at its own result, "
-            "core/iterated.py, eqs. I1-I3) "
+            "core/iterated.py, eqs. I1-I3); 'split', where the range bends over the prior the prior split into "
+            "Gaussians along that direction, each updated at its own point and merged by moments "
+            "(core/split_range.py, eqs. S1-S6) "
             "(the modem sensor of network='survey_beacons' only)"
         ),
     )

@@ -50,6 +50,7 @@ from ..navigation import (
     range_curvature,
     reinit_on_range,
 )
+from ..split_range import split_range_model
 from . import FusionOutputs
 from .lockout_window import Windows, remember, window_refix
 
@@ -140,6 +141,7 @@ class ModemParams(NamedTuple):
     iterated: bool  # range_linearization == "iterated": eqs. I1-I3 (core/iterated.py)
     reinit_after_short: int  # reinit_after_short_ranges: a lock-out after this many too short in a row (0: as any)
     gate_short: float  # the chi-square gate of a range shorter than predicted (range_gate_short_probability)
+    split: bool  # range_linearization == "split": eqs. S1-S6 (core/split_range.py)
 
 
 class ModemCycle(NamedTuple):
@@ -400,12 +402,17 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                 if prm.window:
                     remember(win, b, s, j, r, beacon, f.x[2], sv.dr[b, s], vel_est, delays, t_s)
                 gated = False
+                geo = RangeGeometry(vel_est, beacon, beacon_vel, noise_std, delays, rel_std, prm.two_way)
                 if prm.iterated and prm.fusion != CI:  # eqs. (I1)-(I3); one that fails the gate keeps its model
-                    geo = RangeGeometry(vel_est, beacon, beacon_vel, noise_std, delays, rel_std, prm.two_way)
                     gate, sch = _gate_of(prm, meas[0] - meas[1]), prm.fusion == SCHMIDT
                     gated, Hi, mi = iterated_range_model(f, j, H, meas, scratch, geo, gate, sch)
                     if gated:
                         H, meas = Hi, mi
+                elif prm.split and prm.fusion != CI:  # eqs. (S1)-(S6): the range fitted over its posterior
+                    gate, sch = _gate_of(prm, meas[0] - meas[1]), prm.fusion == SCHMIDT
+                    gated, Hs, ms = split_range_model(f, j, H, meas, scratch[1], scratch[0], geo, gate, sch)
+                    if gated:
+                        H, meas = Hs, ms
                 fused, w_held = _update(f, held, prm, j, H, meas, scratch, gated)
                 if not fused:
                     out.rejected[b, j, s] = True
@@ -472,6 +479,7 @@ class ModemRanging:
                 c.range_linearization == "iterated",
                 int(c.reinit_after_short_ranges),
                 float(chi2.ppf(c.range_gate_short_probability, 1)) if c.range_gate_short_probability else gate,
+                c.range_linearization == "split",
             ]
         )
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
