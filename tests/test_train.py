@@ -165,6 +165,25 @@ def _cli(*args):
     )
 
 
+def test_a_linear_learning_rate_ends_at_zero_not_below(tmp_path):
+    """``ppo.learning_rate: lin_<x>`` decays to 0 over the steps that really run. SB3 trains
+    whole rollouts, so 1000 steps run as 1024; told 1000, its progress went to -0.024 and the
+    last update used a negative rate (-2.4e-5 here, uphill). The optimizer's rate saved with the
+    model is the last update's."""
+    from safetensors import safe_open
+
+    from agents.training.sb3 import learning_rate
+
+    assert learning_rate("lin_1e-3")(1.0) == 1e-3 and learning_rate("lin_1e-3")(-0.5) == 0.0
+    out = tmp_path / "run"
+    ppo = {**TINY["ppo"], "learning_rate": "lin_1e-3"}
+    assert _run(tmp_path, out, 1000, ppo=ppo) == 0
+    with safe_open(str(out / "model.safetensors"), "pt") as f:
+        groups = json.loads(f.metadata()["coopnav"])["optimizer"]["param_groups"]
+    assert groups and all(g["lr"] >= 0.0 for g in groups), [g["lr"] for g in groups]
+    assert all(g["lr"] < 1e-3 * ROLLOUT / 1024 + 1e-12 for g in groups)  # the last update's, near the end
+
+
 def test_bad_input_is_one_line_and_exit_2(tmp_path):
     r = _cli("--scenario", "nope", "--timesteps", "10", "--out", str(tmp_path / "x"))
     assert r.returncode == 2

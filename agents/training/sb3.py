@@ -295,8 +295,8 @@ def train(
         callback = make_callback(
             out, config, job.cells, vecnorm, baseline_scores, stop, clock={"t0": t0, "started": started, "bar": bar}
         )
-        model.learn(
-            total_timesteps=remaining,
+        model.learn(  # will_run, not remaining: SB3's progress (1 -> 0) then ends at 0, and lin_<x> with it
+            total_timesteps=will_run,
             callback=callback,
             progress_bar=False,
             reset_num_timesteps=not ckpt,
@@ -349,10 +349,12 @@ def resume(out: str | Path, **options: Any) -> int:
 # pieces of train
 # ----------------------------------------------------------------------------------
 def learning_rate(value: float | str) -> float | Callable[[float], float]:
-    """A float, or "lin_<x>": linear decay from x to 0 (rl-baselines3-zoo)."""
+    """A float, or "lin_<x>": linear decay from x to 0 (rl-baselines3-zoo), held at 0 past the
+    end (SB3's progress goes below 0 when it trains more steps than it was told, and a negative
+    rate would step uphill)."""
     if isinstance(value, str) and value.startswith("lin_"):
         start = float(value[4:])
-        return lambda progress_remaining: progress_remaining * start
+        return lambda progress_remaining: max(progress_remaining, 0.0) * start
     return float(value)
 
 
