@@ -204,6 +204,36 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path):
     assert r.returncode == 2 and "drop --timesteps" in r.stderr
 
 
+def test_a_bad_seed_or_device_is_one_line_and_exit_2_before_training(tmp_path):
+    """Values SB3, numpy or torch would refuse with a traceback, or take silently: a seed
+    outside numpy's 32 bits, a device torch cannot parse, CUDA on a machine without it."""
+    cases = [
+        (["--seed", "-1"], "seed must be an integer in [0, 4294967295]"),
+        (["--seed", str(2**32)], "seed must be an integer in [0, 4294967295]"),
+        (["--set", "seed=-1"], "seed must be an integer"),
+        (["--device", "gpu"], "--device gpu: not a torch device"),
+    ]
+    import torch
+
+    if not torch.cuda.is_available():
+        cases.append((["--device", "cuda"], "no CUDA device"))
+    for extra, message in cases:
+        out = tmp_path / "x"
+        r = _cli("--scenario", "sousa_asv", "--timesteps", "10", "--out", str(out), *extra)
+        assert r.returncode == 2 and message in r.stderr and r.stderr.strip().count("\n") == 0, (extra, r.stderr)
+        assert not out.exists()
+
+
+def test_no_validation_episodes_trains_without_validating(tmp_path):
+    """``eval.episodes: 0`` is "no validation" (EvalSpec): the run trains, keeps its last weights
+    as the model and writes no validation (it used to train, then fail building a VecEnv of
+    0 environments, with no model saved)."""
+    out = tmp_path / "run"
+    assert _run(tmp_path, out, 300, eval={**TINY["eval"], "episodes": 0}) == 0
+    assert (out / "model.safetensors").is_file() and not (out / "evaluations.jsonl").exists()
+    assert agents.load(out, scenario="sousa_asv").model.num_timesteps == 2 * ROLLOUT
+
+
 def test_bad_hyperparameters_are_a_one_line_error(tmp_path, capsys):
     assert _run(tmp_path, tmp_path / "run", 100, ppo={"n_stepz": 3}) == 2
     err = capsys.readouterr().err.strip()

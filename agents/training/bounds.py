@@ -14,6 +14,8 @@ import math
 import numbers
 from typing import Any
 
+from coopnav_env.seeds import MAX_SEED
+
 
 class BoundsError(ValueError):
     """A bound exceeded (``config`` re-raises it as its own ``ConfigError``)."""
@@ -25,6 +27,7 @@ MAX_ROLLOUT = 10**7  # n_steps x n_envs (SB3's rollout buffer rows per beacon)
 MAX_EVAL_EPISODES = 100_000
 MAX_EVAL_CELLS = 10_000
 MAX_ENV_RUNNERS = 1024
+MAX_RUN_SEED = 2**32 - 1  # a run's seed seeds numpy's legacy global generator, which takes 32 bits
 
 __all__ = ["BoundsError", "check_bounds"]
 
@@ -82,8 +85,11 @@ def check_bounds(config: Any) -> None:
     _finite_numbers(config.to_dict(), "config")
     if config.timesteps is not None:
         _int_in(config.timesteps, 1, MAX_TIMESTEPS, "timesteps")
+    if config.seed is not None:  # numpy's and torch's global seeds (SB3's set_random_seed, Ray's)
+        _int_in(config.seed, 0, MAX_RUN_SEED, "seed")
     ev = config.eval
     _int_in(ev.episodes, 0, MAX_EVAL_EPISODES, "eval.episodes")
+    _int_in(ev.seed, 0, MAX_SEED - max(int(ev.episodes), 1) + 1, "eval.seed")
     _eval_cells(ev.cells, "eval.cells")
     if hasattr(ev, "every_steps"):
         _int_in(ev.every_steps, 0, MAX_TIMESTEPS, "eval.every_steps")

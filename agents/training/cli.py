@@ -315,6 +315,20 @@ def _sb3_only(args, why: str = ""):
     given = [f"--{n.replace('_', '-')}" for n in RLLIB_ONLY if getattr(args, n) is not None]
     if given:
         raise ConfigError(f"{', '.join(given)} only with --backend rllib{why}")
+    check_device(args.device)
+
+
+def check_device(device: str) -> None:
+    """A ``ConfigError`` (one line) for a ``--device`` torch cannot parse, or a CUDA device on a
+    machine without one (SB3 would fall back to the CPU without a word)."""
+    import torch
+
+    try:
+        kind = torch.device(device).type
+    except (RuntimeError, ValueError):
+        raise ConfigError(f"--device {device}: not a torch device; use cpu, or cuda (cuda:0, ...) on a GPU") from None
+    if kind == "cuda" and not torch.cuda.is_available():
+        raise ConfigError(f"--device {device}: this machine has no CUDA device (torch.cuda.is_available() is False)")
 
 
 if __name__ == "__main__":

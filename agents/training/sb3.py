@@ -497,6 +497,8 @@ def make_callback(
             self.last_ckpt = steps
 
         def evaluate(self):
+            if ev.episodes <= 0:  # eval.episodes 0: no validation (the last weights are the model)
+                return
             clock["bar"].stage(f"validating at {self.model.num_timesteps:,} steps")
             t0 = time.perf_counter()
             actor = entity_actor if config.env.observation == "entities" else model_actor

@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit
 
 from .consider import schmidt_range_update
+from .iterated import RangeGeometry
 from .multipath import Moments
 from .navigation import innovation_variance, moving_range_prediction, range_curvature
 
@@ -53,7 +54,7 @@ def split_range_model(
     meas: tuple,
     Pbb: np.ndarray,
     K: np.ndarray,
-    geo: tuple,
+    geo: RangeGeometry,
     gate: float,
     schmidt: bool,
 ) -> tuple[bool, np.ndarray, tuple]:
@@ -114,7 +115,9 @@ def split_range_model(
 
 
 @njit(cache=True)
-def posterior_fit(x: np.ndarray, Pd: np.ndarray, r: float, noise: float, geo: tuple) -> tuple[np.ndarray, float, float]:
+def posterior_fit(
+    x: np.ndarray, Pd: np.ndarray, r: float, noise: float, geo: RangeGeometry
+) -> tuple[np.ndarray, float, float]:
     """Eqs. (S2)-(S5) for a prior estimate x (3,) whose position relative to the beacon has
     covariance Pd (3, 3), a range r of noise variance ``noise`` and the range's geometry geo
     (``iterated.RangeGeometry``): the slope A (3,), the prediction at the prior h_eff and the
