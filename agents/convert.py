@@ -116,6 +116,22 @@ def _convert_dir(src: Path, out: Path, written: list):
             atomic_write_bytes(out / f.name, f.read_bytes())
 
 
+def _already_safe(src: Path) -> bool:
+    """``src`` is a safetensors model file, or a run or policy folder with a safetensors model
+    and no pickle-based file anywhere in it (what ``train.py`` and the batched loop write)."""
+    from . import rllib_policy
+    from .batched_policy import WEIGHTS
+
+    if src.is_file():
+        return src.suffix == ".safetensors"
+    if not src.is_dir() or rllib_policy.is_rllib_path(src):
+        return False
+    models = ("model.safetensors", "best_model.safetensors", WEIGHTS)
+    if not any((src / name).is_file() for name in models):
+        return False
+    return not any(f.suffix in PICKLE_SUFFIXES for f in src.rglob("*") if f.is_file())
+
+
 def convert(src: str | Path, out: str | Path, trust_pickle: bool = False) -> list:
     """Convert ``src`` (an old SB3 run or policy directory, a model .zip, or an RLlib
     run/checkpoint) into the new directory ``out``; returns the model files written.
@@ -125,6 +141,8 @@ def convert(src: str | Path, out: str | Path, trust_pickle: bool = False) -> lis
     src, out = Path(src), Path(out)
     if not src.exists():
         raise PolicyFormatError(f"no such file or directory: {src}")
+    if _already_safe(src):
+        raise PolicyFormatError(f"{src} is already in the safe format (safetensors): nothing to convert; load it as is")
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise PolicyFormatError(f"--out {out} exists and is not an empty directory")
     if out.resolve() == src.resolve() or src.resolve() in out.resolve().parents:

@@ -296,6 +296,18 @@ def test_trust_pickle_converts_a_genuine_old_run(old_run, tmp_path, capsys):
     assert json.loads((new / "checkpoints" / "last_checkpoint.json").read_text())["num_timesteps"] == 512
 
 
+def test_a_run_already_in_the_safe_format_has_nothing_to_convert(tiny_run, tmp_path, capsys):
+    """A new-format run (or its model file) is not "read by unpickling": converting it says so
+    in one line, with or without --trust-pickle (it told the user to run the command they had
+    just typed, or named a checkpoint "not converted"), and writes nothing."""
+    for source in (tiny_run, tiny_run / "model.safetensors"):
+        for flags in ([], ["--trust-pickle"]):
+            assert convert.main([str(source), "--out", str(tmp_path / "c"), *flags]) == 2
+            err = capsys.readouterr().err.strip()
+            assert "already in the safe format" in err and "\n" not in err and "--trust-pickle" not in err, err
+            assert not (tmp_path / "c").exists()
+
+
 def test_trust_pickle_resumes_an_old_run(old_run, tmp_path):
     run = _copy(old_run, tmp_path)
     assert train_cli.main(["--resume", str(run), "--no-progress", "--trust-pickle"]) == 0
