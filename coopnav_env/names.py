@@ -9,12 +9,25 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
-__all__ = ["did_you_mean"]
+__all__ = ["closest", "did_you_mean"]
+
+
+def closest(name: object, valid: Iterable[object]) -> str | None:
+    """The one of ``valid`` a user most likely meant by ``name``: the same name in another case
+    (``GAO_SEA``, ``PPO``), else the closest spelling (``difflib.get_close_matches``, compared
+    in lower case), else None."""
+    options = [str(v) for v in valid]
+    text = str(name)
+    same = [v for v in options if v.lower() == text.lower()]
+    if same:
+        return same[0]
+    lowered = {v.lower(): v for v in options}
+    close = difflib.get_close_matches(text.lower(), list(lowered), n=1, cutoff=0.6)
+    return lowered[close[0]] if close else None
 
 
 def did_you_mean(name: object, valid: Iterable[object]) -> str:
-    """``"; did you mean 'x'?"`` with the closest of ``valid`` to ``name``
-    (``difflib.get_close_matches``), or ``";"`` when none is close: the house style
-    ``unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...``."""
-    close = difflib.get_close_matches(str(name), [str(v) for v in valid], n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else ";"
+    """``"; did you mean 'x'?"`` with ``closest(name, valid)``, or ``";"`` when none is close:
+    the house style ``unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...``."""
+    close = closest(name, valid)
+    return f"; did you mean {close!r}?" if close else ";"

@@ -16,14 +16,15 @@ from __future__ import annotations
 
 import ast
 import dataclasses
-import difflib
 import inspect
 import numbers
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from coopnav_env.names import closest
 from coopnav_env.records import plain
 from coopnav_env.seeds import EVALUATE_SEED, MAX_SEED, check_seed
 
@@ -42,8 +43,7 @@ def _check_field_names(cls):
         unknown = [k for k in kwargs if k not in names]
         if unknown:
             hints = ", ".join(
-                repr(k) + "".join(f" (did you mean {c!r}?)" for c in difflib.get_close_matches(k, names, n=1))
-                for k in unknown
+                repr(k) + "".join(f" (did you mean {c!r}?)" for c in [closest(k, names)] if c) for k in unknown
             )
             raise TypeError(f"unknown {cls.__name__} field(s) {hints}; valid fields: {', '.join(names)}")
         init(self, *args, **kwargs)
@@ -376,10 +376,13 @@ def _unknown_policy(p: str, scenario: str, err: Exception, valid: list) -> Usage
         )
     from coopnav_env.names import did_you_mean
 
-    first = (str(err).strip().splitlines() or [type(err).__name__])[0]
+    # why loading failed, where the name looks like a path (a run folder or a model file);
+    # a bare name is simply not one of the names listed
+    looks_like_path = "/" in p or "\\" in p or Path(p).suffix != "" or Path(p).exists()
+    first = f" ({_first_line(err)})" if looks_like_path else ""
     hint = did_you_mean(p, list(valid) + ["ppo"] + list(agents.list_policies()))
     return UsageError(
-        f"unknown policy {p!r} ({first}){hint} valid: {', '.join(valid)}, ppo, a shipped policy "
+        f"unknown policy {p!r}{first}{hint} valid: {', '.join(valid)}, ppo, a shipped policy "
         f"({', '.join(agents.list_policies()) or 'none shipped'}) or a train.py run directory"
     )
 

@@ -153,6 +153,22 @@ def test_unknown_scenario_lists_valid_ones():
         coopnav_env.env("nope")
 
 
+def test_a_name_in_another_case_or_misspelt_names_the_one_meant():
+    """``coopnav_env.names.closest``, the one home of "did you mean": the same name in another
+    case first (difflib alone finds nothing for 'GAO_SEA' or 'PPO'), else the closest spelling,
+    for scenarios and for a parameter's choices alike."""
+    from coopnav_env.names import closest, did_you_mean
+
+    assert closest("GAO_SEA", coopnav_env.list_scenarios()) == "gao_sea"
+    assert did_you_mean("PPO", ["static", "ppo"]) == "; did you mean 'ppo'?"
+    assert closest("Sousa_AS", coopnav_env.list_scenarios()) == "sousa_asv"
+    assert closest("zzz", ["static", "ppo"]) is None and did_you_mean("zzz", ["ppo"]) == ";"
+    with pytest.raises(ValueError, match=r"unknown scenario 'GAO_SEA' \(did you mean 'gao_sea'\?\)"):
+        coopnav_env.make_config("GAO_SEA")
+    with pytest.raises(ValueError, match=r"unknown survey_path 'spirl'; did you mean 'spiral'\? valid: "):
+        coopnav_env.make_config("sousa_asv", survey_path="spirl")
+
+
 def test_unknown_keyword_lists_valid_parameters():
     with pytest.raises(ValueError, match=r"ping_intervall_s.*did you mean 'ping_interval_s'") as err:
         coopnav_env.parallel_env("gao_lawnmower", ping_intervall_s=10.0)

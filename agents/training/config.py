@@ -28,7 +28,6 @@ seed) and ``hyperparameters`` (the rest): ``config_from_record`` reads it back.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import types
 import typing
 from collections.abc import Iterable, Sequence
@@ -36,6 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
+from coopnav_env.names import did_you_mean
 from coopnav_env.seeds import VALIDATION_SEED
 
 if TYPE_CHECKING:
@@ -433,9 +433,7 @@ def unknown_key_message(key: str, valid: Iterable[str], what: str) -> str:
     """``unknown <what> 'foo'; did you mean 'bar'? valid: a, bar, c`` (the house style
     of ``coopnav_env.scenarios.base.check_overrides``)."""
     valid = sorted(valid)
-    close = difflib.get_close_matches(str(key), valid, n=1)
-    hint = f"; did you mean {close[0]!r}?" if close else ";"
-    return f"unknown {what} {key!r}{hint} valid: {', '.join(valid)}"
+    return f"unknown {what} {key!r}{did_you_mean(key, valid)} valid: {', '.join(valid)}"
 
 
 _KIND = {

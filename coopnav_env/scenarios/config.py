@@ -17,11 +17,11 @@ says which setting enables it.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import numbers
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
+from ..names import closest
 from . import sections as S
 from . import sections_beacons as BS
 from . import sections_link as L
@@ -258,11 +258,11 @@ def flat_name(key: str) -> str:
         if name in OWNER:
             hint = f"; {name} is in section {OWNER[name]!r}"
         elif sec in SECTION_BY_ATTR:
-            close = difflib.get_close_matches(name, [f.name for f in dataclasses.fields(SECTION_BY_ATTR[sec].cls)], n=1)
-            hint = f" (did you mean '{sec}.{close[0]}'?)" if close else f"; section {sec!r} has no parameter {name!r}"
+            close = closest(name, [f.name for f in dataclasses.fields(SECTION_BY_ATTR[sec].cls)])
+            hint = f" (did you mean '{sec}.{close}'?)" if close else f"; section {sec!r} has no parameter {name!r}"
         else:
-            close = difflib.get_close_matches(sec, list(SECTION_BY_ATTR), n=1)
-            hint = f"; no section {sec!r}" + (f" (did you mean {close[0]!r}?)" if close else "")
+            close = closest(sec, list(SECTION_BY_ATTR))
+            hint = f"; no section {sec!r}" + (f" (did you mean {close!r}?)" if close else "")
         raise ValueError(f"unknown scenario parameter {key!r}{hint}")
     return name
 
@@ -324,7 +324,7 @@ def check_overrides(overrides: dict) -> dict:
     if unknown:
         hints = []
         for k in unknown:
-            close = difflib.get_close_matches(k, valid, n=1)
-            hints.append(f"{k!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+            close = closest(k, valid)
+            hints.append(f"{k!r}" + (f" (did you mean {close!r}?)" if close else ""))
         raise ValueError(f"unknown scenario parameter(s) {', '.join(hints)}; valid parameters: {', '.join(valid)}")
     return overrides

@@ -15,6 +15,8 @@ import math
 import numbers
 from typing import Any
 
+from ..names import did_you_mean
+
 COORDINATE_LIMIT_M = 1e6  # |east|, |north| of origins and waypoints
 
 
@@ -126,7 +128,7 @@ def check_field(field: dataclasses.Field, v: Any) -> None:
         check(isinstance(v, str), f"scenario parameter {name} must be a string, got {shown(v)}")
         choices = field.metadata.get("choices")
         if choices:
-            check(v in choices, f"unknown {name} {v!r}; valid: {', '.join(choices)}")
+            check(v in choices, f"unknown {name} {v!r}{did_you_mean(v, choices)} valid: {', '.join(choices)}")
     elif kind is bool:
         check(isinstance(v, bool), f"scenario parameter {name} must be True or False, got {shown(v)}")
     elif kind is tuple:

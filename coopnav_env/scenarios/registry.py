@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Callable
 from typing import Any
 
+from ..names import closest
 from .config import ScenarioConfig
 
 _REGISTRY: dict = {}
@@ -30,8 +30,8 @@ def make_config(scenario: str | ScenarioConfig = "gao_lawnmower", **overrides: A
         base = scenario
     else:
         if scenario not in _REGISTRY:
-            close = difflib.get_close_matches(str(scenario), list_scenarios(), n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            close = closest(scenario, list_scenarios())
+            hint = f" (did you mean {close!r}?)" if close else ""
             raise ValueError(f"unknown scenario {scenario!r}{hint}; valid scenarios: {', '.join(list_scenarios())}")
         entry = _REGISTRY[scenario]
         base = entry() if callable(entry) else entry
