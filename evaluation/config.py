@@ -455,6 +455,8 @@ def prepare(config: EvalConfig) -> Plan:
     _check_output(config.out)
     outdir.check_not_in_use(config.out)
     out_state = outdir.snapshot(config.out)
+    if config.resume and not os.path.exists(config.out):  # a mistyped folder would start a new run
+        raise UsageError(f"nothing to resume: {config.out!r} does not exist; drop --resume to start a run there")
     previous = outdir.read_previous(config.out) if config.resume else None
     given = None if config.policies is None else list(config.policies)
     if given is not None:

@@ -121,6 +121,9 @@ def test_resume_skips_done_episodes(tmp_path):
         ["--scenario", "sousa_asv", "--policies", "static", "--episodes", "1", "--out", out, "--resume"]
     )
     assert code == 2
+    # a mistyped folder is not resumed as a new run
+    code = evaluate.main(TINY + ["--policies", "static", "--out", str(tmp_path / "r_typo"), "--resume"])
+    assert code == 2 and not (tmp_path / "r_typo").exists()
 
 
 def test_sweep_writes_the_table_layout(tmp_path):
