@@ -114,7 +114,7 @@ class Progress:
         return self
 
     def __exit__(self, *exc):
-        self.close()
+        self.close(stopped=exc[0] is not None)
 
     def update(self, n: float = 1.0) -> None:
         """``n`` more units done (clipped at the total)."""
@@ -168,7 +168,10 @@ class Progress:
         say(f"[{n}/{self.total:.0f} {self.unit}, {format_seconds(elapsed)}{left}] {text}", self.stream)
         self._last_line = time.perf_counter()
 
-    def close(self) -> None:
+    def close(self, stopped: bool = False) -> None:
+        """End the bar; in line mode a last line, "done" or, when the work ended early
+        (``stopped``: the ``with`` block raised, e.g. Ctrl-C; or fewer units than the total),
+        "stopped"."""
         if self._closed:
             return
         self._closed = True
@@ -178,7 +181,8 @@ class Progress:
         elif self.mode == "lines":
             elapsed = time.perf_counter() - self.t0
             n = f"{self.n:.0f}"
-            say(f"[{n}/{self.total:.0f} {self.unit}, {format_seconds(elapsed)}] done", self.stream)
+            word = "stopped" if stopped and self.n < self.total else "done"
+            say(f"[{n}/{self.total:.0f} {self.unit}, {format_seconds(elapsed)}] {word}", self.stream)
 
 
 class announce_after:

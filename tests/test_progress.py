@@ -247,3 +247,23 @@ def test_horizon_vs_greedy_shows_progress(tty):
     )
     _check(rc, text, first, tty)
     assert "| gao_lawnmower | lake |" in text
+
+
+def test_a_bar_cut_short_by_an_exception_says_stopped_not_done(capsys, monkeypatch):
+    """In line mode the last line says what happened: a ``with`` block that raised (Ctrl-C)
+    before the total ends "stopped" (it said "done" after 19 of 120 episodes); one that
+    finished its work, or left with its total reached, ends "done"."""
+    from coopnav_env.progress import Progress
+
+    monkeypatch.setenv("COOPNAV_PROGRESS", "lines")
+    try:
+        with Progress(120, unit="episode", desc="t", mode="lines") as bar:
+            bar.update(19)
+            raise KeyboardInterrupt
+    except KeyboardInterrupt:
+        pass
+    with Progress(3, unit="episode", desc="t", mode="lines") as bar:
+        bar.update(3)
+    err = capsys.readouterr().err
+    assert re.search(r"^\[19/120 episode, [^\]]*\] stopped$", err, flags=re.M), err
+    assert re.search(r"^\[3/3 episode, [^\]]*\] done$", err, flags=re.M), err
