@@ -96,6 +96,24 @@ def test_ci_install_and_test_count_are_one_story():
     assert len(counts) == 1, counts  # "about": the count is not checked against the suite, only kept the same
 
 
+def test_the_readmes_planner_table_is_the_results_pages():
+    """The README's headline planner rows are docs/results.md#planners' (the results page is
+    re-run when the physics changes; the README's copy went stale once, a round behind)."""
+
+    def rows(text: str) -> dict:
+        table = {}
+        for line in text.splitlines():
+            m = re.match(r"\| (fim_a|ellipse|static|dead reckoning) \| ([^|]+) \| ([^|]+) \|$", line.strip())
+            if m:
+                table.setdefault(m.group(1), (m.group(2).strip(), m.group(3).strip()))
+        return table
+
+    readme = rows((ROOT / "README.md").read_text().split("## Headline results", 1)[1])
+    results = rows((ROOT / "docs" / "results.md").read_text().split("{#planners}", 1)[1])
+    assert set(readme) == {"fim_a", "ellipse", "static", "dead reckoning"}, readme
+    assert all(readme[k] == results[k] for k in readme), (readme, results)
+
+
 def test_the_times_table_is_one_story_and_names_its_command():
     guide = (ROOT / "docs" / "getting-started.md").read_text()
     readme = _flat((ROOT / "README.md").read_text())
