@@ -54,6 +54,25 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
         raise
 
 
+def check_writable(out: str | os.PathLike[str]) -> None:
+    """An ``OSError`` (one line) if nothing can be written at ``out``, a folder to be created
+    or filled: a temporary file is made and removed in ``out`` or its nearest existing parent.
+    Commands call it before building anything, so a folder they cannot write is refused at
+    once, not after minutes of compiling or training."""
+    target = os.path.abspath(os.fspath(out))
+    probe = target
+    while not os.path.exists(probe):
+        probe = os.path.dirname(probe)
+    if not os.path.isdir(probe):
+        raise OSError(f"{os.fspath(out)} lies under a file ({probe}), not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=probe, prefix=".coopnav-write-check.", suffix=".tmp")
+    except OSError as err:
+        raise OSError(f"cannot write in {probe} ({err.strerror or err}), where {os.fspath(out)} would go") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     """``atomic_write_bytes`` of ``text`` encoded as UTF-8."""
     atomic_write_bytes(path, text.encode("utf-8"))

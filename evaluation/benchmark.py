@@ -238,6 +238,12 @@ def plan_benchmark(
             )
         if outdir.has_results(out):
             raise UsageError(f"{out!r} holds an evaluate.py result; use another --out")
+        from coopnav_env.records import check_writable
+
+        try:  # before the policies are checked (which can compile the simulator for a minute)
+            check_writable(out)
+        except OSError as err:
+            raise UsageError(f"--out {out}: {err}") from None
     try:
         overrides = {k: coerce_value(k, v) for k, v in (overrides or {}).items()}
     except UsageError:

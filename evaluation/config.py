@@ -349,6 +349,12 @@ def _check_output(out: str):
         parent = os.path.dirname(parent)
     if parent and not os.path.isdir(parent):
         raise UsageError(f"output path {out!r} is under a file ({parent!r})")
+    from coopnav_env.records import check_writable
+
+    try:  # before the policies are checked (which can compile the simulator for a minute)
+        check_writable(out)
+    except OSError as err:
+        raise UsageError(f"--out {out}: {err}") from None
 
 
 def _ppo_scenarios() -> list:

@@ -729,3 +729,36 @@ def test_evaluate_set_refuses_out_of_range_values_in_one_line(tmp_path, scenario
     )
     one_line_exit_2(code, err, setting.split("=")[0])
     assert not out.exists()
+
+
+def test_a_folder_that_cannot_be_written_is_refused_before_anything_is_built(tmp_path, monkeypatch, capsys):
+    """``records.check_writable``: a folder under a file, or one whose nearest existing
+    parent refuses a new file (permission denied; faked here, since the tests may run as
+    root), is one line, before train.py builds an environment or the benchmark and
+    evaluate.py check their policies (which can compile the simulator for a minute)."""
+    import tempfile
+
+    from agents.training import cli as train_cli
+    from coopnav_env.records import check_writable
+    from evaluation import benchmark
+    from evaluation import cli as evaluate_cli
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OSError, match="lies under a file"):
+        check_writable(tmp_path / "file" / "run")
+    check_writable(tmp_path / "new" / "deeper")  # a writable parent: fine, nothing left behind
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    with pytest.raises(OSError, match=r"cannot write in .* \(Permission denied\)"):
+        check_writable(tmp_path / "run")
+    out = str(tmp_path / "run")
+    assert train_cli.main(["--scenario", "sousa_asv", "--timesteps", "10", "--out", out, "--no-progress"]) == 2
+    assert benchmark.main(["--tasks", "gao_sea", "--episodes", "2", "--out", out]) == 2
+    assert evaluate_cli.main(["--scenario", "gao_sea", "--episodes", "2", "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert err.count("Permission denied") == 3 and "Traceback" not in err, err
+    assert not (tmp_path / "run").exists()

@@ -278,6 +278,12 @@ def run(args: argparse.Namespace, argv: list[str] | None = None) -> int:
     missing = [f"--{n}" for n in ("scenario", "timesteps", "out") if getattr(args, n) is None]
     if missing:
         raise ConfigError(f"missing {', '.join(missing)} (or --resume RUN_DIR)")
+    from coopnav_env.records import check_writable
+
+    try:  # before the environments are built: a folder that cannot be written is refused at once
+        check_writable(args.out)
+    except OSError as err:
+        raise ConfigError(f"--out {args.out}: {err}") from None
     if backend == "rllib":
         rllib.require_ray()
     path = hyperparameter_file(backend, args.scenario, args.config)
