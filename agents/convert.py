@@ -141,19 +141,19 @@ def convert(src: str | Path, out: str | Path, trust_pickle: bool = False) -> lis
     src, out = Path(src), Path(out)
     if not src.exists():
         raise PolicyFormatError(f"no such file or directory: {src}")
-    if _already_safe(src):
-        raise PolicyFormatError(f"{src} is already in the safe format (safetensors): nothing to convert; load it as is")
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise PolicyFormatError(f"--out {out} exists and is not an empty directory")
     if out.resolve() == src.resolve() or src.resolve() in out.resolve().parents:
         raise PolicyFormatError(f"--out {out} must lie outside {src}")
-    if not trust_pickle:
-        formats.refuse_pickle(src, "read by unpickling (an SB3 .zip/.pkl or an RLlib checkpoint)")
     # nothing outside the folder named is read or copied: no link in it may lead out
     if src.is_dir():
         safe_paths.check_tree(src)
     else:
         safe_paths.inside(src.parent, src.name, "model file")
+    if _already_safe(src):
+        raise PolicyFormatError(f"{src} is already in the safe format (safetensors): nothing to convert; load it as is")
+    if not trust_pickle:
+        formats.refuse_pickle(src, "read by unpickling (an SB3 .zip/.pkl or an RLlib checkpoint)")
     written: list = []
     if rllib_policy.is_rllib_path(src):
         rllib_policy.convert(src, out)
