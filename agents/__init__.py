@@ -64,6 +64,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from coopnav_env.views import check_observation
+
 from . import safe_paths
 from .formats import _TRUSTED as _TRUSTED  # re-exported: agents._TRUSTED (the tests clear it)
 from .formats import PickleRefused, PolicyFormatError, _check_trusted, _is_legacy, check_inside, trust_pickle
@@ -345,9 +347,7 @@ class PPOPolicy(BatchPolicy):
         return np.clip(z, -self.clip_obs, self.clip_obs).astype(np.float32)
 
     def act_batch(self, obs: np.ndarray) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64)
-        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
-            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        obs = check_observation(obs, self.obs_dim, batch=True)  # shape and finite, one line
         action, _ = self.model.predict(self.normalize(obs), deterministic=True)
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
@@ -517,9 +517,7 @@ class DepthGatedPolicy(BatchPolicy):
     def act_batch(self, obs: np.ndarray) -> np.ndarray:
         from coopnav_env.obs_layout import decode
 
-        obs = np.asarray(obs, dtype=np.float64)
-        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
-            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        obs = check_observation(obs, self.obs_dim, batch=True)  # shape and finite, one line
         depth = decode(obs, self.config).depth_below_m.mean(-1)
         out = self.deep.act_batch(obs)
         shallow = depth < self.threshold_m

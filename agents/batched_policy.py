@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from coopnav_env.views import check_observation
+
 from .formats import PolicyFormatError
 from .policy import BatchPolicy
 
@@ -205,9 +207,7 @@ class BatchedPPOPolicy(BatchPolicy):
         self._window = None
 
     def act_batch(self, obs: np.ndarray) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64)
-        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
-            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        obs = check_observation(obs, self.obs_dim, batch=True)  # shape and finite, one line
         torch = self._torch
         x = torch.as_tensor(obs, dtype=torch.float32)
         if self.obs_mean is not None:  # as training scaled them (agents.training.batched_ppo.RunningNorm)

@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from coopnav_env.views import check_observation
+
 from .formats import PolicyFormatError
 from .policy import BatchPolicy
 
@@ -261,9 +263,7 @@ class BenchMARLPolicy(BatchPolicy):
         self._hidden = None
 
     def act_batch(self, obs: np.ndarray) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64)
-        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
-            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        obs = check_observation(obs, self.obs_dim, batch=True)  # shape and finite, one line
         action, self._hidden = self.actor(obs, self.agent, self._hidden)
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 

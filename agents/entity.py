@@ -41,6 +41,7 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
 from coopnav_env.entity_obs import LAYOUT, EntityLayout, entity_observation, team_problem
+from coopnav_env.views import check_observation
 
 from .policy import BatchPolicy
 
@@ -271,9 +272,7 @@ class EntityPolicy(BatchPolicy):
         being beacon ``agents[i]``."""
         if self.config is None:
             raise ValueError(f"entity policy {self.name!r} is not bound to a scenario: use for_config(config, agent)")
-        obs = np.asarray(obs, dtype=np.float64)
-        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
-            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        obs = check_observation(obs, self.obs_dim, batch=True)  # shape and finite, one line
         return self.base.act_batch(entity_observation(obs, self.config, np.asarray(agents, dtype=np.int64)))
 
     def act(self, obs: np.ndarray) -> np.ndarray:

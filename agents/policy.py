@@ -24,9 +24,9 @@ class BatchPolicy:
         raise NotImplementedError
 
     def act(self, obs: np.ndarray) -> np.ndarray:
-        obs = np.asarray(obs, dtype=self.obs_dtype)
-        if obs.shape != (self.obs_dim,):
-            raise ValueError(f"observation must have shape ({self.obs_dim},), got {obs.shape}")
+        from coopnav_env.views import check_observation
+
+        obs = check_observation(obs, self.obs_dim).astype(self.obs_dtype)  # shape and finite, one line
         return self.act_batch(obs[None])[0]
 
     def __call__(self, obs):

@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 
 from agents.policy import BatchPolicy, _trained_scenario
+from coopnav_env.views import check_observation
 
 CHECKPOINT_MARKER = "rllib_checkpoint.json"
 MODULE_DIR = Path("learner_group") / "learner" / "rl_module"
@@ -472,9 +473,7 @@ class RLlibPolicy(BatchPolicy):
         import torch
         from ray.rllib.core.columns import Columns
 
-        obs = np.asarray(obs, dtype=np.float32)
-        if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
-            raise ValueError(f"observations must have shape (M, {self.obs_dim}), got {obs.shape}")
+        obs = check_observation(obs, self.obs_dim, batch=True).astype(np.float32)  # shape and finite, one line
         if self.obs_filter is not None:
             obs = self.obs_filter(obs, update=False).astype(np.float32)
         with torch.no_grad():

@@ -23,8 +23,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from coopnav_env.core import measurements
-from coopnav_env.obs_layout import ObsView, decode
+from coopnav_env.obs_layout import ObsView, decode, obs_dim
 from coopnav_env.scenarios import ScenarioConfig, resolve_config
+from coopnav_env.views import check_observation
 
 FENCE_MARGIN_M = 2.0  # plan this far inside the geofence
 SAFETY_MARGIN_M = 2.0  # and this far beyond the safety distance
@@ -311,6 +312,18 @@ class SurveyTracker:
         return np.where(known[:, None], en, en_cv), dz
 
 
+def _checked_seed(seed: int | Sequence[int] | None) -> int | Sequence[int] | None:
+    """A policy's seed (an integer, or a sequence of them such as (episode seed, beacon)),
+    each in ``coopnav_env.seeds``' range; a one-line ``ValueError`` naming it else."""
+    from coopnav_env.seeds import check_seed
+
+    if seed is None:
+        return None
+    if isinstance(seed, (list, tuple)):
+        return type(seed)(check_seed(s, what="policy seed") for s in seed)
+    return check_seed(seed, what="policy seed")
+
+
 class Policy:
     """Base class: ``act(obs) -> action`` in [-1, 1]^2, ``reset(seed=None)``.
 
@@ -330,18 +343,21 @@ class Policy:
                 f"{', '.join(list_policies(config=config))}"
             )
         self.config = config
+        self.obs_dim = obs_dim(config)
         self.ctx = BeaconContext.from_config(config, agent_index)
-        self.seed = seed
+        self.seed = _checked_seed(seed)
         self.reset(seed)
 
     def reset(self, seed: int | Sequence[int] | None = None) -> None:
         if seed is not None:
-            self.seed = seed
+            self.seed = _checked_seed(seed)
         self.t_s = 0.0
         self.last_waypoint: np.ndarray | None = None
 
     def decode(self, obs: ArrayLike) -> ObsView:
-        return decode(obs, self.config)
+        """One observation of shape (obs_dim,), decoded; a wrong shape or a NaN is one line
+        (``coopnav_env.views.check_observation``), not a NaN action or a numpy error."""
+        return decode(check_observation(obs, self.obs_dim), self.config)
 
     def plan(self, view: ObsView) -> np.ndarray:
         raise NotImplementedError

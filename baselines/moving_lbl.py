@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from coopnav_env.obs_layout import decode_boat
+from coopnav_env.views import check_observation
 
 from .base import Policy, register_policy, waypoint_to_action
 
@@ -57,7 +58,7 @@ class PerpendicularPolicy(Policy):
         return np.array([0.0, self.config.boat_transit_speed_mps])
 
     def act(self, obs: ArrayLike) -> np.ndarray:
-        view = decode_boat(obs, self.config)
+        view = decode_boat(check_observation(obs, self.obs_dim), self.config)
         self.t_s += self.ctx.ping_interval_s
         v = self.velocity_xy(view)
         if self.config.action_mode == "frame_velocity":

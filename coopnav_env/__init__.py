@@ -32,10 +32,11 @@ def parallel_env(scenario: str | ScenarioConfig = "gao_lawnmower", **kwargs: Any
 
 def raw_env(scenario: str | ScenarioConfig = "gao_lawnmower", **kwargs: Any) -> AECEnv:
     """The unwrapped AEC environment (PettingZoo's ``raw_env`` convention): the
-    parallel env seen through ``parallel_to_aec_wrapper``, without the order check."""
-    from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+    parallel env seen through ``parallel_to_aec_wrapper`` (each action checked on its own
+    agent's turn: ``pettingzoo_env.CoopNavAEC``), without the order check."""
+    from .pettingzoo_env import CoopNavAEC
 
-    return parallel_to_aec_wrapper(parallel_env(scenario, **kwargs))
+    return CoopNavAEC(parallel_env(scenario, **kwargs))
 
 
 def env(scenario: str | ScenarioConfig = "gao_lawnmower", **kwargs: Any) -> AECEnv:
@@ -53,6 +54,8 @@ def _register_gymnasium():
         return
     for name in list_scenarios():
         env_id = f"coopnav/{name}-v0"
+        if make_config(name).n_beacons != 1:  # the Gymnasium view is one beacon's: parallel_env drives teams
+            continue
         if env_id not in registry:
             register(id=env_id, entry_point="coopnav_env.gym_env:CoopNavGymEnv", kwargs={"scenario": name})
 

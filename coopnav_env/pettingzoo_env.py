@@ -8,8 +8,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 from pettingzoo import ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from .core import make_simulator
+from .names import did_you_mean
 from .scenarios import make_config
 from .seeds import check_seed
 from .views import action_space, agent_infos, check_action, observation_space, state_space
@@ -132,7 +134,10 @@ class CoopNavParallelEnv(ParallelEnv):
             overrides["max_cycles"] = max_cycles
         self.config = make_config(scenario, **overrides)
         if render_mode not in (None, "human", "rgb_array"):
-            raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'human', 'rgb_array'")
+            raise ValueError(
+                f"unknown render_mode {render_mode!r}{did_you_mean(render_mode, ['human', 'rgb_array'])} "
+                "valid: None, 'human', 'rgb_array'"
+            )
         self.render_mode = render_mode
         self.sim = make_simulator(self.config, batch_size=1)
         # the core's StepResult of the last step (training-reward wrappers read it)
@@ -148,10 +153,20 @@ class CoopNavParallelEnv(ParallelEnv):
         self._viewer: Figure | None = None
 
     def observation_space(self, agent: str) -> spaces.Box:
+        self._check_agent(agent)
         return self._observation_space
 
     def action_space(self, agent: str) -> spaces.Box:
+        self._check_agent(agent)
         return self._action_space
+
+    def _check_agent(self, agent: str) -> None:
+        """A one-line ``ValueError`` for a name that is none of ``possible_agents``."""
+        if agent not in self.possible_agents:
+            raise ValueError(
+                f"unknown agent {agent!r}{did_you_mean(agent, self.possible_agents)} "
+                f"agents: {', '.join(self.possible_agents)}"
+            )
 
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
@@ -177,7 +192,7 @@ class CoopNavParallelEnv(ParallelEnv):
         return {a: obs[0, i] for i, a in enumerate(self.agents)}, infos
 
     def step(self, actions: Mapping[str, ArrayLike]) -> _Step:
-        if not isinstance(actions, dict):
+        if not isinstance(actions, Mapping):
             raise ValueError(f"actions must be a dict agent -> action, got {type(actions).__name__}")
         if not self.agents:
             given = f" (actions given for agents that are not alive: {list(actions)})" if actions else ""
@@ -185,6 +200,9 @@ class CoopNavParallelEnv(ParallelEnv):
                 "step() with no live agents: the episode has ended or reset() was not called; "
                 f"call reset() first{given}"
             )
+        for a in actions:
+            if a not in self.possible_agents:
+                self._check_agent(a)  # a misspelt name: the closest
         dead = [a for a in actions if a not in self.agents]
         if dead:
             raise ValueError(f"actions given for agents that are not alive: {dead}; alive: {self.agents}")
@@ -248,3 +266,21 @@ class CoopNavParallelEnv(ParallelEnv):
 
             plt.close(self._viewer)
             self._viewer = None
+
+
+class CoopNavAEC(parallel_to_aec_wrapper):
+    """A ``CoopNavParallelEnv`` as PettingZoo's AEC environment (``parallel_to_aec_wrapper``),
+    each agent's action checked at its own ``step``: a NaN from beacon_0 is refused on
+    beacon_0's turn and not kept (the wrapper alone stores it, fails on the last agent's turn
+    and at every turn after, until reset); ``observe`` of a name that is no agent is one line
+    naming the closest (a bare KeyError before)."""
+
+    def step(self, action: Any) -> None:
+        agent = self.agent_selection
+        if action is not None and not (self.terminations.get(agent) or self.truncations.get(agent)):
+            action = check_action(agent, action, self.env.action_space(agent).shape[0])
+        super().step(action)
+
+    def observe(self, agent: str) -> Any:
+        self.env._check_agent(agent)
+        return super().observe(agent)

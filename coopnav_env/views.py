@@ -41,6 +41,26 @@ def state_space(sim: BatchedSimulator) -> spaces.Box:
     return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(sim.state_dim,), dtype=np.float32)
 
 
+def check_observation(obs: ArrayLike, dim: int, batch: bool = False) -> np.ndarray:
+    """An observation (``batch``: observations (M, dim)) as a float64 array, or a one-line
+    ``ValueError`` for a wrong shape or a NaN/infinite value: a policy given one would
+    answer with a NaN action, or fail deep inside its network. The environments never give
+    one; a user's edited or hand-built observation can."""
+    try:
+        o = np.asarray(obs, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"observation is not numeric: {obs!r:.80}") from None
+    want = (o.shape[0], dim) if batch and o.ndim == 2 else (dim,)
+    if o.shape != want or (batch and o.ndim != 2):
+        shape = f"(M, {dim})" if batch else f"({dim},)"
+        raise ValueError(f"observation{'s' if batch else ''} must have shape {shape}, got {o.shape}")
+    bad = np.flatnonzero(~np.isfinite(o.reshape(-1)))
+    if bad.size:
+        where = ", ".join(str(int(i) % dim) for i in bad[:5]) + (", ..." if bad.size > 5 else "")
+        raise ValueError(f"observation must be finite, got {bad.size} NaN or infinite value(s) (entries {where})")
+    return o
+
+
 def check_action(agent: str, action: ArrayLike, dim: int = 2) -> np.ndarray:
     """One agent's action as a float array of shape (dim,), clipped to [-1, 1].
 

@@ -58,9 +58,55 @@ def test_bad_action_names_the_offending_agent():
 
 
 def test_action_for_unknown_agent():
+    """A name that is no agent is named with the closest, in step() as in the spaces and
+    the AEC view's observe() (which returned a Box, or raised a bare KeyError)."""
     env = _env()
-    with pytest.raises(ValueError, match=r"not alive.*beacon_7"):
+    with pytest.raises(ValueError, match=r"unknown agent 'beacon_7'; did you mean 'beacon_0'\? agents: beacon_0"):
         env.step({"beacon_0": ZERO, "beacon_7": ZERO})
+    with pytest.raises(ValueError, match=r"unknown agent 'becon_0'; did you mean 'beacon_0'"):
+        env.step({"becon_0": ZERO})
+    for space in (env.observation_space, env.action_space):
+        with pytest.raises(ValueError, match=r"unknown agent 'beacon_7'"):
+            space("beacon_7")
+    aec = coopnav_env.env("gao_team")
+    aec.reset(seed=0)
+    with pytest.raises(ValueError, match=r"unknown agent 'beacon_9'; did you mean"):
+        aec.observe("beacon_9")
+
+
+def test_aec_refuses_a_nan_on_its_own_turn_and_does_not_keep_it():
+    """PettingZoo's parallel-to-AEC wrapper stores each action until the last agent's turn:
+    a NaN from beacon_0 failed on beacon_1's turn, then at every turn until reset()."""
+    aec = coopnav_env.env("gao_team")
+    aec.reset(seed=0)
+    with pytest.raises(ValueError, match="action for beacon_0 must be finite"):
+        aec.step(np.array([np.nan, 0.0]))
+    assert aec.agent_selection == "beacon_0"
+    aec.step(ZERO)
+    aec.step(ZERO)  # beacon_1's turn: the cycle runs
+    assert aec.agent_selection == "beacon_0" and np.isfinite(aec.last()[0]).all()
+
+
+def test_the_gymnasium_view_plays_parallel_envs_episode_and_stops_at_its_end():
+    """``reset(seed=s)`` is episode s of ``parallel_env`` (it drew another from Gymnasium's
+    generator), a seed out of range is the same ValueError, and a step after the end is
+    refused (it ran on: 300 steps later the error was 883 m). Only one-beacon scenarios
+    are registered."""
+    g = gymnasium.make("coopnav/gao_lawnmower-v0", max_cycles=5)
+    obs, _ = g.reset(seed=5)
+    p_obs, _ = coopnav_env.parallel_env("gao_lawnmower", max_cycles=5).reset(seed=5)
+    assert np.array_equal(obs, p_obs["beacon_0"])
+    with pytest.raises(ValueError, match="seed must be"):
+        g.reset(seed=-1)
+    g.reset(seed=0)
+    ended = False
+    for _ in range(5):
+        *_, terminated, truncated, _ = g.step(ZERO)
+        ended = terminated or truncated
+    assert ended
+    with pytest.raises(ValueError, match=r"step\(\) after the episode ended"):
+        g.step(ZERO)
+    assert "coopnav/gao_team-v0" not in gymnasium.registry and "coopnav/sousa_asv-v0" in gymnasium.registry
 
 
 def test_action_after_episode_end():
@@ -377,3 +423,33 @@ def test_state_before_reset_is_one_clear_error():
     env = coopnav_env.parallel_env("gao_lawnmower")
     with pytest.raises(RuntimeError, match=r"state\(\) before reset\(\)"):
         env.state()
+
+
+def test_policies_refuse_a_nan_or_misshapen_observation_in_one_line():
+    """``coopnav_env.views.check_observation`` in every policy's act: the planners answered
+    a NaN observation with a NaN action, a batch with a numpy broadcasting error; the shipped
+    SB3 policy with a multi-line torch error; a seed of -1 was numpy's error."""
+    import agents
+    import baselines
+
+    env = _env()
+    obs = env.reset(seed=0)[0]["beacon_0"]
+    bad = obs.copy()
+    bad[3] = np.nan
+    for policy in (
+        baselines.make_policy("fim_a", env),
+        baselines.make_policy("ellipse", env),
+        agents.load("ppo", scenario="gao_lawnmower"),
+    ):
+        with pytest.raises(
+            ValueError, match=r"observation must be finite, got 1 NaN or infinite value\(s\) \(entries 3\)"
+        ):
+            policy.act(bad)
+        with pytest.raises(ValueError, match=rf"observation must have shape \({obs.size},\), got \(3, {obs.size}\)"):
+            policy.act(np.tile(obs, (3, 1)))
+        assert np.isfinite(policy.act(obs)).all()
+    sb3 = agents.load("ppo_sousa_asv")
+    with pytest.raises(ValueError, match=r"observation must be finite, got \d+ NaN"):
+        sb3.act_batch(np.full((2, sb3.obs_dim), np.nan))
+    with pytest.raises(ValueError, match=r"policy seed must be in \[0, "):
+        baselines.make_policy("random", env, seed=-1)
