@@ -64,6 +64,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from coopnav_env.names import did_you_mean
+from coopnav_env.scenarios import list_scenarios
 from coopnav_env.views import check_observation
 
 from . import safe_paths
@@ -262,13 +264,19 @@ def resolve(
             if scenario is None:
                 raise ValueError("agents.load('ppo') names the shipped PPO policy of a scenario: pass scenario=")
             scen = _scenario_name(scenario)
+            if scen not in list_scenarios():  # name the scenario, not the policy
+                raise ValueError(
+                    f"unknown scenario {scen!r}{did_you_mean(scen, list_scenarios())} "
+                    f"valid scenarios: {', '.join(list_scenarios())}"
+                )
             name = f"ppo_{scen}"
         directory = POLICY_DIR / name
         if not directory.is_dir():
             shipped = list_policies()
+            hint = did_you_mean(name_or_path, [*shipped, "ppo"])
             raise ValueError(
-                f"no policy {name_or_path!r}: not a run directory, a model file or a shipped policy "
-                f"(shipped: {', '.join(shipped) if shipped else 'none yet'})"
+                f"no policy {name_or_path!r}: not a run directory, a model file or a shipped policy{hint} "
+                f"shipped: {', '.join(shipped) if shipped else 'none yet'}"
             )
     safe_paths.check_tree(directory)  # nothing read from it may lead outside it
     if (directory / "gate.yml").is_file():  # two policies and a gate: DepthGatedPolicy

@@ -453,3 +453,16 @@ def test_policies_refuse_a_nan_or_misshapen_observation_in_one_line():
         sb3.act_batch(np.full((2, sb3.obs_dim), np.nan))
     with pytest.raises(ValueError, match=r"policy seed must be in \[0, "):
         baselines.make_policy("random", env, seed=-1)
+
+
+def test_loading_a_policy_names_what_was_mistyped():
+    """``agents.load("ppo", scenario=...)`` with a misspelt scenario names the scenario (it
+    said "no policy 'ppo'"), and a misspelt shipped name gets its closest."""
+    import agents
+
+    with pytest.raises(ValueError, match=r"unknown scenario 'sousa_asb'; did you mean 'sousa_asv'\?"):
+        agents.load("ppo", scenario="sousa_asb")
+    with pytest.raises(ValueError, match=r"no policy 'ppo_sousa_asb': .*; did you mean 'ppo_sousa_asv'\? shipped: "):
+        agents.load("ppo_sousa_asb")
+    with pytest.raises(ValueError, match=r"no policy 'PPO': .*; did you mean 'ppo'\?"):
+        agents.load("PPO", scenario="sousa_asv")

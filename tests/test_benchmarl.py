@@ -403,5 +403,5 @@ def test_a_shipped_run_answers_to_ppo(tmp_path, monkeypatch):
         policy = agents.make_policy(name, config, agent=1)
         assert isinstance(policy, BenchMARLPolicy) and policy.act(np.zeros(policy.obs_dim, np.float32)).shape == (2,)
     assert resolve_trained("ppo", "gao_team")["shipped"] == "ppo_gao_team"
-    with pytest.raises(ValueError, match=r"no policy 'ppo'.*shipped: ppo_gao_team\)"):  # gao_sea has none here
+    with pytest.raises(ValueError, match=r"no policy 'ppo'.*shipped: ppo_gao_team$"):  # gao_sea has none here
         agents.load("ppo", scenario="gao_sea")
