@@ -83,6 +83,7 @@ from torchrl.envs import EnvBase
 
 from .core import make_simulator
 from .core.reward import check_training_terms, training_reward
+from .names import did_you_mean
 from .scenarios import make_config
 from .seeds import TRAINING_SEED_STRIDE, EpisodeSeeds
 from .views import OBS_BOUND, action_dim
@@ -165,9 +166,13 @@ class CoopNavTorchEnv(EnvBase):
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ValueError(f"n_envs must be an int >= 1, got {n_envs!r}")
         if state not in STATE_KINDS:
-            raise ValueError(f"state must be one of {', '.join(STATE_KINDS)}, got {state!r}")
+            hint = did_you_mean(state, STATE_KINDS)
+            raise ValueError(f"unknown state {state!r}{hint} valid: {', '.join(STATE_KINDS)}")
         if observation not in OBSERVATIONS:
-            raise ValueError(f"observation must be one of {', '.join(OBSERVATIONS)}, got {observation!r}")
+            raise ValueError(
+                f"unknown observation {observation!r}{did_you_mean(observation, OBSERVATIONS)} valid: "
+                f"{', '.join(OBSERVATIONS)}"
+            )
         n_envs = int(n_envs)
         config = make_config(scenario, **overrides)
         if observation == "entities":

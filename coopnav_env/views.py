@@ -69,6 +69,8 @@ def check_action(agent: str, action: ArrayLike, dim: int = 2) -> np.ndarray:
     ``dim=3`` (``channel_mode="decide"``) a two-component action (the motion alone)
     is accepted too and means "transmit every slot", the fixed clock.
     """
+    if np.iscomplexobj(action):  # numpy would drop the imaginary part with only a warning
+        raise ValueError(f"action for {agent} must be real, got {action!r}")
     try:
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError) as err:

@@ -466,3 +466,17 @@ def test_loading_a_policy_names_what_was_mistyped():
         agents.load("ppo_sousa_asb")
     with pytest.raises(ValueError, match=r"no policy 'PPO': .*; did you mean 'ppo'\?"):
         agents.load("PPO", scenario="sousa_asv")
+
+
+def test_smaller_slips_are_one_line_naming_the_closest():
+    """A training reward term misspelt, a scenario given as a list, a complex action (numpy
+    dropped its imaginary part with only a warning)."""
+    from coopnav_env.vector import CoopNavVecEnv
+
+    with pytest.raises(ValueError, match=r"unknown reward term 'eror'; did you mean 'error'\? valid terms: "):
+        CoopNavVecEnv(coopnav_env.make_config("gao_lawnmower"), n_envs=1, reward_terms={"eror": 1.0})
+    with pytest.raises(TypeError, match="scenario must be a scenario name"):
+        coopnav_env.make_config(["gao_sea"])
+    env = _env()
+    with pytest.raises(ValueError, match="action for beacon_0 must be real"):
+        env.step({"beacon_0": np.array([1j, 0.0])})

@@ -46,6 +46,8 @@ from typing import Any
 
 import numpy as np
 
+from ..names import did_you_mean
+
 KINDS = ("env", "training")
 SURVEY_NETWORK, MOVING_NETWORK = "survey_beacons", "moving_lbl"  # ScenarioConfig.network
 
@@ -190,7 +192,8 @@ def get_term(name: str) -> RewardTerm:
     try:
         return _TERMS[name]
     except KeyError:
-        raise KeyError(f"unknown reward term {name!r}; registered: {', '.join(_TERMS)}") from None
+        hint = did_you_mean(name, _TERMS)
+        raise KeyError(f"unknown reward term {name!r}{hint} registered: {', '.join(_TERMS)}") from None
 
 
 def registered_terms(kind: str | None = "env") -> tuple[RewardTerm, ...]:
@@ -279,7 +282,7 @@ def check_training_terms(terms: Mapping[str, float] | None) -> dict[str, float] 
     out = {}
     for name, weight in terms.items():
         if name not in valid:
-            raise ValueError(f"unknown reward term {name!r}; valid terms: {', '.join(valid)}")
+            raise ValueError(f"unknown reward term {name!r}{did_you_mean(name, valid)} valid terms: {', '.join(valid)}")
         try:
             w = float(weight)
         except (TypeError, ValueError):

@@ -28,6 +28,8 @@ def make_config(scenario: str | ScenarioConfig = "gao_lawnmower", **overrides: A
     names; an unknown scenario or parameter name is a ``ValueError`` with the closest)."""
     if isinstance(scenario, ScenarioConfig):
         base = scenario
+    elif not isinstance(scenario, str):
+        raise TypeError(f"scenario must be a scenario name (str) or a ScenarioConfig, got {type(scenario).__name__}")
     else:
         if scenario not in _REGISTRY:
             close = closest(scenario, list_scenarios())
