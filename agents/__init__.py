@@ -321,8 +321,9 @@ class RunningStats:
 class PPOPolicy(BatchPolicy):
     """A trained SB3 policy for one beacon: ``act(obs) -> action``, ``reset()``.
 
-    ``act`` takes one beacon's observation (D,) and returns a float32 (2,) action;
-    ``act_batch`` takes (M, D) and returns (M, 2). Observations are normalized with
+    ``act`` takes one beacon's observation (D,) and returns a float32 action (A,), A the
+    scenario's action size (2; 3 with ``channel_mode="decide"``, as ``ppo_sousa_ping``);
+    ``act_batch`` takes (M, D) and returns (M, A). Observations are normalized with
     the run's frozen VecNormalize statistics before the network sees them.
     """
 
@@ -572,8 +573,10 @@ def make_policy(
 ) -> BatchPolicy:
     """``baselines.make_policy``'s signature for trained policies: one policy per beacon
     and episode is cheap, since the loaded model is shared (cached by resolved path).
-    ``seed`` and ``agent`` are accepted for the interface; the policy ignores them
-    (deterministic, and parameter-shared across beacons). ``trust_pickle``: as ``load``."""
+    ``seed`` is accepted for the interface and ignored (the policies act deterministically);
+    ``agent`` is the beacon's index, which an entity policy reads as its role input and a
+    network-per-beacon run (RLlib, BenchMARL) uses to pick its module; a flat SB3 policy
+    shares one network across beacons and ignores it. ``trust_pickle``: as ``load``."""
     from . import batched_policy, benchmarl_policy, rllib_policy
 
     name_or_path = _shipped_run(name_or_path, env_or_config) or name_or_path  # a shipped BenchMARL or loop run

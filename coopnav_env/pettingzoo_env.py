@@ -92,13 +92,15 @@ class CoopNavParallelEnv(ParallelEnv):
     ``matos_moving_lbl``; Matos & Cruz): the agents are two boats, ``beacon_0`` = B1
     (the frame's origin) and ``beacon_1`` = B2, which define a moving frame; one AUV
     navigates in it by the three-interval LBL exchange and a six-state moving-frame
-    EKF (``core/moving_network.py``). Action: with ``action_mode="frame_velocity"``
+    EKF (the package ``core/moving_network/``). Action: with ``action_mode="frame_velocity"``
     (its default) (v_x, v_y) / max speed in the frame the boats' GPS defines (x
     along B1 -> B2, y 90 degrees clockwise), norm clipped to 1. Observation
     (``core.moving_network.OBS_FIELDS``, 15 values; ``obs_layout.decode_boat``):
     role, own velocity, baseline error, the vehicle as the boats track it
-    externally (position, velocity, fix age), the frame's bearing, own position
-    from the tracked vehicle, elapsed time. Reward: the vehicle filter's
+    externally (position, velocity, fix age, whether it has a fix), the frame's
+    bearing, own position from the tracked vehicle, elapsed time; ``matos_river``
+    adds the river (``RIVER_OBS_FIELDS``: the bank offset, the river's direction and
+    the river ahead from the boat), 20 values. Reward: the vehicle filter's
     information gain minus penalties for the baseline off its target, the frame
     turned, the vehicle near the baseline, a boat near the vehicle, no range fused.
     Infos add ``error_x_m``, ``error_y_m`` (moving-frame errors), ``phi_error_deg``,
