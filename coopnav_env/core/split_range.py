@@ -1,8 +1,8 @@
 """The split range model (``range_linearization="split"``, eqs. S1-S6): where one range's
 first-order update is poor, the range is linearized over its posterior instead of at the
 prior's mean (posterior linearization, Garcia-Fernandez, Svensson, Morelande & Sarkka 2015),
-with the posterior computed as a sum of Gaussians: the prior split along the direction in
-which the range bends most, each part updated at its own linearization point. The modem's
+with the posterior computed as a sum of Gaussians: the prior split along its widest
+horizontal axis, each part updated at its own linearization point. The modem's
 fusion kernel (``measurements.modem``) calls ``split_range_model`` before its ordinary update,
 as it calls the iterated model; docs/scenarios/consider-fusion.md#split says what it does and
 does not mend.
