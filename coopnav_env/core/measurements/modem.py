@@ -324,6 +324,23 @@ def _update(f, held, prm, j, H, meas, scratch, gated):
 
 
 @njit(cache=True, inline="always")
+def _relinearized(f, prm, j, H, meas, scratch, geo):
+    """(gated, H, meas): the first-order model (gated False: ``_kalman`` gates it), or with
+    ``range_linearization`` "iterated" (eqs. I1-I3) or "split" (eqs. S1-S6) the range gated
+    once on its first-order innovation at the prior and, if it passed, the model those
+    re-linearizations give (one that fails keeps its model, and ``_kalman`` refuses it).
+    Covariance intersection keeps the first-order model."""
+    if prm.fusion == CI or not (prm.iterated or prm.split):
+        return False, H, meas
+    gate, sch = _gate_of(prm, meas[0] - meas[1]), prm.fusion == SCHMIDT
+    if prm.iterated:
+        gated, Hi, mi = iterated_range_model(f, j, H, meas, scratch, geo, gate, sch)
+    else:
+        gated, Hi, mi = split_range_model(f, j, H, meas, scratch[1], scratch[0], geo, gate, sch)
+    return (True, Hi, mi) if gated else (False, H, meas)
+
+
+@njit(cache=True, inline="always")
 def _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, delays, sound_speed_rel_std):
     """Survey filter f's (``multipath.Moments``) prediction of beacon j's range: (h, H, R
     without the beacon's variance, R with it, the curvature's bias and variance); with
@@ -401,18 +418,8 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                 meas = (r, h, R, R_white, beacon_var, bias, var)
                 if prm.window:
                     remember(win, b, s, j, r, beacon, f.x[2], sv.dr[b, s], vel_est, delays, t_s)
-                gated = False
                 geo = RangeGeometry(vel_est, beacon, beacon_vel, noise_std, delays, rel_std, prm.two_way)
-                if prm.iterated and prm.fusion != CI:  # eqs. (I1)-(I3); one that fails the gate keeps its model
-                    gate, sch = _gate_of(prm, meas[0] - meas[1]), prm.fusion == SCHMIDT
-                    gated, Hi, mi = iterated_range_model(f, j, H, meas, scratch, geo, gate, sch)
-                    if gated:
-                        H, meas = Hi, mi
-                elif prm.split and prm.fusion != CI:  # eqs. (S1)-(S6): the range fitted over its posterior
-                    gate, sch = _gate_of(prm, meas[0] - meas[1]), prm.fusion == SCHMIDT
-                    gated, Hs, ms = split_range_model(f, j, H, meas, scratch[1], scratch[0], geo, gate, sch)
-                    if gated:
-                        H, meas = Hs, ms
+                gated, H, meas = _relinearized(f, prm, j, H, meas, scratch, geo)
                 fused, w_held = _update(f, held, prm, j, H, meas, scratch, gated)
                 if not fused:
                     out.rejected[b, j, s] = True
