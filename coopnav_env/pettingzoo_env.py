@@ -203,8 +203,7 @@ class CoopNavParallelEnv(ParallelEnv):
                 f"call reset() first{given}"
             )
         for a in actions:
-            if a not in self.possible_agents:
-                self._check_agent(a)  # a misspelt name: the closest
+            self._check_agent(a)  # a misspelt name: the closest
         dead = [a for a in actions if a not in self.agents]
         if dead:
             raise ValueError(f"actions given for agents that are not alive: {dead}; alive: {self.agents}")

@@ -169,9 +169,8 @@ class Progress:
         self._last_line = time.perf_counter()
 
     def close(self, stopped: bool = False) -> None:
-        """End the bar; in line mode a last line, "done" or, when the work ended early
-        (``stopped``: the ``with`` block raised, e.g. Ctrl-C; or fewer units than the total),
-        "stopped"."""
+        """End the bar; in line mode a last line: "stopped" when ``stopped`` (the ``with``
+        block raised, e.g. Ctrl-C) before the total was reached, else "done"."""
         if self._closed:
             return
         self._closed = True

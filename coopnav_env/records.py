@@ -64,7 +64,8 @@ def check_writable(out: str | os.PathLike[str]) -> None:
     while not os.path.exists(probe):
         probe = os.path.dirname(probe)
     if not os.path.isdir(probe):
-        raise OSError(f"{os.fspath(out)} lies under a file ({probe}), not a folder")
+        where = "is a file" if probe == target else f"lies under a file ({probe})"
+        raise OSError(f"{os.fspath(out)} {where}, not a folder")
     try:
         fd, tmp = tempfile.mkstemp(dir=probe, prefix=".coopnav-write-check.", suffix=".tmp")
     except OSError as err:

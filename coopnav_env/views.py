@@ -50,8 +50,8 @@ def check_observation(obs: ArrayLike, dim: int, batch: bool = False) -> np.ndarr
         o = np.asarray(obs, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"observation is not numeric: {obs!r:.80}") from None
-    want = (o.shape[0], dim) if batch and o.ndim == 2 else (dim,)
-    if o.shape != want or (batch and o.ndim != 2):
+    fits = (o.ndim == 2 and o.shape[1] == dim) if batch else o.shape == (dim,)
+    if not fits:
         shape = f"(M, {dim})" if batch else f"({dim},)"
         raise ValueError(f"observation{'s' if batch else ''} must have shape {shape}, got {o.shape}")
     bad = np.flatnonzero(~np.isfinite(o.reshape(-1)))

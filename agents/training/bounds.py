@@ -88,10 +88,11 @@ def check_bounds(config: Any) -> None:
     if config.seed is not None:  # numpy's and torch's global seeds (SB3's set_random_seed, Ray's)
         from coopnav_env.seeds import refuse_test_seeds
 
-        try:  # a test seed is named as one (it is out of range too)
-            refuse_test_seeds(config.seed, what="seed") if isinstance(config.seed, numbers.Integral) else None
-        except ValueError as err:
-            raise BoundsError(str(err)) from None
+        if isinstance(config.seed, numbers.Integral) and not isinstance(config.seed, bool):
+            try:  # a test seed is named as one (it is out of range too)
+                refuse_test_seeds(config.seed, what="seed")
+            except ValueError as err:
+                raise BoundsError(str(err)) from None
         _int_in(config.seed, 0, MAX_RUN_SEED, "seed")
     ev = config.eval
     _int_in(ev.episodes, 0, MAX_EVAL_EPISODES, "eval.episodes")
