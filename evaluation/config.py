@@ -19,6 +19,7 @@ import dataclasses
 import inspect
 import numbers
 import os
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -461,8 +462,10 @@ def prepare(config: EvalConfig) -> Plan:
     _check_output(config.out)
     outdir.check_not_in_use(config.out)
     out_state = outdir.snapshot(config.out)
-    if config.resume and not os.path.exists(config.out):  # a mistyped folder would start a new run
-        raise UsageError(f"nothing to resume: {config.out!r} does not exist; drop --resume to start a run there")
+    if config.resume and not os.path.exists(config.out):
+        # said, not refused: the resume command a run prints must work even when the run was
+        # killed before its folder was made; a mistyped folder is then seen at once
+        print(f"resuming: {config.out!r} does not exist: nothing to keep, the run starts afresh", file=sys.stderr)
     previous = outdir.read_previous(config.out) if config.resume else None
     given = None if config.policies is None else list(config.policies)
     if given is not None:

@@ -94,7 +94,7 @@ def test_common_random_numbers(tiny_run):
     assert all(len(v) == 1 for v in first.values())
 
 
-def test_resume_skips_done_episodes(tmp_path):
+def test_resume_skips_done_episodes(tmp_path, capsys):
     out = str(tmp_path / "r")
     assert evaluate.main(TINY + ["--policies", "static,ellipse", "--episodes", "2", "--out", out, "--no-figures"]) == 0
     before = rows(os.path.join(out, "episodes.csv"))
@@ -121,9 +121,10 @@ def test_resume_skips_done_episodes(tmp_path):
         ["--scenario", "sousa_asv", "--policies", "static", "--episodes", "1", "--out", out, "--resume"]
     )
     assert code == 2
-    # a mistyped folder is not resumed as a new run
-    code = evaluate.main(TINY + ["--policies", "static", "--out", str(tmp_path / "r_typo"), "--resume"])
-    assert code == 2 and not (tmp_path / "r_typo").exists()
+    # a folder that does not exist is said so (a mistyped one is seen at once); the run starts afresh,
+    # since the resume command a killed run prints must work before its folder exists
+    code = evaluate.main(TINY + ["--policies", "static", "--out", str(tmp_path / "r_typo"), "--resume", "--no-figures"])
+    assert code == 0 and "does not exist: nothing to keep" in capsys.readouterr().err
 
 
 def test_sweep_writes_the_table_layout(tmp_path):
