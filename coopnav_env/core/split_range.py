@@ -1,8 +1,8 @@
 """The split range model (``range_linearization="split"``, eqs. S1-S6): where one range's
 first-order update is poor, the range is linearized over its posterior instead of at the
 prior's mean (posterior linearization, Garcia-Fernandez, Svensson, Morelande & Sarkka 2015),
-with the posterior computed as a sum of Gaussians: the prior split along its widest
-horizontal axis, each part updated at its own linearization point. The modem's
+with the posterior computed as a sum of Gaussians: the prior split across the line of sight,
+where the range bends, each part updated at its own linearization point. The modem's
 fusion kernel (``measurements.modem``) calls ``split_range_model`` before its ordinary update,
 as it calls the iterated model; docs/scenarios/consider-fusion.md#split says what it does and
 does not mend.
@@ -72,9 +72,11 @@ def split_range_model(
          Pd = P - X - X^T + Pbb (Schmidt; P with white, whose R holds the beacon's variance);
          split when the range bends over it, tr(M Pd M Pd) / 2 > SPLIT_TRIGGER^2 S (eq. L3
          against the first-order innovation's S);
-    (S2) Pd split along its largest horizontal axis s = Pd v / sqrt(lam): component k has mean
-         offset a_k s and covariance Pd - (1 - w^2) s s^T (a_k, q_k: SPLIT_OFFSETS,
-         SPLIT_WEIGHTS; w = SPLIT_WIDTH), so the sum keeps Pd's mean and covariance;
+    (S2) Pd split along s = Pd v / sqrt(v^T Pd v), v the horizontal unit vector across the
+         line of sight (where the range bends; with the beacon straight above, Pd's widest
+         horizontal axis): component k has mean offset a_k s and covariance
+         Pd - (1 - w^2) s s^T (a_k, q_k: SPLIT_OFFSETS, SPLIT_WEIGHTS; w = SPLIT_WIDTH), so the
+         sum keeps Pd's mean and covariance;
     (S3) each component updated at its own mean (the EKF, noise R; white: R_white), weight
          q_k N(r; h_k, S_k), normalized: the posterior of d as a sum, means m_k, covariances C_k;
     (S4) the range fitted over that posterior (statistical linear regression, each component
@@ -110,31 +112,36 @@ def split_range_model(
     _, var = range_curvature(Pd, np.zeros((3, 2)), 0.0, H, h)
     if not var > SPLIT_TRIGGER * SPLIT_TRIGGER * S:
         return True, H, meas
-    A, hbar, omega = posterior_fit(f.x, Pd, r, noise, geo)
+    A, hbar, omega = posterior_fit(f.x, Pd, H, r, noise, geo)
     return True, A, (r, hbar, R + omega, R_white + omega, beacon_var, 0.0, 0.0)
 
 
 @njit(cache=True)
 def posterior_fit(
-    x: np.ndarray, Pd: np.ndarray, r: float, noise: float, geo: RangeGeometry
+    x: np.ndarray, Pd: np.ndarray, H: np.ndarray, r: float, noise: float, geo: RangeGeometry
 ) -> tuple[np.ndarray, float, float]:
     """Eqs. (S2)-(S5) for a prior estimate x (3,) whose position relative to the beacon has
-    covariance Pd (3, 3), a range r of noise variance ``noise`` and the range's geometry geo
+    covariance Pd (3, 3), the range's gradient H (3,) at x, a range r of noise variance
+    ``noise`` and the range's geometry geo
     (``iterated.RangeGeometry``): the slope A (3,), the prediction at the prior h_eff and the
     variance Omega the fit leaves, of the range fitted over its posterior."""
-    a, b, c = Pd[0, 0], Pd[0, 1], Pd[1, 1]
-    half = 0.5 * (a - c)
-    lam = 0.5 * (a + c) + np.sqrt(half * half + b * b)
-    if b != 0.0:
-        v0, v1 = lam - c, b
-    elif a >= c:
-        v0, v1 = 1.0, 0.0
-    else:
-        v0, v1 = 0.0, 1.0
-    nv = np.sqrt(v0 * v0 + v1 * v1)
-    v0 /= nv
-    v1 /= nv
-    sd = np.sqrt(max(lam, 1e-12))
+    hh = np.sqrt(H[0] * H[0] + H[1] * H[1])
+    if hh > 1e-3:  # across the line of sight, where the range bends
+        v0, v1 = -H[1] / hh, H[0] / hh
+    else:  # the beacon straight above or below: it bends every way; the widest axis
+        a, b, c = Pd[0, 0], Pd[0, 1], Pd[1, 1]
+        half = 0.5 * (a - c)
+        lam = 0.5 * (a + c) + np.sqrt(half * half + b * b)
+        if b != 0.0:
+            v0, v1 = lam - c, b
+        elif a >= c:
+            v0, v1 = 1.0, 0.0
+        else:
+            v0, v1 = 0.0, 1.0
+        nv = np.sqrt(v0 * v0 + v1 * v1)
+        v0 /= nv
+        v1 /= nv
+    sd = np.sqrt(max(Pd[0, 0] * v0 * v0 + 2.0 * Pd[0, 1] * v0 * v1 + Pd[1, 1] * v1 * v1, 1e-12))
     s = np.zeros(3)
     for i in range(3):
         s[i] = (Pd[i, 0] * v0 + Pd[i, 1] * v1) / sd
