@@ -319,8 +319,8 @@ def _checked_seed(seed: int | Sequence[int] | None) -> int | Sequence[int] | Non
 
     if seed is None:
         return None
-    if isinstance(seed, (list, tuple)):
-        return type(seed)(check_seed(s, what="policy seed") for s in seed)
+    if isinstance(seed, (list, tuple, np.ndarray)):  # a sequence of them, kept as a tuple
+        return tuple(check_seed(s, what="policy seed") for s in np.asarray(seed, dtype=object).reshape(-1))
     return check_seed(seed, what="policy seed")
 
 

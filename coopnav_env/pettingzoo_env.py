@@ -278,7 +278,9 @@ class CoopNavAEC(parallel_to_aec_wrapper):
 
     def step(self, action: Any) -> None:
         agent = self.agent_selection
-        if action is not None and not (self.terminations.get(agent) or self.truncations.get(agent)):
+        if not (self.terminations.get(agent) or self.truncations.get(agent)):
+            if action is None:  # stored, it would fail every later turn until reset
+                raise ValueError(f"action for {agent} is None: a live agent needs one (None is for agents done)")
             action = check_action(agent, action, self.env.action_space(agent).shape[0])
         super().step(action)
 

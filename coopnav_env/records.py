@@ -62,7 +62,10 @@ def check_writable(out: str | os.PathLike[str]) -> None:
     target = os.path.abspath(os.fspath(out))
     probe = target
     while not os.path.exists(probe):
-        probe = os.path.dirname(probe)
+        parent = os.path.dirname(probe)
+        if parent == probe:  # a root that does not exist (a missing drive or share)
+            raise OSError(f"{os.fspath(out)}: {probe} does not exist")
+        probe = parent
     if not os.path.isdir(probe):
         where = "is a file" if probe == target else f"lies under a file ({probe})"
         raise OSError(f"{os.fspath(out)} {where}, not a folder")

@@ -47,17 +47,22 @@ def check_observation(obs: ArrayLike, dim: int, batch: bool = False) -> np.ndarr
     answer with a NaN action, or fail deep inside its network. The environments never give
     one; a user's edited or hand-built observation can."""
     try:
-        o = np.asarray(obs, dtype=np.float64)
+        complex_ = np.iscomplexobj(obs)
+        o = None if complex_ else np.asarray(obs, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"observation is not numeric: {obs!r:.80}") from None
+    if o is None:
+        raise ValueError("observation must be real, got a complex array")
     fits = (o.ndim == 2 and o.shape[1] == dim) if batch else o.shape == (dim,)
     if not fits:
         shape = f"(M, {dim})" if batch else f"({dim},)"
         raise ValueError(f"observation{'s' if batch else ''} must have shape {shape}, got {o.shape}")
-    bad = np.flatnonzero(~np.isfinite(o.reshape(-1)))
+    bad = np.argwhere(~np.isfinite(o))
     if bad.size:
-        where = ", ".join(str(int(i) % dim) for i in bad[:5]) + (", ..." if bad.size > 5 else "")
-        raise ValueError(f"observation must be finite, got {bad.size} NaN or infinite value(s) (entries {where})")
+        where = ", ".join(str(tuple(int(k) for k in i)) if batch else str(int(i[0])) for i in bad[:5])
+        more = ", ..." if len(bad) > 5 else ""
+        what = "(row, entry)" if batch else "entries"
+        raise ValueError(f"observation must be finite, got {len(bad)} NaN or infinite value(s) ({what} {where}{more})")
     return o
 
 
@@ -69,11 +74,13 @@ def check_action(agent: str, action: ArrayLike, dim: int = 2) -> np.ndarray:
     ``dim=3`` (``channel_mode="decide"``) a two-component action (the motion alone)
     is accepted too and means "transmit every slot", the fixed clock.
     """
-    if np.iscomplexobj(action):  # numpy would drop the imaginary part with only a warning
-        raise ValueError(f"action for {agent} must be real, got {action!r}")
     try:
+        if np.iscomplexobj(action):  # numpy would drop the imaginary part with only a warning
+            raise ValueError(f"action for {agent} must be real, got {action!r}")
         a = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError) as err:
+        if "must be real" in str(err):
+            raise
         raise ValueError(f"action for {agent} is not numeric: {action!r}") from err
     if a.shape != (dim,) and not (dim == 3 and a.shape == (2,)):
         raise ValueError(f"action for {agent} must have shape ({dim},), got shape {a.shape}")

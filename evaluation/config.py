@@ -346,7 +346,7 @@ def _check_output(out: str):
     if os.path.exists(out) and not os.path.isdir(out):
         raise UsageError(f"output path {out!r} is a file, not a directory")
     parent = os.path.dirname(os.path.abspath(out))
-    while parent and not os.path.exists(parent):
+    while parent and not os.path.exists(parent) and os.path.dirname(parent) != parent:
         parent = os.path.dirname(parent)
     if parent and not os.path.isdir(parent):
         raise UsageError(f"output path {out!r} is under a file ({parent!r})")

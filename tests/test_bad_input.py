@@ -82,6 +82,8 @@ def test_aec_refuses_a_nan_on_its_own_turn_and_does_not_keep_it():
     with pytest.raises(ValueError, match="action for beacon_0 must be finite"):
         aec.step(np.array([np.nan, 0.0]))
     assert aec.agent_selection == "beacon_0"
+    with pytest.raises(ValueError, match="action for beacon_0 is None: a live agent needs one"):
+        aec.step(None)
     aec.step(ZERO)
     aec.step(ZERO)  # beacon_1's turn: the cycle runs
     assert aec.agent_selection == "beacon_0" and np.isfinite(aec.last()[0]).all()
@@ -480,3 +482,8 @@ def test_smaller_slips_are_one_line_naming_the_closest():
     env = _env()
     with pytest.raises(ValueError, match="action for beacon_0 must be real"):
         env.step({"beacon_0": np.array([1j, 0.0])})
+    with pytest.raises(ValueError, match="action for beacon_0 is not numeric"):  # ragged
+        env.step({"beacon_0": [[1.0, 2.0], [3.0]]})
+    import baselines
+
+    assert baselines.make_policy("random", env, seed=np.array([3, 0])).seed == (3, 0)  # numpy seeds, as before

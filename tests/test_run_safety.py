@@ -748,6 +748,10 @@ def test_a_folder_that_cannot_be_written_is_refused_before_anything_is_built(tmp
         check_writable(tmp_path / "file" / "run")
     check_writable(tmp_path / "new" / "deeper")  # a writable parent: fine, nothing left behind
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+    with monkeypatch.context() as m:  # a root that does not exist (a missing drive): an error, not a loop
+        m.setattr("os.path.exists", lambda path: False)
+        with pytest.raises(OSError, match="does not exist"):
+            check_writable(tmp_path / "run")
 
     def refuse(*args, **kwargs):
         raise PermissionError(13, "Permission denied")

@@ -217,6 +217,9 @@ def test_a_bad_seed_or_device_is_one_line_and_exit_2_before_training(tmp_path):
 
     if not torch.cuda.is_available():
         cases.append((["--device", "cuda"], "no CUDA device"))
+    from agents.training.cli import check_device
+
+    check_device("auto")  # SB3's own value: accepted
     for extra, message in cases:
         out = tmp_path / "x"
         r = _cli("--scenario", "sousa_asv", "--timesteps", "10", "--out", str(out), *extra)

@@ -329,6 +329,8 @@ def check_device(device: str) -> None:
     machine without one (SB3 would fall back to the CPU without a word)."""
     import torch
 
+    if device == "auto":  # SB3's own: CUDA if there is one, else the CPU
+        return
     try:
         kind = torch.device(device).type
     except (RuntimeError, ValueError):

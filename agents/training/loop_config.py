@@ -13,7 +13,6 @@ from .config import EntitySpec
 CRITICS = ("state", "observation")
 ENTITY = asdict(EntitySpec())  # --entity: train.py's default encoder, the shipped entity policies'
 MAX_HISTORY = 64  # observations in the window at most (the rollout buffer grows with it)
-TRAINER = "batched_ppo"  # run.json's "trainer" (agents.batched_policy.is_batched_path)
 
 
 @dataclass

@@ -368,9 +368,9 @@ class SurveyEKF(Section):
             "core/navigation.range_curvature, eqs. L1-L3): the prediction's bias and the variance the "
             "linearization leaves, which matter when the estimate's error is not small against the range; "
             "'iterated', the iterated EKF's update (Gauss-Newton steps re-linearizing at its own result, "
-            "core/iterated.py, eqs. I1-I3); 'split', where the range bends over the prior the prior split into "
-            "Gaussians along that direction, each updated at its own point and merged by moments "
-            "(core/split_range.py, eqs. S1-S6) "
+            "core/iterated.py, eqs. I1-I3); 'split', where the range bends over the prior, the range fitted "
+            "over its posterior (the prior split into Gaussians across the line of sight, each updated at its "
+            "own point) and that fit fused by the ordinary update (core/split_range.py, eqs. S1-S6) "
             "(the modem sensor of network='survey_beacons' only)"
         ),
     )
