@@ -117,14 +117,10 @@ def split_range_model(
 
 
 @njit(cache=True)
-def posterior_fit(
-    x: np.ndarray, Pd: np.ndarray, H: np.ndarray, r: float, noise: float, geo: RangeGeometry
-) -> tuple[np.ndarray, float, float]:
-    """Eqs. (S2)-(S5) for a prior estimate x (3,) whose position relative to the beacon has
-    covariance Pd (3, 3), the range's gradient H (3,) at x, a range r of noise variance
-    ``noise`` and the range's geometry geo
-    (``iterated.RangeGeometry``): the slope A (3,), the prediction at the prior h_eff and the
-    variance Omega the fit leaves, of the range fitted over its posterior."""
+def _split_direction(Pd: np.ndarray, H: np.ndarray) -> tuple[float, float]:
+    """Eq. (S2)'s horizontal unit vector: across the line of sight, where the range bends;
+    with the beacon straight above or below (it bends every way), Pd's widest horizontal
+    axis."""
     hh = np.sqrt(H[0] * H[0] + H[1] * H[1])
     if hh > 1e-3:  # across the line of sight, where the range bends
         v0, v1 = -H[1] / hh, H[0] / hh
@@ -141,6 +137,19 @@ def posterior_fit(
         nv = np.sqrt(v0 * v0 + v1 * v1)
         v0 /= nv
         v1 /= nv
+    return v0, v1
+
+
+@njit(cache=True)
+def posterior_fit(
+    x: np.ndarray, Pd: np.ndarray, H: np.ndarray, r: float, noise: float, geo: RangeGeometry
+) -> tuple[np.ndarray, float, float]:
+    """Eqs. (S2)-(S5) for a prior estimate x (3,) whose position relative to the beacon has
+    covariance Pd (3, 3), the range's gradient H (3,) at x, a range r of noise variance
+    ``noise`` and the range's geometry geo
+    (``iterated.RangeGeometry``): the slope A (3,), the prediction at the prior h_eff and the
+    variance Omega the fit leaves, of the range fitted over its posterior."""
+    v0, v1 = _split_direction(Pd, H)
     sd = np.sqrt(max(Pd[0, 0] * v0 * v0 + 2.0 * Pd[0, 1] * v0 * v1 + Pd[1, 1] * v1 * v1, 1e-12))
     s = np.zeros(3)
     for i in range(3):
