@@ -137,7 +137,8 @@ def test_far_off_close_pass_stays_over_confident():
     assert it.mean() > 8.0 and np.mean(it > above) > 0.05, (it.mean(), np.mean(it > above))
 
 
-def test_the_option_is_wired():
+@pytest.mark.parametrize("linearization", ["iterated", "split"])  # split: core/split_range.py
+def test_the_option_is_wired(linearization):
     def run(**kw):
         cfg = make_config("sousa_asv", max_cycles=20, **kw)
         sim = Simulator(cfg, batch_size=4)
@@ -146,7 +147,7 @@ def test_the_option_is_wired():
             sim.step(np.broadcast_to(np.array([1.0, 0.0]), (4, sim.N, 2)).copy())
         return sim.state.s_est.copy()
 
-    assert not np.array_equal(run(), run(range_linearization="iterated"))
-    np.testing.assert_allclose(run(), run(range_linearization="iterated"), atol=1.0)  # a small move, not a blow-up
-    with pytest.raises(ValueError, match="range_linearization='iterated'"):
-        make_config("swarm_mls", range_linearization="iterated")
+    assert not np.array_equal(run(), run(range_linearization=linearization))
+    np.testing.assert_allclose(run(), run(range_linearization=linearization), atol=1.0)  # a small move, not a blow-up
+    with pytest.raises(ValueError, match=f"range_linearization='{linearization}'"):
+        make_config("swarm_mls", range_linearization=linearization)

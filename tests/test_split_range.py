@@ -153,21 +153,6 @@ def test_the_joint_covariance_stays_positive_definite_in_the_simulator():
     assert moved and worst > -1e-9, worst
 
 
-def test_the_option_is_wired():
-    def run(**kw):
-        cfg = make_config("sousa_asv", max_cycles=20, **kw)
-        sim = Simulator(cfg, batch_size=4)
-        sim.reset(np.arange(4))
-        for _ in range(20):
-            sim.step(np.broadcast_to(np.array([1.0, 0.0]), (4, sim.N, 2)).copy())
-        return sim.state.s_est.copy()
-
-    assert not np.array_equal(run(), run(range_linearization="split"))
-    np.testing.assert_allclose(run(), run(range_linearization="split"), atol=1.0)  # a small move, not a blow-up
-    with pytest.raises(ValueError, match="range_linearization='split'"):
-        make_config("swarm_mls", range_linearization="split")
-
-
 @pytest.mark.parametrize("bearing_deg", [0.0, 90.0, 30.0])
 def test_the_split_is_across_the_line_of_sight_whatever_the_bearing(bearing_deg):
     """An isotropic prior (20 m std) 42 m from the beacon: the range bends across the line of
