@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from coopnav_env.core.navigation import gated_update, range_curvature
+from coopnav_env.core.navigation import gated_update, range_curvature, relative_covariance
 from coopnav_env.core.sim import Simulator
 from coopnav_env.scenarios import make_config
 
@@ -40,6 +40,21 @@ def test_hand_values():
     assert bias == pytest.approx((100.0 - 60.0 + 20.0) / 60.0)
     # no range, no terms
     assert range_curvature(np.eye(3), np.zeros((3, 2)), 0.0, np.zeros(3), 0.0) == (0.0, 0.0)
+
+
+def test_the_relative_covariance_is_that_of_x_minus_b():
+    """Eq. (L0), the one home of Pd: the covariance of d = x - E^T b for a joint Gaussian of
+    the survey's x (3) and the beacon's horizontal error b (2) with cross-covariance Pxb,
+    against the joint covariance's own algebra, entry by entry and not symmetric in Pxb."""
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(5, 5))
+    J = A @ A.T + np.eye(5)  # the joint covariance of (x, b)
+    P, Pxb, bvar = J[:3, :3], J[:3, 3:], 2.5
+    J[3:, 3:] = bvar * np.eye(2)
+    T = np.hstack([np.eye(3), -np.eye(3)[:, :2]])  # d = T (x, b)
+    expected = T @ J @ T.T
+    got = np.array([[relative_covariance(P, Pxb, bvar, i, j) for j in range(3)] for i in range(3)])
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
 
 
 def test_matches_monte_carlo():

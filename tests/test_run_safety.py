@@ -766,3 +766,24 @@ def test_a_folder_that_cannot_be_written_is_refused_before_anything_is_built(tmp
     err = capsys.readouterr().err
     assert err.count("Permission denied") == 3 and "Traceback" not in err, err
     assert not (tmp_path / "run").exists()
+
+
+def test_a_resumed_run_in_a_folder_that_cannot_be_written_is_refused(run, monkeypatch, capsys):
+    """``--resume`` writes checkpoints into the run's folder: a folder that refuses a new file
+    (faked, since the tests may run as root) is one line, exit 2, before anything is built,
+    and the folder is left as it was; ``evaluate.py --resume`` likewise."""
+    import tempfile
+
+    before = tree_hash(run)
+
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    code, err = train(["--resume", str(run), "--no-progress"], capsys)
+    one_line_exit_2(code, err, "Permission denied")
+    assert "--resume" in err
+    assert tree_hash(run) == before
+    code, err = evaluate(["--scenario", "gao_sea", "--episodes", "2", "--out", str(run / "eval"), "--resume"], capsys)
+    one_line_exit_2(code, err, "Permission denied")
+    assert tree_hash(run) == before

@@ -243,6 +243,12 @@ def run(args: argparse.Namespace, argv: list[str] | None = None) -> int:
         from . import runlock
 
         read_run_record(out)  # a run folder (one line else), then: one trainer at a time, nothing read outside it
+        from coopnav_env.records import check_writable
+
+        try:  # a resumed run writes checkpoints there: refused now, not after the environments are built
+            check_writable(out)
+        except OSError as err:
+            raise ConfigError(f"--resume {out}: {err}") from None
         runlock.hold(out)
         check_tree(out)
         backend = read_run_record(out)["args"].get("backend") or "sb3"

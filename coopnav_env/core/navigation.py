@@ -88,6 +88,23 @@ def moving_range_prediction(
     return h, H
 
 
+@njit(cache=True, inline="always")
+def relative_covariance(P: np.ndarray, Pxb: np.ndarray, beacon_var_m2: float, i: int, j: int) -> float:
+    """Entry (i, j) of Pd = P - Pxb E - E^T Pxb^T + Pbb (eq. L0): the covariance of the survey's
+    position relative to the beacon's true one, d = x - b, with P the filter's 3x3, Pxb (3, 2)
+    its cross-covariance with the beacon's horizontal error, Pbb = beacon_var_m2 I2 and E the
+    (2, 3) embedding of the horizontal plane. The one home of Pd (``range_curvature`` and
+    ``split_range.split_range_model`` read it): an entry, so a caller allocates nothing."""
+    d = P[i, j]
+    if j < 2:
+        d -= Pxb[i, j]
+    if i < 2:
+        d -= Pxb[j, i]
+        if i == j:
+            d += beacon_var_m2
+    return d
+
+
 @njit(cache=True)
 def range_curvature(
     P: np.ndarray, Pxb: np.ndarray, beacon_var_m2: float, H: np.ndarray, h: float
@@ -96,7 +113,8 @@ def range_curvature(
     Bar-Shalom, Li & Kirubarajan 2001, ch. 10): with the relative position d = x - b of
     covariance Pd = P - Pxb - Pxb^T + Pbb (P the filter's 3x3, Pxb (3, 2) its
     cross-covariance with the beacon's horizontal error, Pbb = beacon_var_m2 I2), the
-    range |d| has Hessian M = (I - u u^T) / h, u = H / |H| (eq. L1), so
+    range |d| has Hessian M = (I - u u^T) / h, u = H / |H| (eq. L1; Pd: eq. L0,
+    ``relative_covariance``), so
 
     E[r] ~ h + tr(M Pd) / 2 (eq. L2), and its variance beyond H Pd H^T is
     tr(M Pd M Pd) / 2 (eq. L3).
@@ -116,16 +134,11 @@ def range_curvature(
     for i in range(3):
         wi = 0.0
         for j in range(3):
-            d = P[i, j]
-            if j < 2:
-                d -= Pxb[i, j]
-            if i < 2:
-                d -= Pxb[j, i]
-                if i == j:
-                    d += beacon_var_m2
+            d = relative_covariance(P, Pxb, beacon_var_m2, i, j)  # eq. (L0)
             tr2 += d * d
             wi += d * H[j] / n
-        tr += P[i, i] - (2.0 * Pxb[i, i] - beacon_var_m2 if i < 2 else 0.0)
+            if i == j:
+                tr += d
         uPu += H[i] / n * wi
         w2 += wi * wi
     bias = 0.5 * (tr - uPu) / h  # eq. (L2)

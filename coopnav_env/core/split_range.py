@@ -31,7 +31,7 @@ from numba import njit
 from .consider import schmidt_range_update
 from .iterated import RangeGeometry
 from .multipath import Moments
-from .navigation import innovation_variance, moving_range_prediction, range_curvature
+from .navigation import innovation_variance, moving_range_prediction, range_curvature, relative_covariance
 
 SPLIT_COMPONENTS = 15  # eq. (S2)'s Gaussians
 SPLIT_WIDTH = 0.5  # each one's std along the split direction, as a fraction of the prior's
@@ -100,18 +100,16 @@ def split_range_model(
     if not y * y / S <= gate:
         return False, H, meas
     noise = R if schmidt else R_white
-    # (S1) the relative position's covariance
-    Pd = f.P.copy()
-    if schmidt:
-        for i in range(3):
-            for q in range(2):
-                Pd[i, q] -= f.X[j, i, q]
-                Pd[q, i] -= f.X[j, i, q]
-        Pd[0, 0] += beacon_var
-        Pd[1, 1] += beacon_var
-    _, var = range_curvature(Pd, np.zeros((3, 2)), 0.0, H, h)
+    # (S1) the relative position's covariance (eq. L0): with white, P alone (its R holds the
+    # beacon's variance, which the fit over P cannot mend, so the trigger leaves it out too)
+    pbb = beacon_var if schmidt else 0.0
+    _, var = range_curvature(f.P, f.X[j], pbb, H, h)
     if not var > SPLIT_TRIGGER * SPLIT_TRIGGER * S:
         return True, H, meas
+    Pd = np.empty((3, 3))
+    for i in range(3):
+        for q in range(3):
+            Pd[i, q] = relative_covariance(f.P, f.X[j], pbb, i, q) if schmidt else f.P[i, q]
     A, hbar, omega = posterior_fit(f.x, Pd, H, r, noise, geo)
     return True, A, (r, hbar, R + omega, R_white + omega, beacon_var, 0.0, 0.0)
 
