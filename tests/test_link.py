@@ -68,6 +68,22 @@ def test_band_noise_flat_and_integrated_agree():
     assert L.band_noise_db(band, L.NoiseConditions(0.5, 15.0)) > L.band_noise_db(band, noise) + 3.0
 
 
+
+def test_a_band_reaching_0_hz_is_refused_not_silent():
+    """The turbulence term diverges at 0 Hz: a 4 kHz band around 2 kHz gave +inf noise
+    (around 1 kHz NaN), so every packet was lost without a word. Refused, in the link and
+    in a scenario, with the widest band that fits."""
+    from coopnav_env.scenarios import make_config
+
+    with pytest.raises(ValueError, match="reaches 0 Hz"):
+        L.band_noise_db(L.Band(2.0, 4000.0))
+    with pytest.raises(ValueError, match="reaches -1000 Hz"):
+        L.band_noise_db(L.Band(1.0, 4000.0), integrate=False)
+    assert np.isfinite(L.band_noise_db(L.Band(2.0, 3998.0)))
+    with pytest.raises(ValueError, match="the widest band there is 3998 Hz"):
+        make_config("sousa_ping", band_center_khz=2.0)
+    make_config("sousa_ping", band_center_khz=2.0, band_width_hz=3998.0)
+
 # ------------------------------------------------------------------------------ SNR
 
 
@@ -78,7 +94,9 @@ def test_snr_by_hand():
     nl = L.band_noise_db(p.band, p.noise, integrate=False)
     assert L.snr_db(1000.0, p, noise_db=nl) == pytest.approx(44.3265, abs=1e-3)
     # a 3 dB directivity index adds 3 dB
-    assert L.snr_db(1000.0, p._replace(directivity_index_db=3.0), noise_db=nl) == pytest.approx(47.3265, abs=1e-3)
+    assert L.snr_db(1000.0, p._replace(receive_directivity_index_db=3.0), noise_db=nl) == pytest.approx(
+        47.3265, abs=1e-3
+    )
 
 
 def test_detection_models_at_the_threshold():
@@ -186,6 +204,25 @@ def test_capture_a_near_ping_survives_a_far_one():
     tx = L.SlotTransmissions(pos, np.zeros_like(pos), np.array([[NAN, 0.0, 0.0]]), 5.0, 185.0, 256)
     o = L.slot_timeline(tx, C, L.LinkParams(band=L.Band(1.0, 400.0)))
     assert o.sir_db[0, 1, 0] == pytest.approx(20.0621, abs=1e-3) and o.captured[0, 1, 0]
+
+
+def test_a_captured_packet_is_decoded_at_its_sinr_not_its_snr():
+    # receiver at the origin, senders at 1 km and 2 km, both at t = 0: the near one is
+    # captured with SIR = TL(2000) - TL(1000) = 20 log10 2 + 6.1048 x 1.0 = 12.125 dB, and
+    # decoded against noise and the far packet together: SINR = 1 / (1/SNR + 1/SIR), linear.
+    # SNR 44.3 dB, so SINR = 12.12 dB; Rayleigh P = exp(-10^0.3 / 10^1.212) = exp(-1.995 / 16.29) = 0.885 (the
+    # 3 dB threshold); at 4 kHz / 80 bps Eb/N0 is 815, no bit errors: P = 0.885, where
+    # the SNR alone gives 0.9999 (what the kernel gave before it counted the interference)
+    o = slot([0.0, 1000.0, 2000.0], [NAN, 0.0, 0.0])
+    assert o.captured[0, 1, 0] and not o.captured[0, 2, 0]
+    assert o.sir_db[0, 1, 0] == pytest.approx(12.125, abs=1e-3)
+    snr, sir = o.snr_db[0, 1, 0], o.sir_db[0, 1, 0]
+    sinr_lin = 1.0 / (10.0 ** (-snr / 10.0) + 10.0 ** (-sir / 10.0))
+    assert 10.0 * np.log10(sinr_lin) == pytest.approx(12.12, abs=0.01)
+    assert o.p_success[0, 1, 0] == pytest.approx(np.exp(-(10.0**0.3) / sinr_lin), rel=1e-6)
+    assert o.p_success[0, 1, 0] == pytest.approx(0.885, abs=1e-3)
+    alone = slot([0.0, 1000.0, 2000.0], [NAN, 0.0, NAN])  # the far sender silent: the SNR's
+    assert alone.p_success[0, 1, 0] > 0.9999
 
 
 def test_two_equal_overlapping_pings_are_both_lost():

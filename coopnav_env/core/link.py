@@ -127,8 +127,10 @@ class LinkParams(NamedTuple):
       are said to reach 185-190 dB (issue 21's brief); no source found here.
     - ``spreading_k``: 2 spherical (default, conservative), 1.5 "practical"
       (Stojanovic 2007).
-    - ``directivity_index_db``: DI, 0 for the omnidirectional transducers of small
-      vehicles.
+    - ``receive_directivity_index_db``: DI of the *receiving* transducer against isotropic
+      noise (SNR = SL - TL - (NL - DI)), 0 for the omnidirectional transducers of small
+      vehicles. The transmitter's directivity is inside SL already (``link_energy``'s
+      ``transmit_directivity_index_db``, a different quantity).
     - ``detection_threshold_db``: the in-band SNR the probe detector needs, 3 dB [U].
     - ``detection_model``: "rayleigh" (default) or "logistic"; see
       ``detection_probability``.
@@ -147,7 +149,7 @@ class LinkParams(NamedTuple):
     noise: NoiseConditions = NoiseConditions()
     source_level_db: float = 185.0
     spreading_k: float = 2.0
-    directivity_index_db: float = 0.0
+    receive_directivity_index_db: float = 0.0
     detection_threshold_db: float = 3.0
     detection_model: str = "rayleigh"
     logistic_width_db: float = 2.0
@@ -191,7 +193,8 @@ class SlotOutcome(NamedTuple):
     - ``overlapped``: another reception overlaps it (intervals that only touch do not).
     - ``captured``: it survives its overlaps (none, or SIR >= capture threshold).
     - ``deaf``: the receiver transmits during some part of it (half duplex).
-    - ``p_success``: P(detect) x (1 - PER) from the SNR; 0 where deaf or not captured.
+    - ``p_success``: P(detect) x (1 - PER) at the SINR, 1 / (1 / SNR + 1 / SIR) (the SNR
+      where nothing overlaps); 0 where deaf or not captured.
     """
 
     arrival_s: np.ndarray
@@ -218,7 +221,7 @@ class _KernelScalars(NamedTuple):
     center_khz: float
     bandwidth_hz: float
     spreading_k: float
-    directivity_index_db: float
+    receive_directivity_index_db: float
     detection_threshold_db: float
     logistic_width_db: float  # <= 0: Rayleigh model
     capture_threshold_db: float
@@ -251,6 +254,9 @@ def transmission_loss_db(range_m: float, f_khz: float, spreading_k: float) -> fl
     return spreading_k * 10.0 * math.log10(r) + thorp_absorption_db_per_km(f_khz) * r / 1000.0
 
 
+MIN_BAND_EDGE_HZ = 1.0  # the lowest frequency of Wenz (1962)'s curves, which noise_psd_db's terms fit
+
+
 @vectorize(["float64(float64, float64, float64)"], cache=True)
 def noise_psd_db(f_khz: float, shipping: float, wind_mps: float) -> float:
     """Ambient noise power spectral density, dB re 1 uPa^2/Hz, f in kHz: the power sum
@@ -276,6 +282,12 @@ def band_noise_db(
     """Noise power in the band, dB re 1 uPa^2: the PSD integrated over
     [fc - B/2, fc + B/2] (trapezoid on ``points`` frequencies, linear power) or, with
     ``integrate=False``, NL(fc) + 10 log10(B) (flat over the band)."""
+    low_hz = 1000.0 * band.center_khz - 0.5 * band.bandwidth_hz
+    if not (band.bandwidth_hz > 0.0 and low_hz >= MIN_BAND_EDGE_HZ):  # the turbulence term diverges at 0 Hz
+        raise ValueError(
+            f"a band of {band.bandwidth_hz:g} Hz around {band.center_khz:g} kHz reaches {low_hz:g} Hz: it must be "
+            f"positive and start at or above {MIN_BAND_EDGE_HZ:g} Hz"
+        )
     if not integrate:
         return float(noise_psd_db(band.center_khz, noise.shipping, noise.wind_mps) + 10.0 * np.log10(band.bandwidth_hz))
     half_khz = 0.5 * band.bandwidth_hz / 1000.0
@@ -290,10 +302,11 @@ def band_noise_db(
 
 @vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
 def received_level_db(
-    source_level_db: float, range_m: float, f_khz: float, spreading_k: float, directivity_index_db: float
+    source_level_db: float, range_m: float, f_khz: float, spreading_k: float, receive_directivity_index_db: float
 ) -> float:
-    """RL = SL - TL(r, f) + DI, dB re 1 uPa (Urick 1983). A ufunc."""
-    return source_level_db - transmission_loss_db(range_m, f_khz, spreading_k) + directivity_index_db
+    """RL = SL - TL(r, f) + DI, dB re 1 uPa (Urick 1983), DI the receiver's (so that RL - NL
+    is SL - TL - (NL - DI), the receiving array's gain against isotropic noise). A ufunc."""
+    return source_level_db - transmission_loss_db(range_m, f_khz, spreading_k) + receive_directivity_index_db
 
 
 def snr_db(
@@ -308,7 +321,11 @@ def snr_db(
     nl = band_noise_db(params.band, params.noise) if noise_db is None else noise_db
     return (
         received_level_db(
-            sl, np.asarray(range_m, float), params.band.center_khz, params.spreading_k, params.directivity_index_db
+            sl,
+            np.asarray(range_m, float),
+            params.band.center_khz,
+            params.spreading_k,
+            params.receive_directivity_index_db,
         )
         - nl
     )
@@ -366,7 +383,7 @@ def _scalars(params: LinkParams) -> _KernelScalars:
         float(params.band.center_khz),
         float(params.band.bandwidth_hz),
         float(params.spreading_k),
-        float(params.directivity_index_db),
+        float(params.receive_directivity_index_db),
         float(params.detection_threshold_db),
         float(width),
         float(params.capture_threshold_db),
@@ -436,7 +453,7 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s, out):
                 end[b, v, w] = t0 + tau + dur[b, v]
                 rng[b, v, w] = c[b, v, w] * tau
                 rl[b, v, w] = received_level_db(
-                    sl[b, v], rng[b, v, w], s.center_khz, s.spreading_k, s.directivity_index_db
+                    sl[b, v], rng[b, v, w], s.center_khz, s.spreading_k, s.receive_directivity_index_db
                 )
                 snr[b, v, w] = rl[b, v, w] - noise_db[b]
         # 2. interference, capture, half duplex, success probability
@@ -459,7 +476,12 @@ def _slot_kernel(pos, vel, start, dur, sl, bits, c, noise_db, s, out):
                     sir[b, v, w] = rl[b, v, w] - 10.0 * np.log10(interference)
                 capt[b, v, w] = sir[b, v, w] >= s.capture_threshold_db
                 if capt[b, v, w] and not deaf[b, v, w]:
-                    p[b, v, w] = _success_probability(snr[b, v, w], bits[b, v], s)
+                    # a captured packet is decoded against noise and what it captured:
+                    # SINR = 1 / (1 / SNR + 1 / SIR), linear (= SNR with nothing overlapping)
+                    sinr = snr[b, v, w]
+                    if overlapped[b, v, w]:
+                        sinr = -10.0 * np.log10(10.0 ** (-snr[b, v, w] / 10.0) + 10.0 ** (-sir[b, v, w] / 10.0))
+                    p[b, v, w] = _success_probability(sinr, bits[b, v], s)
 
 
 slot_kernel = njit(cache=True)(_slot_kernel)
@@ -482,7 +504,8 @@ def slot_timeline(
     receiver: the receptions overlapping each one (touching intervals do not), its
     SIR over their power sum, capture (SIR >= ``capture_threshold_db``), half duplex
     (w transmits during any part of it) and the success probability P(detect) x
-    (1 - PER) for the captured, non-deaf ones (0 otherwise).
+    (1 - PER) at the SINR (what a captured packet overlapped is noise to it) for the
+    captured, non-deaf ones (0 otherwise).
 
     ``sound_speed_mps`` broadcasts to (B, V, V) [sender, receiver]: a scalar, a (B,)
     per-environment value as ``[:, None, None]``, or per pair (the channel's

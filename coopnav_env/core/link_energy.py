@@ -38,37 +38,38 @@ DEFAULT_POWER = PowerModel()
 
 
 @vectorize(["float64(float64, float64)"], cache=True)
-def acoustic_power_w(source_level_db: float, directivity_index_db: float) -> float:
+def acoustic_power_w(source_level_db: float, transmit_directivity_index_db: float) -> float:
     """Radiated acoustic power (W) for a source level: SL = 170.8 + 10 log10(P) + DI
-    (Urick 1983), so P = 10^((SL - 170.8 - DI) / 10)."""
-    return 10.0 ** ((source_level_db - SL_ONE_WATT_DB - directivity_index_db) / 10.0)
+    (Urick 1983), so P = 10^((SL - 170.8 - DI) / 10); DI the *transmitting* transducer's,
+    which SL includes (the receiver's is ``link.LinkParams.receive_directivity_index_db``)."""
+    return 10.0 ** ((source_level_db - SL_ONE_WATT_DB - transmit_directivity_index_db) / 10.0)
 
 
 def electrical_power_w(
-    source_level_db: ArrayLike, power: PowerModel = DEFAULT_POWER, directivity_index_db: float = 0.0
+    source_level_db: ArrayLike, power: PowerModel = DEFAULT_POWER, transmit_directivity_index_db: float = 0.0
 ) -> np.ndarray:
     """Electrical power while transmitting (W): acoustic power / efficiency."""
-    return acoustic_power_w(np.asarray(source_level_db, float), directivity_index_db) / power.efficiency
+    return acoustic_power_w(np.asarray(source_level_db, float), transmit_directivity_index_db) / power.efficiency
 
 
 def source_level_from_power_db(
-    electrical_power_w: ArrayLike, power: PowerModel = DEFAULT_POWER, directivity_index_db: float = 0.0
+    electrical_power_w: ArrayLike, power: PowerModel = DEFAULT_POWER, transmit_directivity_index_db: float = 0.0
 ) -> np.ndarray:
     """The source level a modem drawing ``electrical_power_w`` while transmitting
     radiates: SL = 170.8 + 10 log10(efficiency x P_electrical) + DI (dB re 1 uPa at
     1 m; Urick 1983). The inverse of ``electrical_power_w``."""
     p_ac = np.asarray(electrical_power_w, float) * power.efficiency
-    return SL_ONE_WATT_DB + 10.0 * np.log10(p_ac) + directivity_index_db
+    return SL_ONE_WATT_DB + 10.0 * np.log10(p_ac) + transmit_directivity_index_db
 
 
 def transmit_energy_j(
     source_level_db: ArrayLike,
     duration_s: ArrayLike,
     power: PowerModel = DEFAULT_POWER,
-    directivity_index_db: float = 0.0,
+    transmit_directivity_index_db: float = 0.0,
 ) -> np.ndarray:
     """Electrical energy of a transmission (J): electrical power x duration."""
-    return electrical_power_w(source_level_db, power, directivity_index_db) * np.asarray(duration_s, float)
+    return electrical_power_w(source_level_db, power, transmit_directivity_index_db) * np.asarray(duration_s, float)
 
 
 def receive_energy_j(duration_s: ArrayLike, power: PowerModel = DEFAULT_POWER) -> np.ndarray:
