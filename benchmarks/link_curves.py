@@ -142,8 +142,8 @@ def channel_slot(offsets: str) -> tuple:
     st.s_pos[0] = [[700.0, 200.0, 30.0], [2500.0, -300.0, 30.0]]
     draws = sim._draws.draw(st.keys, st.cycle)
     beacon_tx = np.ones((1, 2), dtype=bool)
-    ok, _ = sim.channel.pings(beacon_tx, draws)
-    replied = ok.any(1)
+    ok, slot = sim.channel.pings(beacon_tx, draws)
+    replied = (ok & slot.ended[:, :2, 2:]).any(1)  # a ping decoded by the reply time
     _, _, o = sim.channel.replies(beacon_tx, replied, draws)
     ch = sim.channel
     start = np.concatenate([ch.offsets_s(draws), np.where(replied, ch.reply_at_s, np.nan)], 1)

@@ -306,6 +306,36 @@ def test_half_duplex_in_the_wired_channel():
     assert o.deaf[0, 1, 2] and not o.deaf[0, 0, 2] and o.p_success[0, 1, 2] == 0.0
 
 
+def test_a_survey_vehicle_measures_no_ping_it_is_deaf_to_while_replying():
+    """The pings a survey vehicle fuses are those of the slot with its own reply in it (a
+    review found them taken from the silent slot): staggered, A at 400 m, B at 2.5 km,
+    beyond ``max_range_m`` for which the reply time (12.158 s) is laid out. B's ping
+    arrives at 6.07 + 2500 / c = 7.7 s (c about 1536 m/s) and lasts until 12.7 s: the
+    vehicle, replying to A's, is deaf to it, so it measures A's range only (before: both).
+    With A silent, B's ping is the only one and had not ended by the reply time, so no
+    reply is sent and it is measured."""
+    sim = _decide_sim(B=1)
+    _place(sim, [[400.0, 0.0], [-2500.0, 0.0]], [[0.0, 0.0]])
+    ok, slot = sim.channel.pings(_tx(1, [True, True]), _draws(sim, acoustic_u0=0.5))
+    assert slot.ended[0, 0, 2] and not slot.ended[0, 1, 2]
+    assert slot.outcome.end_s[0, 1, 2] == pytest.approx(6.0714 + 2500.0 / 1536.0 + 5.0, abs=0.01)
+    assert sim.channel.reply_at_s == pytest.approx(12.158, abs=1e-3)
+    assert ok[0, :, 0].tolist() == [True, False] and slot.deaf[0, 1, 2] and not slot.lost[0, 1, 2]
+    ok, slot = sim.channel.pings(_tx(1, [False, True]), _draws(sim, acoustic_u0=0.5))
+    assert ok[0, :, 0].tolist() == [False, True] and not slot.deaf[0].any()
+    assert not (ok & slot.ended[:, :2, 2:]).any()  # nothing to reply to at 12.158 s
+    # through a step: A and B both ping, one range is fused; B alone: its range is fused
+    # and the beacons hear no reply (their report of the survey vehicle ages by the slot)
+    for transmit, fused in (([True, True], 1), ([False, True], 1)):
+        sim = _decide_sim(B=1)
+        _place(sim, [[400.0, 0.0], [-2500.0, 0.0]], [[0.0, 0.0]])
+        age = sim.state.k_age_s.copy()
+        res = sim.step(_actions(1, transmit))
+        assert res.info["ranges_fused"].sum() == fused, transmit
+        replied = sim.state.k_age_s[0, :, 0] < age[0, :, 0] + sim.config.ping_interval_s
+        assert replied.all() == transmit[0], (transmit, sim.state.k_age_s[0, :, 0], age[0, :, 0])
+
+
 def test_two_pings_in_one_slot_do_not_collide():
     """Both beacons ping every slot on sousa_ping's default channel: staggered, neither
     collides and both are heard (the earlier channel sent both at t = 0: always a collision)."""

@@ -68,7 +68,6 @@ def test_band_noise_flat_and_integrated_agree():
     assert L.band_noise_db(band, L.NoiseConditions(0.5, 15.0)) > L.band_noise_db(band, noise) + 3.0
 
 
-
 def test_a_band_reaching_0_hz_is_refused_not_silent():
     """The turbulence term diverges at 0 Hz: a 4 kHz band around 2 kHz gave +inf noise
     (around 1 kHz NaN), so every packet was lost without a word. Refused, in the link and
@@ -83,6 +82,7 @@ def test_a_band_reaching_0_hz_is_refused_not_silent():
     with pytest.raises(ValueError, match="the widest band there is 3998 Hz"):
         make_config("sousa_ping", band_center_khz=2.0)
     make_config("sousa_ping", band_center_khz=2.0, band_width_hz=3998.0)
+
 
 # ------------------------------------------------------------------------------ SNR
 

@@ -16,10 +16,12 @@ the slot holds them (``scenarios.validate``):
    (``ping_offset_u``, the last of the cycle's draws); "zero", all at t = 0. The
    ping is the one-way range (the survey vehicle timestamps its arrival) and tells
    the other beacons the sender's position.
-2. **Replies.** Every survey vehicle that decoded at least one ping replies once per
-   slot with one broadcast packet (its estimate, covariance, waypoint index, range
-   age) at ``t_reply`` = the last ping offset + D_ping + max_range_m / 1400 m/s +
-   ``turnaround_s``: when every ping from within ``max_range_m`` has arrived.
+2. **Replies.** Every survey vehicle that decoded at least one ping by then replies
+   once per slot with one broadcast packet (its estimate, covariance, waypoint index,
+   range age) at ``t_reply`` = the last ping offset + D_ping + max_range_m / 1400 m/s +
+   ``turnaround_s``: when every ping from within ``max_range_m`` has arrived. A ping
+   from farther (the sonar link hears it) still arriving then is lost to the reply
+   (half duplex); one that is alone is measured, and no reply is sent.
 3. **Propagation** (``link.slot_timeline``, the one home of the slot's physics): a
    packet sent at t by vehicle v reaches w at t + tau, tau the time of flight from
    v's position at t to w moving at constant velocity (``acoustics.travel_time``) at
@@ -97,7 +99,8 @@ class SlotResult(NamedTuple):
     at the survey vehicles decoded; elsewhere reached intact, before the message's draw),
     ``collided`` (overlapped and not captured), ``deaf`` (the receiver was
     transmitting), ``lost`` (reached the receiver intact but not decoded: the sonar
-    link's SNR draw), and the whole ``link.SlotOutcome``."""
+    link's SNR draw), the whole ``link.SlotOutcome``, and ``ended`` (the reception had
+    ended by the survey vehicles' reply time: only such a ping can be replied to)."""
 
     arrival: np.ndarray
     delivered: np.ndarray
@@ -105,12 +108,14 @@ class SlotResult(NamedTuple):
     deaf: np.ndarray
     lost: np.ndarray
     outcome: SlotOutcome
+    ended: np.ndarray
 
 
 class Channel:
     """The channel of one simulator in ``channel_mode="decide"``: the scenario's packet
     timing, link budget and energy per ping gathered once; ``pings`` and ``replies``
-    resolve a slot in two passes (the replies depend on which pings were decoded)."""
+    resolve a slot in two passes (the replies depend on which pings were decoded by the
+    reply time, and a late ping on whether its receiver replies)."""
 
     def __init__(self, sim: SensorHost) -> None:
         c = sim.config
@@ -197,20 +202,33 @@ class Channel:
         return ok, reach & ~ok
 
     def pings(self, beacon_tx: np.ndarray, draws: dict[str, np.ndarray]) -> tuple[np.ndarray, SlotResult]:
-        """The pings alone: (B, N, S) decoded at the survey vehicles, and the slot
-        (``SlotResult``; its ``lost`` the pings the sonar link's SNR draw lost)."""
-        N = self.N
+        """The pings the survey vehicles measure: (B, N, S) decoded, and the slot
+        (``SlotResult``; its ``lost`` the pings the sonar link's SNR draw lost). A survey
+        vehicle replies at the reply time if it decoded a ping that had ended by then, and
+        a ping still arriving at one that replies is lost to its own reply (half duplex;
+        on the sonar link a ping from beyond ``max_range_m``, for which the reply time is
+        laid out): the slot is then resolved again with those replies (a review found the
+        measured pings taken from the silent slot alone)."""
+        pings = (slice(None), slice(None, self.N), slice(self.N, None))
+        u = draws["acoustic_u"][..., 0]
         o = self._timeline(beacon_tx, np.zeros((beacon_tx.shape[0], self.S), dtype=bool), draws)
-        ok, lost = self._decode(o, draws["acoustic_u"][..., 0], (slice(None), slice(None, N), slice(N, None)))
-        return ok, self._result(o, ok, lost)
+        ok, lost = self._decode(o, u, pings)
+        ended = o.end_s <= self.reply_at_s  # NaN (not sent): False
+        replying = (ok & ended[pings]).any(1)  # (B, S)
+        if (ok & ~ended[pings] & replying[:, None, :]).any():
+            # the replies start after every ended ping: those decode as before, only the late change
+            o = self._timeline(beacon_tx, replying, draws)
+            ok, lost = self._decode(o, u, pings)
+        return ok, self._result(o, ok, lost, ended)
 
-    def _result(self, o: SlotOutcome, ok: np.ndarray, lost: np.ndarray) -> SlotResult:
+    def _result(self, o: SlotOutcome, ok: np.ndarray, lost: np.ndarray, ended: np.ndarray) -> SlotResult:
         N = self.N
         delivered = o.captured & ~o.deaf
+        delivered[:, N:, :] = False  # the replies are the second pass's (``replies``)
         delivered[:, :N, N:] = ok
         full_lost = np.zeros_like(delivered)
         full_lost[:, :N, N:] = lost
-        return SlotResult(o.arrival_s, delivered, o.overlapped & ~o.captured, o.deaf, full_lost, o)
+        return SlotResult(o.arrival_s, delivered, o.overlapped & ~o.captured, o.deaf, full_lost, o, ended)
 
     def replies(
         self, beacon_tx: np.ndarray, survey_tx: np.ndarray, draws: dict[str, np.ndarray]

@@ -397,7 +397,7 @@ class Simulator(BatchSimulator):
             self._exchange_messages(draws)
             return
         ping_ok, ping_slot = ping
-        replied = (ping_ok & ~out.lost).any(1)
+        replied = (ping_ok & ping_slot.ended[:, : self.N, self.N :] & ~out.lost).any(1)  # decoded by the reply time
         reply_ok, peer_ok, _ = self.channel.replies(transmit, replied, draws)
         self.channel.exchange(draws, reply_ok, peer_ok)
         st.b_pings = transmit.astype(np.int64)
