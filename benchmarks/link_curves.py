@@ -240,7 +240,7 @@ def timeline(path: Path) -> None:
         0.01,
         0.005,
         "per vehicle: its transmission (top lane), then its receptions, one lane per sender, "
-        "coloured by sender; hatched red: lost. A survey vehicle replies only if it decoded a ping.",
+        "coloured by sender; hatched red: lost. A survey vehicle replies only if it decoded a ping by the reply time.",
         fontsize=7,
     )
     fig.tight_layout(rect=(0, 0.02, 1, 1))
