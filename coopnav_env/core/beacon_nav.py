@@ -225,7 +225,9 @@ def _surface(on: bool, t0: float, due: bool, times: tuple, z0: float, prm: _NavP
     away)."""
     up_s, fix_s, end_s, away_from_s, away_until_s = times
     t1 = t0 + prm.T
-    fix = on and t0 < fix_s and t1 >= fix_s
+    # the fix in (t0, t1]; at the excursion's start (t0 = 0) also at 0, where a beacon at the
+    # surface with no dwell takes it (else it would surface every cycle and never fix)
+    fix = on and (t0 < fix_s or t0 == 0.0) and t1 >= fix_s
     away_s = max(min(t1, away_until_s) - max(t0, away_from_s), 0.0) if on else 0.0
     start = due and not on
     going = start or (on and not t1 >= end_s)
