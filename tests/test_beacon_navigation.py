@@ -217,7 +217,6 @@ def test_a_timed_surfacing_hand_timeline():
     assert (age[5] == age[4] + c.ping_interval_s).all()  # away: no reply heard
 
 
-
 def test_a_beacon_at_the_surface_with_no_dwell_takes_its_fix():
     """A beacon AUV at 0 m with a 0 s dwell (both allowed) has its fix at the excursion's
     start: before, a fix in (t0, t1] never came, so it began a surfacing every cycle and was
@@ -236,6 +235,7 @@ def test_a_beacon_at_the_surface_with_no_dwell_takes_its_fix():
     assert (fixes == fixes[:, :1]).all()
     got = np.flatnonzero(fixes[:, 0]) + 1  # the cycles with a fix
     assert len(got) >= 2 and np.all(np.diff(got) >= 100.0 / c.ping_interval_s), got
+
 
 def test_an_instant_surfacing_keeps_the_old_model():
     c = coopnav_env.make_config("gao_sea", **{**QUIET, "beacon_surface_every_s": 100.0, "beacon_surfacing": "instant"})

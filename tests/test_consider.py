@@ -71,6 +71,28 @@ def test_gated_schmidt_update_changes_nothing():
     np.testing.assert_array_equal(K, 0.0)
 
 
+
+def test_no_update_with_an_indefinite_innovation_variance_or_a_nan_residual():
+    """A joint covariance made indefinite (Pxb too large for P and Pbb) gives S <= 0, whose
+    negative NIS passed the gate and fused with a sign-flipped gain; a NaN residual passed
+    the white filter's gate and wrote NaN into the state (a review). Neither updates now."""
+    from coopnav_env.core.navigation import gated_update_residual
+
+    H = np.array([1.0, 0.0, 0.0])
+    P = np.diag([4.0, 4.0, 0.01])
+    Pxb = np.zeros((3, 2))
+    Pxb[0, 0] = 10.0  # |Pxb| > sqrt(P Pbb): S = 4 - 2 x 10 + 1 + R = -14.9
+    x, P0, X0, K = np.zeros(3), P.copy(), Pxb.copy(), np.zeros(3)
+    nis, fused = schmidt_range_update(x, P, Pxb, np.eye(2), 0.5, H, 0.1, 9.0, K)
+    assert not fused and nis == np.inf
+    assert np.all(x == 0.0) and np.array_equal(P, P0) and np.array_equal(Pxb, X0) and np.all(K == 0.0)
+    nis, fused = schmidt_range_update(x, P, np.zeros((3, 2)), np.eye(2), np.nan, H, 0.1, 9.0, K)
+    assert not fused and np.all(x == 0.0)
+    assert not gated_update_residual(x, P, np.nan, H, 0.1, np.inf)
+    assert np.all(x == 0.0) and np.array_equal(P, P0)
+    assert not gated_update_residual(x, P, 0.5, H, -10.0, np.inf)  # S = 4 - 10 < 0
+    assert gated_update_residual(x, P, 0.5, H, 0.1, 9.0)  # and a sound one still fuses
+
 def test_with_pbb_zero_it_is_the_ordinary_joseph_update():
     rng = np.random.default_rng(7)
     for _ in range(20):

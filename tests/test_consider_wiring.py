@@ -40,8 +40,9 @@ def test_schmidt_with_an_exact_beacon_is_the_papers_filter():
 @pytest.mark.parametrize("tau", [0.0, 300.0])
 def test_the_fix_counter_resets_the_cross_covariance(tau):
     """A DVL beacon surfaces every 100 s. On the cycle of its fix the survey, hearing the
-    new counter in the ping, first decays Pxb by exp(-dt / tau) over the dt since the
-    last fix it heard (eq. C7 over dt; zeroes it, eq. C8, with a white GPS error): the
+    new counter in the ping, first keeps of Pxb the GPS error's share, var(g) / var(e), decayed
+    by exp(-dt / tau) over the dt since the last fix it heard (eq. C8'; zeroes it, eq. C8,
+    with a white GPS error): the
     step gives what the same step gives from a state where that was done by hand; a
     filter that ignored the counter would differ, as a step without a fix shows."""
     c = coopnav_env.make_config(
@@ -67,7 +68,9 @@ def test_the_fix_counter_resets_the_cross_covariance(tau):
             sim.step(np.full((1, 1, 2), 0.3))
     assert np.abs(a.state.s_Pxb).max() > 1e-3  # the survey has learnt a correlation
     dt = 100.0
-    b.state.s_Pxb *= np.exp(-dt / tau) if tau > 0 else 0.0
+    share = c.gps_noise_m**2 / a.state.s_var_seen_m2[0, 0, 0]  # eq. C8': the GPS part of the old error
+    assert 0.0 < share < 1.0
+    b.state.s_Pxb *= np.exp(-dt / tau) * share if tau > 0 else 0.0
     b.state.s_fix_seen[:] = (a.state.b_fix_count[0, 0] + 1) % 16  # as if heard already
     b.state.s_fix_seen_t_s[:] = a.state.t_s[0] + c.ping_interval_s
     a.step(np.full((1, 1, 2), 0.3))
@@ -85,6 +88,46 @@ def test_the_fix_counter_resets_the_cross_covariance(tau):
     c2.state.s_fix_seen_t_s[:] = c2.state.t_s[0] + c.ping_interval_s
     c2.step(np.full((1, 1, 2), 0.3))
     assert np.abs(c2.state.s_P - a.state.s_P).max() > 1e-6
+
+
+def test_a_fix_keeps_only_the_gps_errors_share_of_the_correlation():
+    """Eq. C8' against the linear model it comes from. The beacon's old error e = g + d, GPS
+    error g (1 m std per axis) plus 5 m of dead reckoning d; the survey's error learnt e
+    through ranges: x = -0.8 e + n. The fix makes the beacon's error e' = phi g + w (20 s
+    later, tau 300 s), so Cov(x, e') = -0.8 phi var(g) = -0.748 per axis. Before (a review),
+    Pxb <- phi Pxb kept the dead reckoning's part too: -19.5, and the joint covariance of x
+    and e' had an eigenvalue of -11.0 (indefinite). Now the exact value, and the joint is
+    positive semi-definite."""
+    from coopnav_env.core.kernel_records import consider_view
+    from coopnav_env.core.measurements.modem import ModemRanging, _heard_fix_count
+
+    c = coopnav_env.make_config("gao_sea", gps_noise_m=1.0, gps_error_time_constant_s=300.0)
+    sim = make_simulator(c, 1)
+    sim.reset([3])
+    prm = ModemRanging(sim).params
+    var_g, var_d, a, dt = 1.0, 25.0, 0.8, 20.0
+    var_e = var_g + var_d
+    # the joint of (x (3), g (2), d (2)) per axis, x = -a (g + d) + n in the horizontal
+    J = np.zeros((7, 7))
+    J[3:5, 3:5], J[5:7, 5:7] = var_g * np.eye(2), var_d * np.eye(2)
+    T = np.zeros((3, 7))
+    T[:2, 3:5] = T[:2, 5:7] = -a * np.eye(2)
+    Pxx = T @ J @ T.T + np.diag([4.0, 4.0, 0.01])
+    Pxe = -a * var_e * np.eye(3, 2)  # Cov(x, e), e = g + d: the ranges saw the sum
+    st = sim.state
+    st.s_P[0, 0] = Pxx
+    st.s_Pxb[0, 0, 0] = Pxe
+    st.s_var_seen_m2[0, 0, 0] = var_e
+    st.s_fix_seen_t_s[0, 0, 0] = 0.0
+    st.s_hyp_w[:] = 1.0
+    _heard_fix_count(consider_view(st), prm, 0, 0, 0, dt, var_g)
+    phi = np.exp(-dt / 300.0)
+    exact = -a * phi * var_g * np.eye(3, 2)
+    np.testing.assert_allclose(st.s_Pxb[0, 0, 0], exact, rtol=1e-12, atol=1e-15)
+    joint = np.block([[Pxx, exact], [exact.T, var_g * np.eye(2)]])
+    assert np.linalg.eigvalsh(joint).min() > 0.0
+    old = np.block([[Pxx, phi * Pxe], [phi * Pxe.T, var_g * np.eye(2)]])
+    assert np.linalg.eigvalsh(old).min() < -10.0  # what the review found
 
 
 def test_gps_error_is_gauss_markov_with_its_time_constant():

@@ -93,7 +93,8 @@ def schmidt_range_update(
     read only). y = z - h (``navigation.range_prediction`` gives h and H, with the
     legs' delays); R: the ranging noise only (sound speed's share included, the
     beacon's variance not: it is Pbb). Writes the gain into K (3,), or zeros when gated.
-    Returns (nis, fused): nis = y^2 / S, fused when nis <= gate. Eqs. (C1)-(C5)."""
+    Returns (nis, fused): nis = y^2 / S, fused when nis <= gate (never with S <= 0, where nis
+    is inf, or a NaN y). Eqs. (C1)-(C5)."""
     nb = Pbb.shape[0]
     # Written out element by element over the augmented state a = (x, b), n = 3 + nb,
     # Pa = [[P, Pxb], [Pxb^T, Pbb]], Ha = [H, -H[:nb]] (C1): nothing is allocated and
@@ -114,9 +115,11 @@ def schmidt_range_update(
     S += H[0] * PH0 + H[1] * PH1 + H[2] * PH2
     for i in range(nb):  # the consider rows of PH, times Hb
         S -= H[i] * _consider_row(Pxb, Pbb, H, i)
-    nis = y * y / S
     K[:] = 0.0
-    if not nis <= gate:
+    if not S > 0.0:  # only an indefinite joint covariance gives this: no update, never a sign-flipped gain
+        return np.inf, False
+    nis = y * y / S
+    if not nis <= gate:  # a NaN y too
         return nis, False
     K[0], K[1], K[2] = PH0 / S, PH1 / S, PH2 / S  # (C3); Kb = 0
     for i in range(3):

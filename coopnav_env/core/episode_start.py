@@ -202,6 +202,7 @@ def consider_start(sim: Any, B: int) -> dict:
         "s_Pxb": np.zeros((B, S, N, 3, 2)),
         "s_fix_seen": np.zeros((B, S, N), dtype=np.int64),
         "s_fix_seen_t_s": np.zeros((B, S, N)),
+        "s_var_seen_m2": np.zeros((B, S, N)),
         "s_win_n": np.zeros((B, S, N), dtype=np.int64),
         "s_win_z": np.zeros((B, S, N, M)),
         "s_win_beacon": np.zeros((B, S, N, M, 2)),

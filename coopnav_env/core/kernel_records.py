@@ -159,6 +159,7 @@ class ConsiderView(NamedTuple):
     hyp_dP: np.ndarray  # (B,S,3,3) covariance difference
     hyp_dX: np.ndarray  # (B,S,N,3,2) Pxb difference
     hyp_dD: np.ndarray  # (B,S,3,4) Pxd difference
+    var_seen: np.ndarray  # (B,S,N) each beacon's per-axis variance as last heard (eq. C8's projection)
 
 
 def consider_view(st: SimState) -> ConsiderView:
@@ -180,4 +181,5 @@ def consider_view(st: SimState) -> ConsiderView:
         st.s_hyp_dP,
         st.s_hyp_dX,
         st.s_hyp_dD,
+        st.s_var_seen_m2,
     )

@@ -206,8 +206,10 @@ def joseph_update(x: np.ndarray, P: np.ndarray, z: float, h: float, H: np.ndarra
 @njit(cache=True)
 def gated_update_residual(x: np.ndarray, P: np.ndarray, y: float, H: np.ndarray, R: float, gate: float) -> bool:
     """``joseph_update_residual`` if the innovation passes the chi-square gate on its
-    normalized square, y^2 / S <= gate; returns whether it was fused."""
-    if y * y / innovation_variance(P, H, R) > gate:
+    normalized square, y^2 / S <= gate; returns whether it was fused (never with S <= 0 or
+    a NaN y: a review found a NaN residual written into the state)."""
+    S = innovation_variance(P, H, R)
+    if not (S > 0.0 and y * y / S <= gate):
         return False
     joseph_update_residual(x, P, y, H, R)
     return True

@@ -114,6 +114,7 @@ class SimState(BatchArrays):
     s_Pxb: np.ndarray  # cross-covariance of each survey filter's error with each beacon's (B,S,N,3,2)
     s_fix_seen: np.ndarray  # each beacon's fix counter as last heard (B,S,N) int
     s_fix_seen_t_s: np.ndarray  # when that counter last changed, as heard (B,S,N)
+    s_var_seen_m2: np.ndarray  # each beacon's per-axis variance as last heard (B,S,N): eq. C8's projection
     s_win_n: np.ndarray  # ranges in the lock-out window, per beacon (B,S,N) int
     s_win_z: np.ndarray  # the window's ranges, oldest first (B,S,N,M)
     s_win_beacon: np.ndarray  # the beacon's reported horizontal position at each (B,S,N,M,2)

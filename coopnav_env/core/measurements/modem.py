@@ -33,7 +33,6 @@ from ..consider import (
     beacon_reset,
     carry_cross_covariance,
     ci_range_update,
-    consider_predict,
     schmidt_range_update,
 )
 from ..contract import SensorHost
@@ -195,19 +194,32 @@ def _ping_range(s_pos, s_vel_true, b_pos, b_vel, temperature_c, noise_std_m, clo
 
 
 @njit(cache=True, inline="always")
-def _heard_fix_count(cv, prm, b, s, j, t_s):
+def _heard_fix_count(cv, prm, b, s, j, t_s, var_m2):
     """The ping's 4-bit GPS fix counter: when it changed, beacon j has re-fixed at the
-    surface since survey s last heard it, and its error is now its GPS receiver's. That
-    error is Gauss-Markov (``gps_error_time_constant_s``), so what the survey's error
-    knew of the beacon's last fix decays over the time dt between the fixes: Pxb <- exp(-dt
-    / tau) Pxb (eq. C7 over dt); with a white GPS error (tau = 0) or fixes far apart this
-    is eq. (C8), Pxb <- 0. dt is measured between the changes the survey heard. Called
-    when the counter ``cv.fix_count[b, j] % 16`` differs from ``cv.fix_seen[b, s, j]``."""
+    surface since survey s last heard it, and its error is now its GPS receiver's, e' =
+    phi g + w, g the GPS error of its last fix, phi = exp(-dt / tau) over the time dt
+    between the fixes (``gps_error_time_constant_s``; dt between the changes the survey
+    heard). The survey's error knew the beacon's old error e = g + d (d its dead reckoning
+    since that fix) only through ranges, which see the sum, so its share of g is
+    Cov(x, g) = Cov(x, e) var(g) / var(e):
+
+        (C8') Pxb <- phi (var_m2 / var_seen) Pxb,
+
+    var_m2 the variance this ping sends (its GPS receiver's, var(g)), var_seen the one
+    last heard before the fix (var(e); the ratio at most 1). A review found the dead
+    reckoning's part kept (Pxb <- phi Pxb, about 0.11 where this gives 0.02 at
+    ``gao_sea``'s defaults), which can make the joint covariance indefinite; this keeps it
+    positive semi-definite (phi^2 var_m2 / var_seen^2 <= 1 / var_seen). With a white GPS
+    error (tau = 0) or fixes far apart it is eq. (C8), Pxb <- 0. Called when the counter
+    ``cv.fix_count[b, j] % 16`` differs from ``cv.fix_seen[b, s, j]``."""
     count = cv.fix_count[b, j] % 16
     if prm.gps_tau_s > 0.0:
-        consider_predict(cv.Pxb[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)
+        old = cv.var_seen[b, s, j]
+        share = min(1.0, var_m2 / old) if old > 0.0 else 1.0
+        scale = np.exp(-(t_s - cv.fix_seen_t_s[b, s, j]) / prm.gps_tau_s) * share
+        cv.Pxb[b, s, j] *= scale
         if prm.hold:  # the held hypotheses' difference too (M5)
-            consider_predict(cv.hyp_dX[b, s, j], t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)
+            cv.hyp_dX[b, s, j] *= scale
     else:
         beacon_reset(cv.Pxb[b, s, j])
         if prm.hold:
@@ -393,7 +405,8 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                     out.lost[b, j, s] = True
                     continue
                 if cv.fix_count[b, j] % 16 != cv.fix_seen[b, s, j]:
-                    _heard_fix_count(cv, prm, b, s, j, t_s)
+                    _heard_fix_count(cv, prm, b, s, j, t_s, bv.nav_var[b, j])
+                cv.var_seen[b, s, j] = bv.nav_var[b, j]
                 if u[1] < prm.outlier_probability:  # multipath: a longer path arrives
                     r += -prm.outlier_mean_excess_m * np.log(u[2])
                 if u[3] < prm.nan_probability:
