@@ -71,7 +71,6 @@ def test_gated_schmidt_update_changes_nothing():
     np.testing.assert_array_equal(K, 0.0)
 
 
-
 def test_no_update_with_an_indefinite_innovation_variance_or_a_nan_residual():
     """A joint covariance made indefinite (Pxb too large for P and Pbb) gives S <= 0, whose
     negative NIS passed the gate and fused with a sign-flipped gain; a NaN residual passed
@@ -92,6 +91,7 @@ def test_no_update_with_an_indefinite_innovation_variance_or_a_nan_residual():
     assert np.all(x == 0.0) and np.array_equal(P, P0)
     assert not gated_update_residual(x, P, 0.5, H, -10.0, np.inf)  # S = 4 - 10 < 0
     assert gated_update_residual(x, P, 0.5, H, 0.1, 9.0)  # and a sound one still fuses
+
 
 def test_with_pbb_zero_it_is_the_ordinary_joseph_update():
     rng = np.random.default_rng(7)
