@@ -352,3 +352,21 @@ def test_a_beacon_away_sends_no_mls_ping_either():
     np.testing.assert_array_equal(away.all(1), np.isin(np.arange(1, 28), np.arange(10, 26)))
     assert (fused[9:25] == 0).all()
     assert fused[:8].sum() > 0
+
+
+def test_a_turn_limit_of_half_a_turn_or_more_per_substep_is_no_limit():
+    """The limit per sub-step is rate x sub-step, at most pi: at 360 deg/s and 1 s sub-steps
+    its cosine and sine were those of 0, and the vehicle never turned (a review). Now it
+    points straight at the target, as any limit of pi or more should; the defaults are
+    unchanged."""
+    from coopnav_env.core.dynamics import max_turn_per_substep_rad, turn_toward
+
+    assert max_turn_per_substep_rad(360.0, 1.0) == np.pi
+    assert max_turn_per_substep_rad(30.0, 1.0) == np.radians(30.0)  # the ASVs' default, exactly
+    a = float(max_turn_per_substep_rad(360.0, 1.0))
+    heading, desired = 1j, -1j  # north, and a target due south
+    assert turn_toward(heading, desired, np.cos(a), np.sin(a)) == -1j
+    c = coopnav_env.make_config("sousa_asv", asv_max_turn_rate_dps=360.0)
+    sim = make_simulator(c, 1)
+    sim.reset([0])
+    assert sim._beacon_turn_cos[0] == -1.0

@@ -336,6 +336,27 @@ def test_a_survey_vehicle_measures_no_ping_it_is_deaf_to_while_replying():
         assert replied.all() == transmit[0], (transmit, sim.state.k_age_s[0, :, 0], age[0, :, 0])
 
 
+def test_a_batch_row_resolves_its_slot_as_the_environment_alone():
+    """Whether a slot is resolved again with the replies in it is decided for the batch; a
+    review found a row's late ping, lost by its draw alone, counted deaf beside a row that
+    needed the second pass. Row 0: A at 400 m and B at 2.5 km, both decoded (B's late).
+    Row 1: the same with B's draw losing it. Each row's pings, losses and deafness are those
+    of the environment alone."""
+    geometry = [[400.0, 0.0], [-2500.0, 0.0]]
+    u0 = np.array([[[0.5], [0.5]], [[0.5], [0.0]]])  # (B, N, S): row 1 loses B's ping by its draw
+    sim = _decide_sim(B=2)
+    _place(sim, np.broadcast_to(geometry, (2, 2, 2)), np.zeros((2, 1, 2)))
+    ok, slot = sim.channel.pings(_tx(2, [True, True]), _draws(sim, acoustic_u0=u0))
+    for row in range(2):
+        alone = _decide_sim(B=1)
+        _place(alone, geometry, [[0.0, 0.0]])
+        ok1, slot1 = alone.channel.pings(_tx(1, [True, True]), _draws(alone, acoustic_u0=u0[row : row + 1]))
+        assert np.array_equal(ok[row], ok1[0]), row
+        for name in ("delivered", "lost", "deaf", "collided", "ended"):
+            assert np.array_equal(getattr(slot, name)[row], getattr(slot1, name)[0]), (row, name)
+    assert slot.deaf[1, 1, 2] and not slot.lost[1, 1, 2]  # replying to A's, deaf to B's: not a loss
+
+
 def test_two_pings_in_one_slot_do_not_collide():
     """Both beacons ping every slot on sousa_ping's default channel: staggered, neither
     collides and both are heard (the earlier channel sent both at t = 0: always a collision)."""

@@ -120,7 +120,8 @@ def test_a_fix_keeps_only_the_gps_errors_share_of_the_correlation():
     st.s_var_seen_m2[0, 0, 0] = var_e
     st.s_fix_seen_t_s[0, 0, 0] = 0.0
     st.s_hyp_w[:] = 1.0
-    _heard_fix_count(consider_view(st), prm, 0, 0, 0, dt, var_g)
+    assert prm.gps_var_m2 == var_g  # var(g) is the GPS receiver's, whatever a later ping sends
+    _heard_fix_count(consider_view(st), prm, 0, 0, 0, dt)
     phi = np.exp(-dt / 300.0)
     exact = -a * phi * var_g * np.eye(3, 2)
     np.testing.assert_allclose(st.s_Pxb[0, 0, 0], exact, rtol=1e-12, atol=1e-15)

@@ -400,10 +400,10 @@ def test_nees_per_cycle_100_runs(scenario, overrides):
     """``test_nees_per_cycle`` over 100 runs, with issue 21's bound on the exceedances:
     at most 3x the nominal 0.1 %. gao_sea fails at its defaults, a strict xfail so that a fix
     shows (mean 1.323 below its band, 18 run-cycles above the point, 2.8x, with eq. C8' at the
-    beacon's fixes; 1.340 and 3.4x before it; 1.344 before round 8's filter; issue 21's target for gao_sea is two hours without surfacing, which
-    benchmarks/nees_per_cycle.py case 2 measures, 0.1x): the tail is
-    the first-order range update after close passes far off, the mean its Q
-    (docs/scenarios/consider-fusion.md#curvature)."""
+    beacon's fixes; 1.340 and 3.4x before it; 1.344 before round 8's filter; issue 21's target
+    for gao_sea is two hours without surfacing, which benchmarks/nees_per_cycle.py case 2
+    measures, 0.1x): the tail is the first-order range update after close passes far off, the
+    mean its Q (docs/scenarios/consider-fusion.md#curvature)."""
     r = _nees_summary(scenario, runs=N_RUNS, **overrides)
     report = _format(r)
     print(report)

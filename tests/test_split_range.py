@@ -177,3 +177,15 @@ def test_the_split_is_across_the_line_of_sight_whatever_the_bearing(bearing_deg)
     nees = np.array(nees)
     # the prior reaches past the beacon (42 m at 20 m std): a ring, whose tail is not chi-square's
     assert nees.mean() < 3.0 and np.mean(nees > chi2.ppf(0.999, 2)) < 0.05, (nees.mean(), np.mean(nees > 13.8))
+
+
+def test_an_indefinite_joint_covariance_is_refused_not_divided_by_zero():
+    """S <= 0 (only an indefinite joint covariance gives it) makes the Schmidt update refuse
+    with an infinite NIS; the split read S = 1 / NIS and divided by it, which numba raises
+    on (a review): now the range is refused, as the ordinary update refuses it."""
+    prm = _params(SCHMIDT)
+    X = np.zeros((1, 3, 2))
+    X[0, 0, 0] = 10.0  # |Pxb| > sqrt(P Pbb): S < 0 along x
+    f = Moments(np.array([30.0, 0.0, 0.0]), np.diag([4.0, 4.0, 0.01]), X, np.zeros((3, 4)))
+    passed, H, meas, Hs, ms = _model(f, 30.5, np.zeros(3), prm, beacon_var=1.0)
+    assert not passed and Hs is H and ms == meas

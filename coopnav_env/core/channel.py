@@ -99,7 +99,7 @@ class SlotResult(NamedTuple):
     at the survey vehicles decoded; elsewhere reached intact, before the message's draw),
     ``collided`` (overlapped and not captured), ``deaf`` (the receiver was
     transmitting), ``lost`` (reached the receiver intact but not decoded: the sonar
-    link's SNR draw), the whole ``link.SlotOutcome``, and ``ended`` (the reception had
+    link's draw of P(decode) at the SINR), the whole ``link.SlotOutcome``, and ``ended`` (the reception had
     ended by the survey vehicles' reply time: only such a ping can be replied to)."""
 
     arrival: np.ndarray
@@ -215,8 +215,10 @@ class Channel:
         ok, lost = self._decode(o, u, pings)
         ended = o.end_s <= self.reply_at_s  # NaN (not sent): False
         replying = (ok & ended[pings]).any(1)  # (B, S)
-        if (ok & ~ended[pings] & replying[:, None, :]).any():
-            # the replies start after every ended ping: those decode as before, only the late change
+        if replying.any():
+            # the slot with the replies in it, for every environment (each row only its own:
+            # a batch row stays the environment alone); the replies start after every ended
+            # ping, so those decode as before and only the late change (deaf, or overlapped)
             o = self._timeline(beacon_tx, replying, draws)
             ok, lost = self._decode(o, u, pings)
         return ok, self._result(o, ok, lost, ended)

@@ -115,6 +115,13 @@ def turn_toward(heading: complex, desired: complex, cos_max_turn: float, sin_max
     return heading * (cos_max_turn - 1j * sin_max_turn)
 
 
+def max_turn_per_substep_rad(rate_dps: ArrayLike, substep_s: float) -> np.ndarray:
+    """The largest heading change in one sub-step, rate x sub-step, at most pi: a limit
+    of pi or more is no limit (``turn_toward`` points straight at the target), where its
+    cosine and sine alone would wrap (360 deg would never turn; a review found it)."""
+    return np.minimum(np.radians(np.asarray(rate_dps, float)) * float(substep_s), np.pi)
+
+
 def turn_towards(heading: ArrayLike, desired: ArrayLike, max_turn_rad: ArrayLike) -> np.ndarray:
     """``turn_toward`` over arrays, with the limit as an angle."""
     cm, sm = float(np.cos(max_turn_rad)), float(np.sin(max_turn_rad))

@@ -28,7 +28,7 @@ import numpy as np
 from ..scenarios.base import ScenarioConfig
 from . import beacon_nav, channel, dr_bias, episode_start, fusion, measurements, observation, rng, substeps
 from .contract import BatchSimulator, Snapshot, StepResult
-from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step
+from .dynamics import bearing_to_unit, drag_constant, gauss_markov_step, max_turn_per_substep_rad
 from .guidance import build_path
 from .information import error_ellipse, logdet_horizontal
 from .jit import threaded
@@ -87,8 +87,8 @@ class Simulator(BatchSimulator):
         is_asv = np.array([k == "asv" for k in c.beacon_kinds])
         self._beacon_is_asv = is_asv
         self._beacon_max_speed = np.array(c.beacon_max_speeds_mps)
-        beacon_turn = (
-            np.radians(np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps)) * c.substep_s
+        beacon_turn = max_turn_per_substep_rad(
+            np.where(is_asv, c.asv_max_turn_rate_dps, c.beacon_auv_max_turn_rate_dps), c.substep_s
         )
         self._beacon_turn_cos, self._beacon_turn_sin = np.cos(beacon_turn), np.sin(beacon_turn)
         self._beacon_depth = np.where(is_asv, 0.0, c.beacon_auv_depth_m)
@@ -207,7 +207,7 @@ class Simulator(BatchSimulator):
     def _survey_params(self) -> SurveyParams:
         """The scenario's constants the kernels read, gathered once (``kernel_records.SurveyParams``)."""
         c = self.config
-        survey_turn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s
+        survey_turn = max_turn_per_substep_rad(c.survey_max_turn_rate_dps, c.substep_s)
         fence = c.geofence_m
         return SurveyParams(
             substep_s=float(c.substep_s),

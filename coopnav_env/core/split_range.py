@@ -94,6 +94,8 @@ def split_range_model(
     Pbb[0, 1] = Pbb[1, 0] = 0.0
     if schmidt:  # a gate of -1 returns the NIS and touches nothing
         nis, _ = schmidt_range_update(f.x, f.P, f.X[j], Pbb, 1.0, H, R, -1.0, K)
+        if not nis < np.inf:  # S <= 0: an indefinite joint covariance, no update (not a 1/0)
+            return False, H, meas
         S = 1.0 / nis
     else:
         S = innovation_variance(f.P, H, R_white)
@@ -101,7 +103,8 @@ def split_range_model(
         return False, H, meas
     noise = R if schmidt else R_white
     # (S1) the relative position's covariance (eq. L0): with white, P alone (its R holds the
-    # beacon's variance, which the fit over P cannot mend, so the trigger leaves it out too)
+    # beacon's variance, which the fit over P cannot mend, so the trigger leaves it out too;
+    # white keeps no cross-covariance, X = 0)
     pbb = beacon_var if schmidt else 0.0
     _, var = range_curvature(f.P, f.X[j], pbb, H, h)
     if not var > SPLIT_TRIGGER * SPLIT_TRIGGER * S:
@@ -109,7 +112,7 @@ def split_range_model(
     Pd = np.empty((3, 3))
     for i in range(3):
         for q in range(3):
-            Pd[i, q] = relative_covariance(f.P, f.X[j], pbb, i, q) if schmidt else f.P[i, q]
+            Pd[i, q] = relative_covariance(f.P, f.X[j], pbb, i, q)
     A, hbar, omega = posterior_fit(f.x, Pd, H, r, noise, geo)
     return True, A, (r, hbar, R + omega, R_white + omega, beacon_var, 0.0, 0.0)
 

@@ -141,6 +141,7 @@ class ModemParams(NamedTuple):
     reinit_after_short: int  # reinit_after_short_ranges: a lock-out after this many too short in a row (0: as any)
     gate_short: float  # the chi-square gate of a range shorter than predicted (range_gate_short_probability)
     split: bool  # range_linearization == "split": eqs. S1-S6 (core/split_range.py)
+    gps_var_m2: float  # gps_noise_m^2: a fixed beacon's error variance per axis, var(g) of eq. C8'
 
 
 class ModemCycle(NamedTuple):
@@ -194,7 +195,7 @@ def _ping_range(s_pos, s_vel_true, b_pos, b_vel, temperature_c, noise_std_m, clo
 
 
 @njit(cache=True, inline="always")
-def _heard_fix_count(cv, prm, b, s, j, t_s, var_m2):
+def _heard_fix_count(cv, prm, b, s, j, t_s):
     """The ping's 4-bit GPS fix counter: when it changed, beacon j has re-fixed at the
     surface since survey s last heard it, and its error is now its GPS receiver's, e' =
     phi g + w, g the GPS error of its last fix, phi = exp(-dt / tau) over the time dt
@@ -203,9 +204,10 @@ def _heard_fix_count(cv, prm, b, s, j, t_s, var_m2):
     since that fix) only through ranges, which see the sum, so its share of g is
     Cov(x, g) = Cov(x, e) var(g) / var(e):
 
-        (C8') Pxb <- phi (var_m2 / var_seen) Pxb,
+        (C8') Pxb <- phi (var(g) / var_seen) Pxb,
 
-    var_m2 the variance this ping sends (its GPS receiver's, var(g)), var_seen the one
+    var(g) its GPS receiver's variance (``gps_noise_m``^2, not the variance this ping sends,
+    which has grown again if the survey missed the pings since the fix), var_seen the one
     last heard before the fix (var(e); the ratio at most 1). A review found the dead
     reckoning's part kept (Pxb <- phi Pxb, about 0.11 where this gives 0.02 at
     ``gao_sea``'s defaults), which can make the joint covariance indefinite; this keeps it
@@ -215,7 +217,7 @@ def _heard_fix_count(cv, prm, b, s, j, t_s, var_m2):
     count = cv.fix_count[b, j] % 16
     if prm.gps_tau_s > 0.0:
         old = cv.var_seen[b, s, j]
-        share = min(1.0, var_m2 / old) if old > 0.0 else 1.0
+        share = min(1.0, prm.gps_var_m2 / old) if old > 0.0 else 1.0
         scale = np.exp(-(t_s - cv.fix_seen_t_s[b, s, j]) / prm.gps_tau_s) * share
         cv.Pxb[b, s, j] *= scale
         if prm.hold:  # the held hypotheses' difference too (M5)
@@ -405,7 +407,7 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                     out.lost[b, j, s] = True
                     continue
                 if cv.fix_count[b, j] % 16 != cv.fix_seen[b, s, j]:
-                    _heard_fix_count(cv, prm, b, s, j, t_s, bv.nav_var[b, j])
+                    _heard_fix_count(cv, prm, b, s, j, t_s)
                 cv.var_seen[b, s, j] = bv.nav_var[b, j]
                 if u[1] < prm.outlier_probability:  # multipath: a longer path arrives
                     r += -prm.outlier_mean_excess_m * np.log(u[2])
@@ -500,6 +502,7 @@ class ModemRanging:
                 int(c.reinit_after_short_ranges),
                 float(chi2.ppf(c.range_gate_short_probability, 1)) if c.range_gate_short_probability else gate,
                 c.range_linearization == "split",
+                float(c.gps_noise_m) ** 2,
             ]
         )
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import lbl, river, rng, substeps
 from ..contract import BatchSimulator, Snapshot, StepResult
-from ..dynamics import bearing_to_unit, boat_noise_step, disturb_boats, gauss_markov_step
+from ..dynamics import bearing_to_unit, boat_noise_step, disturb_boats, gauss_markov_step, max_turn_per_substep_rad
 from ..guidance import build_path
 from ..information import error_ellipse, floored_log
 from ..jit import threaded
@@ -88,7 +88,7 @@ class MovingNetworkSimulator(BatchSimulator):
             self._river_pts, self._river_cum = river.centerline_of(c.river_centerline_m)
             self._mission_dir = river.mission_direction(wp, self._river_pts, self._river_cum)
         self._max_speed = np.array(c.beacon_max_speeds_mps)
-        turn = np.radians(np.full(2, c.boat_max_turn_rate_dps)) * c.substep_s
+        turn = max_turn_per_substep_rad(np.full(2, c.boat_max_turn_rate_dps), c.substep_s)
         self._boat_turn_cos, self._boat_turn_sin = np.cos(turn), np.sin(turn)
         par = threaded(B)  # threaded kernels: off (core/jit.py says why)
         self._k_beacons = substeps.integrate_beacons_parallel if par else substeps.integrate_beacons
