@@ -539,7 +539,7 @@ def test_line_fit_sets_an_outlying_fix_aside_and_recovers_the_error_and_its_velo
         f.window_r[0, k, 2] = rng.normal(0.0, 1.0)
         f.window_S[0, k] = np.eye(3)
     f.window_r[0, 0] += (25.0, 10.0, -12.0)
-    p = cycle_params(make_config("matos_moving_lbl"), 6.63, 9.21, 11.34)
+    p = cycle_params(make_config("matos_moving_lbl"), 6.63, 9.21)
     theta, cov = np.empty(4), np.empty((4, 4))
     n, l_mean, var_l = line_fit(f, 0, p, theta, cov)
     assert n >= 6  # the outlier never; a good fix may fall outside the 99 % gate
@@ -559,7 +559,7 @@ def test_too_few_consistent_fixes_do_not_restart():
         f.window_age[0, k] = k
         f.window_S[0, k] = np.eye(3)
         f.window_r[0, k, :2] = (20.0, 20.0)
-    p = cycle_params(make_config("matos_moving_lbl"), 6.63, 9.21, 11.34)
+    p = cycle_params(make_config("matos_moving_lbl"), 6.63, 9.21)
     assert line_fit(f, 0, p, np.empty(4), np.empty((4, 4)))[0] == 0
 
 
@@ -576,7 +576,7 @@ def test_filter_consensus_by_hand():
         f.window_age[0, k] = 0
         f.window_S[0, k] = np.eye(3)
         f.window_r[0, k] = r
-    p = cycle_params(make_config("matos_moving_lbl"), 6.63, 9.21, 11.34)
+    p = cycle_params(make_config("matos_moving_lbl"), 6.63, 9.21)
     assert filter_consensus(f, 0, np.eye(6), p) == 2
     assert filter_consensus(f, 0, 100.0 * np.eye(6), p) == 4  # a grown P agrees with anything
 
@@ -598,7 +598,7 @@ def _locked_out(P_xy_var, fixes_e):
         f.window_age[0, k] = k
         f.window_S[0, k] = 0.25 * np.eye(3)
         f.window_r[0, k, :2] = fixes_e
-    p = cycle_params(make_config("matos_river"), 6.63, 9.21, 11.34)
+    p = cycle_params(make_config("matos_river"), 6.63, 9.21)
     status = np.array([[True, True], [True, False], [False, False]])
     ex = ExchangeResult(0.0, 0.0, 0.0, 0.0, True, False, True, False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, 0)
     E, P = f.E[0], f.P[0]

@@ -189,7 +189,8 @@ class MovingNetwork(Section):
         high=64,
         source="assumption [U]",
         doc=(
-            "the fewest mutually consistent fixes of the window (chi-square, 3 dof) the recovery restarts from "
+            "the fewest mutually consistent fixes of the window (chi-square: 2 dof on x, y, 1 dof on l) the "
+            "recovery restarts from "
             "or checks the filter against [U]"
         ),
     )

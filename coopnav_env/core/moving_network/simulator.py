@@ -125,7 +125,7 @@ class MovingNetworkSimulator(BatchSimulator):
     def _build_params(self) -> None:
         """The kernels' records of the scenario's numbers, once."""
         c = self.config
-        vturn = np.radians(c.survey_max_turn_rate_dps) * c.substep_s
+        vturn = max_turn_per_substep_rad(c.survey_max_turn_rate_dps, c.substep_s)
         Q = np.diag(
             [
                 c.frame_q_position_m2ps,
@@ -150,7 +150,6 @@ class MovingNetworkSimulator(BatchSimulator):
             c,
             gate_threshold(c.range_gate_probability, 1),
             gate_threshold(c.range_gate_probability, 2),
-            gate_threshold(c.range_gate_probability, 3),
         )
         self._observe_params = ObserveParams(
             float(c.baseline_target_m),

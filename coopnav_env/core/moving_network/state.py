@@ -258,7 +258,6 @@ class CycleParams(NamedTuple):
     baseline_target_m: float
     baseline_tolerance_m: float
     min_baseline_distance_m: float
-    gate3: float  # the recovery's chi-square gate, 3 dof (x, y, l)
     frame_restart_min_fixes: float
     frame_q_position_m2ps: float  # the filter's Q, for the dead-reckoned drift of a stored fix
     frame_q_baseline_m2ps: float
@@ -270,9 +269,9 @@ class CycleParams(NamedTuple):
     frame_restart_velocity_std_mps: float  # the recovery's prior on a locked-out filter's velocity error (eq. F5)
 
 
-def cycle_params(config: ScenarioConfig, gate1: float, gate2: float, gate3: float) -> CycleParams:
-    """``CycleParams`` of a scenario, with its gates (1, 2 and 3 dof)."""
-    named = {"gate1": gate1, "gate2": gate2, "gate3": gate3}
+def cycle_params(config: ScenarioConfig, gate1: float, gate2: float) -> CycleParams:
+    """``CycleParams`` of a scenario, with its gates (1 and 2 dof)."""
+    named = {"gate1": gate1, "gate2": gate2}
     return CycleParams(*(float(named[k] if k in named else getattr(config, k)) for k in CycleParams._fields))
 
 
