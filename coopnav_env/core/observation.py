@@ -21,6 +21,12 @@ per other beacon        2      last reported (east, north) - own, / L
 =====================  =====  =====================================================
 
 ``coopnav_env.obs_layout`` decodes it (for planners and tools) with these constants.
+
+One exception to "only what it could know", found by a review and left for the trained
+policies' sake: the own heading and speed are the true ones, where a beacon AUV's compass
+has a bias (``beacon_dvl_heading_bias_std_deg``) and its DVL a scale error. No planner
+reads either; a learned policy sees a heading a fraction of a degree better than its
+compass would give.
 """
 
 from __future__ import annotations
