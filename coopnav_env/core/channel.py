@@ -214,7 +214,7 @@ class Channel:
         o = self._timeline(beacon_tx, np.zeros((beacon_tx.shape[0], self.S), dtype=bool), draws)
         ok, lost = self._decode(o, u, pings)
         ended = o.end_s <= self.reply_at_s  # NaN (not sent): False
-        replying = (ok & ended[pings]).any(1)  # (B, S)
+        replying: np.ndarray = np.asarray((ok & ended[pings]).any(1))  # (B, S)
         if replying.any():
             # the slot with the replies in it, for every environment (each row only its own:
             # a batch row stays the environment alone); the replies start after every ended
