@@ -211,7 +211,7 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
     last heard before the fix (var(e); the ratio at most 1). A review found the dead
     reckoning's part kept (Pxb <- phi Pxb, about 0.11 where this gives 0.02 at
     ``gao_sea``'s defaults), which can make the joint covariance indefinite; this keeps it
-    positive semi-definite (phi^2 var_m2 / var_seen^2 <= 1 / var_seen). With a white GPS
+    positive semi-definite (phi^2 var(g) / var_seen^2 <= 1 / var_seen). With a white GPS
     error (tau = 0) or fixes far apart it is eq. (C8), Pxb <- 0. Called when the counter
     ``cv.fix_count[b, j] % 16`` differs from ``cv.fix_seen[b, s, j]``."""
     count = cv.fix_count[b, j] % 16
