@@ -294,7 +294,7 @@ def _kalman(f, prm, j, H, meas, K, Pbb, gated):
         return fused, y * y / nis if nis > 0.0 else 0.0
     S = innovation_variance(f.P, H, R_white)
     if prm.fusion == CI:
-        if y * y / S > gate:
+        if not y * y / S <= gate:  # a NaN y too
             return False, S
         x0 = f.x.copy()
         ci_range_update(f.x, f.P, y, H, R_white, False)
