@@ -233,12 +233,23 @@ class Channel:
         return SlotResult(o.arrival_s, delivered, o.overlapped & ~o.captured, o.deaf, full_lost, o, ended)
 
     def replies(
-        self, beacon_tx: np.ndarray, survey_tx: np.ndarray, draws: dict[str, np.ndarray]
+        self,
+        beacon_tx: np.ndarray,
+        survey_tx: np.ndarray,
+        draws: dict[str, np.ndarray],
+        pinged: SlotResult | None = None,
     ) -> tuple[np.ndarray, np.ndarray, SlotOutcome]:
         """The whole slot with the replies of ``survey_tx`` (B, S): (reply_ok (B, N, S),
-        peer_ok (B, N, N) [receiver, sender], the slot's ``link.SlotOutcome``)."""
+        peer_ok (B, N, N) [receiver, sender], the slot's ``link.SlotOutcome``). ``pinged``:
+        ``pings``' result of this slot, whose outcome is reused when it was resolved with
+        these very replies (those of the pings decoded by the reply time), not computed again."""
         N, S = self.N, self.S
-        o = self._timeline(beacon_tx, survey_tx, draws)
+        if pinged is not None and np.array_equal(
+            survey_tx, (pinged.delivered[:, :N, N:] & pinged.ended[:, :N, N:]).any(1)
+        ):
+            o = pinged.outcome
+        else:
+            o = self._timeline(beacon_tx, survey_tx, draws)
         # [receiver, sender] as the message kernel reads them
         o_rs = o._replace(captured=np.swapaxes(o.captured, 1, 2), deaf=np.swapaxes(o.deaf, 1, 2))
         o_rs = o_rs._replace(p_success=np.swapaxes(o.p_success, 1, 2))

@@ -156,13 +156,23 @@ def carry_cross_covariance(Pxb: np.ndarray, K: np.ndarray, H: np.ndarray) -> Non
 
 
 @njit(cache=True)
+def gauss_markov_factor(dt_s: float, tau_s: float) -> float:
+    """Eq. (C7)'s phi = exp(-dt_s / tau_s), the correlation a first-order Gauss-Markov error
+    keeps over dt_s; 1 for tau_s <= 0 or inf (a bias or a random walk, whose increments are
+    independent of the survey's error). ``consider_predict`` and eq. C8' read it."""
+    if tau_s > 0.0 and np.isfinite(tau_s):
+        return np.exp(-dt_s / tau_s)
+    return 1.0
+
+
+@njit(cache=True)
 def consider_predict(Pxb: np.ndarray, dt_s: float, tau_s: float) -> None:
     """Eq. (C7) for one (survey, beacon) cross-covariance, in place: Pxb <- phi Pxb,
-    phi = exp(-dt_s / tau_s); tau_s <= 0 or inf: the beacon's error is a bias or a
+    phi = ``gauss_markov_factor``; tau_s <= 0 or inf: the beacon's error is a bias or a
     random walk (its increments independent of the survey's error), Pxb unchanged.
     The survey's own predict (Gao eqs. 4, 6, F = I) leaves Pxb as it is."""
     if tau_s > 0.0 and np.isfinite(tau_s):
-        phi = np.exp(-dt_s / tau_s)
+        phi = gauss_markov_factor(dt_s, tau_s)
         for i in range(Pxb.shape[0]):
             for j in range(Pxb.shape[1]):
                 Pxb[i, j] *= phi

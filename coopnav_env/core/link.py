@@ -257,6 +257,21 @@ def transmission_loss_db(range_m: float, f_khz: float, spreading_k: float) -> fl
 MIN_BAND_EDGE_HZ = 1.0  # the lowest frequency of Wenz (1962)'s curves, which noise_psd_db's terms fit
 
 
+def band_problem(center_khz: float, bandwidth_hz: float) -> str | None:
+    """Why a band cannot be used by the noise model (its turbulence term diverges at 0 Hz),
+    or None: it must be positive and start at or above ``MIN_BAND_EDGE_HZ``. The message
+    names the widest band around that centre. ``band_noise_db`` and the scenarios'
+    validation read it."""
+    low_hz = 1000.0 * center_khz - 0.5 * bandwidth_hz
+    if bandwidth_hz > 0.0 and low_hz >= MIN_BAND_EDGE_HZ:
+        return None
+    widest = 2.0 * (1000.0 * center_khz - MIN_BAND_EDGE_HZ)
+    return (
+        f"a band of {bandwidth_hz:g} Hz around {center_khz:g} kHz reaches {low_hz:g} Hz: it must be positive and "
+        f"start at or above {MIN_BAND_EDGE_HZ:g} Hz; the widest band there is {widest:g} Hz (or raise the centre)"
+    )
+
+
 @vectorize(["float64(float64, float64, float64)"], cache=True)
 def noise_psd_db(f_khz: float, shipping: float, wind_mps: float) -> float:
     """Ambient noise power spectral density, dB re 1 uPa^2/Hz, f in kHz: the power sum
@@ -282,12 +297,9 @@ def band_noise_db(
     """Noise power in the band, dB re 1 uPa^2: the PSD integrated over
     [fc - B/2, fc + B/2] (trapezoid on ``points`` frequencies, linear power) or, with
     ``integrate=False``, NL(fc) + 10 log10(B) (flat over the band)."""
-    low_hz = 1000.0 * band.center_khz - 0.5 * band.bandwidth_hz
-    if not (band.bandwidth_hz > 0.0 and low_hz >= MIN_BAND_EDGE_HZ):  # the turbulence term diverges at 0 Hz
-        raise ValueError(
-            f"a band of {band.bandwidth_hz:g} Hz around {band.center_khz:g} kHz reaches {low_hz:g} Hz: it must be "
-            f"positive and start at or above {MIN_BAND_EDGE_HZ:g} Hz"
-        )
+    problem = band_problem(band.center_khz, band.bandwidth_hz)
+    if problem is not None:
+        raise ValueError(problem)
     if not integrate:
         return float(noise_psd_db(band.center_khz, noise.shipping, noise.wind_mps) + 10.0 * np.log10(band.bandwidth_hz))
     half_khz = 0.5 * band.bandwidth_hz / 1000.0

@@ -398,7 +398,7 @@ class Simulator(BatchSimulator):
             return
         ping_ok, ping_slot = ping
         replied = (ping_ok & ping_slot.ended[:, : self.N, self.N :] & ~out.lost).any(1)  # decoded by the reply time
-        reply_ok, peer_ok, _ = self.channel.replies(transmit, replied, draws)
+        reply_ok, peer_ok, _ = self.channel.replies(transmit, replied, draws, ping_slot)
         self.channel.exchange(draws, reply_ok, peer_ok)
         st.b_pings = transmit.astype(np.int64)
         st.b_collisions = ping_slot[2][:, : self.N, self.N :].sum(-1).astype(np.int64)

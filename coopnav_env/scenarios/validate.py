@@ -95,15 +95,11 @@ def _check_decision_slot(c: Any) -> None:
         "channel_mode='decide' needs network='survey_beacons', acoustic_sensor='modem' and ranging_mode='owtt' "
         "(a beacon's ping is the one-way range)",
     )
-    # the noise model's turbulence term diverges at 0 Hz (the channel computes it on either link)
-    from ..core.link import MIN_BAND_EDGE_HZ
+    # the noise model's band (the channel computes the noise on either link)
+    from ..core.link import band_problem
 
-    widest = 2.0 * (1000.0 * c.band_center_khz - MIN_BAND_EDGE_HZ)
-    check(
-        1000.0 * c.band_center_khz - 0.5 * c.band_width_hz >= MIN_BAND_EDGE_HZ,
-        f"band_width_hz={c.band_width_hz:g} reaches below {MIN_BAND_EDGE_HZ:g} Hz around band_center_khz="
-        f"{c.band_center_khz:g}: the widest band there is {widest:g} Hz (or raise band_center_khz)",
-    )
+    problem = band_problem(c.band_center_khz, c.band_width_hz)
+    check(problem is None, f"band_center_khz, band_width_hz: {problem}")
     from ..core.link_framing import slot_timing
 
     t = slot_timing(c, SLOWEST_SOUND_SPEED_MPS)

@@ -33,6 +33,7 @@ from ..consider import (
     beacon_reset,
     carry_cross_covariance,
     ci_range_update,
+    gauss_markov_factor,
     schmidt_range_update,
 )
 from ..contract import SensorHost
@@ -218,7 +219,7 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
     if prm.gps_tau_s > 0.0:
         old = cv.var_seen[b, s, j]
         share = min(1.0, prm.gps_var_m2 / old) if old > 0.0 else 1.0
-        scale = np.exp(-(t_s - cv.fix_seen_t_s[b, s, j]) / prm.gps_tau_s) * share
+        scale = gauss_markov_factor(t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s) * share
         cv.Pxb[b, s, j] *= scale
         if prm.hold:  # the held hypotheses' difference too (M5)
             cv.hyp_dX[b, s, j] *= scale
