@@ -11,6 +11,7 @@ import pytest
 
 import coopnav_env
 from coopnav_env.core import make_simulator
+from coopnav_env.core.beacon_nav import covariance_deviator_m2, heading_cycle_variance_m2
 
 QUIET = dict(
     dvl_velocity_noise_mps=0.0,
@@ -123,6 +124,127 @@ def test_carried_variance_matches_the_monte_carlo_error_on_an_orbit(degrees_per_
     expected_total = b1**2 * s**2 / (4.0 if degrees_per_cycle else 2.0)
     assert mse == pytest.approx(expected_total, rel=0.1)  # the hand formula's two limits
     assert mse == pytest.approx(carried, rel=0.05)
+
+
+def _leg_heading_deg(path, k):
+    """The commanded heading (degrees from east, anticlockwise) of cycle k: due east, or a
+    lawnmower of 6-cycle legs east and west joined by one cycle north."""
+    if path == "straight":
+        return 0.0
+    phase = k % 14
+    return 90.0 if phase in (6, 13) else (0.0 if phase < 6 else 180.0)
+
+
+@pytest.mark.parametrize("path", ["straight", "lawnmower"])
+def test_carried_covariance_matrix_matches_the_monte_carlo_error(path):
+    """Eq. N1 (``beacon_nav.covariance_deviator_m2``, ``beacon_covariance="full"``): the heading
+    errors displace the beacon across its track, so its error covariance is not isotropic. Over 4000 episodes (each its
+    own compass bias, one-cycle phase, scale error and noise) the error's 2x2 covariance E[e e^T]
+    equals the carried [[m + a, c], [c, m - a]] (minus the start fix's I2), entry by entry,
+    within 8 % of its largest entry; the isotropic m alone is off by 1.3x or more across the track
+    and 0.7x along it (here 1.41x and 0.62x straight, where the white walk is a larger share,
+    1.93x and 0.08x on the lawnmower, as a review measured: 1.9x and 0.07x)."""
+    B = 4000
+    c = coopnav_env.make_config(
+        "gao_sea",
+        **{
+            **QUIET,
+            "beacon_dvl_heading_bias_std_deg": 0.5,
+            "beacon_dvl_heading_cycle_deg": 1.0,
+            "beacon_dvl_scale_error_std": 0.01,
+            "dvl_velocity_noise_mps": 0.026,
+            "beacon_covariance": "full",
+        },
+    )
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B) + 31000)
+    err0 = sim.state.b_nav_err[:, 0, :2].copy()
+    for k in range(28):
+        a = np.radians(_leg_heading_deg(path, k))
+        sim.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (B, 1, 2)))
+    st = sim.state
+    e = st.b_nav_err[:, 0, :2] - err0
+    mc = e.T @ e / B
+    m, dev = st.b_nav_var_m2[:, 0] - 1.0, st.b_nav_dev_m2[:, 0]
+    carried = np.array([[np.mean(m + dev.real), np.mean(dev.imag)], [np.mean(dev.imag), np.mean(m - dev.real)]])
+    assert np.abs(mc - carried).max() < 0.08 * np.abs(carried).max(), (mc, carried)
+    # across the track (north-south on these east-west legs) the isotropic m is far off
+    assert mc[1, 1] / np.mean(m) > 1.3 and mc[0, 0] / np.mean(m) < 0.7, (mc, np.mean(m))
+    # the default, "isotropic", carries and sends m alone: the same m, no deviator
+    iso = make_simulator(c.replace(beacon_covariance="isotropic"), 8)
+    iso.reset(np.arange(8) + 31000)
+    for k in range(28):
+        a = np.radians(_leg_heading_deg(path, k))
+        iso.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (8, 1, 2)))
+    np.testing.assert_array_equal(iso.state.b_nav_var_m2, st.b_nav_var_m2[:8])
+    assert np.all(iso.state.b_nav_dev_m2 == 0.0)
+
+
+def test_cross_covariance_between_pings_matches_the_monte_carlo_error():
+    """Eq. N2 (``consider.error_model_covariance``): the covariance of the beacon's error at two
+    pings 14 cycles apart on the lawnmower, one leg east and one west between them (its heading
+    errors' part turned with the track), from the error model's state the pings carry, against
+    the Monte Carlo E[e2 e1^T] over 4000 episodes, entry by entry within 8 % of the largest.
+    Eq. C7's random walk would have it Sigma1, the first ping's covariance: across these legs
+    (north) that is 12.4 m^2 where the errors share 25.8 m^2, as a bias that grew."""
+    from coopnav_env.core.consider import error_model_covariance
+    from coopnav_env.core.measurements.modem import ModemRanging
+
+    B = 4000
+    c = coopnav_env.make_config(
+        "gao_sea",
+        **{
+            **QUIET,
+            "beacon_dvl_heading_bias_std_deg": 0.5,
+            "beacon_dvl_heading_cycle_deg": 1.0,
+            "beacon_dvl_scale_error_std": 0.01,
+            "dvl_velocity_noise_mps": 0.026,
+            "beacon_covariance": "full",
+        },
+    )
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B) + 52000)
+    model = ModemRanging(sim).params.error_model
+
+    def state_now():
+        st = sim.state
+        d = st.b_pos[:, 0, 0] + st.b_nav_err[:, 0, 0] + 1j * (st.b_pos[:, 0, 1] + st.b_nav_err[:, 0, 1])
+        d = d - st.b_fix_est[:, 0]
+        g = st.b_turn_sum_m[:, 0]
+        m = [d.real, d.imag, st.b_travelled_m[:, 0], g.real, g.imag, st.b_unlocked_s[:, 0], st.b_walk_var_m2[:, 0]]
+        return np.stack(m, axis=1), st.b_nav_err[:, 0, :2].copy()
+
+    saved = {}
+    for k in range(26):
+        a = np.radians(_leg_heading_deg("lawnmower", k))
+        sim.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (B, 1, 2)))
+        if k in (10, 24):
+            saved[k] = state_now()
+    (m1, e1), (m2, e2) = saved[10], saved[24]
+    mc = e2.T @ e1 / B  # rows: the later ping's east, north
+    model_c = np.mean([error_model_covariance(m2[i], m1[i], model) for i in range(B)], axis=0).reshape(2, 2)
+    assert np.abs(mc - model_c).max() < 0.08 * np.abs(model_c).max(), (mc, model_c)
+    # eq. C7's random walk (phi = 1) takes Cov(b2, b1) for Sigma1, the covariance at the first ping
+    sigma1 = np.mean([error_model_covariance(m1[i], m1[i], model) for i in range(B)], axis=0).reshape(2, 2)
+    assert np.abs(mc - sigma1).max() > 0.3 * np.abs(model_c).max(), (mc, sigma1)
+
+
+def test_covariance_deviator_hand_values():
+    """Eq. N1 by hand. A straight run north of s = 100 m (D = 100i, G = s) with only the one-cycle
+    compass error b1: Sigma_xx = b1^2 s^2 / 2 (all of it across the track, east), Sigma_yy = 0,
+    so a = b1^2 s^2 / 4 = m and c = 0. The constant errors on D = 100 (east) with sigma_k = 0.02,
+    sigma_b0 = 0.01: along the track sigma_k^2 |D|^2 = 4, across sigma_b0^2 |D|^2 = 1, so
+    a = (4 - 1) / 2 = 1.5. On whole orbits (G = 0) the one-cycle part is isotropic."""
+    b1 = np.radians(1.0)
+    dev = covariance_deviator_m2(0.0, 100j, b1, 100.0, 100.0 + 0j)
+    assert dev.real == pytest.approx(b1**2 * 100.0**2 / 4.0) and dev.imag == 0.0
+    assert heading_cycle_variance_m2(b1, 100.0, 100.0 + 0j) == pytest.approx(dev.real)  # m = a: Sigma_yy = 0
+    dev = covariance_deviator_m2(0.02**2 - 0.01**2, 100.0 + 0j, 0.0, 100.0, 100.0 + 0j)
+    assert dev == pytest.approx(1.5)
+    # at 45 degrees the along/across difference turns into the correlation c
+    dev = covariance_deviator_m2(0.02**2 - 0.01**2, 100.0 * np.exp(1j * np.pi / 4), 0.0, 100.0, 0j)
+    assert dev.real == pytest.approx(0.0, abs=1e-12) and dev.imag == pytest.approx(1.5)
+    assert covariance_deviator_m2(0.0, 0j, b1, 300.0, 0j) == 0.0
 
 
 def test_surfacing_on_a_clock_resets_to_a_gps_fix():

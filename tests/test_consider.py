@@ -9,16 +9,25 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.stats import chi2
 
 from coopnav_env.core.consider import (
+    ErrorModel,
+    beacon_covariance,
     beacon_reset,
+    beacon_variance_along,
+    beacon_variance_los,
     carry_cross_covariance,
     ci_range_update,
     ci_trace,
     consider_predict,
     covariance_intersection,
+    error_model_covariance,
+    gps_share,
     schmidt_range_update,
+    transport_cross_covariance,
 )
 from coopnav_env.core.navigation import joseph_update, range_prediction
 from coopnav_env.core.recovery import RangeWindow, WindowNoise, window_fix
@@ -417,3 +426,95 @@ def test_monte_carlo_two_beacons_random_walk_and_fixes():
     assert nees["ekf"].mean() > hi
     v = nees["schmidt"]
     assert lo <= v.mean() <= hi and np.mean((v >= c_lo) & (v <= c_hi)) >= 0.85 and np.mean(v > c_999) <= 0.003
+
+
+def _pbb(var, dev):
+    out = np.empty((2, 2))
+    beacon_covariance(var, dev, out)
+    return out
+
+
+def test_the_beacons_covariance_from_its_message_hand_values():
+    """Eq. N1's Pbb = [[m + a, c], [c, m - a]] and its projections: along a row h, h Pbb h^T
+    (eq. C2's Hb Pbb Hb^T); along a direction, the variance white fusion adds to R (a range:
+    along the line of sight; a bearing: across it). An isotropic Pbb gives exactly what the
+    scalar per-axis variance gave before, bit for bit."""
+    P = _pbb(5.0, 3.0 + 1.0j)
+    np.testing.assert_array_equal(P, [[8.0, 1.0], [1.0, 2.0]])
+    h = np.array([0.6, -0.8])
+    assert beacon_variance_along(P, *h) == pytest.approx(h @ P @ h)
+    assert beacon_variance_along(P, *(3 * h)) == pytest.approx(9 * h @ P @ h)
+    assert beacon_variance_los(P, *(3 * h)) == pytest.approx(h @ P @ h)  # the length does not matter
+    assert beacon_variance_los(P, 1.0, 0.0) == 8.0 and beacon_variance_los(P, 0.0, -2.0) == 2.0
+    assert beacon_variance_los(P, 0.0, 0.0) == 5.0  # no direction: the per-axis mean
+    rng = np.random.default_rng(3)
+    for v, (h0, h1) in zip(rng.uniform(0.01, 100, 50), rng.normal(size=(50, 2))):
+        iso = _pbb(v, 0j)
+        assert beacon_variance_along(iso, h0, h1) == v * (h0 * h0 + h1 * h1)
+        assert beacon_variance_los(iso, h0, h1) == v
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    var=st.floats(0.01, 400.0),
+    frac=st.floats(0.0, 0.999),
+    angle=st.floats(-np.pi, np.pi),
+    gps=st.floats(0.01, 50.0),
+    phi=st.floats(0.0, 1.0),
+    seed=st.integers(0, 2**16),
+)
+def test_the_gps_share_is_var_g_times_the_inverse_covariance_capped(var, frac, angle, gps, phi, seed):
+    """Eq. C8' with the beacon's 2x2 covariance Sigma as last heard: Pxb <- phi Pxb M with
+    M = var(g) Sigma^-1 and each eigenvalue of M capped at 1, against numpy's eigh."""
+    dev = var * frac * np.exp(1j * angle)
+    sigma = _pbb(var, dev)
+    lam, V = np.linalg.eigh(sigma)
+    M = V @ np.diag(np.minimum(1.0, gps / np.maximum(lam, 1e-300))) @ V.T
+    X = np.random.default_rng(seed).normal(size=(3, 2))
+    got = X.copy()
+    gps_share(got, gps, var, dev, phi)
+    np.testing.assert_allclose(got, phi * X @ M, rtol=1e-9, atol=1e-12)
+
+
+def test_the_gps_share_of_an_isotropic_covariance_is_the_scalar():
+    """With no deviator, eq. C8' is the scalar phi min(1, var(g) / m) to the bit; never heard
+    (m = 0): the share is 1."""
+    X = np.random.default_rng(0).normal(size=(3, 2))
+    got = X.copy()
+    gps_share(got, 1.0, 7.0, 0j, 0.9)
+    np.testing.assert_array_equal(got, X * (0.9 * (1.0 / 7.0)))
+    got = X.copy()
+    gps_share(got, 1.0, 0.0, 0j, 0.5)
+    np.testing.assert_array_equal(got, 0.5 * X)
+
+
+def test_the_cross_covariance_follows_a_turn_of_the_track_by_hand():
+    """Eqs. N2-N3 with the constant compass bias b0 alone (and a white part w small beside it):
+    100 m east of its fix the beacon's error is -i b0 D1 = (0, -100 b0), all north; after it
+    turned, 100 m north, it is -i b0 (100 i) = (100 b0, 0), all east: b2_x = -b1_y. So
+    Cov(b2, b1) = [[w, -1e4 s^2], [0, w]], and a survey correlated with the old north error
+    by p is correlated with the new east error by -p (N3), where eq. C7's phi = 1 keeps it on
+    north, an axis whose variance has fallen to w."""
+    sb2, w = 1e-4, 1e-6
+    model = ErrorModel(sb2, -sb2, 0.0, 0.0)
+    m1 = np.array([100.0, 0.0, 100.0, 100.0, 0.0, 0.0, w])  # D east, s, G (a straight leg), no lock loss
+    m2 = np.array([0.0, 100.0, 200.0, 0.0, 0.0, 0.0, w])
+    c = error_model_covariance(m2, m1, model)
+    np.testing.assert_allclose(c, [w, -1.0, 0.0, w], rtol=1e-12, atol=1e-15)
+    sigma1 = error_model_covariance(m1, m1, model)
+    np.testing.assert_allclose(sigma1, [w, 0.0, 0.0, w + 1.0], rtol=1e-12, atol=1e-15)
+    Pxb = np.zeros((3, 2))
+    Pxb[1, 1] = 0.7
+    transport_cross_covariance(Pxb, m2, m1, model)
+    np.testing.assert_allclose(
+        Pxb, [[0.0, 0.0], [-0.7 / (1.0 + w), 0.7 * w / (1.0 + w)], [0.0, 0.0]], rtol=1e-9, atol=1e-12
+    )
+    # a random walk alone (no constant errors): Cov(b2, b1) = Sigma1, Pxb kept (eq. C7, phi = 1)
+    walk = ErrorModel(0.0, 0.0, 0.0, 0.0)
+    X = np.arange(6.0).reshape(3, 2)
+    Y = X.copy()
+    transport_cross_covariance(Y, np.r_[m2[:6], 5.0], np.r_[m1[:6], 2.0], walk)
+    np.testing.assert_allclose(Y, X, rtol=1e-12)
+    # never heard (Sigma1 = 0): nothing changes
+    transport_cross_covariance(Y, m2, np.zeros(7), walk)
+    np.testing.assert_array_equal(Y, X)

@@ -40,7 +40,7 @@ def test_schmidt_with_an_exact_beacon_is_the_papers_filter():
 @pytest.mark.parametrize("tau", [0.0, 300.0])
 def test_the_fix_counter_resets_the_cross_covariance(tau):
     """A DVL beacon surfaces every 100 s. On the cycle of its fix the survey, hearing the
-    new counter in the ping, first keeps of Pxb the GPS error's share, var(g) / var(e), decayed
+    new counter in the ping, first keeps of Pxb the GPS error's share, var(g) Sigma(e)^-1, decayed
     by exp(-dt / tau) over the dt since the last fix it heard (eq. C8'; zeroes it, eq. C8,
     with a white GPS error): the
     step gives what the same step gives from a state where that was done by hand; a
@@ -68,9 +68,14 @@ def test_the_fix_counter_resets_the_cross_covariance(tau):
             sim.step(np.full((1, 1, 2), 0.3))
     assert np.abs(a.state.s_Pxb).max() > 1e-3  # the survey has learnt a correlation
     dt = 100.0
-    share = c.gps_noise_m**2 / a.state.s_var_seen_m2[0, 0, 0]  # eq. C8': the GPS part of the old error
-    assert 0.0 < share < 1.0
-    b.state.s_Pxb *= np.exp(-dt / tau) * share if tau > 0 else 0.0
+    # eq. C8': the GPS part of the old error, var(g) Sigma_seen^-1 with Sigma_seen the beacon's 2x2
+    # covariance as last heard (per-axis variance m and deviator a + 1j c, eq. N1), by numpy's own algebra
+    m, dev = a.state.s_var_seen_m2[0, 0, 0], a.state.s_dev_seen_m2[0, 0, 0]
+    sigma = np.array([[m + dev.real, dev.imag], [dev.imag, m - dev.real]])
+    lam, V = np.linalg.eigh(sigma)
+    share = V @ np.diag(np.minimum(1.0, c.gps_noise_m**2 / lam)) @ V.T
+    assert np.linalg.eigvalsh(share).min() > 0.0 and np.linalg.eigvalsh(share).max() < 1.0
+    b.state.s_Pxb[:] = np.exp(-dt / tau) * b.state.s_Pxb @ share if tau > 0 else 0.0
     b.state.s_fix_seen[:] = (a.state.b_fix_count[0, 0] + 1) % 16  # as if heard already
     b.state.s_fix_seen_t_s[:] = a.state.t_s[0] + c.ping_interval_s
     a.step(np.full((1, 1, 2), 0.3))
@@ -129,6 +134,33 @@ def test_a_fix_keeps_only_the_gps_errors_share_of_the_correlation():
     assert np.linalg.eigvalsh(joint).min() > 0.0
     old = np.block([[Pxx, phi * Pxe], [phi * Pxe.T, var_g * np.eye(2)]])
     assert np.linalg.eigvalsh(old).min() < -10.0  # what the review found
+
+
+def test_a_fix_keeps_the_gps_share_of_an_anisotropic_error():
+    """Eq. C8' with the beacon's covariance 2x2 (eq. N1): its dead reckoning d drifted 5 m
+    across its track (east) and 1 m along it, so Sigma_e = var(g) I + diag(25, 1). With
+    x = -0.8 e + n, Cov(x, e) = -0.8 Sigma_e, and the fix leaves Cov(x, e') = -0.8 phi var(g)
+    I: Pxb Sigma_e^-1 var(g). The scalar share with the per-axis mean m = 14 (what the survey
+    knew before the deviator was carried) gives -1.4 east and -0.11 north where both are
+    -0.75."""
+    from coopnav_env.core.kernel_records import consider_view
+    from coopnav_env.core.measurements.modem import ModemRanging, _heard_fix_count
+
+    c = coopnav_env.make_config("gao_sea", gps_noise_m=1.0, gps_error_time_constant_s=300.0)
+    sim = make_simulator(c, 1)
+    sim.reset([3])
+    prm = ModemRanging(sim).params
+    a, dt = 0.8, 20.0
+    sigma_e = np.diag([26.0, 2.0])
+    m, dev = 0.5 * np.trace(sigma_e), complex(0.5 * (sigma_e[0, 0] - sigma_e[1, 1]), sigma_e[0, 1])
+    st = sim.state
+    st.s_Pxb[0, 0, 0] = np.vstack([-a * sigma_e, np.zeros((1, 2))])
+    st.s_var_seen_m2[0, 0, 0], st.s_dev_seen_m2[0, 0, 0] = m, dev
+    st.s_fix_seen_t_s[0, 0, 0] = 0.0
+    st.s_hyp_w[:] = 1.0
+    _heard_fix_count(consider_view(st), prm, 0, 0, 0, dt)
+    exact = -a * np.exp(-dt / 300.0) * 1.0 * np.eye(3, 2)
+    np.testing.assert_allclose(st.s_Pxb[0, 0, 0], exact, rtol=1e-12, atol=1e-15)
 
 
 def test_gps_error_is_gauss_markov_with_its_time_constant():

@@ -104,7 +104,9 @@ def test_reweighing_matches_the_two_component_gaussian_sum(toward, j):
     H2 = np.array([0.92, 0.39, 0.0])  # a cycle later, from nearly the same direction
     z2 = H2 @ ((1 - toward) * comps[0][1] + toward * comps[1][1])  # a range measured as linear in x
     mean, cov, Xr, Dr, w_ref = _mixture(comps, H2, z2, R, j, 4.0)
-    w2 = reweigh_hypotheses(held_w, Held(d, dP, dX, dD), Moments(x, P, X, D), H2, z2 - H2 @ x, R, P_OUT, MU, j, 4.0)
+    w2 = reweigh_hypotheses(
+        held_w, Held(d, dP, dX, dD), Moments(x, P, X, D), H2, z2 - H2 @ x, R, P_OUT, MU, j, 4.0 * np.eye(2)
+    )
     assert w2 == pytest.approx(w_ref, rel=1e-9)
     if j >= 0 and toward == 0.5:  # the case sees the cross term: without it the weight is another
         assert _mixture(comps, H2, z2, R + 4.0 * (H2[:2] @ H2[:2]))[4] != pytest.approx(w_ref, rel=0.2)

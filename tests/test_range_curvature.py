@@ -18,7 +18,8 @@ def _terms(x, P, beacon_var=0.0, Pxb=None):
     d = np.asarray(x, float)
     h = float(np.linalg.norm(d))
     Pxb = np.zeros((3, 2)) if Pxb is None else np.asarray(Pxb, float)
-    return range_curvature(np.asarray(P, float), Pxb, beacon_var, d / h, h), h
+    Pbb = beacon_var * np.eye(2) if np.ndim(beacon_var) == 0 else np.asarray(beacon_var, float)
+    return range_curvature(np.asarray(P, float), Pxb, Pbb, d / h, h), h
 
 
 def test_hand_values():
@@ -30,6 +31,9 @@ def test_hand_values():
     # the beacon's variance adds to the relative position's (Pbb = 44 I2 across the line of sight)
     (bias, var), _ = _terms([30.0, 0.0, 0.0], np.diag([56.0, 56.0, 0.0]), beacon_var=44.0)
     assert bias == pytest.approx(100.0 / 60.0) and var == pytest.approx(0.5 * (100.0 / 30.0) ** 2)
+    # an anisotropic Pbb (eq. N1): only its part across the line of sight bends the range
+    (bias, var), _ = _terms([30.0, 0.0, 0.0], np.diag([56.0, 56.0, 0.0]), beacon_var=np.diag([500.0, 44.0]))
+    assert bias == pytest.approx(100.0 / 60.0) and var == pytest.approx(0.5 * (100.0 / 30.0) ** 2)
     # error along the line of sight only: no curvature
     (bias, var), _ = _terms([30.0, 0.0, 0.0], np.diag([100.0, 0.0, 0.0]))
     assert bias == 0.0 and var == 0.0
@@ -39,7 +43,7 @@ def test_hand_values():
     (bias, _), _ = _terms([30.0, 0.0, 0.0], np.diag([100.0, 100.0, 0.0]), beacon_var=20.0, Pxb=Pxb)
     assert bias == pytest.approx((100.0 - 60.0 + 20.0) / 60.0)
     # no range, no terms
-    assert range_curvature(np.eye(3), np.zeros((3, 2)), 0.0, np.zeros(3), 0.0) == (0.0, 0.0)
+    assert range_curvature(np.eye(3), np.zeros((3, 2)), np.zeros((2, 2)), np.zeros(3), 0.0) == (0.0, 0.0)
 
 
 def test_the_relative_covariance_is_that_of_x_minus_b():
@@ -49,11 +53,11 @@ def test_the_relative_covariance_is_that_of_x_minus_b():
     rng = np.random.default_rng(5)
     A = rng.normal(size=(5, 5))
     J = A @ A.T + np.eye(5)  # the joint covariance of (x, b)
-    P, Pxb, bvar = J[:3, :3], J[:3, 3:], 2.5
-    J[3:, 3:] = bvar * np.eye(2)
+    P, Pxb, Pbb = J[:3, :3], J[:3, 3:], J[3:, 3:]  # Pbb anisotropic, with a correlation
+    assert abs(Pbb[0, 1]) > 0.1 and abs(Pbb[0, 0] - Pbb[1, 1]) > 0.1
     T = np.hstack([np.eye(3), -np.eye(3)[:, :2]])  # d = T (x, b)
     expected = T @ J @ T.T
-    got = np.array([[relative_covariance(P, Pxb, bvar, i, j) for j in range(3)] for i in range(3)])
+    got = np.array([[relative_covariance(P, Pxb, Pbb, i, j) for j in range(3)] for i in range(3)])
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
 
 
@@ -104,7 +108,7 @@ def test_a_close_pass_far_off_is_consistent_only_with_the_curvature(second_order
         H = x / h
         R = sigma_r**2
         if second_order:
-            bias, var = range_curvature(P, np.zeros((3, 2)), 0.0, H, h)
+            bias, var = range_curvature(P, np.zeros((3, 2)), np.zeros((2, 2)), H, h)
             h, R = h + bias, R + var
         if gated_update(x, P, z, h, H, R, 1e12):  # no gate: the update itself is judged
             fused += 1

@@ -36,7 +36,7 @@ def _params(fusion: int):
 def _model(f: Moments, z: float, beacon: np.ndarray, prm, beacon_var: float = 0.0):
     h = float(np.linalg.norm(f.x - beacon))
     H = (f.x - beacon) / h
-    meas = (z, h, SIGMA_R**2, SIGMA_R**2 + beacon_var, beacon_var, 0.0, 0.0)
+    meas = (z, h, SIGMA_R**2, SIGMA_R**2 + beacon_var, beacon_var * np.eye(2), 0.0, 0.0)
     gate = _gate_of(prm, z - h)
     passed, Hs, ms = split_range_model(
         f, 0, H, meas, np.zeros((2, 2)), np.zeros(3), _geo(beacon), gate, prm.fusion == SCHMIDT
@@ -117,7 +117,7 @@ def test_far_off_close_pass_is_no_longer_over_confident(fusion):
             if split:
                 assert not np.array_equal(Hs, H)  # the trigger fires
                 H, meas = Hs, ms
-            assert _kalman(f, prm, 0, H, meas, np.zeros(3), np.zeros((2, 2)), True)[0]
+            assert _kalman(f, prm, 0, H, meas, np.zeros(3), True)[0]
             e = (f.x - truth)[:2]
             nees[split].append(float(e @ np.linalg.solve(f.P[:2, :2], e)))
     first, split = np.array(nees[False]), np.array(nees[True])
@@ -171,7 +171,7 @@ def test_the_split_is_across_the_line_of_sight_whatever_the_bearing(bearing_deg)
         f = Moments(est.copy(), P0.copy(), np.zeros((1, 3, 2)), np.zeros((3, 4)))
         passed, H, _, Hs, ms = _model(f, z, beacon, prm)
         assert passed and not np.array_equal(Hs, H)
-        assert _kalman(f, prm, 0, Hs, ms, np.zeros(3), np.zeros((2, 2)), True)[0]
+        assert _kalman(f, prm, 0, Hs, ms, np.zeros(3), True)[0]
         e = (f.x - truth)[:2]
         nees.append(float(e @ np.linalg.solve(f.P[:2, :2], e)))
     nees = np.array(nees)

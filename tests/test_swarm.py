@@ -118,3 +118,20 @@ def test_swarm_runs_under_the_vector_env():
         obs, r, _done, _infos = venv.step(np.zeros((4, 2), dtype=np.float32))
         assert np.all(np.isfinite(r))
     assert coopnav_env.parallel_env("swarm_mls").config.n_survey == 3
+
+
+@pytest.mark.parametrize(("pbb", "beacon_part"), [(np.diag([0.0, 100.0]), 0.0), (np.diag([100.0, 0.0]), 100.0)])
+def test_an_mls_bearing_takes_the_senders_variance_across_the_line_of_sight(pbb, beacon_part):
+    """The sender 50 m north of the survey estimate: its bearing R is the bearing's variance plus
+    the sender's position variance across the line of sight (east) over the range squared
+    (eq. N1's Pbb projected, ``consider.beacon_variance_los``). An error along the line of
+    sight (north) does not turn the bearing: R = 0.01 rad^2. One across it (east, 100 m^2):
+    R = 0.01 + 100 / 2500 = 0.05. A scalar Kalman update by hand on the east axis, P = 25 I:
+    H = (-1/50, 0, 0), S = 25 / 2500 + R, P_ee <- 25 - (25 / 50)^2 / S."""
+    from coopnav_env.core.measurements.mls_array import _bearing_update
+
+    x, P = np.zeros(3), np.diag([25.0, 25.0, 1.0])
+    assert _bearing_update(x, P, np.array([0.0, 50.0, 0.0]), pbb, 0.0, 0.01, np.inf, np.zeros(3))
+    R = 0.01 + beacon_part / 2500.0
+    assert P[0, 0] == pytest.approx(25.0 - 0.5**2 / (0.01 + R))
+    assert P[1, 1] == 25.0

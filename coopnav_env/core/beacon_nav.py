@@ -144,6 +144,7 @@ class _NavParams(NamedTuple):
     fade_fraction: float  # dvl_lock_fade_fraction
     cycle_rad: float  # beacon_dvl_heading_cycle_deg
     sigma2: float  # scale error's plus constant heading error's variance
+    sigma2_diff: float  # scale error's minus constant heading error's variance (the deviator's part)
     current_err_mps: float  # beacon_current_estimate_error_mps
     gps_phi: float  # exp(-T / gps_error_time_constant_s), 0 for a white error
     gps_noise_m: float
@@ -152,6 +153,7 @@ class _NavParams(NamedTuple):
     timed: bool  # beacon_surfacing == "timed"
     vertical_speed_mps: float
     ranging_min_depth_m: float
+    full_covariance: bool  # beacon_covariance == "full": the deviator sent too (eq. N1)
 
 
 class _NavState(NamedTuple):
@@ -166,6 +168,7 @@ class _NavState(NamedTuple):
     gps_err: np.ndarray
     fix_count: np.ndarray
     nav_var_m2: np.ndarray
+    nav_dev_m2: np.ndarray
     fix_est: np.ndarray
     surfacings: np.ndarray
     surfacing: np.ndarray
@@ -203,6 +206,7 @@ def nav_params(c: Any, K: int) -> _NavParams:
         float(c.dvl_lock_fade_fraction),
         float(np.radians(c.beacon_dvl_heading_cycle_deg)),
         float(c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
+        float(c.beacon_dvl_scale_error_std**2 - np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
         float(c.beacon_current_estimate_error_mps),
         float(np.exp(-c.ping_interval_s / tau)) if tau > 0 else 0.0,
         float(c.gps_noise_m),
@@ -211,6 +215,7 @@ def nav_params(c: Any, K: int) -> _NavParams:
         c.beacon_surfacing == "timed",
         float(c.beacon_vertical_speed_mps),
         float(c.beacon_ranging_min_depth_m),
+        c.beacon_covariance == "full",
     )
 
 
@@ -273,12 +278,14 @@ def _navigate(old, new, dvl, pos, nav_err, moved, u, draws_n, is_asv, times, cru
             since_fix = old.since_fix_s[b, n] + prm.T
             est_h = pos[b, n, 0] + 1j * pos[b, n, 1] + err_h
             travelled, turn_sum = add_displacement(old.travelled_m[b, n], old.turn_sum_m[b, n], d)
+            since = est_h - old.fix_est[b, n]
             var = (
                 walk_var
                 + (prm.current_err_mps * unlocked) ** 2
-                + 0.5 * prm.sigma2 * abs(est_h - old.fix_est[b, n]) ** 2
+                + 0.5 * prm.sigma2 * abs(since) ** 2
                 + heading_cycle_variance_m2(prm.cycle_rad, travelled, turn_sum)
             )
+            dev = covariance_deviator_m2(prm.sigma2_diff, since, prm.cycle_rad, travelled, turn_sum)
             # a GPS fix: every cycle for ASVs; at the surface when due for AUVs. The
             # receiver's error is first-order Gauss-Markov, exact over the cycle: e <- phi e
             # + sigma sqrt(1 - phi^2) n (phi = 0: white, a fresh error each fix)
@@ -306,6 +313,7 @@ def _navigate(old, new, dvl, pos, nav_err, moved, u, draws_n, is_asv, times, cru
                 err_h = gps
             gps_var = prm.gps_noise_m**2
             new.nav_var_m2[b, n] = gps_var if fix else var
+            new.nav_dev_m2[b, n] = dev if prm.full_covariance and not fix else 0.0j
             new.walk_var_m2[b, n] = gps_var if surface else walk_var
             new.unlocked_s[b, n] = 0.0 if surface else unlocked
             new.since_fix_s[b, n] = 0.0 if fix else since_fix
@@ -336,6 +344,28 @@ def heading_cycle_variance_m2(cycle_rad: float, travelled_m: float, turn_sum_m: 
     over phi, E|.|^2 = b1^2 (s^2 + |G|^2) / 4, half of it per axis: b1^2 s^2 / 4 per axis on
     a straight run (|G| = s), half that on whole orbits (G = 0)."""
     return 0.125 * cycle_rad**2 * (travelled_m**2 + abs(turn_sum_m) ** 2)
+
+
+@njit(cache=True)
+def covariance_deviator_m2(
+    sigma2_diff: float, since_fix_m: complex, cycle_rad: float, travelled_m: float, turn_sum_m: complex
+) -> complex:
+    """The anisotropic part of the dead reckoning's horizontal error covariance Sigma, as the
+    complex deviator (Sigma_xx - Sigma_yy) / 2 + 1j Sigma_xy = E[z^2] / 2 (z = error, east +
+    1j north), so that Sigma = [[m + a, c], [c, m - a]] with m the per-axis variance the
+    beacon carries (``nav_var_m2``) and a + 1j c this (``consider.beacon_covariance``).
+    The white walk and the current estimate's error are isotropic (no part here); the
+    constant errors' z = (k - i b0) D over the displacement D since the fix give
+    E[z^2] = (sigma_k^2 - sigma_b0^2) D^2; the one-cycle compass error's
+    z = -i b1 (e^{i phi} s - e^{-i phi} G) / 2 (``heading_cycle_variance_m2``) gives
+    E[z^2] = b1^2 s G / 2 over the uniform phase. So (eq. N1)
+
+        a + 1j c = (sigma_k^2 - sigma_b0^2) D^2 / 2 + b1^2 s G / 4.
+
+    A heading error displaces across the track: on a straight run north (D = i s, G = s) with
+    only b1, Sigma_xx = b1^2 s^2 / 2 and Sigma_yy = 0, where an isotropic m would give b1^2
+    s^2 / 4 to each."""
+    return 0.5 * sigma2_diff * since_fix_m * since_fix_m + 0.25 * cycle_rad**2 * travelled_m * turn_sum_m
 
 
 def navigate(

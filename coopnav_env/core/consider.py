@@ -56,6 +56,8 @@ scalar-range case; ``covariance_intersection`` the general two-estimate one.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -183,6 +185,125 @@ def beacon_reset(Pxb: np.ndarray) -> None:
     """Eq. (C8): the beacon took a GPS fix; its new error is independent of the survey's:
     Pxb <- 0 in place."""
     Pxb[:, :] = 0.0
+
+
+@njit(cache=True, inline="always")
+def beacon_covariance(var_m2: float, dev_m2: complex, out: np.ndarray) -> None:
+    """The beacon's horizontal Pbb (2, 2) into ``out`` from what its message carries: the
+    per-axis variance m (``nav_var_m2``) and the deviator a + 1j c (``nav_dev_m2``,
+    ``beacon_nav.covariance_deviator_m2``, eq. N1): Pbb = [[m + a, c], [c, m - a]]. With a
+    deviator of 0 it is m I2 to the bit (the ASVs, and a beacon AUV at its fix)."""
+    out[0, 0] = var_m2 + dev_m2.real
+    out[1, 1] = var_m2 - dev_m2.real
+    out[0, 1] = out[1, 0] = dev_m2.imag
+
+
+@njit(cache=True, inline="always")
+def beacon_variance_along(Pbb: np.ndarray, h0: float, h1: float) -> float:
+    """h Pbb h^T for a horizontal row h = (h0, h1) (eq. C2's Hb Pbb Hb^T with Hb = -H[:2]),
+    as m |h|^2 + (a (h0^2 - h1^2) + 2 c h0 h1) so that an isotropic Pbb = m I2 gives
+    m |h|^2 to the bit."""
+    m, a, c = 0.5 * (Pbb[0, 0] + Pbb[1, 1]), 0.5 * (Pbb[0, 0] - Pbb[1, 1]), Pbb[0, 1]
+    return m * (h0 * h0 + h1 * h1) + (a * (h0 * h0 - h1 * h1) + 2.0 * c * h0 * h1)
+
+
+@njit(cache=True, inline="always")
+def beacon_variance_los(Pbb: np.ndarray, h0: float, h1: float) -> float:
+    """The beacon's position variance along the horizontal direction (h0, h1) (of any
+    length; m where it is 0): what the papers' white fusion adds to a range's R (along the
+    line of sight) or, across it, to a bearing's. m + (a (h0^2 - h1^2) + 2 c h0 h1) / |h|^2:
+    m to the bit for an isotropic Pbb."""
+    m, a, c = 0.5 * (Pbb[0, 0] + Pbb[1, 1]), 0.5 * (Pbb[0, 0] - Pbb[1, 1]), Pbb[0, 1]
+    n2 = h0 * h0 + h1 * h1
+    if not n2 > 0.0:
+        return m
+    return m + (a * (h0 * h0 - h1 * h1) + 2.0 * c * h0 * h1) / n2
+
+
+class ErrorModel(NamedTuple):
+    """The beacon AUV's error model's constants, as eq. (N2) reads them (``beacon_nav``):
+    sigma_k^2 + sigma_b0^2, sigma_k^2 - sigma_b0^2, b1^2 and the current estimate's error
+    variance per axis (m^2/s^2)."""
+
+    sigma2_sum: float
+    sigma2_diff: float
+    cycle_rad2: float
+    current_var: float
+
+
+@njit(cache=True, inline="always")
+def error_model_covariance(m2: np.ndarray, m1: np.ndarray, model: ErrorModel) -> tuple[float, float, float, float]:
+    """Eq. (N2): Cov(b2, b1), the 2x2 covariance of a beacon AUV's dead-reckoning error at two
+    of its pings, from the error model's state at each (``SimState`` b_*, as the ping sends it
+    with ``beacon_covariance="full"``): m = (D east, D north, s, G re, G im, T, w) with D its
+    displacement since its fix, s and G the one-cycle compass error's sums
+    (``beacon_nav.heading_cycle_variance_m2``), T its time without bottom lock and w its
+    white part's variance per axis; ping 1 the earlier, no fix between. In complex form
+    (z = east + i north), A = E[z2 conj(z1)] and C = E[z2 z1]:
+
+        walk (independent increments) and start fix: A += 2 w1;  the told current's error
+        c T: A += 2 sigma_c^2 T2 T1;  the constant errors (k - i b0) D:
+        A += (sigma_k^2 + sigma_b0^2) D2 conj(D1), C += (sigma_k^2 - sigma_b0^2) D2 D1;
+        the one-cycle error -i b1 (e^{i phi} s - e^{-i phi} G) / 2:
+        A += b1^2 (s2 s1 + G2 conj(G1)) / 4, C += b1^2 (s2 G1 + G2 s1) / 4;
+
+    then Cov = [[Re(A + C), Im(C - A)], [Im(A + C), Re(A - C)]] / 2 (rows: b2 east, north).
+    With m2 = m1 it is the covariance the beacon carries, [[m + a, c], [c, m - a]] (eq. N1).
+    Returns (xx, xy, yx, yy)."""
+    D1, D2 = m1[0] + 1j * m1[1], m2[0] + 1j * m2[1]
+    G1, G2 = m1[3] + 1j * m1[4], m2[3] + 1j * m2[4]
+    A = 2.0 * m1[6] + 2.0 * model.current_var * m2[5] * m1[5] + 0j
+    A += model.sigma2_sum * D2 * np.conj(D1) + 0.25 * model.cycle_rad2 * (m2[2] * m1[2] + G2 * np.conj(G1))
+    C = model.sigma2_diff * D2 * D1 + 0.25 * model.cycle_rad2 * (m2[2] * G1 + G2 * m1[2])
+    return 0.5 * (A + C).real, 0.5 * (C - A).imag, 0.5 * (A + C).imag, 0.5 * (A - C).real
+
+
+@njit(cache=True, inline="always")
+def transport_cross_covariance(Pxb: np.ndarray, m2: np.ndarray, m1: np.ndarray, model: ErrorModel) -> None:
+    """Eq. (N3) in place: the survey's cross-covariance with a beacon AUV's error carried from
+    the ping it last heard (state m1) to this one (m2), Pxb <- Pxb Sigma1^-1 Cov(b2, b1)^T
+    (eq. N2; Cov(x, b2) = Cov(x, b1) Sigma1^-1 Cov(b1, b2), b2's part not explained by b1
+    independent of x). Eq. (C7) with phi = 1 took the error for a random walk, Pxb kept,
+    which is wrong where the covariance turns with the beacon's track (docs/scenarios/
+    gao-chitre.md#full-covariance). Nothing changes when Sigma1 is singular (never heard)."""
+    s00, s01, _, s11 = error_model_covariance(m1, m1, model)
+    det = s00 * s11 - s01 * s01
+    if not det > 0.0:
+        return
+    c00, c01, c10, c11 = error_model_covariance(m2, m1, model)
+    # M = Sigma1^-1 C^T, C^T = [[c00, c10], [c01, c11]]
+    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+    m00, m01 = i00 * c00 + i01 * c01, i00 * c10 + i01 * c11
+    m10, m11 = i01 * c00 + i11 * c01, i01 * c10 + i11 * c11
+    for i in range(Pxb.shape[0]):
+        p0, p1 = Pxb[i, 0], Pxb[i, 1]
+        Pxb[i, 0] = p0 * m00 + p1 * m10
+        Pxb[i, 1] = p0 * m01 + p1 * m11
+
+
+@njit(cache=True, inline="always")
+def gps_share(Pxb: np.ndarray, gps_var_m2: float, var_seen_m2: float, dev_seen_m2: complex, phi: float) -> None:
+    """Eq. (C8') in place: Pxb <- phi Pxb M with M = var(g) Sigma_seen^-1, the survey's share
+    of the beacon's old error e = g + d that was its GPS error g (Cov(x, g) = Cov(x, e)
+    Sigma_seen^-1 Cov(e, g), Cov(e, g) = var(g) I2), Sigma_seen = [[m + a, c], [c, m - a]]
+    as last heard (``beacon_covariance``). Each of M's eigenvalues var(g) / lambda is capped at
+    1 (the share of one error in a sum), which keeps the joint covariance positive
+    semi-definite. With a deviator of 0 it is the scalar min(1, var(g) / m), to the bit as
+    before the deviator was carried; a variance never heard (0) keeps the share 1."""
+    r = abs(dev_seen_m2)
+    lam_p, lam_m = var_seen_m2 + r, var_seen_m2 - r
+    s_p = min(1.0, gps_var_m2 / lam_p) if lam_p > 0.0 else 1.0
+    if r == 0.0:
+        Pxb *= phi * s_p
+        return
+    s_m = min(1.0, gps_var_m2 / lam_m) if lam_m > 0.0 else 1.0
+    mu, half = 0.5 * (s_p + s_m), 0.5 * (s_p - s_m)
+    ua, uc = dev_seen_m2.real / r, dev_seen_m2.imag / r
+    m00, m01, m11 = phi * (mu + half * ua), phi * half * uc, phi * (mu - half * ua)
+    for i in range(Pxb.shape[0]):
+        p0, p1 = Pxb[i, 0], Pxb[i, 1]
+        Pxb[i, 0] = p0 * m00 + p1 * m01
+        Pxb[i, 1] = p0 * m01 + p1 * m11
 
 
 @njit(cache=True)

@@ -136,6 +136,7 @@ def beacon_start(sim: Any, ep: EpisodeDraws, start: np.ndarray) -> dict:
         "b_vel": np.zeros((B, N, 3)),
         "b_nav_err": b_err,
         "b_nav_var_m2": np.broadcast_to(b_std0**2, (B, N)).copy(),
+        "b_nav_dev_m2": np.zeros((B, N), dtype=complex),  # the start fix is isotropic
         "b_walk_var_m2": np.broadcast_to(b_std0**2, (B, N)).copy(),
         "b_unlocked_s": np.zeros((B, N)),
         "b_dvl_lock": np.ones((B, N), dtype=bool),
@@ -203,6 +204,8 @@ def consider_start(sim: Any, B: int) -> dict:
         "s_fix_seen": np.zeros((B, S, N), dtype=np.int64),
         "s_fix_seen_t_s": np.zeros((B, S, N)),
         "s_var_seen_m2": np.zeros((B, S, N)),
+        "s_dev_seen_m2": np.zeros((B, S, N), dtype=complex),
+        "s_model_seen": np.zeros((B, S, N, 7)),
         "s_win_n": np.zeros((B, S, N), dtype=np.int64),
         "s_win_z": np.zeros((B, S, N, M)),
         "s_win_beacon": np.zeros((B, S, N, M, 2)),

@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from .acoustics import modem_range_variance
-from .consider import schmidt_range_update
+from .consider import beacon_variance_los, schmidt_range_update
 from .multipath import Moments
 from .navigation import innovation_variance, kalman_gain, moving_range_prediction
 
@@ -70,9 +70,9 @@ def iterated_range_model(
     first-order model (the modem does not call this for it). scratch: the modem's
     ``_update``'s (its x0, P0 and Pxb0 serve as working copies; ``_update`` refills them)."""
     K, Pbb, xi, Pw, Xw = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
-    r, h, R, R_white, beacon_var = meas[0], meas[1], meas[2], meas[3], meas[4]
+    r, h, R, R_white, Pb = meas[0], meas[1], meas[2], meas[3], meas[4]  # Pb: the beacon's Pbb (2, 2)
     y = r - h
-    Pbb[0, 0] = Pbb[1, 1] = beacon_var
+    Pbb[:, :] = Pb
     if schmidt:  # a gate of -1 returns the NIS and touches nothing
         nis, _ = schmidt_range_update(f.x, f.P, f.X[j], Pbb, y, H, R, -1.0, K)
     else:
@@ -85,7 +85,7 @@ def iterated_range_model(
     for _ in range(ITERATIONS_MAX):
         hi, Hi = moving_range_prediction(xi, geo.vel_est, geo.beacon, geo.beacon_vel, geo.delays)
         Ri = modem_range_variance(geo.noise_std, geo.two_way, 0.0, hi, geo.rel_std)
-        Rwi = modem_range_variance(geo.noise_std, geo.two_way, beacon_var, hi, geo.rel_std)
+        Rwi = modem_range_variance(geo.noise_std, geo.two_way, beacon_variance_los(Pb, Hi[0], Hi[1]), hi, geo.rel_std)
         lin = hi
         for k in range(3):
             lin += Hi[k] * (x0[k] - xi[k])  # h(x_i) + H_i (x0 - x_i): the model at x_i, read at x0
@@ -102,4 +102,4 @@ def iterated_range_model(
             xi[k] = xn
         if step2 < ITERATION_TOL_M * ITERATION_TOL_M:  # (I2)
             break
-    return True, Hi, (r, lin, Ri, Rwi, beacon_var, 0.0, 0.0)
+    return True, Hi, (r, lin, Ri, Rwi, Pb, 0.0, 0.0)

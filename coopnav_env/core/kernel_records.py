@@ -90,6 +90,13 @@ class BeaconView(NamedTuple):
     nav_err: np.ndarray  # own estimate - truth (B,N,3)
     nav_var: np.ndarray  # own per-axis position variance, carried (B,N)
     est: np.ndarray  # own estimate (B,N,3)
+    nav_dev: np.ndarray  # its covariance's deviator (Sxx - Syy) / 2 + 1j Sxy, complex (B,N) (beacon_nav, eq. N1)
+    # its error model's state, what beacon_covariance="full" sends besides (eq. N2, consider.error_model_covariance)
+    walk_var: np.ndarray  # (B,N) the white part's variance per axis
+    unlocked_s: np.ndarray  # (B,N) time without bottom lock since the fix
+    travelled_m: np.ndarray  # (B,N) s
+    turn_sum_m: np.ndarray  # (B,N) G, complex
+    fix_est: np.ndarray  # (B,N) its estimate at the fix, complex (D = est - fix_est)
 
 
 class KnowledgeView(NamedTuple):
@@ -130,7 +137,20 @@ def survey_view(st: SimState) -> SurveyView:
 
 def beacon_view(st: SimState) -> BeaconView:
     """The beacons' arrays of ``st`` (references) and their own estimates (computed)."""
-    return BeaconView(st.b_pos, st.b_vel, st.b_heading, st.b_nav_err, st.b_nav_var_m2, st.b_pos + st.b_nav_err)
+    return BeaconView(
+        st.b_pos,
+        st.b_vel,
+        st.b_heading,
+        st.b_nav_err,
+        st.b_nav_var_m2,
+        st.b_pos + st.b_nav_err,
+        st.b_nav_dev_m2,
+        st.b_walk_var_m2,
+        st.b_unlocked_s,
+        st.b_travelled_m,
+        st.b_turn_sum_m,
+        st.b_fix_est,
+    )
 
 
 def knowledge_view(st: SimState) -> KnowledgeView:
@@ -160,6 +180,8 @@ class ConsiderView(NamedTuple):
     hyp_dX: np.ndarray  # (B,S,N,3,2) Pxb difference
     hyp_dD: np.ndarray  # (B,S,3,4) Pxd difference
     var_seen: np.ndarray  # (B,S,N) each beacon's per-axis variance as last heard (eq. C8's projection)
+    dev_seen: np.ndarray  # (B,S,N) complex: and its deviator (eq. C8')
+    model_seen: np.ndarray  # (B,S,N,7) a beacon AUV's error-model state as last heard (eq. N2)
 
 
 def consider_view(st: SimState) -> ConsiderView:
@@ -182,4 +204,6 @@ def consider_view(st: SimState) -> ConsiderView:
         st.s_hyp_dX,
         st.s_hyp_dD,
         st.s_var_seen_m2,
+        st.s_dev_seen_m2,
+        st.s_model_seen,
     )

@@ -66,6 +66,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .consider import beacon_variance_along
+
 PRUNE_WEIGHT = 0.02  # (M5): a hypothesis of smaller weight is dropped, as a Gaussian-sum filter prunes
 
 
@@ -191,12 +193,12 @@ def reweigh_hypotheses(
     p: float,
     mu: float,
     j: int = -1,
-    beacon_var: float = 0.0,
+    Pbb: np.ndarray | None = None,
 ) -> float:
     """Eqs. (M6)-(M7) in place: the next range (innovation y at the merged estimate f.x,
     row H, variance R) re-weighs the hypotheses (M5) held since the last one, and the
     merged moments ``f`` move to the re-weighed mixture's. With the beacon's error a
-    consider state (``"schmidt"``: j the ranging beacon, beacon_var its per-axis variance,
+    consider state (``"schmidt"``: j the ranging beacon, Pbb (2, 2) its covariance,
     R without it) each hypothesis' innovation variance is eq. (C2)'s, with its own
     cross-covariance X_j; else (j < 0) R holds the beacon's variance. Returns the new
     weight w' (w when the held hypotheses do not fit the covariance any more: nothing
@@ -212,8 +214,9 @@ def reweigh_hypotheses(
     Hd = H @ d
     S_d = H @ Pd @ H + R
     S_m = S_d + H @ dP @ H
-    if j >= 0:  # (C2): + Hb Pbb Hb' + 2 H X_j Hb', Hb = -H[:2], X_d = X - (1 - w) dX, X_m = X + w dX
-        S_b, c_d, c_m = beacon_var * (H[0] * H[0] + H[1] * H[1]), 0.0, 0.0
+    if j >= 0 and Pbb is not None:  # (C2): + Hb Pbb Hb' + 2 H X_j Hb', Hb = -H[:2], X_d = X - (1 - w) dX,
+        # X_m = X + w dX
+        S_b, c_d, c_m = beacon_variance_along(Pbb, H[0], H[1]), 0.0, 0.0
         for i in range(3):
             for a in range(2):
                 c_d += H[i] * (X[j, i, a] - (1.0 - w) * dX[j, i, a]) * H[a]

@@ -89,10 +89,11 @@ def moving_range_prediction(
 
 
 @njit(cache=True, inline="always")
-def relative_covariance(P: np.ndarray, Pxb: np.ndarray, beacon_var_m2: float, i: int, j: int) -> float:
-    """Entry (i, j) of Pd = P - Pxb E - E^T Pxb^T + Pbb (eq. L0): the covariance of the survey's
-    position relative to the beacon's true one, d = x - b, with P the filter's 3x3, Pxb (3, 2)
-    its cross-covariance with the beacon's horizontal error, Pbb = beacon_var_m2 I2 and E the
+def relative_covariance(P: np.ndarray, Pxb: np.ndarray, Pbb: np.ndarray, i: int, j: int) -> float:
+    """Entry (i, j) of Pd = P - Pxb E - E^T Pxb^T + E^T Pbb E (eq. L0): the covariance of the
+    survey's position relative to the beacon's true one, d = x - b, with P the filter's 3x3,
+    Pxb (3, 2) its cross-covariance with the beacon's horizontal error, Pbb (2, 2) that error's
+    covariance and E the
     (2, 3) embedding of the horizontal plane. The one home of Pd (``range_curvature`` and
     ``split_range.split_range_model`` read it): an entry, so a caller allocates nothing."""
     d = P[i, j]
@@ -100,19 +101,17 @@ def relative_covariance(P: np.ndarray, Pxb: np.ndarray, beacon_var_m2: float, i:
         d -= Pxb[i, j]
     if i < 2:
         d -= Pxb[j, i]
-        if i == j:
-            d += beacon_var_m2
+        if j < 2:
+            d += Pbb[i, j]
     return d
 
 
 @njit(cache=True)
-def range_curvature(
-    P: np.ndarray, Pxb: np.ndarray, beacon_var_m2: float, H: np.ndarray, h: float
-) -> tuple[float, float]:
+def range_curvature(P: np.ndarray, Pxb: np.ndarray, Pbb: np.ndarray, H: np.ndarray, h: float) -> tuple[float, float]:
     """The second-order terms of a range (the second-order EKF's measurement terms;
     Bar-Shalom, Li & Kirubarajan 2001, ch. 10): with the relative position d = x - b of
     covariance Pd = P - Pxb - Pxb^T + Pbb (P the filter's 3x3, Pxb (3, 2) its
-    cross-covariance with the beacon's horizontal error, Pbb = beacon_var_m2 I2), the
+    cross-covariance with the beacon's horizontal error, Pbb (2, 2) that error's covariance), the
     range |d| has Hessian M = (I - u u^T) / h, u = H / |H| (eq. L1; Pd: eq. L0,
     ``relative_covariance``), so
 
@@ -134,7 +133,7 @@ def range_curvature(
     for i in range(3):
         wi = 0.0
         for j in range(3):
-            d = relative_covariance(P, Pxb, beacon_var_m2, i, j)  # eq. (L0)
+            d = relative_covariance(P, Pxb, Pbb, i, j)  # eq. (L0)
             tr2 += d * d
             wi += d * H[j] / n
             if i == j:

@@ -60,7 +60,7 @@ def split_range_model(
 ) -> tuple[bool, np.ndarray, tuple]:
     """Range model of beacon j's range for survey filter f (``multipath.Moments``), linearized
     over its posterior, for ``range_linearization="split"``. H, meas: the first-order model
-    (``measurements.modem._range_model``: r, h, R, R_white, the beacon's variance, ...); Pbb
+    (``measurements.modem._range_model``: r, h, R, R_white, the beacon's Pbb (2, 2), ...); Pbb
     (2, 2), K (3,): scratch; geo: ``iterated.RangeGeometry``; gate: the chi-square gate of the
     first-order innovation; schmidt: the beacon's error as consider states (else white, in R).
     Returns (passed, H_eff, meas_eff) as ``iterated.iterated_range_model`` does: whether the
@@ -88,12 +88,10 @@ def split_range_model(
     (S6) so the update is Schmidt's (or white's) own, C1-C6 with D3: the joint covariance with
          the consider states stays positive definite, and with a linear range A = H,
          Omega = 0 and the model is the first-order one."""
-    r, h, R, R_white, beacon_var = meas[0], meas[1], meas[2], meas[3], meas[4]
+    r, h, R, R_white, Pb = meas[0], meas[1], meas[2], meas[3], meas[4]
     y = r - h
-    Pbb[0, 0] = Pbb[1, 1] = beacon_var
-    Pbb[0, 1] = Pbb[1, 0] = 0.0
     if schmidt:  # a gate of -1 returns the NIS and touches nothing
-        nis, _ = schmidt_range_update(f.x, f.P, f.X[j], Pbb, 1.0, H, R, -1.0, K)
+        nis, _ = schmidt_range_update(f.x, f.P, f.X[j], Pb, 1.0, H, R, -1.0, K)
         if not nis < np.inf:  # S <= 0: an indefinite joint covariance, no update (not a 1/0)
             return False, H, meas
         S = 1.0 / nis
@@ -105,16 +103,18 @@ def split_range_model(
     # (S1) the relative position's covariance (eq. L0): with white, P alone (its R holds the
     # beacon's variance, which the fit over P cannot mend, so the trigger leaves it out too;
     # white keeps no cross-covariance, X = 0)
-    pbb = beacon_var if schmidt else 0.0
-    _, var = range_curvature(f.P, f.X[j], pbb, H, h)
+    Pbb[:, :] = 0.0
+    if schmidt:
+        Pbb[:, :] = Pb
+    _, var = range_curvature(f.P, f.X[j], Pbb, H, h)
     if not var > SPLIT_TRIGGER * SPLIT_TRIGGER * S:
         return True, H, meas
     Pd = np.empty((3, 3))
     for i in range(3):
         for q in range(3):
-            Pd[i, q] = relative_covariance(f.P, f.X[j], pbb, i, q)
+            Pd[i, q] = relative_covariance(f.P, f.X[j], Pbb, i, q)
     A, hbar, omega = posterior_fit(f.x, Pd, H, r, noise, geo)
-    return True, A, (r, hbar, R + omega, R_white + omega, beacon_var, 0.0, 0.0)
+    return True, A, (r, hbar, R + omega, R_white + omega, Pb, 0.0, 0.0)
 
 
 @njit(cache=True)

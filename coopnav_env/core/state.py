@@ -130,3 +130,8 @@ class SimState(BatchArrays):
     s_hyp_dP: np.ndarray  # P0 - P1: the multipath hypothesis' covariance minus the direct path's (B,S,3,3)
     s_hyp_dX: np.ndarray  # the same for the beacons' cross-covariances Pxb (B,S,N,3,2)
     s_hyp_dD: np.ndarray  # and for the dead-reckoning biases' Pxd (B,S,3,4)
+    # the anisotropic part of each beacon's carried covariance, and as each survey last heard it
+    # (beacon_nav.covariance_deviator; appended last)
+    b_nav_dev_m2: np.ndarray  # (Sxx - Syy) / 2 + 1j Sxy of its own horizontal covariance, complex (B,N)
+    s_dev_seen_m2: np.ndarray  # each beacon's deviator as last heard (B,S,N), complex: eq. C8''s projection
+    s_model_seen: np.ndarray  # each beacon AUV's error-model state as last heard (B,S,N,7): eq. N2 (consider.py)

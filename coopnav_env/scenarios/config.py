@@ -66,6 +66,10 @@ SECTIONS = (
 SECTION_BY_ATTR = {s.attr: s for s in SECTIONS}
 TOP_LEVEL = ("name", "network")
 CONSIDER_PING_EXTRA_BITS = 20  # Pbb 24 bits + fix counter 4 bits - the 8-bit variance (consider-fusion.md)
+FULL_COVARIANCE_EXTRA_BITS = 16  # white fusion with beacon_covariance="full": Pbb 24 bits - the 8-bit variance
+# the consider states with beacon_covariance="full": the error model's state, 7 numbers of 8 bits (eq. N2: D, s,
+# G, the time without lock, the walk's variance), from which the survey computes Pbb, in place of the 24-bit Pbb
+FULL_MODEL_EXTRA_BITS = 7 * 8 - 24
 # parameter name -> the attribute of its section, and its field
 OWNER = {f.name: s.attr for s in SECTIONS for f in dataclasses.fields(s.cls)}
 FIELD = {f.name: f for s in SECTIONS for f in dataclasses.fields(s.cls)}
@@ -238,8 +242,17 @@ class ScenarioConfig:
     def ping_bits(self) -> int:
         """A beacon's ping on the channel, bits: ``ping_packet_bits``, plus the consider
         states' fields with ``beacon_error_fusion="schmidt"`` (its Pbb in 24 bits and a
-        4-bit GPS fix counter, replacing the 8-bit variance: +20; consider-fusion.md)."""
-        extra = CONSIDER_PING_EXTRA_BITS if self.beacon_error_fusion == "schmidt" else 0
+        4-bit GPS fix counter, replacing the 8-bit variance: +20; consider-fusion.md), with a
+        beacon AUV's ``beacon_covariance="full"`` its error model's state in place of Pbb
+        (eq. N2, +32 more); without them, its 2x2 covariance (the 24-bit Pbb replacing the
+        8-bit variance, +16)."""
+        full = "beacon_auv" in self.beacon_kinds and self.beacon_covariance == "full"
+        if self.beacon_error_fusion == "schmidt":
+            extra = CONSIDER_PING_EXTRA_BITS + (FULL_MODEL_EXTRA_BITS if full else 0)
+        elif full:
+            extra = FULL_COVARIANCE_EXTRA_BITS
+        else:
+            extra = 0
         return int(self.ping_packet_bits) + extra
 
     @property

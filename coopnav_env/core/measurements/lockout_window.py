@@ -96,7 +96,7 @@ def window_of(cv: ConsiderView, sv: SurveyView, b: int, s: int, j: int, keep: np
 
 @njit(cache=True)
 def window_refix(
-    sv: SurveyView, cv: ConsiderView, prm: Any, b: int, s: int, j: int, R: float, beacon_var: float, t_s: float
+    sv: SurveyView, cv: ConsiderView, prm: Any, b: int, s: int, j: int, R: float, Pbb: np.ndarray, t_s: float
 ) -> bool:
     """Lock-out recovery from beacon j's last ranges (``recovery.window_greedy_fix``, eqs.
     R1-R5, R6'; with ``lockout_recovery="window_consensus"``, ``window_consensus_fix``, R7):
@@ -105,15 +105,20 @@ def window_refix(
     ``"schmidt"``). The window holds rejected ranges too, multipath among them: a fix
     whose residuals fail their chi-square test (99 %, m - 2 dof) keeps fewer. Returns
     False (nothing changed) when no fix of at least 3 ranges passes. prm:
-    ``measurements.modem.ModemParams``."""
+    ``measurements.modem.ModemParams``; Pbb (2, 2): the beacon's covariance now, taken as the
+    window's shared bias."""
     n = cv.win_n[b, s, j]
     m = min(n, prm.window_m)
     if m < 3:
         return False
-    Pbb = np.zeros((2, 2))
-    Pbb[0, 0] = Pbb[1, 1] = beacon_var
     noise = WindowNoise(
-        R, Pbb, prm.dr_rate_m2ps, prm.prior_std_m, prm.dr_scale_std, prm.dr_heading_std_rad, prm.dr_current_std_mps
+        R,
+        Pbb.copy(),
+        prm.dr_rate_m2ps,
+        prm.prior_std_m,
+        prm.dr_scale_std,
+        prm.dr_heading_std_rad,
+        prm.dr_current_std_mps,
     )
     x, P, Pxb, keep = np.empty(2), np.empty((2, 2)), np.empty((2, 2)), np.empty(m, np.int64)
     win = window_of(cv, sv, b, s, j, np.arange(n - m, n), t_s)

@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
+from ..consider import beacon_covariance, beacon_variance_los
 from ..contract import SensorHost
 from ..jit import parallel_twin, threaded
 from ..kernel_records import beacon_view, survey_view
@@ -47,10 +48,11 @@ class MLSMeasurement(NamedTuple):
 
 
 @njit(cache=True, inline="always")
-def _bearing_update(x, P, beacon, beacon_var, bearing_rad, bearing_var, gate, H):
+def _bearing_update(x, P, beacon, Pbb, bearing_rad, bearing_var, gate, H):
     """A sender's bearing ``bearing_rad`` (variance ``bearing_var``) at the survey filter
     (x, P), gated and fused with its residual wrapped (h = atan2(east, north) of the
-    sender's reported position ``beacon`` (per-axis variance ``beacon_var``) minus x, and
+    sender's reported position ``beacon`` (horizontal covariance ``Pbb``: its variance across
+    the line of sight, over the range squared, joins R) minus x, and
     its Jacobian H); returns whether it was fused. Rows, not records: numba counts a
     reference to every array of a record at each call (docs/performance.md#refcounts)."""
     de = beacon[0] - x[0]
@@ -60,7 +62,7 @@ def _bearing_update(x, P, beacon, beacon_var, bearing_rad, bearing_var, gate, H)
     H[0] = -dn / rho2  # d bearing / d survey east
     H[1] = de / rho2
     H[2] = 0.0
-    R = bearing_var + beacon_var / rho2
+    R = bearing_var + beacon_variance_los(Pbb, -dn, de) / rho2
     y = bearing_residual(bearing_rad, hb)
     return gated_update_residual(x, P, y, H, R, gate)
 
@@ -72,7 +74,7 @@ def _fuse(sv, bv, m, t_s, gate, out):
     B, N, S = bv.est.shape[0], bv.est.shape[1], sv.est.shape[1]
     for b in prange(B):
         delays = np.zeros(1)
-        H = np.zeros(3)
+        H, Pb = np.zeros(3), np.zeros((2, 2))  # Pb: the sender's Pbb
         for s in range(S):
             any_fused = False
             for j in range(N):
@@ -82,17 +84,15 @@ def _fuse(sv, bv, m, t_s, gate, out):
                     out.lost[b, j, s] = True
                     continue
                 h, Hr = range_prediction(sv.est[b, s], sv.vel_est[b, s], delays, bv.est[b, j])
-                if gated_update(
-                    sv.est[b, s], sv.P[b, s], m.range_m[b, j, s], h, Hr, m.range_var[b, j, s] + bv.nav_var[b, j], gate
-                ):
+                beacon_covariance(bv.nav_var[b, j], bv.nav_dev[b, j], Pb)
+                R = m.range_var[b, j, s] + beacon_variance_los(Pb, Hr[0], Hr[1])  # along the line of sight
+                if gated_update(sv.est[b, s], sv.P[b, s], m.range_m[b, j, s], h, Hr, R, gate):
                     out.fused[b, j, s] = True
                     any_fused = True
                 else:
                     out.rejected[b, j, s] = True
                 bearing, bearing_var = m.bearing_rad[b, j, s], m.bearing_var[b, j, s]
-                if _bearing_update(
-                    sv.est[b, s], sv.P[b, s], bv.est[b, j], bv.nav_var[b, j], bearing, bearing_var, gate, H
-                ):
+                if _bearing_update(sv.est[b, s], sv.P[b, s], bv.est[b, j], Pb, bearing, bearing_var, gate, H):
                     out.fused[b, j, s] = True
                     any_fused = True
                 else:

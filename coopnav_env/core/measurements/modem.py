@@ -30,11 +30,17 @@ from ..consider import (
     CI,
     FUSIONS,
     SCHMIDT,
+    ErrorModel,
+    beacon_covariance,
     beacon_reset,
+    beacon_variance_along,
+    beacon_variance_los,
     carry_cross_covariance,
     ci_range_update,
     gauss_markov_factor,
+    gps_share,
     schmidt_range_update,
+    transport_cross_covariance,
 )
 from ..contract import SensorHost
 from ..dr_bias import N_BIASES, current_error_std_mps
@@ -143,6 +149,9 @@ class ModemParams(NamedTuple):
     gate_short: float  # the chi-square gate of a range shorter than predicted (range_gate_short_probability)
     split: bool  # range_linearization == "split": eqs. S1-S6 (core/split_range.py)
     gps_var_m2: float  # gps_noise_m^2: a fixed beacon's error variance per axis, var(g) of eq. C8'
+    full_covariance: bool  # beacon_covariance == "full": Pbb 2x2 (eq. N1) and the transport of eq. N3
+    dvl_mask: int  # bit j: beacon j is a beacon AUV (dead reckoning; eq. N3 applies)
+    error_model: ErrorModel  # its error model's constants (eq. N2)
 
 
 class ModemCycle(NamedTuple):
@@ -205,11 +214,13 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
     since that fix) only through ranges, which see the sum, so its share of g is
     Cov(x, g) = Cov(x, e) var(g) / var(e):
 
-        (C8') Pxb <- phi (var(g) / var_seen) Pxb,
+        (C8') Pxb <- phi Pxb var(g) Sigma_seen^-1  (``consider.gps_share``),
 
     var(g) its GPS receiver's variance (``gps_noise_m``^2, not the variance this ping sends,
-    which has grown again if the survey missed the pings since the fix), var_seen the one
-    last heard before the fix (var(e); the ratio at most 1). A review found the dead
+    which has grown again if the survey missed the pings since the fix), Sigma_seen the
+    covariance last heard before the fix (var(e), per-axis variance and deviator; each
+    eigenvalue of the share at most 1; with an isotropic Sigma_seen the scalar
+    phi (var(g) / var_seen) Pxb). A review found the dead
     reckoning's part kept (Pxb <- phi Pxb, about 0.11 where this gives 0.02 at
     ``gao_sea``'s defaults), which can make the joint covariance indefinite; this keeps it
     positive semi-definite (phi^2 var(g) / var_seen^2 <= 1 / var_seen). With a white GPS
@@ -217,18 +228,35 @@ def _heard_fix_count(cv, prm, b, s, j, t_s):
     ``cv.fix_count[b, j] % 16`` differs from ``cv.fix_seen[b, s, j]``."""
     count = cv.fix_count[b, j] % 16
     if prm.gps_tau_s > 0.0:
-        old = cv.var_seen[b, s, j]
-        share = min(1.0, prm.gps_var_m2 / old) if old > 0.0 else 1.0
-        scale = gauss_markov_factor(t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s) * share
-        cv.Pxb[b, s, j] *= scale
+        var, dev = cv.var_seen[b, s, j], cv.dev_seen[b, s, j]
+        phi = gauss_markov_factor(t_s - cv.fix_seen_t_s[b, s, j], prm.gps_tau_s)
+        gps_share(cv.Pxb[b, s, j], prm.gps_var_m2, var, dev, phi)
         if prm.hold:  # the held hypotheses' difference too (M5)
-            cv.hyp_dX[b, s, j] *= scale
+            gps_share(cv.hyp_dX[b, s, j], prm.gps_var_m2, var, dev, phi)
     else:
         beacon_reset(cv.Pxb[b, s, j])
         if prm.hold:
             beacon_reset(cv.hyp_dX[b, s, j])
     cv.fix_seen[b, s, j] = count
     cv.fix_seen_t_s[b, s, j] = t_s
+
+
+@njit(cache=True, inline="always")
+def _carry_to_this_ping(bv, b, j, Pxb, dX, seen, prm, fixed, model_now):
+    """With ``beacon_covariance="full"``: beacon AUV j's ping carries its error model's state
+    (eq. N2, into ``model_now``); a survey filter carries its cross-covariance Pxb (3, 2) with
+    the beacon's error from the ping it last heard (state ``seen``) to this one (eq. N3, in
+    place of eq. C7's phi = 1; the held hypotheses' difference dX too), unless the beacon has
+    fixed since (eq. C8' did that), and keeps this ping's state in ``seen``."""
+    d = bv.est[b, j, 0] + 1j * bv.est[b, j, 1] - bv.fix_est[b, j]
+    g = bv.turn_sum_m[b, j]
+    model_now[0], model_now[1], model_now[2] = d.real, d.imag, bv.travelled_m[b, j]
+    model_now[3], model_now[4], model_now[5], model_now[6] = g.real, g.imag, bv.unlocked_s[b, j], bv.walk_var[b, j]
+    if not fixed:
+        transport_cross_covariance(Pxb, model_now, seen, prm.error_model)
+        if prm.hold:
+            transport_cross_covariance(dX, model_now, seen, prm.error_model)
+    seen[:] = model_now
 
 
 @njit(cache=True, inline="always")
@@ -239,11 +267,11 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     After ``reinit_after`` of them the filter restarts (lock-out): from a window of
     beacon j's ranges (``lockout_recovery="window"`` or ``"window_consensus"``), else from the range at the nearest
     point of its circle (``navigation.reinit_on_range``, R with the beacon's variance).
-    meas: (r, h, R without the beacon's variance, R with it, the beacon's variance, and the
+    meas: (r, h, R without the beacon's variance, R with it, the beacon's Pbb (2, 2), and the
     curvature's bias and variance (L2, L3) that h and both R hold, 0 to first order).
     A restart leaves the locked-out filter's covariance behind, so it uses h and R
     without the curvature's terms."""
-    r, h, R, R_white, beacon_var, bias, var = meas
+    r, h, R, R_white, Pbb, bias, var = meas
     h, R, R_white = h - bias, R - var, R_white - var
     sign = 1 if r > h else -1
     streak = sv.rejected_streak[b, s]
@@ -251,10 +279,10 @@ def _count_rejection(sv, cv, out, prm, b, s, j, H, meas, t_s):
     short = sign < 0 and 0 < prm.reinit_after_short <= -sv.rejected_streak[b, s]  # R8: only a drift makes it short
     if not (short or 0 < prm.reinit_after <= abs(sv.rejected_streak[b, s])):
         return
-    if prm.window and window_refix(sv, cv, prm, b, s, j, R, beacon_var, t_s):
+    if prm.window and window_refix(sv, cv, prm, b, s, j, R, Pbb, t_s):
         restarted = True
     else:
-        R_all = R + beacon_var * (H[0] * H[0] + H[1] * H[1]) if prm.fusion == SCHMIDT else R_white
+        R_all = R + beacon_variance_along(Pbb, H[0], H[1]) if prm.fusion == SCHMIDT else R_white
         restarted = reinit_on_range(sv.est[b, s], sv.P[b, s], r, h, H, R_all)
         if restarted:
             cv.Pxb[b, s] = 0.0
@@ -272,20 +300,19 @@ def _gate_of(prm, y):
 
 
 @njit(cache=True, inline="always")
-def _kalman(f, prm, j, H, meas, K, Pbb, gated):
+def _kalman(f, prm, j, H, meas, K, gated):
     """The gated update of survey filter f (``multipath.Moments``: views of its x, P, Pxb,
     Pxd) with beacon j's range (row H; meas as ``_count_rejection``'s): ``"white"`` with
     the beacon's variance in R (Gao & Chitre eqs. 9-13); ``"schmidt"`` with it as consider
     states (eqs. C2-C6); ``"ci"`` by covariance intersection (CI3, CI5) with R as white's.
     Each carries the survey's dead-reckoning-bias cross-covariance Pxd through its gain
-    (``dr_bias.py``, eq. D3). K (3,), Pbb (2, 2): scratch. Returns (fused, the
-    innovation's variance S). gated: the range passed its gate already (eq. I3), so none
-    is applied here."""
-    r, h, R, R_white, beacon_var = meas[:5]
+    (``dr_bias.py``, eq. D3). K (3,): scratch; meas[4] the beacon's Pbb (2, 2). Returns
+    (fused, the innovation's variance S). gated: the range passed its gate already (eq. I3),
+    so none is applied here."""
+    r, h, R, R_white, Pbb = meas[:5]
     y = r - h
     gate = np.inf if gated else _gate_of(prm, y)
     if prm.fusion == SCHMIDT:
-        Pbb[0, 0] = Pbb[1, 1] = beacon_var
         nis, fused = schmidt_range_update(f.x, f.P, f.X[j], Pbb, y, H, R, gate, K)
         if fused:
             for j2 in range(f.X.shape[0]):
@@ -319,13 +346,13 @@ def _update(f, held, prm, j, H, meas, scratch, gated):
     the next range to re-weigh (M5). scratch: (K (3,), Pbb (2, 2), x0 (3,), P0 (3, 3),
     Pxb0 (N, 3, 2), Pxd0 (3, 4)); gated: as ``_kalman``'s. Returns (fused, the weight now
     held: 1 for none)."""
-    K, Pbb, x0, P0, X0, D0 = scratch
+    K, _, x0, P0, X0, D0 = scratch
     if prm.mixture:
         x0[:] = f.x
         P0[:, :] = f.P
         X0[:, :, :] = f.X
         D0[:, :] = f.D
-    fused, S = _kalman(f, prm, j, H, meas, K, Pbb, gated)
+    fused, S = _kalman(f, prm, j, H, meas, K, gated)
     w_held = 1.0
     if fused and prm.mixture and S > 0.0:
         w = direct_path_weight(meas[0] - meas[1], S, prm.outlier_probability, prm.outlier_mean_excess_m)
@@ -356,18 +383,20 @@ def _relinearized(f, prm, j, H, meas, scratch, geo):
 
 
 @njit(cache=True, inline="always")
-def _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, delays, sound_speed_rel_std):
+def _range_model(f, vel_est, beacon, beacon_vel, Pbb, noise_std, prm, j, delays, sound_speed_rel_std):
     """Survey filter f's (``multipath.Moments``) prediction of beacon j's range: (h, H, R
     without the beacon's variance, R with it, the curvature's bias and variance); with
     ``range_linearization="second_order"`` h and both R hold the curvature's terms (eqs.
     L2, L3), else those are 0. The beacon: at ``beacon`` moving at ``beacon_vel``, as its
-    message says, with per-axis variance ``beacon_var``."""
+    message says, with horizontal covariance ``Pbb`` (2, 2; R with it: its variance along the
+    line of sight, ``consider.beacon_variance_los``)."""
     h, H = moving_range_prediction(f.x, vel_est, beacon, beacon_vel, delays)
     R = modem_range_variance(noise_std, prm.two_way, 0.0, h, sound_speed_rel_std)
+    beacon_var = beacon_variance_los(Pbb, H[0], H[1])
     R_white = modem_range_variance(noise_std, prm.two_way, beacon_var, h, sound_speed_rel_std)
     bias, var = 0.0, 0.0
     if prm.second_order:  # eqs. (L2), (L3)
-        bias, var = range_curvature(f.P, f.X[j], beacon_var, H, h)
+        bias, var = range_curvature(f.P, f.X[j], Pbb, H, h)
     return h + bias, H, R + var, R_white + var, bias, var
 
 
@@ -388,7 +417,8 @@ def _fuse(sv, bv, cv, cyc, prm, out):
     win = Windows(cv.win_z, cv.win_dz, cv.win_t, cv.win_beacon, cv.win_dr, cv.win_n)
     for b in prange(B):
         delays = np.zeros((2, 2 if prm.two_way else 1))
-        K, Pbb = np.zeros(3), np.zeros((2, 2))
+        # Pb: the ranging beacon's Pbb; model_now: a beacon AUV's error-model state in its ping (eq. N2)
+        K, Pbb, Pb, model_now = np.zeros(3), np.zeros((2, 2)), np.zeros((2, 2)), np.zeros(7)
         scratch = (K, Pbb, np.zeros(3), np.zeros((3, 3)), np.zeros((N, 3, 2)), np.zeros((3, N_BIASES)))
         t_s = cyc.t_s[b]
         for s in range(S):
@@ -407,31 +437,34 @@ def _fuse(sv, bv, cv, cyc, prm, out):
                 if u[0] < p_lost:
                     out.lost[b, j, s] = True
                     continue
-                if cv.fix_count[b, j] % 16 != cv.fix_seen[b, s, j]:
+                fixed = cv.fix_count[b, j] % 16 != cv.fix_seen[b, s, j]
+                if fixed:
                     _heard_fix_count(cv, prm, b, s, j, t_s)
-                cv.var_seen[b, s, j] = bv.nav_var[b, j]
-                if u[1] < prm.outlier_probability:  # multipath: a longer path arrives
-                    r += -prm.outlier_mean_excess_m * np.log(u[2])
-                if u[3] < prm.nan_probability:
-                    r = np.nan
+                cv.var_seen[b, s, j], cv.dev_seen[b, s, j] = bv.nav_var[b, j], bv.nav_dev[b, j]
+                if prm.full_covariance and (prm.dvl_mask >> j) & 1:  # eq. N3
+                    _carry_to_this_ping(bv, b, j, f.X[j], held.dX[j], cv.model_seen[b, s, j], prm, fixed, model_now)
+                # multipath: a longer path arrives; or the sensor's NaN
+                r += -prm.outlier_mean_excess_m * np.log(u[2]) if u[1] < prm.outlier_probability else 0.0
+                r = np.nan if u[3] < prm.nan_probability else r
                 if (prm.sends_current_mask >> j) & 1:  # the ping carries the beacon's current estimate (Gao II-A)
                     sv.current_est[b, s] = cyc.current_sent[b, j]
                 if not np.isfinite(r):
                     out.nan_count[b, s] += 1
                     continue
-                beacon, beacon_vel, beacon_var = bv.est[b, j], bv.vel[b, j], bv.nav_var[b, j]
+                beacon, beacon_vel = bv.est[b, j], bv.vel[b, j]
+                beacon_covariance(bv.nav_var[b, j], bv.nav_dev[b, j], Pb)
                 vel_est = sv.vel_est[b, s]
-                m = _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, delays, rel_std)
+                m = _range_model(f, vel_est, beacon, beacon_vel, Pb, noise_std, prm, j, delays, rel_std)
                 h, H, R, R_white, bias, var = m
                 if cv.hyp_w[b, s] < 1.0:  # (M6, M7): this range re-weighs the last one's hypotheses, then they merge
                     sch, p, mu = prm.fusion == SCHMIDT, prm.outlier_probability, prm.outlier_mean_excess_m
                     reweigh_hypotheses(
-                        cv.hyp_w[b, s], held, f, H, r - h, R if sch else R_white, p, mu, j if sch else -1, beacon_var
+                        cv.hyp_w[b, s], held, f, H, r - h, R if sch else R_white, p, mu, j if sch else -1, Pb
                     )
                     cv.hyp_w[b, s] = 1.0
-                    m = _range_model(f, vel_est, beacon, beacon_vel, beacon_var, noise_std, prm, j, delays, rel_std)
+                    m = _range_model(f, vel_est, beacon, beacon_vel, Pb, noise_std, prm, j, delays, rel_std)
                     h, H, R, R_white, bias, var = m
-                meas = (r, h, R, R_white, beacon_var, bias, var)
+                meas = (r, h, R, R_white, Pb, bias, var)
                 if prm.window:
                     remember(win, b, s, j, r, beacon, f.x[2], sv.dr[b, s], vel_est, delays, t_s)
                 geo = RangeGeometry(vel_est, beacon, beacon_vel, noise_std, delays, rel_std, prm.two_way)
@@ -504,6 +537,14 @@ class ModemRanging:
                 float(chi2.ppf(c.range_gate_short_probability, 1)) if c.range_gate_short_probability else gate,
                 c.range_linearization == "split",
                 float(c.gps_noise_m) ** 2,
+                c.beacon_covariance == "full",
+                sum(1 << j for j, kind in enumerate(c.beacon_kinds) if kind == "beacon_auv"),
+                ErrorModel(
+                    float(c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
+                    float(c.beacon_dvl_scale_error_std**2 - np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
+                    float(np.radians(c.beacon_dvl_heading_cycle_deg) ** 2),
+                    float(c.beacon_current_estimate_error_mps) ** 2,
+                ),
             ]
         )
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
