@@ -252,6 +252,10 @@ def test_turn_towards_limit_and_direction():
     # zero desired vector: keep heading
     h3 = dynamics.turn_towards(dynamics.bearing_to_unit(1.0), 0j, 0.5)
     assert float(dynamics.unit_to_bearing(h3)) == pytest.approx(1.0, abs=1e-14)
+    # a limit of half a turn or more is no limit (before the cap, 2 pi wrapped to a limit of 0)
+    for big in (np.pi, 1.5 * np.pi, 2.0 * np.pi):
+        h4 = dynamics.turn_towards(dynamics.bearing_to_unit(0.0), dynamics.bearing_to_unit(np.pi), big)
+        assert float(abs(dynamics.unit_to_bearing(h4))) == pytest.approx(np.pi, abs=1e-12)
 
 
 def test_beacon_kernel_turns_at_the_limit_then_goes_straight():

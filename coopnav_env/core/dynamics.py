@@ -123,8 +123,10 @@ def max_turn_per_substep_rad(rate_dps: ArrayLike, substep_s: float) -> np.ndarra
 
 
 def turn_towards(heading: ArrayLike, desired: ArrayLike, max_turn_rad: ArrayLike) -> np.ndarray:
-    """``turn_toward`` over arrays, with the limit as an angle."""
-    cm, sm = float(np.cos(max_turn_rad)), float(np.sin(max_turn_rad))
+    """``turn_toward`` over arrays, with the limit as an angle (half a turn or more is no limit:
+    capped at pi, as ``max_turn_per_substep_rad`` caps it, where cos and sin would wrap)."""
+    limit = min(float(max_turn_rad), np.pi)
+    cm, sm = float(np.cos(limit)), float(np.sin(limit))
     return np.vectorize(lambda h, d: turn_toward(complex(h), complex(d), cm, sm), otypes=[complex])(heading, desired)
 
 
