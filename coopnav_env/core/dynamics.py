@@ -122,7 +122,7 @@ def max_turn_per_substep_rad(rate_dps: ArrayLike, substep_s: float) -> np.ndarra
     return np.minimum(np.radians(np.asarray(rate_dps, float)) * float(substep_s), np.pi)
 
 
-def turn_towards(heading: ArrayLike, desired: ArrayLike, max_turn_rad: ArrayLike) -> np.ndarray:
+def turn_towards(heading: ArrayLike, desired: ArrayLike, max_turn_rad: float) -> np.ndarray:
     """``turn_toward`` over arrays, with the limit as an angle (half a turn or more is no limit:
     capped at pi, as ``max_turn_per_substep_rad`` caps it, where cos and sin would wrap)."""
     limit = min(float(max_turn_rad), np.pi)
