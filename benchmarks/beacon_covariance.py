@@ -11,8 +11,8 @@ first survey vehicle and the first beacon AUV:
 
 * the beacon's own horizontal NEES e_b^T Sigma^-1 e_b against the covariance it carries
   (2 when consistent), and the same against m I2 (its mean is 2 for any Sigma of trace 2m:
-  the mean cannot tell the two apart); the share of cycles in which Sigma shrinks along
-  some axis (Sigma_k+1 - Sigma_k not positive semi-definite), which the survey's consider
+  the mean cannot tell the two apart); the share of cycles without a GPS fix in which Sigma
+  shrinks along some axis (Sigma_k+1 - Sigma_k not positive semi-definite), which the survey's consider
   states, a random walk for a DVL beacon (eq. C7, phi = 1), take for independent growth;
 * the survey filter's horizontal NEES mean and its 99.9 % exceedances (x nominal);
 * the survey's mean horizontal error |e_s|, its root mean square (what the filter
@@ -64,7 +64,8 @@ def covariance_figures(scenario: str, planner: str, overrides: dict, runs: int, 
         Sb[:, 1, 0] = Sb[:, 0, 1]
         if prev is not None:  # a random walk's covariance only grows: Sigma_k+1 - Sigma_k >= 0
             lam = np.linalg.eigvalsh(Sb - prev)[:, 0]
-            shrinks.append((lam < -1e-9 * np.abs(Sb).max(axis=(1, 2)))[live])
+            fixing = st.b_surfacings[:, j] > 0  # a GPS fix resets Sigma: eq. C8's business, not the walk's
+            shrinks.append((lam < -1e-9 * np.abs(Sb).max(axis=(1, 2)))[live & ~fixing])
         prev = Sb
         es = st.s_est[:, 0, :2] - st.s_pos[:, 0, :2]
         own_full.append(_nees(eb, Sb)[live])

@@ -188,8 +188,9 @@ def beacon_draws(cfg: Any, st: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     """(X (B, S, 2, 2N), var (B, S, 2N), b (B, S, 2N)) of the beacons' errors at this cycle
     for ``given_draws`` (the docstring's round 8): each survey filter's horizontal Pxb_j
     side by side, the per-axis variance each beacon sends, and b_j = true minus reported
-    position; None when the filter does not carry them (not ``beacon_error_fusion="schmidt"``)."""
-    if cfg.beacon_error_fusion != "schmidt":
+    position; None when the filter does not carry them (not ``beacon_error_fusion="schmidt"``), or
+    with ``beacon_covariance="full"``, whose Pbb is not diagonal (G1-G3 here take Pff diagonal)."""
+    if cfg.beacon_error_fusion != "schmidt" or getattr(cfg, "beacon_covariance", "isotropic") == "full":
         return None
     B, S = st.s_speed_scale.shape
     N = st.b_nav_err.shape[1]

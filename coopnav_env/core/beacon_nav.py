@@ -34,6 +34,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+from .consider import ErrorModel
 from .dynamics import boat_noise_step, disturb_boats
 
 
@@ -190,10 +191,24 @@ class _DvlErrors(NamedTuple):
     scale_error: np.ndarray
 
 
+def error_model(c: Any) -> ErrorModel:
+    """The error model's constants from the scenario config ``c`` (one home: ``nav_params`` and
+    the survey's eq. N2 read them): sigma_k^2 +- sigma_b0^2, b1^2 and the current estimate's
+    error variance per axis."""
+    k2, b2 = float(c.beacon_dvl_scale_error_std) ** 2, float(np.radians(c.beacon_dvl_heading_bias_std_deg)) ** 2
+    return ErrorModel(
+        k2 + b2,
+        k2 - b2,
+        float(np.radians(c.beacon_dvl_heading_cycle_deg)) ** 2,
+        float(c.beacon_current_estimate_error_mps) ** 2,
+    )
+
+
 def nav_params(c: Any, K: int) -> _NavParams:
     """``navigate``'s constants from the scenario config ``c`` with ``K`` sub-steps a cycle
     (built once per simulator)."""
     tau = c.gps_error_time_constant_s
+    em = error_model(c)
     return _NavParams(
         float(c.ping_interval_s),
         float(c.dvl_velocity_noise_mps * c.substep_s * np.sqrt(K)),
@@ -205,8 +220,8 @@ def nav_params(c: Any, K: int) -> _NavParams:
         float(c.dvl_max_altitude_m),
         float(c.dvl_lock_fade_fraction),
         float(np.radians(c.beacon_dvl_heading_cycle_deg)),
-        float(c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
-        float(c.beacon_dvl_scale_error_std**2 - np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
+        em.sigma2_sum,
+        em.sigma2_diff,
         float(c.beacon_current_estimate_error_mps),
         float(np.exp(-c.ping_interval_s / tau)) if tau > 0 else 0.0,
         float(c.gps_noise_m),

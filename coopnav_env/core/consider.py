@@ -268,7 +268,7 @@ def transport_cross_covariance(Pxb: np.ndarray, m2: np.ndarray, m1: np.ndarray, 
     gao-chitre.md#full-covariance). Nothing changes when Sigma1 is singular (never heard)."""
     s00, s01, _, s11 = error_model_covariance(m1, m1, model)
     det = s00 * s11 - s01 * s01
-    if not det > 0.0:
+    if not det > 1e-12 * s00 * s11:  # singular or nearly (never heard): no transport, no rounding blown up
         return
     c00, c01, c10, c11 = error_model_covariance(m2, m1, model)
     # M = Sigma1^-1 C^T, C^T = [[c00, c10], [c01, c11]]

@@ -214,9 +214,9 @@ def reweigh_hypotheses(
     Hd = H @ d
     S_d = H @ Pd @ H + R
     S_m = S_d + H @ dP @ H
-    if j >= 0 and Pbb is not None:  # (C2): + Hb Pbb Hb' + 2 H X_j Hb', Hb = -H[:2], X_d = X - (1 - w) dX,
-        # X_m = X + w dX
-        S_b, c_d, c_m = beacon_variance_along(Pbb, H[0], H[1]), 0.0, 0.0
+    if j >= 0:  # (C2): + Hb Pbb Hb' + 2 H X_j Hb', Hb = -H[:2], X_d = X - (1 - w) dX, X_m = X + w dX
+        S_b = beacon_variance_along(Pbb, H[0], H[1]) if Pbb is not None else 0.0  # None: an exact beacon
+        c_d, c_m = 0.0, 0.0
         for i in range(3):
             for a in range(2):
                 c_d += H[i] * (X[j, i, a] - (1.0 - w) * dX[j, i, a]) * H[a]

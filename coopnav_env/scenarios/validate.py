@@ -109,5 +109,6 @@ def _check_decision_slot(c: Any) -> None:
         f"the minimum is {t.need_s:.3f} s (link_model={c.link_model!r}: ping {t.ping_s:g} s, last ping offset "
         f"{t.last_offset_s:g} s ({c.ping_offsets}), max_range_m / {SLOWEST_SOUND_SPEED_MPS:g} m/s, turnaround_s, "
         f"reply {t.reply_s:g} s and its flight); raise ping_interval_s or modem_bit_rate_bps, or lower max_range_m, "
-        "turnaround_s, ping_packet_bits or reply_packet_bits",
+        f"turnaround_s, the beacons (beacon_kinds) or the packets' bits (a ping of {c.ping_bits}: "
+        "ping_packet_bits, with beacon_error_fusion's and beacon_covariance's fields; reply_packet_bits)",
     )

@@ -26,6 +26,7 @@ from ..acoustics import (
     sound_speed_rel_std_at,
     travel_time,
 )
+from ..beacon_nav import error_model
 from ..consider import (
     CI,
     FUSIONS,
@@ -149,7 +150,7 @@ class ModemParams(NamedTuple):
     gate_short: float  # the chi-square gate of a range shorter than predicted (range_gate_short_probability)
     split: bool  # range_linearization == "split": eqs. S1-S6 (core/split_range.py)
     gps_var_m2: float  # gps_noise_m^2: a fixed beacon's error variance per axis, var(g) of eq. C8'
-    full_covariance: bool  # beacon_covariance == "full": Pbb 2x2 (eq. N1) and the transport of eq. N3
+    full_covariance: bool  # beacon_covariance == "full" with "schmidt": the transport of eq. N3 (Pbb: bv.nav_dev)
     dvl_mask: int  # bit j: beacon j is a beacon AUV (dead reckoning; eq. N3 applies)
     error_model: ErrorModel  # its error model's constants (eq. N2)
 
@@ -537,14 +538,9 @@ class ModemRanging:
                 float(chi2.ppf(c.range_gate_short_probability, 1)) if c.range_gate_short_probability else gate,
                 c.range_linearization == "split",
                 float(c.gps_noise_m) ** 2,
-                c.beacon_covariance == "full",
+                c.beacon_covariance == "full" and c.beacon_error_fusion == "schmidt",
                 sum(1 << j for j, kind in enumerate(c.beacon_kinds) if kind == "beacon_auv"),
-                ErrorModel(
-                    float(c.beacon_dvl_scale_error_std**2 + np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
-                    float(c.beacon_dvl_scale_error_std**2 - np.radians(c.beacon_dvl_heading_bias_std_deg) ** 2),
-                    float(np.radians(c.beacon_dvl_heading_cycle_deg) ** 2),
-                    float(c.beacon_current_estimate_error_mps) ** 2,
-                ),
+                error_model(c),
             ]
         )
         self.kernel = fuse_kernel_parallel if threaded(sim.batch_size) else fuse_kernel
