@@ -122,12 +122,20 @@ def main(argv: list[str] | None = None) -> int:
             extra[key.strip()] = ast.literal_eval(text)
         except (ValueError, SyntaxError):
             extra[key.strip()] = text
+    if "beacon_covariance" in extra:
+        print("--set beacon_covariance: it is what this script compares (both columns run)", file=sys.stderr)
+        return 2
     lines = []
     for i in chosen:
         label, scenario, planner, overrides = CASES[i]
         import coopnav_env
 
-        if "beacon_auv" not in coopnav_env.make_config(scenario, **{**overrides, **extra}).beacon_kinds:
+        try:
+            cfg = coopnav_env.make_config(scenario, **{**overrides, **extra})
+        except ValueError as err:  # a --set the scenario refuses: its one line
+            print(err, file=sys.stderr)
+            return 2
+        if "beacon_auv" not in cfg.beacon_kinds:
             print(f"case {i} ({label}) has no beacon AUV: nothing to compare", file=sys.stderr)
             return 2
         figs = {

@@ -32,3 +32,20 @@ def test_compare_sousa_tables_refuses_what_is_not_a_sweep(tmp_path):
     (tmp_path / "episodes.csv").write_text("cell,policy,seed,mean_error_m\n")
     r = _run(ROOT / "benchmarks" / "compare_sousa_tables.py", str(tmp_path))
     assert r.returncode == 2 and "not a --sweep result" in r.stderr and "Traceback" not in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (("--set", "beacon_covariance=full"), "what this script compares"),
+        (("--set", "foo=1"), "unknown scenario parameter"),
+        (("--cases", "4"), "no beacon AUV"),
+        (("--runs", "0"), "--runs must be"),
+    ],
+)
+def test_beacon_covariance_refuses_bad_input_in_one_line(args, says):
+    """benchmarks/beacon_covariance.py: what it cannot compare is one line and exit 2 (the
+    compared switch itself, a parameter the scenario does not have, a case without a beacon
+    AUV), never a traceback nor a silently replaced --set."""
+    r = _run(ROOT / "benchmarks" / "beacon_covariance.py", *args)
+    assert r.returncode == 2 and says in r.stderr and r.stderr.strip().count("\n") == 0, r.stderr[-400:]
