@@ -25,7 +25,6 @@ first survey vehicle and the first beacon AUV:
 from __future__ import annotations
 
 import argparse
-import ast
 import sys
 
 import numpy as np
@@ -112,24 +111,19 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:
         print(f"--cases must be numbers in [0, {len(CASES) - 1}], got {args.cases!r}", file=sys.stderr)
         return 2
-    extra: dict = {}
-    for item in args.set:
-        key, eq, text = item.partition("=")
-        if not eq or not key.strip():
-            print(f"--set expects NAME=VALUE, got {item!r:.40}", file=sys.stderr)
-            return 2
-        try:
-            extra[key.strip()] = ast.literal_eval(text)
-        except (ValueError, SyntaxError):
-            extra[key.strip()] = text
+    try:
+        extra = _cases_module().parse_sets(args.set)
+    except ValueError as err:
+        print(err, file=sys.stderr)
+        return 2
     if "beacon_covariance" in extra:
         print("--set beacon_covariance: it is what this script compares (both columns run)", file=sys.stderr)
         return 2
+    import coopnav_env
+
     lines = []
     for i in chosen:
         label, scenario, planner, overrides = CASES[i]
-        import coopnav_env
-
         try:
             cfg = coopnav_env.make_config(scenario, **{**overrides, **extra})
         except ValueError as err:  # a --set the scenario refuses: its one line

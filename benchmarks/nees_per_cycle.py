@@ -396,6 +396,22 @@ def block_report(r: dict[str, Any], n: int, resamples: int = 100_000, seed: int 
     return text
 
 
+def parse_sets(items: list[str]) -> dict[str, Any]:
+    """The ``--set NAME=VALUE`` items as scenario overrides: a Python literal, else the text (a
+    name: ``beacon_error_fusion=schmidt``); a ``ValueError`` naming an item without a name or
+    an ``=``. Shared with ``benchmarks/beacon_covariance.py``."""
+    extra: dict[str, Any] = {}
+    for item in items:
+        key, eq, text = item.partition("=")
+        if not eq or not key.strip():
+            raise ValueError(f"--set expects NAME=VALUE, got {item!r:.40}")
+        try:
+            extra[key.strip()] = ast.literal_eval(text)
+        except (ValueError, SyntaxError):
+            extra[key.strip()] = text.strip()
+    return extra
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
@@ -461,16 +477,11 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:
         print(f"--cases must be 'all' or numbers in [0, {len(CASES) - 1}], got {args.cases!r}", file=sys.stderr)
         return 2
-    extra = {}
-    for item in args.set:
-        key, eq, text = item.partition("=")
-        if not eq or not key.strip():
-            print(f"--set expects NAME=VALUE, got {item!r:.40}", file=sys.stderr)
-            return 2
-        try:
-            extra[key.strip()] = ast.literal_eval(text)
-        except (ValueError, SyntaxError):
-            extra[key.strip()] = text.strip()  # a name: beacon_error_fusion=schmidt
+    try:
+        extra = parse_sets(args.set)
+    except ValueError as err:
+        print(err, file=sys.stderr)
+        return 2
     try:
         import coopnav_env
 

@@ -135,17 +135,9 @@ def _leg_heading_deg(path, k):
     return 90.0 if phase in (6, 13) else (0.0 if phase < 6 else 180.0)
 
 
-@pytest.mark.parametrize("path", ["straight", "lawnmower"])
-def test_carried_covariance_matrix_matches_the_monte_carlo_error(path):
-    """Eq. N1 (``beacon_nav.covariance_deviator_m2``, ``beacon_covariance="full"``): the heading
-    errors displace the beacon across its track, so its error covariance is not isotropic. Over 4000 episodes (each its
-    own compass bias, one-cycle phase, scale error and noise) the error's 2x2 covariance E[e e^T]
-    equals the carried [[m + a, c], [c, m - a]] (minus the start fix's I2), entry by entry,
-    within 8 % of its largest entry; the isotropic m alone is off by 1.3x or more across the track
-    and 0.7x along it (here 1.41x and 0.62x straight, where the white walk is a larger share,
-    1.93x and 0.08x on the lawnmower, as a review measured: 1.9x and 0.07x)."""
-    B = 4000
-    c = coopnav_env.make_config(
+def _full_covariance_config():
+    """``gao_sea`` with every beacon DVL error on and nothing else, ``beacon_covariance="full"``."""
+    return coopnav_env.make_config(
         "gao_sea",
         **{
             **QUIET,
@@ -156,12 +148,30 @@ def test_carried_covariance_matrix_matches_the_monte_carlo_error(path):
             "beacon_covariance": "full",
         },
     )
+
+
+def _drive_legs(sim, path, k):
+    """Step ``sim`` once at cycle k of ``path`` (``_leg_heading_deg``), full speed."""
+    a = np.radians(_leg_heading_deg(path, k))
+    sim.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (sim.state.batch_size, 1, 2)))
+
+
+@pytest.mark.parametrize("path", ["straight", "lawnmower"])
+def test_carried_covariance_matrix_matches_the_monte_carlo_error(path):
+    """Eq. N1 (``beacon_nav.covariance_deviator_m2``, ``beacon_covariance="full"``): the heading
+    errors displace the beacon across its track, so its error covariance is not isotropic. Over 4000 episodes (each its
+    own compass bias, one-cycle phase, scale error and noise) the error's 2x2 covariance E[e e^T]
+    equals the carried [[m + a, c], [c, m - a]] (minus the start fix's I2), entry by entry,
+    within 8 % of its largest entry; the isotropic m alone is off by 1.3x or more across the track
+    and 0.7x along it (here 1.41x and 0.62x straight, where the white walk is a larger share,
+    1.93x and 0.08x on the lawnmower, as a review measured: 1.9x and 0.07x)."""
+    B = 4000
+    c = _full_covariance_config()
     sim = make_simulator(c, B)
     sim.reset(np.arange(B) + 31000)
     err0 = sim.state.b_nav_err[:, 0, :2].copy()
     for k in range(28):
-        a = np.radians(_leg_heading_deg(path, k))
-        sim.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (B, 1, 2)))
+        _drive_legs(sim, path, k)
     st = sim.state
     e = st.b_nav_err[:, 0, :2] - err0
     mc = e.T @ e / B
@@ -174,8 +184,7 @@ def test_carried_covariance_matrix_matches_the_monte_carlo_error(path):
     iso = make_simulator(c.replace(beacon_covariance="isotropic"), 8)
     iso.reset(np.arange(8) + 31000)
     for k in range(28):
-        a = np.radians(_leg_heading_deg(path, k))
-        iso.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (8, 1, 2)))
+        _drive_legs(iso, path, k)
     np.testing.assert_array_equal(iso.state.b_nav_var_m2, st.b_nav_var_m2[:8])
     assert np.all(iso.state.b_nav_dev_m2 == 0.0)
 
@@ -191,17 +200,7 @@ def test_cross_covariance_between_pings_matches_the_monte_carlo_error():
     from coopnav_env.core.measurements.modem import ModemRanging
 
     B = 4000
-    c = coopnav_env.make_config(
-        "gao_sea",
-        **{
-            **QUIET,
-            "beacon_dvl_heading_bias_std_deg": 0.5,
-            "beacon_dvl_heading_cycle_deg": 1.0,
-            "beacon_dvl_scale_error_std": 0.01,
-            "dvl_velocity_noise_mps": 0.026,
-            "beacon_covariance": "full",
-        },
-    )
+    c = _full_covariance_config()
     sim = make_simulator(c, B)
     sim.reset(np.arange(B) + 52000)
     model = ModemRanging(sim).params.error_model
@@ -216,8 +215,7 @@ def test_cross_covariance_between_pings_matches_the_monte_carlo_error():
 
     saved = {}
     for k in range(26):
-        a = np.radians(_leg_heading_deg("lawnmower", k))
-        sim.step(np.broadcast_to(np.array([np.cos(a), np.sin(a)]), (B, 1, 2)))
+        _drive_legs(sim, "lawnmower", k)
         if k in (10, 24):
             saved[k] = state_now()
     (m1, e1), (m2, e2) = saved[10], saved[24]

@@ -300,7 +300,9 @@ def _navigate(old, new, dvl, pos, nav_err, moved, u, draws_n, is_asv, times, cru
                 + 0.5 * prm.sigma2 * abs(since) ** 2
                 + heading_cycle_variance_m2(prm.cycle_rad, travelled, turn_sum)
             )
-            dev = covariance_deviator_m2(prm.sigma2_diff, since, prm.cycle_rad, travelled, turn_sum)
+            dev = 0.0j
+            if prm.full_covariance and not is_asv[n]:  # eq. N1; "isotropic" sends m alone
+                dev = covariance_deviator_m2(prm.sigma2_diff, since, prm.cycle_rad, travelled, turn_sum)
             # a GPS fix: every cycle for ASVs; at the surface when due for AUVs. The
             # receiver's error is first-order Gauss-Markov, exact over the cycle: e <- phi e
             # + sigma sqrt(1 - phi^2) n (phi = 0: white, a fresh error each fix)
@@ -328,7 +330,7 @@ def _navigate(old, new, dvl, pos, nav_err, moved, u, draws_n, is_asv, times, cru
                 err_h = gps
             gps_var = prm.gps_noise_m**2
             new.nav_var_m2[b, n] = gps_var if fix else var
-            new.nav_dev_m2[b, n] = dev if prm.full_covariance and not fix else 0.0j
+            new.nav_dev_m2[b, n] = 0.0j if fix else dev
             new.walk_var_m2[b, n] = gps_var if surface else walk_var
             new.unlocked_s[b, n] = 0.0 if surface else unlocked
             new.since_fix_s[b, n] = 0.0 if fix else since_fix
