@@ -256,6 +256,15 @@ def _surface(on: bool, t0: float, due: bool, times: tuple, z0: float, prm: _NavP
     return fix, away_s, going, excursion_s, depth, going and depth < min(prm.ranging_min_depth_m, z0) - 1e-9
 
 
+@njit(cache=True, inline="always")
+def _deviator(prm: _NavParams, since_fix_m: complex, travelled_m: float, turn_sum_m: complex) -> complex:
+    """Eq. N1's deviator with ``beacon_covariance="full"``; 0 (not computed) with "isotropic",
+    which sends m alone."""
+    if not prm.full_covariance:
+        return 0.0j
+    return covariance_deviator_m2(prm.sigma2_diff, since_fix_m, prm.cycle_rad, travelled_m, turn_sum_m)
+
+
 @njit(cache=True)
 def _navigate(old, new, dvl, pos, nav_err, moved, u, draws_n, is_asv, times, cruise_depth_m, prm):
     """``navigate`` over the batch: ``old`` (``_NavState``) read, ``new`` written; pos
@@ -300,9 +309,7 @@ def _navigate(old, new, dvl, pos, nav_err, moved, u, draws_n, is_asv, times, cru
                 + 0.5 * prm.sigma2 * abs(since) ** 2
                 + heading_cycle_variance_m2(prm.cycle_rad, travelled, turn_sum)
             )
-            dev = 0.0j
-            if prm.full_covariance and not is_asv[n]:  # eq. N1; "isotropic" sends m alone
-                dev = covariance_deviator_m2(prm.sigma2_diff, since, prm.cycle_rad, travelled, turn_sum)
+            dev = _deviator(prm, since, travelled, turn_sum)  # eq. N1 ("isotropic": 0)
             # a GPS fix: every cycle for ASVs; at the surface when due for AUVs. The
             # receiver's error is first-order Gauss-Markov, exact over the cycle: e <- phi e
             # + sigma sqrt(1 - phi^2) n (phi = 0: white, a fresh error each fix)
