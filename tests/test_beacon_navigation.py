@@ -490,3 +490,79 @@ def test_a_turn_limit_of_half_a_turn_or_more_per_substep_is_no_limit():
     sim = make_simulator(c, 1)
     sim.reset([0])
     assert sim._beacon_turn_cos[0] == -1.0
+
+
+def _error_model_draws(legs_deg, n, rng, sk, sb0, b1, sc, unlocked_s, walk1, walk2):
+    """The beacon AUV's dead-reckoning error model written out per cycle, as ``_navigate``
+    draws it, over ``n`` episodes: each cycle's displacement d (20 m at bearing theta) becomes
+    ((1 + k) e^{-i beta} - 1) d with beta = b0 + b1 sin(theta + phase), plus the told current's
+    error c times the time without lock, plus a white part (per-axis variance walk1 at the
+    first ping, walk2 at the second; the increments independent). Returns the error at the
+    middle of the track and at its end (complex, east + i north), and the error-model states
+    (D, s, G, T, w) the pings would carry there."""
+    k = sk * rng.standard_normal(n)
+    b0 = sb0 * rng.standard_normal(n)
+    phase = rng.uniform(0.0, 2.0 * np.pi, n)
+    c = sc * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+    u1 = np.sqrt(walk1) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+    u12 = np.sqrt(walk2 - walk1) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+    half = len(legs_deg) // 2
+    z, D, s, G, out = np.zeros(n, complex), 0j, 0.0, 0j, []
+    for i, theta in enumerate(np.radians(legs_deg), start=1):
+        d = 20.0 * (np.sin(theta) + 1j * np.cos(theta))  # bearing theta from north, clockwise
+        z = z + ((1.0 + k) * np.exp(-1j * (b0 + b1 * np.sin(theta + phase))) - 1.0) * d
+        D, s, G = D + d, s + 20.0, G + 20.0 * np.exp(-2j * theta)  # G = sum |d| e^{-2i theta}
+        if i in (half, len(legs_deg)):
+            T, w = (unlocked_s[0], walk1) if i == half else (unlocked_s[1], walk2)
+            noise = u1 if i == half else u1 + u12
+            out.append((z + c * T + noise, np.array([D.real, D.imag, s, G.real, G.imag, T, w])))
+    return out
+
+
+def test_the_error_model_on_a_curved_track_matches_its_own_monte_carlo():
+    """Eqs. N1 and N2 on a track that is neither north-south nor east-west (legs at bearings
+    45-250 degrees, so G is complex and the track turns), with every error at once: against
+    the model's own Monte Carlo (200,000 episodes of the per-cycle error ``_navigate`` draws,
+    written out here), the carried covariance [[m + a, c], [c, m - a]] at a ping and the
+    cross-covariance Cov(b2, b1) of two pings, entry by entry within 3 % of the largest. The
+    earlier Monte Carlo tests drove axis-aligned legs, where G is real: there a conjugate
+    slipped onto G (eq. N1's b1^2 s G / 4, or N2's s2 G1 + G2 s1) or a factor lost on the told
+    current's 2 sigma_c^2 T2 T1 changed nothing they measured (a mutation review, 2026-12-07)."""
+    from coopnav_env.core.beacon_nav import error_model
+    from coopnav_env.core.consider import error_model_covariance
+
+    sk, sb0_deg, b1_deg, sc = 0.02, 0.3, 2.0, 0.02
+    cfg = _full_covariance_config().replace(
+        beacon_dvl_scale_error_std=sk,
+        beacon_dvl_heading_bias_std_deg=sb0_deg,
+        beacon_dvl_heading_cycle_deg=b1_deg,
+        beacon_current_estimate_error_mps=sc,
+    )
+    model = error_model(cfg)
+    assert model.sigma2_sum == pytest.approx(sk**2 + np.radians(sb0_deg) ** 2)
+    legs = [45.0] * 5 + [120.0, 165.0, 210.0, 250.0, 250.0]
+    rng = np.random.default_rng(20261207)
+    walk1, walk2, unlocked = 0.1, 0.2, (60.0, 120.0)
+    (e1, m1), (e2, m2) = _error_model_draws(
+        legs, 200_000, rng, sk, np.radians(sb0_deg), np.radians(b1_deg), sc, unlocked, walk1, walk2
+    )
+
+    def cov(a, b):  # E[a b^T] of two complex errors as 2x2 (rows: a's east, north)
+        A, B = np.stack([a.real, a.imag]), np.stack([b.real, b.imag])
+        return A @ B.T / a.size
+
+    for e, m in ((e1, m1), (e2, m2)):  # eq. N1: the covariance each ping carries
+        D, s, G, T, w = m[0] + 1j * m[1], m[2], m[3] + 1j * m[4], m[5], m[6]
+        b1 = np.radians(b1_deg)
+        var = w + (sc * T) ** 2 + 0.5 * model.sigma2_sum * abs(D) ** 2 + heading_cycle_variance_m2(b1, s, G)
+        dev = covariance_deviator_m2(model.sigma2_diff, D, b1, s, G)
+        carried = np.array([[var + dev.real, dev.imag], [dev.imag, var - dev.real]])
+        mc = cov(e, e)
+        assert abs(dev.imag) > 0.1 * abs(carried).max(), carried  # a correlation a slipped conjugate flips
+        assert np.abs(mc - carried).max() < 0.03 * np.abs(carried).max(), (mc, carried)
+        np.testing.assert_allclose(np.reshape(error_model_covariance(m, m, model), (2, 2)), carried, rtol=1e-12)
+    mc = cov(e2, e1)
+    model_c = np.reshape(error_model_covariance(m2, m1, model), (2, 2))
+    assert np.abs(mc - model_c).max() < 0.03 * np.abs(model_c).max(), (mc, model_c)
+    # the told current's share is large enough that half of it would show: 2 sc^2 T2 T1 / 2 per axis
+    assert (sc**2 * unlocked[0] * unlocked[1]) > 0.1 * np.abs(model_c).max()
