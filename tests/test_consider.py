@@ -488,6 +488,19 @@ def test_the_gps_share_of_an_isotropic_covariance_is_the_scalar():
     np.testing.assert_array_equal(got, 0.5 * X)
 
 
+def test_the_gps_share_of_a_singular_covariance_keeps_the_flat_axis_whole():
+    """Eq. C8' where Sigma_seen is singular (|deviator| = m: all of the beacon's error on one
+    axis, e.g. the one-cycle compass error alone on a straight run): along the flat axis the
+    old error was all GPS error, so the share there is 1 (var(g) / 0 capped), along the other
+    var(g) / 2m. Sigma = [[2, 0], [0, 0]] (m = 1, a = 1) with var(g) = 0.5: M = diag(0.25, 1).
+    (A mutation review found a share of 0 on the flat axis passed every test: the hypothesis
+    test above draws |deviator| < m only.)"""
+    X = np.arange(1.0, 7.0).reshape(3, 2)
+    got = X.copy()
+    gps_share(got, 0.5, 1.0, 1.0 + 0j, 1.0)
+    np.testing.assert_allclose(got, X @ np.diag([0.25, 1.0]), rtol=1e-12)
+
+
 def test_the_cross_covariance_follows_a_turn_of_the_track_by_hand():
     """Eqs. N2-N3 with the constant compass bias b0 alone (and a white part w small beside it):
     100 m east of its fix the beacon's error is -i b0 D1 = (0, -100 b0), all north; after it
