@@ -337,6 +337,32 @@ def test_a_timed_surfacing_hand_timeline():
     assert (age[5] == age[4] + c.ping_interval_s).all()  # away: no reply heard
 
 
+def test_a_dwell_ending_at_a_cycles_end_fixes_in_that_cycle():
+    """The fix falls in (t0, t1]: with 20 s cycles, a 10 m ascent at 1 m/s and a 10 s dwell
+    the fix is at 20 s, the end of the excursion's first cycle, and is taken there (not a
+    cycle late, as an open interval would have it); the second cycle (20-40 s) has none. Up at
+    10 s, back at depth at 30 s; above the 5 m ranging depth from 5 s to 25 s."""
+    from coopnav_env.core.beacon_nav import _surface, nav_params, surfacing_times
+
+    c = coopnav_env.make_config(
+        "gao_sea",
+        **{
+            **QUIET,
+            "beacon_vertical_speed_mps": 1.0,
+            "beacon_surface_dwell_s": 10.0,
+            "beacon_ranging_min_depth_m": 5.0,
+        },
+    )
+    prm = nav_params(c, 20)
+    assert prm.T == 20.0
+    times = tuple(float(t[0]) for t in surfacing_times([10.0], 1.0, 10.0, 5.0))
+    assert times == (10.0, 20.0, 30.0, 5.0, 25.0)
+    fix, away_s, on, t0, depth, away = _surface(True, 0.0, False, times, 10.0, prm)
+    assert fix and away_s == 15.0 and on and t0 == 20.0 and depth == 0.0 and away
+    fix, away_s, on, t0, depth, away = _surface(True, 20.0, False, times, 10.0, prm)
+    assert not fix and away_s == 5.0 and not on and depth == 10.0 and not away
+
+
 def test_a_beacon_at_the_surface_with_no_dwell_takes_its_fix():
     """A beacon AUV at 0 m with a 0 s dwell (both allowed) has its fix at the excursion's
     start: before, a fix in (t0, t1] never came, so it began a surfacing every cycle and was
