@@ -58,6 +58,19 @@ def test_noise_psd_at_25_khz_moderate_shipping_5_mps_wind_by_hand():
     assert L.noise_psd_db(25.0, 0.5, 5.0) == pytest.approx(38.549, abs=0.005)
 
 
+def test_noise_psd_at_100_hz_where_shipping_dominates_by_hand():
+    # f = 0.1 kHz, log10 f = -1, no wind; heavy shipping s = 1:
+    # turbulence 17 + 30 = 47
+    # shipping   40 + 20 x 0.5 - 26 - 60 log10(0.13) = 24 + 53.1634 = 77.1634
+    # wind       50 + 0 - 20 - 40 log10(0.5) = 30 + 12.0412 = 42.0412
+    # thermal    -15 - 20 = -35
+    # power sum: 10^7.71634 + 10^4.7 + 10^4.20412 = 5.2030e7 + 5.01e4 + 1.60e4 -> 77.169 dB
+    # no shipping (s = 0): 57.1634 beside the same turbulence and wind -> 57.683 dB
+    # (at 25 kHz, above, wind hides the shipping term: 20 dB of it moved nothing there)
+    assert L.noise_psd_db(0.1, 1.0, 0.0) == pytest.approx(77.169, abs=0.005)
+    assert L.noise_psd_db(0.1, 0.0, 0.0) == pytest.approx(57.683, abs=0.005)
+
+
 def test_band_noise_flat_and_integrated_agree():
     band, noise = L.Band(25.0, 4000.0), L.NoiseConditions(0.5, 5.0)
     # NL(fc) + 10 log10(4000) = 38.549 + 36.021 = 74.570
@@ -223,6 +236,15 @@ def test_a_captured_packet_is_decoded_at_its_sinr_not_its_snr():
     assert o.p_success[0, 1, 0] == pytest.approx(0.885, abs=1e-3)
     alone = slot([0.0, 1000.0, 2000.0], [NAN, 0.0, NAN])  # the far sender silent: the SNR's
     assert alone.p_success[0, 1, 0] > 0.9999
+
+
+def test_interference_is_the_power_sum_of_every_overlapping_ping():
+    # as the capture case above with a second interferer, 1000 m on the other side: the
+    # two far pings arrive together and add, SIR = 25.4943 - 10 log10 2 = 22.4840 dB (the
+    # louder of them alone would leave 25.49)
+    o = slot([0.0, 100.0, 1000.0, -1000.0], [NAN, 0.0, 0.0, 0.0])
+    assert o.sir_db[0, 1, 0] == pytest.approx(22.4840, abs=1e-3)
+    assert o.captured[0, 1, 0]
 
 
 def test_two_equal_overlapping_pings_are_both_lost():
