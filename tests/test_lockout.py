@@ -29,6 +29,21 @@ def test_reinit_moves_onto_the_range_and_keeps_the_across_variance_plus_the_miss
     np.testing.assert_allclose(P, [[2.0 + 25.0, 0.0, 0.0], [0.0, 9.0 + 25.0, 0.0], [0.0, 0.0, 0.25]], atol=1e-12)
 
 
+def test_reinit_on_a_sloping_line_of_sight_moves_by_the_miss_over_its_horizontal_share():
+    """Beacon 80 m above and 60 m west of the estimate at the origin: h = 100 m,
+    H = (0.6, 0, -0.8), |H_xy| = 0.6. A range of 110 m (y = 10) moves the estimate
+    y / |H_xy| = 16.667 m east, which lengthens the predicted range by 10 m to first order
+    (by the miss itself it would move only 6); the variance along the line of sight is
+    (R + y^2) / |H_xy|^2 = (2 + 100) / 0.36 = 283.33, across it 9 + 100 = 109."""
+    x, P = np.zeros(3), np.diag([4.0, 9.0, 0.25])
+    h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.array([-60.0, 0.0, 80.0]))
+    assert h == pytest.approx(100.0)
+    np.testing.assert_allclose(H, [0.6, 0.0, -0.8], atol=1e-12)
+    assert reinit_on_range(x, P, 110.0, h, H, 2.0)
+    np.testing.assert_allclose(x, [10.0 / 0.6, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(np.diag(P), [102.0 / 0.36, 109.0, 0.25], rtol=1e-12)
+
+
 def test_reinit_refuses_a_steep_line_of_sight():
     x, P = np.array([1.0, 0.0, 30.0]), np.eye(3)
     h, H = range_prediction(x, np.zeros(3), np.zeros(1), np.zeros(3))  # 30 m below, 1 m aside
