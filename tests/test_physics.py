@@ -581,6 +581,13 @@ def test_two_way_range_and_its_prediction_follow_each_legs_geometry():
     r1 = modem_range(survey, zero, beacon, u, 1500.0, 1500.0, 0.0, 0.0, False, 0.0, 0.0, delays1)
     assert r1 == pytest.approx(1500.0, abs=1e-9)
     assert moving_range_prediction(survey, zero, beacon, u, delays1)[0] == pytest.approx(1500.0, abs=1e-9)
+    # one-way to a survey moving away at 2 m/s: it hears the ping at tau = 1500 / 1498 s, 2 tau
+    # further off, r = 1500 tau = 1502.0027 m; the prediction places it there (v times the
+    # leg's time, delays1[0, 0] = r / c), not where it was at t = 0 (1500 m, 4 sigma short)
+    v = np.array([-2.0, 0.0, 0.0])
+    r1 = modem_range(survey, v, beacon, u, 1500.0, 1500.0, 0.0, 0.0, False, 0.0, 0.0, delays1)
+    assert r1 == pytest.approx(1500.0 * 1500.0 / 1498.0, abs=1e-6)
+    assert moving_range_prediction(survey, v, beacon, u, delays1)[0] == pytest.approx(r1, abs=1e-6)
 
 
 def test_two_way_range_from_a_moving_beacon_is_fused_without_bias():
