@@ -616,3 +616,33 @@ def test_two_way_range_from_a_moving_beacon_is_fused_without_bias():
     )
     assert out.fused[0, 0, 0]
     assert abs(st.s_est[0, 0, 0] - st.s_pos[0, 0, 0]) < 0.01  # 1.99 m off with the t = 0 geometry (before the fix)
+
+
+@pytest.mark.parametrize(("mode", "expected"), [("owtt", 0.3), ("twtt", 1.0 - 0.7**2)])
+def test_a_two_way_range_is_lost_when_either_leg_is(mode, expected):
+    """The modem's range-loss curve at 30 % whatever the range (``packet_loss_near`` =
+    ``packet_loss_far``): a one-way ping is lost 30 % of the time; a two-way range needs the
+    interrogation and the reply both, 1 - 0.7^2 = 51 %. 640 pings each (64 environments, 10
+    cycles; std of the fraction about 0.02)."""
+    from coopnav_env import make_config
+    from coopnav_env.core import make_simulator
+
+    c = make_config(
+        "gao_sea",
+        ranging_mode=mode,
+        packet_loss_near=0.3,
+        packet_loss_far=0.3,
+        outlier_probability=0.0,
+        beacon_surface_every_s=0.0,
+        beacon_surface_above_std_m=0.0,
+    )
+    B = 64
+    sim = make_simulator(c, B)
+    sim.reset(np.arange(B))
+    lost = used = 0
+    for _ in range(10):
+        info = sim.step(np.zeros((B, 1, 2))).info
+        lost += info["packets_lost"].sum()
+        used += info["ranges_fused"].sum() + info["outliers_rejected"].sum() + info["nan_rejected"].sum()
+    assert lost + used == B * 10
+    assert lost / (lost + used) == pytest.approx(expected, abs=0.06)
