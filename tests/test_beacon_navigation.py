@@ -465,6 +465,27 @@ def test_asv_surge_and_course_errors_hand_values():
     np.testing.assert_allclose(got - commanded, [off.real, off.imag], atol=1e-9)
 
 
+def test_disturb_boats_turns_the_command_not_the_current_by_hand():
+    """``dynamics.disturb_boats`` with a course error and a current at once: commanded 2 m/s
+    east (v = 2), course off by delta = 10 degrees clockwise, current c = 0.5 + 0.3i m/s of
+    which r = 0.4 is not cancelled. Made good: v e^{-i delta} + r c = 2 (cos 10, -sin 10) +
+    (0.2, 0.12) = (2.16962, -0.22729) m/s, the current's share not turned with the course
+    (turned, it would be (2.18741, -0.26385)); over T = 20 s the position moves by the
+    difference from the command, (3.3923, -4.5459) m."""
+    from coopnav_env.core.dynamics import disturb_boats
+
+    pos, vel = np.zeros((1, 1, 3)), np.array([[[2.0, 0.0, 0.0]]])
+    delta = np.radians(10.0)
+    disturb_boats(
+        pos, np.array([[1.0 + 0j]]), vel, np.zeros((1, 1)), np.array([[delta]]), np.array([[0.5 + 0.3j]]), 0.4, 20.0
+    )
+    made_good = 2.0 * np.exp(-1j * delta) + 0.4 * (0.5 + 0.3j)
+    np.testing.assert_allclose(vel[0, 0, :2], [made_good.real, made_good.imag], atol=1e-12)
+    np.testing.assert_allclose(vel[0, 0, :2], [2.16962, -0.22729], atol=1e-5)
+    np.testing.assert_allclose(pos[0, 0, :2], [(made_good.real - 2.0) * 20.0, made_good.imag * 20.0], atol=1e-12)
+    np.testing.assert_allclose(pos[0, 0, :2], [3.3923, -4.5459], atol=1e-4)
+
+
 def test_asv_errors_are_the_boats_gauss_markov_processes():
     """Over many ASVs and cycles the surge error's std is asv_surge_noise_mps and its
     one-cycle correlation exp(-T / tau) = exp(-20 / 30) = 0.513 (20 s cycles here)."""
