@@ -94,6 +94,26 @@ def test_carried_variance_matches_the_monte_carlo_error_on_a_straight_run():
     assert mse == pytest.approx(carried, rel=0.08)
 
 
+def test_carried_variance_without_bottom_lock_grows_with_the_square_of_the_time():
+    """Bottom lock lost for good from the first cycle, and the told current's error
+    sigma_c = 0.05 m/s per axis the only error: the beacon drifts by c T, so after 10 cycles
+    of 20 s (T = 200 s) the per-axis variance it carries is (sigma_c T)^2 = 100 m^2 (a bias,
+    not a walk: sigma_c^2 T would be 0.5), and 2000 episodes' mean squared error is twice that."""
+    B = 2000
+    c, sim, _d, err = _drive_east(
+        10,
+        B=B,
+        beacon_current_estimate_error_mps=0.05,
+        dvl_lock_model="fixed",
+        dvl_lock_loss_probability=1.0,
+        dvl_lock_regain_probability=0.0,
+    )
+    T = 10 * c.ping_interval_s
+    assert T == 200.0 and not sim.state.b_dvl_lock.any()
+    np.testing.assert_allclose(sim.state.b_nav_var_m2[:, 0] - 1.0, (0.05 * T) ** 2, rtol=1e-9)
+    assert float((err**2).sum(-1).mean()) == pytest.approx(2.0 * (0.05 * T) ** 2, rel=0.08)
+
+
 def _drive_orbit(cycles, B, degrees_per_cycle=30.0, **overrides):
     """The beacon on a polygonal orbit: its commanded velocity turns by ``degrees_per_cycle``
     every cycle (full speed); returns the simulator and the error grown since the start."""
