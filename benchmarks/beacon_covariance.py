@@ -101,8 +101,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="a scenario override")
     ap.add_argument("--markdown", help="also write the table here")
     args = ap.parse_args(argv)
-    if not 1 <= args.runs <= 10_000:
-        print(f"--runs must be in [1, 10000], got {args.runs}", file=sys.stderr)
+    problem = _cases_module().check_run_args(args.runs, args.seed, args.markdown)
+    if problem is not None:
+        print(problem, file=sys.stderr)
         return 2
     try:
         chosen = [int(i) for i in args.cases.split(",")]

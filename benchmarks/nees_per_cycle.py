@@ -416,6 +416,29 @@ def parse_sets(items: list[str]) -> dict[str, Any]:
     return extra
 
 
+def check_run_args(runs: int, seed: int, markdown: str | None) -> str | None:
+    """The one line that refuses ``--runs``, ``--seed`` or ``--markdown`` before any episode
+    runs (None when they are fine): the runs in [1, 10000], every seed SEED..SEED+RUNS-1 a
+    valid one (``coopnav_env.seeds.check_seed``), the table's file writable where it would go
+    (not a folder, its folder creatable). ``beacon_covariance.py`` reads it too."""
+    from coopnav_env.records import check_output_file
+    from coopnav_env.seeds import check_seed
+
+    if not 1 <= runs <= 10_000:
+        return f"--runs must be in [1, 10000], got {runs}"
+    try:
+        check_seed(seed, "--seed")
+        check_seed(seed + runs - 1, f"--seed + --runs - 1 (the last run's seed, {seed + runs - 1})")
+    except ValueError as err:
+        return str(err)
+    if markdown is not None:
+        try:
+            check_output_file(markdown)
+        except OSError as err:
+            return f"--markdown: {err}"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
@@ -468,8 +491,9 @@ def main(argv: list[str] | None = None) -> int:
         "depends on where the beacon goes)",
     )
     args = p.parse_args(argv)
-    if not 1 <= args.runs <= 10_000:
-        print(f"--runs must be in [1, 10000], got {args.runs}", file=sys.stderr)
+    problem = check_run_args(args.runs, args.seed, args.markdown)
+    if problem is not None:
+        print(problem, file=sys.stderr)
         return 2
     if args.blocks and not 1 <= args.blocks <= args.runs:
         print(f"--blocks must be in [1, --runs = {args.runs}], got {args.blocks}", file=sys.stderr)

@@ -33,11 +33,12 @@ def _umask() -> int:
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
     """Write ``data`` to ``path`` atomically: a temporary file beside it (same
-    filesystem), fsync, then ``os.replace``. The file gets the umask's permissions
+    filesystem; its folder made if missing), fsync, then ``os.replace``. The file gets the umask's permissions
     (mkstemp's 0600 would otherwise leak through). On any error, including Ctrl-C,
     the temporary file is removed and ``path`` keeps its old content."""
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
+    os.makedirs(directory, exist_ok=True)  # a table asked for in a folder not made yet
     fd, tmp = tempfile.mkstemp(dir=directory, prefix="." + os.path.basename(path) + ".", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as f:
@@ -75,6 +76,16 @@ def check_writable(out: str | os.PathLike[str]) -> None:
         raise OSError(f"cannot write in {probe} ({err.strerror or err}), where {os.fspath(out)} would go") from None
     os.close(fd)
     os.unlink(tmp)
+
+
+def check_output_file(path: str | os.PathLike[str]) -> None:
+    """An ``OSError`` (one line) if the file ``path`` cannot be written: it is a folder, or
+    nothing can be written where it would go (``check_writable`` of its folder). Scripts call
+    it before their runs, so a table's path is refused at once, not after the runs."""
+    target = os.path.abspath(os.fspath(path))
+    if os.path.isdir(target):
+        raise OSError(f"{os.fspath(path)} is a folder, not a file")
+    check_writable(os.path.dirname(target))
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:

@@ -787,3 +787,30 @@ def test_a_resumed_run_in_a_folder_that_cannot_be_written_is_refused(run, monkey
     code, err = evaluate(["--scenario", "gao_sea", "--episodes", "2", "--out", str(run / "eval"), "--resume"], capsys)
     one_line_exit_2(code, err, "Permission denied")
     assert tree_hash(run) == before
+
+
+def test_a_benchmark_tables_path_is_checked_before_its_runs(tmp_path, capsys):
+    """``records.check_output_file`` for the benchmark scripts' tables (--markdown, --out, --json,
+    --cache): a folder, or a path under a file, is one line and exit 2 before any episode runs (it
+    was a FileNotFoundError traceback after the runs, or a folder's table written nowhere); a
+    folder not made yet is made when the table is written (an input audit, 2026-12-07)."""
+    from benchmarks import nees_per_cycle, planners_vs_floors
+    from coopnav_env.records import atomic_write_text, check_output_file
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OSError, match="is a folder, not a file"):
+        check_output_file(tmp_path)
+    with pytest.raises(OSError, match="is a file, not a folder"):
+        check_output_file(tmp_path / "file" / "table.md")
+    check_output_file(tmp_path / "new" / "table.md")  # fine: made when written
+    atomic_write_text(tmp_path / "new" / "table.md", "| a |\n")
+    assert (tmp_path / "new" / "table.md").read_text() == "| a |\n"
+
+    assert nees_per_cycle.main(["--runs", "2", "--cases", "0", "--markdown", str(tmp_path)]) == 2
+    assert "--markdown" in capsys.readouterr().err
+    assert nees_per_cycle.main(["--runs", "2", "--cases", "0", "--seed", "-1"]) == 2
+    assert "--seed must be in" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_info:
+        planners_vs_floors.main(["--episodes", "2", "--markdown", str(tmp_path / "file" / "t.md")])
+    assert exit_info.value.code == 2
+    assert "--markdown" in capsys.readouterr().err
