@@ -529,7 +529,12 @@ def legacy_model(path: str | Path, device: str = "cpu") -> Any:
     """An SB3 model .zip (``PPO.load``: UNPICKLES; call only for a trusted file)."""
     from stable_baselines3 import PPO
 
-    return PPO.load(str(path), device=device)
+    try:
+        return PPO.load(str(path), device=device)
+    except (MemoryError, OSError):  # the machine's, not the file's: as they are
+        raise
+    except Exception as err:  # a corrupt or foreign zip: SB3 and torch raise anything (an assert, an unpickling error)
+        raise PolicyFormatError(f"{path}: not a stable-baselines3 model .zip ({_first_line(err)})") from None
 
 
 def legacy_vecnormalize(path: str | Path) -> dict:
@@ -537,7 +542,14 @@ def legacy_vecnormalize(path: str | Path) -> dict:
     import pickle
 
     with open(path, "rb") as f:
-        vecnorm = pickle.load(f)  # the caller trusts this file (--trust-pickle)
+        try:
+            vecnorm = pickle.load(f)  # the caller trusts this file (--trust-pickle)
+        except (MemoryError, OSError):
+            raise
+        except Exception as err:  # truncated, empty or not a pickle
+            raise PolicyFormatError(f"{path}: not a VecNormalize pickle ({_first_line(err)})") from None
+    if not hasattr(vecnorm, "observation_space"):
+        raise PolicyFormatError(f"{path}: not a VecNormalize pickle (it holds a {type(vecnorm).__name__})")
     return vecnormalize_stats(vecnorm)
 
 

@@ -249,6 +249,27 @@ def test_plot_redraws_a_learning_curve(tmp_path, capsys):
     assert "no validation yet" in capsys.readouterr().err
 
 
+def test_plot_draws_a_run_whose_files_were_edited_by_hand(tmp_path):
+    """A line of evaluations.jsonl with a non-number, a planner score that is not a number, a
+    best.json that is not an object: drawn from what is usable, where they were tracebacks
+    (statistics.median of a string, a list's .get; an input audit, 2026-12-07)."""
+    from agents.training import cli
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.yml").write_text("args: {scenario: sousa_asv, timesteps: 2048, seed: 0}\n")
+    rows = [
+        {"num_timesteps": 1024, "train_s": "3", "survey_error_m": 2.0},
+        {"num_timesteps": 2048, "train_s": 6.0, "survey_error_m": "x"},  # skipped
+        {"num_timesteps": 3072, "train_s": 9.0, "survey_error_m": 1.5},
+    ]
+    (run / "evaluations.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    (run / "baseline_eval.json").write_text(json.dumps({"fim_a": {"survey_error_m": "x"}, "ellipse": 3}))
+    (run / "best.json").write_text("[1, 2]")
+    assert cli.main(["--plot", str(run)]) == 0
+    assert (run / "learning_curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_paths_figure_grid_leaves_at_most_one_slot_and_uses_it_for_the_legend():
     from evaluation.figures import panel_grid
 

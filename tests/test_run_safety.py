@@ -254,6 +254,38 @@ def test_convert_copies_nothing_from_outside(run, tmp_path, how, capsys):
     assert not out.exists() and tree_hash(run) == before
 
 
+@pytest.mark.parametrize("what", ["zip_without_data", "zip_of_garbage"])
+def test_convert_of_a_corrupt_trusted_file_is_one_line(tmp_path, what, capsys):
+    """Trusted (--trust-pickle) but not what it claims: a zip without SB3's data, a zip of
+    garbage; and a VecNormalize pickle cut short or holding something else. One line and
+    exit 2 (a PolicyFormatError), the --out folder not left behind: they were SB3's
+    AssertionError, torch's UnpicklingError and pickle's traceback (an input audit, 2026-12-07)."""
+    import pickle
+    import zipfile
+
+    from agents import formats
+
+    src = tmp_path / "model.zip"
+    with zipfile.ZipFile(src, "w") as z:
+        if what == "zip_without_data":
+            z.writestr("notes.txt", "")
+        else:
+            z.writestr("data", "{]")
+            z.writestr("policy.pth", b"garbage")
+    out = tmp_path / "converted"
+    code = convert.main([str(src), "--out", str(out), "--trust-pickle"])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "not a stable-baselines3 model .zip" in err, err
+    assert not out.exists()
+    cut, other = tmp_path / "cut.pkl", tmp_path / "other.pkl"
+    cut.write_bytes(b"\x80\x04\x95")
+    other.write_bytes(pickle.dumps([1, 2]))
+    with pytest.raises(formats.PolicyFormatError, match=r"not a VecNormalize pickle \(pickle data was truncated"):
+        formats.legacy_vecnormalize(cut)
+    with pytest.raises(formats.PolicyFormatError, match="it holds a list"):
+        formats.legacy_vecnormalize(other)
+
+
 def test_a_gate_naming_its_own_folder_is_refused_at_once(run, capsys):
     (run / "gate.yml").write_text(
         yaml.safe_dump({"kind": "depth_gate", "threshold_m": 5.0, "shallow": ".", "deep": "."})

@@ -32,7 +32,16 @@ def _records(run: Path) -> list:
             out.append(json.loads(line))
         except ValueError:  # a line cut by a crash: skip it
             continue
-    return [r for r in out if isinstance(r, dict) and "survey_error_m" in r and "num_timesteps" in r]
+    keys = ("survey_error_m", "num_timesteps")
+    return [r for r in out if isinstance(r, dict) and all(_number(r.get(k)) for k in keys)]
+
+
+def _number(x: object) -> bool:
+    """A finite real number (not a bool): what a record's fields must be to be drawn; a line
+    with anything else (a hand-edited or foreign file) is skipped as a cut one is."""
+    import math
+
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
 def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path | None:
@@ -49,9 +58,11 @@ def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path
         return None
     baselines = read_json(run / "baseline_eval.json") or {}
     best = read_json(run / "best.json") or {}
+    baselines = baselines if isinstance(baselines, dict) else {}  # anything else: drawn without them
+    best = best if isinstance(best, dict) else {}
     steps = [r["num_timesteps"] for r in records]
     errors = [r["survey_error_m"] for r in records]
-    times = [r.get("train_s", r.get("wall_s", 0.0)) for r in records]
+    times = [next((t for t in (r.get("train_s"), r.get("wall_s")) if _number(t)), 0.0) for r in records]
     fig = Figure(figsize=(10, 4.2))
     FigureCanvasAgg(fig)
     left, right = fig.add_subplot(1, 2, 1), None
@@ -63,7 +74,7 @@ def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path
         ax.plot(xs, errors, "o-", color="tab:blue", ms=3.5, lw=1.4, label="PPO (validation)")
         for k, (name, score) in enumerate(sorted(baselines.items())):
             value = score.get("survey_error_m") if isinstance(score, dict) else None
-            if value is not None:
+            if _number(value):
                 ax.axhline(value, color=f"C{k + 1}", ls="--", lw=1.1, label=f"{name} ({value:.3f} m)")
         if best.get("num_timesteps") in steps:
             i = steps.index(best["num_timesteps"])
@@ -82,7 +93,8 @@ def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path
     # an early blow-up (hundreds of metres) would flatten the rest: clip the axis, mark what is above it
     import statistics
 
-    lines = [v.get("survey_error_m") for v in baselines.values() if isinstance(v, dict) and v.get("survey_error_m")]
+    scores = [v.get("survey_error_m") for v in baselines.values() if isinstance(v, dict)]
+    lines = [v for v in scores if _number(v)]
     top = 2.5 * max([statistics.median(errors)] + lines)
     if max(errors) > top:
         for ax, xs in ((left, steps), (right, times)):
