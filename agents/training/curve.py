@@ -75,6 +75,7 @@ def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path
         for k, (name, score) in enumerate(sorted(baselines.items())):
             value = score.get("survey_error_m") if isinstance(score, dict) else None
             if _number(value):
+                value = float(value)  # type: ignore[arg-type]  # a finite number (_number)
                 ax.axhline(value, color=f"C{k + 1}", ls="--", lw=1.1, label=f"{name} ({value:.3f} m)")
         if best.get("num_timesteps") in steps:
             i = steps.index(best["num_timesteps"])
