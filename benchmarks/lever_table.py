@@ -453,9 +453,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     reuse = None
     if args.reuse:
-        from coopnav_env.safe_load import read_json
-
-        reuse = read_json(args.reuse)
+        try:  # before the runs: a file that is not an earlier result is one line
+            reuse = read_result(args.reuse)
+        except (ValueError, OSError) as err:
+            print(f"error: --reuse: {one_line(err)}", file=sys.stderr)
+            return 2
     try:
         result = run(args.tasks, policies, args.episodes, args.seed, lambda s: print(s, flush=True), reuse, na, workers)
     except ValueError as err:

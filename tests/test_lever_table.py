@@ -85,6 +85,19 @@ def test_bad_input_is_one_line(capsys):
         lever_table.main(["--tasks", "gao_team"])
 
 
+def test_a_reuse_file_that_is_no_result_is_one_line(tmp_path, capsys):
+    """--reuse of a file that is not JSON, or JSON that is not a result: one line and exit 2
+    before the runs (the first was an UnsafeDataError traceback; an input audit)."""
+    bad, other = tmp_path / "bad.json", tmp_path / "other.json"
+    bad.write_text("not json")
+    other.write_text("[1, 2]")
+    for path, what in ((bad, "not JSON"), (other, "not a lever_table.py --out result")):
+        args = ["--tasks", "gao_lawnmower", "--policies", "ellipse", "--episodes", "2", "--reuse", str(path)]
+        assert lever_table.main(args) == 2
+        err = capsys.readouterr().err
+        assert what in err and len(err.strip().splitlines()) == 1, err
+
+
 def test_reuse_takes_the_policies_of_an_earlier_run_and_refuses_other_seeds():
     """Policies of --reuse (same task set and seeds) are not run again; other seeds: refused."""
     from evaluation.tasks import get_task_set
