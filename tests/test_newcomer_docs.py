@@ -302,3 +302,17 @@ def test_benchmark_figure_from_results(tmp_path):
     }
     assert draw_benchmark(str(tmp_path), results) == ["benchmark_toy.png"]
     assert (tmp_path / "benchmark_toy.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_more_threads_than_cpus_is_refused_naming_the_count(capsys, tmp_path):
+    """--threads 100000 aborted the process in torch's OpenMP (exit 134, an input audit): now
+    one line naming the machine's CPU count, the closest valid value."""
+    import os
+
+    from agents.training import cli
+
+    cpus = os.cpu_count() or 1
+    args = ["--scenario", "sousa_asv", "--timesteps", "10", "--out", str(tmp_path / "r"), "--threads", "100000"]
+    assert cli.main(args) == 2
+    assert f"at most {cpus}" in capsys.readouterr().err
+    assert cli.threads_arg(str(cpus)) == cpus

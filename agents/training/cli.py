@@ -11,6 +11,7 @@ checkpoint (the line on stderr says how to continue).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -75,6 +76,16 @@ def _int_at_least(low: int):
 
     parse.__name__ = f"integer >= {low}"
     return parse
+
+
+def threads_arg(text: str) -> int:
+    """--threads: an integer from 1 to this machine's CPU count (more only spin; torch's
+    OpenMP aborted the process at 100000)."""
+    value = _int_at_least(1)(text)
+    cpus = os.cpu_count() or 1
+    if value > cpus:
+        raise argparse.ArgumentTypeError(f"this machine has {cpus} CPUs: at most {cpus}, got {text!r}")
+    return value
 
 
 def _setting(text: str) -> tuple:
@@ -153,7 +164,7 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     run.add_argument(
         "--threads",
         metavar="N",
-        type=_int_at_least(1),
+        type=threads_arg,
         default=1,
         help="torch threads (default: 1; PPO's small batches gain little from more, and a busy "
         "machine makes extra threads spin)",

@@ -11,6 +11,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from .cli import threads_arg
 from .loop_config import CRITICS, ENTITY, BatchedPPOConfig
 from .loop_envs import make_env
 from .loop_init import load_sb3_actor
@@ -55,7 +56,7 @@ def parser(description: str) -> argparse.ArgumentParser:
     p.add_argument("--gamma", type=float, default=defaults.gamma)
     p.add_argument("--net", default=",".join(map(str, defaults.net)), help="hidden layer widths, e.g. 128,128")
     p.add_argument("--seed", type=int, default=defaults.seed)
-    p.add_argument("--threads", type=int, default=1, help="torch threads")
+    p.add_argument("--threads", type=threads_arg, default=1, help="torch threads (1 to the machine's CPU count)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a scenario parameter (YAML value)")
     p.add_argument(
         "--reward-term",
