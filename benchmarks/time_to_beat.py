@@ -228,14 +228,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--overwrite", action="store_true", help="replace a result already in --out")
     args = p.parse_args(argv)
+    from agents.training.bounds import MAX_RUN_SEED
+
     try:
         seeds = [int(s) for s in args.seeds.split(",")]
     except ValueError:
         p.error(f"--seeds: integers separated by commas, got {args.seeds!r}")
+    if not all(0 <= s <= MAX_RUN_SEED for s in seeds):  # train.py's range, checked before any run
+        p.error(f"--seeds: each in [0, {MAX_RUN_SEED}], got {args.seeds!r}")
     if not args.config.is_file():
         p.error(f"--config: no file {args.config}")
-    if args.eval_every < 1 or args.budget_s <= 0 or args.threads < 1:
-        p.error("--eval-every, --budget-s and --threads must be positive")
+    args.config = args.config.resolve()  # train.py runs from the checkout, not from here
+    if args.eval_every < 1 or not 0 < args.budget_s < float("inf") or args.threads < 1:
+        p.error("--eval-every, --budget-s and --threads must be positive (and --budget-s finite)")
     if not 0.0 <= args.margin < 1.0:
         p.error(f"--margin must be in [0, 1), got {args.margin}")
     if args.eval_episodes is not None and args.eval_episodes < 1:

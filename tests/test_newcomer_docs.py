@@ -316,3 +316,18 @@ def test_more_threads_than_cpus_is_refused_naming_the_count(capsys, tmp_path):
     assert cli.main(args) == 2
     assert f"at most {cpus}" in capsys.readouterr().err
     assert cli.threads_arg(str(cpus)) == cpus
+
+
+@pytest.mark.parametrize(
+    ("args", "what"),
+    [(["--seeds", "-1"], "--seeds: each in"), (["--budget-s", "nan"], "--budget-s finite")],
+)
+def test_time_to_beat_refuses_bad_input_before_training(tmp_path, capsys, args, what):
+    """A negative seed reached train.py and failed there after the run had begun; a NaN budget
+    was a ZeroDivisionError traceback (an input audit): now one line, exit 2, nothing run."""
+    from benchmarks import time_to_beat
+
+    with pytest.raises(SystemExit) as exit_info:
+        time_to_beat.main([*args, "--out", str(tmp_path / "ttb")])
+    assert exit_info.value.code == 2 and what in capsys.readouterr().err
+    assert not (tmp_path / "ttb").exists()
