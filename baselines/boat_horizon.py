@@ -91,7 +91,7 @@ from numba import njit
 from coopnav_env.core.acoustics import packet_loss_probability, ranging_variance_m2
 
 from .base import PENALTY_PER_M, SAFETY_MARGIN_M, register_policy
-from .horizon import _FIXED, _disc, cross_entropy, each_alone, pattern_search
+from .horizon import _FIXED, _disc, check_search_settings, cross_entropy, each_alone, pattern_search
 from .moving_lbl import AbeamPolicy, RiverEscortPolicy
 
 if TYPE_CHECKING:
@@ -234,11 +234,9 @@ class BoatHorizonPolicy(RiverEscortPolicy):
         init_std: float = 0.5,
         refine_iters: int = 6,
     ) -> None:
-        if not (blocks >= 1 and cycles_per_block >= 1 and iterations >= 1 and 1 <= n_elite <= n_samples):
-            raise ValueError(
-                f"need blocks >= 1, cycles_per_block >= 1, iterations >= 1, 1 <= n_elite <= n_samples; got "
-                f"{blocks}, {cycles_per_block}, {iterations}, {n_elite}, {n_samples}"
-            )
+        check_search_settings(
+            n_samples, n_elite, iterations, init_std, refine_iters, blocks=blocks, cycles_per_block=cycles_per_block
+        )
         self.blocks, self.cycles_per_block = int(blocks), int(cycles_per_block)
         self.n_samples, self.n_elite, self.iterations = int(n_samples), int(n_elite), int(iterations)
         self.init_std, self.refine_iters = float(init_std), int(refine_iters)

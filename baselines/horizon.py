@@ -281,6 +281,33 @@ def horizon_cost(
 HORIZON_S = 30.0  # the default horizon looks at least this far ahead, in 4 to 6 pings
 
 
+MAX_HORIZON, MAX_SAMPLES, MAX_ITERATIONS = 50, 4096, 100  # the planner's knobs' upper bounds
+
+
+def check_search_settings(
+    n_samples: Any, n_elite: Any, iterations: Any, init_std: Any, refine_iters: Any, **lengths: Any
+) -> None:
+    """A one-line ValueError unless the cross-entropy search's settings are whole numbers in
+    a range whose cost per step stays bounded (``lengths``: the plan's, in pings or blocks, in
+    [1, MAX_HORIZON]; samples x iterations rollouts of the filter each step) and init_std a
+    finite number > 0: a float, a bool or 1e9 was taken (truncated) or planned for hours (an
+    input audit). ``HorizonPolicy`` and ``BoatHorizonPolicy`` call it."""
+    checks = [(name, value, 1, MAX_HORIZON) for name, value in lengths.items()]
+    checks += [
+        ("n_samples", n_samples, 1, MAX_SAMPLES),
+        ("n_elite", n_elite, 1, MAX_SAMPLES),
+        ("iterations", iterations, 1, MAX_ITERATIONS),
+        ("refine_iters", refine_iters, 0, MAX_ITERATIONS),
+    ]
+    for name, value, low, high in checks:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+            raise ValueError(f"{name} must be a whole number in [{low}, {high}], got {value!r}")
+    if n_elite > n_samples:
+        raise ValueError(f"n_elite must be at most n_samples ({n_samples}), got {n_elite}")
+    if isinstance(init_std, bool) or not isinstance(init_std, (int, float)) or not 0 < init_std < np.inf:
+        raise ValueError(f"init_std must be a finite number > 0 (the first samples' spread), got {init_std!r}")
+
+
 def default_horizon(ping_interval_s: float) -> int:
     """The default number of pings H: enough to look ``HORIZON_S`` ahead, at least 4 and at
     most 6, H = min(6, max(4, ceil(30 s / T))): 4 at a 20 s ping (80 s ahead: the Gao
@@ -400,11 +427,9 @@ class HorizonPolicy(TrackingPolicy):
             raise ValueError(f"team must be one of {TEAMS}, got {team!r}")
         if horizon is None:
             horizon = default_horizon(config.ping_interval_s)
-        if not (horizon >= 1 and iterations >= 1 and 1 <= n_elite <= n_samples):
-            raise ValueError(
-                f"need horizon >= 1, iterations >= 1, 1 <= n_elite <= n_samples; got {horizon}, "
-                f"{iterations}, {n_elite}, {n_samples}"
-            )
+        check_search_settings(n_samples, n_elite, iterations, init_std, refine_iters, horizon=horizon)
+        if isinstance(terminal_weight, bool) or not np.isfinite(terminal_weight) or terminal_weight < 0:
+            raise ValueError(f"terminal_weight must be a finite number >= 0, got {terminal_weight!r}")
         self.horizon, self.n_samples, self.n_elite = int(horizon), int(n_samples), int(n_elite)
         self.iterations, self.init_std = int(iterations), float(init_std)
         self.criterion, self.team, self.refine_iters = criterion, team, int(refine_iters)

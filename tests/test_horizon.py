@@ -26,6 +26,8 @@ speed known: no scale error), the beacon's own position exact, a 40 m reaching s
   reaching discs contain the survey vehicle, dz = 0).
 """
 
+import re
+
 import numpy as np
 import pytest
 
@@ -447,3 +449,28 @@ def test_range_model_reaches_the_planners_and_is_checked():
     assert p.schedule.ctx.range_model == "filter"
     with pytest.raises(ValueError, match="range_model must be one of"):
         make_policy("ellipse", "gao_sea", range_model="d2")
+
+
+@pytest.mark.parametrize(
+    ("knob", "value", "what"),
+    [
+        ("horizon", 2.5, "horizon must be a whole number in [1, 50]"),
+        ("horizon", True, "horizon must be a whole number"),
+        ("horizon", 10**9, "horizon must be a whole number in [1, 50]"),
+        ("n_samples", 10**8, "n_samples must be a whole number in [1, 4096]"),
+        ("refine_iters", -1, "refine_iters must be a whole number in [0, 100]"),
+        ("init_std", float("nan"), "init_std must be a finite number > 0"),
+        ("terminal_weight", float("nan"), "terminal_weight must be a finite number >= 0"),
+    ],
+)
+def test_the_planners_search_settings_are_refused_outside_their_range(knob, value, what):
+    """A float, a bool, NaN, a negative count or 1e9 was taken (truncated) or planned for
+    hours (an input audit ran ``--policies horizon:horizon=1e9`` into a timeout); the boats'
+    planner shares the check (``check_search_settings``)."""
+    with pytest.raises(ValueError, match=re.escape(what)):
+        make_policy("horizon", TOY, **{knob: value})
+    if knob not in ("horizon", "terminal_weight"):
+        with pytest.raises(ValueError, match=re.escape(what)):
+            make_policy("horizon", coopnav_env.make_config("matos_river"), **{knob: value})
+    with pytest.raises(ValueError, match="n_elite must be at most n_samples"):
+        make_policy("horizon", TOY, n_samples=4, n_elite=5)
