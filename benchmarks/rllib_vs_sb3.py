@@ -52,7 +52,23 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     p.add_argument("--envs-per-runner", type=int, default=16, help="num_envs_per_env_runner (vectorized copies)")
     p.add_argument("--skip-sb3", action="store_true")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    for name in ("batch", "minibatch", "epochs", "iterations", "sb3_envs", "envs_per_runner"):
+        if getattr(args, name) < 1:
+            p.error(f"--{name.replace('_', '-')} must be at least 1, got {getattr(args, name)}")
+    try:
+        runners = [int(r) for r in args.rllib_runners.split(",") if r.strip()]
+        if any(r < 0 for r in runners):
+            raise ValueError
+    except ValueError:
+        p.error(f"--rllib-runners: whole numbers >= 0 separated by commas, got {args.rllib_runners!r}")
+    from coopnav_env import list_scenarios
+
+    if args.scenario not in list_scenarios():
+        from coopnav_env.names import did_you_mean
+
+        p.error(f"--scenario: no scenario {args.scenario!r}{did_you_mean(args.scenario, list_scenarios())}")
+    return args
 
 
 def sb3_rate(args: argparse.Namespace, n_beacons: int) -> dict:

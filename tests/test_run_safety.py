@@ -846,3 +846,21 @@ def test_a_benchmark_tables_path_is_checked_before_its_runs(tmp_path, capsys):
         planners_vs_floors.main(["--episodes", "2", "--markdown", str(tmp_path / "file" / "t.md")])
     assert exit_info.value.code == 2
     assert "--markdown" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("args", "what"),
+    [
+        (["--rllib-runners", "abc"], "--rllib-runners: whole numbers"),
+        (["--envs-per-runner", "0"], "--envs-per-runner must be at least 1"),
+        (["--scenario", "gao-sea"], "did you mean 'gao_sea'"),
+    ],
+)
+def test_rllib_vs_sb3_refuses_bad_input_in_one_line(capsys, args, what):
+    """They were a ValueError traceback and RLlib's ConfigError after SB3's timing had run (an
+    input audit): now argparse's line and exit 2 before anything is built."""
+    from benchmarks import rllib_vs_sb3
+
+    with pytest.raises(SystemExit) as exit_info:
+        rllib_vs_sb3.main(args)
+    assert exit_info.value.code == 2 and what in capsys.readouterr().err
