@@ -134,7 +134,12 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
 
 def config_from_args(args: argparse.Namespace) -> EvalConfig:
     """The ``EvalConfig`` of parsed arguments; raises UsageError."""
-    sets = dict(parse_assignment(item, "--set") for item in args.sets)
+    sets: dict[str, Any] = {}
+    for item in args.sets:
+        key, value = parse_assignment(item, "--set")
+        if key in sets and sets[key] != value:  # which one was meant? (the same twice is harmless)
+            raise UsageError(f"--set {key} given twice, as {sets[key]!r} and {value!r}")
+        sets[key] = value
     sweep: dict[str, Any] = {}
     for item in args.sweeps:
         key, value = parse_assignment(item, "--sweep")

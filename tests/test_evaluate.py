@@ -172,6 +172,7 @@ def test_sweep_writes_the_table_layout(tmp_path):
         (["--sweep", "depth_m=1,deep"], "deep"),
         (["--set", "max_cycles=2.5"], "max_cycles"),
         (["--set", "depth_m=-3"], "depth_m"),
+        (["--set", "max_cycles=5", "--set", "max_cycles=10"], "--set max_cycles given twice"),  # which one?
         (["--episodes", "0"], "--episodes"),
         (["--bogus"], "unrecognized"),
     ],
