@@ -95,11 +95,11 @@ def train_until_beaten(
     log = open(out.parent / f"seed_{seed}.log", "w")  # noqa: SIM115 (closed in the finally below) the trainer's output
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT)
     records, beaten, told = [], None, 0
-    base = bar.n if bar is not None else 0.0
-    if bar is not None:
-        bar.stage(f"seed {seed}: starting train.py (log: {log.name})")
     path = out / "evaluations.jsonl"
-    try:
+    try:  # from here on, whatever fails, the trainer is not left running (an orphan trained for an hour)
+        base = bar.n if bar is not None else 0.0
+        if bar is not None:
+            bar.stage(f"seed {seed}: starting train.py (log: {log.name})")
         while proc.poll() is None:
             time.sleep(0.5)
             if path.is_file():
@@ -239,6 +239,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.config.is_file():
         p.error(f"--config: no file {args.config}")
     args.config = args.config.resolve()  # train.py runs from the checkout, not from here
+    args.out = args.out.resolve()  # likewise: a relative --out put the runs in the checkout
     if args.eval_every < 1 or not 0 < args.budget_s < float("inf") or args.threads < 1:
         p.error("--eval-every, --budget-s and --threads must be positive (and --budget-s finite)")
     if not 0.0 <= args.margin < 1.0:
