@@ -544,6 +544,33 @@ def test_a_resumed_run_gets_its_final_evaluation_back(tmp_path, capsys):
     assert after[0] == lines[0] and [json.loads(x)["num_timesteps"] for x in after] == [256, 512]
 
 
+def test_resuming_a_finished_run_changes_none_of_its_weights(tmp_path, capsys):
+    """--resume of a run that has its steps trains nothing; SB3's learn() still reset the
+    environments, which moved VecNormalize's statistics (obs count +rows, every mean), and the
+    run's vecnormalize.safetensors was rewritten so that it no longer matched its model (an
+    input audit, 2026-12-07). Now every weight file is byte for byte as it was."""
+    import hashlib
+
+    config = {
+        "n_envs": 4,
+        "checkpoint_every_steps": 512,
+        "ppo": {"n_steps": 64, "batch_size": 128, "n_epochs": 1, "policy_kwargs": {"net_arch": [16, 16]}},
+        "env": {"overrides": {"max_cycles": 10, "mission_duration_s": 200.0}},
+        "eval": {"every_steps": 0},
+    }
+    out = tmp_path / "run"
+    assert tiny_training(out, config) == 0
+
+    def digests():
+        return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(out.rglob("*.safetensors"))}
+
+    before = digests()
+    assert "vecnormalize.safetensors" in before
+    capsys.readouterr()
+    assert train_cli.main(["--resume", str(out), "--no-progress"]) == 0
+    assert digests() == before
+
+
 def test_a_resumed_run_keeps_its_evaluation_schedule(tmp_path):
     from agents.training.sb3 import last_evaluation_step
 

@@ -295,6 +295,10 @@ def train(
         callback = make_callback(
             out, config, job.cells, vecnorm, baseline_scores, stop, clock={"t0": t0, "started": started, "bar": bar}
         )
+        # a run that has its steps already (a resume of a finished run) trains nothing, but SB3's
+        # learn() still resets the environments, which moves VecNormalize's statistics: the saved
+        # normalizer would no longer be the model's (an input audit). Kept as they were.
+        kept = formats.vecnormalize_stats(vecnorm) if will_run == 0 else None
         model.learn(  # will_run, not remaining: SB3's progress (1 -> 0) then ends at 0, and lin_<x> with it
             total_timesteps=will_run,
             callback=callback,
@@ -302,6 +306,8 @@ def train(
             reset_num_timesteps=not ckpt,
             tb_log_name="ppo",
         )
+        if kept is not None:
+            formats.restore_vecnormalize(vecnorm, kept)
     if stop:
         # the steps of the rollout cut short were not trained on: the checkpoint does not count them
         model.num_timesteps = getattr(callback, "trained_steps", start_steps)
