@@ -423,8 +423,22 @@ def test_a_2e9_layer_in_a_header_is_refused_before_allocating(run):
         ("normalize.clip_obs=" + "1" + "0" * 400, "normalize.clip_obs"),
         ("env.overrides.depth_m=" + "1" + "0" * 400, "depth_m"),
         (None, "timesteps"),
+        ("ppo.gamma=2", "ppo.gamma must be a number in (0, 1]"),
+        ("ppo.clip_range=-1", "ppo.clip_range must be a number in (0, 10]"),
+        ("ppo.ent_coef=-100", "ppo.ent_coef must be a number in [0, 10]"),
     ],
-    ids=["n_envs", "lr_inf", "net_arch", "eval_episodes", "clip_obs_10e400", "depth_10e400", "timesteps_1e30"],
+    ids=[
+        "n_envs",
+        "lr_inf",
+        "net_arch",
+        "eval_episodes",
+        "clip_obs_10e400",
+        "depth_10e400",
+        "timesteps_1e30",
+        "gamma_2",  # these three trained without a word (an input audit, 2026-12-07)
+        "clip_negative",
+        "ent_coef_negative",
+    ],
 )
 def test_trainer_settings_are_bounded_before_anything_is_written(tmp_path, setting, needle, capsys):
     out = tmp_path / "run"

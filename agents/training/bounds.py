@@ -63,6 +63,26 @@ def _positive(value, where: str, high: float = math.inf):
         raise BoundsError(f"{where} must be a number in (0, {high:g}], got {value!r:.40}")
 
 
+PPO_RANGES = (  # (key, low, high, the low end open): SB3's PPO coefficients
+    ("gamma", 0.0, 1.0, True),
+    ("gae_lambda", 0.0, 1.0, False),
+    ("clip_range", 0.0, 10.0, True),
+    ("clip_range_vf", 0.0, 1e6, True),
+    ("ent_coef", 0.0, 10.0, False),
+    ("vf_coef", 0.0, 100.0, False),
+    ("max_grad_norm", 0.0, 1e6, True),
+    ("target_kl", 0.0, 100.0, True),
+)
+
+
+def _number_in(value, low: float, high: float, open_low: bool, where: str):
+    v: Any = value
+    ok = isinstance(v, numbers.Real) and not isinstance(v, bool) and (low < v if open_low else low <= v) and v <= high
+    if not ok:
+        bracket = "(" if open_low else "["
+        raise BoundsError(f"{where} must be a number in {bracket}{low:g}, {high:g}], got {value!r:.40}")
+
+
 def _net_arch(value, where: str):
     from agents.limits import LimitError, check_net_arch
 
@@ -121,6 +141,12 @@ def check_bounds(config: Any) -> None:
         for key, high in (("batch_size", MAX_ROLLOUT), ("n_epochs", 10_000)):
             if key in ppo:
                 _int_in(ppo[key], 1, high, f"ppo.{key}")
+        # PPO's coefficients in their meaningful ranges: gamma 2 or a negative clip trained
+        # without a word (an input audit); "(" an open end. A text (a schedule) is SB3's to read.
+        for key, low, high, open_low in PPO_RANGES:
+            value = ppo.get(key)
+            if value is not None and not isinstance(value, str):
+                _number_in(value, low, high, open_low, f"ppo.{key}")
         kwargs = ppo.get("policy_kwargs") or {}
         if isinstance(kwargs, dict) and "net_arch" in kwargs:
             _net_arch(kwargs["net_arch"], "ppo.policy_kwargs.net_arch")
