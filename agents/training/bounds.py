@@ -76,8 +76,10 @@ PPO_RANGES = (  # (key, low, high, the low end open): SB3's PPO coefficients
 
 
 def _number_in(value, low: float, high: float, open_low: bool, where: str):
-    v: Any = value
-    ok = isinstance(v, numbers.Real) and not isinstance(v, bool) and (low < v if open_low else low <= v) and v <= high
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if ok:
+        f = float(value)
+        ok = (low < f if open_low else low <= f) and f <= high
     if not ok:
         bracket = "(" if open_low else "["
         raise BoundsError(f"{where} must be a number in {bracket}{low:g}, {high:g}], got {value!r:.40}")
@@ -143,10 +145,10 @@ def check_bounds(config: Any) -> None:
                 _int_in(ppo[key], 1, high, f"ppo.{key}")
         # PPO's coefficients in their meaningful ranges: gamma 2 or a negative clip trained
         # without a word (an input audit); "(" an open end. A text (a schedule) is SB3's to read.
-        for key, low, high, open_low in PPO_RANGES:
+        for key, lo, hi, open_low in PPO_RANGES:
             value = ppo.get(key)
             if value is not None and not isinstance(value, str):
-                _number_in(value, low, high, open_low, f"ppo.{key}")
+                _number_in(value, lo, hi, open_low, f"ppo.{key}")
         kwargs = ppo.get("policy_kwargs") or {}
         if isinstance(kwargs, dict) and "net_arch" in kwargs:
             _net_arch(kwargs["net_arch"], "ppo.policy_kwargs.net_arch")
