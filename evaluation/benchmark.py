@@ -574,6 +574,8 @@ def _main(argv: list, prog: str) -> int:
         if args.list:
             print(list_text())
             return 0
+        if args.task is not None and not _split(args.task):  # '' or ',': not "every task"
+            raise UsageError(f"--task names no task (got {args.task!r}); `--list` shows them")
         if args.tasks is None and args.task is not None:
             wanted = set(_split(args.task))
             args.tasks = ",".join(n for n, s in TASK_SETS.items() if wanted & {t.name for t in s.tasks}) or "all"

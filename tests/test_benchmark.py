@@ -357,6 +357,8 @@ def test_a_tiny_run_of_the_command(tmp_path, capsys, monkeypatch):
         (["--tasks", "gao_sea", "--set", "bogus=1"], "unknown scenario parameter"),
         (["--policies", "ppo"], "--tasks is required"),
         (["--tasks", "gao_sea", "--bogus"], "unrecognized arguments"),
+        (["--task", ""], "--task names no task"),  # it ran every task of every set (an input audit)
+        (["--task", ","], "--task names no task"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, argv, message):
