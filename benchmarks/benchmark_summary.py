@@ -165,14 +165,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="also one table per task set: every task's best planner and each challenger's paired difference",
     )
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_file
+    from coopnav_env.records import check_output_args
 
-    for flag, target in (("--markdown", args.markdown),):  # refused before any run
-        if target is not None:
-            try:
-                check_output_file(target)
-            except OSError as err:
-                p.error(f"{flag}: {err}")
+    check_output_args(p.error, markdown=args.markdown)  # refused before any run
     all_rows, tables = [], []
     for path in args.results:
         try:

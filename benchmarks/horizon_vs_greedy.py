@@ -78,14 +78,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--markdown", help="also write the table here")
     p.add_argument("--json", help="write the per-episode errors here as they come (a partial run is usable)")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_file
+    from coopnav_env.records import check_output_args
 
-    for flag, target in (("--markdown", args.markdown), ("--json", args.json)):  # refused before any run
-        if target is not None:
-            try:
-                check_output_file(target)
-            except OSError as err:
-                p.error(f"{flag}: {err}")
+    check_output_args(p.error, markdown=args.markdown, json=args.json)  # refused before any run
     if args.first_seed is None:
         seeds = [int(s) for s in TEST_SEEDS[: args.episodes]]
     else:

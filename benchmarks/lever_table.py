@@ -421,14 +421,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
         return 0
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_file
+    from coopnav_env.records import check_output_args
 
-    for flag, target in (("--out", args.out), ("--markdown", args.markdown)):  # refused before any run
-        if target is not None:
-            try:
-                check_output_file(target)
-            except OSError as err:
-                p.error(f"{flag}: {err}")
+    check_output_args(p.error, out=args.out, markdown=args.markdown)  # refused before any run
     from coopnav_env.records import atomic_write_text
     from coopnav_env.seeds import check_seed, refuse_test_seeds
     from evaluation.parallel import check_workers

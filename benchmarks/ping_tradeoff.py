@@ -86,14 +86,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--figure", help="write the error-against-pings figure here (PNG)")
     p.add_argument("--markdown", help="write the table here")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_file
+    from coopnav_env.records import check_output_args
 
-    for flag, target in (("--markdown", args.markdown),):  # refused before any run
-        if target is not None:
-            try:
-                check_output_file(target)
-            except OSError as err:
-                p.error(f"{flag}: {err}")
+    check_output_args(p.error, markdown=args.markdown)  # refused before any run
     config = coopnav_env.make_config(args.scenario)
     seeds = list(range(args.seed, args.seed + args.episodes))
     rows = []

@@ -80,14 +80,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="also time a planner variant (benchmarks/horizon_vs_greedy.py's), e.g. hj:horizon:team=joint",
     )
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_file
+    from coopnav_env.records import check_output_args
 
-    for flag, target in (("--markdown", args.markdown),):  # refused before any run
-        if target is not None:
-            try:
-                check_output_file(target)
-            except OSError as err:
-                p.error(f"{flag}: {err}")
+    check_output_args(p.error, markdown=args.markdown)  # refused before any run
     if args.pin and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     from coopnav_env.scenarios.base import default_of

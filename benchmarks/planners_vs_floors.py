@@ -36,14 +36,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=300_000, help="episode i uses seed SEED + i")
     p.add_argument("--markdown", help="also write the table here")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_file
+    from coopnav_env.records import check_output_args
 
-    for flag, target in (("--markdown", args.markdown),):  # refused before any run
-        if target is not None:
-            try:
-                check_output_file(target)
-            except OSError as err:
-                p.error(f"{flag}: {err}")
+    check_output_args(p.error, markdown=args.markdown)  # refused before any run
     seeds = list(range(args.seed, args.seed + args.episodes))
     lines = [
         f"{args.episodes} episodes per policy, seeds {seeds[0]}..{seeds[-1]}; planner minus floor, "

@@ -196,15 +196,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--out", help="write the results as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_file
+    from coopnav_env.records import check_output_args
 
-    # refused before any run
-    for flag, target in (("--cache", args.cache), ("--out", args.out), ("--markdown", args.markdown)):
-        if target is not None:
-            try:
-                check_output_file(target)
-            except OSError as err:
-                p.error(f"{flag}: {err}")
+    check_output_args(p.error, cache=args.cache, out=args.out, markdown=args.markdown)  # refused before any run
 
     cells = build_cells(args.scenario, args.cell, args.set)
     specs = []

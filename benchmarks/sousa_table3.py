@@ -176,14 +176,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--markdown", help="also write the report here")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_file
+    from coopnav_env.records import check_output_args
 
-    for flag, target in (("--markdown", args.markdown),):  # refused before any run
-        if target is not None:
-            try:
-                check_output_file(target)
-            except OSError as err:
-                p.error(f"{flag}: {err}")
+    check_output_args(p.error, markdown=args.markdown)  # refused before any run
 
     seeds = [args.seed + i for i in range(args.episodes)]
     labels = [n for n, _, _ in APPROACHES]

@@ -17,7 +17,7 @@ import os
 import platform
 import subprocess
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -33,8 +33,8 @@ def _umask() -> int:
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
     """Write ``data`` to ``path`` atomically: a temporary file beside it (same
-    filesystem; its folder made if missing), fsync, then ``os.replace``. The file gets the umask's permissions
-    (mkstemp's 0600 would otherwise leak through). On any error, including Ctrl-C,
+    filesystem; its folder made if missing), fsync, then ``os.replace``. The file gets the
+    umask's permissions (mkstemp's 0600 would otherwise leak through). On any error, including Ctrl-C,
     the temporary file is removed and ``path`` keeps its old content."""
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
@@ -86,6 +86,19 @@ def check_output_file(path: str | os.PathLike[str]) -> None:
     if os.path.isdir(target):
         raise OSError(f"{os.fspath(path)} is a folder, not a file")
     check_writable(os.path.dirname(target))
+
+
+def check_output_args(error: Callable[[str], Any], **files: str | os.PathLike[str] | None) -> None:
+    """``check_output_file`` of each given file flag (``markdown=args.markdown``; None: not
+    given), reporting the first that cannot be written through ``error`` (argparse's
+    ``parser.error``: one line, exit 2) as ``--markdown: ...``. The measurement scripts call it
+    right after parsing, before any run."""
+    for name, path in files.items():
+        if path is not None:
+            try:
+                check_output_file(path)
+            except OSError as err:
+                error(f"--{name.replace('_', '-')}: {err}")
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:

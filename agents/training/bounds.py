@@ -58,9 +58,7 @@ def _int_in(value, low, high, where: str):
 
 
 def _positive(value, where: str, high: float = math.inf):
-    v: Any = value  # numbers.Real narrows to an ABC that typeshed gives no < support
-    if isinstance(v, bool) or not isinstance(value, numbers.Real) or not 0 < v <= high:
-        raise BoundsError(f"{where} must be a number in (0, {high:g}], got {value!r:.40}")
+    _number_in(value, 0.0, high, True, where)
 
 
 PPO_RANGES = (  # (key, low, high, the low end open): SB3's PPO coefficients

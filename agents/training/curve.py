@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from pathlib import Path
+from typing import TypeGuard
 
 __all__ = ["FILENAME", "draw_learning_curve"]
 
@@ -36,11 +38,9 @@ def _records(run: Path) -> list:
     return [r for r in out if isinstance(r, dict) and all(_number(r.get(k)) for k in keys)]
 
 
-def _number(x: object) -> bool:
+def _number(x: object) -> TypeGuard[float]:
     """A finite real number (not a bool): what a record's fields must be to be drawn; a line
     with anything else (a hand-edited or foreign file) is skipped as a cut one is."""
-    import math
-
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
@@ -75,7 +75,6 @@ def draw_learning_curve(run: str | Path, path: str | Path | None = None) -> Path
         for k, (name, score) in enumerate(sorted(baselines.items())):
             value = score.get("survey_error_m") if isinstance(score, dict) else None
             if _number(value):
-                value = float(value)  # type: ignore[arg-type]  # a finite number (_number)
                 ax.axhline(value, color=f"C{k + 1}", ls="--", lw=1.1, label=f"{name} ({value:.3f} m)")
         if best.get("num_timesteps") in steps:
             i = steps.index(best["num_timesteps"])
