@@ -527,7 +527,9 @@ def make_policy(
     planner name gets ``schedule.DEFAULT_SCHEDULE``."""
     name, spec_kwargs = split_spec(name)
     kwargs = {**spec_kwargs, **kwargs}
-    motion, _, schedule = name.partition("+")
+    motion, plus, schedule = name.partition("+")
+    if plus and not schedule.strip():  # else the default schedule, labelled as if none were meant
+        raise ValueError(f"{name!r} names no transmit schedule after '+' (e.g. {motion}+clock, or {motion} alone)")
     if not is_planner(name):
         from coopnav_env.names import did_you_mean
 

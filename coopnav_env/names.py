@@ -9,7 +9,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
-__all__ = ["closest", "did_you_mean"]
+__all__ = ["closest", "did_you_mean", "unique_assignments"]
 
 
 def closest(name: object, valid: Iterable[object]) -> str | None:
@@ -31,3 +31,16 @@ def did_you_mean(name: object, valid: Iterable[object]) -> str:
     the house style ``unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...``."""
     close = closest(name, valid)
     return f"; did you mean {close!r}?" if close else ";"
+
+
+def unique_assignments(pairs: Iterable[tuple[str, object]], option: str) -> dict:
+    """``(key, value)`` pairs of a repeatable ``KEY=VALUE`` option (``--set``) as a dict. A key
+    given twice with different values is a ``ValueError`` of one line: which was meant? (The
+    same value twice is harmless.) One rule for ``evaluate``, the benchmark and ``train.py``,
+    which otherwise each took the last silently."""
+    out: dict = {}
+    for key, value in pairs:
+        if key in out and out[key] != value:
+            raise ValueError(f"{option} {key} given twice, as {out[key]!r} and {value!r}: keep one")
+        out[key] = value
+    return out

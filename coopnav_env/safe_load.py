@@ -111,10 +111,24 @@ def _check_yaml_events(text: str, where: str, max_depth: int, max_nodes: int):
 
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     depth = nodes = 0
+    # per open collection: [a mapping?, its next node is a key?, the keys seen]
+    stack: list[list] = []
     try:
         for event in yaml.parse(text, Loader=loader):
             if isinstance(event, yaml.AliasEvent):
                 raise UnsafeDataError(f"{where}: YAML aliases (*{event.anchor}) are not accepted: refused")
+            if isinstance(event, yaml.NodeEvent) and stack and stack[-1][0]:
+                if stack[-1][1] and isinstance(event, yaml.ScalarEvent):
+                    # a key given twice: yaml keeps the last silently; which was meant?
+                    if event.value in stack[-1][2]:
+                        line = event.start_mark.line + 1 if event.start_mark is not None else "?"
+                        raise UnsafeDataError(f"{where}: key {event.value!r} given twice (line {line}): keep one")
+                    stack[-1][2].add(event.value)
+                stack[-1][1] = not stack[-1][1]
+            if isinstance(event, yaml.CollectionStartEvent):
+                stack.append([isinstance(event, yaml.MappingStartEvent), True, set()])
+            elif isinstance(event, yaml.CollectionEndEvent):
+                stack.pop()
             if isinstance(event, (yaml.ScalarEvent, yaml.SequenceStartEvent, yaml.MappingStartEvent)):
                 if event.anchor is not None:
                     raise UnsafeDataError(f"{where}: YAML anchors (&{event.anchor}) are not accepted: refused")

@@ -566,7 +566,7 @@ def _terminate(signum, frame):
 
 def _main(argv: list, prog: str) -> int:
     from . import outdir
-    from .config import parse_assignment
+    from .config import parse_assignments
     from .parallel import check_workers
 
     try:
@@ -581,7 +581,7 @@ def _main(argv: list, prog: str) -> int:
             args.tasks = ",".join(n for n, s in TASK_SETS.items() if wanted & {t.name for t in s.tasks}) or "all"
         if args.tasks is None:
             raise UsageError(f"--tasks is required: {', '.join(TASK_SETS)} or all")
-        sets = dict(parse_assignment(item, "--set") for item in args.sets)
+        sets = parse_assignments(args.sets, "--set")
         try:
             workers = check_workers(args.workers)
         except ValueError as err:

@@ -20,7 +20,7 @@ from typing import Any
 
 from coopnav_env.failures import MACHINE_FAILURES, one_line
 
-from .config import EvalConfig, UsageError, parse_assignment, split_top_level
+from .config import EvalConfig, UsageError, parse_assignment, parse_assignments, split_top_level
 from .parallel import add_workers_argument
 
 _DEFAULTS = EvalConfig()
@@ -134,12 +134,7 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
 
 def config_from_args(args: argparse.Namespace) -> EvalConfig:
     """The ``EvalConfig`` of parsed arguments; raises UsageError."""
-    sets: dict[str, Any] = {}
-    for item in args.sets:
-        key, value = parse_assignment(item, "--set")
-        if key in sets and sets[key] != value:  # which one was meant? (the same twice is harmless)
-            raise UsageError(f"--set {key} given twice, as {sets[key]!r} and {value!r}")
-        sets[key] = value
+    sets: dict[str, Any] = parse_assignments(args.sets, "--set")
     sweep: dict[str, Any] = {}
     for item in args.sweeps:
         key, value = parse_assignment(item, "--sweep")

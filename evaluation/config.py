@@ -20,7 +20,7 @@ import inspect
 import numbers
 import os
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -263,6 +263,17 @@ def parse_assignment(item: str, option: str) -> tuple[str, Any]:
     return key.strip(), value
 
 
+def parse_assignments(items: Iterable[str], option: str) -> dict[str, str]:
+    """Repeated ``KEY=VALUE`` items -> {key: value text}; a key given twice with different
+    values is a UsageError (``coopnav_env.names.unique_assignments``)."""
+    from coopnav_env.names import unique_assignments
+
+    try:
+        return unique_assignments((parse_assignment(item, option) for item in items), option)
+    except ValueError as err:
+        raise UsageError(str(err)) from None
+
+
 def cell_id(cell: dict) -> str:
     """The ``cell`` column of a sweep cell ("" without a sweep)."""
     return ";".join(f"{k}={v}" for k, v in cell.items())
@@ -461,6 +472,9 @@ def prepare(config: EvalConfig) -> Plan:
         )
     _check_output(config.out)
     outdir.check_not_in_use(config.out)
+    foreign = outdir.other_result(config.out)
+    if foreign is not None:
+        raise UsageError(f"{config.out!r} holds {foreign}; use another --out")
     out_state = outdir.snapshot(config.out)
     if config.resume and not os.path.exists(config.out):
         # said, not refused: the resume command a run prints must work even when the run was

@@ -46,6 +46,22 @@ def has_results(out: str) -> bool:
     return any(os.path.exists(os.path.join(out, name)) for name in _DATA_FILES)
 
 
+def other_result(out: str) -> str | None:
+    """What else ``out`` holds that an evaluation must not write beside (or, with
+    ``--overwrite``, half replace): a benchmark's result, or a ``train.py`` run. None:
+    nothing of the kind."""
+    from .benchmark_report import RESULT_FILES as BENCHMARK_FILES
+
+    held = [f for f in BENCHMARK_FILES if os.path.exists(os.path.join(out, f))]
+    if held:
+        return f"a benchmark result ({', '.join(held)})"
+    if os.path.exists(os.path.join(out, "config.yml")) and any(
+        os.path.exists(os.path.join(out, f)) for f in ("model.safetensors", "checkpoints", ".train.owner.json")
+    ):
+        return "a train.py run (config.yml); evaluate its policy with --policies " + out
+    return None
+
+
 def snapshot(out: str) -> tuple:
     """What ``out`` holds, to notice a change between the checks and the lock: which
     result files exist, and run.json's bytes."""

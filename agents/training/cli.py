@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from agents.formats import PolicyFormatError
+from coopnav_env.names import unique_assignments
 from coopnav_env.seeds import VALIDATION_SEED
 
 from . import rllib, sb3
@@ -75,6 +76,17 @@ def _int_at_least(low: int):
         return value
 
     parse.__name__ = f"integer >= {low}"
+    return parse
+
+
+def _int_in(low: int, high: int):
+    def parse(text):
+        value = _int_at_least(low)(text)
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must be at most {high}, got {text!r}")
+        return value
+
+    parse.__name__ = f"integer in [{low}, {high}]"
     return parse
 
 
@@ -174,7 +186,7 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
         action="store_true",
         help="no progress bar or progress lines (default: a bar on a terminal, a line per stage elsewhere; SB3 only)",
     )
-    run.add_argument("--verbose", metavar="N", type=int, default=0, help="SB3's verbosity, 0-2 (default: 0)")
+    run.add_argument("--verbose", metavar="N", type=_int_in(0, 2), default=0, help="SB3's verbosity, 0-2 (default: 0)")
     run.add_argument(
         "--trust-pickle",
         action="store_true",
@@ -235,12 +247,22 @@ def main(argv: list[str] | None = None) -> int:
 
 def run(args: argparse.Namespace, argv: list[str] | None = None) -> int:
     """The parsed command line -> ``sb3`` or ``rllib`` ``train``/``resume``."""
+    for name in ("out", "resume", "plot"):  # '' would be the working folder
+        value = getattr(args, name)
+        if value is not None and not value.strip():
+            raise ConfigError(f"--{name} is empty: name a run folder")
     if args.plot is not None:
         from .curve import draw_learning_curve
 
+        given = [f"--{n.replace('_', '-')}" for n in RUN_SETTINGS + ("resume",) if getattr(args, n) is not None]
+        if given:  # they would be ignored: --plot only draws what the run wrote
+            raise ConfigError(f"--plot draws a finished run's curve and takes no run options; drop {', '.join(given)}")
         read_run_record(Path(args.plot))
         path = draw_learning_curve(args.plot)
         if path is None:
+            log = Path(args.plot) / "evaluations.jsonl"
+            if log.is_file() and log.stat().st_size:
+                raise ConfigError(f"{log} holds no readable validation line (cut or edited?): nothing to plot")
             raise ConfigError(f"{args.plot} has no validation yet (evaluations.jsonl): nothing to plot")
         print(f"wrote {path}")
         return 0
@@ -304,7 +326,10 @@ def run(args: argparse.Namespace, argv: list[str] | None = None) -> int:
     if backend == "rllib":
         rllib.require_ray()
     path = hyperparameter_file(backend, args.scenario, args.config)
-    settings = dict(args.set or [])
+    try:  # a key twice with two values: which was meant?
+        settings = unique_assignments(args.set or [], "--set")
+    except ValueError as err:
+        raise ConfigError(str(err)) from None
     if args.n_envs is not None:
         settings["n_envs" if backend == "sb3" else "env_runners.num_envs_per_env_runner"] = args.n_envs
     config = load_config(

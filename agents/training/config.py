@@ -89,7 +89,9 @@ def parse_assignments(items: Sequence[str], what: str) -> dict:
 
     import yaml
 
-    out = {}
+    from coopnav_env.names import unique_assignments
+
+    pairs = []
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key:
@@ -97,8 +99,11 @@ def parse_assignments(items: Sequence[str], what: str) -> dict:
         parsed = yaml.safe_load(value)
         if isinstance(parsed, str) and re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+", parsed.strip()):
             parsed = float(parsed)
-        out[key.strip()] = parsed
-    return out
+        pairs.append((key.strip(), parsed))
+    try:  # a key twice with two values: which was meant?
+        return unique_assignments(pairs, what)
+    except ValueError as err:
+        raise ConfigError(str(err)) from None
 
 
 def like_default(value: Any, default: Any) -> bool:

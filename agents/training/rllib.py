@@ -142,6 +142,7 @@ def train(
     (``--trust-pickle``); a run stopped before its first checkpoint starts again from
     scratch with its config.yml."""
     require_ray()
+    check_ray_address(ray_address)  # before anything is written
     out = Path(out)
     restart = False
     if resume:
@@ -253,6 +254,28 @@ def require_ray() -> None:
 # ----------------------------------------------------------------------------------
 # Ray
 # ----------------------------------------------------------------------------------
+def check_ray_address(address: str | None, timeout_s: float = 5.0) -> None:
+    """A one-line ``ConfigError`` unless ``address`` is None, ``auto`` or a ``host:port``
+    (``ray://host:port``) that accepts a connection within ``timeout_s``: Ray itself
+    retries an unreachable address without end (seen: still retrying after 400 s)."""
+    if not address or address == "auto":
+        return
+    import socket
+
+    where = address.removeprefix("ray://")
+    host, sep, port_text = where.rpartition(":")
+    if not sep or not host or not port_text.isdigit() or not 0 < int(port_text) < 65536:
+        raise ConfigError(f"--ray-address {address!r}: expected 'auto' or HOST:PORT (e.g. 10.0.0.5:6379)")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port_text)), timeout=timeout_s):
+            pass
+    except OSError as err:
+        raise ConfigError(
+            f"--ray-address {address!r}: nothing answers there ({err.strerror or type(err).__name__}); "
+            "start the cluster with 'ray start --head' or leave --ray-address out for a local Ray"
+        ) from None
+
+
 def init_ray(address: str | None, config: RLlibConfig, cpus_needed: int) -> bool:
     """A small local Ray instance (the config's ``ray:``; no dashboard, no worker logs on
     the console), or a connection to a running cluster (``address``). Returns whether

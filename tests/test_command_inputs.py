@@ -1,0 +1,181 @@
+"""Bad input to the front ends that an input audit found taken silently (2026-12-07): each
+case is one line and exit status 2 now, and nothing is written. Each test fails on the code
+before its fix."""
+
+from __future__ import annotations
+
+import socket
+import time
+
+import pytest
+
+from coopnav_env.names import unique_assignments
+from coopnav_env.safe_load import UnsafeDataError, loads_yaml
+
+
+def _train(argv, capsys):
+    from agents.training import cli
+
+    code = cli.main(argv)
+    return code, capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------------------
+# one key twice: which value was meant?
+
+
+def test_a_key_given_twice_with_two_values_is_refused_and_the_same_value_twice_is_not():
+    assert unique_assignments([("a", 1), ("b", 2), ("a", 1)], "--set") == {"a": 1, "b": 2}
+    with pytest.raises(ValueError, match="--set a given twice, as 1 and 3"):
+        unique_assignments([("a", 1), ("a", 3)], "--set")
+
+
+def test_train_refuses_a_set_key_given_twice(tmp_path, capsys):
+    out = tmp_path / "run"
+    # an unknown scenario too, refused later: the old code would have said that (not trained)
+    argv = ["--scenario", "nope", "--timesteps", "100", "--out", str(out)]
+    code, err = _train(argv + ["--set", "ppo.gamma=0.9", "--set", "ppo.gamma=0.8"], capsys)
+    assert code == 2 and "--set ppo.gamma given twice, as 0.9 and 0.8" in err
+    assert len(err.strip().splitlines()[-1:]) == 1 and not out.exists()
+
+
+def test_the_batched_loop_and_benchmarl_settings_refuse_a_key_given_twice():
+    from agents.training.config import ConfigError, parse_assignments
+
+    assert parse_assignments(["lr=1e-4", "lr=0.0001"], "--set") == {"lr": 1e-4}  # the same number twice
+    with pytest.raises(ConfigError, match="--set lr given twice"):
+        parse_assignments(["lr=1e-4", "lr=3e-4"], "--set")
+
+
+def test_the_benchmark_refuses_a_set_key_given_twice(tmp_path, capsys):
+    from evaluation import benchmark
+
+    # an unknown policy too, refused later: the old code would have said that (not run the set)
+    argv = ["--tasks", "gao_sea", "--policies", "nope", "--out", str(tmp_path / "b")]
+    code = benchmark.main(argv + ["--set", "depth_m=5", "--set", "depth_m=6"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--set depth_m given twice, as '5' and '6'" in err
+    assert not (tmp_path / "b").exists()
+
+
+def test_a_yaml_key_given_twice_is_refused_with_its_line_and_keys_in_different_mappings_are_not():
+    with pytest.raises(UnsafeDataError, match=r"key 'ppo' given twice \(line 4\)"):
+        loads_yaml("ppo:\n  n_steps: 8\nseed: 1\nppo:\n  n_steps: 16\n")
+    with pytest.raises(UnsafeDataError, match="key 'b' given twice"):
+        loads_yaml("a: {b: 1, c: [1, 2], b: 2}")
+    # the same key in sibling mappings, a value equal to a key, and keys after a nested list
+    assert loads_yaml("l:\n  - {a: 1}\n  - {a: 2}\nm: a\na: [1, {m: 2}]\n") == {
+        "l": [{"a": 1}, {"a": 2}],
+        "m": "a",
+        "a": [1, {"m": 2}],
+    }
+
+
+def test_train_refuses_a_config_file_with_a_duplicate_section(tmp_path, capsys):
+    config = tmp_path / "dup.yml"
+    config.write_text("ppo:\n  n_steps: 8\nppo:\n  n_steps: 16\n")
+    out = tmp_path / "run"
+    argv = ["--scenario", "gao_sea", "--timesteps", "100", "--out", str(out), "--config", str(config)]
+    code, err = _train(argv, capsys)
+    assert code == 2 and "key 'ppo' given twice (line 3)" in err and not out.exists()
+
+
+# ---------------------------------------------------------------------------------------
+# train.py's own options
+
+
+def test_train_refuses_an_empty_out_instead_of_training_into_the_working_folder(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, err = _train(["--scenario", "nope", "--timesteps", "100", "--out", ""], capsys)
+    assert code == 2 and "--out is empty" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("value", ["7", "-3"])
+def test_train_refuses_a_verbosity_outside_the_range_its_help_gives(value, tmp_path, capsys):
+    code, err = _train(
+        ["--scenario", "gao_sea", "--timesteps", "100", "--out", str(tmp_path / "r"), "--verbose", value], capsys
+    )
+    assert code == 2 and "--verbose" in err and not (tmp_path / "r").exists()
+
+
+def _fake_run(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.yml").write_text("args: {scenario: gao_sea, backend: sb3}\n")
+    return run
+
+
+def test_plot_refuses_run_options_it_would_ignore(tmp_path, capsys):
+    run = _fake_run(tmp_path)
+    code, err = _train(["--plot", str(run), "--scenario", "gao_sea", "--timesteps", "5"], capsys)
+    assert code == 2 and "drop --scenario, --timesteps" in err
+
+
+def test_plot_says_an_unreadable_log_is_unreadable_not_missing(tmp_path, capsys):
+    run = _fake_run(tmp_path)
+    code, err = _train(["--plot", str(run)], capsys)
+    assert code == 2 and "has no validation yet" in err
+    (run / "evaluations.jsonl").write_text("{\n")
+    code, err = _train(["--plot", str(run)], capsys)
+    assert code == 2 and "holds no readable validation line" in err
+
+
+def test_an_unreachable_ray_address_is_refused_at_once_not_retried_for_ever():
+    from agents.training.config import ConfigError
+    from agents.training.rllib import check_ray_address
+
+    with socket.socket() as free:  # a port nothing listens on: bound, then closed
+        free.bind(("127.0.0.1", 0))
+        port = free.getsockname()[1]
+    start = time.monotonic()
+    with pytest.raises(ConfigError, match="nothing answers there"):
+        check_ray_address(f"127.0.0.1:{port}")
+    assert time.monotonic() - start < 6
+    for bad in ("abc", "host:", ":6379", "host:99999"):
+        with pytest.raises(ConfigError, match="expected 'auto' or HOST:PORT"):
+            check_ray_address(bad)
+    with socket.socket() as server:  # something answers: accepted
+        server.bind(("127.0.0.1", 0))
+        server.listen(1)
+        check_ray_address(f"127.0.0.1:{server.getsockname()[1]}")
+        check_ray_address(f"ray://127.0.0.1:{server.getsockname()[1]}")
+    check_ray_address(None)
+    check_ray_address("auto")
+
+
+# ---------------------------------------------------------------------------------------
+# evaluate.py
+
+
+def _evaluate(argv, capsys):
+    from evaluation import cli
+
+    code = cli.main(argv, prog="evaluate.py")
+    return code, capsys.readouterr().err
+
+
+def test_a_transmit_schedule_left_empty_is_refused_not_labelled_as_the_default(tmp_path, capsys):
+    argv = ["--scenario", "sousa_ping", "--policies", "fim_a+", "--episodes", "1", "--no-figures"]
+    code, err = _evaluate(argv + ["--out", str(tmp_path / "e")], capsys)
+    assert code == 2 and "'fim_a+' names no transmit schedule" in err
+    assert not (tmp_path / "e").exists()
+
+
+@pytest.mark.parametrize("held", ["benchmark", "train"])
+def test_evaluate_refuses_a_folder_holding_a_benchmark_result_or_a_training_run(held, tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    if held == "benchmark":
+        (out / "results.json").write_text("{}")
+        want = "holds a benchmark result (results.json)"
+    else:
+        (out / "config.yml").write_text("args: {}\n")
+        (out / "model.safetensors").write_bytes(b"")
+        want = "holds a train.py run"
+    before = sorted(p.name for p in out.iterdir())
+    argv = ["--scenario", "gao_sea", "--policies", "static", "--episodes", "1", "--no-figures", "--out", str(out)]
+    for extra in ([], ["--overwrite"]):  # --overwrite would clear only evaluate's own files
+        code, err = _evaluate(argv + extra, capsys)
+        assert code == 2 and want in err
+    assert sorted(p.name for p in out.iterdir()) == before
