@@ -179,3 +179,28 @@ def test_evaluate_refuses_a_folder_holding_a_benchmark_result_or_a_training_run(
         code, err = _evaluate(argv + extra, capsys)
         assert code == 2 and want in err
     assert sorted(p.name for p in out.iterdir()) == before
+
+
+def test_a_training_run_without_tensorboard_leaves_nothing_in_the_temporary_folder(tmp_path, monkeypatch):
+    """SB3's default logger makes an empty /tmp/SB3-<date> folder per learn() when no
+    TensorBoard folder is given (CI does not install TensorBoard): 2 per CI run, for ever."""
+    import tempfile
+
+    from cli_runs import tiny_training
+
+    from agents.training import sb3
+
+    real = sb3._installed
+    monkeypatch.setattr(sb3, "_installed", lambda *m: False if "tensorboard" in m else real(*m))
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    config = {
+        "n_envs": 2,
+        "ppo": {"n_steps": 64, "batch_size": 128, "n_epochs": 1, "policy_kwargs": {"net_arch": [8]}},
+        "env": {"overrides": {"max_cycles": 10, "mission_duration_s": 200.0}},
+        "eval": {"every_steps": 512, "episodes": 1, "seed": 1000000, "baselines": []},
+    }
+    assert tiny_training(tmp_path / "run", config) == 0
+    assert not (tmp_path / "run" / "tb").exists()
+    assert [p.name for p in scratch.iterdir() if p.name.startswith("SB3-")] == []

@@ -98,6 +98,9 @@ def old_run(tiny_run, tmp_path_factory):
         policy_kwargs={"net_arch": [16, 16]},
         device="cpu",
     )
+    from stable_baselines3.common.logger import Logger
+
+    model.set_logger(Logger(None, []))  # no /tmp/SB3-<date> folder left behind
     model.learn(256)
     model.save(out / "checkpoints" / "ckpt_0000000256.zip")
     venv.save(out / "checkpoints" / "ckpt_0000000256_vecnormalize.pkl")

@@ -235,6 +235,10 @@ def train(
                 warm_stats = read_stats(warm[1])
                 assert warm_stats is not None  # load_stats of a path: its statistics, or it raises
                 restore_stats(vecnorm, warm_stats, warm[1])
+    if tb_dir is None:  # SB3's own logger would make an empty /tmp/SB3-<date> folder per run
+        from stable_baselines3.common.logger import HumanOutputFormat, Logger
+
+        model.set_logger(Logger(None, [HumanOutputFormat(sys.stdout)] if verbose else []))
     imitation = None
     if config.imitate.planner is not None and not ckpt:  # behaviour cloning before PPO (a resumed run has it)
         from .imitation import imitate
