@@ -14,10 +14,14 @@ fused per cycle.
 from __future__ import annotations
 
 import argparse
-import ast
 import sys
 
 import numpy as np
+
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
 
 
 def surfacing_figures(scenario: str, planner: str, overrides: dict, runs: int, seed: int) -> dict:
@@ -57,13 +61,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="a scenario override")
     args = ap.parse_args(argv)
-    overrides = {}
-    for item in args.set:
-        k, v = item.split("=", 1)
-        try:
-            overrides[k] = ast.literal_eval(v)
-        except (ValueError, SyntaxError):
-            overrides[k] = v
+    _args.count(ap, args.runs, "--runs", bound="MAX_BATCH_SIZE")  # the runs are one batch
+    _args.seeds(ap, args.seed, args.runs)
+    overrides = _args.overrides(ap, args.set)
+    config = _args.scenario_config(ap, args.scenario, overrides)
+    if "beacon_auv" not in config.beacon_kinds:  # as beacon_covariance.py: nothing surfaces
+        import coopnav_env
+
+        with_auv = [s for s in coopnav_env.list_scenarios() if "beacon_auv" in coopnav_env.make_config(s).beacon_kinds]
+        ap.error(
+            f"--scenario {args.scenario} has no beacon AUV (beacons: {', '.join(config.beacon_kinds)}): nothing "
+            f"surfaces; scenarios with one: {', '.join(with_auv)}"
+        )
+    import baselines
+
+    if not baselines.is_planner(args.planner):  # the runs are driven by baselines' planners
+        from coopnav_env.names import did_you_mean
+
+        valid = baselines.list_policies(config.network)
+        ap.error(
+            f"--planner: {args.planner!r} is not a planner{did_you_mean(args.planner, valid)} valid: {', '.join(valid)}"
+        )
+    _args.policy(ap, args.planner, config, args.seed, "--planner")
     f = surfacing_figures(args.scenario, args.planner, overrides, args.runs, args.seed)
     print(f"{args.scenario} ({args.planner}, {args.runs} runs, seed {args.seed}, set {overrides or '-'})")
     for k, v in f.items():

@@ -37,6 +37,11 @@ import numpy as np
 from evaluation.benchmark_stats import lowest_mean
 from evaluation.paired import t_interval
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 AIM = -0.20  # the aim: a mean error at least 20 % below the best planner's
 
 
@@ -164,14 +169,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="also one table per task set: every task's best planner and each challenger's paired difference",
     )
+    _args.add_overwrite(p, "the --markdown file")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_args
-
-    check_output_args(p.error, markdown=args.markdown)  # refused before any run
+    _args.outputs(p, args.overwrite, markdown=args.markdown)  # refused before any file is read
     all_rows, tables = [], []
     for path in args.results:
         try:
             results = json.loads(path.read_text())
+            problem = _args.benchmark_results_problem(results)  # NaN, text, unpaired counts: not summarized
+            if problem is not None:
+                raise ValueError(problem)
             all_rows.extend(rows(results))
             if args.per_task:
                 tables.append(per_task_markdown(results))

@@ -116,9 +116,20 @@ def main(argv: list[str] | None = None) -> int:
         teams = [yaml.safe_load(t) for t in (args.team or DEFAULT_TEAMS)]
         rows = observations(args.scenario, teams, 512, args.warm_steps, 0)
         then = encoder_from_commit(args.against) if args.against else None
-    except (ValueError, TypeError, yaml.YAMLError, subprocess.CalledProcessError) as err:
+    except yaml.YAMLError as err:  # a team that is not YAML: its first line (PyYAML's runs to five, with a caret)
+        where = (
+            f" (line {err.problem_mark.line + 1}, column {err.problem_mark.column + 1})"
+            if getattr(err, "problem_mark", None)
+            else ""
+        )
+        print(
+            f"entity_update.py: --team is not YAML{where}: {getattr(err, 'problem', None) or str(err).splitlines()[0]}",
+            file=sys.stderr,
+        )
+        return 2
+    except (ValueError, TypeError, subprocess.CalledProcessError) as err:
         msg = err.stderr.strip() if isinstance(err, subprocess.CalledProcessError) else err
-        print(f"entity_update.py: {msg}", file=sys.stderr)
+        print(f"entity_update.py: {' '.join(str(msg).split())}", file=sys.stderr)
         return 2
     torch.set_num_threads(1)
     slots = rows.shape[0] // 512  # beacon slots per environment

@@ -36,6 +36,11 @@ from baselines.base import is_planner, make_policy, split_spec
 from evaluation.paired import t_interval
 from evaluation.parallel import Cell, add_workers_argument, check_workers, run_cells
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 EXCLUDED = ("static", "random", "oracle")
 
 
@@ -46,26 +51,13 @@ def variant_spec(text: str) -> tuple[str, str]:
     return name, ":".join([base, *filter(None, args.split(","))])
 
 
-def _parse_set(items: list) -> dict:
-    from coopnav_env.scenarios.base import check_overrides, default_of
-
-    out = {}
-    for item in items:
-        key, text = item.split("=", 1)
-        check_overrides({key: None})
-        d = default_of(key)
-        out[key] = type(d)(text) if isinstance(d, (int, float)) and not isinstance(d, bool) else text
-    return out
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     from baselines import list_policies
     from coopnav_env.seeds import TEST_SEEDS
-    from evaluation.tasks import get_task_set
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--tasks", default="gao_sea,gao_lawnmower,sousa_grid", help="comma-separated task sets")
-    p.add_argument("--task", default="", help="only these tasks (comma-separated names)")
+    p.add_argument("--task", default=None, help="only these tasks (comma-separated names; default: every task)")
     p.add_argument("--challenger", default="horizon", help="comma-separated: one table row per task and challenger")
     p.add_argument("--against", default=None, help="compare with this policy, not the best greedy planner")
     p.add_argument(
@@ -77,15 +69,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="on every task")
     p.add_argument("--markdown", help="also write the table here")
     p.add_argument("--json", help="write the per-episode errors here as they come (a partial run is usable)")
+    _args.add_overwrite(p, "the --markdown and --json files")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_args
-
-    check_output_args(p.error, markdown=args.markdown, json=args.json)  # refused before any run
+    _args.outputs(p, args.overwrite, markdown=args.markdown, json=args.json)  # refused before any run
+    _args.count(p, args.episodes, "--episodes", low=0)  # 0 and 1 refused below, once the variants are checked
     if args.first_seed is None:
         seeds = [int(s) for s in TEST_SEEDS[: args.episodes]]
     else:
-        seeds = list(range(args.first_seed, args.first_seed + args.episodes))
-    extra = _parse_set(args.set)
+        seeds = _args.seeds(p, args.first_seed, max(args.episodes, 1), "--first-seed")[: args.episodes]
+    probe_seed = seeds[0] if seeds else int(TEST_SEEDS[0])  # the episode a policy is checked on
+    extra = _args.overrides(p, args.set)
+    task_sets = {name: _args.task_set(p, name) for name in _args.names(p, args.tasks, "--tasks")}
     try:
         workers = check_workers(args.workers)
         specs = dict(variant_spec(v) for v in args.variant)
@@ -96,14 +90,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as err:
         p.error(str(err))
     variants = list(specs)
-    only = set(filter(None, args.task.split(",")))
-    challengers = [q for q in args.challenger.split(",") if q]
+    only = set() if args.task is None else set(_args.names(p, args.task, "--task"))
+    every_task = [t.name for ts in task_sets.values() for t in ts.tasks]
+    for name in sorted(only - set(every_task)):
+        from coopnav_env.names import did_you_mean
+
+        p.error(
+            f"--task: no task {name!r} in {args.tasks}{did_you_mean(name, every_task)} valid: {', '.join(every_task)}"
+        )
+    challengers = _args.names(p, args.challenger, "--challenger")
     cells: list[Cell] = []
     keys: list[tuple[str, str, str]] = []
     order: list[tuple[str, str, list]] = []
-    checked: set[str] = set()  # the variants built once to check their settings
-    for set_name in args.tasks.split(","):
-        ts = get_task_set(set_name)
+    checked: set[str] = set()  # the variants built once to check their settings, the policies per task set
+    for set_name, ts in task_sets.items():
         if args.against:
             greedy = [args.against]
         else:
@@ -116,7 +116,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             if only and task.name not in only:
                 continue
             order.append((set_name, task.name, greedy))
-            config = ts.task(task.name).config(ts.scenario, **extra)
+            try:
+                config = ts.task(task.name).config(ts.scenario, **extra)
+            except ValueError as err:
+                p.error(f"--set on {set_name}/{task.name}: {_args.first_line(err)}")
             for q in [*challengers, *greedy]:
                 if q in specs and q not in checked:  # its settings checked once, here
                     try:
@@ -124,9 +127,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                     except ValueError as err:
                         p.error(f"--variant {q}: {err}")
                     checked.add(q)
+                elif q not in specs and (q in challengers or q == args.against) and f"{set_name} {q}" not in checked:
+                    option = "--challenger" if q in challengers else "--against"
+                    _args.policy(p, q, config, probe_seed, option)  # it loads and drives the task set's network
+                    checked.add(f"{set_name} {q}")
                 keys.append((set_name, task.name, q))
                 label = f"{set_name}/{task.name} {q}"
                 cells.append(Cell(config, specs.get(q, q), tuple(seeds), label, steps=False, act_seconds=True))
+    _args.count(p, args.episodes, "--episodes", low=2)
     scores: dict = {}
     cpu: dict[str, float] = {}
     from coopnav_env.progress import Progress

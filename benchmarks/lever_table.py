@@ -44,6 +44,11 @@ from coopnav_env.failures import MACHINE_FAILURES, one_line
 from evaluation.benchmark_stats import paired_verdict
 from evaluation.paired import t_interval
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 
 def _parse_policies(text: str, task_set: str | None = None) -> list:
     """[(label, spec)] of ``[label=]spec,...``; ``greedy`` and ``planners`` stand for the task
@@ -350,8 +355,17 @@ def read_result(path: str) -> dict:
     from coopnav_env.safe_load import read_json
 
     result = read_json(path)
-    if not isinstance(result, dict) or "errors" not in result:
+    if not isinstance(result, dict) or not isinstance(result.get("errors"), dict):
         raise ValueError(f"{path}: {'no such file' if result is None else 'not a lever_table.py --out result'}")
+    n = None  # episode i of every task and policy has the same seed: one count for all
+    for label, by_task in result["errors"].items():
+        if not isinstance(by_task, dict):
+            raise ValueError(f"{path}: not a lever_table.py --out result (errors.{label} is not per task)")
+        for task, errors in by_task.items():
+            problem = _args.episode_errors_problem(errors, f"errors.{label}.{task}", n)
+            if problem is not None:
+                raise ValueError(f"{path}: {problem}")
+            n = len(errors)
     return result
 
 
@@ -395,6 +409,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--out", help="write the per-episode errors as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
     add_workers_argument(p, "tasks and policies")
+    _args.add_overwrite(p, "the --out and --markdown files (with --reuse of the same file too)")
     if argv is None:
         argv = sys.argv[1:]
     if argv and argv[0] == "summarize":  # lever_table.py summarize [--policy ppo] A.json B.json ...
@@ -403,7 +418,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         q.add_argument("--policy", default="ppo")
         sargs = q.parse_args(argv[1:])
         try:
-            print(summary([read_result(f) for f in sargs.files], sargs.policy), end="")
+            results = [read_result(f) for f in sargs.files]
+            if not any(sargs.policy in r["errors"] for r in results):  # an empty table is no answer
+                held = sorted({label for r in results for label in r["errors"]})
+                from coopnav_env.names import did_you_mean
+
+                raise ValueError(
+                    f"no policy {sargs.policy!r} in {', '.join(sargs.files)}{did_you_mean(sargs.policy, held)} "
+                    f"they have: {', '.join(held)}"
+                )
+            print(summary(results, sargs.policy), end="")
         except ValueError as err:
             print(f"error: {err}", file=sys.stderr)
             return 2
@@ -421,11 +445,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
         return 0
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_args
-
-    check_output_args(p.error, out=args.out, markdown=args.markdown)  # refused before any run
+    _args.outputs(p, args.overwrite, out=args.out, markdown=args.markdown)  # refused before any run
     from coopnav_env.records import atomic_write_text
     from coopnav_env.seeds import check_seed, refuse_test_seeds
+    from evaluation.limits import MAX_EPISODES
     from evaluation.parallel import check_workers
     from evaluation.tasks import get_task_set
 
@@ -434,8 +457,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.episodes is None:
             args.episodes = task_set.episodes
         policies = _parse_policies(args.policies, args.tasks)
+        if not policies:
+            raise ValueError(f"--policies names nothing (got {args.policies!r}): give at least one")
         if args.episodes < 2:
             raise ValueError(f"--episodes must be >= 2 (a t interval), got {args.episodes}")
+        if args.episodes > MAX_EPISODES:
+            raise ValueError(
+                f"--episodes must be at most {MAX_EPISODES} (evaluation.limits.MAX_EPISODES), got {args.episodes}"
+            )
         check_seed(args.seed, "--seed")
         workers = check_workers(args.workers)
         refuse_test_seeds(args.seed, args.episodes, what="--seed")
@@ -451,7 +480,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:  # before the runs: a file that is not an earlier result is one line
             reuse = read_result(args.reuse)
         except (ValueError, OSError) as err:
-            print(f"error: --reuse: {one_line(err)}", file=sys.stderr)
+            print(f"error: --reuse: {err if isinstance(err, ValueError) else one_line(err)}", file=sys.stderr)
             return 2
     try:
         result = run(args.tasks, policies, args.episodes, args.seed, lambda s: print(s, flush=True), reuse, na, workers)

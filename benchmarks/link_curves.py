@@ -1,6 +1,6 @@
 """Figures of the acoustic link from the sonar equation (``coopnav_env.core.link``, issue 21).
 
-    python benchmarks/link_curves.py --out docs/figures
+    python benchmarks/link_curves.py --out docs/figures --overwrite
     python benchmarks/link_curves.py --episodes 20 --policy fim_a+tdma [--set NAME=VALUE ...]
 
 Writes two PNGs (200 dpi):
@@ -32,6 +32,11 @@ from pathlib import Path
 import numpy as np
 
 from coopnav_env.core import link as L
+
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
 
 NOISE = {  # name: (shipping, wind m/s) [U]: calm, moderate, rough
     "calm (s 0.2, w 1 m/s)": L.NoiseConditions(0.2, 1.0),
@@ -292,6 +297,9 @@ def _print_episodes(out: dict) -> None:
         print(f"{k}: mean {v.mean():.4f}, std {v.std(ddof=1):.4f}, min {v.min():.4f}, max {v.max():.4f}")
 
 
+FIGURES = ("link_loss_vs_range.png", "link_timeline.png")  # what --out receives
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("docs/figures"), help="directory of the PNGs")
@@ -300,22 +308,31 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--policy", default="fim_a+tdma")
     p.add_argument("--seed", type=int, default=500000, help="first episode seed")
     p.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE", help="scenario overrides")
+    _args.add_overwrite(p, "the two PNGs in --out")
     args = p.parse_args(argv)
+    _args.count(p, args.episodes, "--episodes", low=0, bound="MAX_BATCH_SIZE")
     if args.episodes > 0:
-        import ast
+        import baselines
+        from coopnav_env.names import did_you_mean
 
-        overrides = {}
-        for item in args.set:
-            k, v = item.split("=", 1)
-            try:
-                overrides[k] = ast.literal_eval(v)
-            except (ValueError, SyntaxError):
-                overrides[k] = v
-        _print_episodes(episodes(args.scenario, args.policy, args.episodes, args.seed, overrides))
+        _args.count(p, args.episodes, "--episodes", low=2)  # a standard deviation needs two
+        _args.seeds(p, args.seed, args.episodes)
+        extra = _args.overrides(p, args.set)
+        config = _args.scenario_config(p, args.scenario, extra)
+        if not baselines.is_planner(args.policy):  # the episodes are driven by baselines.make_policy
+            valid = baselines.list_policies(config.network)
+            p.error(
+                f"--policy: {args.policy!r} is not a planner{did_you_mean(args.policy, valid)} "
+                f"valid: {', '.join(valid)}"
+            )
+        _args.policy(p, args.policy, config, args.seed, "--policy")
+        _print_episodes(episodes(args.scenario, args.policy, args.episodes, args.seed, extra))
         return 0
+    for name in FIGURES:  # refused before anything is drawn
+        _args.outputs(p, args.overwrite, out=args.out / name)
     args.out.mkdir(parents=True, exist_ok=True)
-    loss_vs_range(args.out / "link_loss_vs_range.png")
-    timeline(args.out / "link_timeline.png")
+    loss_vs_range(args.out / FIGURES[0])
+    timeline(args.out / FIGURES[1])
     print(f"wrote {args.out / 'link_loss_vs_range.png'} and {args.out / 'link_timeline.png'}")
     return 0
 

@@ -2,7 +2,7 @@
 (``python -m agents.training.batched_ppo``) side by side.
 
     python benchmarks/marl_curves.py mappo=runs/gao_team_mappo ippo=runs/gao_team_ippo \\
-        --out docs/figures/levers_gao_team.png
+        --out docs/figures/levers_gao_team.png --overwrite
 
 Reads each run's BenchMARL CSV log (``<run>/benchmarl/*/scalars/<metric>.csv``: one row per
 collected batch) and plots it against the env-steps collected (BenchMARL's
@@ -23,6 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 
 def curve(run: Path, metric: str) -> tuple:
     """(env-steps, values) of ``metric`` in the run folder ``run`` (the env-steps from
@@ -32,7 +37,9 @@ def curve(run: Path, metric: str) -> tuple:
 
         key = "survey_error_m" if metric == "collection_info_survey_error_m" else metric
         rows = [json.loads(line) for line in (run / "log.jsonl").read_text().splitlines() if line.strip()]
-        rows = [r for r in rows if r.get(key) is not None]
+        if not all(isinstance(r, dict) for r in rows):
+            raise ValueError(f"{run}/log.jsonl is not a batched PPO log (a line is not a JSON object)")
+        rows = [r for r in rows if r.get(key) is not None and r.get("steps") is not None]
         if not rows:
             raise ValueError(f"{run}/log.jsonl has no {key!r}")
         return np.array([r["steps"] for r in rows], dtype=float), np.array([r[key] for r in rows], dtype=float)
@@ -52,7 +59,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--smooth", type=int, default=5, help="moving average over this many batches")
     p.add_argument("--title", default="")
     p.add_argument("--out", required=True, help="PNG to write")
+    _args.add_overwrite(p, "the --out PNG")
     args = p.parse_args(argv)
+    _args.outputs(p, args.overwrite, out=args.out)  # refused before any log is read
+    _args.count(p, args.smooth, "--smooth", bound="MAX_STEPS")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -65,12 +75,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         for item in args.runs:
             label, _, path = item.rpartition("=")
             x, y = curve(Path(path), args.metric)
-            k = max(int(args.smooth), 1)
+            k = args.smooth
+            if len(y) < k:
+                raise ValueError(
+                    f"{path} has {len(y)} rows of {args.metric}, fewer than --smooth {k}: give a smaller --smooth"
+                )
             ys = np.convolve(y, np.ones(k) / k, mode="valid")
             ax.plot(x[k - 1 :], ys, label=label or Path(path).name)
     except (OSError, ValueError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+        p.error(_args.first_line(err))
     ax.set_xlabel("env-steps collected")
     ax.set_ylabel("batch mean survey error (m)" if args.metric == "collection_info_survey_error_m" else args.metric)
     ax.set_title(args.title)

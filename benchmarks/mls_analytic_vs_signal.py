@@ -39,6 +39,11 @@ from coopnav_env.core.mls import (
     wrap_angle_rad,
 )
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 RANGES_M = (0.5, 1.0, 2.0, 3.5, 5.0)
 AZIMUTHS_DEG = (-80.0, -40.0, 0.0, 40.0, 80.0)
 TOLERANCE = 0.25
@@ -138,8 +143,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--reflection", action="store_true", help="surface reflection in the signal level")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    if args.signal_events < 10 or args.analytic_events < 10:
-        ap.error("--signal-events and --analytic-events must be at least 10")
+    _args.count(ap, args.signal_events, "--signal-events", low=10, bound="MAX_EVENTS")
+    _args.count(ap, args.analytic_events, "--analytic-events", low=10, bound="MAX_EVENTS")
+    _args.seeds(ap, args.seed)
+    _args.number(ap, args.snr_db, "--snr-db", low=-math.inf)
     rows = run_grid(
         n_signal=args.signal_events,
         n_analytic=args.analytic_events,

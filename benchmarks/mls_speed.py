@@ -35,6 +35,11 @@ import numpy as np  # noqa: E402
 
 from coopnav_env.core.mls import MLSConfig, MLSSensor, PeakTracker, Reflection  # noqa: E402
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 TARGET_MS = 5.0
 
 
@@ -44,8 +49,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    if args.events < 10:
-        ap.error("--events must be at least 10")
+    _args.count(ap, args.events, "--events", low=10, bound="MAX_EVENTS")
+    _args.seeds(ap, args.seed)
     try:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})  # one core
     except (AttributeError, OSError):

@@ -47,6 +47,11 @@ from coopnav_env.core.mls import (
     wrap_angle_rad,
 )
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 PAPER_TABLE_1 = {
     "azimuth_mean_deg": 0.00,
     "azimuth_std_deg": 2.39,
@@ -184,8 +189,9 @@ def _parse(argv=None):
         help="exact: near-field sub-azimuths and midpoint azimuth; paper: eqs. (2)-(5) as printed",
     )
     args = ap.parse_args(argv)
-    if args.events < 3:
-        ap.error("--events must be at least 3")
+    _args.count(ap, args.events, "--events", low=3, bound="MAX_EVENTS")
+    _args.seeds(ap, args.seed)
+    _args.number(ap, args.snr_db, "--snr-db", low=-math.inf)
     return args
 
 

@@ -416,11 +416,12 @@ def parse_sets(items: list[str]) -> dict[str, Any]:
     return extra
 
 
-def check_run_args(runs: int, seed: int, markdown: str | None) -> str | None:
+def check_run_args(runs: int, seed: int, markdown: str | None, overwrite: bool = False) -> str | None:
     """The one line that refuses ``--runs``, ``--seed`` or ``--markdown`` before any episode
     runs (None when they are fine): the runs in [1, 10000], every seed SEED..SEED+RUNS-1 a
     valid one (``coopnav_env.seeds.check_seed``), the table's file writable where it would go
-    (not a folder, its folder creatable). ``beacon_covariance.py`` reads it too."""
+    (not a folder, its folder creatable, not an existing file unless ``overwrite``: the
+    ``--overwrite`` flag). ``beacon_covariance.py`` reads it too."""
     from coopnav_env.records import check_output_file
     from coopnav_env.seeds import check_seed
 
@@ -433,7 +434,7 @@ def check_run_args(runs: int, seed: int, markdown: str | None) -> str | None:
         return str(err)
     if markdown is not None:
         try:
-            check_output_file(markdown)
+            check_output_file(markdown, overwrite=overwrite)
         except OSError as err:
             return f"--markdown: {err}"
     return None
@@ -447,6 +448,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=700_000, help="run i uses seed SEED + i")
     p.add_argument("--cases", default="all", help="comma-separated case numbers (0-based) or 'all'")
     p.add_argument("--markdown", help="also write the table here")
+    p.add_argument("--overwrite", action="store_true", help="replace the --markdown file if it exists")
     p.add_argument(
         "--per-run",
         action="store_true",
@@ -491,7 +493,7 @@ def main(argv: list[str] | None = None) -> int:
         "depends on where the beacon goes)",
     )
     args = p.parse_args(argv)
-    problem = check_run_args(args.runs, args.seed, args.markdown)
+    problem = check_run_args(args.runs, args.seed, args.markdown, args.overwrite)
     if problem is not None:
         print(problem, file=sys.stderr)
         return 2

@@ -2,7 +2,7 @@
 several rates and thresholds and for trained policies, on common random numbers.
 
     python benchmarks/ping_tradeoff.py --episodes 50 --seed 400000 --policies runs/ping_ppo \\
-        --figure docs/figures/ping_tradeoff.png --markdown results/ping_tradeoff.md
+        --figure docs/figures/ping_tradeoff.png --markdown results/ping_tradeoff.md --overwrite
 
 Every schedule drives the ASVs with ``fim_a`` or ``ellipse`` (``baselines.schedule``): ``clock``
 (both ASVs every slot: staggered on the sonar link, colliding with ``ping_offsets="zero"``),
@@ -27,6 +27,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evaluation.paired import t_interval
+
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
 
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
@@ -85,12 +90,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--policies", default="", help="comma-separated trained policies (run directories)")
     p.add_argument("--figure", help="write the error-against-pings figure here (PNG)")
     p.add_argument("--markdown", help="write the table here")
+    _args.add_overwrite(p, "the --figure and --markdown files")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_args
-
-    check_output_args(p.error, markdown=args.markdown)  # refused before any run
-    config = coopnav_env.make_config(args.scenario)
-    seeds = list(range(args.seed, args.seed + args.episodes))
+    _args.outputs(p, args.overwrite, figure=args.figure, markdown=args.markdown)  # refused before any run
+    _args.count(p, args.episodes, "--episodes", low=2)
+    seeds = _args.seeds(p, args.seed, args.episodes)
+    config = _args.scenario_config(p, args.scenario)
+    if config.channel_mode != "decide":
+        deciding = [s for s in coopnav_env.list_scenarios() if coopnav_env.make_config(s).channel_mode == "decide"]
+        p.error(
+            f"--scenario {args.scenario}: its beacons ping on a clock (channel_mode={config.channel_mode!r}); "
+            f"the transmit schedules compared here need channel_mode='decide': {', '.join(deciding)}"
+        )
+    for spec in [s for s in args.policies.split(",") if s]:  # each loads and drives it, before the planners run
+        _args.policy(p, spec, config, seeds[0], "--policies")
     rows = []
     for motion in ("fim_a", "ellipse"):
         rows += [(f"{motion}+clock", f"{motion}+clock", {"every": 1})]

@@ -27,6 +27,11 @@ import sys  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 
 def time_policy(config: object, name: str, steps: int, warmup: int, seed: int) -> list:
     """CPU seconds of every timed ``act`` call of policy ``name`` on ``config``."""
@@ -60,7 +65,6 @@ def time_policy(config: object, name: str, steps: int, warmup: int, seed: int) -
 def main(argv: Sequence[str] | None = None) -> int:
     import numpy as np
 
-    import coopnav_env
     from baselines import list_policies
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -79,21 +83,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="NAME:BASE:KEY=VALUE,...",
         help="also time a planner variant (benchmarks/horizon_vs_greedy.py's), e.g. hj:horizon:team=joint",
     )
+    _args.add_overwrite(p, "the --markdown file")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_args
-
-    check_output_args(p.error, markdown=args.markdown)  # refused before any run
-    if args.pin and hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
-    from coopnav_env.scenarios.base import default_of
-
-    overrides = {}
-    for item in args.set:
-        key, text = item.split("=", 1)
-        d = default_of(key)
-        overrides[key] = type(d)(text) if isinstance(d, (int, float)) and not isinstance(d, bool) else text
-    config = coopnav_env.make_config(args.scenario, **overrides)
-    names = [(q, q) for q in list_policies(config.network) + [q for q in args.policies.split(",") if q]]
+    _args.outputs(p, args.overwrite, markdown=args.markdown)  # refused before any run
+    _args.count(p, args.steps, "--steps", bound="MAX_STEPS")
+    _args.count(p, args.warmup, "--warmup", low=0, bound="MAX_STEPS")
+    _args.seeds(p, args.seed, args.warmup + args.steps + 1)  # an episode that ends restarts on the next seed
+    config = _args.scenario_config(p, args.scenario, _args.overrides(p, args.set))
+    extra = [q for q in args.policies.split(",") if q]
+    for q in extra:  # each loads and drives the scenario: one line now, not after the planners' timing
+        _args.policy(p, q, config, args.seed, "--policies")
+    names = [(q, q) for q in list_policies(config.network) + extra]
     if args.variant:
         import importlib.util
 
@@ -101,7 +101,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         spec = importlib.util.spec_from_file_location("horizon_vs_greedy", here)
         module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
         spec.loader.exec_module(module)  # type: ignore[union-attr]
-        names += [module.variant_spec(v) for v in args.variant]  # (NAME, the planner spec it stands for)
+        from baselines import is_planner
+
+        for v in args.variant:
+            name, planner = module.variant_spec(v)  # (NAME, the planner spec it stands for)
+            if not is_planner(planner.split(":")[0]):
+                p.error(f"--variant {v!r}: {planner.split(':')[0]!r} is not a planner (NAME:BASE:KEY=VALUE,...)")
+            _args.policy(p, planner, config, args.seed, f"--variant {name}")
+            names.append((name, planner))
+    if args.pin and hasattr(os, "sched_setaffinity"):  # once every input is checked
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     lines = [
         f"{args.scenario}{' ' + ' '.join(args.set) if args.set else ''}: CPU ms per act (one beacon's decision), "
         f"{args.steps} decisions after {args.warmup} untimed, one core.",

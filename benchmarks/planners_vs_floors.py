@@ -21,6 +21,11 @@ import numpy as np
 from evaluation.episodes import run_episodes
 from evaluation.paired import t_interval
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 FLOORS = ("static", "random")
 
 
@@ -35,11 +40,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--episodes", type=int, default=50, help="episodes per policy and scenario")
     p.add_argument("--seed", type=int, default=300_000, help="episode i uses seed SEED + i")
     p.add_argument("--markdown", help="also write the table here")
+    _args.add_overwrite(p, "the --markdown file")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_args
-
-    check_output_args(p.error, markdown=args.markdown)  # refused before any run
-    seeds = list(range(args.seed, args.seed + args.episodes))
+    _args.outputs(p, args.overwrite, markdown=args.markdown)  # refused before any run
+    _args.count(p, args.episodes, "--episodes", low=2)
+    seeds = _args.seeds(p, args.seed, args.episodes)
+    configs = {
+        name: _args.scenario_config(p, name, option="--scenarios")
+        for name in _args.names(p, args.scenarios, "--scenarios")
+    }
     lines = [
         f"{args.episodes} episodes per policy, seeds {seeds[0]}..{seeds[-1]}; planner minus floor, "
         "mean survey_error_m (m), paired 95 % t interval; ✓ when the interval is below zero.",
@@ -48,8 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "|---|---|---|---|---|",
     ]
     all_beat = True
-    for scenario in args.scenarios.split(","):
-        config = coopnav_env.make_config(scenario)
+    for scenario, config in configs.items():
         planners = [q for q in list_policies(config.network) if q not in FLOORS]
         scores = {
             q: np.array([r["mean_error_m"] for r in run_episodes(config, q, seeds)[0]]) for q in planners + list(FLOORS)

@@ -45,41 +45,32 @@ import numpy as np
 
 from evaluation.paired import t_interval
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
 RANDOMIZATION_OFF = {"randomize_survey_path": (), "randomize_depth_m": (), "randomize_noise_scale": ()}
 
 
-def _parse_value(key, text):
-    from coopnav_env.scenarios.base import default_of
-
-    default = default_of(key)
-    if isinstance(default, bool):
-        return text.lower() in ("1", "true", "yes")
-    if isinstance(default, int):
-        return int(float(text))
-    if isinstance(default, float):
-        return float(text)
-    return text
-
-
-def build_cells(scenario: str, cell_args: list, set_args: list) -> list:
-    from coopnav_env.scenarios import make_config
+def build_cells(base: ScenarioConfig, cell_args: list) -> list:
+    """[(label, config)] of the grid ``--cell KEY=V1,V2,...`` over ``base`` (the scenario with its
+    ``--set``), the per-episode randomization off; a ``ValueError`` of one line naming a bad item
+    (not KEY=..., an unknown parameter, a value the parameter cannot take)."""
     from coopnav_env.scenarios.base import check_overrides
+    from evaluation.config import parse_assignment, parse_value
 
-    overrides = {}
-    for item in set_args:
-        key, value = item.split("=", 1)
-        check_overrides({key: None})
-        overrides[key] = _parse_value(key, value)
-    base = make_config(scenario, **overrides)
     base = base.replace(**{k: v for k, v in RANDOMIZATION_OFF.items() if base.applies(k)})
-    cells = [{}]
+    cells: list[dict] = [{}]
     for item in cell_args:
-        key, values = item.split("=", 1)
+        key, values = parse_assignment(item, "--cell")
+        if (problem := _args.unknown_parameter(key)) is not None:
+            raise ValueError(problem)
         check_overrides({key: None})
-        cells = [dict(c, **{key: _parse_value(key, v)}) for c in cells for v in values.split(",")]
+        cells = [dict(c, **{key: parse_value(key, v)}) for c in cells for v in values.split(",")]
     return [(";".join(f"{k}={v}" for k, v in c.items()) or "all", base.replace(**c)) for c in cells]
 
 
@@ -195,21 +186,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--out", help="write the results as JSON here")
     p.add_argument("--markdown", help="write the table as Markdown here")
+    _args.add_overwrite(p, "the --out and --markdown files (--cache is read and extended, never refused)")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_args
-
-    check_output_args(p.error, cache=args.cache, out=args.out, markdown=args.markdown)  # refused before any run
-
-    cells = build_cells(args.scenario, args.cell, args.set)
+    _args.outputs(p, args.overwrite, out=args.out, markdown=args.markdown)  # refused before any run
+    _args.outputs(p, True, cache=args.cache)  # a cache is meant to be there: read, then extended
+    _args.count(p, args.episodes, "--episodes", low=2)
+    seeds = _args.seeds(p, args.seed, args.episodes)
+    base = _args.scenario_config(p, args.scenario, _args.overrides(p, args.set))
+    try:
+        cells = build_cells(base, args.cell)
+    except ValueError as err:
+        p.error(f"--cell: {_args.first_line(err)}" if not str(err).startswith("--cell") else _args.first_line(err))
     specs = []
-    for item in args.policies.split(","):
+    for item in _args.names(p, args.policies, "--policies"):
         label, _, spec = item.strip().partition("=")
         specs.append((label, spec) if spec else (label, label))
-    seeds = [args.seed + i for i in range(args.episodes)]
+    for _, spec in dict.fromkeys(specs):  # each loads and drives the scenario: one line now, not after the planners
+        _args.policy(p, spec, cells[0][1], seeds[0], "--policies")
     cache = {}
     if args.cache and os.path.isfile(args.cache):
-        with open(args.cache) as f:
-            cache = json.load(f)
+        from coopnav_env.safe_load import read_json
+
+        try:
+            cache = read_json(args.cache)
+        except ValueError as err:
+            p.error(f"--cache {args.cache}: not a JSON cache of this script ({_args.first_line(err)})")
+        if not isinstance(cache, dict):
+            p.error(f"--cache {args.cache}: not a JSON cache of this script (a {type(cache).__name__})")
 
     results, jobs = {}, []
     for label, config in cells:

@@ -64,8 +64,21 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"range_model.py: {exc}", file=sys.stderr)
         return 2
-    if args.runs < 2:
-        print("range_model.py: --runs must be at least 2 (a paired interval)", file=sys.stderr)
+    if not cases or not [q for q in args.planners.split(",") if q]:  # an empty table is no answer
+        what = "--cases" if not cases else "--planners"
+        print(
+            f"range_model.py: {what} names nothing (got {getattr(args, what[2:])!r}): give at least one",
+            file=sys.stderr,
+        )
+        return 2
+    from evaluation.limits import MAX_BATCH_SIZE
+
+    if not 2 <= args.runs <= MAX_BATCH_SIZE:  # the runs are one batch
+        print(
+            f"range_model.py: --runs must be in [2, {MAX_BATCH_SIZE}] (a paired interval needs two; "
+            f"evaluation.limits.MAX_BATCH_SIZE), got {args.runs}",
+            file=sys.stderr,
+        )
         return 2
     import inspect
 

@@ -18,6 +18,11 @@ import os
 import sys
 from collections.abc import Sequence
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -30,17 +35,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with open(src) as f:
             results = json.load(f)
-        results["task_sets"]
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        print(f"resummarize.py: error: {src}: not a benchmark result ({str(err).splitlines()[0]})", file=sys.stderr)
-        return 2
+        problem = _args.benchmark_results_problem(results)
+        if problem is not None:
+            raise ValueError(problem)
+    except (OSError, ValueError) as err:
+        p.error(f"{src}: not a benchmark result ({_args.first_line(err)})")
     if os.path.abspath(args.out) == os.path.abspath(args.results_dir):
-        print("resummarize.py: error: --out must differ from RESULTS_DIR (the run stays as it was)", file=sys.stderr)
-        return 2
-    if os.path.exists(os.path.join(args.out, "results.json")) and not args.overwrite:
-        print(f"resummarize.py: error: {args.out!r} holds a result; use --overwrite or another --out", file=sys.stderr)
-        return 2
-    from evaluation.benchmark import resummarize, write_results
+        p.error("--out must differ from RESULTS_DIR (the run stays as it was)")
+    from evaluation.benchmark import check_out_folder, resummarize, write_results
+    from evaluation.errors import UsageError
+
+    try:  # the benchmark's own check of its --out: not a file, no evaluate.py result, writable
+        check_out_folder(args.out, args.overwrite)
+    except UsageError as err:
+        p.error(str(err))
 
     files = write_results(args.out, resummarize(results), figures=not args.no_figures)
     print(f"wrote {args.out}/: {', '.join(os.path.basename(f) for f in files)}")

@@ -36,6 +36,11 @@ import time
 import warnings
 from collections.abc import Sequence
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
 
 
@@ -56,6 +61,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     for name in ("batch", "minibatch", "epochs", "iterations", "sb3_envs", "envs_per_runner"):
         if getattr(args, name) < 1:
             p.error(f"--{name.replace('_', '-')} must be at least 1, got {getattr(args, name)}")
+    _args.int_list(p, args.net, "--net")  # the hidden layers: checked before either library is timed
     try:
         runners = [int(r) for r in args.rllib_runners.split(",") if r.strip()]
         if any(r < 0 for r in runners):

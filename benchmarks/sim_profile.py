@@ -44,8 +44,24 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a scenario parameter")
     a = p.parse_args(argv)
-    if a.batch < 1 or a.steps < 1 or a.warmup < 0:
-        print("sim_profile: --batch and --steps must be at least 1, --warmup at least 0", file=sys.stderr)
+    try:
+        from benchmarks._args import MAX_BATCH, MAX_STEPS
+    except ImportError:  # run as a script: its own folder is on the path, not the checkout
+        from _args import MAX_BATCH, MAX_STEPS  # type: ignore[no-redef]
+    if not (1 <= a.batch <= MAX_BATCH and 1 <= a.steps <= MAX_STEPS and 0 <= a.warmup <= MAX_STEPS):
+        print(
+            f"sim_profile: --batch must be in [1, {MAX_BATCH}] (benchmarks._args.MAX_BATCH), "
+            f"--steps in [1, {MAX_STEPS}] "
+            f"and --warmup in [0, {MAX_STEPS}] (benchmarks._args.MAX_STEPS); got {a.batch}, {a.steps}, {a.warmup}",
+            file=sys.stderr,
+        )
+        return 2
+    from coopnav_env.seeds import check_seed
+
+    try:
+        check_seed(a.seed, "--seed")
+    except ValueError as e:
+        print(f"sim_profile: {e}", file=sys.stderr)
         return 2
 
     import numpy as np

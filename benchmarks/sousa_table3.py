@@ -43,6 +43,11 @@ import numpy as np
 from evaluation.paired import t_interval
 from evaluation.parallel import Cell, check_workers, run_cells
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 if TYPE_CHECKING:
     from coopnav_env.scenarios import ScenarioConfig
 
@@ -175,12 +180,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="worker processes (0: every core; --jobs: old name); the results are the same for any N",
     )
     p.add_argument("--markdown", help="also write the report here")
+    _args.add_overwrite(p, "the --markdown file")
     args = p.parse_args(argv)
-    from coopnav_env.records import check_output_args
-
-    check_output_args(p.error, markdown=args.markdown)  # refused before any run
-
-    seeds = [args.seed + i for i in range(args.episodes)]
+    _args.outputs(p, args.overwrite, markdown=args.markdown)  # refused before any run
+    _args.count(p, args.episodes, "--episodes", low=2)
+    seeds = _args.seeds(p, args.seed, args.episodes)
+    _args.number(p, args.ping_interval, "--ping-interval", low=1e-3)
+    _args.number(p, args.duration, "--duration", low=args.ping_interval)
+    configs = {}
+    for path in PATHS:  # the scenario's own ranges (depth_m, circle_radius_m, max_cycles...): one line now
+        try:
+            configs[path] = make_path_config(path, args)
+        except ValueError as err:
+            options = {"depth_m": "--depth", "circle_radius_m": "--circle-radius", "ping_interval_s": "--ping-interval"}
+            option = next((o for k, o in options.items() if k in str(err)), "--duration")
+            p.error(f"{option}: {_args.first_line(err)}")
     labels = [n for n, _, _ in APPROACHES]
     try:
         workers = check_workers(args.jobs)
@@ -188,7 +202,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(str(err))
     keys = [(path, n) for path in PATHS for n, _, _ in APPROACHES]
     cells = [
-        Cell(make_path_config(path, args), spec(pol, kw), tuple(seeds), label=f"{path} {n}")
+        Cell(configs[path], spec(pol, kw), tuple(seeds), label=f"{path} {n}")
         for path in PATHS
         for n, pol, kw in APPROACHES
     ]

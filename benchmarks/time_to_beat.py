@@ -250,6 +250,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if (args.out / "time_to_beat.json").exists() and not args.overwrite:
         p.error(f"--out: {args.out} holds a result; --overwrite replaces it")
+    from coopnav_env.records import check_writable
+
+    try:  # a file, or a folder that cannot be written: one line before any training
+        check_writable(args.out)
+    except OSError as err:
+        p.error(f"--out: {err}")
     args.out.mkdir(parents=True, exist_ok=True)
     from coopnav_env.progress import Progress
 

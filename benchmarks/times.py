@@ -180,18 +180,26 @@ def main(argv: list[str] | None = None) -> int:
         p.error(str(err))
     from coopnav_env.progress import format_seconds, say
 
-    args.out.mkdir(parents=True, exist_ok=True)
     items = _items(args.out.resolve(), args.workers)
-    if args.list:
+    if args.list:  # nothing written: the folder is made only for a measurement
         for name, (what, cmd, _) in items.items():
             print(f"{name}: {what}\n    {shlex.join(cmd)}")
         return 0
     names = list(items) if args.only is None else [n.strip() for n in args.only.split(",") if n.strip()]
+    if not names:
+        p.error(f"--only names nothing (got {args.only!r}): give at least one item (--list shows them)")
     unknown = [n for n in names if n not in items]
     if unknown:
         from coopnav_env.names import did_you_mean
 
         p.error(f"unknown item {unknown[0]!r}{did_you_mean(unknown[0], items)} valid: {', '.join(items)}")
+    from coopnav_env.records import check_writable
+
+    try:
+        check_writable(args.out)
+    except OSError as err:
+        p.error(f"--out: {err}")
+    args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for k, name in enumerate(names):
         what, cmd, cwd = items[name]

@@ -55,6 +55,11 @@ import tempfile
 import time
 import warnings
 from collections.abc import Sequence
+
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -379,6 +384,7 @@ def measure_torchrl(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from agents.training.cli import threads_arg  # train.py's --threads: 1 to this machine's CPUs
     from agents.training.config import ConfigError, TrainConfig, hyperparameter_file, load_config
 
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -399,7 +405,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="CoopNavVecEnv builds every row's info dict every step (train.py does not)",
     )
-    p.add_argument("--threads", type=int, default=1, help="torch threads (train.py's default: 1)")
+    p.add_argument("--threads", type=threads_arg, default=1, help="torch threads (train.py's default and range: 1)")
     p.add_argument("--torchrl", default="", help="also BenchMARL on the TorchRL env: mappo, ippo or mappo,ippo")
     p.add_argument(
         "--loop",
@@ -432,13 +438,38 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ConfigError as err:
         print(f"train_throughput.py: error: {err}", file=sys.stderr)
         return 2
-    n_envs = args.n_envs or config.n_envs
-    import torch
-
-    torch.set_num_threads(args.threads)
+    n_envs = config.n_envs if args.n_envs is None else args.n_envs
+    _args.count(p, n_envs, "--n-envs", bound="MAX_ENVS")
+    _args.count(p, args.rollouts, "--rollouts", bound="MAX_STEPS")
+    _args.seeds(p, args.seed)
+    _args.count(p, args.supersuit_cpus, "--supersuit-cpus", low=0, bound="MAX_ENVS")
     kinds = [args.only] if args.only else ["coopnav", "supersuit"]
     if args.only == "none":
         kinds = []
+    batched = [("--torchrl", args.torchrl, measure_torchrl), ("--loop", args.loop, measure_loop)]
+    for flag, algorithms, _ in batched:  # every setting of the batched runs, before the first measurement
+        for algorithm in [a for a in algorithms.split(",") if a]:
+            if algorithm not in ("mappo", "ippo"):
+                p.error(f"{flag} takes mappo and ippo, got {algorithm!r}")
+    if args.torchrl or args.loop:
+        torchrl_n_envs = _args.int_list(p, args.torchrl_n_envs, "--torchrl-n-envs", high=_args.MAX_ENVS)
+        net = _args.int_list(p, args.torchrl_net, "--torchrl-net")
+        _args.count(p, args.torchrl_steps, "--torchrl-steps", bound="MAX_STEPS")
+        _args.count(p, args.torchrl_minibatch, "--torchrl-minibatch", bound="MAX_ENVS")
+        _args.count(p, args.torchrl_epochs, "--torchrl-epochs", bound="MAX_STEPS")
+    import importlib.util
+
+    if "supersuit" in kinds and importlib.util.find_spec("supersuit") is None:  # the [bench] extra: now, not after
+        p.error(  # the coopnav measurement
+            "the SuperSuit comparison needs supersuit (pip install -e '.[bench]'); "
+            "or measure without it: --only coopnav"
+        )
+    for flag, module in (("--torchrl", "benchmarl"), ("--loop", "torchrl")):
+        if getattr(args, flag[2:]) and importlib.util.find_spec(module) is None:
+            p.error(f"{flag} needs {module}, the marl extra (pip install -e '.[marl]')")
+    import torch
+
+    torch.set_num_threads(args.threads)
     results = []
 
     def done(r: dict) -> None:  # each figure on stderr as it comes: a long run killed early keeps them
@@ -459,14 +490,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                 args.training_reward,
             )
         )
-    batched = [("--torchrl", args.torchrl, measure_torchrl), ("--loop", args.loop, measure_loop)]
     for flag, algorithms, measure_batched in batched:
         for algorithm in [a for a in algorithms.split(",") if a]:
-            if algorithm not in ("mappo", "ippo"):
-                print(f"train_throughput.py: error: {flag} takes mappo and ippo, got {algorithm!r}", file=sys.stderr)
-                return 2
             extra = {"activation": args.torchrl_activation} if flag == "--torchrl" else {}
-            for n in (int(v) for v in args.torchrl_n_envs.split(",")):
+            for n in torchrl_n_envs:
                 done(
                     measure_batched(
                         algorithm,
@@ -476,7 +503,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         args.torchrl_steps,
                         args.torchrl_minibatch,
                         args.torchrl_epochs,
-                        [int(v) for v in args.torchrl_net.split(",")],
+                        net,
                         args.rollouts,
                         args.seed,
                         args.threads,

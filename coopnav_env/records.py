@@ -78,25 +78,32 @@ def check_writable(out: str | os.PathLike[str]) -> None:
     os.unlink(tmp)
 
 
-def check_output_file(path: str | os.PathLike[str]) -> None:
-    """An ``OSError`` (one line) if the file ``path`` cannot be written: it is a folder, or
-    nothing can be written where it would go (``check_writable`` of its folder). Scripts call
-    it before their runs, so a table's path is refused at once, not after the runs."""
+def check_output_file(path: str | os.PathLike[str], overwrite: bool = False) -> None:
+    """An ``OSError`` (one line) if the file ``path`` cannot be written: it is a folder, it
+    exists and ``overwrite`` is false (a table or figure is not replaced silently: the
+    scripts' ``--overwrite``), or nothing can be written where it would go (``check_writable``
+    of its folder). Scripts call it before their runs, so a table's path is refused at once,
+    not after the runs."""
     target = os.path.abspath(os.fspath(path))
     if os.path.isdir(target):
         raise OSError(f"{os.fspath(path)} is a folder, not a file")
+    if os.path.lexists(target) and not overwrite:
+        raise OSError(f"{os.fspath(path)} exists; pass --overwrite to replace it")
     check_writable(os.path.dirname(target))
 
 
-def check_output_args(error: Callable[[str], Any], **files: str | os.PathLike[str] | None) -> None:
+def check_output_args(
+    error: Callable[[str], Any], overwrite: bool = False, **files: str | os.PathLike[str] | None
+) -> None:
     """``check_output_file`` of each given file flag (``markdown=args.markdown``; None: not
     given), reporting the first that cannot be written through ``error`` (argparse's
-    ``parser.error``: one line, exit 2) as ``--markdown: ...``. The measurement scripts call it
-    right after parsing, before any run."""
+    ``parser.error``: one line, exit 2) as ``--markdown: ...``; an existing file is refused
+    unless ``overwrite`` (the script's ``--overwrite``). The measurement scripts call it right
+    after parsing, before any run."""
     for name, path in files.items():
         if path is not None:
             try:
-                check_output_file(path)
+                check_output_file(path, overwrite=overwrite)
             except OSError as err:
                 error(f"--{name.replace('_', '-')}: {err}")
 

@@ -88,6 +88,7 @@ VERDICTS = ("win", "tie", "loss")
 __all__ = [
     "BenchmarkPlan",
     "RESULT_FILES",
+    "check_out_folder",
     "build_results",
     "compare_task",
     "main",
@@ -162,6 +163,33 @@ def _split(text) -> list:
     return [str(t).strip() for t in text if str(t).strip()]
 
 
+def check_out_folder(out: str, overwrite: bool) -> None:
+    """A one-line ``UsageError`` unless a benchmark result may be written into ``out``: not a
+    file, not in use by a running evaluation, no benchmark result there unless ``overwrite``,
+    never an evaluate.py result or a train.py run (``outdir.other_result`` the other way
+    round), and writable. The benchmark's and ``benchmarks/resummarize.py``'s one check."""
+    from coopnav_env.records import check_writable
+
+    from . import outdir
+
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise UsageError(f"output path {out!r} is a file, not a directory")
+    outdir.check_not_in_use(out)
+    held = [f for f in RESULT_FILES if os.path.exists(os.path.join(out, f))]
+    if held and not overwrite:
+        raise UsageError(
+            f"{out!r} holds a benchmark result ({', '.join(held)}); use --overwrite to replace it or another --out"
+        )
+    if outdir.has_results(out):
+        raise UsageError(f"{out!r} holds an evaluate.py result; use another --out")
+    if os.path.exists(os.path.join(out, "config.yml")):
+        raise UsageError(f"{out!r} holds a train.py run (config.yml); use another --out")
+    try:
+        check_writable(out)
+    except OSError as err:
+        raise UsageError(f"--out {out}: {err}") from None
+
+
 def plan_benchmark(
     tasks: str | Sequence[str],
     policies: str | Sequence[str] | None = None,
@@ -181,7 +209,6 @@ def plan_benchmark(
     benchmark: its result says so)."""
     from baselines import is_planner, list_policies, motion_name
 
-    from . import outdir
     from .config import _unknown_policy, coerce_value, resolve_trained
     from .episodes import check_policy
 
@@ -227,23 +254,8 @@ def plan_benchmark(
         raise UsageError(f"--episodes must be an integer, got {episodes!r}")
     if not 2 <= episodes <= TEST_SEED_COUNT:
         raise UsageError(f"--episodes must be in [2, {TEST_SEED_COUNT}] (an interval needs two), got {episodes}")
-    if check_out:
-        if os.path.exists(out) and not os.path.isdir(out):
-            raise UsageError(f"output path {out!r} is a file, not a directory")
-        outdir.check_not_in_use(out)
-        held = [f for f in RESULT_FILES if os.path.exists(os.path.join(out, f))]
-        if held and not overwrite:
-            raise UsageError(
-                f"{out!r} holds a benchmark result ({', '.join(held)}); use --overwrite to replace it or another --out"
-            )
-        if outdir.has_results(out):
-            raise UsageError(f"{out!r} holds an evaluate.py result; use another --out")
-        from coopnav_env.records import check_writable
-
-        try:  # before the policies are checked (which can compile the simulator for a minute)
-            check_writable(out)
-        except OSError as err:
-            raise UsageError(f"--out {out}: {err}") from None
+    if check_out:  # before the policies are checked (which can compile the simulator for a minute)
+        check_out_folder(out, overwrite)
     try:
         overrides = {k: coerce_value(k, v) for k, v in (overrides or {}).items()}
     except UsageError:
