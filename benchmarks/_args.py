@@ -121,20 +121,27 @@ def unknown_parameter(key: str) -> str | None:
     return f"unknown scenario parameter {key!r}{did_you_mean(key, valid)} see docs/reference/parameters.md"
 
 
-def overrides(parser: argparse.ArgumentParser, items: Iterable[str], option: str = "--set") -> dict[str, Any]:
+def scenario_overrides(items: Iterable[str], option: str = "--set") -> dict[str, Any]:
     """``--set KEY=VALUE`` items as scenario overrides, parsed as evaluate.py parses its own
     (``evaluation.config.parse_assignments`` and ``coerce_value``: the parameter's type; a key
-    given twice with two values refused), an unknown key named with the closest one."""
+    given twice with two values refused), an unknown key named with the closest one; a
+    ``ValueError`` of one line. For the scripts that report errors themselves; the others
+    call ``overrides``."""
     from coopnav_env.scenarios.base import check_overrides
     from evaluation.config import coerce_value, parse_assignments
 
+    texts = parse_assignments(items, option)
+    for key in texts:
+        if (problem := unknown_parameter(key)) is not None:
+            raise ValueError(f"{option}: {problem}")
+    check_overrides(dict.fromkeys(texts))
+    return {key: coerce_value(key, text) for key, text in texts.items()}
+
+
+def overrides(parser: argparse.ArgumentParser, items: Iterable[str], option: str = "--set") -> dict[str, Any]:
+    """``scenario_overrides`` reported through ``parser.error`` (one line, exit 2)."""
     try:
-        texts = parse_assignments(items, option)
-        for key in texts:
-            if (problem := unknown_parameter(key)) is not None:
-                _fail(parser, f"{option}: {problem}")
-        check_overrides(dict.fromkeys(texts))
-        return {key: coerce_value(key, text) for key, text in texts.items()}
+        return scenario_overrides(items, option)
     except ValueError as err:
         _fail(parser, f"{option}: {first_line(err)}" if not str(err).startswith(option) else first_line(err))
 

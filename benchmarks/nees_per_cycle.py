@@ -74,7 +74,6 @@ their defaults: the mean inside its band, at least 85 % of run-cycles in the ban
 from __future__ import annotations
 
 import argparse
-import ast
 import itertools
 import sys
 import time
@@ -401,19 +400,15 @@ def block_report(r: dict[str, Any], n: int, resamples: int = 100_000, seed: int 
 
 
 def parse_sets(items: list[str]) -> dict[str, Any]:
-    """The ``--set NAME=VALUE`` items as scenario overrides: a Python literal, else the text (a
-    name: ``beacon_error_fusion=schmidt``); a ``ValueError`` naming an item without a name or
-    an ``=``. Shared with ``benchmarks/beacon_covariance.py``."""
-    extra: dict[str, Any] = {}
-    for item in items:
-        key, eq, text = item.partition("=")
-        if not eq or not key.strip():
-            raise ValueError(f"--set expects NAME=VALUE, got {item!r:.40}")
-        try:
-            extra[key.strip()] = ast.literal_eval(text)
-        except (ValueError, SyntaxError):
-            extra[key.strip()] = text.strip()
-    return extra
+    """The ``--set NAME=VALUE`` items as scenario overrides, read as ``evaluate.py --set`` reads
+    them (``benchmarks._args.scenario_overrides``); a ``ValueError`` of one line. Shared with
+    ``benchmarks/beacon_covariance.py``."""
+    try:
+        from benchmarks._args import scenario_overrides
+    except ImportError:  # run as a script: its own folder is on the path, not the checkout
+        from _args import scenario_overrides  # type: ignore[no-redef]
+
+    return scenario_overrides(items)
 
 
 def check_run_args(runs: int, seed: int, markdown: str | None, overwrite: bool = False) -> str | None:

@@ -17,22 +17,8 @@ reads its figures. This is a script, not a test: nothing here is timed under pyt
 from __future__ import annotations
 
 import argparse
-import ast
 import sys
 import time
-
-
-def _overrides(pairs: list[str]) -> dict:
-    out = {}
-    for pair in pairs:
-        key, sep, value = pair.partition("=")
-        if not sep or not key:
-            raise ValueError(f"--set takes KEY=VALUE, got {pair!r}")
-        try:
-            out[key] = ast.literal_eval(value)
-        except (ValueError, SyntaxError):
-            out[key] = value  # a bare word: a string such as gate
-    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -70,7 +56,11 @@ def main(argv: list[str] | None = None) -> int:
     from coopnav_env.core import make_simulator
 
     try:
-        overrides = _overrides(a.set)
+        try:
+            from benchmarks._args import scenario_overrides
+        except ImportError:  # run as a script: its own folder is on the path
+            from _args import scenario_overrides  # type: ignore[no-redef]
+        overrides = scenario_overrides(a.set)
         sim = make_simulator(make_config(a.scenario, **overrides), a.batch)
     except (KeyError, ValueError, TypeError) as e:
         print(f"sim_profile: {e}", file=sys.stderr)

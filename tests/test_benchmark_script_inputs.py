@@ -442,3 +442,23 @@ def test_a_script_run_directly_finds_its_shared_checks(tmp_path):
         env=env,
     )
     _refused(r.returncode, r.stderr, "no beacon AUV")
+
+
+def test_the_nees_and_profile_scripts_read_set_as_evaluate_does():
+    """nees_per_cycle (and beacon_covariance through it) and sim_profile had parsers of their
+    own, which took a key given twice as its last value and a misspelt key as a new one."""
+    from benchmarks.nees_per_cycle import parse_sets
+
+    assert parse_sets(["beacon_error_fusion=white", "depth_m=5"]) == {"beacon_error_fusion": "white", "depth_m": 5.0}
+    with pytest.raises(ValueError, match="--set beacon_error_fusion given twice"):
+        parse_sets(["beacon_error_fusion=white", "beacon_error_fusion=schmidt"])
+    with pytest.raises(ValueError, match="did you mean 'beacon_error_fusion'"):
+        parse_sets(["beacon_eror_fusion=white"])
+    r = subprocess.run(
+        [sys.executable, str(ROOT / "benchmarks" / "sim_profile.py"), "--set", "depth_m=5", "--set", "depth_m=6"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
+    assert r.returncode == 2 and "--set depth_m given twice" in r.stderr, r.stderr[-400:]
