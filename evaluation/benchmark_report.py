@@ -9,7 +9,7 @@ import os
 
 from coopnav_env.records import atomic_write_text, strict_json
 
-RESULT_FILES = ("results.json", "results.md")
+from .outdir import BENCHMARK_RESULT_FILES as RESULT_FILES  # one home: evaluate.py refuses a folder holding them
 
 
 def _cells(task: dict, cols: list, cell) -> list:

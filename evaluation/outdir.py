@@ -30,6 +30,7 @@ from .limits import MAX_EPISODES
 
 FORMAT_VERSION = 3  # 3: + pings, collisions, energy_J; 2: CSV floats written with repr (exact); 1 (absent): rounded
 RESULT_FILES = ("run.json", "episodes.csv", "steps.csv", "checksums.json", "summary.json", "summary.md")
+BENCHMARK_RESULT_FILES = ("results.json", "results.md")  # a benchmark's (evaluation.benchmark_report)
 SUMMARY_FILES = ("summary.json", "summary.md")
 FIGURE_FILES = ("paths.png", "error_vs_time.png", "ellipse_axes.png", "frame_errors.png", "sweep.png")
 LOCK_FILE = ".evaluate.lock"
@@ -50,9 +51,7 @@ def other_result(out: str) -> str | None:
     """What else ``out`` holds that an evaluation must not write beside (or, with
     ``--overwrite``, half replace): a benchmark's result, or a ``train.py`` run. None:
     nothing of the kind."""
-    from .benchmark_report import RESULT_FILES as BENCHMARK_FILES
-
-    held = [f for f in BENCHMARK_FILES if os.path.exists(os.path.join(out, f))]
+    held = [f for f in BENCHMARK_RESULT_FILES if os.path.exists(os.path.join(out, f))]
     if held:
         return f"a benchmark result ({', '.join(held)})"
     if os.path.exists(os.path.join(out, "config.yml")) and any(
