@@ -182,7 +182,7 @@ def check_out_folder(out: str, overwrite: bool) -> None:
         )
     if outdir.has_results(out):
         raise UsageError(f"{out!r} holds an evaluate.py result; use another --out")
-    if os.path.exists(os.path.join(out, "config.yml")):
+    if outdir.is_training_run(out):
         raise UsageError(f"{out!r} holds a train.py run (config.yml); use another --out")
     try:
         check_writable(out)

@@ -54,11 +54,17 @@ def other_result(out: str) -> str | None:
     held = [f for f in BENCHMARK_RESULT_FILES if os.path.exists(os.path.join(out, f))]
     if held:
         return f"a benchmark result ({', '.join(held)})"
-    if os.path.exists(os.path.join(out, "config.yml")) and any(
-        os.path.exists(os.path.join(out, f)) for f in ("model.safetensors", "checkpoints", ".train.owner.json")
-    ):
+    if is_training_run(out):
         return "a train.py run (config.yml); evaluate its policy with --policies " + out
     return None
+
+
+def is_training_run(out: str) -> bool:
+    """Whether ``out`` holds a ``train.py`` run: its config.yml beside a model, its
+    checkpoints or its trainer's lock record."""
+    return os.path.exists(os.path.join(out, "config.yml")) and any(
+        os.path.exists(os.path.join(out, f)) for f in ("model.safetensors", "checkpoints", ".train.owner.json")
+    )
 
 
 def snapshot(out: str) -> tuple:

@@ -204,3 +204,19 @@ def test_a_training_run_without_tensorboard_leaves_nothing_in_the_temporary_fold
     assert tiny_training(tmp_path / "run", config) == 0
     assert not (tmp_path / "run" / "tb").exists()
     assert [p.name for p in scratch.iterdir() if p.name.startswith("SB3-")] == []
+
+
+def test_the_benchmark_refuses_a_training_run_folder_but_not_a_stray_config_file(tmp_path, capsys):
+    from evaluation import benchmark
+
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "config.yml").write_text("args: {}\n")
+    # an unknown policy too, refused after the folder: a folder taken is seen by that message
+    argv = ["--tasks", "gao_sea", "--policies", "nope", "--episodes", "2", "--no-figures", "--out", str(out)]
+    assert benchmark.main(argv) == 2
+    assert "nope" in capsys.readouterr().err  # a config.yml alone is someone's file, not a run
+    (out / "model.safetensors").write_bytes(b"")
+    assert benchmark.main(argv + ["--overwrite"]) == 2
+    err = capsys.readouterr().err
+    assert "holds a train.py run" in err and "nope" not in err
