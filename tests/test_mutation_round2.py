@@ -592,3 +592,68 @@ def test_geofence_term_reads_each_bound_on_its_own_axis():
     outside = (pos[:, 0] < e0) | (pos[:, 0] > e1) | (pos[:, 1] < n0) | (pos[:, 1] > n1)
     assert outside.tolist() == [False, True, True], pos
     np.testing.assert_array_equal(res.terms["geofence"][:, 0], outside.astype(float))
+
+
+# ------------------------------------------------------------------------------------
+# the channel's slot, on the sonar link (the helpers of tests/test_channel.py)
+
+
+def test_a_ping_is_decoded_when_its_uniform_is_at_least_one_minus_its_success_probability():
+    """At 5 km the sonar link delivers with P = 0.60 (tests/test_channel.py by hand): lost if
+    u < 1 - P = 0.40, so u = 0.45 decodes and u = 0.35 is lost (kills ``u >= P``, which
+    would lose both; u = 0 and u near 1 cannot tell the two apart)."""
+    from test_channel import _decide_sim as decide_sim
+    from test_channel import _draws, _place, _tx
+
+    sim = decide_sim(B=2)
+    _place(sim, [[5000.0, 0.0], [1e5, 0.0]], [[0.0, 0.0]])
+    p = sim.channel.pings(_tx(2, [True, False]), _draws(sim))[1].outcome.p_success[0, 0, 2]
+    assert p == pytest.approx(0.60, abs=0.01)
+    ok, slot = sim.channel.pings(_tx(2, [True, False]), _draws(sim, acoustic_u0=[[[0.45]], [[0.35]]]))
+    assert ok[:, 0, 0].tolist() == [True, False] and slot.lost[:, 0, 2].tolist() == [False, True]
+
+
+def test_a_survey_vehicle_replies_when_it_decoded_any_ping_not_only_when_it_decoded_all():
+    """Beacon 0 at 1 km and beacon 1 100 km away both ping: the survey vehicle decodes only
+    beacon 0's and replies, so the slot it is resolved in holds its reply, which reaches
+    beacon 0 (kills ``.all`` for ``.any`` over the beacons, which keeps it silent)."""
+    from test_channel import _decide_sim as decide_sim
+    from test_channel import _draws, _place, _tx
+
+    sim = decide_sim(B=1)
+    _place(sim, [[1000.0, 0.0], [1e5, 0.0]], [[0.0, 0.0]])
+    ok, slot = sim.channel.pings(_tx(1, [True, True]), _draws(sim, acoustic_u0=0.5))
+    assert ok[0, :, 0].tolist() == [True, False]
+    reply_arrival = slot.outcome.arrival_s[0, 2, 0]  # [sender: the survey vehicle, receiver: beacon 0]
+    assert np.isfinite(reply_arrival) and reply_arrival == pytest.approx(
+        sim.channel.timing.reply_at_s + 1000.0 / 1500.0, abs=0.05
+    )
+
+
+def test_random_offsets_span_the_last_beacons_stagger_not_one_step():
+    """``ping_offsets="random"``: each beacon's start is u x the last staggered offset,
+    (N - 1) x step (kills u x step, the same only for two beacons). Three ASVs need a
+    longer slot: 40 s."""
+    from test_channel import _decide_sim as decide_sim
+
+    sim = decide_sim(B=2, ping_offsets="random", beacon_kinds=("asv", "asv", "asv"), ping_interval_s=40.0)
+    t = sim.channel.timing
+    assert t.last_offset_s == pytest.approx(2 * t.step_s)
+    d = dict(sim._cycle_draws(sim.state.cycle))
+    d["ping_offset_u"] = np.full_like(d["ping_offset_u"], 0.75)
+    np.testing.assert_allclose(sim.channel.offsets_s(d), 0.75 * 2 * (5.0 + 1500.0 / 1400.0), rtol=1e-12)
+
+
+def test_a_beacon_deaf_to_the_other_while_sending_loses_its_message_but_the_other_does_not():
+    """Staggered pings of two beacons 2 km apart: A sends over [0, 5] s, B over [6.07, 11.07] s.
+    A's ping reaches B over [1.33, 6.33] s, while B has begun sending: B is deaf to it. B's
+    reaches A at 7.4 s, after A finished: A hears it. So peer_ok [receiver, sender] is
+    [A, B] True, [B, A] False (kills the [sender, receiver] deafness read unswapped)."""
+    from test_channel import _decide_sim as decide_sim
+    from test_channel import _draws, _place, _tx
+
+    sim = decide_sim(B=1)
+    _place(sim, [[1000.0, 0.0], [-1000.0, 0.0]], [[0.0, 300.0]])
+    _, peer_ok, o = sim.channel.replies(_tx(1, [True, True]), np.ones((1, 1), bool), _draws(sim, message_u=0.5))
+    assert o.deaf[0, 0, 1] and not o.deaf[0, 1, 0]  # [sender, receiver]: B deaf to A's ping only
+    assert peer_ok[0, 0, 1] and not peer_ok[0, 1, 0]
