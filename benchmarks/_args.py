@@ -181,6 +181,19 @@ def policy(parser: argparse.ArgumentParser, name: str, config: Any, seed: int, o
         _fail(parser, f"{option} {name!r} cannot drive {config.name}: {first_line(err)}{hint}")
 
 
+def planner(parser: argparse.ArgumentParser, name: str, config: Any, seed: int, option: str) -> None:
+    """Refuse ``name`` unless it is a baselines planner (a spec ``NAME:KEY=VALUE,...`` or
+    ``MOTION+SCHEDULE`` of one) that can drive ``config`` (``policy``), naming the closest
+    planner: for the scripts whose runs ``baselines.make_policy`` drives."""
+    import baselines
+    from coopnav_env.names import did_you_mean
+
+    if not baselines.is_planner(name):
+        motion, valid = baselines.motion_name(name), baselines.list_policies(config.network)
+        _fail(parser, f"{option}: {motion!r} is not a planner{did_you_mean(motion, valid)} valid: {', '.join(valid)}")
+    policy(parser, name, config, seed, option)
+
+
 def task_set(parser: argparse.ArgumentParser, name: str, option: str = "--tasks") -> Any:
     """The benchmark task set ``name`` (``evaluation.tasks.get_task_set``), else one line
     naming the closest."""

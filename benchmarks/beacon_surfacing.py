@@ -73,16 +73,7 @@ def main(argv: list[str] | None = None) -> int:
             f"--scenario {args.scenario} has no beacon AUV (beacons: {', '.join(config.beacon_kinds)}): nothing "
             f"surfaces; scenarios with one: {', '.join(with_auv)}"
         )
-    import baselines
-
-    if not baselines.is_planner(args.planner):  # the runs are driven by baselines' planners
-        from coopnav_env.names import did_you_mean
-
-        valid = baselines.list_policies(config.network)
-        ap.error(
-            f"--planner: {args.planner!r} is not a planner{did_you_mean(args.planner, valid)} valid: {', '.join(valid)}"
-        )
-    _args.policy(ap, args.planner, config, args.seed, "--planner")
+    _args.planner(ap, args.planner, config, args.seed, "--planner")  # the runs are driven by baselines' planners
     f = surfacing_figures(args.scenario, args.planner, overrides, args.runs, args.seed)
     print(f"{args.scenario} ({args.planner}, {args.runs} runs, seed {args.seed}, set {overrides or '-'})")
     for k, v in f.items():

@@ -312,20 +312,11 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     _args.count(p, args.episodes, "--episodes", low=0, bound="MAX_BATCH_SIZE")
     if args.episodes > 0:
-        import baselines
-        from coopnav_env.names import did_you_mean
-
         _args.count(p, args.episodes, "--episodes", low=2)  # a standard deviation needs two
         _args.seeds(p, args.seed, args.episodes)
         extra = _args.overrides(p, args.set)
         config = _args.scenario_config(p, args.scenario, extra)
-        if not baselines.is_planner(args.policy):  # the episodes are driven by baselines.make_policy
-            valid = baselines.list_policies(config.network)
-            p.error(
-                f"--policy: {args.policy!r} is not a planner{did_you_mean(args.policy, valid)} "
-                f"valid: {', '.join(valid)}"
-            )
-        _args.policy(p, args.policy, config, args.seed, "--policy")
+        _args.planner(p, args.policy, config, args.seed, "--policy")  # the episodes are driven by make_policy
         _print_episodes(episodes(args.scenario, args.policy, args.episodes, args.seed, extra))
         return 0
     for name in FIGURES:  # refused before anything is drawn

@@ -101,13 +101,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         spec = importlib.util.spec_from_file_location("horizon_vs_greedy", here)
         module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
         spec.loader.exec_module(module)  # type: ignore[union-attr]
-        from baselines import is_planner
-
         for v in args.variant:
             name, planner = module.variant_spec(v)  # (NAME, the planner spec it stands for)
-            if not is_planner(planner.split(":")[0]):
-                p.error(f"--variant {v!r}: {planner.split(':')[0]!r} is not a planner (NAME:BASE:KEY=VALUE,...)")
-            _args.policy(p, planner, config, args.seed, f"--variant {name}")
+            _args.planner(p, planner, config, args.seed, f"--variant {v!r} (NAME:BASE:KEY=VALUE,...)")
             names.append((name, planner))
     if args.pin and hasattr(os, "sched_setaffinity"):  # once every input is checked
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})

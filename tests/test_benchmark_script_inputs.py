@@ -38,7 +38,7 @@ def _call(capsys, monkeypatch, script: str, argv: list, trap: str | None = None)
     return code, out.err, out.out
 
 
-def _refused(code, err: str, needle: str) -> None:
+def assert_refused(code, err: str, needle: str) -> None:
     """Exit 2, no traceback, and one message line (argparse's usage lines before it aside)."""
     assert code == 2, (code, err[-600:])
     assert "Traceback" not in err, err[-600:]
@@ -150,20 +150,20 @@ CASES = [
 @pytest.mark.parametrize(("script", "argv", "says", "trap"), CASES, ids=[f"{c[0]} {' '.join(c[1])}" for c in CASES])
 def test_bad_input_is_one_line_before_any_run(capsys, monkeypatch, script, argv, says, trap):
     code, err, _ = _call(capsys, monkeypatch, script, argv, trap)
-    _refused(code, err, says)
+    assert_refused(code, err, says)
 
 
 def test_ping_tradeoff_refuses_a_policy_folder_without_a_model_before_the_planners(tmp_path, capsys, monkeypatch):
     """It was refused after 88 s of planner runs."""
     code, err, _ = _call(capsys, monkeypatch, "ping_tradeoff", ["--episodes", "2", "--policies", str(tmp_path)], "run")
-    _refused(code, err, "holds no model")
+    assert_refused(code, err, "holds no model")
 
 
 def test_policy_vs_planners_refuses_a_cache_that_is_not_json(tmp_path, capsys, monkeypatch):
     cache = tmp_path / "cache.json"
     cache.write_text("")
     code, err, _ = _call(capsys, monkeypatch, "policy_vs_planners", ["--cache", str(cache)], "run_cells_of")
-    _refused(code, err, "--cache")
+    assert_refused(code, err, "--cache")
 
 
 def test_train_throughput_asks_for_supersuit_before_the_run(capsys, monkeypatch):
@@ -173,7 +173,7 @@ def test_train_throughput_asks_for_supersuit_before_the_run(capsys, monkeypatch)
     if importlib.util.find_spec("supersuit") is not None:
         pytest.skip("supersuit is installed: nothing to refuse")
     code, err, _ = _call(capsys, monkeypatch, "train_throughput", ["--rollouts", "1", "--n-envs", "2"], "measure")
-    _refused(code, err, "supersuit")
+    assert_refused(code, err, "supersuit")
 
 
 def test_rllib_vs_sb3_refuses_a_net_that_is_not_numbers(capsys):
@@ -181,19 +181,19 @@ def test_rllib_vs_sb3_refuses_a_net_that_is_not_numbers(capsys):
 
     with pytest.raises(SystemExit) as stop:
         rllib_vs_sb3.parse_args(["--net", "abc"])
-    _refused(stop.value.code, capsys.readouterr().err, "--net")
+    assert_refused(stop.value.code, capsys.readouterr().err, "--net")
 
 
 def test_entity_update_says_a_team_that_is_not_yaml_in_one_line(capsys, monkeypatch):
     code, err, _ = _call(capsys, monkeypatch, "entity_update", ["--team", "{"], "observations")
-    _refused(code, err, "--team is not YAML")
+    assert_refused(code, err, "--team is not YAML")
 
 
 def test_time_to_beat_refuses_an_out_that_is_a_file(tmp_path, capsys, monkeypatch):
     afile = tmp_path / "afile"
     afile.write_text("")
     code, err, _ = _call(capsys, monkeypatch, "time_to_beat", ["--out", str(afile)], "train_until_beaten")
-    _refused(code, err, "not a folder")
+    assert_refused(code, err, "not a folder")
 
 
 # ------------------------------------------------------------------------------------
@@ -241,7 +241,7 @@ def test_benchmark_summary_refuses_a_result_it_cannot_summarize(tmp_path, capsys
     assert code in (0, None) and "`gao_lawnmower`" in out, err
     path.write_text(json.dumps(_broken(kind)))  # NaN is written as JSON's NaN token, which Python reads
     code, err, out = _call(capsys, monkeypatch, "benchmark_summary", [str(path)])
-    _refused(code, err, "not a benchmark results.json")
+    assert_refused(code, err, "not a benchmark results.json")
     assert "nan" not in out
 
 
@@ -251,7 +251,7 @@ def test_resummarize_refuses_a_result_it_cannot_summarize(tmp_path, capsys, monk
     (tmp_path / "run" / "results.json").write_text(json.dumps(_broken(kind)))
     out = tmp_path / "new"
     code, err, _ = _call(capsys, monkeypatch, "resummarize", [str(tmp_path / "run"), "--out", str(out)])
-    _refused(code, err, "not a benchmark result")
+    assert_refused(code, err, "not a benchmark result")
     assert not out.exists()
 
 
@@ -263,7 +263,7 @@ def test_resummarize_refuses_a_folder_holding_an_evaluation(tmp_path, capsys, mo
     evaluation.mkdir()
     (evaluation / "episodes.csv").write_text("policy,seed,mean_error_m\n")
     code, err, _ = _call(capsys, monkeypatch, "resummarize", [str(tmp_path / "run"), "--out", str(evaluation)])
-    _refused(code, err, "holds an evaluate.py result")
+    assert_refused(code, err, "holds an evaluate.py result")
     assert sorted(os.listdir(evaluation)) == ["episodes.csv"]
 
 
@@ -272,7 +272,7 @@ def test_resummarize_refuses_an_out_that_is_a_file(tmp_path, capsys, monkeypatch
     (tmp_path / "run" / "results.json").write_text(json.dumps(_benchmark_result()))
     (tmp_path / "afile").write_text("")
     code, err, _ = _call(capsys, monkeypatch, "resummarize", [str(tmp_path / "run"), "--out", str(tmp_path / "afile")])
-    _refused(code, err, "is a file")
+    assert_refused(code, err, "is a file")
 
 
 def _lever_result() -> dict:
@@ -301,14 +301,14 @@ def test_lever_table_paired_refuses_what_is_not_paired_numbers(tmp_path, capsys,
     path = tmp_path / "lv.json"
     path.write_text(json.dumps(result))
     code, err, _ = _call(capsys, monkeypatch, "lever_table", ["paired", str(path), "ellipse", "static"])
-    _refused(code, err, says)
+    assert_refused(code, err, says)
 
 
 def test_lever_table_summarize_refuses_a_policy_no_file_holds(tmp_path, capsys, monkeypatch):
     path = tmp_path / "lv.json"
     path.write_text(json.dumps(_lever_result()))
     code, err, _ = _call(capsys, monkeypatch, "lever_table", ["summarize", "--policy", "nope", str(path)])
-    _refused(code, err, "no policy 'nope'")
+    assert_refused(code, err, "no policy 'nope'")
 
 
 def test_beacon_covariance_says_n_a_not_nan(capsys, monkeypatch):
@@ -327,9 +327,9 @@ def test_times_lists_and_refuses_without_making_its_folder(tmp_path, capsys, mon
     code, err, listing = _call(capsys, monkeypatch, "times", ["--list", "--out", str(out)], "measure")
     assert code in (0, None) and "ci:" in listing, err
     code, err, _ = _call(capsys, monkeypatch, "times", ["--only", "nope", "--out", str(out)], "measure")
-    _refused(code, err, "unknown item 'nope'")
+    assert_refused(code, err, "unknown item 'nope'")
     code, err, _ = _call(capsys, monkeypatch, "times", ["--only", "", "--out", str(out)], "measure")
-    _refused(code, err, "--only names nothing")
+    assert_refused(code, err, "--only names nothing")
     assert not out.exists()
 
 
@@ -345,12 +345,12 @@ def test_marl_curves_refuses_a_log_it_cannot_draw(tmp_path, capsys, monkeypatch)
     bad.mkdir()
     (bad / "log.jsonl").write_text("[1]\n")
     code, err, _ = _call(capsys, monkeypatch, "marl_curves", [f"a={bad}", "--out", str(tmp_path / "a.png")])
-    _refused(code, err, "not a batched PPO log")
+    assert_refused(code, err, "not a batched PPO log")
     short = _marl_run(tmp_path / "short", rows=2)
     code, err, _ = _call(capsys, monkeypatch, "marl_curves", [f"a={short}", "--out", str(tmp_path / "b.png")])
-    _refused(code, err, "fewer than --smooth 5")
+    assert_refused(code, err, "fewer than --smooth 5")
     code, err, _ = _call(capsys, monkeypatch, "marl_curves", [f"a={short}", "--out", str(tmp_path)])
-    _refused(code, err, "is a folder")
+    assert_refused(code, err, "is a folder")
     assert not (tmp_path / "a.png").exists() and not (tmp_path / "b.png").exists()
 
 
@@ -379,14 +379,14 @@ def test_an_existing_file_is_not_replaced_without_overwrite(tmp_path, capsys, mo
     keep = tmp_path / "keep.out"
     keep.write_text("precious\n")
     code, err, _ = _call(capsys, monkeypatch, script, [*argv, flag, str(keep)], trap)
-    _refused(code, err, "exists; pass --overwrite to replace it")
+    assert_refused(code, err, "exists; pass --overwrite to replace it")
     assert keep.read_text() == "precious\n"
 
 
 def test_link_curves_does_not_replace_its_figures_without_overwrite(tmp_path, capsys, monkeypatch):
     (tmp_path / "link_timeline.png").write_bytes(b"precious")
     code, err, _ = _call(capsys, monkeypatch, "link_curves", ["--out", str(tmp_path)], "loss_vs_range")
-    _refused(code, err, "exists; pass --overwrite")
+    assert_refused(code, err, "exists; pass --overwrite")
     assert (tmp_path / "link_timeline.png").read_bytes() == b"precious"
 
 
@@ -395,7 +395,7 @@ def test_marl_curves_and_benchmark_summary_replace_a_file_with_overwrite(tmp_pat
     png = tmp_path / "curve.png"
     png.write_bytes(b"old")
     code, err, _ = _call(capsys, monkeypatch, "marl_curves", [f"a={run}", "--out", str(png)])
-    _refused(code, err, "exists; pass --overwrite")
+    assert_refused(code, err, "exists; pass --overwrite")
     assert png.read_bytes() == b"old"
     code, err, _ = _call(capsys, monkeypatch, "marl_curves", [f"a={run}", "--out", str(png), "--overwrite"])
     assert code in (0, None) and png.read_bytes().startswith(b"\x89PNG"), err
@@ -403,7 +403,7 @@ def test_marl_curves_and_benchmark_summary_replace_a_file_with_overwrite(tmp_pat
     results.write_text(json.dumps(_benchmark_result()))
     table.write_text("old\n")
     code, err, _ = _call(capsys, monkeypatch, "benchmark_summary", [str(results), "--markdown", str(table)])
-    _refused(code, err, "--markdown")
+    assert_refused(code, err, "--markdown")
     assert table.read_text() == "old\n"
     code, err, _ = _call(
         capsys, monkeypatch, "benchmark_summary", [str(results), "--markdown", str(table), "--overwrite"]
@@ -441,7 +441,7 @@ def test_a_script_run_directly_finds_its_shared_checks(tmp_path):
         cwd=tmp_path,
         env=env,
     )
-    _refused(r.returncode, r.stderr, "no beacon AUV")
+    assert_refused(r.returncode, r.stderr, "no beacon AUV")
 
 
 def test_the_nees_and_profile_scripts_read_set_as_evaluate_does():

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_baselines import SURVEY  # where the hand-built survey vehicles sit
 
 # ------------------------------------------------------------------------------------
 # the benchmark's statistics
@@ -275,20 +276,11 @@ def test_event_schedule_transmits_only_when_the_gain_exceeds_the_threshold():
 
 
 def _asv(**kw):
-    import coopnav_env
+    """tests/test_baselines.py's ASV scenario (round numbers: 2 m/s x 20 s, 10 m safety
+    distance, a survey vehicle at rest 20 m down) with ``kw`` changed."""
+    from test_baselines import ASV
 
-    base = dict(
-        survey_path="stationary",
-        depth_m=20.0,
-        ping_interval_s=20.0,
-        asv_max_speed_mps=2.0,
-        safety_distance_m=10.0,
-        max_cycles=60,
-    )
-    return coopnav_env.make_config("sousa_asv", **(base | kw))
-
-
-SURVEY = np.array([50.0, 50.0])
+    return ASV.replace(**kw)
 
 
 def test_fim_a_sums_the_metric_over_survey_vehicles():
@@ -504,12 +496,10 @@ def test_training_signals_by_hand():
 
 
 def _decide_sim(B=1, **kw):
-    import coopnav_env
-    from coopnav_env.core import make_simulator
+    """tests/test_channel.py's sousa_ping simulator, one environment by default."""
+    from test_channel import _decide_sim as decide_sim
 
-    sim = make_simulator(coopnav_env.make_config("sousa_ping", **kw), B)
-    sim.reset(np.arange(B) + 21)
-    return sim
+    return decide_sim(B=B, **kw)
 
 
 def test_transmit_mask_needs_a_positive_third_component():
@@ -602,10 +592,9 @@ def test_a_ping_is_decoded_when_its_uniform_is_at_least_one_minus_its_success_pr
     """At 5 km the sonar link delivers with P = 0.60 (tests/test_channel.py by hand): lost if
     u < 1 - P = 0.40, so u = 0.45 decodes and u = 0.35 is lost (kills ``u >= P``, which
     would lose both; u = 0 and u near 1 cannot tell the two apart)."""
-    from test_channel import _decide_sim as decide_sim
     from test_channel import _draws, _place, _tx
 
-    sim = decide_sim(B=2)
+    sim = _decide_sim(B=2)
     _place(sim, [[5000.0, 0.0], [1e5, 0.0]], [[0.0, 0.0]])
     p = sim.channel.pings(_tx(2, [True, False]), _draws(sim))[1].outcome.p_success[0, 0, 2]
     assert p == pytest.approx(0.60, abs=0.01)
@@ -617,10 +606,9 @@ def test_a_survey_vehicle_replies_when_it_decoded_any_ping_not_only_when_it_deco
     """Beacon 0 at 1 km and beacon 1 100 km away both ping: the survey vehicle decodes only
     beacon 0's and replies, so the slot it is resolved in holds its reply, which reaches
     beacon 0 (kills ``.all`` for ``.any`` over the beacons, which keeps it silent)."""
-    from test_channel import _decide_sim as decide_sim
     from test_channel import _draws, _place, _tx
 
-    sim = decide_sim(B=1)
+    sim = _decide_sim(B=1)
     _place(sim, [[1000.0, 0.0], [1e5, 0.0]], [[0.0, 0.0]])
     ok, slot = sim.channel.pings(_tx(1, [True, True]), _draws(sim, acoustic_u0=0.5))
     assert ok[0, :, 0].tolist() == [True, False]
@@ -634,9 +622,7 @@ def test_random_offsets_span_the_last_beacons_stagger_not_one_step():
     """``ping_offsets="random"``: each beacon's start is u x the last staggered offset,
     (N - 1) x step (kills u x step, the same only for two beacons). Three ASVs need a
     longer slot: 40 s."""
-    from test_channel import _decide_sim as decide_sim
-
-    sim = decide_sim(B=2, ping_offsets="random", beacon_kinds=("asv", "asv", "asv"), ping_interval_s=40.0)
+    sim = _decide_sim(B=2, ping_offsets="random", beacon_kinds=("asv", "asv", "asv"), ping_interval_s=40.0)
     t = sim.channel.timing
     assert t.last_offset_s == pytest.approx(2 * t.step_s)
     d = dict(sim._cycle_draws(sim.state.cycle))
@@ -649,10 +635,9 @@ def test_a_beacon_deaf_to_the_other_while_sending_loses_its_message_but_the_othe
     A's ping reaches B over [1.33, 6.33] s, while B has begun sending: B is deaf to it. B's
     reaches A at 7.4 s, after A finished: A hears it. So peer_ok [receiver, sender] is
     [A, B] True, [B, A] False (kills the [sender, receiver] deafness read unswapped)."""
-    from test_channel import _decide_sim as decide_sim
     from test_channel import _draws, _place, _tx
 
-    sim = decide_sim(B=1)
+    sim = _decide_sim(B=1)
     _place(sim, [[1000.0, 0.0], [-1000.0, 0.0]], [[0.0, 300.0]])
     _, peer_ok, o = sim.channel.replies(_tx(1, [True, True]), np.ones((1, 1), bool), _draws(sim, message_u=0.5))
     assert o.deaf[0, 0, 1] and not o.deaf[0, 1, 0]  # [sender, receiver]: B deaf to A's ping only
