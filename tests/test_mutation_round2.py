@@ -642,3 +642,22 @@ def test_a_beacon_deaf_to_the_other_while_sending_loses_its_message_but_the_othe
     _, peer_ok, o = sim.channel.replies(_tx(1, [True, True]), np.ones((1, 1), bool), _draws(sim, message_u=0.5))
     assert o.deaf[0, 0, 1] and not o.deaf[0, 1, 0]  # [sender, receiver]: B deaf to A's ping only
     assert peer_ok[0, 0, 1] and not peer_ok[0, 1, 0]
+
+
+def test_a_ping_whose_reception_ends_exactly_at_the_reply_time_is_replied_to():
+    """``ended`` is end <= reply time: a reception that ends at the reply time itself has
+    ended (CH5, the last channel mutant: ``<`` keeps the survey vehicle silent). The reply
+    time is set to the ping's own end, so the tie is exact; the reply then starts as the
+    reception ends, which is no overlap: the ping is still decoded and the reply reaches
+    beacon 0 after its flight of 1 km."""
+    from test_channel import _draws, _place, _tx
+
+    sim = _decide_sim(B=1)
+    _place(sim, [[1000.0, 0.0], [1e5, 0.0]], [[0.0, 0.0]])
+    ch = sim.channel
+    end_s = float(ch.pings(_tx(1, [True, False]), _draws(sim, acoustic_u0=0.5))[1].outcome.end_s[0, 0, 2])
+    assert np.isfinite(end_s) and end_s < ch.reply_at_s  # 5 s + 1 km / c, before the laid-out reply time
+    ch.reply_at_s = end_s
+    ok, slot = ch.pings(_tx(1, [True, False]), _draws(sim, acoustic_u0=0.5))
+    assert ok[0, 0, 0] and slot.ended[0, 0, 2]
+    assert slot.outcome.arrival_s[0, 2, 0] == pytest.approx(end_s + 1000.0 / 1500.0, abs=0.05)
