@@ -9,7 +9,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
-__all__ = ["closest", "did_you_mean", "unique_assignments"]
+__all__ = ["closest", "did_you_mean", "option_hint", "unique_assignments"]
 
 
 def closest(name: object, valid: Iterable[object]) -> str | None:
@@ -31,6 +31,27 @@ def did_you_mean(name: object, valid: Iterable[object]) -> str:
     the house style ``unknown policy 'fim_c'; did you mean 'fim_a'? valid: ...``."""
     close = closest(name, valid)
     return f"; did you mean {close!r}?" if close else ";"
+
+
+def option_hint(message: str, option_strings: Iterable[str]) -> str:
+    """argparse's ``unrecognized arguments: --outdir x`` with the option meant, if one is close:
+    ``unrecognized arguments: --outdir x; did you mean --out?`` (each front end's one-line
+    parser error). Other messages are returned as they are."""
+    prefix = "unrecognized arguments: "
+    if not message.startswith(prefix):
+        return message
+    valid = [o[2:] for o in option_strings if o.startswith("--") and o != "--help"]
+    hints = []
+    for word in message[len(prefix) :].split():
+        flag = word.split("=", 1)[0]
+        close = closest(flag[2:], valid) if flag.startswith("--") else None  # compared without the dashes
+        if close and f"--{close}" != flag:
+            hints.append(f"--{close} for {flag}")
+    if not hints:
+        return message
+    if len(hints) == 1:
+        return f"{message}; did you mean {hints[0].split(' for ')[0]}?"
+    return f"{message}; did you mean {', '.join(hints)}?"
 
 
 def unique_assignments(pairs: Iterable[tuple[str, object]], option: str) -> dict:

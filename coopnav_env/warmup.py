@@ -70,7 +70,9 @@ def split(names: Sequence[str], jobs: int) -> list[list[str]]:
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, no usage block (exit status 2)
-        self.exit(2, f"{self.prog}: error: {message}\n")
+        from coopnav_env.names import option_hint
+
+        self.exit(2, f"{self.prog}: error: {option_hint(message, self._option_string_actions)}\n")
 
 
 def _count(n: int, one: str, many: str | None = None) -> str:

@@ -479,7 +479,9 @@ def _not_official(plan: BenchmarkPlan) -> list:
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
-        raise UsageError(message)
+        from coopnav_env.names import option_hint
+
+        raise UsageError(option_hint(message, self._option_string_actions))
 
 
 def build_parser(prog: str | None = None) -> argparse.ArgumentParser:

@@ -36,7 +36,9 @@ examples:
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
-        raise UsageError(message)
+        from coopnav_env.names import option_hint
+
+        raise UsageError(option_hint(message, self._option_string_actions))
 
     def format_help(self):
         self.epilog = _choices_text() + "\n" + EXAMPLES  # computed only when help is asked for

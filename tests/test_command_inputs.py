@@ -220,3 +220,41 @@ def test_the_benchmark_refuses_a_training_run_folder_but_not_a_stray_config_file
     assert benchmark.main(argv + ["--overwrite"]) == 2
     err = capsys.readouterr().err
     assert "holds a train.py run" in err and "nope" not in err
+
+
+# ---------------------------------------------------------------------------------------
+# a mistyped option: the one meant, where one is close
+
+
+def test_option_hint_names_the_closest_option_without_the_dashes_and_never_help():
+    from coopnav_env.names import option_hint
+
+    opts = ["-h", "--help", "--out", "--policies", "--workers", "--episodes"]
+    assert option_hint("unrecognized arguments: --outdir x", opts).endswith("; did you mean --out?")
+    assert option_hint("unrecognized arguments: --Episodes=3", opts).endswith("; did you mean --episodes?")
+    two = option_hint("unrecognized arguments: --polices ppo --workrs 2", opts)
+    assert two.endswith("; did you mean --policies for --polices, --workers for --workrs?")
+    assert option_hint("unrecognized arguments: --cell a=1", opts) == "unrecognized arguments: --cell a=1"
+    assert option_hint("unrecognized arguments: --hlep", opts) == "unrecognized arguments: --hlep"
+    assert (
+        option_hint("argument --episodes: invalid int value: 'x'", opts)
+        == "argument --episodes: invalid int value: 'x'"
+    )
+
+
+@pytest.mark.parametrize(
+    "module, argv, meant",
+    [
+        ("agents.training.cli", ["--scenario", "gao_sea", "--timesteps", "10", "--outdir", "x"], "--out"),
+        ("evaluation.cli", ["--scenario", "gao_sea", "--polices", "ppo"], "--policies"),
+        ("evaluation.benchmark", ["--tasks", "gao_sea", "--workrs", "2"], "--workers"),
+    ],
+)
+def test_each_front_end_names_the_option_meant(module, argv, meant):
+    """train.py, evaluate.py and the benchmark said only "unrecognized arguments: --outdir x"."""
+    import importlib
+
+    parser = importlib.import_module(module).build_parser()
+    with pytest.raises(Exception, match=f"did you mean {meant}\\?") as err:
+        parser.parse_args(argv)
+    assert "\n" not in str(err.value)

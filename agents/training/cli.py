@@ -109,7 +109,9 @@ def _setting(text: str) -> tuple:
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, through main's handler (exit status 2)
-        raise ConfigError(message)
+        from coopnav_env.names import option_hint
+
+        raise ConfigError(option_hint(message, self._option_string_actions))
 
 
 def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
