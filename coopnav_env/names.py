@@ -41,17 +41,17 @@ def option_hint(message: str, option_strings: Iterable[str]) -> str:
     if not message.startswith(prefix):
         return message
     valid = [o[2:] for o in option_strings if o.startswith("--") and o != "--help"]
-    hints = []
+    hints = []  # (the option meant, the one given)
     for word in message[len(prefix) :].split():
         flag = word.split("=", 1)[0]
         close = closest(flag[2:], valid) if flag.startswith("--") else None  # compared without the dashes
         if close and f"--{close}" != flag:
-            hints.append(f"--{close} for {flag}")
+            hints.append((f"--{close}", flag))
     if not hints:
         return message
     if len(hints) == 1:
-        return f"{message}; did you mean {hints[0].split(' for ')[0]}?"
-    return f"{message}; did you mean {', '.join(hints)}?"
+        return f"{message}; did you mean {hints[0][0]}?"
+    return f"{message}; did you mean {', '.join(f'{meant} for {given}' for meant, given in hints)}?"
 
 
 def unique_assignments(pairs: Iterable[tuple[str, object]], option: str) -> dict:

@@ -16,7 +16,8 @@ Each process builds the PettingZoo env of its scenarios and steps it three cycle
 actions drawn from the action space (so that a sender's transmit path runs too). CI runs it
 before pytest-xdist's two workers (``.ci/run``), which then load every kernel of the
 simulator instead of each compiling it. The planners' and the evaluation's own kernels are
-left to first use. Exit status 0, or 2 with one line for a bad option, or 1 if a process failed.
+left to first use. Exit status 0; 2 with one line for a bad option; 1 if a process failed;
+130 on Ctrl-C.
 """
 
 from __future__ import annotations
@@ -108,18 +109,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         for name, seconds in compile_scenarios(names):
             print(f"  {name}: {seconds:.1f} s", flush=True)
         return 0
-    t0 = time.perf_counter()
-    parts = split(names, jobs)
-    print(
-        f"coopnav-warmup: compiling the kernels of {_count(len(names), 'scenario')} "
-        f"in {_count(len(parts), 'process', 'processes')}",
-        flush=True,
-    )
-    procs = [
-        subprocess.Popen([sys.executable, "-m", "coopnav_env.warmup", "--in-process", "--scenarios", ",".join(part)])
-        for part in parts
-    ]
-    failed = [",".join(part) for part, proc in zip(parts, procs) if proc.wait() != 0]
+    procs: list[subprocess.Popen] = []
+    try:  # from here Ctrl-C is one line, and the workers stop too (what they cached stays cached)
+        t0 = time.perf_counter()
+        parts = split(names, jobs)
+        print(
+            f"coopnav-warmup: compiling the kernels of {_count(len(names), 'scenario')} "
+            f"in {_count(len(parts), 'process', 'processes')}",
+            flush=True,
+        )
+        for part in parts:  # each in a session of its own: a terminal's Ctrl-C reaches this process alone
+            cmd = [sys.executable, "-m", "coopnav_env.warmup", "--in-process", "--scenarios", ",".join(part)]
+            procs.append(subprocess.Popen(cmd, start_new_session=True))
+        failed = [",".join(part) for part, proc in zip(parts, procs) if proc.wait() != 0]
+    except KeyboardInterrupt:
+        for proc in procs:
+            proc.terminate()
+        print("coopnav-warmup: stopped", file=sys.stderr)
+        return 130
     if failed:
         print(f"coopnav-warmup: the process for {'; '.join(failed)} failed (its error is above)", file=sys.stderr)
         return 1

@@ -51,3 +51,24 @@ def test_bad_options_are_one_line_and_exit_2(args, message):
 def test_a_worker_steps_each_of_its_scenarios():
     times = compile_scenarios(["gao_sea", "sousa_ping"])
     assert [name for name, _ in times] == ["gao_sea", "sousa_ping"] and all(t > 0 for _, t in times)
+
+
+def test_ctrl_c_stops_the_workers_quietly():
+    """Ctrl-C (SIGINT to the command's whole process group, as a terminal sends it) while the
+    workers start (importing the package takes them about 2 s): exit status 130, one line,
+    no traceback from the workers (they run in a session of their own, out of the group's
+    reach, and are terminated by the parent)."""
+    import os
+    import signal
+
+    p = subprocess.Popen(
+        [sys.executable, "-m", "coopnav_env.warmup"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own group, as a terminal's foreground job
+    )
+    assert "compiling" in p.stdout.readline()
+    os.killpg(p.pid, signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130 and err.strip() == "coopnav-warmup: stopped", err
