@@ -80,7 +80,7 @@ from coopnav_env.seeds import TEST_SEED, TEST_SEED_COUNT, TEST_SEEDS
 
 from .benchmark_report import RESULT_FILES, render_markdown, write_results
 from .benchmark_stats import compare_task, headroom_task, summarize_headroom, summarize_task_set
-from .errors import UsageError
+from .errors import UsageError, UsageParser
 from .tasks import BENCHMARK_VERSION, NON_GREEDY, TASK_SETS, get_task_set
 
 VERDICTS = ("win", "tie", "loss")
@@ -477,17 +477,10 @@ def _not_official(plan: BenchmarkPlan) -> list:
 # the command line
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        from coopnav_env.names import option_hint
-
-        raise UsageError(option_hint(message, self._option_string_actions))
-
-
 def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     from .parallel import add_workers_argument
 
-    p = _Parser(
+    p = UsageParser(
         prog=prog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Run policies on the benchmark's task sets (fixed test seeds, never trained on) "

@@ -21,6 +21,7 @@ from typing import Any
 from coopnav_env.failures import MACHINE_FAILURES, one_line
 
 from .config import EvalConfig, UsageError, parse_assignment, parse_assignments, split_top_level
+from .errors import UsageParser
 from .parallel import add_workers_argument
 
 _DEFAULTS = EvalConfig()
@@ -34,12 +35,7 @@ examples:
 """
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        from coopnav_env.names import option_hint
-
-        raise UsageError(option_hint(message, self._option_string_actions))
-
+class _Parser(UsageParser):
     def format_help(self):
         self.epilog = _choices_text() + "\n" + EXAMPLES  # computed only when help is asked for
         return super().format_help()

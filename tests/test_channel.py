@@ -628,18 +628,27 @@ def test_schedules_are_refused_on_the_fixed_clock():
     ).shape == (2,)
 
 
+def obs_view(rel, cov, age=5.0, own_std=0.5):
+    """A beacon's decoded observation with only what the transmit schedules read: the survey
+    vehicles' positions relative to it, their reported covariances, the replies' age and the
+    beacon's own position std."""
+    from coopnav_env.obs_layout import ObsView
+
+    view = ObsView.__new__(ObsView)
+    view.survey_rel_m = np.asarray(rel, float)
+    view.cov_m2 = np.asarray(cov, float)
+    view.reply_age_s = np.full(len(view.survey_rel_m), age)
+    view.own_std_m = np.float64(own_std)
+    return view
+
+
 def test_event_gain_by_hand():
     from baselines.base import BeaconContext
     from baselines.schedule import predicted_gain_nats
     from coopnav_env.core.acoustics import mackenzie_sound_speed
-    from coopnav_env.obs_layout import ObsView
 
     config = coopnav_env.make_config("sousa_ping")
-    view = ObsView.__new__(ObsView)
-    view.survey_rel_m = np.array([[30.0, 40.0, 0.0]])
-    view.cov_m2 = np.array([[[4.0, 0.0], [0.0, 1.0]]])
-    view.reply_age_s = np.array([5.0])
-    view.own_std_m = np.float64(0.5)
+    view = obs_view([[30.0, 40.0, 0.0]], [np.diag([4.0, 1.0])])
     q = config.process_noise_horizontal_m2ps * (5.0 + config.ping_interval_s)  # the reply's age + one slot
     h = np.array([0.6, 0.8])
     # R by hand: the ranging noise and the beacon's variance; R(d) adds the sound speed's

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from test_baselines import SURVEY  # where the hand-built survey vehicles sit
+from test_channel import obs_view  # a stub observation with what the schedules read
 
 # ------------------------------------------------------------------------------------
 # the benchmark's statistics
@@ -225,17 +226,6 @@ def test_tdma_beacons_take_their_own_turns():
     assert turns == [[0, 3], [1, 4]]
 
 
-def _view(rel, cov, age=5.0, own_std=0.5):
-    from coopnav_env.obs_layout import ObsView
-
-    view = ObsView.__new__(ObsView)
-    view.survey_rel_m = np.asarray(rel, float)
-    view.cov_m2 = np.asarray(cov, float)
-    view.reply_age_s = np.full(len(view.survey_rel_m), age)
-    view.own_std_m = np.float64(own_std)
-    return view
-
-
 def test_event_gain_sums_over_survey_vehicles_by_hand():
     """Two survey vehicles: one 50 m away along (0.6, 0.8) at the beacon's depth, one 30 m
     east and 40 m deeper (slant 50 m: h, the horizontal part of the unit slant vector, is
@@ -246,7 +236,7 @@ def test_event_gain_sums_over_survey_vehicles_by_hand():
 
     c = _sousa_ping()
     ctx = BeaconContext.from_config(c, 0)
-    view = _view([[30.0, 40.0, 0.0], [30.0, 0.0, 40.0]], [np.diag([4.0, 1.0]), np.diag([9.0, 1.0])])
+    view = obs_view([[30.0, 40.0, 0.0], [30.0, 0.0, 40.0]], [np.diag([4.0, 1.0]), np.diag([9.0, 1.0])])
     q = c.process_noise_horizontal_m2ps * (5.0 + c.ping_interval_s)
     R = c.range_noise_std_m**2 + 0.25
     g1 = np.log1p((0.36 * (4.0 + q) + 0.64 * (1.0 + q)) / R)
@@ -261,7 +251,7 @@ def test_event_schedule_transmits_only_when_the_gain_exceeds_the_threshold():
     from baselines.schedule import EventSchedule, EventTdmaSchedule, predicted_gain_nats
 
     c = _sousa_ping()
-    view = _view([[30.0, 40.0, 0.0]], [np.diag([4.0, 1.0])])
+    view = obs_view([[30.0, 40.0, 0.0]], [np.diag([4.0, 1.0])])
     g = predicted_gain_nats(view, BeaconContext.from_config(c, 0))
     assert g > 0.1
     assert not EventSchedule(c, 0, threshold_nats=g).transmit(0, view)
