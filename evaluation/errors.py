@@ -3,6 +3,7 @@ the package (``config``, ``outdir``) can raise it without importing the others, 
 front ends' parser that reports through it."""
 
 import argparse
+from typing import NoReturn
 
 
 class UsageError(ValueError):
@@ -14,7 +15,7 @@ class UsageParser(argparse.ArgumentParser):
     end's handler, exit status 2), a mistyped option naming the one meant
     (``coopnav_env.names.option_hint``): ``evaluate.py``'s and the benchmark's."""
 
-    def error(self, message):
+    def error(self, message: str) -> NoReturn:
         from coopnav_env.names import option_hint
 
         raise UsageError(option_hint(message, self._option_string_actions))
