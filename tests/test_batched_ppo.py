@@ -622,13 +622,22 @@ def test_a_widened_actor_is_the_same_function_of_the_newest_observation():
     older = torch.randn(4, 10) * 100.0
     torch.testing.assert_close(wide(torch.cat([x, older], -1)), narrow(x))
     assert widen_to_history(state["0.weight"], 1) is state["0.weight"]
+    # a window of 3 widened to 7 (not a multiple): the same function of its three newest
+    wider = mlp(35, (8, 8), 2, 0.01)
+    state["0.weight"] = widen_to_history(state["0.weight"], 7, own=3)
+    assert tuple(state["0.weight"].shape) == (8, 35)
+    wider.load_state_dict(state)
+    three = torch.cat([x, older], -1)
+    torch.testing.assert_close(wider(torch.cat([three, torch.randn(4, 20) * 100.0], -1)), wide(three))
+    with pytest.raises(ValueError, match="a window of 3 observations cannot be widened to 2"):
+        widen_to_history(torch.zeros(8, 15), 2, own=3)
 
 
 def test_memory_trains_from_a_loop_run_and_acts_with_its_window(tmp_path):
     """A run of the loop continued with --history 3 (--init-from its folder): after critic-only
     iterations it acts as the run it started from (the older observations' weights are zero);
-    its policy keeps a window per object, which reset() clears; a window over another run's
-    window size is refused in one line."""
+    its policy keeps a window per object, which reset() clears; continued with a longer window
+    it acts as it did; a shorter window than the run's is refused in one line."""
     first = tmp_path / "first"
     first.mkdir()
     base = dict(scenario="sousa_asv", n_envs=8, n_steps=8, minibatch=32, seed=3)
@@ -661,7 +670,23 @@ def test_memory_trains_from_a_loop_run_and_acts_with_its_window(tmp_path):
     assert not np.allclose(fresh, after)
     b.reset()
     np.testing.assert_array_equal(b.act(obs[0]), fresh)  # reset: the window is the observation's own again
-    with pytest.raises(ValueError, match="its window is 3 observations, the run's --history 2"):
+    # a window widens: the history-3 run continued with --history 5 acts as it, window and all
+    third = tmp_path / "third"
+    third.mkdir()
+    train(
+        BatchedPPOConfig(**base, init_from=str(second), history=5, critic_warmup_iterations=2),
+        2 * 64,
+        out=third,
+        progress=False,
+    )
+    b, c = agents.load(str(second), scenario="sousa_asv"), agents.load(str(third), scenario="sousa_asv")
+    assert c.history == 5
+    b.obs_mean, b.obs_std = c.obs_mean, c.obs_std
+    for o in obs:  # step after step, so the windows fill: the two older observations count for nothing
+        np.testing.assert_allclose(c.act(o), b.act(o), atol=1e-6)
+    with pytest.raises(
+        ValueError, match=r"its window is 3 observations, the run's --history 2 \(give --history 3 or more"
+    ):
         train(BatchedPPOConfig(**base, init_from=str(second), history=2), 64, progress=False)
 
 

@@ -104,7 +104,8 @@ def parser(description: str) -> argparse.ArgumentParser:
         default=defaults.history,
         metavar="K",
         help="memory as a window: the actor sees its beacon's last K observations, newest first (with --init-from "
-        "the older ones start with zero weights, so the run starts where the policy stands)",
+        "a policy with no window or a shorter one, the older ones start with zero weights, so the run starts where "
+        "the policy stands)",
     )
     p.add_argument(
         "--center-reward-per-team",

@@ -119,17 +119,20 @@ def load_sb3_actor(
     return out
 
 
-def widen_to_history(weight: Any, history: int) -> Any:
-    """A first layer's weight (H, O) for a window of ``history`` observations, newest first
-    (H, history x O): the newest observation's columns are ``weight``, the older ones' zeros,
-    so the widened actor is the same function of the newest observation and learns what the
-    older ones are worth. With ``history`` 1 the weight is returned as it is."""
+def widen_to_history(weight: Any, history: int, own: int = 1) -> Any:
+    """A first layer's weight (H, own x O), for a window of ``own`` observations, widened to a
+    window of ``history`` (H, history x O), newest first: the columns it had are kept and the
+    older observations' are zeros, so the widened actor is the same function of the
+    observations it read and learns what the older ones are worth. With ``history`` equal to
+    ``own`` the weight is returned as it is."""
     import torch
 
+    if not 1 <= own <= history:
+        raise ValueError(f"a window of {own} observations cannot be widened to {history}")
     n_out, n_in = weight.shape
-    if history == 1:
+    if history == own:
         return weight
-    wide = torch.zeros((n_out, n_in * history), dtype=weight.dtype)
+    wide = torch.zeros((n_out, n_in // own * history), dtype=weight.dtype)
     wide[:, :n_in] = weight
     return wide
 
@@ -144,7 +147,7 @@ def _load_loop_actor(
     entity: dict[str, Any] | None = None,
 ) -> dict:
     """``load_sb3_actor``'s tensors from a run of this loop (``actor.safetensors``,
-    ``run.json``): its actor (widened to ``history`` if its own window is 1), log std and
+    ``run.json``): its actor (widened to ``history`` if its own window is shorter), log std and
     observation scaling with its count (runs saved before the count was kept: their
     env-steps), so the scaling moves as slowly as it did. Its return's scale is not kept by a
     run, so it starts anew."""
@@ -166,14 +169,15 @@ def _load_loop_actor(
     if run.get("entity") != entity:
         raise ValueError(f"--init-from {source}: its entity encoder is {run.get('entity')}, the run's {entity}")
     own_history = int(run.get("history", 1))
-    if own_history not in (1, history):
+    if own_history > history:
         raise ValueError(
-            f"--init-from {source}: its window is {own_history} observations, the run's --history {history}"
+            f"--init-from {source}: its window is {own_history} observations, the run's --history {history} "
+            f"(give --history {own_history} or more: a window widens, it does not narrow)"
         )
     weights = load_file(str(directory / WEIGHTS))
     actor = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
     first = "head.0.weight" if entity is not None else "0.weight"
-    actor[first] = widen_to_history(actor[first], history // own_history)
+    actor[first] = widen_to_history(actor[first], history, own_history)
     out: dict[str, Any] = {"actor": actor, "log_std": weights["log_std"]}
     if "obs_mean" in weights:
         out.update(
