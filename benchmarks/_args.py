@@ -1,10 +1,12 @@
 """The benchmark scripts' argument checks, one home for them: counts within their bounds,
 seeds, scenario names and ``--set KEY=VALUE`` overrides, policies, task sets, comma lists
-of numbers and the ``--overwrite`` flag. Each reports through argparse's ``parser.error``
-(one line, exit 2), naming the option and, where there is one, the closest valid value;
-the scripts call them right after parsing, before any run.
+of numbers and the ``--overwrite`` flag, and the scripts' parser (``Parser``: an error is one
+line, exit 2). Each check reports through ``parser.error``, naming the option and, where
+there is one, the closest valid value; the scripts call them right after parsing, before
+any run.
 
     from benchmarks import _args   # a script run directly: ``import _args`` (its own folder)
+    p = _args.Parser(description=...)
     _args.count(p, args.episodes, "--episodes", low=2)
     config = _args.scenario_config(p, args.scenario, _args.overrides(p, args.set))
 """
@@ -36,6 +38,19 @@ BOUNDS = {
     "MAX_LAYER": (MAX_LAYER, "benchmarks._args.MAX_LAYER"),
     "MAX_ENVS": (MAX_ENVS, "benchmarks._args.MAX_ENVS"),
 }
+
+
+class Parser(argparse.ArgumentParser):
+    """The scripts' parser: ``argparse.ArgumentParser`` whose errors are one line,
+    ``<script>: error: <what was wrong>``, with exit status 2 and no usage block above it
+    (``--help`` gives that), a mistyped option naming the one meant
+    (``coopnav_env.names.option_hint``), as the project's other commands report."""
+
+    def error(self, message: str) -> NoReturn:
+        from coopnav_env.names import option_hint
+
+        line = " ".join(option_hint(message, self._option_string_actions).split())
+        self.exit(2, f"{self.prog}: error: {line}\n")
 
 
 def _fail(parser: argparse.ArgumentParser, message: str) -> NoReturn:

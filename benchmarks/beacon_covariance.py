@@ -24,11 +24,15 @@ first survey vehicle and the first beacon AUV:
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 import numpy as np
 from scipy.stats import chi2
+
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
 
 COVARIANCES = ("isotropic", "full")
 P999 = float(chi2.ppf(0.999, 2))
@@ -100,7 +104,7 @@ def _cell(value: float | None) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     CASES = _cases_module().CASES
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = _args.Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=100, help="episodes per case and covariance (one batch)")
     ap.add_argument("--seed", type=int, default=900_000, help="run i uses seed SEED + i")
     ap.add_argument("--cases", default="2", help="comma-separated case numbers of nees_per_cycle.py")

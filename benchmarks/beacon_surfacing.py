@@ -13,7 +13,6 @@ fused per cycle.
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 import numpy as np
@@ -54,7 +53,7 @@ def surfacing_figures(scenario: str, planner: str, overrides: dict, runs: int, s
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = _args.Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenario", default="gao_sea")
     ap.add_argument("--planner", default="ellipse")
     ap.add_argument("--runs", type=int, default=20)

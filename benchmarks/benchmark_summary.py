@@ -26,7 +26,6 @@ Nothing is recomputed from episodes: the numbers are those of results.json.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections.abc import Sequence
@@ -161,7 +160,7 @@ def per_task_markdown(results: dict) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="benchmark_summary.py", description=__doc__.split("\n\n")[0])
+    p = _args.Parser(prog="benchmark_summary.py", description=__doc__.split("\n\n")[0])
     p.add_argument("results", nargs="+", type=Path, help="results.json files of evaluation.benchmark")
     p.add_argument("--markdown", type=Path, help="also write the table here")
     p.add_argument(

@@ -8,7 +8,6 @@ Sousa, Ferreira & Cruz's, and the B - A differences against Table III's expectat
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import sys
@@ -16,6 +15,11 @@ from pathlib import Path
 
 import numpy as np
 from scipy import stats
+
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
 
 depths = [1.0, 5.0, 20.0, 50.0]
 paths = ["stationary", "lawnmower", "circle", "spiral"]
@@ -60,7 +64,7 @@ def read_sweep(folder: Path) -> tuple[dict, list]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
+    parser = _args.Parser(description=(__doc__ or "").split("\n")[0])
     parser.add_argument("folder", help="the evaluate.py --sweep result folder (summary.json, episodes.csv)")
     args = parser.parse_args(argv)
     try:

@@ -23,7 +23,6 @@ A script, not a test: run it on an idle machine.
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import json
 import statistics
@@ -33,6 +32,11 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_TEAMS = ["{}", "{n_survey: 2}", "{beacon_kinds: [beacon_auv, beacon_auv]}"]
@@ -88,7 +92,7 @@ def time_pass(net: Any, x: Any, repeats: int) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenario", default="gao_lawnmower")
     p.add_argument("--team", action="append", help="a team's settings (YAML), repeatable; default: three teams")
     p.add_argument("--encoder", default="attention", choices=["attention", "deepsets"])

@@ -32,7 +32,6 @@ validation range (500000 + e) nor a training seed of a run seeded below 1000
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from collections.abc import Callable, Sequence
@@ -386,7 +385,7 @@ def paired(result: dict, a: str, b: str) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     from evaluation.parallel import add_workers_argument
 
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p = _args.Parser(description=__doc__.split("\n")[0])
     p.add_argument("--tasks", required=True, help="a benchmark task set (python -m evaluation.benchmark --list)")
     p.add_argument(
         "--policies",
@@ -413,7 +412,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv is None:
         argv = sys.argv[1:]
     if argv and argv[0] == "summarize":  # lever_table.py summarize [--policy ppo] A.json B.json ...
-        q = argparse.ArgumentParser(prog="lever_table.py summarize")
+        q = _args.Parser(prog="lever_table.py summarize")
         q.add_argument("files", nargs="+")
         q.add_argument("--policy", default="ppo")
         sargs = q.parse_args(argv[1:])
@@ -433,7 +432,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
         return 0
     if argv and argv[0] == "paired":  # lever_table.py paired F.json A B
-        q = argparse.ArgumentParser(prog="lever_table.py paired")
+        q = _args.Parser(prog="lever_table.py paired")
         q.add_argument("file")
         q.add_argument("a")
         q.add_argument("b")

@@ -23,7 +23,6 @@ it also measures a checkout without the sonar link (``PYTHONPATH=<checkout>``).
 
 from __future__ import annotations
 
-import argparse
 import io
 import sys
 from collections.abc import Sequence
@@ -301,7 +300,7 @@ FIGURES = ("link_loss_vs_range.png", "link_timeline.png")  # what --out receives
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = _args.Parser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("docs/figures"), help="directory of the PNGs")
     p.add_argument("--episodes", type=int, default=0, help="> 0: measure episodes instead of drawing figures")
     p.add_argument("--scenario", default="sousa_ping")

@@ -16,7 +16,6 @@ default metric.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -53,7 +52,7 @@ def curve(run: Path, metric: str) -> tuple:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p = _args.Parser(description=__doc__.split("\n")[0])
     p.add_argument("runs", nargs="+", help="label=run_folder")
     p.add_argument("--metric", default="collection_info_survey_error_m")
     p.add_argument("--smooth", type=int, default=5, help="moving average over this many batches")

@@ -21,7 +21,6 @@ mode does not have); the default SNR (20 dB at 1 m, 6 dB at 5 m) is well above t
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -135,7 +134,7 @@ def run_grid(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = _args.Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--signal-events", type=int, default=200)
     ap.add_argument("--analytic-events", type=int, default=20000)
     ap.add_argument("--seed", type=int, default=0)

@@ -28,7 +28,6 @@ What the paper does not give, and what we assume (stated, not fitted to Table 1)
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -175,7 +174,7 @@ def headline_checks(stats: dict) -> dict:
 
 
 def _parse(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = _args.Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--mode", choices=("signal", "analytic"), default="signal")

@@ -85,6 +85,11 @@ from scipy.stats import chi2
 
 from coopnav_env.scenarios.matos import PAPER_SETTINGS, RIVER_PAPER_SETTINGS
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 # (label, scenario, planner, overrides)
 CASES: tuple[tuple[str, str, str, dict[str, Any]], ...] = (
     ("gao_lawnmower", "gao_lawnmower", "ellipse", {}),
@@ -403,12 +408,7 @@ def parse_sets(items: list[str]) -> dict[str, Any]:
     """The ``--set NAME=VALUE`` items as scenario overrides, read as ``evaluate.py --set`` reads
     them (``benchmarks._args.scenario_overrides``); a ``ValueError`` of one line. Shared with
     ``benchmarks/beacon_covariance.py``."""
-    try:
-        from benchmarks._args import scenario_overrides
-    except ImportError:  # run as a script: its own folder is on the path, not the checkout
-        from _args import scenario_overrides  # type: ignore[no-redef]
-
-    return scenario_overrides(items)
+    return _args.scenario_overrides(items)
 
 
 def check_run_args(runs: int, seed: int, markdown: str | None, overwrite: bool = False) -> str | None:
@@ -436,9 +436,7 @@ def check_run_args(runs: int, seed: int, markdown: str | None, overwrite: bool =
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
-        description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
-    )
+    p = _args.Parser(description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--runs", type=int, default=100, help="episodes per case (one batch)")
     p.add_argument("--seed", type=int, default=700_000, help="run i uses seed SEED + i")
     p.add_argument("--cases", default="all", help="comma-separated case numbers (0-based) or 'all'")

@@ -22,7 +22,6 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # one core: before numpy is imported
 
-import argparse  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
@@ -67,7 +66,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     from baselines import list_policies
 
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = _args.Parser(description=__doc__.splitlines()[0])
     p.add_argument("--scenario", default="gao_sea")
     p.add_argument("--policies", default="", help="comma-separated, besides the planners (e.g. ppo)")
     p.add_argument("--steps", type=int, default=100, help="timed decisions per policy")

@@ -14,10 +14,14 @@ beacon(s) to the survey vehicle(s). Docs: docs/baselines/horizon.md#range-varian
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 import numpy as np
+
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
 
 
 def parse_case(text: str) -> tuple[str, dict]:
@@ -53,7 +57,7 @@ def run(scenario: str, overrides: dict, planner: str, model: str, runs: int, see
 def main(argv: list[str] | None = None) -> int:
     from evaluation.paired import t_interval
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = _args.Parser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cases", default="gao_sea,gao_sea:temperature_uncertainty_c=2")
     ap.add_argument("--planners", default="ellipse")
     ap.add_argument("--runs", type=int, default=40)

@@ -16,13 +16,17 @@ reads its figures. This is a script, not a test: nothing here is timed under pyt
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
     p.add_argument("--batch", type=int, default=4096, help="environments stepped at once")
     p.add_argument("--steps", type=int, default=40, help="timed steps of the whole batch")
@@ -30,10 +34,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a scenario parameter")
     a = p.parse_args(argv)
-    try:
-        from benchmarks._args import MAX_BATCH, MAX_STEPS
-    except ImportError:  # run as a script: its own folder is on the path, not the checkout
-        from _args import MAX_BATCH, MAX_STEPS  # type: ignore[no-redef]
+    MAX_BATCH, MAX_STEPS = _args.MAX_BATCH, _args.MAX_STEPS
     if not (1 <= a.batch <= MAX_BATCH and 1 <= a.steps <= MAX_STEPS and 0 <= a.warmup <= MAX_STEPS):
         print(
             f"sim_profile: --batch must be in [1, {MAX_BATCH}] (benchmarks._args.MAX_BATCH), "
@@ -56,11 +57,7 @@ def main(argv: list[str] | None = None) -> int:
     from coopnav_env.core import make_simulator
 
     try:
-        try:
-            from benchmarks._args import scenario_overrides
-        except ImportError:  # run as a script: its own folder is on the path
-            from _args import scenario_overrides  # type: ignore[no-redef]
-        overrides = scenario_overrides(a.set)
+        overrides = _args.scenario_overrides(a.set)
         sim = make_simulator(make_config(a.scenario, **overrides), a.batch)
     except (KeyError, ValueError, TypeError) as e:
         print(f"sim_profile: {e}", file=sys.stderr)

@@ -40,6 +40,11 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 BATCH_SIZES = (1, 64, 1024)
 AIM_CORE_OVER_PZ = 100.0
 AIM_PZ_OVER_MPE = 1.0
@@ -279,7 +284,7 @@ def format_table(r: dict) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = _args.Parser(
         description="Environment steps per second of the coopnav PettingZoo env, the batched core "
         "(batch 1, 64, 1024) and PettingZoo's MPE simple_spread_v3."
     )

@@ -45,6 +45,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_CONFIG = ROOT / "configs" / "ppo" / "sousa_fast.yml"
 
@@ -192,7 +197,7 @@ def figure(result: dict, path: Path) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
+    p = _args.Parser(
         prog="time_to_beat.py",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -29,6 +29,11 @@ import tempfile
 import time
 from pathlib import Path
 
+try:
+    from benchmarks import _args
+except ImportError:  # run as a script: its own folder is on the path, not the checkout
+    import _args  # type: ignore[no-redef]
+
 ROOT = Path(__file__).resolve().parent.parent
 PY = sys.executable
 
@@ -160,7 +165,7 @@ def measure(name: str, what: str, cmd: list, cwd: str | Path | None, out: Path) 
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
+    p = _args.Parser(
         prog="times.py", description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )
     p.add_argument("--only", default=None, help="comma-separated items (default: all; --list shows them)")
