@@ -633,6 +633,54 @@ def test_a_widened_actor_is_the_same_function_of_the_newest_observation():
         widen_to_history(torch.zeros(8, 15), 2, own=3)
 
 
+def test_a_wider_actor_is_the_same_function_and_its_copies_part_when_trained():
+    """Net2WiderNet (``widen_layers``): (8, 8) widened to (13, 20) gives the same outputs; one
+    gradient step moves a unit and its copy apart (equal shares of the outgoing weights would
+    keep them equal); a narrower or deeper net is refused."""
+    from agents.batched_policy import mlp
+    from agents.training.batched_ppo import widen_layers
+
+    torch.manual_seed(0)
+    narrow = mlp(5, (8, 8), 2, 0.5)
+    state = widen_layers(narrow.state_dict(), (8, 8), (13, 20), seed=1)
+    wide = mlp(5, (13, 20), 2, 0.5)
+    wide.load_state_dict(state)
+    x = torch.randn(64, 5)
+    torch.testing.assert_close(wide(x), narrow(x), atol=1e-6, rtol=1e-5)
+    # the copies: rows 8.. of the first layer repeat rows of the first 8
+    rows = state["0.weight"]
+    copies = [(j, next(k for k in range(8) if torch.equal(rows[j], rows[k]))) for j in range(8, 13)]
+    wide(x).pow(2).sum().backward()
+    grad = wide[0].weight.grad
+    assert all(not torch.allclose(grad[j], grad[k]) for j, k in copies)
+    with pytest.raises(ValueError, match=r"layers \[8, 8\] cannot be widened to \[4, 8\]"):
+        widen_layers(narrow.state_dict(), (8, 8), (4, 8))
+    with pytest.raises(ValueError, match="cannot be widened"):
+        widen_layers(narrow.state_dict(), (8, 8), (8, 8, 8))
+
+
+def test_a_loop_run_continued_with_a_wider_net_acts_as_it(tmp_path):
+    """--init-from a loop run with a wider --net: after critic-only iterations the wider actor
+    acts as the run it started from; a narrower one is refused in one line."""
+    first = tmp_path / "first"
+    first.mkdir()
+    base = dict(scenario="sousa_asv", n_envs=8, n_steps=8, minibatch=32, seed=3)
+    train(BatchedPPOConfig(**base, net=(16, 16)), 2 * 64, out=first, progress=False)
+    second = tmp_path / "second"
+    second.mkdir()
+    config = BatchedPPOConfig(**base, net=(24, 32), init_from=str(first), critic_warmup_iterations=2)
+    train(config, 2 * 64, out=second, progress=False)
+    a, b = agents.load(str(first), scenario="sousa_asv"), agents.load(str(second), scenario="sousa_asv")
+    a.obs_mean, a.obs_std = b.obs_mean, b.obs_std
+    obs = np.random.default_rng(2).normal(0, 1, (6, a.obs_dim)) * np.asarray(b.obs_std) + np.asarray(b.obs_mean)
+    for o in obs:
+        np.testing.assert_allclose(b.act(o), a.act(o), atol=1e-5)
+    with pytest.raises(
+        ValueError, match=r"its actor is \[24, 32\], the loop's --net 16,16 \(a flat actor can be widened"
+    ):
+        train(BatchedPPOConfig(**base, net=(16, 16), init_from=str(second)), 64, progress=False)
+
+
 def test_memory_trains_from_a_loop_run_and_acts_with_its_window(tmp_path):
     """A run of the loop continued with --history 3 (--init-from its folder): after critic-only
     iterations it acts as the run it started from (the older observations' weights are zero);

@@ -95,7 +95,7 @@ from agents.batched_policy import entity_net, mlp
 from . import loop_cli
 from .loop_config import CRITICS, ENTITY, MAX_HISTORY, BatchedPPOConfig
 from .loop_envs import TeamEnvs, make_env, validate_per_team, validation_env
-from .loop_init import load_sb3_actor, widen_to_history
+from .loop_init import load_sb3_actor, widen_layers, widen_to_history
 from .loop_math import RunningNorm, gae, next_state_values, normalize_advantages, window_input
 
 __all__ = [
@@ -116,6 +116,7 @@ __all__ = [
     "train",
     "validate_per_team",
     "validation_env",
+    "widen_layers",
     "widen_to_history",
     "window_input",
 ]

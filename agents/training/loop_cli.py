@@ -78,7 +78,8 @@ def parser(description: str) -> argparse.ArgumentParser:
         metavar="POLICY",
         help="start the actor (and the observation scaling) from an SB3 policy or a run of this loop: a "
         "train.py run, a run folder of this loop or a shipped name (ppo_gao_team; with --entity an entity policy "
-        "such as ppo_gao_sea); needs the same --net",
+        "such as ppo_gao_sea); needs the same --net, or for a flat run of this loop as many layers, each as wide or "
+        "wider (the same function, widened: Net2WiderNet)",
     )
     p.add_argument(
         "--entity",

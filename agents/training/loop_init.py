@@ -1,6 +1,7 @@
 """Where a batched PPO run starts (``--init-from``): the actor of an SB3 policy (flat or
 entity), of a shipped policy or of a run of the loop itself, as the loop's tensors, the first
-layer widened to the run's window of observations (``widen_to_history``)."""
+layer widened to the run's window of observations (``widen_to_history``) and a loop run's
+hidden layers to the run's ``--net`` (``widen_layers``)."""
 
 from __future__ import annotations
 
@@ -137,6 +138,34 @@ def widen_to_history(weight: Any, history: int, own: int = 1) -> Any:
     return wide
 
 
+def widen_layers(actor: dict, own: Sequence[int], net: Sequence[int], prefix: str = "", seed: int = 0) -> dict:
+    """A Linear-tanh stack's weights (``mlp``'s keys ``{prefix}0.weight``, ``{prefix}2.weight``,
+    ...) with hidden layers ``own`` widened to ``net`` (as wide or wider, the same depth) by
+    Net2WiderNet (Chen, Goodfellow & Shlens 2016): each new unit copies a unit of its layer,
+    drawn at random, incoming weights and bias, and the copies of a unit share its outgoing
+    weights in random parts that sum to one, so the wider stack is the same function. The
+    shares differ, so the copies' gradients differ in size and they part once trained (equal
+    halves would keep them equal forever)."""
+    import torch
+
+    if len(own) != len(net) or any(n < o for o, n in zip(own, net)):
+        raise ValueError(f"layers {list(own)} cannot be widened to {list(net)} (the same depth, each as wide or wider)")
+    gen = torch.Generator().manual_seed(seed)
+    out = dict(actor)
+    for i, (h_old, h_new) in enumerate(zip(own, net)):
+        if h_new == h_old:
+            continue
+        src = torch.cat([torch.arange(h_old), torch.randint(h_old, (h_new - h_old,), generator=gen)])
+        weight, bias, after = (out[f"{prefix}{k}"] for k in (f"{2 * i}.weight", f"{2 * i}.bias", f"{2 * i + 2}.weight"))
+        parts = torch.rand(h_new, generator=gen, dtype=torch.float64) + 0.5  # each copy's part, before scaling
+        totals = torch.zeros(h_old, dtype=torch.float64).index_add_(0, src, parts)
+        share = (parts / totals[src]).to(after.dtype)  # a unit's copies: parts summing to one
+        out[f"{prefix}{2 * i}.weight"] = weight[src].clone()
+        out[f"{prefix}{2 * i}.bias"] = bias[src].clone()
+        out[f"{prefix}{2 * i + 2}.weight"] = after[:, src] * share
+    return out
+
+
 def _load_loop_actor(
     source: str,
     directory: Path,
@@ -159,8 +188,12 @@ def _load_loop_actor(
     record = safe_json(directory / "run.json")
     run = record.get("config") or {}
     own = [int(h) for h in run.get("net") or ()]
-    if tuple(own) != tuple(net):
-        raise ValueError(f"--init-from {source}: its actor is {own}, the loop's --net {','.join(map(str, net))}")
+    wider = len(own) == len(net) and all(n >= o for o, n in zip(own, net)) and entity is None
+    if tuple(own) != tuple(net) and not wider:
+        raise ValueError(
+            f"--init-from {source}: its actor is {own}, the loop's --net {','.join(map(str, net))} "
+            f"(a flat actor can be widened: {len(own)} layers, each at least as wide)"
+        )
     if (int(record.get("obs_dim", -1)), int(record.get("action_dim", -1))) != (obs_dim, action_dim):
         raise ValueError(
             f"--init-from {source}: observations {record.get('obs_dim')} and actions {record.get('action_dim')}, "
@@ -178,6 +211,8 @@ def _load_loop_actor(
     actor = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
     first = "head.0.weight" if entity is not None else "0.weight"
     actor[first] = widen_to_history(actor[first], history, own_history)
+    if tuple(own) != tuple(net):  # a wider actor, the same function (Net2WiderNet)
+        actor = widen_layers(actor, own, net)
     out: dict[str, Any] = {"actor": actor, "log_std": weights["log_std"]}
     if "obs_mean" in weights:
         out.update(
