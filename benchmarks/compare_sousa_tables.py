@@ -64,7 +64,7 @@ def read_sweep(folder: Path) -> tuple[dict, list]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = _args.Parser(description=(__doc__ or "").split("\n")[0])
+    parser = _args.Parser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("folder", help="the evaluate.py --sweep result folder (summary.json, episodes.csv)")
     args = parser.parse_args(argv)
     try:

@@ -54,7 +54,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from baselines import list_policies
     from coopnav_env.seeds import TEST_SEEDS
 
-    p = _args.Parser(description=__doc__.splitlines()[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--tasks", default="gao_sea,gao_lawnmower,sousa_grid", help="comma-separated task sets")
     p.add_argument("--task", default=None, help="only these tasks (comma-separated names; default: every task)")
     p.add_argument("--challenger", default="horizon", help="comma-separated: one table row per task and challenger")

@@ -385,7 +385,7 @@ def paired(result: dict, a: str, b: str) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     from evaluation.parallel import add_workers_argument
 
-    p = _args.Parser(description=__doc__.split("\n")[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--tasks", required=True, help="a benchmark task set (python -m evaluation.benchmark --list)")
     p.add_argument(
         "--policies",

@@ -300,7 +300,7 @@ FIGURES = ("link_loss_vs_range.png", "link_timeline.png")  # what --out receives
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = _args.Parser(description=__doc__.splitlines()[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=Path("docs/figures"), help="directory of the PNGs")
     p.add_argument("--episodes", type=int, default=0, help="> 0: measure episodes instead of drawing figures")
     p.add_argument("--scenario", default="sousa_ping")

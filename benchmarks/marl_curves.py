@@ -52,7 +52,7 @@ def curve(run: Path, metric: str) -> tuple:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = _args.Parser(description=__doc__.split("\n")[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("runs", nargs="+", help="label=run_folder")
     p.add_argument("--metric", default="collection_info_survey_error_m")
     p.add_argument("--smooth", type=int, default=5, help="moving average over this many batches")

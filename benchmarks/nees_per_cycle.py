@@ -436,7 +436,7 @@ def check_run_args(runs: int, seed: int, markdown: str | None, overwrite: bool =
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = _args.Parser(description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = _args.Parser(description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--runs", type=int, default=100, help="episodes per case (one batch)")
     p.add_argument("--seed", type=int, default=700_000, help="run i uses seed SEED + i")
     p.add_argument("--cases", default="all", help="comma-separated case numbers (0-based) or 'all'")

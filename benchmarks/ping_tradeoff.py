@@ -81,7 +81,7 @@ def run(
 def main(argv: Sequence[str] | None = None) -> int:
     import coopnav_env
 
-    p = _args.Parser(description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = _args.Parser(description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--scenario", default="sousa_ping")
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--seed", type=int, default=400_000, help="episode i uses seed SEED + i")

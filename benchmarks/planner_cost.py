@@ -66,7 +66,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     from baselines import list_policies
 
-    p = _args.Parser(description=__doc__.splitlines()[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenario", default="gao_sea")
     p.add_argument("--policies", default="", help="comma-separated, besides the planners (e.g. ppo)")
     p.add_argument("--steps", type=int, default=100, help="timed decisions per policy")

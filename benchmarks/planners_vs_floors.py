@@ -33,7 +33,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import coopnav_env
     from baselines import list_policies
 
-    p = _args.Parser(description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = _args.Parser(description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--scenarios", default=",".join(coopnav_env.list_scenarios()), help="comma-separated")
     p.add_argument("--episodes", type=int, default=50, help="episodes per policy and scenario")
     p.add_argument("--seed", type=int, default=300_000, help="episode i uses seed SEED + i")

@@ -157,7 +157,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from coopnav_env.records import atomic_write_text
     from evaluation.parallel import check_workers
 
-    p = _args.Parser(description=__doc__.split("\n")[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
     p.add_argument(
         "--policies",

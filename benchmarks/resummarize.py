@@ -24,7 +24,7 @@ except ImportError:  # run as a script: its own folder is on the path, not the c
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = _args.Parser(description=__doc__.splitlines()[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("results_dir", help="a benchmark output directory (holds results.json)")
     p.add_argument("--out", required=True, help="where to write the re-summarised results.json and results.md")
     p.add_argument("--overwrite", action="store_true", help="replace a result already in --out")

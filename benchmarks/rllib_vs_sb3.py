@@ -45,7 +45,7 @@ os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    p = _args.Parser(description=__doc__.split("\n")[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
     p.add_argument("--batch", type=int, default=8192, help="env steps per PPO update (both)")
     p.add_argument("--minibatch", type=int, default=1024)

@@ -162,7 +162,7 @@ def build_report(results: dict, labels: list, args: argparse.Namespace) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = _args.Parser(description=__doc__.split("\n")[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, help="episode i uses seed SEED + i")
     p.add_argument("--depth", type=float, default=20.0, help="ROV depth (m); the paper: 1, 5, 20, 50; Fig. 6: 20")

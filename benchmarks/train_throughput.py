@@ -386,7 +386,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from agents.training.cli import threads_arg  # train.py's --threads: 1 to this machine's CPUs
     from agents.training.config import ConfigError, TrainConfig, hyperparameter_file, load_config
 
-    p = _args.Parser(description=__doc__.split("\n")[0])
+    p = _args.Parser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenario", default="sousa_asv")
     p.add_argument("--config", help="hyperparameter YAML (default: the scenario's, as train.py)")
     p.add_argument("--n-envs", type=int, help="override the YAML's n_envs")

@@ -457,6 +457,8 @@ def test_a_mistyped_option_is_one_line_naming_the_one_meant(capsys, monkeypatch,
     assert_refused(code, err, ": error: ")
     parser = parsers[0]
     assert type(parser).__name__ == "Parser" and err.startswith(f"{parser.prog}: error: "), (parser, err)
+    # --help's description is a whole sentence, not the docstring's first line (12 stopped mid-phrase)
+    assert parser.description.rstrip().endswith((".", ":")), parser.description
     if "unrecognized arguments" in err:
         meant = next(o for o in parser._option_string_actions if o.startswith("--") and o != "--help")
         code, err = refusal([meant + "x"])
