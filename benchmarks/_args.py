@@ -18,6 +18,7 @@ import math
 from collections.abc import Iterable
 from typing import Any, NoReturn
 
+from coopnav_env.names import OneLineParser
 from evaluation.limits import MAX_BATCH_SIZE, MAX_EPISODES
 
 # Bounds of the counts that are not episodes: far above what a measurement needs, low enough
@@ -40,17 +41,10 @@ BOUNDS = {
 }
 
 
-class Parser(argparse.ArgumentParser):
-    """The scripts' parser: ``argparse.ArgumentParser`` whose errors are one line,
-    ``<script>: error: <what was wrong>``, with exit status 2 and no usage block above it
-    (``--help`` gives that), a mistyped option naming the one meant
-    (``coopnav_env.names.option_hint``), as the project's other commands report."""
-
-    def error(self, message: str) -> NoReturn:
-        from coopnav_env.names import option_hint
-
-        line = " ".join(option_hint(message, self._option_string_actions).split())
-        self.exit(2, f"{self.prog}: error: {line}\n")
+class Parser(OneLineParser):
+    """The scripts' parser, ``coopnav_env.names.OneLineParser``: an error is one line,
+    ``<script>: error: <what was wrong>``, exit status 2, a mistyped option naming the one
+    meant, as the project's other commands report."""
 
 
 def _fail(parser: argparse.ArgumentParser, message: str) -> NoReturn:

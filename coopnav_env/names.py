@@ -6,10 +6,12 @@ raise ValueError(f"unknown policy {name!r}{did_you_mean(name, valid)} valid: ...
 
 from __future__ import annotations
 
+import argparse
 import difflib
 from collections.abc import Iterable
+from typing import NoReturn
 
-__all__ = ["closest", "did_you_mean", "option_hint", "unique_assignments"]
+__all__ = ["OneLineParser", "closest", "did_you_mean", "option_hint", "unique_assignments"]
 
 
 def closest(name: object, valid: Iterable[object]) -> str | None:
@@ -52,6 +54,19 @@ def option_hint(message: str, option_strings: Iterable[str]) -> str:
     if len(hints) == 1:
         return f"{message}; did you mean {hints[0][0]}?"
     return f"{message}; did you mean {', '.join(f'{meant} for {given}' for meant, given in hints)}?"
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` whose errors are one line, ``<prog>: error: <what was
+    wrong>``, with exit status 2 and no usage block above it (``--help`` gives that), a
+    mistyped option naming the one meant (``option_hint``): the parser of the commands that
+    exit on their own (``coopnav-warmup``, the scripts in ``benchmarks/``). The front ends
+    that report through a handler of their own raise instead (``evaluation.errors.UsageParser``,
+    ``train.py``'s)."""
+
+    def error(self, message: str) -> NoReturn:
+        line = " ".join(option_hint(message, self._option_string_actions).split())
+        self.exit(2, f"{self.prog}: error: {line}\n")
 
 
 def unique_assignments(pairs: Iterable[tuple[str, object]], option: str) -> dict:

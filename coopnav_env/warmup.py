@@ -29,6 +29,8 @@ import sys
 import time
 from collections.abc import Sequence
 
+from coopnav_env.names import OneLineParser
+
 STEPS = 3  # cycles stepped per scenario: enough to run every kernel of a cycle once
 
 
@@ -66,19 +68,12 @@ def split(names: Sequence[str], jobs: int) -> list[list[str]]:
     return parts
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, no usage block (exit status 2)
-        from coopnav_env.names import option_hint
-
-        self.exit(2, f"{self.prog}: error: {option_hint(message, self._option_string_actions)}\n")
-
-
 def _count(n: int, one: str, many: str | None = None) -> str:
     return f"{n} {one if n == 1 else many or one + 's'}"
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = OneLineParser(
         prog="coopnav-warmup",
         description="Compile the simulator's numba kernels ahead (they are cached on disk), one network per process.",
     )
