@@ -9,7 +9,9 @@ of beacons of a scenario whose observation and action sizes are the run's. A run
 with ``--history K`` has memory: the policy keeps a window of the last K observations of
 each row it is given, so it wants one object per beacon and episode (``agents.make_policy``
 gives one), the same rows at each step, and ``reset()`` at an episode's start. Acting needs
-torch only (not torchrl). The network (``mlp``) is defined here and the trainer builds its
+torch only (not torchrl). A run trained with ``--role`` reads its beacon's index too
+(``role_input``): it is bound to the beacon ``load``'s ``agent`` names, as a window is to
+one beacon. The network (``mlp``) is defined here and the trainer builds its
 actor from it, so loading a policy never imports the trainer.
 
 A run trained with ``--entity`` reads entity observations (``coopnav_env.entity_obs``)
@@ -40,7 +42,7 @@ RUN_RECORD = "run.json"
 WEIGHTS = "actor.safetensors"
 TRAINER = "batched_ppo"  # agents.training.batched_ppo.TRAINER
 
-__all__ = ["BatchedPPOPolicy", "entity_net", "is_batched_path", "load", "make_policy", "push_window"]
+__all__ = ["BatchedPPOPolicy", "entity_net", "is_batched_path", "load", "make_policy", "push_window", "role_input"]
 
 
 def _record(directory: Path) -> dict | None:
@@ -140,6 +142,23 @@ def push_window(window: Any, obs: Any, first: Any) -> Any:
     return out
 
 
+def role_input(x: Any, slots: int, beacon: int | None = None) -> Any:
+    """The actor's input ``x`` with its beacon's role after it: a one-hot of the beacon's index
+    among ``slots`` (agent identity, for beacons a shared network must tell apart). With
+    ``beacon`` None, ``x`` is (..., n, F), one row per beacon of a team of n <= ``slots``
+    (training: beacon j gets one-hot j); else ``x`` is (..., F), rows of that one beacon
+    (acting). A new tensor (..., F + slots). Training (``agents.training.batched_ppo``) and
+    acting share it."""
+    import torch
+
+    if beacon is None:
+        onehot = torch.eye(slots, dtype=x.dtype)[: x.shape[-2]]
+    else:
+        onehot = torch.zeros(slots, dtype=x.dtype)
+        onehot[beacon] = 1.0
+    return torch.cat([x, onehot.expand(*x.shape[:-1], slots)], dim=-1)
+
+
 def is_batched_path(path: Any) -> bool:
     """Whether ``path`` is a batched_ppo run folder (no import of torch)."""
     directory = Path(str(path))
@@ -165,10 +184,14 @@ class BatchedPPOPolicy(BatchPolicy):
             net = [int(h) for h in record["config"]["net"]]
             self.history = int(record["config"].get("history", 1))  # runs before the option: 1
             self.entity = record["config"].get("entity")  # None: flat observations
+            self.role_slots = int(record.get("role_slots", 0))  # 0: no role input (runs before --role too)
         except (KeyError, TypeError, ValueError, AttributeError):
             raise PolicyFormatError(f"{directory / RUN_RECORD} lacks obs_dim, action_dim or config.net") from None
         if self.history < 1:
             raise PolicyFormatError(f"{directory / RUN_RECORD}: config.history must be >= 1, got {self.history}")
+        if not 0 <= self.role_slots <= 64 or (self.role_slots and self.entity is not None):
+            raise PolicyFormatError(f"{directory / RUN_RECORD}: role_slots must be in 0..64 (0 with entity)")
+        self.agent = 0  # the beacon whose role this object plays (load's agent; with role_slots)
         if self.entity is not None:  # reads entity observations (bound to a team by EntityPolicy)
             try:
                 self.actor = entity_net(dict(self.entity), net, self.action_dim, 0.01, self.history)
@@ -176,7 +199,7 @@ class BatchedPPOPolicy(BatchPolicy):
                 raise PolicyFormatError(f"{directory / RUN_RECORD}: config.entity {self.entity!r}: {err}") from None
             self.config = None
         else:
-            self.actor = mlp(self.obs_dim * self.history, net, self.action_dim, 0.01)
+            self.actor = mlp(self.obs_dim * self.history + self.role_slots, net, self.action_dim, 0.01)
         weights = load_file(str(directory / WEIGHTS))
         state = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
         try:
@@ -219,6 +242,8 @@ class BatchedPPOPolicy(BatchPolicy):
                 w = torch.zeros((x.shape[0], self.history, x.shape[1]))
             self._window = w = push_window(w, x, torch.full((x.shape[0],), first))
             x = w.reshape(x.shape[0], -1)
+        if self.role_slots:  # its beacon's index, as training gave it (role_input)
+            x = role_input(x, self.role_slots, self.agent)
         with torch.no_grad():
             mean = self.actor(x).numpy()
         return np.clip(mean, -1.0, 1.0).astype(np.float32)
@@ -238,7 +263,8 @@ class BatchedPPOPolicy(BatchPolicy):
     def __repr__(self) -> str:
         memory = f", history={self.history}" if self.history > 1 else ""
         entity = f", entity={self.entity.get('encoder')}" if self.entity is not None else ""
-        return f"BatchedPPOPolicy({self.name!r}, critic={self.record['config'].get('critic')}{memory}{entity})"
+        role = f", role={self.agent} of {self.role_slots}" if self.role_slots else ""
+        return f"BatchedPPOPolicy({self.name!r}, critic={self.record['config'].get('critic')}{memory}{entity}{role})"
 
 
 def load(path: str | Path, scenario: Any = None, agent: int = 0) -> BatchPolicy:
@@ -246,7 +272,8 @@ def load(path: str | Path, scenario: Any = None, agent: int = 0) -> BatchPolicy:
     an env; default: the scenario it trained on, with its parameters). One line
     (``ValueError``) if it cannot drive it. A run of entity observations is an
     ``agents.entity.EntityPolicy`` for beacon ``agent`` of that team; any other run ignores
-    ``agent`` (the beacons share the network and its input has no role)."""
+    ``agent`` unless it was trained with a role input (``--role``: ``agent`` is then the
+    beacon's index it is given), else the beacons share the network and its input has no role."""
     from coopnav_env.scenarios import make_config, resolve_config
 
     directory = Path(str(path))
@@ -266,6 +293,10 @@ def load(path: str | Path, scenario: Any = None, agent: int = 0) -> BatchPolicy:
         from .entity import EntityPolicy
 
         return EntityPolicy(policy, config, agent)
+    if policy.role_slots:
+        if not 0 <= agent < config.n_beacons:
+            raise ValueError(f"agent must be a beacon index in 0..{config.n_beacons - 1}, got {agent}")
+        policy.agent = int(agent)
     return policy
 
 

@@ -184,7 +184,7 @@ def test_a_long_run_saves_along_the_way(tmp_path, monkeypatch):
 
     saved = []
     real = batched_ppo.save
-    monkeypatch.setattr(batched_ppo, "save", lambda out, *a: saved.append(a[3]) or real(out, *a))
+    monkeypatch.setattr(batched_ppo, "save", lambda out, *a, **kw: saved.append(a[3]) or real(out, *a, **kw))
     config = BatchedPPOConfig(scenario="sousa_asv", n_envs=4, n_steps=4, minibatch=16)
     train(config, 5 * 16, out=tmp_path, progress=False, save_every_steps=32)
     assert saved == [32, 64, 80]  # every 32 steps, then the end
@@ -482,8 +482,8 @@ def test_a_curriculum_trains_each_stage_on_its_own_scenario():
     assert "stage" not in plain["log"][0]
 
 
-@pytest.mark.parametrize("history", [1, 3])
-def test_validation_keeps_the_best_weights(tmp_path, history):
+@pytest.mark.parametrize(("history", "role"), [(1, False), (3, True)])
+def test_validation_keeps_the_best_weights(tmp_path, history, role):
     """With eval_every_steps the loop plays its validation episodes every so often and at the
     end, logs the error, and keeps the best weights in <out>/best: a policy folder whose
     recorded validation error is the lowest logged, and which evaluation.episodes gives
@@ -494,7 +494,7 @@ def test_validation_keeps_the_best_weights(tmp_path, history):
     out.mkdir()
     config = BatchedPPOConfig(
         scenario="gao_team", n_envs=4, n_steps=4, minibatch=16, overrides={"max_cycles": 6},
-        eval_every_steps=32, eval_episodes=3, eval_seed=123, history=history, learning_rate=0.05,
+        eval_every_steps=32, eval_episodes=3, eval_seed=123, history=history, learning_rate=0.05, role=role,
     )  # fmt: skip
     log = train(config, 80, out=out, progress=False)["log"]  # 5 iterations of 16 env-steps
     validated = [(row["steps"], row["validation_error_m"]) for row in log if "validation_error_m" in row]
@@ -879,3 +879,61 @@ def test_entity_inputs_that_do_not_fit_are_one_line(argv, message, capsys):
     assert main(["--timesteps", "100", *argv]) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err
+
+
+def test_a_role_input_starts_at_zero_weight_and_then_tells_the_beacons_apart(tmp_path):
+    """--role (agent identity): started from the shipped gao_team policy, after critic-only
+    iterations the run acts as that policy for both beacons (the one-hot index's weights are
+    zero); with weight on it the two beacons' actions differ on the same observation, through
+    agents.make_policy's agent index as evaluation binds it; a run with a role continued
+    without one, or a beacon index beyond the team, is refused in one line."""
+    first = tmp_path / "first"
+    first.mkdir()
+    base = dict(scenario="gao_team", n_envs=8, n_steps=8, minibatch=32, seed=3)
+    result = train(
+        BatchedPPOConfig(**base, init_from="ppo_gao_team", critic_warmup_iterations=2, role=True),
+        2 * 64,
+        out=first,
+        progress=False,
+    )
+    assert all(r["clip_fraction"] == 0.0 for r in result["log"])
+    assert json.loads((first / "run.json").read_text())["role_slots"] == 2
+    shipped = agents.load("ppo_gao_team")
+    b0, b1 = (agents.make_policy(str(first), "gao_team", agent=j) for j in (0, 1))
+    assert "role=1 of 2" in repr(b1)
+    stats = _shipped_stats()
+    obs = np.random.default_rng(1).normal(0, 1, (32, b0.obs_dim)) * np.sqrt(stats["obs_var"]) + stats["obs_mean"]
+    obs = obs.astype(np.float32)
+    a_shipped = np.stack([shipped.act(o) for o in obs])
+    np.testing.assert_allclose(b0.act_batch(obs), a_shipped, atol=2e-3)
+    np.testing.assert_allclose(b1.act_batch(obs), a_shipped, atol=2e-3)
+    # weight on beacon 1's input: its actions move, beacon 0's do not
+    weights = b1.actor.state_dict()
+    weights["0.weight"][:, -1] = 3.0
+    b1.actor.load_state_dict(weights)
+    moved = np.abs(b1.act_batch(obs) - b0.act_batch(obs)).max()
+    assert moved > 0.05
+    np.testing.assert_allclose(b0.act_batch(obs), a_shipped, atol=2e-3)
+    # trained on: the role's weights leave zero
+    second = tmp_path / "second"
+    second.mkdir()
+    train(
+        BatchedPPOConfig(**base, init_from=str(first), role=True, learning_rate=0.01),
+        2 * 64,
+        out=second,
+        progress=False,
+    )
+    from safetensors.torch import load_file
+
+    w = load_file(str(second / "actor.safetensors"))["actor.0.weight"]
+    assert w[:, -2:].abs().max() > 0
+    with pytest.raises(ValueError, match=r"its role input is for 2 beacons, the run's none \(give --role\)"):
+        train(BatchedPPOConfig(**base, init_from=str(first)), 64, progress=False)
+    with pytest.raises(ValueError, match=r"agent must be a beacon index in 0\.\.1, got 2"):
+        agents.make_policy(str(first), "gao_team", agent=2)
+
+
+def test_a_role_with_entity_observations_is_refused_in_one_line(capsys):
+    assert main(["--timesteps", "100", "--scenario", "gao_sea", "--entity", "--role"]) == 2
+    err = capsys.readouterr().err
+    assert "the entity view has its own role input (drop --role)" in err and err.count("\n") == 1

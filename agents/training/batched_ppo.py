@@ -42,6 +42,9 @@ computed below:
   last K observations, newest first, each scaled as above (``push_window``: an episode's first
   step fills the window with its own observation); started from a policy, the older
   observations' weights start at zero (``widen_to_history``);
+* with ``--role``, agent identity: the flat actor (and IPPO's critic) reads its beacon's index
+  as a one-hot after the window (``role_input``), so beacons sharing the network can act apart;
+  started from a policy without it, those inputs' weights start at zero;
 * with ``--stage AT KEY=VALUE ...``, a curriculum: from the fraction AT of the iterations
   until the next stage, the stage's scenario parameters on top of ``--set`` (the stage with
   none is ``--set`` itself). At a stage's start the environments are built anew (episode
@@ -156,14 +159,15 @@ def train(
     S = env.state_dim if config.critic == "state" else 0  # IPPO's critic reads no state
     T = config.n_steps
     K = config.history
-    OK = O * K  # the actor's input: the window of its beacon's last K observations, newest first
+    R = N if config.role else 0  # with role: its beacon's index as a one-hot after the window
+    OK = O * K + R  # the actor's input: the window of its beacon's last K observations, newest first
     entity = config.entity
     norm_actor_obs = config.norm_obs and entity is None  # entity features come scaled
     actor = mlp(OK, config.net, D, 0.01) if entity is None else entity_net(entity, config.net, D, 0.01, K)
     log_std = nn.Parameter(torch.full((D,), float(config.log_std_init)))
     init = None
     if config.init_from is not None:  # the loop starts where that policy stands; the critic is new
-        init = load_sb3_actor(config.init_from, config.scenario, config.net, O, D, config.reward_terms, K, entity)
+        init = load_sb3_actor(config.init_from, config.scenario, config.net, O, D, config.reward_terms, K, entity, R)
         actor.load_state_dict({k: v.float() for k, v in init["actor"].items()})
         with torch.no_grad():
             log_std.copy_(init["log_std"].float())
@@ -264,7 +268,7 @@ def train(
         with torch.no_grad():
             for t in range(T):
                 obs, state = observe(td, update=True)
-                window, obs = window_input(window, obs, first, K)
+                window, obs = window_input(window, obs, first, K, R)
                 mean = actor(obs)
                 std = log_std.exp()
                 action = mean + std * torch.randn_like(mean)
@@ -286,7 +290,7 @@ def train(
                 if ended.any():
                     end_obs, end_state = observe(nxt)
                     # the window as the episode's last state would have shown it
-                    _, end_obs = window_input(window, end_obs, torch.zeros_like(first), K)
+                    _, end_obs = window_input(window, end_obs, torch.zeros_like(first), K, R)
                     next_val_buf[t, ended] = values(end_state[ended], end_obs[ended])
                 first = ended
                 ep_return += reward.mean(-1) if mask is None else (reward * mask).sum(-1) / n_real
@@ -316,7 +320,7 @@ def train(
                 td = td_next
 
             last_obs, last_state = observe(td)
-            _, last_obs = window_input(window, last_obs, first, K)
+            _, last_obs = window_input(window, last_obs, first, K, R)
             next_val_buf = next_state_values(val_buf, next_val_buf, done_buf, values(last_state, last_obs))
             adv = gae(rew_buf, val_buf, next_val_buf, term_buf, done_buf, config.gamma, config.gae_lambda)
             returns = adv + val_buf
@@ -400,7 +404,7 @@ def train(
         if out is not None and every and (steps // every > (steps - M) // every or it + 1 == iterations):
             if eval_env is None:  # built once: each validation re-seeds it
                 eval_env = validation_env(config)
-            per_team = validate_per_team(actor, obs_norm if norm_actor_obs else None, config, eval_env)
+            per_team = validate_per_team(actor, obs_norm if norm_actor_obs else None, config, eval_env, R)
             row["validation_error_m"] = float(sum(per_team) / len(per_team))
             if len(per_team) > 1:
                 row["validation_error_m_per_team"] = per_team
@@ -411,9 +415,9 @@ def train(
                     "validation_seeds": [config.eval_seed, config.eval_seed + config.eval_episodes - 1],
                     **({"validation_error_m_per_team": per_team} if len(per_team) > 1 else {}),
                 }
-                save(out / "best", actor, log_std, config, steps, time.perf_counter() - start, O, D, norms, extra)
+                save(out / "best", actor, log_std, config, steps, time.perf_counter() - start, O, D, norms, extra, R)
         if out is not None and steps // save_every_steps > (steps - M) // save_every_steps and it + 1 < iterations:
-            save(out, actor, log_std, config, steps, time.perf_counter() - start, O, D, norms)
+            save(out, actor, log_std, config, steps, time.perf_counter() - start, O, D, norms, role_slots=R)
         log.append(row)
         if out is not None:
             with open(out / "log.jsonl", "a") as f:
@@ -426,7 +430,7 @@ def train(
         bar.close()
     seconds = time.perf_counter() - start
     if out is not None:
-        save(out, actor, log_std, config, steps, seconds, O, D, norms)
+        save(out, actor, log_std, config, steps, seconds, O, D, norms, role_slots=R)
     return {
         "actor": actor,
         "critic": critic,
@@ -449,9 +453,11 @@ def save(
     action_dim: int,
     obs_norm: RunningNorm | None,
     extra: dict | None = None,
+    role_slots: int = 0,
 ) -> None:
     """``actor.safetensors`` and ``run.json`` in ``out`` (``agents.batched_policy`` reads
-    them), each written atomically; ``extra``: more fields of ``run.json``."""
+    them), each written atomically; ``extra``: more fields of ``run.json``; ``role_slots``: the
+    size of the actor's role input (0: none)."""
     import torch
     from safetensors.torch import save as save_bytes
 
@@ -470,6 +476,7 @@ def save(
         "config": asdict(config),
         "obs_dim": int(obs_dim),
         "action_dim": int(action_dim),
+        **({"role_slots": int(role_slots)} if role_slots else {}),
         "steps": steps,
         "seconds": round(seconds, 1),
         **(extra or {}),

@@ -109,6 +109,13 @@ def parser(description: str) -> argparse.ArgumentParser:
         "the policy stands)",
     )
     p.add_argument(
+        "--role",
+        action="store_true",
+        help="agent identity: the actor also reads its beacon's index (one-hot), so beacons that share the network "
+        "can act apart (with --init-from a policy without it, its weights start at zero: the run starts where the "
+        "policy stands); flat observations only",
+    )
+    p.add_argument(
         "--center-reward-per-team",
         action="store_true",
         help="--center-reward with one running mean per --team (a team whose steps pay less is not paid to end "
@@ -208,6 +215,7 @@ def settings(args: argparse.Namespace, argv: Sequence[str] | None = None) -> tup
         eval_seed=args.eval_seed,
         eval_teams=args.eval_teams,
         entity=dict(ENTITY) if args.entity else None,
+        role=args.role,
     )
     config.check()
     if config.eval_every_steps and not args.out:
@@ -248,6 +256,7 @@ def settings(args: argparse.Namespace, argv: Sequence[str] | None = None) -> tup
             probe.action_dim,
             history=config.history,
             entity=config.entity,
+            role_slots=probe.n_beacons if config.role else 0,
         )
     if out is not None:  # one trainer per folder (agents.training.runlock), as train.py's
         from . import runlock

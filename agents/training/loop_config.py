@@ -68,6 +68,10 @@ class BatchedPPOConfig:
     eval_teams: bool = False
     # entity observations through agents.entity.EntityEncoder(**entity) (None: the flat observation)
     entity: dict[str, Any] | None = None
+    # agent identity: the flat actor (and IPPO's critic) reads its beacon's index as a one-hot after
+    # its window (agents.batched_policy.role_input), so beacons sharing the network can act apart
+    # (the entity view has a role input of its own)
+    role: bool = False
 
     @property
     def observation(self) -> str:
@@ -114,6 +118,8 @@ class BatchedPPOConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < least:
                 raise ValueError(f"{name} must be an integer >= {least}, got {v!r}")
+        if self.role and self.entity is not None:
+            raise ValueError("role is for flat observations: the entity view has its own role input (drop --role)")
         if self.entity is not None:
             from agents.entity import check_encoder_kwargs
 

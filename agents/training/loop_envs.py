@@ -171,14 +171,15 @@ def validation_env(config: BatchedPPOConfig) -> list:
 
 
 def validate_per_team(
-    actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig, envs: Any = None
+    actor: Any, obs_norm: RunningNorm | None, config: BatchedPPOConfig, envs: Any = None, role_slots: int = 0
 ) -> list[float]:
     """Per environment of ``validation_env`` (one, or one per team with ``eval_teams``): the
     mean over ``config.eval_episodes`` episodes (seeded ``eval_seed + i``) of each episode's
     mean survey error (m) under the actor's deterministic action (the Gaussian's mean, as
     ``agents.batched_policy`` acts): what ``evaluation.episodes.run_episodes`` gives the
     saved policy on those seeds and that scenario. ``envs``: the environments of an earlier
-    call to play again (re-seeded here), else new ones."""
+    call to play again (re-seeded here), else new ones. ``role_slots``: the actor's role input
+    (0: none), each beacon's index as training gave it."""
     import torch
 
     from .scoring import episode_mean_error
@@ -192,7 +193,7 @@ def validate_per_team(
             nonlocal window
             if obs_norm is not None:
                 obs = obs_norm.normalize(obs)
-            window, obs = window_input(window, obs, first, K)
+            window, obs = window_input(window, obs, first, K, role_slots)
             return actor(obs)
 
         errors.append(episode_mean_error(env, act, config.eval_seed))

@@ -23,6 +23,7 @@ def load_sb3_actor(
     reward_terms: dict[str, float] | None = None,
     history: int = 1,
     entity: dict[str, Any] | None = None,
+    role_slots: int = 0,
 ) -> dict:
     """The actor of a train.py run, a run of this loop or a shipped policy (``agents.resolve``:
     a name such as ``ppo_gao_team``, ``ppo`` for the scenario's, or a run folder) as this
@@ -35,7 +36,8 @@ def load_sb3_actor(
     when the run trains on the reward that policy was trained on (``reward_terms`` against its
     config.yml's ``reward``; None and {} both the environment's): another reward has another
     scale. With ``history`` > 1 the first layer is widened to the window with zeros
-    (``widen_to_history``): the actor starts as the policy was. With ``entity`` (the run's
+    (``widen_to_history``): the actor starts as the policy was; with ``role_slots`` a role input
+    of that size is added after the window, its weights zero (``add_role``). With ``entity`` (the run's
     encoder settings) the policy must be an SB3 entity policy with that encoder: its
     ``pi_features_extractor`` becomes ``entity_net``'s ``encoder``, its MLP the ``head``
     (``{"actor": state_dict of entity_net(...)}``; no observation statistics, since the
@@ -48,7 +50,7 @@ def load_sb3_actor(
 
     model, stats, config_file = resolve(source, scenario)
     if Path(str(model)).name == WEIGHTS and is_batched_path(Path(str(model)).parent):
-        return _load_loop_actor(source, Path(str(model)).parent, net, obs_dim, action_dim, history, entity)
+        return _load_loop_actor(source, Path(str(model)).parent, net, obs_dim, action_dim, history, entity, role_slots)
     if Path(str(model)).suffix != ".safetensors":
         raise ValueError(f"--init-from {source}: {model} is not an SB3 model file (a flat MlpPolicy run or policy)")
     spec, state, _ = read_model(model)
@@ -94,7 +96,7 @@ def load_sb3_actor(
             actor[f"{head}{2 * i}.{part}"] = state[f"mlp_extractor.policy_net.{2 * i}.{part}"]
     for part in ("weight", "bias"):
         actor[f"{head}{2 * len(net)}.{part}"] = state[f"action_net.{part}"]
-    actor[f"{head}0.weight"] = widen_to_history(actor[f"{head}0.weight"], history)
+    actor[f"{head}0.weight"] = add_role(widen_to_history(actor[f"{head}0.weight"], history), role_slots)
     if entity is not None:  # SB3 shares one extractor between actor and critic; the actor's copy
         prefix = next(
             p for p in ("pi_features_extractor.net.", "features_extractor.net.") if any(k.startswith(p) for k in state)
@@ -138,6 +140,20 @@ def widen_to_history(weight: Any, history: int, own: int = 1) -> Any:
     return wide
 
 
+def add_role(weight: Any, slots: int, role: Any = None) -> Any:
+    """A first layer's weight (H, F) followed by the columns of a role input of ``slots``
+    (``agents.batched_policy.role_input``): ``role`` (H, slots), a run's own, or zeros, so the
+    actor is the same function of what it read and learns what its beacon's index is worth.
+    With ``slots`` 0 the weight itself."""
+    import torch
+
+    if not slots:
+        return weight
+    if role is None:
+        role = torch.zeros((weight.shape[0], slots), dtype=weight.dtype)
+    return torch.cat([weight, role], dim=1)
+
+
 def widen_layers(actor: dict, own: Sequence[int], net: Sequence[int], prefix: str = "", seed: int = 0) -> dict:
     """A Linear-tanh stack's weights (``mlp``'s keys ``{prefix}0.weight``, ``{prefix}2.weight``,
     ...) with hidden layers ``own`` widened to ``net`` (as wide or wider, the same depth) by
@@ -174,6 +190,7 @@ def _load_loop_actor(
     action_dim: int,
     history: int,
     entity: dict[str, Any] | None = None,
+    role_slots: int = 0,
 ) -> dict:
     """``load_sb3_actor``'s tensors from a run of this loop (``actor.safetensors``,
     ``run.json``): its actor (widened to ``history`` if its own window is shorter), log std and
@@ -207,10 +224,19 @@ def _load_loop_actor(
             f"--init-from {source}: its window is {own_history} observations, the run's --history {history} "
             f"(give --history {own_history} or more: a window widens, it does not narrow)"
         )
+    own_role = int(record.get("role_slots", 0))
+    if own_role and own_role != role_slots:
+        raise ValueError(
+            f"--init-from {source}: its role input is for {own_role} beacons, the run's "
+            + (f"for {role_slots}" if role_slots else "none (give --role)")
+        )
     weights = load_file(str(directory / WEIGHTS))
     actor = {k[len("actor.") :]: v for k, v in weights.items() if k.startswith("actor.")}
     first = "head.0.weight" if entity is not None else "0.weight"
-    actor[first] = widen_to_history(actor[first], history, own_history)
+    window, role = actor[first], None
+    if own_role:  # the window's columns widen; the role's are kept after them
+        window, role = window[:, :-own_role], window[:, -own_role:]
+    actor[first] = add_role(widen_to_history(window, history, own_history), role_slots, role)
     if tuple(own) != tuple(net):  # a wider actor, the same function (Net2WiderNet)
         actor = widen_layers(actor, own, net)
     out: dict[str, Any] = {"actor": actor, "log_std": weights["log_std"]}

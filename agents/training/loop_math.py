@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from agents.batched_policy import push_window
+from agents.batched_policy import push_window, role_input
 
 
 def gae(reward: Any, value: Any, next_value: Any, terminated: Any, done: Any, gamma: float, lam: float) -> Any:
@@ -87,11 +87,12 @@ def next_state_values(value: Any, at_ends: Any, done: Any, last_value: Any) -> A
     return torch.where(done == 0.0, following, at_ends)
 
 
-def window_input(window: Any, obs: Any, first: Any, history: int) -> tuple[Any, Any]:
-    """(the window after ``obs``, the actor's input): with ``history`` 1 the observation
-    itself, else ``push_window``'s window (..., K, O) and its K observations side by side
-    (..., K x O), newest first. Collection, the episode ends' values and validation share it."""
-    if history == 1:
-        return window, obs
-    window = push_window(window, obs, first)
-    return window, window.flatten(-2)
+def window_input(window: Any, obs: Any, first: Any, history: int, role_slots: int = 0) -> tuple[Any, Any]:
+    """(the window after ``obs`` (..., N, O), the actor's input): with ``history`` 1 the
+    observation itself, else ``push_window``'s window (..., N, K, O) and its K observations side
+    by side (..., N, K x O), newest first; with ``role_slots`` (= N) each beacon's one-hot index
+    after it (``role_input``). Collection, the episode ends' values and validation share it."""
+    if history > 1:
+        window = push_window(window, obs, first)
+        obs = window.flatten(-2)
+    return window, role_input(obs, role_slots) if role_slots else obs
