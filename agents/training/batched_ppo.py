@@ -415,7 +415,19 @@ def train(
                     "validation_seeds": [config.eval_seed, config.eval_seed + config.eval_episodes - 1],
                     **({"validation_error_m_per_team": per_team} if len(per_team) > 1 else {}),
                 }
-                save(out / "best", actor, log_std, config, steps, time.perf_counter() - start, O, D, norms, extra, R)
+                save(
+                    out / "best",
+                    actor,
+                    log_std,
+                    config,
+                    steps,
+                    time.perf_counter() - start,
+                    O,
+                    D,
+                    norms,
+                    extra,
+                    role_slots=R,
+                )
         if out is not None and steps // save_every_steps > (steps - M) // save_every_steps and it + 1 < iterations:
             save(out, actor, log_std, config, steps, time.perf_counter() - start, O, D, norms, role_slots=R)
         log.append(row)
